@@ -1,0 +1,549 @@
+//! Beam of MODEL.md §2: linear modes of the elastically clamped Euler–Bernoulli beam,
+//! modal mass normalisation, γₙ, the slope Gram matrix K and the string force
+//! Fₙ(q) = (k_ax/2)(qᵀKq)(Kq)ₙ; fast tabulated evaluation of φ and φ'.
+//!
+//! Mode shapes are written in the well-conditioned basis
+//! φ(ξ) = a₁ sin λξ + a₂ cos λξ + a₃ e^{−λξ} + a₄ e^{−λ(1−ξ)}, which spans the same space as
+//! sin, cos, sinh, cosh but loses no digits for high modes. a₁ (the sine coefficient) is
+//! positive, as MODEL.md's convention c₁ = +1 asks.
+
+use nalgebra::{Matrix4, SVD};
+
+use crate::error::{Error, Result};
+use crate::params::Params;
+
+/// Degree of the local Taylor polynomials of the mode table.
+pub const TABLE_DEGREE: usize = 6;
+/// Coefficients per polynomial.
+pub const TABLE_NCOEF: usize = TABLE_DEGREE + 1;
+/// Tabulated range of ξ = x/L (beyond the beam, for the reference manifold sweep at s = 0).
+pub const TABLE_XI_MIN: f64 = -0.25;
+/// Upper end of the tabulated range of ξ.
+pub const TABLE_XI_MAX: f64 = 1.25;
+
+/// The modal beam: frequencies, shapes, γ, K and the mode table.
+#[derive(Debug, Clone)]
+pub struct Beam {
+    /// Number of retained modes N.
+    pub n: usize,
+    /// Free length L [m].
+    pub length_m: f64,
+    /// Eigenvalues λₙ of det B(λ) = 0.
+    pub lambda: Vec<f64>,
+    /// Natural angular frequencies ωₙ = λₙ² √(EI/(ρA L⁴)) [rad/s].
+    pub omega: Vec<f64>,
+    /// γₙ = ρA ∫ φₙ dx [kg^½].
+    pub gamma: Vec<f64>,
+    /// K_ij = ∫ φᵢ' φⱼ' dx, row-major N×N.
+    pub k: Vec<f64>,
+    /// k_ax = 1/(L/(EA) + 1/k_t) [N/m].
+    pub k_ax: f64,
+    /// Shape coefficients (a₁..a₄) of each mode, unit modal mass, in the basis above.
+    pub coef: Vec<[f64; 4]>,
+    table: ModeTable,
+}
+
+/// Piecewise Taylor table of φ and φ' (x-derivative) of all modes.
+///
+/// Layout: `data[((j * 2 + f) * NCOEF + k) * n + m]` for interval j, function f (0 = φ, 1 = φ'),
+/// power k of the local variable u ∈ [−1, 1], mode m — modes contiguous for vectorised Horner.
+#[derive(Debug, Clone)]
+pub struct ModeTable {
+    n: usize,
+    intervals: usize,
+    inv_width: f64,
+    data: Vec<f64>,
+}
+
+impl Beam {
+    /// Modes of the beam with the parameters' geometry and clamping (k_r may be +inf).
+    pub fn new(p: &Params) -> Result<Beam> {
+        p.validate()?;
+        let n = p.n_modes;
+        let l = p.length_m;
+        let rho_a = p.beam_mass_kg / l;
+        let ei = p.bending_stiffness();
+        // ε = 1/κ = EI/(k_r L); 0 for ideal clamping.
+        let eps = ei / (p.k_r_nm_per_rad * l);
+        let lambda = find_roots(eps, n)?;
+        let scale = (ei / (rho_a * l.powi(4))).sqrt();
+        let omega: Vec<f64> = lambda.iter().map(|&lam| lam * lam * scale).collect();
+
+        let gl = GaussLegendre::new(128, 8);
+        let mut coef = Vec::with_capacity(n);
+        for &lam in &lambda {
+            let mut a = null_vector(eps, lam)?;
+            // ∫₀ᴸ ρA φ² dx = ρA L ∫₀¹ φ² dξ = 1.
+            let m2 = gl.integrate(|xi| phi_basis(&a, lam, xi).powi(2));
+            let s = 1.0 / (rho_a * l * m2).sqrt();
+            for v in a.iter_mut() {
+                *v *= s;
+            }
+            coef.push(a);
+        }
+        let gamma = coef
+            .iter()
+            .zip(&lambda)
+            .map(|(a, &lam)| rho_a * l * gl.integrate(|xi| phi_basis(a, lam, xi)))
+            .collect();
+        let mut k = vec![0.0; n * n];
+        for i in 0..n {
+            for j in 0..=i {
+                // φ'(x) = (1/L) dφ/dξ ; ∫₀ᴸ φᵢ'φⱼ' dx = (1/L) ∫₀¹ φᵢ,ξ φⱼ,ξ dξ.
+                let v = gl.integrate(|xi| {
+                    dphi_basis(&coef[i], lambda[i], xi) * dphi_basis(&coef[j], lambda[j], xi)
+                }) / l;
+                k[i * n + j] = v;
+                k[j * n + i] = v;
+            }
+        }
+        let table = ModeTable::build(&coef, &lambda, l);
+        Ok(Beam {
+            n,
+            length_m: l,
+            lambda,
+            omega,
+            gamma,
+            k,
+            k_ax: p.axial_stiffness(),
+            coef,
+            table,
+        })
+    }
+
+    /// Natural frequencies fₙ = ωₙ/2π [Hz].
+    pub fn frequencies_hz(&self) -> Vec<f64> {
+        self.omega.iter().map(|w| w / (2.0 * std::f64::consts::PI)).collect()
+    }
+
+    /// Exact (closed-form) mode value φₘ(x), x in metres.
+    pub fn phi_exact(&self, m: usize, x: f64) -> f64 {
+        phi_basis(&self.coef[m], self.lambda[m], x / self.length_m)
+    }
+
+    /// Exact (closed-form) mode slope φₘ'(x) = dφₘ/dx.
+    pub fn dphi_exact(&self, m: usize, x: f64) -> f64 {
+        dphi_basis(&self.coef[m], self.lambda[m], x / self.length_m) / self.length_m
+    }
+
+    /// Mode values and slopes of all modes at x [m]: from the table inside its range, closed
+    /// form outside (e.g. contact points beyond the clamping in the reference manifold sweep).
+    #[inline]
+    pub fn eval(&self, x: f64, phi: &mut [f64], dphi: &mut [f64]) {
+        let xi = x / self.length_m;
+        if !self.table.eval(xi, phi, dphi) {
+            for m in 0..self.n {
+                phi[m] = self.phi_exact(m, x);
+                dphi[m] = self.dphi_exact(m, x);
+            }
+        }
+    }
+
+    /// Const-size variant of [`Beam::eval`] used in the time loop.
+    #[inline(always)]
+    pub fn eval_n<const N: usize>(&self, x: f64) -> ([f64; N], [f64; N]) {
+        let mut phi = [0.0; N];
+        let mut dphi = [0.0; N];
+        let xi = x / self.length_m;
+        if !self.table.eval_n::<N>(xi, &mut phi, &mut dphi) {
+            for m in 0..N {
+                phi[m] = self.phi_exact(m, x);
+                dphi[m] = self.dphi_exact(m, x);
+            }
+        }
+        (phi, dphi)
+    }
+
+    /// Mode values at x (exact).
+    pub fn phi_row(&self, x: f64) -> Vec<f64> {
+        (0..self.n).map(|m| self.phi_exact(m, x)).collect()
+    }
+
+    /// String force Fₙ(q) = (k_ax/2)(qᵀKq)(Kq)ₙ into `out`.
+    pub fn string_force(&self, q: &[f64], out: &mut [f64]) {
+        let n = self.n;
+        let mut kq = vec![0.0; n];
+        for i in 0..n {
+            kq[i] = (0..n).map(|j| self.k[i * n + j] * q[j]).sum();
+        }
+        let qkq: f64 = (0..n).map(|i| q[i] * kq[i]).sum();
+        for i in 0..n {
+            out[i] = 0.5 * self.k_ax * qkq * kq[i];
+        }
+    }
+
+    /// Potential of the string force, V = (k_ax/8)(qᵀKq)².
+    pub fn string_potential(&self, q: &[f64]) -> f64 {
+        let n = self.n;
+        let mut qkq = 0.0;
+        for i in 0..n {
+            for j in 0..n {
+                qkq += q[i] * self.k[i * n + j] * q[j];
+            }
+        }
+        0.125 * self.k_ax * qkq * qkq
+    }
+
+    /// Single-mode hardening coefficient b* = b h²/φ₁(L/2)², b = (k_ax/2)K₁₁² (MODEL.md §9) [s⁻²].
+    pub fn b_star(&self, thickness_m: f64) -> f64 {
+        let phi_mid = self.phi_exact(0, 0.5 * self.length_m);
+        0.5 * self.k_ax * self.k[0].powi(2) * thickness_m.powi(2) / phi_mid.powi(2)
+    }
+}
+
+/// φ in the exponential basis at ξ (not normalised by anything).
+fn phi_basis(a: &[f64; 4], lam: f64, xi: f64) -> f64 {
+    let (s, c) = (lam * xi).sin_cos();
+    a[0] * s + a[1] * c + a[2] * (-lam * xi).exp() + a[3] * (-lam * (1.0 - xi)).exp()
+}
+
+/// dφ/dξ in the exponential basis.
+fn dphi_basis(a: &[f64; 4], lam: f64, xi: f64) -> f64 {
+    let (s, c) = (lam * xi).sin_cos();
+    lam * (a[0] * c - a[1] * s - a[2] * (-lam * xi).exp() + a[3] * (-lam * (1.0 - xi)).exp())
+}
+
+/// k-th ξ-derivative of φ at ξ.
+fn phi_derivative(a: &[f64; 4], lam: f64, xi: f64, k: usize) -> f64 {
+    let (s, c) = (lam * xi).sin_cos();
+    // d^k sin = λ^k sin(λξ + kπ/2), d^k cos = λ^k cos(λξ + kπ/2), exactly by cycling.
+    let (sk, ck) = match k % 4 {
+        0 => (s, c),
+        1 => (c, -s),
+        2 => (-s, -c),
+        _ => (-c, s),
+    };
+    let sign = if k % 2 == 0 { 1.0 } else { -1.0 };
+    lam.powi(k as i32)
+        * (a[0] * sk + a[1] * ck + sign * a[2] * (-lam * xi).exp() + a[3] * (-lam * (1.0 - xi)).exp())
+}
+
+/// Boundary matrix B(λ) of MODEL.md §2 in the exponential basis, rows scaled by 1/(κλ)
+/// so that ε = 1/κ = 0 (ideal clamping) is regular.
+fn boundary_matrix(eps: f64, lam: f64) -> Matrix4<f64> {
+    let e = (-lam).exp();
+    let (s, c) = lam.sin_cos();
+    let el = eps * lam;
+    Matrix4::new(
+        0.0, 1.0, 1.0, e, // φ(0) = 0
+        -1.0, -el, el + 1.0, (el - 1.0) * e, // ε φ''(0)/λ² − φ'(0)/λ = 0
+        s, c, e, 1.0, // φ(1) = 0
+        -el * s + c, -el * c - s, (el - 1.0) * e, el + 1.0, // ε φ''(1)/λ² + φ'(1)/λ = 0
+    )
+}
+
+/// The first n roots of det B(λ) = 0 (bracketed on a grid, refined by bisection).
+fn find_roots(eps: f64, n: usize) -> Result<Vec<f64>> {
+    let det = |lam: f64| boundary_matrix(eps, lam).determinant();
+    let mut roots = Vec::with_capacity(n);
+    let step = 0.02;
+    let mut a = 1.0;
+    let mut fa = det(a);
+    while roots.len() < n {
+        let b = a + step;
+        let fb = det(b);
+        if fa == 0.0 {
+            roots.push(a);
+        } else if fa.signum() != fb.signum() {
+            let (mut lo, mut hi, mut flo) = (a, b, fa);
+            for _ in 0..200 {
+                let mid = 0.5 * (lo + hi);
+                if mid <= lo || mid >= hi {
+                    break;
+                }
+                let fm = det(mid);
+                if fm == 0.0 {
+                    lo = mid;
+                    hi = mid;
+                    break;
+                }
+                if fm.signum() == flo.signum() {
+                    lo = mid;
+                    flo = fm;
+                } else {
+                    hi = mid;
+                }
+            }
+            roots.push(0.5 * (lo + hi));
+        }
+        a = b;
+        fa = fb;
+        if a > 10.0 * (n as f64 + 2.0) * std::f64::consts::PI {
+            return Err(Error::Numerical(format!(
+                "found only {} of {} beam eigenvalues",
+                roots.len(),
+                n
+            )));
+        }
+    }
+    Ok(roots)
+}
+
+/// Null vector of B(λ) with positive sine coefficient (largest-magnitude entry 1 before normalising).
+fn null_vector(eps: f64, lam: f64) -> Result<[f64; 4]> {
+    let b = boundary_matrix(eps, lam);
+    let svd = SVD::new(b, false, true);
+    let v_t = svd
+        .v_t
+        .ok_or_else(|| Error::Numerical("SVD of the boundary matrix failed".into()))?;
+    let (imin, _) = svd
+        .singular_values
+        .iter()
+        .enumerate()
+        .fold((0, f64::INFINITY), |acc, (i, &s)| if s < acc.1 { (i, s) } else { acc });
+    let mut a = [v_t[(imin, 0)], v_t[(imin, 1)], v_t[(imin, 2)], v_t[(imin, 3)]];
+    if a[0] < 0.0 {
+        for v in a.iter_mut() {
+            *v = -*v;
+        }
+    }
+    Ok(a)
+}
+
+/// Composite Gauss–Legendre rule on [0, 1].
+struct GaussLegendre {
+    nodes: Vec<f64>,
+    weights: Vec<f64>,
+}
+
+impl GaussLegendre {
+    fn new(panels: usize, order: usize) -> Self {
+        // Nodes of P_order on [-1, 1] by Newton's method.
+        let mut x_ref = Vec::new();
+        let mut w_ref = Vec::new();
+        for i in 0..order {
+            let mut x = (std::f64::consts::PI * (i as f64 + 0.75) / (order as f64 + 0.5)).cos();
+            let mut dp = 0.0;
+            for _ in 0..100 {
+                let (mut p0, mut p1) = (1.0, x);
+                for k in 2..=order {
+                    let p2 = ((2 * k - 1) as f64 * x * p1 - (k - 1) as f64 * p0) / k as f64;
+                    p0 = p1;
+                    p1 = p2;
+                }
+                dp = order as f64 * (x * p1 - p0) / (x * x - 1.0);
+                let dx = p1 / dp;
+                x -= dx;
+                if dx.abs() < 1e-16 {
+                    break;
+                }
+            }
+            x_ref.push(x);
+            w_ref.push(2.0 / ((1.0 - x * x) * dp * dp));
+        }
+        let h = 1.0 / panels as f64;
+        let mut nodes = Vec::with_capacity(panels * order);
+        let mut weights = Vec::with_capacity(panels * order);
+        for p in 0..panels {
+            let c = (p as f64 + 0.5) * h;
+            for (x, w) in x_ref.iter().zip(&w_ref) {
+                nodes.push(c + 0.5 * h * x);
+                weights.push(0.5 * h * w);
+            }
+        }
+        GaussLegendre { nodes, weights }
+    }
+
+    fn integrate(&self, f: impl Fn(f64) -> f64) -> f64 {
+        self.nodes.iter().zip(&self.weights).map(|(&x, &w)| w * f(x)).sum()
+    }
+}
+
+impl ModeTable {
+    fn build(coef: &[[f64; 4]], lambda: &[f64], length_m: f64) -> ModeTable {
+        let n = coef.len();
+        let lam_max = lambda.iter().cloned().fold(0.0, f64::max);
+        let span = TABLE_XI_MAX - TABLE_XI_MIN;
+        // Half-width hw with λ_max hw ≤ 1/16: Taylor remainder (λ hw)^7/7! < 1e-12 of the amplitude.
+        let intervals = ((span * lam_max * 8.0).ceil() as usize).max(16);
+        let width = span / intervals as f64;
+        let hw = 0.5 * width;
+        let mut data = vec![0.0; intervals * 2 * TABLE_NCOEF * n];
+        let mut fact = [1.0; TABLE_NCOEF + 1];
+        for k in 1..=TABLE_NCOEF {
+            fact[k] = fact[k - 1] * k as f64;
+        }
+        for j in 0..intervals {
+            let xc = TABLE_XI_MIN + (j as f64 + 0.5) * width;
+            for m in 0..n {
+                for k in 0..TABLE_NCOEF {
+                    let hk = hw.powi(k as i32) / fact[k];
+                    let d0 = phi_derivative(&coef[m], lambda[m], xc, k);
+                    let d1 = phi_derivative(&coef[m], lambda[m], xc, k + 1) / length_m;
+                    data[((j * 2) * TABLE_NCOEF + k) * n + m] = d0 * hk;
+                    data[((j * 2 + 1) * TABLE_NCOEF + k) * n + m] = d1 * hk;
+                }
+            }
+        }
+        ModeTable {
+            n,
+            intervals,
+            inv_width: 1.0 / width,
+            data,
+        }
+    }
+
+    /// Locate ξ: interval index and local variable u ∈ [−1, 1]; None outside the table.
+    #[inline(always)]
+    fn locate(&self, xi: f64) -> Option<(usize, f64)> {
+        let r = (xi - TABLE_XI_MIN) * self.inv_width;
+        if !(r >= 0.0 && r < self.intervals as f64) {
+            return None;
+        }
+        let j = r as usize;
+        Some((j, 2.0 * (r - j as f64) - 1.0))
+    }
+
+    fn eval(&self, xi: f64, phi: &mut [f64], dphi: &mut [f64]) -> bool {
+        let Some((j, u)) = self.locate(xi) else {
+            return false;
+        };
+        let n = self.n;
+        let base = j * 2 * TABLE_NCOEF * n;
+        for m in 0..n {
+            let mut p = 0.0;
+            let mut d = 0.0;
+            for k in (0..TABLE_NCOEF).rev() {
+                p = p * u + self.data[base + k * n + m];
+                d = d * u + self.data[base + (TABLE_NCOEF + k) * n + m];
+            }
+            phi[m] = p;
+            dphi[m] = d;
+        }
+        true
+    }
+
+    #[inline(always)]
+    fn eval_n<const N: usize>(&self, xi: f64, phi: &mut [f64; N], dphi: &mut [f64; N]) -> bool {
+        debug_assert_eq!(N, self.n);
+        let Some((j, u)) = self.locate(xi) else {
+            return false;
+        };
+        let base = j * 2 * TABLE_NCOEF * N;
+        let block = &self.data[base..base + 2 * TABLE_NCOEF * N];
+        let mut p = [0.0; N];
+        let mut d = [0.0; N];
+        for k in (0..TABLE_NCOEF).rev() {
+            let cp = &block[k * N..k * N + N];
+            let cd = &block[(TABLE_NCOEF + k) * N..(TABLE_NCOEF + k) * N + N];
+            for m in 0..N {
+                p[m] = p[m] * u + cp[m];
+                d[m] = d[m] * u + cd[m];
+            }
+        }
+        *phi = p;
+        *dphi = d;
+        true
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn beam(p: &Params) -> Beam {
+        Beam::new(p).unwrap()
+    }
+
+    #[test]
+    fn modal_frequencies_match_model_md() {
+        let f = beam(&Params::default()).frequencies_hz();
+        let expect = [260.2805, 719.0106, 1412.324, 2338.976, 3500.124];
+        for (a, b) in f.iter().zip(expect) {
+            // MODEL.md gives 7 significant digits; our values must agree to 1e-6 relative.
+            assert!(((a - b) / b).abs() < 1e-6, "{a} vs {b}");
+        }
+    }
+
+    #[test]
+    fn clamped_limit() {
+        let p = Params {
+            k_r_nm_per_rad: f64::INFINITY,
+            k_t_n_per_m: f64::INFINITY,
+            ..Params::default()
+        };
+        let b = beam(&p);
+        assert!((b.lambda[0] - 4.730041).abs() < 5e-7, "{}", b.lambda[0]);
+        assert!((b.frequencies_hz()[0] - 274.187).abs() < 1e-3);
+        // Clamped: zero slope at both ends.
+        for m in 0..b.n {
+            assert!(b.dphi_exact(m, 0.0).abs() < 1e-9 * b.dphi_exact(m, 0.3 * b.length_m).abs().max(1.0));
+        }
+        // Very stiff finite springs approach the clamped limit.
+        let q = Params { k_r_nm_per_rad: 1e9, ..p };
+        assert!((beam(&q).lambda[0] - 4.730041).abs() < 1e-5);
+    }
+
+    #[test]
+    fn unit_modal_mass_and_orthogonality() {
+        let p = Params::default();
+        let b = beam(&p);
+        let gl = GaussLegendre::new(256, 8);
+        let rho_a = p.beam_mass_kg / p.length_m;
+        for i in 0..b.n {
+            for j in 0..b.n {
+                let m = rho_a * p.length_m
+                    * gl.integrate(|xi| b.phi_exact(i, xi * p.length_m) * b.phi_exact(j, xi * p.length_m));
+                let expect = if i == j { 1.0 } else { 0.0 };
+                assert!((m - expect).abs() < 1e-10, "M[{i}{j}] = {m}");
+            }
+            assert!(b.coef[i][0] > 0.0, "sine coefficient positive");
+        }
+    }
+
+    #[test]
+    fn k_symmetric_positive_definite() {
+        let b = beam(&Params { n_modes: 8, ..Params::default() });
+        let n = b.n;
+        let km = nalgebra::DMatrix::from_row_slice(n, n, &b.k);
+        assert!((km.clone() - km.transpose()).abs().max() < 1e-12 * km.abs().max());
+        let eig = km.symmetric_eigen();
+        assert!(eig.eigenvalues.iter().all(|&e| e > 0.0), "{:?}", eig.eigenvalues);
+    }
+
+    #[test]
+    fn table_matches_closed_form() {
+        for n_modes in [5, 20] {
+            for k_r in [125.0, f64::INFINITY, 1.0] {
+                let b = beam(&Params { n_modes, k_r_nm_per_rad: k_r, ..Params::default() });
+                let l = b.length_m;
+                let mut phi = vec![0.0; n_modes];
+                let mut dphi = vec![0.0; n_modes];
+                let amp: Vec<f64> = (0..n_modes)
+                    .map(|m| (0..200).map(|i| b.phi_exact(m, i as f64 * l / 199.0).abs()).fold(0.0, f64::max))
+                    .collect();
+                let damp: Vec<f64> = (0..n_modes)
+                    .map(|m| (0..200).map(|i| b.dphi_exact(m, i as f64 * l / 199.0).abs()).fold(0.0, f64::max))
+                    .collect();
+                let mut worst: f64 = 0.0;
+                for i in 0..=20011 {
+                    let x = l * (-0.2 + 1.4 * i as f64 / 20011.0);
+                    b.eval(x, &mut phi, &mut dphi);
+                    for m in 0..n_modes {
+                        // Relative to the in-beam amplitude (beyond the ends, to the value itself).
+                        let (pe, de) = (b.phi_exact(m, x), b.dphi_exact(m, x));
+                        worst = worst.max((phi[m] - pe).abs() / amp[m].max(pe.abs()));
+                        worst = worst.max((dphi[m] - de).abs() / damp[m].max(de.abs()));
+                    }
+                }
+                assert!(worst < 1e-10, "N={n_modes} k_r={k_r}: {worst}");
+            }
+        }
+    }
+
+    #[test]
+    fn b_star_and_ideal_clamping_ratios() {
+        let p = Params::default();
+        let b = beam(&p);
+        let bs = b.b_star(p.thickness_m);
+        assert!((bs / 9.52e5 - 1.0).abs() < 5e-3, "b* = {bs}");
+        let ideal = Params { k_r_nm_per_rad: f64::INFINITY, k_t_n_per_m: f64::INFINITY, ..p.clone() };
+        let bi = beam(&ideal);
+        assert!((bi.b_star(p.thickness_m) / 2.13e6 - 1.0).abs() < 5e-3);
+        let drop = 1.0 - b.frequencies_hz()[0] / bi.frequencies_hz()[0];
+        assert!((drop - 0.0507).abs() < 5e-4, "{drop}");
+        let kt_inf = beam(&Params { k_t_n_per_m: f64::INFINITY, ..p.clone() });
+        let ratio = 1.0 - bs / kt_inf.b_star(p.thickness_m);
+        assert!((ratio - 0.522).abs() < 1e-3, "{ratio}");
+    }
+}

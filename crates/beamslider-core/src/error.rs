@@ -1,0 +1,58 @@
+//! The one error type of the core.
+
+use thiserror::Error;
+
+/// Everything that can go wrong in the core, reported to callers (never a panic).
+#[derive(Debug, Error)]
+pub enum Error {
+    /// A parameter or run input is outside its allowed range.
+    #[error("invalid parameter `{field}` = {value}: {allowed}")]
+    InvalidParameter {
+        /// Name of the field (as in the TOML file).
+        field: String,
+        /// The offending value, printed.
+        value: String,
+        /// What is allowed.
+        allowed: String,
+    },
+    /// A TOML file could not be parsed into parameters.
+    #[error("cannot read parameters{}: {message}", .path.as_ref().map(|p| format!(" from {p}")).unwrap_or_default())]
+    Toml {
+        /// File the text came from, if any.
+        path: Option<String>,
+        /// Parser message (names the key and line).
+        message: String,
+    },
+    /// Reading or writing a file failed.
+    #[error("{path}: {source}")]
+    Io {
+        /// The file.
+        path: String,
+        /// The underlying error.
+        #[source]
+        source: std::io::Error,
+    },
+    /// A numerical procedure failed (e.g. no eigenvalue found).
+    #[error("numerical failure: {0}")]
+    Numerical(String),
+    /// The run was interrupted by the caller (cancellation flag).
+    #[error("interrupted at t = {t_s} s")]
+    Interrupted {
+        /// Simulated time reached.
+        t_s: f64,
+    },
+}
+
+/// Result alias of the core.
+pub type Result<T> = std::result::Result<T, Error>;
+
+impl Error {
+    /// Shorthand for [`Error::InvalidParameter`].
+    pub fn invalid(field: &str, value: impl std::fmt::Display, allowed: &str) -> Self {
+        Error::InvalidParameter {
+            field: field.to_string(),
+            value: value.to_string(),
+            allowed: allowed.to_string(),
+        }
+    }
+}

@@ -1,0 +1,328 @@
+//! Model parameters of MODEL.md §1 (defaults = the paper's prototype), TOML I/O and validation.
+
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+use crate::error::{Error, Result};
+
+/// Local contact solver used in each time step (MODEL.md §5).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "lowercase")]
+pub enum ContactSolver {
+    /// Exact solution of the local problem: active-set guess, enumeration of contact
+    /// patterns as fallback, Gauss–Seidel as last resort.
+    #[default]
+    Fast,
+    /// Augmented-Lagrangian / proximal-point nonlinear Gauss–Seidel exactly as in MODEL.md §5.
+    Reference,
+}
+
+impl std::fmt::Display for ContactSolver {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            ContactSolver::Fast => "fast",
+            ContactSolver::Reference => "reference",
+        })
+    }
+}
+
+/// All model parameters, SI units. Field names are the TOML keys.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Params {
+    /// Free length of the beam L [m].
+    pub length_m: f64,
+    /// Beam thickness h [m].
+    pub thickness_m: f64,
+    /// Beam density ρ [kg/m³].
+    pub density_kg_m3: f64,
+    /// Beam mass of the free length ρAL [kg].
+    pub beam_mass_kg: f64,
+    /// Young's modulus E [Pa].
+    pub youngs_modulus_pa: f64,
+    /// Slider mass m [kg].
+    pub slider_mass_kg: f64,
+    /// Slider rotary inertia about its centre of mass J_C [kg m²].
+    pub slider_inertia_kg_m2: f64,
+    /// Horizontal distance B between the two contact points on one side [m].
+    pub contact_spacing_m: f64,
+    /// Distance d from the slider's geometric centre down to its centre of mass [m].
+    pub com_offset_m: f64,
+    /// Relative inner height of the slider opening R/h [-] (must exceed 1).
+    pub gap_ratio: f64,
+    /// Rotational clamping stiffness k_r at each end [N m/rad]; `inf` = ideal clamping.
+    pub k_r_nm_per_rad: f64,
+    /// Axial clamping stiffness k_t [N/m]; `inf` = ideal clamping.
+    pub k_t_n_per_m: f64,
+    /// Modal damping ratio D of all modes [-].
+    pub damping_ratio: f64,
+    /// Coulomb friction coefficient μ [-].
+    pub friction_coefficient: f64,
+    /// Normal restitution coefficient ε_N [-] (tangential ε_T = 0).
+    pub restitution: f64,
+    /// Gravitational acceleration g [m/s²], acting on the slider only.
+    pub gravity_m_s2: f64,
+    /// Number of retained beam modes N (1..=20).
+    pub n_modes: usize,
+    /// Fixed time step Δt [s].
+    pub dt_s: f64,
+    /// Local contact solver: "fast" (exact, default) or "reference".
+    pub contact_solver: ContactSolver,
+    /// Relative stop tolerance of the Gauss–Seidel solver [-].
+    pub solver_tol_rel: f64,
+    /// Absolute stop tolerance of the Gauss–Seidel solver [N s].
+    pub solver_tol_abs: f64,
+    /// Iteration cap of the Gauss–Seidel solver (sweeps per step).
+    pub solver_max_iter: usize,
+}
+
+impl Default for Params {
+    fn default() -> Self {
+        Params {
+            length_m: 0.140,
+            thickness_m: 1.0e-3,
+            density_kg_m3: 7683.0,
+            beam_mass_kg: 15.1e-3,
+            youngs_modulus_pa: 210e9,
+            slider_mass_kg: 46.2e-3,
+            slider_inertia_kg_m2: 3.15e-6,
+            contact_spacing_m: 10e-3,
+            com_offset_m: 4.1e-3,
+            gap_ratio: 1.05,
+            k_r_nm_per_rad: 125.0,
+            k_t_n_per_m: 1.93e7,
+            damping_ratio: 1.0e-3,
+            friction_coefficient: 0.2,
+            restitution: 0.5,
+            gravity_m_s2: 9.81,
+            n_modes: 5,
+            dt_s: 2e-5,
+            contact_solver: ContactSolver::Fast,
+            solver_tol_rel: 1e-5,
+            solver_tol_abs: 1e-7,
+            solver_max_iter: 10_000,
+        }
+    }
+}
+
+/// Largest number of retained modes.
+pub const MAX_MODES: usize = 20;
+
+impl Params {
+    /// Parse from TOML text (missing keys take their defaults, unknown keys are errors), then validate.
+    pub fn from_toml_str(text: &str) -> Result<Self> {
+        let p: Params = toml::from_str(text).map_err(|e| Error::Toml {
+            path: None,
+            message: e.to_string().trim_end().to_string(),
+        })?;
+        p.validate()?;
+        Ok(p)
+    }
+
+    /// Read and validate a TOML file.
+    pub fn from_toml_file(path: impl AsRef<Path>) -> Result<Self> {
+        let path = path.as_ref();
+        let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
+            path: path.display().to_string(),
+            source,
+        })?;
+        Self::from_toml_str(&text).map_err(|e| match e {
+            Error::Toml { message, .. } => Error::Toml {
+                path: Some(path.display().to_string()),
+                message,
+            },
+            other => other,
+        })
+    }
+
+    /// TOML text of these parameters (infinite stiffnesses are written as `inf`).
+    pub fn to_toml_string(&self) -> String {
+        toml::to_string(self).expect("plain struct of numbers and strings always serialises")
+    }
+
+    /// Write the parameters as a TOML file.
+    pub fn to_toml_file(&self, path: impl AsRef<Path>) -> Result<()> {
+        let path = path.as_ref();
+        std::fs::write(path, self.to_toml_string()).map_err(|source| Error::Io {
+            path: path.display().to_string(),
+            source,
+        })
+    }
+
+    /// Check every field; the error names the field and the allowed range.
+    pub fn validate(&self) -> Result<()> {
+        let positive_finite = [
+            ("length_m", self.length_m),
+            ("thickness_m", self.thickness_m),
+            ("density_kg_m3", self.density_kg_m3),
+            ("beam_mass_kg", self.beam_mass_kg),
+            ("youngs_modulus_pa", self.youngs_modulus_pa),
+            ("slider_mass_kg", self.slider_mass_kg),
+            ("slider_inertia_kg_m2", self.slider_inertia_kg_m2),
+            ("contact_spacing_m", self.contact_spacing_m),
+            ("dt_s", self.dt_s),
+            ("solver_tol_rel", self.solver_tol_rel),
+        ];
+        for (field, v) in positive_finite {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(Error::invalid(field, v, "must be finite and > 0"));
+            }
+        }
+        for (field, v) in [
+            ("k_r_nm_per_rad", self.k_r_nm_per_rad),
+            ("k_t_n_per_m", self.k_t_n_per_m),
+        ] {
+            if v.is_nan() || v <= 0.0 {
+                return Err(Error::invalid(field, v, "must be > 0 (inf = ideal clamping)"));
+            }
+        }
+        let non_negative_finite = [
+            ("com_offset_m", self.com_offset_m),
+            ("damping_ratio", self.damping_ratio),
+            ("friction_coefficient", self.friction_coefficient),
+            ("gravity_m_s2", self.gravity_m_s2),
+            ("solver_tol_abs", self.solver_tol_abs),
+        ];
+        for (field, v) in non_negative_finite {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(Error::invalid(field, v, "must be finite and >= 0"));
+            }
+        }
+        if !(self.gap_ratio.is_finite() && self.gap_ratio > 1.0) {
+            return Err(Error::invalid(
+                "gap_ratio",
+                self.gap_ratio,
+                "R/h must be finite and > 1 (the slider needs a clearance)",
+            ));
+        }
+        if !(self.restitution.is_finite() && (0.0..=1.0).contains(&self.restitution)) {
+            return Err(Error::invalid("restitution", self.restitution, "must lie in [0, 1]"));
+        }
+        if !(1..=MAX_MODES).contains(&self.n_modes) {
+            return Err(Error::invalid("n_modes", self.n_modes, "must lie in 1..=20"));
+        }
+        if self.solver_max_iter == 0 {
+            return Err(Error::invalid("solver_max_iter", 0, "must be >= 1"));
+        }
+        if self.contact_spacing_m >= self.length_m {
+            return Err(Error::invalid(
+                "contact_spacing_m",
+                self.contact_spacing_m,
+                "must be smaller than the beam length length_m",
+            ));
+        }
+        // The slider opening must be physically meaningful: d and R/2 small against L.
+        if self.gap_ratio * self.thickness_m >= self.length_m {
+            return Err(Error::invalid(
+                "gap_ratio",
+                self.gap_ratio,
+                "opening height R = gap_ratio * thickness_m must be smaller than length_m",
+            ));
+        }
+        Ok(())
+    }
+
+    /// Cross-section area A = ρAL / (ρ L) [m²].
+    pub fn area_m2(&self) -> f64 {
+        self.beam_mass_kg / (self.density_kg_m3 * self.length_m)
+    }
+
+    /// Second moment of area I = width h³ / 12 with width = A / h [m⁴].
+    pub fn second_moment_m4(&self) -> f64 {
+        let width = self.area_m2() / self.thickness_m;
+        width * self.thickness_m.powi(3) / 12.0
+    }
+
+    /// Bending stiffness EI [N m²].
+    pub fn bending_stiffness(&self) -> f64 {
+        self.youngs_modulus_pa * self.second_moment_m4()
+    }
+
+    /// Axial stiffness of the beam in series with the clamping, k_ax = 1 / (L/(EA) + 1/k_t) [N/m].
+    pub fn axial_stiffness(&self) -> f64 {
+        1.0 / (self.length_m / (self.youngs_modulus_pa * self.area_m2()) + 1.0 / self.k_t_n_per_m)
+    }
+
+    /// Inner opening height R = (R/h) h [m].
+    pub fn opening_m(&self) -> f64 {
+        self.gap_ratio * self.thickness_m
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn defaults_round_trip_through_toml() {
+        let p = Params::default();
+        let q = Params::from_toml_str(&p.to_toml_string()).unwrap();
+        assert_eq!(p, q);
+    }
+
+    #[test]
+    fn infinite_clamping_round_trips() {
+        let p = Params {
+            k_r_nm_per_rad: f64::INFINITY,
+            k_t_n_per_m: f64::INFINITY,
+            ..Params::default()
+        };
+        let text = p.to_toml_string();
+        assert!(text.contains("inf"));
+        assert_eq!(Params::from_toml_str(&text).unwrap(), p);
+    }
+
+    #[test]
+    fn partial_toml_takes_defaults_and_solver_name() {
+        let p = Params::from_toml_str("n_modes = 3\ncontact_solver = \"reference\"\n").unwrap();
+        assert_eq!(p.n_modes, 3);
+        assert_eq!(p.contact_solver, ContactSolver::Reference);
+        assert_eq!(p.length_m, 0.14);
+    }
+
+    #[test]
+    fn unknown_and_garbled_keys_are_errors() {
+        let e = Params::from_toml_str("lenght_m = 0.1\n").unwrap_err().to_string();
+        assert!(e.contains("lenght_m"), "{e}");
+        let e = Params::from_toml_str("length_m = \"long\"\n").unwrap_err().to_string();
+        assert!(e.contains("length_m"), "{e}");
+        let e = Params::from_toml_str("contact_solver = \"magic\"\n").unwrap_err().to_string();
+        assert!(e.contains("contact_solver"), "{e}");
+    }
+
+    fn field_of(p: Params) -> String {
+        match p.validate().unwrap_err() {
+            Error::InvalidParameter { field, .. } => field,
+            e => panic!("unexpected {e}"),
+        }
+    }
+
+    #[test]
+    fn every_invalid_class_names_its_field() {
+        let d = Params::default;
+        assert_eq!(field_of(Params { length_m: 0.0, ..d() }), "length_m");
+        assert_eq!(field_of(Params { thickness_m: -1e-3, ..d() }), "thickness_m");
+        assert_eq!(field_of(Params { slider_mass_kg: f64::NAN, ..d() }), "slider_mass_kg");
+        assert_eq!(field_of(Params { youngs_modulus_pa: f64::INFINITY, ..d() }), "youngs_modulus_pa");
+        assert_eq!(field_of(Params { dt_s: 0.0, ..d() }), "dt_s");
+        assert_eq!(field_of(Params { k_r_nm_per_rad: 0.0, ..d() }), "k_r_nm_per_rad");
+        assert_eq!(field_of(Params { k_t_n_per_m: f64::NAN, ..d() }), "k_t_n_per_m");
+        assert_eq!(field_of(Params { gap_ratio: 1.0, ..d() }), "gap_ratio");
+        assert_eq!(field_of(Params { gap_ratio: 0.9, ..d() }), "gap_ratio");
+        assert_eq!(field_of(Params { friction_coefficient: -0.1, ..d() }), "friction_coefficient");
+        assert_eq!(field_of(Params { restitution: 1.5, ..d() }), "restitution");
+        assert_eq!(field_of(Params { restitution: -0.1, ..d() }), "restitution");
+        assert_eq!(field_of(Params { n_modes: 0, ..d() }), "n_modes");
+        assert_eq!(field_of(Params { n_modes: 21, ..d() }), "n_modes");
+        assert_eq!(field_of(Params { damping_ratio: f64::NAN, ..d() }), "damping_ratio");
+        assert_eq!(field_of(Params { solver_max_iter: 0, ..d() }), "solver_max_iter");
+    }
+
+    #[test]
+    fn derived_section_quantities() {
+        let p = Params::default();
+        let a = p.area_m2();
+        assert!((a - 15.1e-3 / (7683.0 * 0.14)).abs() < 1e-18);
+        assert!(p.axial_stiffness() < p.k_t_n_per_m);
+    }
+}
