@@ -2,12 +2,27 @@
 //! as specified in the project's MODEL.md — a geometrically nonlinear, elastically clamped beam
 //! (modal reduction) carrying a rigid slider in frictional, unilateral contact, integrated with
 //! Moreau's midpoint time-stepping scheme.
+//!
+//! Modules follow the physics: [`params`] (§1), [`beam`] (§2), [`slider`] (§3), [`contact`]
+//! (§4), [`solver`] and [`stepper`] (§5), [`simulation`] and [`manifold`] (§6), [`record`] and
+//! [`signal`] (§7).
 #![warn(missing_docs)]
 
 pub mod beam;
+pub mod contact;
 pub mod error;
 pub mod params;
+pub mod record;
+pub mod simulation;
+pub mod slider;
+pub mod solver;
+pub mod stepper;
 
 pub use beam::Beam;
 pub use error::{Error, Result};
 pub use params::{ContactSolver, Params};
+pub use record::{Channel, CsvRecorder, MemoryRecorder, NullRecorder, Recorder};
+pub use simulation::{
+    CancelFlag, Excitation, Model, Monitor, RunOptions, RunSummary, SliderModel, State, Status,
+};
+pub use stepper::Counters;

@@ -1,0 +1,475 @@
+//! Local contact problem of MODEL.md §5 and its two solvers.
+//!
+//! For k closed contacts find P = (P_N, P_T)ᵢ with ξ = G P + c such that per contact
+//! Signorini–Newton (ξ_N ≥ 0, P_N ≥ 0, ξ_N P_N = 0) and Coulomb (|P_T| ≤ μ P_N, P_T opposing
+//! ξ_T when sliding) hold.
+//!
+//! * [`gauss_seidel`]: the reference augmented-Lagrangian / proximal-point nonlinear
+//!   Gauss–Seidel, exactly as MODEL.md §5 writes it (order, rᵢ, warm start, stop rule).
+//! * [`exact`]: an exact solution — each contact is open, sticking or sliding in one of two
+//!   directions; for a guessed pattern the conditions are a linear system. The previous step's
+//!   pattern is tried first, then a few active-set corrections, then all 4^k patterns, and the
+//!   tightly converged Gauss–Seidel as a last resort.
+
+/// Largest number of simultaneously closed contacts.
+pub const MAX_CLOSED: usize = 4;
+/// Size of the local problem's arrays (2 per contact).
+pub const DIM: usize = 2 * MAX_CLOSED;
+
+/// A local contact problem with k closed contacts (only the leading 2k entries are used).
+#[derive(Debug, Clone)]
+pub struct LocalProblem {
+    /// Number of closed contacts k.
+    pub k: usize,
+    /// Delassus matrix G = Wᵀ M⁻¹ W (rows/cols 2i = normal, 2i+1 = tangential of contact i).
+    pub g: [[f64; DIM]; DIM],
+    /// Free velocity term c.
+    pub c: [f64; DIM],
+    /// Friction coefficient μ.
+    pub mu: f64,
+}
+
+/// State of one closed contact in an exact solution.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum ContactMode {
+    /// Lifted off: P = 0, ξ_N ≥ 0.
+    Open,
+    /// Sticking: ξ = 0, |P_T| ≤ μ P_N.
+    #[default]
+    Stick,
+    /// Sliding with ξ_T > 0: P_T = −μ P_N.
+    SlidePos,
+    /// Sliding with ξ_T < 0: P_T = +μ P_N.
+    SlideNeg,
+}
+
+const ALL_MODES: [ContactMode; 4] = [
+    ContactMode::Stick,
+    ContactMode::Open,
+    ContactMode::SlidePos,
+    ContactMode::SlideNeg,
+];
+
+impl LocalProblem {
+    /// Empty problem for k contacts.
+    pub fn new(k: usize, mu: f64) -> Self {
+        LocalProblem {
+            k,
+            g: [[0.0; DIM]; DIM],
+            c: [0.0; DIM],
+            mu,
+        }
+    }
+
+    /// ξ = G P + c.
+    pub fn velocity(&self, p: &[f64; DIM]) -> [f64; DIM] {
+        let m = 2 * self.k;
+        let mut xi = [0.0; DIM];
+        for a in 0..m {
+            let mut s = self.c[a];
+            for b in 0..m {
+                s += self.g[a][b] * p[b];
+            }
+            xi[a] = s;
+        }
+        xi
+    }
+
+    /// Largest violation of the contact laws as the natural-map (proximal) residual
+    /// |P − prox(P − ρ ξ)| / scale with ρ = P-scale / ξ-scale: zero exactly when Signorini–Newton
+    /// complementarity and the Coulomb law (cone, sliding opposite ξ_T) hold.
+    pub fn residual(&self, p: &[f64; DIM]) -> f64 {
+        let xi = self.velocity(p);
+        let (sv, sp) = self.scales(p);
+        let rho = sp / sv;
+        let mut r: f64 = 0.0;
+        for i in 0..self.k {
+            let (pn, pt) = (p[2 * i], p[2 * i + 1]);
+            let (xn, xt) = (xi[2 * i], xi[2 * i + 1]);
+            let pn_new = (pn - rho * xn).max(0.0);
+            let lim = self.mu * pn_new;
+            let pt_new = (pt - rho * xt).clamp(-lim, lim);
+            r = r.max((pn - pn_new).abs() / sp).max((pt - pt_new).abs() / sp);
+        }
+        r
+    }
+
+    fn scales(&self, p: &[f64; DIM]) -> (f64, f64) {
+        let m = 2 * self.k;
+        let sv = self.c[..m].iter().fold(0.0f64, |a, v| a.max(v.abs())).max(1e-300);
+        let gmax = (0..m).fold(0.0f64, |a, i| a.max(self.g[i][i].abs())).max(1e-300);
+        let sp = p[..m].iter().fold(0.0f64, |a, v| a.max(v.abs())).max(sv / gmax);
+        (sv, sp)
+    }
+}
+
+/// Outcome of one local solve, for the run's counters.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct SolveInfo {
+    /// Gauss–Seidel sweeps (reference solver or fallback).
+    pub iterations: u32,
+    /// The Gauss–Seidel iteration cap was hit.
+    pub capped: bool,
+    /// Exact solver: the first guess (previous pattern) was right.
+    pub first_guess: bool,
+    /// Exact solver: number of linear solves.
+    pub linear_solves: u32,
+    /// Exact solver: full enumeration was needed.
+    pub enumerated: bool,
+    /// Exact solver: no pattern fitted and Gauss–Seidel was used.
+    pub fallback: bool,
+}
+
+/// Reference solver of MODEL.md §5. `p` holds the warm start on entry and the result on exit.
+pub fn gauss_seidel(
+    prob: &LocalProblem,
+    p: &mut [f64; DIM],
+    tol_rel: f64,
+    tol_abs: f64,
+    max_iter: u32,
+) -> SolveInfo {
+    let k = prob.k;
+    let m = 2 * k;
+    let g = &prob.g;
+    // rᵢ from diagonal dominance of G: 2|G_kk| ≥ Σ_j |G_kj| for every row.
+    let row_sum = |a: usize| (0..m).map(|b| g[a][b].abs()).sum::<f64>();
+    let dominant = (0..m).all(|a| 2.0 * g[a][a].abs() >= row_sum(a));
+    let mut r = [0.0; MAX_CLOSED];
+    for i in 0..k {
+        r[i] = if dominant {
+            1.0 / g[2 * i][2 * i].max(g[2 * i + 1][2 * i + 1])
+        } else {
+            1.0 / row_sum(2 * i).max(row_sum(2 * i + 1))
+        };
+    }
+    let mut info = SolveInfo::default();
+    loop {
+        let mut change = 0.0;
+        for i in 0..k {
+            let (a, b) = (2 * i, 2 * i + 1);
+            let mut xn = prob.c[a];
+            let mut xt = prob.c[b];
+            for j in 0..m {
+                xn += g[a][j] * p[j];
+                xt += g[b][j] * p[j];
+            }
+            let pn = (p[a] - r[i] * xn).max(0.0);
+            let lim = prob.mu * pn;
+            let pt = (p[b] - r[i] * xt).clamp(-lim, lim);
+            change += ((pn - p[a]).powi(2) + (pt - p[b]).powi(2)).sqrt();
+            p[a] = pn;
+            p[b] = pt;
+        }
+        info.iterations += 1;
+        let norm = p[..m].iter().map(|v| v * v).sum::<f64>().sqrt();
+        if change <= norm * tol_rel + tol_abs {
+            break;
+        }
+        if info.iterations >= max_iter {
+            info.capped = true;
+            break;
+        }
+    }
+    info
+}
+
+/// Relative tolerance of the exact solver's feasibility checks (round-off level).
+const EXACT_TOL: f64 = 1e-10;
+
+/// Exact solver. `modes[i]` holds the guess for contact i on entry (the previous step's
+/// pattern) and the found pattern on exit; `p` receives the percussions. Falls back to
+/// Gauss–Seidel with tolerances 1e-12 / 1e-16 N s when no pattern fits.
+pub fn exact(
+    prob: &LocalProblem,
+    modes: &mut [ContactMode; MAX_CLOSED],
+    p: &mut [f64; DIM],
+    max_iter: u32,
+) -> SolveInfo {
+    let k = prob.k;
+    let mut info = SolveInfo::default();
+    // 1. The guess, then active-set corrections of the violated contacts.
+    let mut trial = *modes;
+    for attempt in 0..(2 * k + 2) {
+        info.linear_solves += 1;
+        let Some(sol) = solve_pattern(prob, &trial) else {
+            break;
+        };
+        match check_pattern(prob, &trial, &sol) {
+            None => {
+                *p = sol;
+                *modes = trial;
+                info.first_guess = attempt == 0;
+                return info;
+            }
+            Some(next) => {
+                if next == trial {
+                    break;
+                }
+                trial = next;
+            }
+        }
+    }
+    // 2. All 4^k patterns.
+    info.enumerated = true;
+    let total = 4usize.pow(k as u32);
+    for code in 0..total {
+        let mut c = code;
+        for mode in trial.iter_mut().take(k) {
+            *mode = ALL_MODES[c % 4];
+            c /= 4;
+        }
+        info.linear_solves += 1;
+        if let Some(sol) = solve_pattern(prob, &trial)
+            && check_pattern(prob, &trial, &sol).is_none()
+        {
+            *p = sol;
+            *modes = trial;
+            return info;
+        }
+    }
+    // 3. Last resort: tightly converged Gauss–Seidel from zero.
+    info.fallback = true;
+    *p = [0.0; DIM];
+    let gs = gauss_seidel(prob, p, 1e-12, 1e-16, max_iter);
+    info.iterations = gs.iterations;
+    info.capped = gs.capped;
+    let xi = prob.velocity(p);
+    for i in 0..k {
+        modes[i] = classify(prob.mu, p[2 * i], p[2 * i + 1], xi[2 * i + 1]);
+    }
+    info
+}
+
+fn classify(mu: f64, pn: f64, pt: f64, xt: f64) -> ContactMode {
+    if pn <= 0.0 {
+        ContactMode::Open
+    } else if pt.abs() < mu * pn * (1.0 - 1e-9) || xt == 0.0 {
+        ContactMode::Stick
+    } else if xt > 0.0 {
+        ContactMode::SlidePos
+    } else {
+        ContactMode::SlideNeg
+    }
+}
+
+/// Solve the linear system of one contact pattern; None when it is singular.
+fn solve_pattern(prob: &LocalProblem, modes: &[ContactMode; MAX_CLOSED]) -> Option<[f64; DIM]> {
+    let k = prob.k;
+    // Unknowns: columns of G combined per pattern; equations: rows of G selected per pattern.
+    let mut cols: [(usize, f64, usize); DIM] = [(0, 0.0, 0); DIM]; // (normal col, tangential factor, contact)
+    let mut rows = [0usize; DIM];
+    let mut nu = 0;
+    let mut ne = 0;
+    for i in 0..k {
+        match modes[i] {
+            ContactMode::Open => {}
+            ContactMode::Stick => {
+                cols[nu] = (2 * i, 0.0, usize::MAX);
+                cols[nu + 1] = (2 * i + 1, 0.0, usize::MAX);
+                nu += 2;
+                rows[ne] = 2 * i;
+                rows[ne + 1] = 2 * i + 1;
+                ne += 2;
+            }
+            ContactMode::SlidePos | ContactMode::SlideNeg => {
+                let sigma = if modes[i] == ContactMode::SlidePos { 1.0 } else { -1.0 };
+                cols[nu] = (2 * i, -sigma * prob.mu, 2 * i + 1);
+                nu += 1;
+                rows[ne] = 2 * i;
+                ne += 1;
+            }
+        }
+    }
+    debug_assert_eq!(nu, ne);
+    let mut a = [[0.0; DIM + 1]; DIM];
+    let mut amax: f64 = 0.0;
+    for e in 0..ne {
+        let r = rows[e];
+        for u in 0..nu {
+            let (cn, f, ct) = cols[u];
+            let mut v = prob.g[r][cn];
+            if ct != usize::MAX {
+                v += f * prob.g[r][ct];
+            }
+            a[e][u] = v;
+            amax = amax.max(v.abs());
+        }
+        a[e][nu] = -prob.c[r];
+    }
+    let y = gauss_solve(&mut a, nu, amax)?;
+    let mut p = [0.0; DIM];
+    for u in 0..nu {
+        let (cn, f, ct) = cols[u];
+        p[cn] = y[u];
+        if ct != usize::MAX {
+            p[ct] = f * y[u];
+        }
+    }
+    Some(p)
+}
+
+/// Gaussian elimination with partial pivoting on the augmented n×(n+1) system.
+fn gauss_solve(a: &mut [[f64; DIM + 1]; DIM], n: usize, amax: f64) -> Option<[f64; DIM]> {
+    let tiny = 1e-13 * amax;
+    for col in 0..n {
+        let mut piv = col;
+        for r in col + 1..n {
+            if a[r][col].abs() > a[piv][col].abs() {
+                piv = r;
+            }
+        }
+        if a[piv][col].abs() <= tiny {
+            return None;
+        }
+        a.swap(col, piv);
+        let inv = 1.0 / a[col][col];
+        for r in col + 1..n {
+            let f = a[r][col] * inv;
+            if f != 0.0 {
+                for c in col..=n {
+                    a[r][c] -= f * a[col][c];
+                }
+            }
+        }
+    }
+    let mut y = [0.0; DIM];
+    for r in (0..n).rev() {
+        let mut s = a[r][n];
+        for c in r + 1..n {
+            s -= a[r][c] * y[c];
+        }
+        y[r] = s / a[r][r];
+    }
+    Some(y)
+}
+
+/// None when the solution fits its pattern; otherwise the corrected pattern.
+fn check_pattern(
+    prob: &LocalProblem,
+    modes: &[ContactMode; MAX_CLOSED],
+    p: &[f64; DIM],
+) -> Option<[ContactMode; MAX_CLOSED]> {
+    let xi = prob.velocity(p);
+    let (sv, sp) = prob.scales(p);
+    let (tv, tp) = (EXACT_TOL * sv, EXACT_TOL * sp);
+    let mut next = *modes;
+    let mut ok = true;
+    for i in 0..prob.k {
+        let (pn, pt) = (p[2 * i], p[2 * i + 1]);
+        let (xn, xt) = (xi[2 * i], xi[2 * i + 1]);
+        match modes[i] {
+            ContactMode::Open => {
+                if xn < -tv {
+                    next[i] = ContactMode::Stick;
+                    ok = false;
+                }
+            }
+            ContactMode::Stick => {
+                if pn < -tp {
+                    next[i] = ContactMode::Open;
+                    ok = false;
+                } else if pt.abs() > prob.mu * pn + tp {
+                    next[i] = if pt < 0.0 { ContactMode::SlidePos } else { ContactMode::SlideNeg };
+                    ok = false;
+                }
+            }
+            ContactMode::SlidePos | ContactMode::SlideNeg => {
+                let sigma = if modes[i] == ContactMode::SlidePos { 1.0 } else { -1.0 };
+                if pn < -tp {
+                    next[i] = ContactMode::Open;
+                    ok = false;
+                } else if sigma * xt < -tv {
+                    next[i] = ContactMode::Stick;
+                    ok = false;
+                }
+            }
+        }
+    }
+    if ok { None } else { Some(next) }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn problem(k: usize, mu: f64, seed: u64) -> LocalProblem {
+        // Deterministic pseudo-random SPD G = A Aᵀ + δI and c.
+        let mut s = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        let mut rnd = || {
+            s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            ((s >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
+        };
+        let m = 2 * k;
+        let mut a = [[0.0; DIM]; DIM];
+        for row in a.iter_mut().take(m) {
+            for v in row.iter_mut().take(m) {
+                *v = rnd();
+            }
+        }
+        let mut prob = LocalProblem::new(k, mu);
+        for i in 0..m {
+            for j in 0..m {
+                prob.g[i][j] = (0..m).map(|l| a[i][l] * a[j][l]).sum::<f64>() + if i == j { 0.1 } else { 0.0 };
+            }
+            prob.c[i] = rnd();
+        }
+        prob
+    }
+
+    #[test]
+    fn exact_solution_satisfies_contact_laws() {
+        for seed in 0..500 {
+            let k = 1 + (seed as usize % 4);
+            let prob = problem(k, 0.3, seed);
+            let mut modes = [ContactMode::Stick; MAX_CLOSED];
+            let mut p = [0.0; DIM];
+            let info = exact(&prob, &mut modes, &mut p, 100_000);
+            assert!(!info.fallback, "seed {seed}: no exact pattern");
+            let r = prob.residual(&p);
+            assert!(r < 1e-9, "seed {seed}: residual {r}");
+        }
+    }
+
+    #[test]
+    fn tight_gauss_seidel_agrees_with_exact() {
+        for seed in 0..100 {
+            let k = 1 + (seed as usize % 2);
+            let prob = problem(k, 0.2, seed + 1000);
+            let mut modes = [ContactMode::Stick; MAX_CLOSED];
+            let mut pe = [0.0; DIM];
+            exact(&prob, &mut modes, &mut pe, 100_000);
+            let mut pg = [0.0; DIM];
+            let info = gauss_seidel(&prob, &mut pg, 1e-13, 1e-18, 1_000_000);
+            assert!(!info.capped);
+            let scale = pe.iter().fold(1e-12f64, |a, v| a.max(v.abs()));
+            for i in 0..2 * k {
+                assert!((pe[i] - pg[i]).abs() < 1e-7 * scale, "seed {seed}: {pe:?} vs {pg:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn single_contact_cases_by_hand() {
+        // G = I, μ = 0.5: approaching with ξ_N = −1, ξ_T = 0.2 → stick, P = (1, −0.2).
+        let mut prob = LocalProblem::new(1, 0.5);
+        prob.g[0][0] = 1.0;
+        prob.g[1][1] = 1.0;
+        prob.c[0] = -1.0;
+        prob.c[1] = 0.2;
+        let mut modes = [ContactMode::Open; MAX_CLOSED];
+        let mut p = [0.0; DIM];
+        exact(&prob, &mut modes, &mut p, 100);
+        assert_eq!(modes[0], ContactMode::Stick);
+        assert!((p[0] - 1.0).abs() < 1e-15 && (p[1] + 0.2).abs() < 1e-15);
+        // ξ_T = 2 → slide, P_T = −μ P_N.
+        prob.c[1] = 2.0;
+        exact(&prob, &mut modes, &mut p, 100);
+        assert_eq!(modes[0], ContactMode::SlidePos);
+        assert!((p[1] + 0.5).abs() < 1e-15);
+        // Separating → open.
+        prob.c[0] = 1.0;
+        exact(&prob, &mut modes, &mut p, 100);
+        assert_eq!(modes[0], ContactMode::Open);
+        assert_eq!(p[0], 0.0);
+    }
+}

@@ -1,0 +1,352 @@
+//! Moreau's midpoint time-stepping scheme of MODEL.md §5 for the measure differential inclusion
+//! M du = h(t, q, u) dt + W dP, specialised at compile time to the number of modes N.
+
+use crate::beam::Beam;
+use crate::contact::{Base, ClosedContact, kinematics};
+use crate::params::{ContactSolver, Params};
+use crate::slider::{N_CONTACTS, Slider};
+use crate::solver::{self, ContactMode, DIM, LocalProblem, MAX_CLOSED};
+
+/// Counters of a run, reported with every result.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Counters {
+    /// Time steps taken.
+    pub steps: u64,
+    /// Steps with at least one closed contact.
+    pub contact_steps: u64,
+    /// Steps by number of closed contacts (0..=4).
+    pub closed_histogram: [u64; 5],
+    /// Gauss–Seidel sweeps in total (reference solver, or fast solver's fallback).
+    pub solver_iterations: u64,
+    /// Largest number of sweeps in one step.
+    pub max_iterations: u32,
+    /// Steps in which the Gauss–Seidel iteration cap was hit.
+    pub cap_hits: u64,
+    /// Fast solver: steps where the previous pattern was right at once.
+    pub first_guess_hits: u64,
+    /// Fast solver: linear solves in total.
+    pub linear_solves: u64,
+    /// Fast solver: steps that needed the enumeration of all patterns.
+    pub enumerations: u64,
+    /// Fast solver: steps where no pattern fitted and Gauss–Seidel was used.
+    pub fallbacks: u64,
+}
+
+impl Counters {
+    /// Add another run's counters.
+    pub fn add(&mut self, o: &Counters) {
+        self.steps += o.steps;
+        self.contact_steps += o.contact_steps;
+        for i in 0..5 {
+            self.closed_histogram[i] += o.closed_histogram[i];
+        }
+        self.solver_iterations += o.solver_iterations;
+        self.max_iterations = self.max_iterations.max(o.max_iterations);
+        self.cap_hits += o.cap_hits;
+        self.first_guess_hits += o.first_guess_hits;
+        self.linear_solves += o.linear_solves;
+        self.enumerations += o.enumerations;
+        self.fallbacks += o.fallbacks;
+    }
+}
+
+/// Where the contact kinematics take the slider's horizontal position from (MODEL.md §6).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Kinematics {
+    /// Free slider: x_C itself.
+    Free,
+    /// Pseudo-constrained slider: the prescribed x = s·L [m].
+    Fixed(f64),
+    /// Beam only: no contacts, the slider is not integrated.
+    BeamOnly,
+}
+
+/// State with N modes in fixed-size arrays.
+#[derive(Debug, Clone, Copy)]
+pub struct StateN<const N: usize> {
+    /// Modal coordinates q.
+    pub qb: [f64; N],
+    /// Modal velocities.
+    pub ub: [f64; N],
+    /// Slider coordinates (x_C, z_C, β).
+    pub qs: [f64; 3],
+    /// Slider velocities.
+    pub us: [f64; 3],
+}
+
+/// Why a step could not be completed.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum StepFault {
+    /// A contact point lies outside the free length [0, L] (position x [m]).
+    LeftBeam(f64),
+    /// The state became non-finite.
+    NonFinite,
+}
+
+/// Harmonic base excitation w₀(t) = (a/Ω²) cos Ωt.
+#[derive(Debug, Clone, Copy)]
+pub struct BaseMotion {
+    /// Ω = 2π f_ex [rad/s].
+    pub omega: f64,
+    /// Base acceleration amplitude a_ex [m/s²].
+    pub accel: f64,
+}
+
+impl BaseMotion {
+    /// w₀, ẇ₀ and ẅ₀ at t.
+    #[inline(always)]
+    pub fn at(&self, t: f64) -> (f64, f64, f64) {
+        if self.omega == 0.0 {
+            return (0.0, 0.0, -self.accel);
+        }
+        let (s, c) = (self.omega * t).sin_cos();
+        (
+            self.accel / (self.omega * self.omega) * c,
+            -self.accel / self.omega * s,
+            -self.accel * c,
+        )
+    }
+}
+
+/// The time stepper for N modes.
+pub struct Stepper<'a, const N: usize> {
+    beam: &'a Beam,
+    slider: Slider,
+    omega2: [f64; N],
+    damp: [f64; N],
+    gamma: [f64; N],
+    kmat: [[f64; N]; N],
+    half_kax: f64,
+    dt: f64,
+    mu: f64,
+    eps_n: f64,
+    gravity: f64,
+    inv_m: f64,
+    inv_j: f64,
+    length: f64,
+    solver: ContactSolver,
+    tol_rel: f64,
+    tol_abs: f64,
+    max_iter: u32,
+    base: BaseMotion,
+    kin: Kinematics,
+    /// Last percussion of each contact (warm start of the reference solver).
+    warm: [[f64; 2]; N_CONTACTS],
+    /// Last pattern of each contact (first guess of the exact solver).
+    modes: [ContactMode; N_CONTACTS],
+    /// Percussions of the last step per contact (0 when open) [N s].
+    pub last_p: [[f64; 2]; N_CONTACTS],
+    /// Counters.
+    pub counters: Counters,
+}
+
+impl<'a, const N: usize> Stepper<'a, N> {
+    /// Stepper for the given beam (with N modes), parameters, excitation and kinematics.
+    pub fn new(beam: &'a Beam, p: &Params, base: BaseMotion, kin: Kinematics) -> Self {
+        assert_eq!(beam.n, N, "stepper specialised for the wrong number of modes");
+        let mut omega2 = [0.0; N];
+        let mut damp = [0.0; N];
+        let mut gamma = [0.0; N];
+        let mut kmat = [[0.0; N]; N];
+        for i in 0..N {
+            omega2[i] = beam.omega[i] * beam.omega[i];
+            damp[i] = 2.0 * p.damping_ratio * beam.omega[i];
+            gamma[i] = beam.gamma[i];
+            for j in 0..N {
+                kmat[i][j] = beam.k[i * N + j];
+            }
+        }
+        Stepper {
+            beam,
+            slider: Slider::new(p),
+            omega2,
+            damp,
+            gamma,
+            kmat,
+            half_kax: 0.5 * beam.k_ax,
+            dt: p.dt_s,
+            mu: p.friction_coefficient,
+            eps_n: p.restitution,
+            gravity: p.gravity_m_s2,
+            inv_m: 1.0 / p.slider_mass_kg,
+            inv_j: 1.0 / p.slider_inertia_kg_m2,
+            length: p.length_m,
+            solver: p.contact_solver,
+            tol_rel: p.solver_tol_rel,
+            tol_abs: p.solver_tol_abs,
+            max_iter: p.solver_max_iter.min(u32::MAX as usize) as u32,
+            base,
+            kin,
+            warm: [[0.0; 2]; N_CONTACTS],
+            modes: [ContactMode::Stick; N_CONTACTS],
+            last_p: [[0.0; 2]; N_CONTACTS],
+            counters: Counters::default(),
+        }
+    }
+
+    /// One step from t_B to t_B + Δt (MODEL.md §5, steps 1–4).
+    #[inline]
+    pub fn step(&mut self, s: &mut StateN<N>, t_b: f64) -> Result<(), StepFault> {
+        let dt = self.dt;
+        let half = 0.5 * dt;
+        // 1. Midpoint.
+        let t_m = t_b + half;
+        let mut qm = s.qb;
+        for i in 0..N {
+            qm[i] += half * s.ub[i];
+        }
+        let mut qsm = s.qs;
+        for i in 0..3 {
+            qsm[i] += half * s.us[i];
+        }
+        let (w0, w0_dot, w0_ddot) = self.base.at(t_m);
+        // h_M: beam forces (damping with u_B) and slider gravity.
+        let mut kq = [0.0; N];
+        for i in 0..N {
+            let mut acc = 0.0;
+            for j in 0..N {
+                acc += self.kmat[i][j] * qm[j];
+            }
+            kq[i] = acc;
+        }
+        let mut qkq = 0.0;
+        for i in 0..N {
+            qkq += qm[i] * kq[i];
+        }
+        let fnl = self.half_kax * qkq;
+        // u_free = u_B + M⁻¹ h_M Δt.
+        let mut vb = [0.0; N];
+        for i in 0..N {
+            let h = -self.damp[i] * s.ub[i] - self.omega2[i] * qm[i] - fnl * kq[i]
+                - self.gamma[i] * w0_ddot;
+            vb[i] = s.ub[i] + dt * h;
+        }
+        self.counters.steps += 1;
+        self.last_p = [[0.0; 2]; N_CONTACTS];
+        if self.kin == Kinematics::BeamOnly {
+            s.ub = vb;
+            for i in 0..N {
+                s.qb[i] = qm[i] + half * s.ub[i];
+            }
+            return if s.ub.iter().all(|v| v.is_finite()) {
+                Ok(())
+            } else {
+                Err(StepFault::NonFinite)
+            };
+        }
+        let mut vs = [s.us[0], s.us[1] - dt * self.gravity, s.us[2]];
+
+        // 2. Contact kinematics at (t_M, q_M).
+        let x_kin = match self.kin {
+            Kinematics::Fixed(x) => x,
+            _ => qsm[0],
+        };
+        let (sin_b, cos_b) = qsm[2].sin_cos();
+        let base = Base { w0, w0_dot };
+        let mut cs = [ClosedContact::<N>::EMPTY; MAX_CLOSED];
+        let mut k = 0;
+        for i in 0..N_CONTACTS {
+            let (x_p, c) = kinematics::<N>(self.beam, &self.slider, i, x_kin, qsm[1], sin_b, cos_b, &qm, base);
+            if self.kin == Kinematics::Free && !(x_p >= 0.0 && x_p <= self.length) {
+                return Err(StepFault::LeftBeam(x_p));
+            }
+            if let Some(c) = c {
+                cs[k] = c;
+                k += 1;
+            }
+        }
+        self.counters.closed_histogram[k] += 1;
+
+        if k == 0 {
+            // 3. No contact: u_E = u_B + M⁻¹ h_M Δt.
+            s.ub = vb;
+            s.us = vs;
+        } else {
+            self.counters.contact_steps += 1;
+            let mut prob = LocalProblem::new(k, self.mu);
+            let eps = [self.eps_n, 0.0];
+            // M⁻¹ W for the slider part.
+            let minv_s = [self.inv_m, self.inv_m, self.inv_j];
+            for a in 0..2 * k {
+                let (ca, ra) = (&cs[a / 2], a % 2);
+                // c = (I + E)(Wᵀ u_B + w̃) + Wᵀ M⁻¹ h_M Δt = Wᵀ u_free + w̃ + E (Wᵀ u_B + w̃).
+                let mut wu_b = ca.wtilde[ra];
+                let mut wu_f = ca.wtilde[ra];
+                for m in 0..N {
+                    wu_b += ca.wb[ra][m] * s.ub[m];
+                    wu_f += ca.wb[ra][m] * vb[m];
+                }
+                for m in 0..3 {
+                    wu_b += ca.ws[ra][m] * s.us[m];
+                    wu_f += ca.ws[ra][m] * vs[m];
+                }
+                prob.c[a] = wu_f + eps[ra] * wu_b;
+                for b in 0..=a {
+                    let (cb, rb) = (&cs[b / 2], b % 2);
+                    let mut gab = 0.0;
+                    for m in 0..N {
+                        gab += ca.wb[ra][m] * cb.wb[rb][m];
+                    }
+                    for m in 0..3 {
+                        gab += ca.ws[ra][m] * minv_s[m] * cb.ws[rb][m];
+                    }
+                    prob.g[a][b] = gab;
+                    prob.g[b][a] = gab;
+                }
+            }
+            let mut p = [0.0; DIM];
+            let info = match self.solver {
+                ContactSolver::Reference => {
+                    for j in 0..k {
+                        p[2 * j] = self.warm[cs[j].index][0];
+                        p[2 * j + 1] = self.warm[cs[j].index][1];
+                    }
+                    solver::gauss_seidel(&prob, &mut p, self.tol_rel, self.tol_abs, self.max_iter)
+                }
+                ContactSolver::Fast => {
+                    let mut modes = [ContactMode::Stick; MAX_CLOSED];
+                    for j in 0..k {
+                        modes[j] = self.modes[cs[j].index];
+                    }
+                    let info = solver::exact(&prob, &mut modes, &mut p, self.max_iter);
+                    for j in 0..k {
+                        self.modes[cs[j].index] = modes[j];
+                    }
+                    info
+                }
+            };
+            let c = &mut self.counters;
+            c.solver_iterations += info.iterations as u64;
+            c.max_iterations = c.max_iterations.max(info.iterations);
+            c.cap_hits += info.capped as u64;
+            c.first_guess_hits += info.first_guess as u64;
+            c.linear_solves += info.linear_solves as u64;
+            c.enumerations += info.enumerated as u64;
+            c.fallbacks += info.fallback as u64;
+            // u_E = u_free + M⁻¹ W P.
+            for j in 0..k {
+                let (pn, pt) = (p[2 * j], p[2 * j + 1]);
+                let cj = &cs[j];
+                self.warm[cj.index] = [pn, pt];
+                self.last_p[cj.index] = [pn, pt];
+                for m in 0..N {
+                    vb[m] += cj.wb[0][m] * pn + cj.wb[1][m] * pt;
+                }
+                for m in 0..3 {
+                    vs[m] += minv_s[m] * (cj.ws[0][m] * pn + cj.ws[1][m] * pt);
+                }
+            }
+            s.ub = vb;
+            s.us = vs;
+        }
+        // 4. q_E = q_M + (Δt/2) u_E.
+        for i in 0..N {
+            s.qb[i] = qm[i] + half * s.ub[i];
+        }
+        for i in 0..3 {
+            s.qs[i] = qsm[i] + half * s.us[i];
+        }
+        let check: f64 = s.ub.iter().sum::<f64>() + s.us.iter().sum::<f64>();
+        if check.is_finite() { Ok(()) } else { Err(StepFault::NonFinite) }
+    }
+}
