@@ -11,14 +11,17 @@
 pub mod beam;
 pub mod contact;
 pub mod error;
+pub mod manifold;
 pub mod params;
 pub mod record;
+pub mod signal;
 pub mod simulation;
 pub mod slider;
 pub mod solver;
 pub mod stepper;
 
 pub use beam::Beam;
+pub use manifold::{Branch, Manifold, ManifoldOptions, super_slow_manifold};
 pub use error::{Error, Result};
 pub use params::{ContactSolver, Params};
 pub use record::{Channel, CsvRecorder, MemoryRecorder, NullRecorder, Recorder};

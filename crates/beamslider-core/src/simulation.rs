@@ -142,6 +142,8 @@ pub struct RunOptions {
     pub record_every: usize,
     /// Channels to record.
     pub channels: Vec<Channel>,
+    /// Check every local contact solution against the contact laws (counters.max_residual).
+    pub audit_contacts: bool,
 }
 
 impl RunOptions {
@@ -153,6 +155,7 @@ impl RunOptions {
             duration_s,
             record_every: 10,
             channels: Channel::defaults(),
+            audit_contacts: false,
         }
     }
 }
@@ -407,6 +410,7 @@ fn run_n<const N: usize>(
         SliderModel::BeamOnly => Kinematics::BeamOnly,
     };
     let mut stepper = Stepper::<N>::new(&model.beam, p, base, kin);
+    stepper.audit = opts.audit_contacts;
     let slider = Slider::new(p);
     let writer = RowWriter {
         phi_4l7: model.beam.phi_row(4.0 / 7.0 * l),

@@ -8,7 +8,7 @@ use crate::slider::{N_CONTACTS, Slider};
 use crate::solver::{self, ContactMode, DIM, LocalProblem, MAX_CLOSED};
 
 /// Counters of a run, reported with every result.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct Counters {
     /// Time steps taken.
     pub steps: u64,
@@ -30,6 +30,9 @@ pub struct Counters {
     pub enumerations: u64,
     /// Fast solver: steps where no pattern fitted and Gauss–Seidel was used.
     pub fallbacks: u64,
+    /// Largest natural-map residual of the local contact laws over the run (only computed
+    /// when auditing is on; see [`crate::solver::LocalProblem::residual`]).
+    pub max_residual: f64,
 }
 
 impl Counters {
@@ -47,6 +50,7 @@ impl Counters {
         self.linear_solves += o.linear_solves;
         self.enumerations += o.enumerations;
         self.fallbacks += o.fallbacks;
+        self.max_residual = self.max_residual.max(o.max_residual);
     }
 }
 
@@ -138,6 +142,8 @@ pub struct Stepper<'a, const N: usize> {
     pub last_p: [[f64; 2]; N_CONTACTS],
     /// Counters.
     pub counters: Counters,
+    /// Check every local solution against the contact laws (costs time; for tests).
+    pub audit: bool,
 }
 
 impl<'a, const N: usize> Stepper<'a, N> {
@@ -181,6 +187,7 @@ impl<'a, const N: usize> Stepper<'a, N> {
             modes: [ContactMode::Stick; N_CONTACTS],
             last_p: [[0.0; 2]; N_CONTACTS],
             counters: Counters::default(),
+            audit: false,
         }
     }
 
@@ -315,6 +322,9 @@ impl<'a, const N: usize> Stepper<'a, N> {
                     info
                 }
             };
+            if self.audit {
+                self.counters.max_residual = self.counters.max_residual.max(prob.residual(&p));
+            }
             let c = &mut self.counters;
             c.solver_iterations += info.iterations as u64;
             c.max_iterations = c.max_iterations.max(info.iterations);

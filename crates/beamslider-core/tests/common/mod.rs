@@ -42,7 +42,15 @@ pub fn golden_channels(l: f64) -> Vec<Channel> {
     ]
 }
 
+pub fn run_audit(params: Params, model: SliderModel, f: f64, a: f64, s0: f64, t_end: f64, every: usize, audit: bool) -> (MemoryRecorder, RunSummary) {
+    run_impl(params, model, f, a, s0, t_end, every, audit)
+}
+
 pub fn run(params: Params, model: SliderModel, f: f64, a: f64, s0: f64, t_end: f64, every: usize) -> (MemoryRecorder, RunSummary) {
+    run_impl(params, model, f, a, s0, t_end, every, false)
+}
+
+fn run_impl(params: Params, model: SliderModel, f: f64, a: f64, s0: f64, t_end: f64, every: usize, audit: bool) -> (MemoryRecorder, RunSummary) {
     let m = Model::new(params).unwrap();
     let exc = Excitation::new(f, a);
     let start = match model {
@@ -55,6 +63,7 @@ pub fn run(params: Params, model: SliderModel, f: f64, a: f64, s0: f64, t_end: f
         duration_s: t_end,
         record_every: every,
         channels: golden_channels(m.params.length_m),
+        audit_contacts: audit,
     };
     let mut rec = MemoryRecorder::new();
     let sum = m.run(&start, &opts, &mut rec, &mut ()).unwrap();

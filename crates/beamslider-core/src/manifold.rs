@@ -1,0 +1,149 @@
+//! Super-slow (invariant) manifold of MODEL.md §6: the steady-state beam amplitude as a function
+//! of slider position, by sequential continuation of the pseudo-constrained slider (PCS) in s,
+//! upwards and then downwards from the same initial state.
+
+use crate::error::{Error, Result};
+use crate::record::{Channel, MemoryRecorder, NullRecorder};
+use crate::signal::hilbert_envelope;
+use crate::simulation::{Excitation, Model, Monitor, RunOptions, SliderModel, State, Status};
+use crate::stepper::Counters;
+
+/// Settings of the continuation.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ManifoldOptions {
+    /// Slider positions of the upward sweep, increasing (the downward sweep reverses them).
+    pub s_values: Vec<f64>,
+    /// Excitation periods simulated at each s (reference: 100; the paper: 300).
+    pub periods: usize,
+    /// Periods at the end of each s over which the amplitude is averaged (reference: 25).
+    pub record_periods: usize,
+}
+
+impl ManifoldOptions {
+    /// The reference settings: s = 0, 0.005, …, 0.5, 100 periods, last 25 recorded.
+    pub fn reference() -> Self {
+        ManifoldOptions {
+            s_values: (0..=100).map(|i| i as f64 * 0.005).collect(),
+            periods: 100,
+            record_periods: 25,
+        }
+    }
+
+    /// Physical sweep: the reference grid from the first s whose contact points lie on the beam.
+    pub fn physical(model: &Model) -> Self {
+        let s_min = 0.5 * model.params.contact_spacing_m / model.params.length_m;
+        let mut o = Self::reference();
+        o.s_values.retain(|&s| s >= s_min - 1e-12);
+        o
+    }
+}
+
+/// One sweep direction: amplitude of w(4L/7) at each s.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Branch {
+    /// Slider positions in the order visited.
+    pub s: Vec<f64>,
+    /// Mean |Hilbert(w(4L/7))| over the recorded periods [m].
+    pub amplitude_m: Vec<f64>,
+}
+
+/// Both sweeps.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Manifold {
+    /// Upward sweep (increasing s).
+    pub up: Branch,
+    /// Downward sweep (decreasing s).
+    pub down: Branch,
+    /// Counters over all runs.
+    pub counters: Counters,
+}
+
+/// Compute the super-slow manifold at one excitation.
+pub fn super_slow_manifold(
+    model: &Model,
+    excitation: &Excitation,
+    opts: &ManifoldOptions,
+    monitor: &mut dyn Monitor,
+) -> Result<Manifold> {
+    excitation.validate()?;
+    if opts.s_values.is_empty() {
+        return Err(Error::invalid("s_values", "[]", "need at least one slider position"));
+    }
+    if opts.s_values.iter().any(|s| !s.is_finite()) {
+        return Err(Error::invalid("s_values", "non-finite", "all s must be finite"));
+    }
+    if opts.record_periods == 0 || opts.record_periods > opts.periods {
+        return Err(Error::invalid(
+            "record_periods",
+            opts.record_periods,
+            "must lie in 1..=periods",
+        ));
+    }
+    let start = model.initial_state_pcs(excitation)?;
+    let mut out = Manifold::default();
+    let down: Vec<f64> = opts.s_values.iter().rev().copied().collect();
+    let total = 2 * opts.s_values.len();
+    let mut done = 0;
+    for (branch, grid) in [(&mut out.up, &opts.s_values), (&mut out.down, &down)] {
+        let mut state = start.clone();
+        for &s in grid.iter() {
+            let (amp, next, c) = one_point(model, excitation, opts, s, &state)?;
+            out.counters.add(&c);
+            state = next;
+            branch.s.push(s);
+            branch.amplitude_m.push(amp);
+            done += 1;
+            if !monitor.poll(done as f64, total as f64) {
+                return Err(Error::Interrupted { t_s: state.t_s });
+            }
+        }
+    }
+    Ok(out)
+}
+
+fn one_point(
+    model: &Model,
+    excitation: &Excitation,
+    opts: &ManifoldOptions,
+    s: f64,
+    start: &State,
+) -> Result<(f64, State, Counters)> {
+    let dt = model.params.dt_s;
+    let period = excitation.period_s();
+    let n_total = (opts.periods as f64 * period / dt).round() as u64;
+    let n_rec = (opts.record_periods as f64 * period / dt).round() as u64;
+    let model_kind = SliderModel::PseudoConstrained { s };
+    let settle = RunOptions {
+        excitation: *excitation,
+        model: model_kind,
+        duration_s: (n_total - n_rec) as f64 * dt,
+        record_every: usize::MAX,
+        channels: vec![],
+        audit_contacts: false,
+    };
+    let a = model.run(start, &settle, &mut NullRecorder, &mut ())?;
+    check(&a.status, s)?;
+    let rec_opts = RunOptions {
+        duration_s: n_rec as f64 * dt,
+        record_every: 1,
+        channels: vec![Channel::W4L7],
+        ..settle
+    };
+    let mut rec = MemoryRecorder::new();
+    let b = model.run(&a.state, &rec_opts, &mut rec, &mut ())?;
+    check(&b.status, s)?;
+    // Rows: the start sample and n_rec steps; drop the start (it belongs to the settling run).
+    let w = &rec.data[1..];
+    let env = hilbert_envelope(w);
+    let amp = env.iter().sum::<f64>() / env.len().max(1) as f64;
+    let mut c = a.counters;
+    c.add(&b.counters);
+    Ok((amp, b.state, c))
+}
+
+fn check(status: &Status, s: f64) -> Result<()> {
+    match status {
+        Status::Completed => Ok(()),
+        other => Err(Error::Numerical(format!("manifold at s = {s}: {}", other.message()))),
+    }
+}
