@@ -255,7 +255,9 @@ impl<'a, const N: usize> Stepper<'a, N> {
         for i in 0..N_CONTACTS {
             let (x_p, c) = kinematics::<N>(self.beam, &self.slider, i, x_kin, qsm[1], sin_b, cos_b, &qm, base);
             if self.kin == Kinematics::Free && !(x_p >= 0.0 && x_p <= self.length) {
-                return Err(StepFault::LeftBeam(x_p));
+                // Far beyond the beam within one step: a blow-up, not a slider leaving the beam.
+                let plausible = x_p.abs() <= 2.0 * self.length;
+                return Err(if plausible { StepFault::LeftBeam(x_p) } else { StepFault::NonFinite });
             }
             if let Some(c) = c {
                 cs[k] = c;

@@ -1,0 +1,358 @@
+//! `beamslider._core`: the thin PyO3 binding of `beamslider-core`.
+//!
+//! It only converts types and errors; the public Python API lives in `python/beamslider/`.
+//! Parameters cross the boundary as TOML text (Python → Rust) and as a dict (Rust → Python), the
+//! same format the Rust tools read. Long runs release the interpreter (`py.detach`); a monitor
+//! re-attaches every few thousand steps to run pending signal handlers (Ctrl-C) and the optional
+//! progress callback. Core errors map to Python exceptions: invalid parameter / TOML →
+//! `ValueError`, I/O → `OSError`, numerical failure → `beamslider.SimulationError`, interrupted →
+//! `KeyboardInterrupt`. Panics are caught and reported as `SimulationError`.
+
+use std::panic::{AssertUnwindSafe, catch_unwind};
+
+use beamslider_core::{
+    Channel, Error, Excitation, ManifoldOptions, MemoryRecorder, Model, Monitor, Params,
+    RunOptions, SliderModel, Status, signal,
+};
+use numpy::{IntoPyArray, PyArray1, PyReadonlyArray1};
+use pyo3::exceptions::{PyException, PyKeyboardInterrupt, PyOSError, PyValueError};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+
+pyo3::create_exception!(
+    _core,
+    SimulationError,
+    PyException,
+    "A simulation failed numerically (e.g. no eigenvalue found, manifold run diverged)."
+);
+
+/// Map a core error to the Python exception of its class.
+fn to_py(e: Error) -> PyErr {
+    let msg = e.to_string();
+    #[allow(unreachable_patterns)]
+    match e {
+        Error::InvalidParameter { .. } | Error::Toml { .. } => PyValueError::new_err(msg),
+        Error::Io { source, .. } => match source.raw_os_error() {
+            Some(code) => PyOSError::new_err((code, msg)),
+            None => PyOSError::new_err(msg),
+        },
+        Error::Interrupted { .. } => PyKeyboardInterrupt::new_err(msg),
+        Error::Numerical(_) => SimulationError::new_err(msg),
+        _ => SimulationError::new_err(msg),
+    }
+}
+
+/// Run `f`, turning a panic into an error (a panic must never cross into Python).
+fn guarded<T>(f: impl FnOnce() -> Result<T, Error>) -> Result<T, PyErr> {
+    match catch_unwind(AssertUnwindSafe(f)) {
+        Ok(r) => r.map_err(to_py),
+        Err(p) => {
+            let what = p
+                .downcast_ref::<&str>()
+                .map(|s| s.to_string())
+                .or_else(|| p.downcast_ref::<String>().cloned())
+                .unwrap_or_else(|| "unknown panic".into());
+            Err(SimulationError::new_err(format!("internal error in the core: {what}")))
+        }
+    }
+}
+
+fn parse_params(toml_text: &str) -> PyResult<Params> {
+    guarded(|| Params::from_toml_str(toml_text))
+}
+
+/// Parameters as a dict of TOML keys → float / int / str.
+fn params_dict<'py>(py: Python<'py>, p: &Params) -> PyResult<Bound<'py, PyDict>> {
+    let table: toml::Table = toml::from_str(&p.to_toml_string())
+        .map_err(|e| SimulationError::new_err(format!("internal error: {e}")))?;
+    let d = PyDict::new(py);
+    for (k, v) in table {
+        match v {
+            toml::Value::Float(x) => d.set_item(k, x)?,
+            toml::Value::Integer(i) => d.set_item(k, i)?,
+            toml::Value::String(s) => d.set_item(k, s)?,
+            toml::Value::Boolean(b) => d.set_item(k, b)?,
+            other => d.set_item(k, other.to_string())?,
+        }
+    }
+    Ok(d)
+}
+
+/// Default parameters of MODEL.md §1 as a dict.
+#[pyfunction]
+fn default_params(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
+    params_dict(py, &Params::default())
+}
+
+/// Parse and validate TOML parameter text (missing keys take defaults); returns the full dict.
+#[pyfunction]
+fn params_from_toml<'py>(py: Python<'py>, text: &str) -> PyResult<Bound<'py, PyDict>> {
+    let p = parse_params(text)?;
+    params_dict(py, &p)
+}
+
+/// Read and validate a TOML parameter file; returns the full dict.
+#[pyfunction]
+fn read_params_file<'py>(py: Python<'py>, path: std::path::PathBuf) -> PyResult<Bound<'py, PyDict>> {
+    let p = guarded(|| Params::from_toml_file(&path))?;
+    params_dict(py, &p)
+}
+
+/// Validate TOML parameter text and return the canonical TOML text the Rust tools write.
+#[pyfunction]
+fn canonical_toml(text: &str) -> PyResult<String> {
+    Ok(parse_params(text)?.to_toml_string())
+}
+
+/// Natural frequencies f₁..f_N [Hz] of the linear beam (MODEL.md §2).
+#[pyfunction]
+fn natural_frequencies(py: Python<'_>, params_toml: &str) -> PyResult<Vec<f64>> {
+    let p = parse_params(params_toml)?;
+    py.detach(|| guarded(|| Ok(Model::new(p)?.beam.frequencies_hz())))
+}
+
+/// Monitor that re-attaches to Python every poll: pending signal handlers (Ctrl-C) and the
+/// progress callback `callback(t_done, t_total)` run there; an exception stops the run.
+struct PyMonitor {
+    callback: Option<Py<PyAny>>,
+    error: Option<PyErr>,
+}
+
+impl PyMonitor {
+    fn new(callback: Option<Py<PyAny>>) -> Self {
+        PyMonitor { callback, error: None }
+    }
+}
+
+impl Monitor for PyMonitor {
+    fn poll(&mut self, t_s: f64, t_end_s: f64) -> bool {
+        if self.error.is_some() {
+            return false;
+        }
+        Python::attach(|py| {
+            let r = py.check_signals().and_then(|()| match &self.callback {
+                Some(cb) => cb.call1(py, (t_s, t_end_s)).map(|_| ()),
+                None => Ok(()),
+            });
+            match r {
+                Ok(()) => true,
+                Err(e) => {
+                    self.error = Some(e);
+                    false
+                }
+            }
+        })
+    }
+}
+
+/// Names of the recorded columns, in the order of `RECORDED`.
+const RECORDED: [&str; 6] = ["t_s", "w_4L7_m", "s", "xC_m", "zC_m", "beta_rad"];
+
+/// Integrate the FS / PCS / beam-only model (MODEL.md §5–6) and return a dict with the recorded
+/// columns (numpy arrays keyed by `t_s`, `w_4L7_m`, `s`, `xC_m`, `zC_m`, `beta_rad`), `status`,
+/// `message`, `counters` (dict) and `final_state` (dict).
+#[pyfunction]
+#[pyo3(signature = (params_toml, *, f_ex_hz, a_ex_m_s2, s0, t_end_s, model, s_pcs=None, record_every=10, progress=None))]
+#[allow(clippy::too_many_arguments)]
+fn simulate<'py>(
+    py: Python<'py>,
+    params_toml: &str,
+    f_ex_hz: f64,
+    a_ex_m_s2: f64,
+    s0: f64,
+    t_end_s: f64,
+    model: &str,
+    s_pcs: Option<f64>,
+    record_every: usize,
+    progress: Option<Py<PyAny>>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let params = parse_params(params_toml)?;
+    let slider_model = match model {
+        "fs" => SliderModel::Free,
+        "pcs" => SliderModel::PseudoConstrained { s: s_pcs.unwrap_or(s0) },
+        "beam" => SliderModel::BeamOnly,
+        other => {
+            return Err(PyValueError::new_err(format!(
+                "invalid parameter `model` = {other:?}: must be one of \"fs\" (free slider), \"pcs\" (pseudo-constrained slider), \"beam\" (beam only)"
+            )));
+        }
+    };
+    let excitation = Excitation::new(f_ex_hz, a_ex_m_s2);
+    let mut monitor = PyMonitor::new(progress);
+    let outcome = py.detach(|| {
+        guarded(|| {
+            let m = Model::new(params)?;
+            let start = match slider_model {
+                SliderModel::Free => m.initial_state(s0, &excitation)?,
+                _ => m.initial_state_pcs(&excitation)?,
+            };
+            let opts = RunOptions {
+                excitation,
+                model: slider_model,
+                duration_s: t_end_s,
+                record_every,
+                channels: vec![
+                    Channel::Time,
+                    Channel::W4L7,
+                    Channel::S,
+                    Channel::XC,
+                    Channel::ZC,
+                    Channel::Beta,
+                ],
+                audit_contacts: false,
+            };
+            let mut rec = MemoryRecorder::new();
+            let summary = m.run(&start, &opts, &mut rec, &mut monitor)?;
+            let columns: Vec<Vec<f64>> = RECORDED
+                .iter()
+                .map(|name| rec.column(name).unwrap_or_default())
+                .collect();
+            Ok((summary, columns))
+        })
+    });
+    if let Some(e) = monitor.error.take() {
+        return Err(e);
+    }
+    let (summary, columns) = outcome?;
+    if let Status::Interrupted { t_s } = summary.status {
+        return Err(PyKeyboardInterrupt::new_err(format!("interrupted at t = {t_s} s")));
+    }
+    let d = PyDict::new(py);
+    for (name, col) in RECORDED.iter().zip(columns) {
+        d.set_item(*name, col.into_pyarray(py))?;
+    }
+    d.set_item("status", summary.status.name())?;
+    d.set_item("message", summary.status.message())?;
+    d.set_item("counters", counters_dict(py, &summary.counters)?)?;
+    let st = PyDict::new(py);
+    st.set_item("t_s", summary.state.t_s)?;
+    st.set_item("q", summary.state.q.clone())?;
+    st.set_item("u", summary.state.u.clone())?;
+    st.set_item("slider_q", summary.state.slider_q.to_vec())?;
+    st.set_item("slider_u", summary.state.slider_u.to_vec())?;
+    d.set_item("final_state", st)?;
+    Ok(d)
+}
+
+fn counters_dict<'py>(py: Python<'py>, c: &beamslider_core::Counters) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    d.set_item("steps", c.steps)?;
+    d.set_item("contact_steps", c.contact_steps)?;
+    d.set_item("closed_histogram", c.closed_histogram.to_vec())?;
+    d.set_item("solver_iterations", c.solver_iterations)?;
+    d.set_item("max_iterations", c.max_iterations)?;
+    d.set_item("cap_hits", c.cap_hits)?;
+    d.set_item("first_guess_hits", c.first_guess_hits)?;
+    d.set_item("linear_solves", c.linear_solves)?;
+    d.set_item("enumerations", c.enumerations)?;
+    d.set_item("fallbacks", c.fallbacks)?;
+    d.set_item("max_residual", c.max_residual)?;
+    Ok(d)
+}
+
+/// Default slider positions of the physical manifold sweep (MODEL.md §6): the reference grid
+/// s = 0, 0.005, …, 0.5 from the first s whose contact points lie on the beam.
+#[pyfunction]
+fn physical_manifold_grid(py: Python<'_>, params_toml: &str) -> PyResult<Vec<f64>> {
+    let p = parse_params(params_toml)?;
+    py.detach(|| guarded(|| Ok(ManifoldOptions::physical(&Model::new(p)?).s_values)))
+}
+
+/// Super-slow manifold by PCS continuation (MODEL.md §6). Returns a dict with `up_s`,
+/// `up_amplitude_m`, `down_s`, `down_amplitude_m` (numpy arrays) and `counters`.
+/// `progress(points_done, points_total)` is called after every s.
+#[pyfunction]
+#[pyo3(signature = (params_toml, *, f_ex_hz, a_ex_m_s2, s_values, periods=100, record_periods=25, progress=None))]
+#[allow(clippy::too_many_arguments)]
+fn super_slow_manifold<'py>(
+    py: Python<'py>,
+    params_toml: &str,
+    f_ex_hz: f64,
+    a_ex_m_s2: f64,
+    s_values: Vec<f64>,
+    periods: usize,
+    record_periods: usize,
+    progress: Option<Py<PyAny>>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let params = parse_params(params_toml)?;
+    let excitation = Excitation::new(f_ex_hz, a_ex_m_s2);
+    let opts = ManifoldOptions { s_values, periods, record_periods };
+    let mut monitor = PyMonitor::new(progress);
+    let outcome = py.detach(|| {
+        guarded(|| {
+            let m = Model::new(params)?;
+            beamslider_core::super_slow_manifold(&m, &excitation, &opts, &mut monitor)
+        })
+    });
+    if let Some(e) = monitor.error.take() {
+        return Err(e);
+    }
+    let man = outcome?;
+    let d = PyDict::new(py);
+    d.set_item("up_s", man.up.s.into_pyarray(py))?;
+    d.set_item("up_amplitude_m", man.up.amplitude_m.into_pyarray(py))?;
+    d.set_item("down_s", man.down.s.into_pyarray(py))?;
+    d.set_item("down_amplitude_m", man.down.amplitude_m.into_pyarray(py))?;
+    d.set_item("counters", counters_dict(py, &man.counters)?)?;
+    Ok(d)
+}
+
+/// |analytic signal| of x (discrete Hilbert transform via FFT, MODEL.md §7).
+#[pyfunction]
+fn hilbert_envelope<'py>(py: Python<'py>, x: PyReadonlyArray1<'py, f64>) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    let x = x.as_slice()?.to_vec();
+    let e = py.detach(|| signal::hilbert_envelope(&x));
+    Ok(e.into_pyarray(py))
+}
+
+/// Centred moving average over `window` samples, shrinking at the ends (as MATLAB's movmean).
+#[pyfunction]
+fn moving_average<'py>(
+    py: Python<'py>,
+    x: PyReadonlyArray1<'py, f64>,
+    window: usize,
+) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    let x = x.as_slice()?.to_vec();
+    let e = py.detach(|| signal::moving_average(&x, window));
+    Ok(e.into_pyarray(py))
+}
+
+/// Envelope of MODEL.md §7: |Hilbert(x)|, then a moving average over `window_s` seconds of
+/// samples spaced `dt_s`.
+#[pyfunction]
+fn envelope<'py>(
+    py: Python<'py>,
+    x: PyReadonlyArray1<'py, f64>,
+    dt_s: f64,
+    window_s: f64,
+) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    if !(dt_s.is_finite() && dt_s > 0.0) {
+        return Err(PyValueError::new_err(format!("invalid parameter `dt_s` = {dt_s}: must be finite and > 0")));
+    }
+    if !(window_s.is_finite() && window_s > 0.0) {
+        return Err(PyValueError::new_err(format!(
+            "invalid parameter `window` = {window_s}: must be finite and > 0 (seconds)"
+        )));
+    }
+    let x = x.as_slice()?.to_vec();
+    let e = py.detach(|| signal::envelope(&x, dt_s, window_s));
+    Ok(e.into_pyarray(py))
+}
+
+/// The compiled core of beamslider (private: import `beamslider` instead).
+#[pymodule]
+fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add("SimulationError", m.py().get_type::<SimulationError>())?;
+    m.add_function(wrap_pyfunction!(default_params, m)?)?;
+    m.add_function(wrap_pyfunction!(params_from_toml, m)?)?;
+    m.add_function(wrap_pyfunction!(read_params_file, m)?)?;
+    m.add_function(wrap_pyfunction!(canonical_toml, m)?)?;
+    m.add_function(wrap_pyfunction!(natural_frequencies, m)?)?;
+    m.add_function(wrap_pyfunction!(simulate, m)?)?;
+    m.add_function(wrap_pyfunction!(physical_manifold_grid, m)?)?;
+    m.add_function(wrap_pyfunction!(super_slow_manifold, m)?)?;
+    m.add_function(wrap_pyfunction!(hilbert_envelope, m)?)?;
+    m.add_function(wrap_pyfunction!(moving_average, m)?)?;
+    m.add_function(wrap_pyfunction!(envelope, m)?)?;
+    Ok(())
+}
