@@ -1,3 +1,222 @@
-fn main() {
-    println!("Hello, world!");
+//! `beamslider-batch`: batch runs of the beam–slider model (MODEL.md) from the command line.
+
+use std::fs::File;
+use std::io::{BufWriter, Write};
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use anyhow::{Context, Result, bail};
+use beamslider_core::*;
+use clap::{Parser, Subcommand, ValueEnum};
+use indicatif::{ProgressBar, ProgressStyle};
+
+#[derive(Parser)]
+#[command(name = "beamslider-batch", version, about = "Batch runs of the self-adaptive beam-slider model (Rust core of beamslider)")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum ModelKind {
+    /// Free slider.
+    Fs,
+    /// Pseudo-constrained slider at --s-pcs.
+    Pcs,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum SolverKind {
+    Fast,
+    Reference,
+}
+
+#[derive(clap::Args)]
+struct Common {
+    /// Parameter file (TOML, keys as printed by `beamslider-batch params`); defaults = the paper's prototype.
+    #[arg(long, short = 'p', value_name = "FILE")]
+    params: Option<PathBuf>,
+    /// Excitation frequency f_ex [Hz].
+    #[arg(long, default_value_t = 124.0)]
+    f_ex: f64,
+    /// Base-acceleration amplitude a_ex [m/s^2].
+    #[arg(long, default_value_t = 14.0)]
+    a_ex: f64,
+    /// Override the contact solver of the parameter file.
+    #[arg(long, value_enum)]
+    solver: Option<SolverKind>,
+    /// Hide the progress bar.
+    #[arg(long, short = 'q')]
+    quiet: bool,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Simulate one run and write the recorded channels as CSV (header row, then one row per record).
+    Simulate {
+        #[command(flatten)]
+        common: Common,
+        /// Initial relative slider position s0 = x_C/L (free slider).
+        #[arg(long, default_value_t = 0.3)]
+        s0: f64,
+        /// Simulated duration [s].
+        #[arg(long, short = 't', default_value_t = 120.0)]
+        duration: f64,
+        /// Model: free slider (fs) or pseudo-constrained slider (pcs).
+        #[arg(long, value_enum, default_value = "fs")]
+        model: ModelKind,
+        /// Slider position of the PCS model.
+        #[arg(long)]
+        s_pcs: Option<f64>,
+        /// Record every k-th time step.
+        #[arg(long, default_value_t = 10)]
+        record_every: usize,
+        /// Channels (comma-separated): t, w, w@X (X in m), s, xc, zc, beta, q, u, uslider, p.
+        #[arg(long, default_value = "t,w,s,zc,beta", value_delimiter = ',')]
+        channels: Vec<String>,
+        /// Output CSV file ('-' = standard output).
+        #[arg(long, short = 'o', value_name = "FILE")]
+        out: PathBuf,
+    },
+    /// Super-slow manifold by PCS continuation (MODEL.md §6); CSV with columns branch, s, amplitude_m.
+    Manifold {
+        #[command(flatten)]
+        common: Common,
+        /// Excitation periods per slider position.
+        #[arg(long, default_value_t = 100)]
+        periods: usize,
+        /// Periods at the end of each position averaged for the amplitude.
+        #[arg(long, default_value_t = 25)]
+        record: usize,
+        /// Start at s = 0 as the reference sweep does (contact points beyond the clamping);
+        /// by default the sweep starts at the first s whose contact points lie on the beam.
+        #[arg(long)]
+        from_zero: bool,
+        /// Output CSV file ('-' = standard output).
+        #[arg(long, short = 'o', value_name = "FILE")]
+        out: PathBuf,
+    },
+    /// Print the default parameters as TOML (a template for --params).
+    Params,
+}
+
+fn load_params(c: &Common) -> Result<Params> {
+    let mut p = match &c.params {
+        Some(path) => Params::from_toml_file(path)?,
+        None => Params::default(),
+    };
+    if let Some(s) = c.solver {
+        p.contact_solver = match s {
+            SolverKind::Fast => ContactSolver::Fast,
+            SolverKind::Reference => ContactSolver::Reference,
+        };
+    }
+    Ok(p)
+}
+
+fn open_out(path: &PathBuf) -> Result<Box<dyn Write>> {
+    if path.as_os_str() == "-" {
+        return Ok(Box::new(BufWriter::new(std::io::stdout().lock())));
+    }
+    let f = File::create(path).with_context(|| format!("cannot create {}", path.display()))?;
+    Ok(Box::new(BufWriter::new(f)))
+}
+
+/// Progress bar as a run monitor.
+struct Bar(ProgressBar);
+
+impl Bar {
+    fn new(quiet: bool, len: u64, unit: &str) -> Bar {
+        if quiet {
+            return Bar(ProgressBar::hidden());
+        }
+        let pb = ProgressBar::new(len);
+        let template = format!("{{elapsed_precise}} [{{bar:40}}] {{pos}}/{{len}} {unit} (eta {{eta}})");
+        pb.set_style(ProgressStyle::with_template(&template).unwrap_or_else(|_| ProgressStyle::default_bar()));
+        Bar(pb)
+    }
+}
+
+impl Monitor for Bar {
+    fn poll(&mut self, t: f64, _t_end: f64) -> bool {
+        self.0.set_position(t.floor() as u64);
+        true
+    }
+}
+
+fn run(cli: Cli) -> Result<()> {
+    match cli.command {
+        Command::Params => {
+            print!("{}", Params::default().to_toml_string());
+        }
+        Command::Simulate { common, s0, duration, model, s_pcs, record_every, channels, out } => {
+            let params = load_params(&common)?;
+            let m = Model::new(params)?;
+            let exc = Excitation::new(common.f_ex, common.a_ex);
+            let (kind, start) = match model {
+                ModelKind::Fs => (SliderModel::Free, m.initial_state(s0, &exc)?),
+                ModelKind::Pcs => {
+                    let Some(s) = s_pcs else { bail!("--model pcs needs --s-pcs") };
+                    (SliderModel::PseudoConstrained { s }, m.initial_state_pcs(&exc)?)
+                }
+            };
+            let channels = channels.iter().map(|c| Channel::parse(c)).collect::<beamslider_core::Result<Vec<_>>>()?;
+            let opts = RunOptions { excitation: exc, model: kind, duration_s: duration, record_every, channels, audit_contacts: false };
+            let mut rec = CsvRecorder::new(open_out(&out)?, &out.display().to_string());
+            let mut bar = Bar::new(common.quiet, duration.ceil() as u64, "s simulated");
+            let t0 = std::time::Instant::now();
+            let sum = m.run(&start, &opts, &mut rec, &mut bar)?;
+            bar.0.finish_and_clear();
+            rec.finish()?;
+            let c = sum.counters;
+            eprintln!(
+                "{}: {} steps in {:.2} s ({:.0} ns/step); contact in {:.1} % of steps, closed contacts per step {:?}; solver: {} GS sweeps, {} cap hits, {} enumerations, {} fallbacks",
+                sum.status.message(),
+                c.steps,
+                t0.elapsed().as_secs_f64(),
+                t0.elapsed().as_secs_f64() / c.steps.max(1) as f64 * 1e9,
+                100.0 * c.contact_steps as f64 / c.steps.max(1) as f64,
+                c.closed_histogram,
+                c.solver_iterations,
+                c.cap_hits,
+                c.enumerations,
+                c.fallbacks
+            );
+            if sum.status != Status::Completed {
+                bail!("{}", sum.status.message());
+            }
+        }
+        Command::Manifold { common, periods, record, from_zero, out } => {
+            let params = load_params(&common)?;
+            let m = Model::new(params)?;
+            let exc = Excitation::new(common.f_ex, common.a_ex);
+            let mut opts = if from_zero { ManifoldOptions::reference() } else { ManifoldOptions::physical(&m) };
+            opts.periods = periods;
+            opts.record_periods = record;
+            let mut bar = Bar::new(common.quiet, 2 * opts.s_values.len() as u64, "positions");
+            let man = super_slow_manifold(&m, &exc, &opts, &mut bar)?;
+            bar.0.finish_and_clear();
+            let mut w = open_out(&out)?;
+            let io = |e| anyhow::anyhow!("{}: {e}", out.display());
+            writeln!(w, "branch,s,amplitude_m").map_err(io)?;
+            for (name, b) in [("up", &man.up), ("down", &man.down)] {
+                for (s, a) in b.s.iter().zip(&b.amplitude_m) {
+                    writeln!(w, "{name},{s},{a:e}").map_err(io)?;
+                }
+            }
+            w.flush().map_err(io)?;
+        }
+    }
+    Ok(())
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match run(cli) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("beamslider-batch: error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
 }
