@@ -1,1 +1,34 @@
-from ._core import *  # placeholder
+"""beamslider: the self-adaptive beam–slider system of Müller, Beck & Krack (MSSP 2023).
+
+A Rust core (``beamslider._core``) integrates the model of MODEL.md (§1–§6); this package is its
+Python face:
+
+- :class:`Parameters` — model parameters (MODEL.md §1), TOML in and out;
+- :func:`simulate` — free-slider / pseudo-constrained / beam-only runs (§5–6);
+- :func:`super_slow_manifold` — PCS continuation of the super-slow manifold (§6);
+- :func:`envelope` — |Hilbert| plus moving average (§7);
+- :func:`read_measurement` — the published measured data set (§7);
+- :mod:`beamslider.plotting` — the paper's three-panel figures; ``beamslider`` — the command line.
+"""
+
+from ._core import SimulationError
+from .measurement import Measurement, MeasurementFormatError, parse_operating_point, read_measurement
+from .params import Parameters
+from .simulate import ManifoldResult, SimulationResult, envelope, manifold_grid, simulate, super_slow_manifold
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "ManifoldResult",
+    "Measurement",
+    "MeasurementFormatError",
+    "Parameters",
+    "SimulationError",
+    "SimulationResult",
+    "envelope",
+    "manifold_grid",
+    "parse_operating_point",
+    "read_measurement",
+    "simulate",
+    "super_slow_manifold",
+]

@@ -1,0 +1,45 @@
+"""Type stubs of the compiled core binding (private; use the ``beamslider`` package)."""
+
+from os import PathLike
+from typing import Any, Callable, Dict, List, Optional, Sequence, Union
+
+import numpy as np
+import numpy.typing as npt
+
+class SimulationError(Exception):
+    """A simulation failed numerically."""
+
+ParamDict = Dict[str, Union[float, int, str]]
+Progress = Optional[Callable[[float, float], Any]]
+
+def default_params() -> ParamDict: ...
+def params_from_toml(text: str) -> ParamDict: ...
+def read_params_file(path: Union[str, PathLike[str]]) -> ParamDict: ...
+def canonical_toml(text: str) -> str: ...
+def natural_frequencies(params_toml: str) -> List[float]: ...
+def simulate(
+    params_toml: str,
+    *,
+    f_ex_hz: float,
+    a_ex_m_s2: float,
+    s0: float,
+    t_end_s: float,
+    model: str,
+    s_pcs: Optional[float] = None,
+    record_every: int = 10,
+    progress: Progress = None,
+) -> Dict[str, Any]: ...
+def physical_manifold_grid(params_toml: str) -> List[float]: ...
+def super_slow_manifold(
+    params_toml: str,
+    *,
+    f_ex_hz: float,
+    a_ex_m_s2: float,
+    s_values: Sequence[float],
+    periods: int = 100,
+    record_periods: int = 25,
+    progress: Progress = None,
+) -> Dict[str, Any]: ...
+def hilbert_envelope(x: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]: ...
+def moving_average(x: npt.NDArray[np.float64], window: int) -> npt.NDArray[np.float64]: ...
+def envelope(x: npt.NDArray[np.float64], dt_s: float, window_s: float) -> npt.NDArray[np.float64]: ...

@@ -1,0 +1,495 @@
+"""The ``beamslider`` command: simulate, manifold, compare, plot.
+
+Each subcommand writes CSV/JSON results and PNG figures into an output folder (``--out``,
+default ``./beamslider-out``). ``beamslider simulate`` without options runs the paper's
+signature-move case (124 Hz, 14 m/s², s₀ = 0.3) for 60 s with the PCS manifold overlaid.
+User errors give a one-line message and a non-zero exit status, never a traceback.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import re
+import sys
+import time
+import warnings
+from pathlib import Path
+from typing import Any, Dict, List, Optional, Sequence
+
+import numpy as np
+
+from . import _core
+from .measurement import Measurement, read_measurement
+from .params import Parameters
+from .simulate import ManifoldResult, SimulationResult, manifold_grid, simulate, super_slow_manifold
+
+DEFAULT_OUT = "beamslider-out"
+
+EXIT_ERROR = 1
+EXIT_FAULT = 3
+EXIT_INTERRUPTED = 130
+
+
+class UserError(Exception):
+    """A mistake on the command line or in an input file: reported in one line."""
+
+
+# --- files ------------------------------------------------------------------------------------
+
+
+def _fmt(x: float) -> str:
+    return f"{x:g}".replace(".", "p")
+
+
+def simulation_stem(result: SimulationResult) -> str:
+    """File name stem of a run, e.g. ``fs_124Hz_14ms2_s0p3``."""
+    if result.model == "fs":
+        where = f"s0_{_fmt(result.s0)}"
+    elif result.model == "pcs":
+        where = f"s_{_fmt(result.s[0])}" if len(result.s) else "pcs"
+    else:
+        where = "beam"
+    return f"{result.model}_{_fmt(result.f_ex)}Hz_{_fmt(result.a_ex)}ms2_{where}"
+
+
+def manifold_stem(m: ManifoldResult) -> str:
+    """File name stem of a manifold, e.g. ``manifold_124Hz_14ms2``."""
+    return f"manifold_{_fmt(m.f_ex)}Hz_{_fmt(m.a_ex)}ms2"
+
+
+def write_simulation_csv(path: Path, result: SimulationResult) -> None:
+    """Recorded columns under the core's channel names."""
+    cols = result.columns()
+    data = np.column_stack(list(cols.values()))
+    np.savetxt(path, data, delimiter=",", header=",".join(cols), comments="", fmt="%.10e")
+
+
+def read_simulation_csv(path: Path) -> Dict[str, np.ndarray]:
+    with open(path, "r", encoding="utf-8") as f:
+        header = f.readline().strip().split(",")
+    need = ["t_s", "w_4L7_m", "s", "xC_m", "zC_m", "beta_rad"]
+    missing = [n for n in need if n not in header]
+    if missing:
+        raise UserError(f"{path}: not a beamslider simulation CSV (missing columns {', '.join(missing)})")
+    try:
+        data = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
+    except ValueError as e:
+        raise UserError(f"{path}: {e}") from None
+    return {n: data[:, i] for i, n in enumerate(header)}
+
+
+def write_manifold_csv(path: Path, m: ManifoldResult) -> None:
+    with open(path, "w", newline="", encoding="utf-8") as f:
+        w = csv.writer(f)
+        w.writerow(["sweep", "s", "amplitude_m"])
+        for sweep, ss, aa in (("up", m.up_s, m.up_amplitude), ("down", m.down_s, m.down_amplitude)):
+            for s, a in zip(ss, aa):
+                w.writerow([sweep, f"{s:.6g}", f"{a:.10e}"])
+
+
+def read_manifold_csv(path: Path, *, f_ex: float, a_ex: float, params: Parameters) -> ManifoldResult:
+    up: List[List[float]] = [[], []]
+    down: List[List[float]] = [[], []]
+    with open(path, "r", encoding="utf-8") as f:
+        r = csv.reader(f)
+        header = next(r, None)
+        if header != ["sweep", "s", "amplitude_m"]:
+            raise UserError(f"{path}: not a beamslider manifold CSV (header sweep,s,amplitude_m)")
+        for lineno, row in enumerate(r, start=2):
+            try:
+                target = {"up": up, "down": down}[row[0]]
+                target[0].append(float(row[1]))
+                target[1].append(float(row[2]))
+            except (KeyError, IndexError, ValueError):
+                raise UserError(f"{path}:{lineno}: malformed manifold row {row!r}") from None
+    return ManifoldResult(
+        up_s=np.array(up[0]), up_amplitude=np.array(up[1]), down_s=np.array(down[0]),
+        down_amplitude=np.array(down[1]), counters={}, f_ex=f_ex, a_ex=a_ex, periods=0, record=0, params=params,
+    )
+
+
+def _json_safe(x: Any) -> Any:
+    if isinstance(x, dict):
+        return {k: _json_safe(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_json_safe(v) for v in x]
+    if isinstance(x, (np.floating, float)):
+        v = float(x)
+        return v if np.isfinite(v) else str(v)
+    if isinstance(x, np.integer):
+        return int(x)
+    if isinstance(x, Path):
+        return str(x)
+    return x
+
+
+def write_json(path: Path, data: Dict[str, Any]) -> None:
+    with open(path, "w", encoding="utf-8") as f:
+        json.dump(_json_safe(data), f, indent=2)
+        f.write("\n")
+
+
+def simulation_summary(result: SimulationResult, *, t_end: float, record_every: int, wall_s: float,
+                       window: float) -> Dict[str, Any]:
+    env = result.envelope(window) if len(result.t) > 2 else np.array([np.nan])
+    return {
+        "kind": "simulation",
+        "model": result.model,
+        "f_ex_hz": result.f_ex,
+        "a_ex_m_s2": result.a_ex,
+        "s0": result.s0,
+        "s_pcs": float(result.s[0]) if result.model == "pcs" and len(result.s) else None,
+        "t_end_s": t_end,
+        "record_every": record_every,
+        "status": result.status,
+        "message": result.message,
+        "final_t_s": float(result.t[-1]),
+        "final_s": float(result.s[-1]),
+        "final_amplitude_m": float(env[-1]),
+        "final_amplitude_over_h": float(env[-1] / result.params.thickness_m),
+        "wall_time_s": wall_s,
+        "counters": result.counters,
+        "params_toml": result.params.toml_text(),
+    }
+
+
+# --- subcommands ------------------------------------------------------------------------------
+
+
+def _params(args: argparse.Namespace) -> Parameters:
+    p = Parameters.from_toml(args.params) if args.params else Parameters()
+    changes: Dict[str, Any] = {}
+    if getattr(args, "dt", None) is not None:
+        changes["dt_s"] = args.dt
+    if getattr(args, "solver", None) is not None:
+        changes["contact_solver"] = args.solver
+    if changes:
+        p = Parameters(**{**p.to_dict(), **changes})
+    return p
+
+
+def _out(args: argparse.Namespace) -> Path:
+    out = Path(args.out)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        raise UserError(f"cannot create output folder {out}: {e.strerror or e}") from None
+    return out
+
+
+def _grid(args: argparse.Namespace, p: Parameters) -> Optional[np.ndarray]:
+    if args.manifold_s is None:
+        return None
+    text = args.manifold_s.strip()
+    try:
+        if ":" in text:
+            lo, hi, step = (float(v) for v in text.split(":"))
+            if not step > 0:
+                raise ValueError
+            return np.round(np.arange(lo, hi + 0.5 * step, step), 10)
+        return np.array([float(v) for v in text.split(",") if v.strip()])
+    except ValueError:
+        raise UserError(f"--manifold-s {text!r}: give START:STOP:STEP or a comma-separated list of s") from None
+
+
+def _manifold(args: argparse.Namespace, p: Parameters, f_ex: float, a_ex: float, out: Path) -> ManifoldResult:
+    m = super_slow_manifold(p, f_ex=f_ex, a_ex=a_ex, s=_grid(args, p), periods=args.manifold_periods,
+                            record=args.manifold_record, progress=args.progress)
+    write_manifold_csv(out / f"{manifold_stem(m)}.csv", m)
+    return m
+
+
+def _report(result: SimulationResult, written: Sequence[Path]) -> int:
+    for path in written:
+        print(f"wrote {path}")
+    if not result.completed:
+        print(f"beamslider: warning: {result.message}", file=sys.stderr)
+        return EXIT_FAULT
+    return 0
+
+
+def cmd_simulate(args: argparse.Namespace) -> int:
+    from .plotting import plot_operating_point
+
+    p = _params(args)
+    out = _out(args)
+    t0 = time.perf_counter()
+    result = simulate(p, f_ex=args.f_ex, a_ex=args.a_ex, s0=args.s0, t_end=args.t_end, model=args.model,
+                      s_pcs=args.s_pcs, record_every=args.record_every, progress=args.progress)
+    wall = time.perf_counter() - t0
+    stem = simulation_stem(result)
+    written = [out / f"{stem}.csv", out / f"{stem}.json", out / f"{stem}.png"]
+    write_simulation_csv(written[0], result)
+    manifold = None
+    summary = simulation_summary(result, t_end=args.t_end, record_every=args.record_every, wall_s=wall,
+                                 window=args.window)
+    if args.manifold and args.model != "beam":
+        manifold = _manifold(args, p, args.f_ex, args.a_ex, out)
+        summary["manifold_csv"] = f"{manifold_stem(manifold)}.csv"
+        written.insert(2, out / summary["manifold_csv"])
+    write_json(written[1], summary)
+    plot_operating_point(result, manifold=manifold, window=args.window, path=written[-1])
+    print(f"{result.model.upper()} {args.f_ex:g} Hz, {args.a_ex:g} m/s², {args.t_end:g} s: {result.status}; "
+          f"final s = {summary['final_s']:.4f}, amplitude/h = {summary['final_amplitude_over_h']:.3f} "
+          f"({wall:.1f} s)")
+    return _report(result, written)
+
+
+def cmd_manifold(args: argparse.Namespace) -> int:
+    from .plotting import plot_manifold
+
+    p = _params(args)
+    out = _out(args)
+    t0 = time.perf_counter()
+    m = _manifold(args, p, args.f_ex, args.a_ex, out)
+    stem = manifold_stem(m)
+    write_json(out / f"{stem}.json", {
+        "kind": "manifold", "f_ex_hz": m.f_ex, "a_ex_m_s2": m.a_ex, "periods": m.periods, "record": m.record,
+        "up": {"s": m.up_s.tolist(), "amplitude_m": m.up_amplitude.tolist()},
+        "down": {"s": m.down_s.tolist(), "amplitude_m": m.down_amplitude.tolist()},
+        "counters": m.counters, "wall_time_s": time.perf_counter() - t0, "params_toml": p.toml_text(),
+    })
+    plot_manifold(m, path=out / f"{stem}.png")
+    for ext in ("csv", "json", "png"):
+        print(f"wrote {out / f'{stem}.{ext}'}")
+    return 0
+
+
+def _measurement(path: str) -> Measurement:
+    try:
+        return read_measurement(path)
+    except FileNotFoundError:
+        raise UserError(f"{path}: no such file") from None
+
+
+def cmd_compare(args: argparse.Namespace) -> int:
+    from .plotting import plot_operating_point
+
+    meas = _measurement(args.measurement)
+    f_ex = args.f_ex if args.f_ex is not None else meas.f_ex
+    a_ex = args.a_ex if args.a_ex is not None else meas.a_ex
+    s0 = args.s0 if args.s0 is not None else meas.s0
+    if f_ex is None or a_ex is None or s0 is None:
+        raise UserError(f"{args.measurement}: the file name does not give f_ex, a_ex and s0 "
+                        "(like ..._fex124_ExcLevel14_RelSliderPosStart03.txt): pass --f-ex, --a-ex and --s0")
+    if args.s0 is None:
+        s0 = float(meas.s[0]) if args.start_from_measured else s0
+    t_end = args.t_end if args.t_end is not None else float(meas.t[-1] - meas.t[0])
+    p = _params(args)
+    out = _out(args)
+    t0 = time.perf_counter()
+    result = simulate(p, f_ex=f_ex, a_ex=a_ex, s0=s0, t_end=t_end, record_every=args.record_every,
+                      progress=args.progress)
+    wall = time.perf_counter() - t0
+    stem = f"compare_{Path(args.measurement).stem}"
+    written = [out / f"{stem}_model.csv", out / f"{stem}.json", out / f"{stem}.png"]
+    write_simulation_csv(written[0], result)
+    summary = simulation_summary(result, t_end=t_end, record_every=args.record_every, wall_s=wall,
+                                 window=args.window)
+    menv = meas.envelope(args.window)
+    summary.update({
+        "kind": "compare",
+        "measurement": str(meas.path),
+        "measured_final_s": float(meas.s[-1]),
+        "measured_final_amplitude_m": float(menv[-1]),
+        "measured_final_amplitude_over_h": float(menv[-1] / p.thickness_m),
+    })
+    manifold = None
+    if args.manifold:
+        manifold = _manifold(args, p, f_ex, a_ex, out)
+        summary["manifold_csv"] = f"{manifold_stem(manifold)}.csv"
+        written.insert(2, out / summary["manifold_csv"])
+    write_json(written[1], summary)
+    plot_operating_point(result, manifold=manifold, measurement=meas, window=args.window, path=written[-1])
+    print(f"model final s = {summary['final_s']:.4f} (measured {summary['measured_final_s']:.4f}), "
+          f"amplitude/h = {summary['final_amplitude_over_h']:.3f} "
+          f"(measured {summary['measured_final_amplitude_over_h']:.3f})")
+    return _report(result, written)
+
+
+def cmd_plot(args: argparse.Namespace) -> int:
+    from .plotting import plot_manifold, plot_operating_point
+
+    out = _out(args)
+    if args.result is None and args.measurement is None:
+        raise UserError("nothing to plot: give a simulation result (CSV or JSON) and/or --measurement FILE")
+    result = None
+    manifold = None
+    stem = "plot"
+    if args.result is not None:
+        path = Path(args.result)
+        csv_path, json_path = path.with_suffix(".csv"), path.with_suffix(".json")
+        if path.suffix == ".json":
+            try:
+                meta = json.loads(json_path.read_text(encoding="utf-8"))
+            except json.JSONDecodeError as e:
+                raise UserError(f"{json_path}: not valid JSON ({e})") from None
+        elif json_path.exists():
+            meta = json.loads(json_path.read_text(encoding="utf-8"))
+        else:
+            meta = {}
+        if meta.get("kind") == "manifold":
+            p = Parameters.from_toml_text(meta.get("params_toml", ""))
+            manifold = read_manifold_csv(csv_path, f_ex=meta["f_ex_hz"], a_ex=meta["a_ex_m_s2"], params=p)
+            target = out / f"{path.stem}.png"
+            plot_manifold(manifold, path=target)
+            print(f"wrote {target}")
+            return 0
+        if meta.get("kind") == "compare":
+            csv_path = path.with_name(f"{path.stem}_model.csv")
+        p = Parameters.from_toml_text(meta["params_toml"]) if "params_toml" in meta else Parameters()
+        cols = read_simulation_csv(csv_path)
+        result = SimulationResult(
+            t=cols["t_s"], w=cols["w_4L7_m"], s=cols["s"], x_c=cols["xC_m"], z_c=cols["zC_m"], beta=cols["beta_rad"],
+            status=meta.get("status", "completed"), message=meta.get("message", ""), counters=meta.get("counters", {}),
+            final_state={}, params=p, f_ex=float(meta.get("f_ex_hz", "nan")), a_ex=float(meta.get("a_ex_m_s2", "nan")),
+            s0=float(meta["s0"]) if meta.get("s0") is not None else float(cols["s"][0]), model=meta.get("model", "fs"),
+        )
+        man_csv = args.manifold or (path.with_name(meta["manifold_csv"]) if "manifold_csv" in meta else None)
+        if man_csv is not None:
+            manifold = read_manifold_csv(Path(man_csv), f_ex=result.f_ex, a_ex=result.a_ex, params=p)
+        if args.measurement is None and meta.get("measurement"):
+            args.measurement = meta["measurement"]
+        stem = path.stem
+    meas = _measurement(args.measurement) if args.measurement else None
+    if result is None and meas is not None:
+        stem = Path(args.measurement).stem
+    target = out / f"{stem}.png"
+    plot_operating_point(result, manifold=manifold, measurement=meas, window=args.window, path=target)
+    print(f"wrote {target}")
+    return 0
+
+
+# --- argument parsing -------------------------------------------------------------------------
+
+
+def _positive(kind):
+    def parse(text: str):
+        try:
+            v = kind(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not a valid {kind.__name__}") from None
+        if not v > 0:
+            raise argparse.ArgumentTypeError(f"{text!r} must be > 0")
+        return v
+    return parse
+
+
+def _common(sp: argparse.ArgumentParser, *, model_options: bool = True) -> None:
+    sp.add_argument("--out", default=DEFAULT_OUT, metavar="DIR",
+                    help=f"output folder for CSV/JSON/PNG (default ./{DEFAULT_OUT})")
+    sp.add_argument("--no-progress", dest="progress", action="store_false", help="no progress bars")
+    sp.add_argument("--window", type=_positive(float), default=1.0, metavar="S",
+                    help="moving-average window of the envelope [s] (default 1)")
+    if model_options:
+        sp.add_argument("--params", metavar="TOML", help="parameter file (TOML keys of beamslider.Parameters)")
+        sp.add_argument("--dt", type=_positive(float), metavar="S", help="time step [s] (default 2e-5)")
+        sp.add_argument("--solver", choices=["fast", "reference"], help="local contact solver (default fast)")
+
+
+def _manifold_options(sp: argparse.ArgumentParser, *, default_on: bool) -> None:
+    if default_on:
+        sp.add_argument("--no-manifold", dest="manifold", action="store_false",
+                        help="skip the PCS manifold of panel (c)")
+    sp.add_argument("--manifold-periods", type=_positive(int), default=100, metavar="N",
+                    help="excitation periods per slider position (default 100, paper 300)")
+    sp.add_argument("--manifold-record", type=_positive(int), default=25, metavar="N",
+                    help="periods averaged at each slider position (default 25)")
+    sp.add_argument("--manifold-s", metavar="GRID",
+                    help="slider positions: START:STOP:STEP or a comma list (default B/(2L)..0.5 by 0.005)")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    ap = argparse.ArgumentParser(
+        prog="beamslider",
+        description="Self-adaptive beam-slider system (Müller, Beck & Krack, MSSP 2023): simulations, "
+                    "super-slow manifolds and comparison with measurements.",
+    )
+    ap.add_argument("--version", action="version", version="beamslider 0.1.0")
+    sub = ap.add_subparsers(dest="command", metavar="COMMAND")
+    sub.required = True
+
+    sp = sub.add_parser("simulate", help="run one operating point and plot it (default: the signature move)",
+                        description="Run one operating point (default: 124 Hz, 14 m/s², s0 = 0.3, 60 s) and "
+                                    "write <stem>.csv, <stem>.json and the three-panel figure <stem>.png.")
+    sp.add_argument("--f-ex", type=_positive(float), default=124.0, metavar="HZ", help="excitation frequency (124)")
+    sp.add_argument("--a-ex", type=float, default=14.0, metavar="M_S2", help="base acceleration amplitude (14)")
+    sp.add_argument("--s0", type=float, default=0.3, help="initial slider position x/L (0.3)")
+    sp.add_argument("--t-end", type=_positive(float), default=60.0, metavar="S", help="simulated time [s] (60)")
+    sp.add_argument("--model", choices=["fs", "pcs", "beam"], default="fs",
+                    help="free slider, pseudo-constrained slider or beam only (fs)")
+    sp.add_argument("--s-pcs", type=float, metavar="S", help="slider position of the PCS model (default s0)")
+    sp.add_argument("--record-every", type=_positive(int), default=10, metavar="K", help="keep every K-th step (10)")
+    _common(sp)
+    _manifold_options(sp, default_on=True)
+    sp.set_defaults(func=cmd_simulate)
+
+    sp = sub.add_parser("manifold", help="super-slow manifold by PCS continuation",
+                        description="Compute the super-slow manifold (upward and downward sweeps) and write "
+                                    "manifold_<f>Hz_<a>ms2.csv/.json/.png.")
+    sp.add_argument("--f-ex", type=_positive(float), default=124.0, metavar="HZ", help="excitation frequency (124)")
+    sp.add_argument("--a-ex", type=float, default=14.0, metavar="M_S2", help="base acceleration amplitude (14)")
+    _common(sp)
+    _manifold_options(sp, default_on=False)
+    sp.set_defaults(func=cmd_manifold, manifold=True)
+
+    sp = sub.add_parser("compare", help="a measurement file against the model at its operating point",
+                        description="Read a measured file of the published data set, simulate the same "
+                                    "operating point (from the file name) and overlay both.")
+    sp.add_argument("measurement", help="e.g. Time_VelBeam_RelSliderPos__fex124_ExcLevel14_RelSliderPosStart03.txt")
+    sp.add_argument("--f-ex", type=_positive(float), metavar="HZ", help="override f_ex from the file name")
+    sp.add_argument("--a-ex", type=float, metavar="M_S2", help="override a_ex from the file name")
+    sp.add_argument("--s0", type=float, help="override s0 from the file name")
+    sp.add_argument("--start-from-measured", action="store_true",
+                    help="start the model at the first measured s instead of the nominal s0")
+    sp.add_argument("--t-end", type=_positive(float), metavar="S", help="simulated time (default: measured duration)")
+    sp.add_argument("--record-every", type=_positive(int), default=10, metavar="K", help="keep every K-th step (10)")
+    _common(sp)
+    _manifold_options(sp, default_on=True)
+    sp.set_defaults(func=cmd_compare)
+
+    sp = sub.add_parser("plot", help="re-plot results written by simulate/compare/manifold, or a measurement",
+                        description="Plot a result written earlier (its .csv or .json) and/or a measurement file.")
+    sp.add_argument("result", nargs="?", help="a <stem>.csv or <stem>.json written by beamslider")
+    sp.add_argument("--manifold", metavar="CSV", help="manifold CSV to overlay")
+    sp.add_argument("--measurement", metavar="FILE", help="measured file to overlay")
+    _common(sp, model_options=False)
+    sp.set_defaults(func=cmd_plot)
+    return ap
+
+
+def main(argv: Optional[Sequence[str]] = None) -> int:
+    """Entry point of the ``beamslider`` console script."""
+    args = build_parser().parse_args(argv)
+    warnings.simplefilter("ignore", RuntimeWarning)  # run faults are reported by the commands
+    try:
+        return args.func(args)
+    except KeyboardInterrupt:
+        print("beamslider: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    except (UserError, ValueError, _core.SimulationError) as e:
+        print(f"beamslider: error: {one_line(e)}", file=sys.stderr)
+        return EXIT_ERROR
+    except OSError as e:
+        where = f"{e.filename}: " if getattr(e, "filename", None) else ""
+        print(f"beamslider: error: {where}{e.strerror or e}", file=sys.stderr)
+        return EXIT_ERROR
+
+
+def one_line(e: BaseException) -> str:
+    """An error message on one line (the core's TOML errors quote the offending line with a caret
+    underneath; keep the quoted text, drop the drawing)."""
+    parts = []
+    for ln in str(e).splitlines():
+        ln = ln.strip()
+        if not ln or set(ln) <= set("|^ "):
+            continue
+        m = re.match(r"^\d+ \| (.*)$", ln)
+        parts.append(f"({m.group(1).strip()})" if m else ln)
+    return " ".join(parts)
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

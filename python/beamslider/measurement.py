@@ -1,0 +1,159 @@
+"""Reader of the published measured data set (MODEL.md §7).
+
+Each file has three numeric columns: time [s], beam velocity at x = 4L/7 relative to the frame
+[m/s] and relative slider position s [-], sampled at 1e-4 s. The operating point is in the file
+name, e.g. ``Time_VelBeam_RelSliderPos__fex124_ExcLevel14_RelSliderPosStart03.txt``
+(f_ex = 124 Hz, a_ex = 14 m/s^2, s0 = 0.3). Columns may be separated by whitespace, commas,
+semicolons or tabs; lines starting with ``#`` or ``%`` and one leading header line of column
+names are skipped.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Optional, Tuple, Union
+
+import numpy as np
+
+from . import _core
+
+DISPLACEMENT_DETREND_S = 0.1
+"""Window of the moving average subtracted from the integrated displacement [s] (MODEL.md §7)."""
+
+
+class MeasurementFormatError(ValueError):
+    """A measured-data file does not have the published format; the message names file and line."""
+
+
+@dataclass
+class Measurement:
+    """One measured run (the published data set, MODEL.md §7)."""
+
+    path: Path
+    """File it was read from."""
+    t: np.ndarray
+    """Time [s]."""
+    velocity: np.ndarray
+    """Beam velocity at x = 4L/7 relative to the frame [m/s]."""
+    w: np.ndarray
+    """Beam displacement at x = 4L/7 [m]: integrated velocity minus its 0.1 s moving average."""
+    s: np.ndarray
+    """Relative slider position [-]."""
+    f_ex: Optional[float]
+    """Excitation frequency from the file name [Hz] (None if the name does not say)."""
+    a_ex: Optional[float]
+    """Base-acceleration amplitude from the file name [m/s^2] (None if the name does not say)."""
+    s0: Optional[float]
+    """Initial relative slider position from the file name [-] (None if the name does not say)."""
+
+    @property
+    def dt(self) -> float:
+        """Sampling interval [s]."""
+        return float(self.t[1] - self.t[0])
+
+    def envelope(self, window: float = 1.0) -> np.ndarray:
+        """Super-slow amplitude of w(4L/7) [m] (MODEL.md §7)."""
+        from .simulate import envelope
+
+        return envelope(self.t, self.w, window=window)
+
+
+_NUMBER = r"(\d+(?:[.p]\d+)?)"
+
+
+def _number(text: str) -> float:
+    return float(text.replace("p", "."))
+
+
+def parse_operating_point(name: str) -> Tuple[Optional[float], Optional[float], Optional[float]]:
+    """(f_ex [Hz], a_ex [m/s^2], s0 [-]) from a file name such as
+    ``..._fex124_ExcLevel14_RelSliderPosStart03.txt``; a missing part is None.
+    ``RelSliderPosStart03`` means s0 = 0.3 (the digits after a leading 0 are decimals)."""
+    stem = os.path.basename(name)
+    f = re.search(r"fex" + _NUMBER, stem, re.IGNORECASE)
+    a = re.search(r"ExcLevel" + _NUMBER, stem, re.IGNORECASE)
+    s = re.search(r"RelSliderPosStart(\d+(?:[.p]\d+)?)", stem, re.IGNORECASE)
+    s0: Optional[float] = None
+    if s:
+        digits = s.group(1)
+        if "." in digits or "p" in digits:
+            s0 = _number(digits)
+        elif digits.startswith("0"):
+            s0 = float("0." + digits[1:]) if len(digits) > 1 else 0.0
+        else:
+            s0 = float("0." + digits)
+    return (_number(f.group(1)) if f else None, _number(a.group(1)) if a else None, s0)
+
+
+_SPLIT = re.compile(r"[,;\s]+")
+
+
+def _is_number(tok: str) -> bool:
+    try:
+        float(tok)
+        return True
+    except ValueError:
+        return False
+
+
+def read_measurement(path: Union[str, "os.PathLike[str]"]) -> Measurement:
+    """Read one file of the published measured data set and integrate the velocity to the
+    displacement (MODEL.md §7): cumulative sum of velocity times the sampling interval, minus its
+    0.1 s centred moving average (removes the drift).
+
+    Raises ``OSError`` if the file cannot be read and :class:`MeasurementFormatError` (a
+    ``ValueError``) naming the file and line for a wrong column count, a non-numeric line or
+    non-increasing time.
+    """
+    path = Path(path)
+    rows = []
+    header_seen = False
+    with open(path, "r", encoding="utf-8", errors="replace") as f:
+        for lineno, raw in enumerate(f, start=1):
+            line = raw.strip()
+            if not line or line[0] in "#%":
+                continue
+            toks = [t for t in _SPLIT.split(line) if t]
+            if not rows and not header_seen and not any(_is_number(t) for t in toks):
+                header_seen = True  # one line of column names before the data
+                continue
+            if len(toks) != 3:
+                raise MeasurementFormatError(
+                    f"{path}:{lineno}: expected 3 columns (time, beam velocity, slider position), found {len(toks)}"
+                )
+            try:
+                vals = [float(t) for t in toks]
+            except ValueError:
+                raise MeasurementFormatError(f"{path}:{lineno}: non-numeric value in {line[:60]!r}") from None
+            if not all(np.isfinite(vals)):
+                raise MeasurementFormatError(f"{path}:{lineno}: non-finite value in {line[:60]!r}")
+            if rows and not vals[0] > rows[-1][0][0]:
+                raise MeasurementFormatError(
+                    f"{path}:{lineno}: time {vals[0]:g} s does not increase (previous {rows[-1][0][0]:g} s)"
+                )
+            rows.append((vals, lineno))
+    if len(rows) < 2:
+        raise MeasurementFormatError(f"{path}: fewer than two data lines")
+    data = np.array([r[0] for r in rows], dtype=float)
+    t, v, s = data[:, 0], data[:, 1], data[:, 2]
+    dt = float(np.median(np.diff(t)))
+    f_ex, a_ex, s0 = parse_operating_point(path.name)
+    return Measurement(path=path, t=t, velocity=v, w=integrate_velocity(v, dt), s=s, f_ex=f_ex, a_ex=a_ex, s0=s0)
+
+
+def integrate_velocity(velocity: np.ndarray, dt: float) -> np.ndarray:
+    """Displacement from velocity as in MODEL.md §7: cumulative sum of velocity * dt minus its
+    centred moving average over 0.1 s."""
+    x = np.cumsum(np.asarray(velocity, dtype=float)) * dt
+    window = max(1, int(round(DISPLACEMENT_DETREND_S / dt)))
+    return x - _core.moving_average(np.ascontiguousarray(x), window)
+
+
+def write_measurement(path: Union[str, "os.PathLike[str]"], t: np.ndarray, velocity: np.ndarray, s: np.ndarray) -> None:
+    """Write a file in the published format (tab-separated, no header): for tests and for
+    exporting a simulation as a pseudo-measurement."""
+    data = np.column_stack([t, velocity, s])
+    np.savetxt(os.fspath(path), data, fmt="%.10g", delimiter="\t")

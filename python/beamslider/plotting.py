@@ -1,0 +1,146 @@
+"""Figures as the paper shows them (its Figs. 6–9): for one operating point (a) w(4L/7)/h against
+time, (b) slider position s against time, (c) super-slow dynamics: envelope amplitude/h against s
+with the PCS manifold branches (MODEL.md §6–7) overlaid; model and measurement overlaid.
+
+Figures are built with ``matplotlib.figure.Figure`` (no pyplot, no global backend change), so
+they work headless and in threads; ``path`` writes a PNG.
+"""
+
+from __future__ import annotations
+
+import os
+from typing import Optional, Union
+
+import numpy as np
+from matplotlib.figure import Figure
+
+from .measurement import Measurement
+from .simulate import ManifoldResult, SimulationResult
+
+PathLike = Union[str, "os.PathLike[str]"]
+
+MODEL_COLOR = "C0"
+MEASURED_COLOR = "C1"
+UP_COLOR = "C2"
+DOWN_COLOR = "C3"
+
+
+def _thin(n: int, limit: int) -> slice:
+    return slice(None, None, max(1, n // limit))
+
+
+def plot_operating_point(
+    result: Optional[SimulationResult] = None,
+    *,
+    manifold: Optional[ManifoldResult] = None,
+    measurement: Optional[Measurement] = None,
+    window: float = 1.0,
+    title: Optional[str] = None,
+    path: Optional[PathLike] = None,
+    dpi: int = 120,
+) -> Figure:
+    """Three-panel figure of one operating point (MODEL.md §7 post-processing).
+
+    Args:
+        result: simulated run (model), or None.
+        manifold: PCS manifold branches to overlay on panel (c), or None.
+        measurement: measured run to overlay, or None.
+        window: moving-average window of the envelope [s].
+        title: figure title (default: the operating point).
+        path: if given, the PNG file to write.
+        dpi: resolution of the PNG.
+    """
+    if result is None and measurement is None and manifold is None:
+        raise ValueError("nothing to plot: give a simulation result, a measurement or a manifold")
+    h = (result.params if result is not None else manifold.params if manifold is not None else None)
+    thickness = h.thickness_m if h is not None else 1e-3
+    fig = Figure(figsize=(12, 6.5), layout="constrained")
+    gs = fig.add_gridspec(2, 2, width_ratios=[1.6, 1])
+    ax_w = fig.add_subplot(gs[0, 0])
+    ax_s = fig.add_subplot(gs[1, 0], sharex=ax_w)
+    ax_a = fig.add_subplot(gs[:, 1])
+
+    series = []
+    if measurement is not None:
+        series.append(("measurement", MEASURED_COLOR, measurement.t, measurement.w, measurement.s,
+                       measurement.envelope(window) if len(measurement.t) > 2 else None))
+    if result is not None:
+        env = result.envelope(window) if len(result.t) > 2 else None
+        series.append(("model", MODEL_COLOR, result.t, result.w, result.s, env))
+
+    for label, color, t, w, s, env in series:
+        k = _thin(len(t), 400_000)
+        ax_w.plot(t[k], w[k] / thickness, color=color, lw=0.4, alpha=0.8, label=label, rasterized=True)
+        ax_s.plot(t[k], s[k], color=color, lw=1.2, label=label)
+        if env is not None:
+            k = _thin(len(t), 20_000)
+            ax_a.plot(s[k], env[k] / thickness, color=color, lw=1.2, label=f"{label} (envelope)")
+            ax_a.plot(s[0], env[0] / thickness, "o", color=color, ms=6, mfc="white", zorder=5)
+            ax_a.plot(s[-1], env[-1] / thickness, "o", color=color, ms=6, zorder=5)
+    if manifold is not None:
+        ax_a.plot(manifold.up_s, manifold.up_amplitude / thickness, "^--", color=UP_COLOR, ms=3, lw=0.8,
+                  label="PCS manifold, upward sweep")
+        ax_a.plot(manifold.down_s, manifold.down_amplitude / thickness, "v--", color=DOWN_COLOR, ms=3, lw=0.8,
+                  label="PCS manifold, downward sweep")
+
+    ax_w.set_ylabel("w(4L/7) / h")
+    ax_w.set_title("(a) beam response", loc="left")
+    ax_s.set_xlabel("time t [s]")
+    ax_s.set_ylabel("slider position s = x/L")
+    ax_s.set_title("(b) slider position", loc="left")
+    ax_a.set_xlabel("slider position s = x/L")
+    ax_a.set_ylabel(f"amplitude of w(4L/7) / h ({window:g} s moving average)")
+    ax_a.set_title("(c) super-slow dynamics (○ start, ● end)", loc="left")
+    for ax in (ax_w, ax_s, ax_a):
+        ax.grid(True, lw=0.3, alpha=0.6)
+    if len(series) > 1:
+        ax_w.legend(loc="upper right", fontsize=8)
+        ax_s.legend(loc="best", fontsize=8)
+    if ax_a.lines:
+        ax_a.legend(loc="best", fontsize=8)
+    fig.suptitle(title or _title(result, measurement, manifold))
+    if path is not None:
+        fig.savefig(os.fspath(path), dpi=dpi)
+    return fig
+
+
+def _title(result, measurement, manifold) -> str:
+    src = result or measurement or manifold
+    f, a = getattr(src, "f_ex", None), getattr(src, "a_ex", None)
+    parts = []
+    if f is not None and a is not None:
+        parts.append(f"f_ex = {f:g} Hz, a_ex = {a:g} m/s²")
+    s0 = getattr(result, "s0", None) if result is not None and result.model == "fs" else getattr(measurement, "s0", None)
+    if s0 is not None:
+        parts.append(f"s₀ = {s0:g}")
+    if result is not None and result.model != "fs":
+        parts.append(f"{result.model.upper()} model")
+    if result is not None and not result.completed:
+        parts.append(f"[{result.status}]")
+    return ", ".join(parts) or "beamslider"
+
+
+def plot_manifold(
+    manifold: ManifoldResult,
+    *,
+    title: Optional[str] = None,
+    path: Optional[PathLike] = None,
+    dpi: int = 120,
+) -> Figure:
+    """Super-slow manifold (MODEL.md §6): amplitude/h of w(4L/7) against s, both sweeps."""
+    h = manifold.params.thickness_m
+    fig = Figure(figsize=(7, 4.5), layout="constrained")
+    ax = fig.add_subplot()
+    ax.plot(manifold.up_s, np.asarray(manifold.up_amplitude) / h, "^-", color=UP_COLOR, ms=3, lw=0.8,
+            label="upward sweep")
+    ax.plot(manifold.down_s, np.asarray(manifold.down_amplitude) / h, "v-", color=DOWN_COLOR, ms=3, lw=0.8,
+            label="downward sweep")
+    ax.set_xlabel("slider position s = x/L")
+    ax.set_ylabel("amplitude of w(4L/7) / h")
+    ax.grid(True, lw=0.3, alpha=0.6)
+    ax.legend(loc="best", fontsize=8)
+    ax.set_title(title or f"PCS manifold, f_ex = {manifold.f_ex:g} Hz, a_ex = {manifold.a_ex:g} m/s² "
+                 f"({manifold.periods} periods per s)")
+    if path is not None:
+        fig.savefig(os.fspath(path), dpi=dpi)
+    return fig

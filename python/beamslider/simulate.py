@@ -1,0 +1,309 @@
+"""Runs of the free-slider (FS), pseudo-constrained (PCS) and beam-only models (MODEL.md §5–6),
+the super-slow manifold (§6) and the envelope post-processing (§7)."""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import warnings
+from dataclasses import dataclass, field
+from typing import Any, Callable, Dict, Iterator, Optional, Sequence
+
+import numpy as np
+
+from . import _core
+from .params import Parameters, resolve
+
+MODELS = ("fs", "pcs", "beam")
+
+
+@dataclass
+class SimulationResult:
+    """Recorded trajectory of one run (every ``record_every``-th step, start state included)."""
+
+    t: np.ndarray
+    """Time [s]."""
+    w: np.ndarray
+    """Elastic beam displacement at the laser position x = 4L/7 [m] (MODEL.md §7)."""
+    s: np.ndarray
+    """Relative slider position s = x_C/L [-] (the prescribed s for the PCS)."""
+    x_c: np.ndarray
+    """Horizontal position of the slider's centre of mass x_C [m]."""
+    z_c: np.ndarray
+    """Vertical position of the slider's centre of mass z_C [m]."""
+    beta: np.ndarray
+    """Slider rotation angle beta [rad]."""
+    status: str
+    """"completed", "left_beam" or "diverged" (the trajectory then ends at the fault)."""
+    message: str
+    """Status as a sentence."""
+    counters: Dict[str, Any]
+    """Solver and contact counters (steps, contact_steps, solver_iterations, cap_hits, ...)."""
+    final_state: Dict[str, Any]
+    """Final state: t_s, modal q and u, slider_q = (x_C, z_C, beta), slider_u."""
+    params: Parameters
+    """Parameters of the run."""
+    f_ex: float
+    """Excitation frequency [Hz]."""
+    a_ex: float
+    """Base-acceleration amplitude [m/s^2]."""
+    s0: float
+    """Initial relative slider position s0 [-] as requested (used by the FS model only)."""
+    model: str
+    """"fs", "pcs" or "beam"."""
+
+    @property
+    def completed(self) -> bool:
+        """True when the requested duration was simulated."""
+        return self.status == "completed"
+
+    @property
+    def dt_record(self) -> float:
+        """Spacing of the recorded samples [s]."""
+        return float(self.t[1] - self.t[0]) if len(self.t) > 1 else float("nan")
+
+    def envelope(self, window: float = 1.0) -> np.ndarray:
+        """Super-slow amplitude of w(4L/7) [m]: |Hilbert| then a ``window``-second moving average
+        (MODEL.md §7)."""
+        return envelope(self.t, self.w, window=window)
+
+    def columns(self) -> Dict[str, np.ndarray]:
+        """The recorded columns under the core's channel names (as in its CSV files)."""
+        return {
+            "t_s": self.t,
+            "w_4L7_m": self.w,
+            "s": self.s,
+            "xC_m": self.x_c,
+            "zC_m": self.z_c,
+            "beta_rad": self.beta,
+        }
+
+
+@dataclass
+class ManifoldResult:
+    """Super-slow manifold: steady-state amplitude of w(4L/7) against s (MODEL.md §6)."""
+
+    up_s: np.ndarray
+    """Slider positions of the upward sweep [-]."""
+    up_amplitude: np.ndarray
+    """Mean |Hilbert(w(4L/7))| on the upward sweep [m]."""
+    down_s: np.ndarray
+    """Slider positions of the downward sweep [-]."""
+    down_amplitude: np.ndarray
+    """Mean |Hilbert(w(4L/7))| on the downward sweep [m]."""
+    counters: Dict[str, Any]
+    """Solver and contact counters over all runs."""
+    f_ex: float
+    """Excitation frequency [Hz]."""
+    a_ex: float
+    """Base-acceleration amplitude [m/s^2]."""
+    periods: int
+    """Excitation periods simulated at each s."""
+    record: int
+    """Periods at the end of each s over which the amplitude is averaged."""
+    params: Parameters = field(default_factory=Parameters)
+    """Parameters of the runs."""
+
+
+@contextlib.contextmanager
+def _progress_bar(enabled: bool, total: float, desc: str, unit: str) -> Iterator[Optional[Callable[[float, float], None]]]:
+    """A tqdm bar driven by the core's monitor callback ``(done, total)``; None when disabled."""
+    if not enabled:
+        yield None
+        return
+    from tqdm.auto import tqdm
+
+    bar = tqdm(total=round(total, 6), desc=desc, unit=unit, leave=True, dynamic_ncols=True,
+               bar_format="{l_bar}{bar}| " + ("{n:.0f}/{total:.0f} " if unit == "pts" else "{n:.2f}/{total:.2f} ")
+               + unit + " [{elapsed}<{remaining}]")
+
+    def update(done: float, _total: float) -> None:
+        step = round(done, 6) - bar.n
+        if step > 0:
+            bar.update(step)
+
+    try:
+        yield update
+    except BaseException:
+        bar.leave = False  # an error message follows; do not leave a stale bar above it
+        raise
+    finally:
+        bar.close()
+
+
+def simulate(
+    params: Optional[Parameters] = None,
+    *,
+    f_ex: float,
+    a_ex: float,
+    s0: float = 0.3,
+    t_end: float,
+    model: str = "fs",
+    s_pcs: Optional[float] = None,
+    dt: Optional[float] = None,
+    record_every: int = 10,
+    progress: bool = False,
+) -> SimulationResult:
+    """Integrate the beam–slider system with Moreau's midpoint scheme (MODEL.md §5–6).
+
+    Args:
+        params: model parameters (``None``: the defaults of MODEL.md §1).
+        f_ex: excitation frequency [Hz].
+        a_ex: base-acceleration amplitude [m/s^2].
+        s0: initial relative slider position [-] of the free slider.
+        t_end: simulated duration [s].
+        model: "fs" (free slider), "pcs" (pseudo-constrained at ``s_pcs``, default ``s0``) or
+            "beam" (beam only).
+        s_pcs: slider position of the PCS model [-].
+        dt: time step [s]; overrides ``params.dt_s``.
+        record_every: keep every k-th step (the start state is the first sample).
+        progress: show a tqdm progress bar.
+
+    The interpreter is released while the core runs; Ctrl-C raises ``KeyboardInterrupt``
+    within a few milliseconds. A run that stops on a fault (slider left the beam, divergence)
+    returns the trajectory up to the fault with ``status`` set, and warns.
+    """
+    p = resolve(params)
+    if dt is not None:
+        p = dataclasses.replace(p, dt_s=dt)
+    if model not in MODELS:
+        raise ValueError(f"invalid parameter `model` = {model!r}: must be one of {', '.join(map(repr, MODELS))}")
+    if model != "pcs" and s_pcs is not None:
+        raise ValueError("invalid parameter `s_pcs`: only used with model=\"pcs\"")
+    s_pcs_value = None if model != "pcs" else float(s0 if s_pcs is None else s_pcs)
+    record_every = _positive_int("record_every", record_every)
+    t_end = float(t_end)
+    with _progress_bar(progress, t_end, f"{model.upper()} {f_ex:g} Hz {a_ex:g} m/s²", "s") as cb:
+        out = _core.simulate(
+            p.toml_text(),
+            f_ex_hz=float(f_ex),
+            a_ex_m_s2=float(a_ex),
+            s0=float(s0),
+            t_end_s=t_end,
+            model=model,
+            s_pcs=s_pcs_value,
+            record_every=record_every,
+            progress=cb,
+        )
+    result = SimulationResult(
+        t=out["t_s"],
+        w=out["w_4L7_m"],
+        s=out["s"],
+        x_c=out["xC_m"],
+        z_c=out["zC_m"],
+        beta=out["beta_rad"],
+        status=out["status"],
+        message=out["message"],
+        counters=dict(out["counters"]),
+        final_state=dict(out["final_state"]),
+        params=p,
+        f_ex=float(f_ex),
+        a_ex=float(a_ex),
+        s0=float(s0),
+        model=model,
+    )
+    if result.counters.get("cap_hits", 0):
+        warnings.warn(
+            f"the contact solver hit its iteration cap in {result.counters['cap_hits']} steps "
+            "(raise solver_max_iter or use contact_solver=\"fast\")",
+            RuntimeWarning,
+            stacklevel=2,
+        )
+    if not result.completed:
+        warnings.warn(result.message, RuntimeWarning, stacklevel=2)
+    return result
+
+
+def _positive_int(name: str, value: Any) -> int:
+    try:
+        v = int(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"invalid parameter `{name}` = {value!r}: must be an integer >= 1") from None
+    if v != value or v < 1:
+        raise ValueError(f"invalid parameter `{name}` = {value!r}: must be an integer >= 1")
+    return v
+
+
+def manifold_grid(params: Optional[Parameters] = None) -> np.ndarray:
+    """Default slider positions of the physical manifold sweep: s = 0, 0.005, ..., 0.5 from the
+    first s whose contact points lie on the beam (s >= B/(2L), MODEL.md §6)."""
+    return np.asarray(_core.physical_manifold_grid(resolve(params).toml_text()))
+
+
+def super_slow_manifold(
+    params: Optional[Parameters] = None,
+    *,
+    f_ex: float,
+    a_ex: float,
+    s: Optional[Sequence[float]] = None,
+    periods: int = 100,
+    record: int = 25,
+    progress: bool = False,
+) -> ManifoldResult:
+    """Super-slow manifold by sequential PCS continuation in s, upward then downward from the
+    same initial state (MODEL.md §6).
+
+    Args:
+        params: model parameters (``None``: defaults).
+        f_ex: excitation frequency [Hz].
+        a_ex: base-acceleration amplitude [m/s^2].
+        s: increasing slider positions of the upward sweep [-] (the downward sweep reverses
+            them); default :func:`manifold_grid` (s = B/(2L) .. 0.5 in steps of 0.005).
+        periods: excitation periods simulated at each s (reference 100, paper 300).
+        record: periods at the end of each s over which the amplitude is averaged.
+        progress: show a tqdm progress bar (one tick per s).
+    """
+    p = resolve(params)
+    grid = manifold_grid(p) if s is None else np.atleast_1d(np.asarray(s, dtype=float))
+    if grid.ndim != 1 or grid.size == 0:
+        raise ValueError("invalid parameter `s`: need a non-empty 1-D sequence of slider positions")
+    if grid.size > 1 and np.any(np.diff(grid) <= 0):
+        raise ValueError("invalid parameter `s`: slider positions must be strictly increasing")
+    periods = _positive_int("periods", periods)
+    record = _positive_int("record", record)
+    if record > periods:
+        raise ValueError(f"invalid parameter `record` = {record}: must lie in 1..=periods ({periods})")
+    with _progress_bar(progress, 2 * grid.size, f"manifold {f_ex:g} Hz {a_ex:g} m/s²", "pts") as cb:
+        out = _core.super_slow_manifold(
+            p.toml_text(),
+            f_ex_hz=float(f_ex),
+            a_ex_m_s2=float(a_ex),
+            s_values=[float(v) for v in grid],
+            periods=periods,
+            record_periods=record,
+            progress=cb,
+        )
+    return ManifoldResult(
+        up_s=out["up_s"],
+        up_amplitude=out["up_amplitude_m"],
+        down_s=out["down_s"],
+        down_amplitude=out["down_amplitude_m"],
+        counters=dict(out["counters"]),
+        f_ex=float(f_ex),
+        a_ex=float(a_ex),
+        periods=periods,
+        record=record,
+        params=p,
+    )
+
+
+def envelope(t: Any, w: Any, window: float = 1.0) -> np.ndarray:
+    """Super-slow amplitude of a uniformly sampled signal (MODEL.md §7): |Hilbert(w)| (FFT-based
+    analytic signal) followed by a centred moving average over ``window`` seconds.
+
+    Args:
+        t: sample times [s], uniformly spaced.
+        w: signal (e.g. w(4L/7) [m]).
+        window: moving-average window [s].
+    """
+    t = np.asarray(t, dtype=float)
+    w = np.ascontiguousarray(w, dtype=float)
+    if t.ndim != 1 or w.ndim != 1 or t.shape != w.shape:
+        raise ValueError(f"t and w must be 1-D arrays of the same length (got {t.shape} and {w.shape})")
+    if t.size < 2:
+        raise ValueError("need at least two samples")
+    steps = np.diff(t)
+    dt = float(np.median(steps))
+    if not dt > 0 or np.any(np.abs(steps - dt) > 0.01 * dt):
+        raise ValueError("t must be uniformly spaced and increasing")
+    return _core.envelope(w, dt, float(window))

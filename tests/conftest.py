@@ -1,0 +1,48 @@
+"""Shared helpers of the Python test suite. Run from this folder against the *installed* package:
+``(cd tests && python3 -m pytest -q -p no:cacheprovider .)``; data are found relative to this file."""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+from typing import Dict, List
+
+import numpy as np
+import pytest
+
+REPO = Path(__file__).resolve().parent.parent
+GOLDEN_DIR = REPO / "crates" / "beamslider-core" / "tests" / "data"
+
+
+def read_golden(name: str) -> Dict[str, np.ndarray]:
+    """A reference CSV of the core's test data: '#' comments, a header line, comma-separated."""
+    lines = [ln for ln in (GOLDEN_DIR / name).read_text().splitlines() if ln.strip() and not ln.startswith("#")]
+    names = [n.strip() for n in lines[0].split(",")]
+    data = np.array([[float(v) for v in ln.split(",")] for ln in lines[1:]])
+    return {n: data[:, i] for i, n in enumerate(names)}
+
+
+def cli_command() -> List[str]:
+    """The installed ``beamslider`` console script (beside this interpreter), else ``python -m``."""
+    exe = Path(sys.executable).parent / ("beamslider.exe" if os.name == "nt" else "beamslider")
+    if exe.exists():
+        return [str(exe)]
+    found = shutil.which("beamslider")
+    return [found] if found else [sys.executable, "-m", "beamslider"]
+
+
+def run_cli(*args: str, cwd: Path, timeout: float = 120) -> subprocess.CompletedProcess:
+    env = dict(os.environ, MPLBACKEND="Agg")
+    return subprocess.run([*cli_command(), *args], cwd=cwd, capture_output=True, text=True, timeout=timeout, env=env)
+
+
+def is_png(path: Path) -> bool:
+    return path.exists() and path.stat().st_size > 1000 and path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+@pytest.fixture
+def golden():
+    return read_golden
