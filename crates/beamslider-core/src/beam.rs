@@ -40,7 +40,25 @@ pub struct Beam {
     pub k_ax: f64,
     /// Shape coefficients (a₁..a₄) of each mode, unit modal mass, in the basis above.
     pub coef: Vec<[f64; 4]>,
+    /// Upper bound of |φₘ'(x)| over the tabulated range (sampled, with a 1 % margin).
+    pub slope_bound: Vec<f64>,
     table: ModeTable,
+}
+
+/// A position located in the mode table.
+#[derive(Debug, Clone, Copy)]
+pub struct Loc {
+    x: f64,
+    j: usize,
+    u: f64,
+    inside: bool,
+}
+
+impl Loc {
+    /// Inside the tabulated range?
+    pub fn inside(&self) -> bool {
+        self.inside
+    }
 }
 
 /// Piecewise Taylor table of φ and φ' (x-derivative) of all modes.
@@ -98,7 +116,23 @@ impl Beam {
             }
         }
         let table = ModeTable::build(&coef, &lambda, l);
+        let slope_bound = coef
+            .iter()
+            .zip(&lambda)
+            .map(|(a, &lam)| {
+                // Spacing λΔξ ≤ 0.05: the sampled maximum is within 3e-4 of the true one.
+                let n_s = ((TABLE_XI_MAX - TABLE_XI_MIN) * lam / 0.05).ceil() as usize;
+                let m = (0..=n_s)
+                    .map(|i| {
+                        let xi = TABLE_XI_MIN + (TABLE_XI_MAX - TABLE_XI_MIN) * i as f64 / n_s as f64;
+                        dphi_basis(a, lam, xi).abs()
+                    })
+                    .fold(0.0, f64::max);
+                1.01 * m / l
+            })
+            .collect();
         Ok(Beam {
+            slope_bound,
             n,
             length_m: l,
             lambda,
@@ -139,19 +173,47 @@ impl Beam {
         }
     }
 
-    /// Const-size variant of [`Beam::eval`] used in the time loop.
+    /// Const-size variant of [`Beam::eval`].
     #[inline(always)]
     pub fn eval_n<const N: usize>(&self, x: f64) -> ([f64; N], [f64; N]) {
-        let mut phi = [0.0; N];
-        let mut dphi = [0.0; N];
-        let xi = x / self.length_m;
-        if !self.table.eval_n::<N>(xi, &mut phi, &mut dphi) {
-            for m in 0..N {
-                phi[m] = self.phi_exact(m, x);
-                dphi[m] = self.dphi_exact(m, x);
-            }
+        let loc = self.locate(x);
+        (self.phi_n::<N>(&loc), self.dphi_n::<N>(&loc))
+    }
+
+    /// Where x lies in the mode table (for [`Beam::phi_n`] / [`Beam::dphi_n`]).
+    #[inline(always)]
+    pub fn locate(&self, x: f64) -> Loc {
+        match self.table.locate(x / self.length_m) {
+            Some((j, u)) => Loc { x, j, u, inside: true },
+            None => Loc { x, j: 0, u: 0.0, inside: false },
         }
-        (phi, dphi)
+    }
+
+    /// Mode values φ₁..φ_N at a located x (table inside its range, closed form outside).
+    #[inline(always)]
+    pub fn phi_n<const N: usize>(&self, loc: &Loc) -> [f64; N] {
+        if loc.inside {
+            self.table.horner_n::<N>(loc.j, 0, loc.u)
+        } else {
+            std::array::from_fn(|m| self.phi_exact(m, loc.x))
+        }
+    }
+
+    /// Mode slopes φ₁'..φ_N' (x-derivatives) at a located x.
+    #[inline(always)]
+    pub fn dphi_n<const N: usize>(&self, loc: &Loc) -> [f64; N] {
+        if loc.inside {
+            self.table.horner_n::<N>(loc.j, 1, loc.u)
+        } else {
+            std::array::from_fn(|m| self.dphi_exact(m, loc.x))
+        }
+    }
+
+    /// Is x [m] inside the tabulated range?
+    #[inline(always)]
+    pub fn in_table(&self, x: f64) -> bool {
+        let xi = x / self.length_m;
+        xi >= TABLE_XI_MIN && xi < TABLE_XI_MAX
     }
 
     /// Mode values at x (exact).
@@ -413,27 +475,20 @@ impl ModeTable {
         true
     }
 
+    /// Horner evaluation of function f (0 = φ, 1 = φ') of all N modes in interval j at u.
     #[inline(always)]
-    fn eval_n<const N: usize>(&self, xi: f64, phi: &mut [f64; N], dphi: &mut [f64; N]) -> bool {
+    fn horner_n<const N: usize>(&self, j: usize, f: usize, u: f64) -> [f64; N] {
         debug_assert_eq!(N, self.n);
-        let Some((j, u)) = self.locate(xi) else {
-            return false;
-        };
-        let base = j * 2 * TABLE_NCOEF * N;
-        let block = &self.data[base..base + 2 * TABLE_NCOEF * N];
+        let base = (j * 2 + f) * TABLE_NCOEF * N;
+        let block = &self.data[base..base + TABLE_NCOEF * N];
         let mut p = [0.0; N];
-        let mut d = [0.0; N];
         for k in (0..TABLE_NCOEF).rev() {
-            let cp = &block[k * N..k * N + N];
-            let cd = &block[(TABLE_NCOEF + k) * N..(TABLE_NCOEF + k) * N + N];
+            let c = &block[k * N..k * N + N];
             for m in 0..N {
-                p[m] = p[m] * u + cp[m];
-                d[m] = d[m] * u + cd[m];
+                p[m] = p[m] * u + c[m];
             }
         }
-        *phi = p;
-        *dphi = d;
-        true
+        p
     }
 }
 

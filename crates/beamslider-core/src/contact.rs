@@ -1,7 +1,7 @@
 //! Contact kinematics of MODEL.md §4 for one potential contact point: pre-check, contact frame,
 //! normal gap, force directions Wᵢ = (∂g/∂q)ᵀ and the gap velocity imposed by the base motion.
 
-use crate::beam::Beam;
+use crate::beam::{Beam, Loc};
 use crate::slider::{Slider, ZETA_Z};
 
 /// Kinematics of a closed contact: the two columns (normal, tangential) of W and w̃.
@@ -44,6 +44,7 @@ pub struct Base {
 ///
 /// Returns the point's x-coordinate and, when the contact is closed (g_N < 0), its kinematics.
 #[inline(always)]
+#[allow(clippy::too_many_arguments)]
 pub fn kinematics<const N: usize>(
     beam: &Beam,
     slider: &Slider,
@@ -55,19 +56,81 @@ pub fn kinematics<const N: usize>(
     q: &[f64; N],
     base: Base,
 ) -> (f64, Option<ClosedContact<N>>) {
+    let mut c = ClosedContact::EMPTY;
+    let (x_p, closed) = kinematics_into(beam, slider, i, x_kin, z_c, sin_b, cos_b, q, base, &mut c);
+    (x_p, closed.then_some(c))
+}
+
+/// First half of the kinematics: the point's position and the beam's deflection under it.
+#[derive(Debug, Clone, Copy)]
+pub struct Probe<const N: usize> {
+    /// x of the point [m].
+    pub x_p: f64,
+    /// z of the point [m].
+    pub z_p: f64,
+    /// Elastic deflection w(x_P) [m].
+    pub w: f64,
+    loc: Loc,
+    phi: [f64; N],
+}
+
+impl<const N: usize> Probe<N> {
+    /// Is x_P inside the tabulated range (where [`Beam::slope_bound`] holds)?
+    pub fn in_table(&self) -> bool {
+        self.loc.inside()
+    }
+}
+
+/// Position of point `i` and the beam deflection under it (mode values via the table).
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+pub fn probe<const N: usize>(
+    beam: &Beam,
+    slider: &Slider,
+    i: usize,
+    x_kin: f64,
+    z_c: f64,
+    sin_b: f64,
+    cos_b: f64,
+    q: &[f64; N],
+) -> Probe<N> {
     let [x_p, z_p] = slider.point(i, x_kin, z_c, sin_b, cos_b);
-    let zz = ZETA_Z[i];
-    let hh = slider.half_thickness;
-    let (phi, dphi) = beam.eval_n::<N>(x_p);
+    let loc = beam.locate(x_p);
+    let phi = beam.phi_n::<N>(&loc);
     let mut w = 0.0;
     for m in 0..N {
         w += phi[m] * q[m];
     }
-    // 1. Pre-check: the point must be at (or beyond) the beam surface on its side.
-    let rel = z_p - base.w0 - w;
-    if zz * rel - hh >= 1e-5 * hh {
-        return (x_p, None);
-    }
+    Probe { x_p, z_p, w, loc, phi }
+}
+
+/// Step 1, the pre-check: can point `i` (at height z_P over deflection w) be closed?
+/// ζZ (z_P − w₀ − w) − h/2 < 1e-5 h/2.
+#[inline(always)]
+pub fn may_close(i: usize, z_p: f64, w0: f64, w: f64, half_thickness: f64) -> bool {
+    ZETA_Z[i] * (z_p - w0 - w) - half_thickness < 1e-5 * half_thickness
+}
+
+/// Steps 2–6 for a point that passed the pre-check; writes `out` and returns whether the
+/// contact is closed (g_N < 0).
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+pub fn finish<const N: usize>(
+    beam: &Beam,
+    slider: &Slider,
+    i: usize,
+    pr: &Probe<N>,
+    sin_b: f64,
+    cos_b: f64,
+    q: &[f64; N],
+    base: Base,
+    out: &mut ClosedContact<N>,
+) -> bool {
+    let zz = ZETA_Z[i];
+    let hh = slider.half_thickness;
+    let rel = pr.z_p - base.w0 - pr.w;
+    let phi = &pr.phi;
+    let dphi = beam.dphi_n::<N>(&pr.loc);
     let mut wp = 0.0;
     for m in 0..N {
         wp += dphi[m] * q[m];
@@ -80,36 +143,50 @@ pub fn kinematics<const N: usize>(
     let d = [zz * hh * wp, rel - zz * hh];
     let g_n = a[0][0] * d[0] + a[0][1] * d[1];
     if g_n >= 0.0 {
-        return (x_p, None);
+        return false;
     }
     let g_t = a[1][0] * d[0] + a[1][1] * d[1];
     // 5. Slider part A_CN [I₂ | A'(β) r_CP].
     let [dx, dz] = slider.point_dbeta(i, sin_b, cos_b);
-    let ws = [
+    out.index = i;
+    out.gap_n = g_n;
+    out.ws = [
         [a[0][0], a[0][1], a[0][0] * dx + a[0][1] * dz],
         [a[1][0], a[1][1], a[1][0] * dx + a[1][1] * dz],
     ];
     // Beam part −A_CN ∂r_B/∂q_b + (A_CN' (r_P − r_B)) ⊗ φ', with A_CN'(r_P − r_B) = (g_T, −g_N)
     // and ∂r_B/∂q_b = (ζZ (h/2)(w'² − 1) φ', φ − ζZ (h/2) w' φ'): each row is c_φ φ + c_φ' φ'.
     let e = [g_t, -g_n];
-    let mut wb = [[0.0; N]; 2];
     for r in 0..2 {
         let c_phi = -a[r][1];
         let c_dphi = -a[r][0] * zz * hh * (wp * wp - 1.0) + a[r][1] * zz * hh * wp + e[r];
         for m in 0..N {
-            wb[r][m] = c_phi * phi[m] + c_dphi * dphi[m];
+            out.wb[r][m] = c_phi * phi[m] + c_dphi * dphi[m];
         }
     }
     // 6. w̃ = −A_CN (0, ẇ₀).
-    let wtilde = [-a[0][1] * base.w0_dot, -a[1][1] * base.w0_dot];
-    (
-        x_p,
-        Some(ClosedContact {
-            index: i,
-            gap_n: g_n,
-            wb,
-            ws,
-            wtilde,
-        }),
-    )
+    out.wtilde = [-a[0][1] * base.w0_dot, -a[1][1] * base.w0_dot];
+    true
+}
+
+/// As [`kinematics`], writing a closed contact into `out` (returns x_P and whether it is closed).
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+pub fn kinematics_into<const N: usize>(
+    beam: &Beam,
+    slider: &Slider,
+    i: usize,
+    x_kin: f64,
+    z_c: f64,
+    sin_b: f64,
+    cos_b: f64,
+    q: &[f64; N],
+    base: Base,
+    out: &mut ClosedContact<N>,
+) -> (f64, bool) {
+    let pr = probe(beam, slider, i, x_kin, z_c, sin_b, cos_b, q);
+    if !may_close(i, pr.z_p, base.w0, pr.w, slider.half_thickness) {
+        return (pr.x_p, false);
+    }
+    (pr.x_p, finish(beam, slider, i, &pr, sin_b, cos_b, q, base, out))
 }

@@ -187,6 +187,12 @@ pub fn exact(
 ) -> SolveInfo {
     let k = prob.k;
     let mut info = SolveInfo::default();
+    let mut sv: f64 = 1e-300;
+    let mut gmax: f64 = 1e-300;
+    for a in 0..2 * k {
+        sv = sv.max(prob.c[a].abs());
+        gmax = gmax.max(prob.g[a][a].abs());
+    }
     // 1. The guess, then active-set corrections of the violated contacts.
     let mut trial = *modes;
     for attempt in 0..(2 * k + 2) {
@@ -194,7 +200,7 @@ pub fn exact(
         let Some(sol) = solve_pattern(prob, &trial) else {
             break;
         };
-        match check_pattern(prob, &trial, &sol) {
+        match check_pattern(prob, &trial, &sol, sv, gmax) {
             None => {
                 *p = sol;
                 *modes = trial;
@@ -220,7 +226,7 @@ pub fn exact(
         }
         info.linear_solves += 1;
         if let Some(sol) = solve_pattern(prob, &trial)
-            && check_pattern(prob, &trial, &sol).is_none()
+            && check_pattern(prob, &trial, &sol, sv, gmax).is_none()
         {
             *p = sol;
             *modes = trial;
@@ -252,90 +258,112 @@ fn classify(mu: f64, pn: f64, pt: f64, xt: f64) -> ContactMode {
     }
 }
 
+/// Unknown of a pattern's linear system: P_N of contact i, with P_T = f·P_N (sliding) or
+/// P_T a separate unknown (sticking).
+#[derive(Clone, Copy, Default)]
+struct Unknown {
+    col: usize,
+    tangent_col: usize,
+    factor: f64,
+}
+
 /// Solve the linear system of one contact pattern; None when it is singular.
 fn solve_pattern(prob: &LocalProblem, modes: &[ContactMode; MAX_CLOSED]) -> Option<[f64; DIM]> {
     let k = prob.k;
     // Unknowns: columns of G combined per pattern; equations: rows of G selected per pattern.
-    let mut cols: [(usize, f64, usize); DIM] = [(0, 0.0, 0); DIM]; // (normal col, tangential factor, contact)
+    let mut unk = [Unknown::default(); DIM];
     let mut rows = [0usize; DIM];
     let mut nu = 0;
-    let mut ne = 0;
     for i in 0..k {
         match modes[i] {
             ContactMode::Open => {}
             ContactMode::Stick => {
-                cols[nu] = (2 * i, 0.0, usize::MAX);
-                cols[nu + 1] = (2 * i + 1, 0.0, usize::MAX);
+                unk[nu] = Unknown { col: 2 * i, tangent_col: usize::MAX, factor: 0.0 };
+                unk[nu + 1] = Unknown { col: 2 * i + 1, tangent_col: usize::MAX, factor: 0.0 };
+                rows[nu] = 2 * i;
+                rows[nu + 1] = 2 * i + 1;
                 nu += 2;
-                rows[ne] = 2 * i;
-                rows[ne + 1] = 2 * i + 1;
-                ne += 2;
             }
             ContactMode::SlidePos | ContactMode::SlideNeg => {
                 let sigma = if modes[i] == ContactMode::SlidePos { 1.0 } else { -1.0 };
-                cols[nu] = (2 * i, -sigma * prob.mu, 2 * i + 1);
+                unk[nu] = Unknown { col: 2 * i, tangent_col: 2 * i + 1, factor: -sigma * prob.mu };
+                rows[nu] = 2 * i;
                 nu += 1;
-                rows[ne] = 2 * i;
-                ne += 1;
             }
         }
     }
-    debug_assert_eq!(nu, ne);
-    let mut a = [[0.0; DIM + 1]; DIM];
+    match nu {
+        0 => Some([0.0; DIM]),
+        1 => solve_reduced::<1>(prob, &unk, &rows),
+        2 => solve_reduced::<2>(prob, &unk, &rows),
+        3 => solve_reduced::<3>(prob, &unk, &rows),
+        4 => solve_reduced::<4>(prob, &unk, &rows),
+        5 => solve_reduced::<5>(prob, &unk, &rows),
+        6 => solve_reduced::<6>(prob, &unk, &rows),
+        7 => solve_reduced::<7>(prob, &unk, &rows),
+        _ => solve_reduced::<8>(prob, &unk, &rows),
+    }
+}
+
+#[inline(always)]
+fn solve_reduced<const M: usize>(prob: &LocalProblem, unk: &[Unknown; DIM], rows: &[usize; DIM]) -> Option<[f64; DIM]> {
+    let mut a = [[0.0; M]; M];
+    let mut b = [0.0; M];
     let mut amax: f64 = 0.0;
-    for e in 0..ne {
-        let r = rows[e];
-        for u in 0..nu {
-            let (cn, f, ct) = cols[u];
-            let mut v = prob.g[r][cn];
-            if ct != usize::MAX {
-                v += f * prob.g[r][ct];
+    for e in 0..M {
+        let g = &prob.g[rows[e]];
+        for u in 0..M {
+            let x = unk[u];
+            let mut v = g[x.col];
+            if x.tangent_col != usize::MAX {
+                v += x.factor * g[x.tangent_col];
             }
             a[e][u] = v;
             amax = amax.max(v.abs());
         }
-        a[e][nu] = -prob.c[r];
+        b[e] = -prob.c[rows[e]];
     }
-    let y = gauss_solve(&mut a, nu, amax)?;
+    let y = gauss_solve::<M>(&mut a, b, amax)?;
     let mut p = [0.0; DIM];
-    for u in 0..nu {
-        let (cn, f, ct) = cols[u];
-        p[cn] = y[u];
-        if ct != usize::MAX {
-            p[ct] = f * y[u];
+    for u in 0..M {
+        let x = unk[u];
+        p[x.col] = y[u];
+        if x.tangent_col != usize::MAX {
+            p[x.tangent_col] = x.factor * y[u];
         }
     }
     Some(p)
 }
 
-/// Gaussian elimination with partial pivoting on the augmented n×(n+1) system.
-fn gauss_solve(a: &mut [[f64; DIM + 1]; DIM], n: usize, amax: f64) -> Option<[f64; DIM]> {
+/// Gaussian elimination with partial pivoting; None when a pivot is below 1e-13 max|A|.
+#[inline(always)]
+fn gauss_solve<const M: usize>(a: &mut [[f64; M]; M], mut b: [f64; M], amax: f64) -> Option<[f64; M]> {
     let tiny = 1e-13 * amax;
-    for col in 0..n {
+    for col in 0..M {
         let mut piv = col;
-        for r in col + 1..n {
+        for r in col + 1..M {
             if a[r][col].abs() > a[piv][col].abs() {
                 piv = r;
             }
         }
-        if a[piv][col].abs() <= tiny {
+        if !(a[piv][col].abs() > tiny) {
             return None;
         }
         a.swap(col, piv);
+        b.swap(col, piv);
         let inv = 1.0 / a[col][col];
-        for r in col + 1..n {
+        for r in col + 1..M {
             let f = a[r][col] * inv;
-            if f != 0.0 {
-                for c in col..=n {
-                    a[r][c] -= f * a[col][c];
-                }
+            for c in col..M {
+                a[r][c] -= f * a[col][c];
             }
+            b[r] -= f * b[col];
         }
     }
-    let mut y = [0.0; DIM];
-    for r in (0..n).rev() {
-        let mut s = a[r][n];
-        for c in r + 1..n {
+    let mut y = [0.0; M];
+    for r in (0..M).rev() {
+        let mut s = b[r];
+        for c in r + 1..M {
             s -= a[r][c] * y[c];
         }
         y[r] = s / a[r][r];
@@ -343,23 +371,37 @@ fn gauss_solve(a: &mut [[f64; DIM + 1]; DIM], n: usize, amax: f64) -> Option<[f6
     Some(y)
 }
 
-/// None when the solution fits its pattern; otherwise the corrected pattern.
+/// None when the solution fits its pattern; otherwise the corrected pattern. Only the
+/// conditions a pattern leaves open are checked (sticking contacts have ξ = 0 by construction,
+/// sliding ones ξ_N = 0 and P_T on the cone, open ones P = 0).
+#[inline]
 fn check_pattern(
     prob: &LocalProblem,
     modes: &[ContactMode; MAX_CLOSED],
     p: &[f64; DIM],
+    sv: f64,
+    gmax: f64,
 ) -> Option<[ContactMode; MAX_CLOSED]> {
-    let xi = prob.velocity(p);
-    let (sv, sp) = prob.scales(p);
-    let (tv, tp) = (EXACT_TOL * sv, EXACT_TOL * sp);
+    let m = 2 * prob.k;
+    let mut pmax: f64 = 0.0;
+    for v in &p[..m] {
+        pmax = pmax.max(v.abs());
+    }
+    let (tv, tp) = (EXACT_TOL * sv, EXACT_TOL * pmax.max(sv / gmax));
+    let row = |a: usize| {
+        let mut x = prob.c[a];
+        for b in 0..m {
+            x += prob.g[a][b] * p[b];
+        }
+        x
+    };
     let mut next = *modes;
     let mut ok = true;
     for i in 0..prob.k {
         let (pn, pt) = (p[2 * i], p[2 * i + 1]);
-        let (xn, xt) = (xi[2 * i], xi[2 * i + 1]);
         match modes[i] {
             ContactMode::Open => {
-                if xn < -tv {
+                if row(2 * i) < -tv {
                     next[i] = ContactMode::Stick;
                     ok = false;
                 }
@@ -378,7 +420,7 @@ fn check_pattern(
                 if pn < -tp {
                     next[i] = ContactMode::Open;
                     ok = false;
-                } else if sigma * xt < -tv {
+                } else if sigma * row(2 * i + 1) < -tv {
                     next[i] = ContactMode::Stick;
                     ok = false;
                 }

@@ -2,9 +2,9 @@
 //! M du = h(t, q, u) dt + W dP, specialised at compile time to the number of modes N.
 
 use crate::beam::Beam;
-use crate::contact::{Base, ClosedContact, kinematics};
+use crate::contact::{Base, ClosedContact, finish, may_close, probe};
 use crate::params::{ContactSolver, Params};
-use crate::slider::{N_CONTACTS, Slider};
+use crate::slider::{N_CONTACTS, Slider, ZETA_Z};
 use crate::solver::{self, ContactMode, DIM, LocalProblem, MAX_CLOSED};
 
 /// Counters of a run, reported with every result.
@@ -122,7 +122,6 @@ pub struct Stepper<'a, const N: usize> {
     kmat: [[f64; N]; N],
     half_kax: f64,
     dt: f64,
-    mu: f64,
     eps_n: f64,
     gravity: f64,
     inv_m: f64,
@@ -144,6 +143,65 @@ pub struct Stepper<'a, const N: usize> {
     pub counters: Counters,
     /// Check every local solution against the contact laws (costs time; for tests).
     pub audit: bool,
+    /// Scratch: kinematics of each contact point in the current step.
+    slots: [ClosedContact<N>; N_CONTACTS],
+    /// Bound of |φₘ'| per mode (for skipping surely-open points).
+    slope_bound: [f64; N],
+    /// Scratch: the local problem of the current step.
+    prob: LocalProblem,
+    /// Phasor of the excitation at the next midpoint.
+    clock: Clock,
+}
+
+/// (cos Ωt, sin Ωt) at successive midpoints by rotation, re-synchronised with the exact values
+/// every [`Clock::RESYNC`] steps and whenever the caller's time does not follow on (error ≲ 1e-14).
+#[derive(Debug, Clone, Copy)]
+struct Clock {
+    omega: f64,
+    dt: f64,
+    rot: (f64, f64),
+    prev_t: f64,
+    cs: (f64, f64),
+    count: u32,
+}
+
+impl Clock {
+    const RESYNC: u32 = 256;
+
+    fn new(omega: f64, dt: f64) -> Clock {
+        let (s, c) = (omega * dt).sin_cos();
+        Clock { omega, dt, rot: (c, s), prev_t: f64::NAN, cs: (1.0, 0.0), count: 0 }
+    }
+
+    /// (cos Ωt, sin Ωt) at t = t_M of a step.
+    #[inline(always)]
+    fn at(&mut self, t: f64) -> (f64, f64) {
+        if !((t - self.prev_t - self.dt).abs() <= 1e-6 * self.dt) || self.count >= Self::RESYNC {
+            let (s, c) = (self.omega * t).sin_cos();
+            self.cs = (c, s);
+            self.count = 0;
+        }
+        let (c, s) = self.cs;
+        let (rc, rs) = self.rot;
+        self.cs = (c * rc - s * rs, s * rc + c * rs);
+        self.count += 1;
+        self.prev_t = t;
+        (c, s)
+    }
+}
+
+/// sin β and cos β; Taylor series for the small angles the slider has (|β| < 0.1, error
+/// below 1e-17), libm otherwise.
+#[inline(always)]
+fn sin_cos_small(b: f64) -> (f64, f64) {
+    if b.abs() < 0.1 {
+        let b2 = b * b;
+        let s = b * (1.0 - b2 / 6.0 * (1.0 - b2 / 20.0 * (1.0 - b2 / 42.0 * (1.0 - b2 / 72.0))));
+        let c = 1.0 - b2 / 2.0 * (1.0 - b2 / 12.0 * (1.0 - b2 / 30.0 * (1.0 - b2 / 56.0 * (1.0 - b2 / 90.0))));
+        (s, c)
+    } else {
+        b.sin_cos()
+    }
 }
 
 impl<'a, const N: usize> Stepper<'a, N> {
@@ -171,7 +229,6 @@ impl<'a, const N: usize> Stepper<'a, N> {
             kmat,
             half_kax: 0.5 * beam.k_ax,
             dt: p.dt_s,
-            mu: p.friction_coefficient,
             eps_n: p.restitution,
             gravity: p.gravity_m_s2,
             inv_m: 1.0 / p.slider_mass_kg,
@@ -188,6 +245,10 @@ impl<'a, const N: usize> Stepper<'a, N> {
             last_p: [[0.0; 2]; N_CONTACTS],
             counters: Counters::default(),
             audit: false,
+            slots: [ClosedContact::EMPTY; N_CONTACTS],
+            slope_bound: std::array::from_fn(|m| beam.slope_bound[m]),
+            prob: LocalProblem::new(0, p.friction_coefficient),
+            clock: Clock::new(base.omega, p.dt_s),
         }
     }
 
@@ -206,7 +267,14 @@ impl<'a, const N: usize> Stepper<'a, N> {
         for i in 0..3 {
             qsm[i] += half * s.us[i];
         }
-        let (w0, w0_dot, w0_ddot) = self.base.at(t_m);
+        let (w0, w0_dot, w0_ddot) = if self.base.omega == 0.0 {
+            self.base.at(t_m)
+        } else {
+            // w₀ = (a/Ω²) cos Ωt, ẇ₀ = −(a/Ω) sin Ωt, ẅ₀ = −a cos Ωt.
+            let (c, sn) = self.clock.at(t_m);
+            let (a, om) = (self.base.accel, self.base.omega);
+            (a / (om * om) * c, -a / om * sn, -a * c)
+        };
         // h_M: beam forces (damping with u_B) and slider gravity.
         let mut kq = [0.0; N];
         for i in 0..N {
@@ -248,19 +316,51 @@ impl<'a, const N: usize> Stepper<'a, N> {
             Kinematics::Fixed(x) => x,
             _ => qsm[0],
         };
-        let (sin_b, cos_b) = qsm[2].sin_cos();
+        let (sin_b, cos_b) = sin_cos_small(qsm[2]);
         let base = Base { w0, w0_dot };
-        let mut cs = [ClosedContact::<N>::EMPTY; MAX_CLOSED];
+        // The four points in pairs (top, bottom) on each side. The bottom point of a pair is
+        // only evaluated when it may touch: |w(x_bottom) − w(x_top)| ≤ |Δx| Σ|qₘ| max|φₘ'|,
+        // so a pre-check that fails for every w in that range skips it (exactly the same outcome).
+        let hh = self.slider.half_thickness;
+        let mut slope = 0.0;
+        for m in 0..N {
+            slope += qm[m].abs() * self.slope_bound[m];
+        }
+        let slots = &mut self.slots;
+        let mut closed = [false; N_CONTACTS];
+        for (top, bottom) in [(0usize, 1usize), (3, 2)] {
+            let pa = probe::<N>(self.beam, &self.slider, top, x_kin, qsm[1], sin_b, cos_b, &qm);
+            let [xb, zb] = self.slider.point(bottom, x_kin, qsm[1], sin_b, cos_b);
+            if self.kin == Kinematics::Free {
+                for x_p in [pa.x_p, xb] {
+                    if !(x_p >= 0.0 && x_p <= self.length) {
+                        // Far beyond the beam within one step: a blow-up, not a slider leaving the beam.
+                        let plausible = x_p.abs() <= 2.0 * self.length;
+                        return Err(if plausible { StepFault::LeftBeam(x_p) } else { StepFault::NonFinite });
+                    }
+                }
+            }
+            if may_close(top, pa.z_p, w0, pa.w, hh) {
+                closed[top] = finish::<N>(self.beam, &self.slider, top, &pa, sin_b, cos_b, &qm, base, &mut slots[top]);
+            }
+            let margin = (xb - pa.x_p).abs() * slope * 1.000001 + 1e-15;
+            let surely_open = pa.in_table()
+                && self.beam.in_table(xb)
+                && ZETA_Z[bottom] * (zb - w0 - pa.w) - margin - hh >= 1e-5 * hh;
+            if !surely_open {
+                let pb = probe::<N>(self.beam, &self.slider, bottom, x_kin, qsm[1], sin_b, cos_b, &qm);
+                if may_close(bottom, pb.z_p, w0, pb.w, hh) {
+                    closed[bottom] =
+                        finish::<N>(self.beam, &self.slider, bottom, &pb, sin_b, cos_b, &qm, base, &mut slots[bottom]);
+                }
+            }
+        }
+        // Closed contacts in the order of MODEL.md §3 (counter-clockwise from top-left).
+        let mut cs = [&slots[0]; MAX_CLOSED];
         let mut k = 0;
         for i in 0..N_CONTACTS {
-            let (x_p, c) = kinematics::<N>(self.beam, &self.slider, i, x_kin, qsm[1], sin_b, cos_b, &qm, base);
-            if self.kin == Kinematics::Free && !(x_p >= 0.0 && x_p <= self.length) {
-                // Far beyond the beam within one step: a blow-up, not a slider leaving the beam.
-                let plausible = x_p.abs() <= 2.0 * self.length;
-                return Err(if plausible { StepFault::LeftBeam(x_p) } else { StepFault::NonFinite });
-            }
-            if let Some(c) = c {
-                cs[k] = c;
+            if closed[i] {
+                cs[k] = &slots[i];
                 k += 1;
             }
         }
@@ -272,35 +372,57 @@ impl<'a, const N: usize> Stepper<'a, N> {
             s.us = vs;
         } else {
             self.counters.contact_steps += 1;
-            let mut prob = LocalProblem::new(k, self.mu);
-            let eps = [self.eps_n, 0.0];
-            // M⁻¹ W for the slider part.
+            let prob = &mut self.prob;
+            prob.k = k;
+            // M⁻¹ W, slider part.
             let minv_s = [self.inv_m, self.inv_m, self.inv_j];
-            for a in 0..2 * k {
-                let (ca, ra) = (&cs[a / 2], a % 2);
-                // c = (I + E)(Wᵀ u_B + w̃) + Wᵀ M⁻¹ h_M Δt = Wᵀ u_free + w̃ + E (Wᵀ u_B + w̃).
-                let mut wu_b = ca.wtilde[ra];
-                let mut wu_f = ca.wtilde[ra];
+            let mut ms = [[[0.0; 3]; 2]; MAX_CLOSED];
+            for j in 0..k {
+                for r in 0..2 {
+                    for m in 0..3 {
+                        ms[j][r][m] = cs[j].ws[r][m] * minv_s[m];
+                    }
+                }
+            }
+            for j in 0..k {
+                let cj = cs[j];
+                // c = (I + E)(Wᵀ u_B + w̃) + Wᵀ M⁻¹ h_M Δt = Wᵀ u_free + w̃ + E (Wᵀ u_B + w̃), E = diag(ε_N, 0).
+                let mut wu_b = cj.wtilde[0];
+                let mut wu_f = cj.wtilde[0];
+                let mut wt_f = cj.wtilde[1];
                 for m in 0..N {
-                    wu_b += ca.wb[ra][m] * s.ub[m];
-                    wu_f += ca.wb[ra][m] * vb[m];
+                    wu_b += cj.wb[0][m] * s.ub[m];
+                    wu_f += cj.wb[0][m] * vb[m];
+                    wt_f += cj.wb[1][m] * vb[m];
                 }
                 for m in 0..3 {
-                    wu_b += ca.ws[ra][m] * s.us[m];
-                    wu_f += ca.ws[ra][m] * vs[m];
+                    wu_b += cj.ws[0][m] * s.us[m];
+                    wu_f += cj.ws[0][m] * vs[m];
+                    wt_f += cj.ws[1][m] * vs[m];
                 }
-                prob.c[a] = wu_f + eps[ra] * wu_b;
-                for b in 0..=a {
-                    let (cb, rb) = (&cs[b / 2], b % 2);
-                    let mut gab = 0.0;
-                    for m in 0..N {
-                        gab += ca.wb[ra][m] * cb.wb[rb][m];
+                prob.c[2 * j] = wu_f + self.eps_n * wu_b;
+                prob.c[2 * j + 1] = wt_f;
+                // G = Wᵀ M⁻¹ W (lower triangle, mirrored).
+                for ra in 0..2 {
+                    let a = 2 * j + ra;
+                    for l in 0..=j {
+                        let cl = cs[l];
+                        for rb in 0..2 {
+                            let b = 2 * l + rb;
+                            if b > a {
+                                continue;
+                            }
+                            let mut gab = 0.0;
+                            for m in 0..N {
+                                gab += cj.wb[ra][m] * cl.wb[rb][m];
+                            }
+                            for m in 0..3 {
+                                gab += cj.ws[ra][m] * ms[l][rb][m];
+                            }
+                            prob.g[a][b] = gab;
+                            prob.g[b][a] = gab;
+                        }
                     }
-                    for m in 0..3 {
-                        gab += ca.ws[ra][m] * minv_s[m] * cb.ws[rb][m];
-                    }
-                    prob.g[a][b] = gab;
-                    prob.g[b][a] = gab;
                 }
             }
             let mut p = [0.0; DIM];
@@ -310,14 +432,14 @@ impl<'a, const N: usize> Stepper<'a, N> {
                         p[2 * j] = self.warm[cs[j].index][0];
                         p[2 * j + 1] = self.warm[cs[j].index][1];
                     }
-                    solver::gauss_seidel(&prob, &mut p, self.tol_rel, self.tol_abs, self.max_iter)
+                    solver::gauss_seidel(prob, &mut p, self.tol_rel, self.tol_abs, self.max_iter)
                 }
                 ContactSolver::Fast => {
                     let mut modes = [ContactMode::Stick; MAX_CLOSED];
                     for j in 0..k {
                         modes[j] = self.modes[cs[j].index];
                     }
-                    let info = solver::exact(&prob, &mut modes, &mut p, self.max_iter);
+                    let info = solver::exact(prob, &mut modes, &mut p, self.max_iter);
                     for j in 0..k {
                         self.modes[cs[j].index] = modes[j];
                     }
@@ -338,14 +460,14 @@ impl<'a, const N: usize> Stepper<'a, N> {
             // u_E = u_free + M⁻¹ W P.
             for j in 0..k {
                 let (pn, pt) = (p[2 * j], p[2 * j + 1]);
-                let cj = &cs[j];
+                let cj = cs[j];
                 self.warm[cj.index] = [pn, pt];
                 self.last_p[cj.index] = [pn, pt];
                 for m in 0..N {
                     vb[m] += cj.wb[0][m] * pn + cj.wb[1][m] * pt;
                 }
                 for m in 0..3 {
-                    vs[m] += minv_s[m] * (cj.ws[0][m] * pn + cj.ws[1][m] * pt);
+                    vs[m] += ms[j][0][m] * pn + ms[j][1][m] * pt;
                 }
             }
             s.ub = vb;
