@@ -68,8 +68,10 @@ impl Loc {
 #[derive(Debug, Clone)]
 pub struct ModeTable {
     n: usize,
-    intervals: usize,
-    inv_width: f64,
+    /// 1/(L · interval width) and the offset −ξ_min/width: r = x · scale + offset.
+    x_scale: f64,
+    x_offset: f64,
+    intervals_f: f64,
     data: Vec<f64>,
 }
 
@@ -164,8 +166,7 @@ impl Beam {
     /// form outside (e.g. contact points beyond the clamping in the reference manifold sweep).
     #[inline]
     pub fn eval(&self, x: f64, phi: &mut [f64], dphi: &mut [f64]) {
-        let xi = x / self.length_m;
-        if !self.table.eval(xi, phi, dphi) {
+        if !self.table.eval(x, phi, dphi) {
             for m in 0..self.n {
                 phi[m] = self.phi_exact(m, x);
                 dphi[m] = self.dphi_exact(m, x);
@@ -183,7 +184,7 @@ impl Beam {
     /// Where x lies in the mode table (for [`Beam::phi_n`] / [`Beam::dphi_n`]).
     #[inline(always)]
     pub fn locate(&self, x: f64) -> Loc {
-        match self.table.locate(x / self.length_m) {
+        match self.table.locate_x(x) {
             Some((j, u)) => Loc { x, j, u, inside: true },
             None => Loc { x, j: 0, u: 0.0, inside: false },
         }
@@ -439,25 +440,26 @@ impl ModeTable {
         }
         ModeTable {
             n,
-            intervals,
-            inv_width: 1.0 / width,
+            x_scale: 1.0 / (width * length_m),
+            x_offset: -TABLE_XI_MIN / width,
+            intervals_f: intervals as f64,
             data,
         }
     }
 
-    /// Locate ξ: interval index and local variable u ∈ [−1, 1]; None outside the table.
+    /// Locate x [m] (no division): interval index and local variable u ∈ [−1, 1].
     #[inline(always)]
-    fn locate(&self, xi: f64) -> Option<(usize, f64)> {
-        let r = (xi - TABLE_XI_MIN) * self.inv_width;
-        if !(r >= 0.0 && r < self.intervals as f64) {
+    fn locate_x(&self, x: f64) -> Option<(usize, f64)> {
+        let r = x * self.x_scale + self.x_offset;
+        if !(r >= 0.0 && r < self.intervals_f) {
             return None;
         }
         let j = r as usize;
         Some((j, 2.0 * (r - j as f64) - 1.0))
     }
 
-    fn eval(&self, xi: f64, phi: &mut [f64], dphi: &mut [f64]) -> bool {
-        let Some((j, u)) = self.locate(xi) else {
+    fn eval(&self, x: f64, phi: &mut [f64], dphi: &mut [f64]) -> bool {
+        let Some((j, u)) = self.locate_x(x) else {
             return false;
         };
         let n = self.n;
