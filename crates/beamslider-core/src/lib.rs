@@ -27,5 +27,6 @@ pub use params::{ContactSolver, Params};
 pub use record::{Channel, CsvRecorder, MemoryRecorder, NullRecorder, Recorder};
 pub use simulation::{
     CancelFlag, Excitation, Model, Monitor, RunOptions, RunSummary, SliderModel, State, Status,
+    set_simd,
 };
 pub use stepper::Counters;

@@ -393,7 +393,46 @@ fn sane<const N: usize>(model: &Model, slider: &Slider, s: &StateN<N>, x_kin: f6
     w.is_finite() && w.abs() < 0.25 * l && (centre - w0 - w).abs() < 2.0 * opening && s.qs[2].abs() < 0.5
 }
 
+static SIMD: AtomicBool = AtomicBool::new(true);
+
+/// Use the AVX2 build of the time loop where the CPU has it (default: on). Both builds do the
+/// same IEEE operations in the same order (no FMA contraction), so results are bitwise identical
+/// either way; the switch exists for tests and benchmarks.
+pub fn set_simd(enabled: bool) {
+    SIMD.store(enabled, Ordering::Relaxed);
+}
+
 fn run_n<const N: usize>(
+    model: &Model,
+    start: &State,
+    opts: &RunOptions,
+    rec: &mut dyn Recorder,
+    monitor: &mut dyn Monitor,
+) -> Result<RunSummary> {
+    #[cfg(target_arch = "x86_64")]
+    {
+        if SIMD.load(Ordering::Relaxed) && std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU supports AVX2, checked just above.
+            return unsafe { run_n_avx2::<N>(model, start, opts, rec, monitor) };
+        }
+    }
+    run_n_generic::<N>(model, start, opts, rec, monitor)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn run_n_avx2<const N: usize>(
+    model: &Model,
+    start: &State,
+    opts: &RunOptions,
+    rec: &mut dyn Recorder,
+    monitor: &mut dyn Monitor,
+) -> Result<RunSummary> {
+    run_n_generic::<N>(model, start, opts, rec, monitor)
+}
+
+#[inline(always)]
+fn run_n_generic<const N: usize>(
     model: &Model,
     start: &State,
     opts: &RunOptions,

@@ -255,7 +255,7 @@ impl<'a, const N: usize> Stepper<'a, N> {
     }
 
     /// One step from t_B to t_B + Δt (MODEL.md §5, steps 1–4).
-    #[inline]
+    #[inline(always)]
     pub fn step(&mut self, s: &mut StateN<N>, t_b: f64) -> Result<(), StepFault> {
         let dt = self.dt;
         let half = 0.5 * dt;

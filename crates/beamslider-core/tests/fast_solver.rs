@@ -48,3 +48,15 @@ fn fast_matches_tight_reference_pcs() {
     eprintln!("PCS fast vs tight reference: dw/max|w| = {dw:.3e}");
     assert!(dw <= 1e-6, "{dw:e}");
 }
+
+#[test]
+fn simd_and_plain_builds_are_bitwise_identical() {
+    for solver in [ContactSolver::Fast, ContactSolver::Reference] {
+        let p = Params { contact_solver: solver, ..Params::default() };
+        set_simd(false);
+        let (a, _) = run(p.clone(), SliderModel::Free, 124.0, 14.0, 0.3, 0.2, 10);
+        set_simd(true);
+        let (b, _) = run(p, SliderModel::Free, 124.0, 14.0, 0.3, 0.2, 10);
+        assert!(a.data.iter().zip(&b.data).all(|(x, y)| x.to_bits() == y.to_bits()), "{solver}");
+    }
+}
