@@ -179,6 +179,7 @@ const EXACT_TOL: f64 = 1e-10;
 /// Exact solver. `modes[i]` holds the guess for contact i on entry (the previous step's
 /// pattern) and the found pattern on exit; `p` receives the percussions. Falls back to
 /// Gauss–Seidel with tolerances 1e-12 / 1e-16 N s when no pattern fits.
+#[inline(always)]
 pub fn exact(
     prob: &LocalProblem,
     modes: &mut [ContactMode; MAX_CLOSED],
@@ -215,6 +216,22 @@ pub fn exact(
             }
         }
     }
+    enumerate_patterns(prob, modes, p, max_iter, info, sv, gmax)
+}
+
+/// Steps 2 and 3 of [`exact`]: all 4^k patterns, then Gauss–Seidel (rare; kept out of line).
+#[inline(never)]
+fn enumerate_patterns(
+    prob: &LocalProblem,
+    modes: &mut [ContactMode; MAX_CLOSED],
+    p: &mut [f64; DIM],
+    max_iter: u32,
+    mut info: SolveInfo,
+    sv: f64,
+    gmax: f64,
+) -> SolveInfo {
+    let k = prob.k;
+    let mut trial = *modes;
     // 2. All 4^k patterns.
     info.enumerated = true;
     let total = 4usize.pow(k as u32);
@@ -268,6 +285,7 @@ struct Unknown {
 }
 
 /// Solve the linear system of one contact pattern; None when it is singular.
+#[inline(always)]
 fn solve_pattern(prob: &LocalProblem, modes: &[ContactMode; MAX_CLOSED]) -> Option<[f64; DIM]> {
     let k = prob.k;
     // Unknowns: columns of G combined per pattern; equations: rows of G selected per pattern.
@@ -374,7 +392,7 @@ fn gauss_solve<const M: usize>(a: &mut [[f64; M]; M], mut b: [f64; M], amax: f64
 /// None when the solution fits its pattern; otherwise the corrected pattern. Only the
 /// conditions a pattern leaves open are checked (sticking contacts have ξ = 0 by construction,
 /// sliding ones ξ_N = 0 and P_T on the cone, open ones P = 0).
-#[inline]
+#[inline(always)]
 fn check_pattern(
     prob: &LocalProblem,
     modes: &[ContactMode; MAX_CLOSED],
