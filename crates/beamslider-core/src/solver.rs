@@ -173,6 +173,12 @@ pub fn gauss_seidel(
     info
 }
 
+/// max of two non-NaN numbers (one instruction, unlike `f64::max`).
+#[inline(always)]
+fn fmax(a: f64, b: f64) -> f64 {
+    if a > b { a } else { b }
+}
+
 /// Relative tolerance of the exact solver's feasibility checks (round-off level).
 const EXACT_TOL: f64 = 1e-10;
 
@@ -191,8 +197,8 @@ pub fn exact(
     let mut sv: f64 = 1e-300;
     let mut gmax: f64 = 1e-300;
     for a in 0..2 * k {
-        sv = sv.max(prob.c[a].abs());
-        gmax = gmax.max(prob.g[a][a].abs());
+        sv = fmax(sv, prob.c[a].abs());
+        gmax = fmax(gmax, prob.g[a][a].abs());
     }
     // 1. The guess, then active-set corrections of the violated contacts.
     let mut trial = *modes;
@@ -337,7 +343,7 @@ fn solve_reduced<const M: usize>(prob: &LocalProblem, unk: &[Unknown; DIM], rows
                 v += x.factor * g[x.tangent_col];
             }
             a[e][u] = v;
-            amax = amax.max(v.abs());
+            amax = fmax(amax, v.abs());
         }
         b[e] = -prob.c[rows[e]];
     }
@@ -357,6 +363,7 @@ fn solve_reduced<const M: usize>(prob: &LocalProblem, unk: &[Unknown; DIM], rows
 #[inline(always)]
 fn gauss_solve<const M: usize>(a: &mut [[f64; M]; M], mut b: [f64; M], amax: f64) -> Option<[f64; M]> {
     let tiny = 1e-13 * amax;
+    let mut inv_diag = [0.0; M];
     for col in 0..M {
         let mut piv = col;
         for r in col + 1..M {
@@ -370,6 +377,7 @@ fn gauss_solve<const M: usize>(a: &mut [[f64; M]; M], mut b: [f64; M], amax: f64
         a.swap(col, piv);
         b.swap(col, piv);
         let inv = 1.0 / a[col][col];
+        inv_diag[col] = inv;
         for r in col + 1..M {
             let f = a[r][col] * inv;
             for c in col..M {
@@ -384,7 +392,7 @@ fn gauss_solve<const M: usize>(a: &mut [[f64; M]; M], mut b: [f64; M], amax: f64
         for c in r + 1..M {
             s -= a[r][c] * y[c];
         }
-        y[r] = s / a[r][r];
+        y[r] = s * inv_diag[r];
     }
     Some(y)
 }
@@ -403,9 +411,9 @@ fn check_pattern(
     let m = 2 * prob.k;
     let mut pmax: f64 = 0.0;
     for v in &p[..m] {
-        pmax = pmax.max(v.abs());
+        pmax = fmax(pmax, v.abs());
     }
-    let (tv, tp) = (EXACT_TOL * sv, EXACT_TOL * pmax.max(sv / gmax));
+    let (tv, tp) = (EXACT_TOL * sv, EXACT_TOL * fmax(pmax, sv / gmax));
     let row = |a: usize| {
         let mut x = prob.c[a];
         for b in 0..m {
