@@ -87,7 +87,8 @@ pub fn super_slow_manifold(
     for (branch, grid) in [(&mut out.up, &opts.s_values), (&mut out.down, &down)] {
         let mut state = start.clone();
         for &s in grid.iter() {
-            let (amp, next, c) = one_point(model, excitation, opts, s, &state)?;
+            let mut sub = SubMonitor { inner: &mut *monitor, done: done as f64, total: total as f64, t0: state.t_s, span: 1.0 };
+            let (amp, next, c) = one_point(model, excitation, opts, s, &state, &mut sub)?;
             out.counters.add(&c);
             state = next;
             branch.s.push(s);
@@ -101,18 +102,37 @@ pub fn super_slow_manifold(
     Ok(out)
 }
 
+/// Forwards the polls of the runs at one slider position to the caller's monitor as progress
+/// in units of positions (so that Ctrl-C and progress bars act within a position too).
+struct SubMonitor<'a> {
+    inner: &'a mut dyn Monitor,
+    done: f64,
+    total: f64,
+    t0: f64,
+    span: f64,
+}
+
+impl Monitor for SubMonitor<'_> {
+    fn poll(&mut self, t_s: f64, _t_end_s: f64) -> bool {
+        let frac = ((t_s - self.t0) / self.span).clamp(0.0, 1.0);
+        self.inner.poll(self.done + frac, self.total)
+    }
+}
+
 fn one_point(
     model: &Model,
     excitation: &Excitation,
     opts: &ManifoldOptions,
     s: f64,
     start: &State,
+    monitor: &mut SubMonitor,
 ) -> Result<(f64, State, Counters)> {
     let dt = model.params.dt_s;
     let period = excitation.period_s();
     let n_total = (opts.periods as f64 * period / dt).round() as u64;
     let n_rec = (opts.record_periods as f64 * period / dt).round() as u64;
     let model_kind = SliderModel::PseudoConstrained { s };
+    monitor.span = (n_total as f64 * dt).max(1e-300);
     let settle = RunOptions {
         excitation: *excitation,
         model: model_kind,
@@ -121,7 +141,7 @@ fn one_point(
         channels: vec![],
         audit_contacts: false,
     };
-    let a = model.run(start, &settle, &mut NullRecorder, &mut ())?;
+    let a = model.run(start, &settle, &mut NullRecorder, monitor)?;
     check(&a.status, s)?;
     let rec_opts = RunOptions {
         duration_s: n_rec as f64 * dt,
@@ -130,7 +150,7 @@ fn one_point(
         ..settle
     };
     let mut rec = MemoryRecorder::new();
-    let b = model.run(&a.state, &rec_opts, &mut rec, &mut ())?;
+    let b = model.run(&a.state, &rec_opts, &mut rec, monitor)?;
     check(&b.status, s)?;
     // Rows: the start sample and n_rec steps; drop the start (it belongs to the settling run).
     let w = &rec.data[1..];
@@ -144,6 +164,7 @@ fn one_point(
 fn check(status: &Status, s: f64) -> Result<()> {
     match status {
         Status::Completed => Ok(()),
+        Status::Interrupted { t_s } => Err(Error::Interrupted { t_s: *t_s }),
         other => Err(Error::Numerical(format!("manifold at s = {s}: {}", other.message()))),
     }
 }

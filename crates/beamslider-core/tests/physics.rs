@@ -249,3 +249,25 @@ fn chained_runs_equal_one_run() {
         assert!((a - b).abs() <= 1e-12 * a.abs().max(1e-9), "{a} vs {b}");
     }
 }
+
+#[test]
+fn manifold_is_interruptible_within_a_position_and_sweeps_both_ways() {
+    struct StopAfter(usize);
+    impl Monitor for StopAfter {
+        fn poll(&mut self, _: f64, _: f64) -> bool {
+            self.0 = self.0.saturating_sub(1);
+            self.0 > 0
+        }
+    }
+    let model = Model::new(Params::default()).unwrap();
+    let exc = Excitation::new(124.0, 14.0);
+    let opts = ManifoldOptions { s_values: vec![0.2, 0.25, 0.3], periods: 2000, record_periods: 25 };
+    // 2000 periods ≈ 800k steps per position: the monitor is polled within the first position.
+    let e = super_slow_manifold(&model, &exc, &opts, &mut StopAfter(3)).unwrap_err();
+    assert!(matches!(e, Error::Interrupted { .. }), "{e}");
+    let opts = ManifoldOptions { s_values: vec![0.2, 0.25, 0.3], periods: 40, record_periods: 10 };
+    let m = super_slow_manifold(&model, &exc, &opts, &mut ()).unwrap();
+    assert_eq!(m.up.s, vec![0.2, 0.25, 0.3]);
+    assert_eq!(m.down.s, vec![0.3, 0.25, 0.2]);
+    assert!(m.up.amplitude_m.iter().chain(&m.down.amplitude_m).all(|a| a.is_finite() && *a > 0.0));
+}
