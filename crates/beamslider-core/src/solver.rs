@@ -185,14 +185,34 @@ const EXACT_TOL: f64 = 1e-10;
 /// Exact solver. `modes[i]` holds the guess for contact i on entry (the previous step's
 /// pattern) and the found pattern on exit; `p` receives the percussions. Falls back to
 /// Gauss–Seidel with tolerances 1e-12 / 1e-16 N s when no pattern fits.
-#[inline(always)]
 pub fn exact(
     prob: &LocalProblem,
     modes: &mut [ContactMode; MAX_CLOSED],
     p: &mut [f64; DIM],
     max_iter: u32,
 ) -> SolveInfo {
-    let k = prob.k;
+    match prob.k {
+        0 => {
+            *p = [0.0; DIM];
+            SolveInfo::default()
+        }
+        1 => exact_k::<1>(prob, modes, p, max_iter),
+        2 => exact_k::<2>(prob, modes, p, max_iter),
+        3 => exact_k::<3>(prob, modes, p, max_iter),
+        _ => exact_k::<4>(prob, modes, p, max_iter),
+    }
+}
+
+/// [`exact`] for K closed contacts known at compile time (`prob.k` must equal K).
+#[inline(always)]
+pub fn exact_k<const K: usize>(
+    prob: &LocalProblem,
+    modes: &mut [ContactMode; MAX_CLOSED],
+    p: &mut [f64; DIM],
+    max_iter: u32,
+) -> SolveInfo {
+    debug_assert_eq!(prob.k, K);
+    let k = K;
     let mut info = SolveInfo::default();
     let mut sv: f64 = 1e-300;
     let mut gmax: f64 = 1e-300;
@@ -204,10 +224,10 @@ pub fn exact(
     let mut trial = *modes;
     for attempt in 0..(2 * k + 2) {
         info.linear_solves += 1;
-        let Some(sol) = solve_pattern(prob, &trial) else {
+        let Some(sol) = solve_pattern::<K>(prob, &trial) else {
             break;
         };
-        match check_pattern(prob, &trial, &sol, sv, gmax) {
+        match check_pattern::<K>(prob, &trial, &sol, sv, gmax) {
             None => {
                 *p = sol;
                 *modes = trial;
@@ -222,12 +242,12 @@ pub fn exact(
             }
         }
     }
-    enumerate_patterns(prob, modes, p, max_iter, info, sv, gmax)
+    enumerate_patterns::<K>(prob, modes, p, max_iter, info, sv, gmax)
 }
 
 /// Steps 2 and 3 of [`exact`]: all 4^k patterns, then Gauss–Seidel (rare; kept out of line).
 #[inline(never)]
-fn enumerate_patterns(
+fn enumerate_patterns<const K: usize>(
     prob: &LocalProblem,
     modes: &mut [ContactMode; MAX_CLOSED],
     p: &mut [f64; DIM],
@@ -248,8 +268,8 @@ fn enumerate_patterns(
             c /= 4;
         }
         info.linear_solves += 1;
-        if let Some(sol) = solve_pattern(prob, &trial)
-            && check_pattern(prob, &trial, &sol, sv, gmax).is_none()
+        if let Some(sol) = solve_pattern::<K>(prob, &trial)
+            && check_pattern::<K>(prob, &trial, &sol, sv, gmax).is_none()
         {
             *p = sol;
             *modes = trial;
@@ -292,8 +312,8 @@ struct Unknown {
 
 /// Solve the linear system of one contact pattern; None when it is singular.
 #[inline(always)]
-fn solve_pattern(prob: &LocalProblem, modes: &[ContactMode; MAX_CLOSED]) -> Option<[f64; DIM]> {
-    let k = prob.k;
+fn solve_pattern<const K: usize>(prob: &LocalProblem, modes: &[ContactMode; MAX_CLOSED]) -> Option<[f64; DIM]> {
+    let k = K;
     // Unknowns: columns of G combined per pattern; equations: rows of G selected per pattern.
     let mut unk = [Unknown::default(); DIM];
     let mut rows = [0usize; DIM];
@@ -401,14 +421,14 @@ fn gauss_solve<const M: usize>(a: &mut [[f64; M]; M], mut b: [f64; M], amax: f64
 /// conditions a pattern leaves open are checked (sticking contacts have ξ = 0 by construction,
 /// sliding ones ξ_N = 0 and P_T on the cone, open ones P = 0).
 #[inline(always)]
-fn check_pattern(
+fn check_pattern<const K: usize>(
     prob: &LocalProblem,
     modes: &[ContactMode; MAX_CLOSED],
     p: &[f64; DIM],
     sv: f64,
     gmax: f64,
 ) -> Option<[ContactMode; MAX_CLOSED]> {
-    let m = 2 * prob.k;
+    let m = 2 * K;
     let mut pmax: f64 = 0.0;
     for v in &p[..m] {
         pmax = fmax(pmax, v.abs());
@@ -423,7 +443,7 @@ fn check_pattern(
     };
     let mut next = *modes;
     let mut ok = true;
-    for i in 0..prob.k {
+    for i in 0..K {
         let (pn, pt) = (p[2 * i], p[2 * i + 1]);
         match modes[i] {
             ContactMode::Open => {

@@ -358,123 +358,25 @@ impl<'a, const N: usize> Stepper<'a, N> {
             }
         }
         // Closed contacts in the order of MODEL.md §3 (counter-clockwise from top-left).
-        let mut cs = [&slots[0]; MAX_CLOSED];
+        let mut idx = [0usize; MAX_CLOSED];
         let mut k = 0;
         for i in 0..N_CONTACTS {
             if closed[i] {
-                cs[k] = &slots[i];
+                idx[k] = i;
                 k += 1;
             }
         }
         self.counters.closed_histogram[k] += 1;
-
-        if k == 0 {
+        match k {
             // 3. No contact: u_E = u_B + M⁻¹ h_M Δt.
-            s.ub = vb;
-            s.us = vs;
-        } else {
-            self.counters.contact_steps += 1;
-            let prob = &mut self.prob;
-            prob.k = k;
-            // M⁻¹ W, slider part.
-            let minv_s = [self.inv_m, self.inv_m, self.inv_j];
-            let mut ms = [[[0.0; 3]; 2]; MAX_CLOSED];
-            for j in 0..k {
-                for r in 0..2 {
-                    for m in 0..3 {
-                        ms[j][r][m] = cs[j].ws[r][m] * minv_s[m];
-                    }
-                }
-            }
-            for j in 0..k {
-                let cj = cs[j];
-                // c = (I + E)(Wᵀ u_B + w̃) + Wᵀ M⁻¹ h_M Δt = Wᵀ u_free + w̃ + E (Wᵀ u_B + w̃), E = diag(ε_N, 0).
-                let mut wu_b = cj.wtilde[0];
-                let mut wu_f = cj.wtilde[0];
-                let mut wt_f = cj.wtilde[1];
-                for m in 0..N {
-                    wu_b += cj.wb[0][m] * s.ub[m];
-                    wu_f += cj.wb[0][m] * vb[m];
-                    wt_f += cj.wb[1][m] * vb[m];
-                }
-                for m in 0..3 {
-                    wu_b += cj.ws[0][m] * s.us[m];
-                    wu_f += cj.ws[0][m] * vs[m];
-                    wt_f += cj.ws[1][m] * vs[m];
-                }
-                prob.c[2 * j] = wu_f + self.eps_n * wu_b;
-                prob.c[2 * j + 1] = wt_f;
-                // G = Wᵀ M⁻¹ W (lower triangle, mirrored).
-                for ra in 0..2 {
-                    let a = 2 * j + ra;
-                    for l in 0..=j {
-                        let cl = cs[l];
-                        for rb in 0..2 {
-                            let b = 2 * l + rb;
-                            if b > a {
-                                continue;
-                            }
-                            let mut gab = 0.0;
-                            for m in 0..N {
-                                gab += cj.wb[ra][m] * cl.wb[rb][m];
-                            }
-                            for m in 0..3 {
-                                gab += cj.ws[ra][m] * ms[l][rb][m];
-                            }
-                            prob.g[a][b] = gab;
-                            prob.g[b][a] = gab;
-                        }
-                    }
-                }
-            }
-            let mut p = [0.0; DIM];
-            let info = match self.solver {
-                ContactSolver::Reference => {
-                    for j in 0..k {
-                        p[2 * j] = self.warm[cs[j].index][0];
-                        p[2 * j + 1] = self.warm[cs[j].index][1];
-                    }
-                    solver::gauss_seidel(prob, &mut p, self.tol_rel, self.tol_abs, self.max_iter)
-                }
-                ContactSolver::Fast => {
-                    let mut modes = [ContactMode::Stick; MAX_CLOSED];
-                    for j in 0..k {
-                        modes[j] = self.modes[cs[j].index];
-                    }
-                    let info = solver::exact(prob, &mut modes, &mut p, self.max_iter);
-                    for j in 0..k {
-                        self.modes[cs[j].index] = modes[j];
-                    }
-                    info
-                }
-            };
-            if self.audit {
-                self.counters.max_residual = self.counters.max_residual.max(prob.residual(&p));
-            }
-            let c = &mut self.counters;
-            c.solver_iterations += info.iterations as u64;
-            c.max_iterations = c.max_iterations.max(info.iterations);
-            c.cap_hits += info.capped as u64;
-            c.first_guess_hits += info.first_guess as u64;
-            c.linear_solves += info.linear_solves as u64;
-            c.enumerations += info.enumerated as u64;
-            c.fallbacks += info.fallback as u64;
-            // u_E = u_free + M⁻¹ W P.
-            for j in 0..k {
-                let (pn, pt) = (p[2 * j], p[2 * j + 1]);
-                let cj = cs[j];
-                self.warm[cj.index] = [pn, pt];
-                self.last_p[cj.index] = [pn, pt];
-                for m in 0..N {
-                    vb[m] += cj.wb[0][m] * pn + cj.wb[1][m] * pt;
-                }
-                for m in 0..3 {
-                    vs[m] += ms[j][0][m] * pn + ms[j][1][m] * pt;
-                }
-            }
-            s.ub = vb;
-            s.us = vs;
+            0 => {}
+            1 => self.contact_phase::<1>(&idx, s, &mut vb, &mut vs),
+            2 => self.contact_phase::<2>(&idx, s, &mut vb, &mut vs),
+            3 => self.contact_phase::<3>(&idx, s, &mut vb, &mut vs),
+            _ => self.contact_phase::<4>(&idx, s, &mut vb, &mut vs),
         }
+        s.ub = vb;
+        s.us = vs;
         // 4. q_E = q_M + (Δt/2) u_E.
         for i in 0..N {
             s.qb[i] = qm[i] + half * s.ub[i];
@@ -484,5 +386,111 @@ impl<'a, const N: usize> Stepper<'a, N> {
         }
         let check: f64 = s.ub.iter().sum::<f64>() + s.us.iter().sum::<f64>();
         if check.is_finite() { Ok(()) } else { Err(StepFault::NonFinite) }
+    }
+    /// Step 3 with K closed contacts `idx` (in order): Delassus matrix, free velocity term,
+    /// local solve, and u_E = u_free + M⁻¹ W P written into (vb, vs).
+    #[inline(always)]
+    fn contact_phase<const K: usize>(
+        &mut self,
+        idx: &[usize; MAX_CLOSED],
+        s: &StateN<N>,
+        vb: &mut [f64; N],
+        vs: &mut [f64; 3],
+    ) {
+        self.counters.contact_steps += 1;
+        let cs: [&ClosedContact<N>; K] = std::array::from_fn(|j| &self.slots[idx[j]]);
+        let prob = &mut self.prob;
+        prob.k = K;
+        // M⁻¹ W, slider part.
+        let minv_s = [self.inv_m, self.inv_m, self.inv_j];
+        let ms: [[[f64; 3]; 2]; K] = std::array::from_fn(|j| {
+            std::array::from_fn(|r| std::array::from_fn(|m| cs[j].ws[r][m] * minv_s[m]))
+        });
+        for j in 0..K {
+            let cj = cs[j];
+            // c = (I + E)(Wᵀ u_B + w̃) + Wᵀ M⁻¹ h_M Δt = Wᵀ u_free + w̃ + E (Wᵀ u_B + w̃), E = diag(ε_N, 0).
+            let mut wu_b = cj.wtilde[0];
+            let mut wu_f = cj.wtilde[0];
+            let mut wt_f = cj.wtilde[1];
+            for m in 0..N {
+                wu_b += cj.wb[0][m] * s.ub[m];
+                wu_f += cj.wb[0][m] * vb[m];
+                wt_f += cj.wb[1][m] * vb[m];
+            }
+            for m in 0..3 {
+                wu_b += cj.ws[0][m] * s.us[m];
+                wu_f += cj.ws[0][m] * vs[m];
+                wt_f += cj.ws[1][m] * vs[m];
+            }
+            prob.c[2 * j] = wu_f + self.eps_n * wu_b;
+            prob.c[2 * j + 1] = wt_f;
+            // G = Wᵀ M⁻¹ W (lower triangle, mirrored).
+            for ra in 0..2 {
+                let a = 2 * j + ra;
+                for l in 0..=j {
+                    let cl = cs[l];
+                    for rb in 0..2 {
+                        let b = 2 * l + rb;
+                        if b > a {
+                            continue;
+                        }
+                        let mut gab = 0.0;
+                        for m in 0..N {
+                            gab += cj.wb[ra][m] * cl.wb[rb][m];
+                        }
+                        for m in 0..3 {
+                            gab += cj.ws[ra][m] * ms[l][rb][m];
+                        }
+                        prob.g[a][b] = gab;
+                        prob.g[b][a] = gab;
+                    }
+                }
+            }
+        }
+        let mut p = [0.0; DIM];
+        let info = match self.solver {
+            ContactSolver::Reference => {
+                for j in 0..K {
+                    p[2 * j] = self.warm[cs[j].index][0];
+                    p[2 * j + 1] = self.warm[cs[j].index][1];
+                }
+                solver::gauss_seidel(prob, &mut p, self.tol_rel, self.tol_abs, self.max_iter)
+            }
+            ContactSolver::Fast => {
+                let mut modes = [ContactMode::Stick; MAX_CLOSED];
+                for j in 0..K {
+                    modes[j] = self.modes[cs[j].index];
+                }
+                let info = solver::exact_k::<K>(prob, &mut modes, &mut p, self.max_iter);
+                for j in 0..K {
+                    self.modes[cs[j].index] = modes[j];
+                }
+                info
+            }
+        };
+        if self.audit {
+            self.counters.max_residual = self.counters.max_residual.max(prob.residual(&p));
+        }
+        let c = &mut self.counters;
+        c.solver_iterations += info.iterations as u64;
+        c.max_iterations = c.max_iterations.max(info.iterations);
+        c.cap_hits += info.capped as u64;
+        c.first_guess_hits += info.first_guess as u64;
+        c.linear_solves += info.linear_solves as u64;
+        c.enumerations += info.enumerated as u64;
+        c.fallbacks += info.fallback as u64;
+        // u_E = u_free + M⁻¹ W P.
+        for j in 0..K {
+            let (pn, pt) = (p[2 * j], p[2 * j + 1]);
+            let cj = cs[j];
+            self.warm[cj.index] = [pn, pt];
+            self.last_p[cj.index] = [pn, pt];
+            for m in 0..N {
+                vb[m] += cj.wb[0][m] * pn + cj.wb[1][m] * pt;
+            }
+            for m in 0..3 {
+                vs[m] += ms[j][0][m] * pn + ms[j][1][m] * pt;
+            }
+        }
     }
 }
