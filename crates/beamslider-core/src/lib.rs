@@ -30,3 +30,7 @@ pub use simulation::{
     set_simd,
 };
 pub use stepper::Counters;
+pub mod classify;
+pub mod map;
+pub use classify::{Behaviour, Classification, Criteria, SuperSlow, classify};
+pub use map::{Axis, Grid, MapConfig, MapOutcome, MapPoint, MapRow, MapRunOptions, run_map};

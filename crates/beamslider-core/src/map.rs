@@ -1,0 +1,752 @@
+//! Operating maps (MODEL.md §8; paper, Fig. 11): the behaviour of the free slider at every point
+//! of a grid of excitation frequency f_ex, level a_ex and initial position s₀, each point a 120-s
+//! run classified by [`crate::classify`].
+//!
+//! Points run in parallel (rayon). Each finished point is appended at once as one JSON line to a
+//! results file (`map.jsonl`) and flushed, so a killed run loses only the points in flight; a
+//! later run with `resume` skips the points already in the file (a truncated last line from the
+//! kill is cut off first). Every point is computed independently from the same inputs, so the rows
+//! do not depend on the number of threads (bitwise, apart from `wall_time_s`).
+//!
+//! Results file: line 1 is a header `{"beamslider_map": 1, "settings": {...}}` with everything
+//! that decides a row besides the grid point (parameters, duration, recording interval,
+//! classification thresholds); resuming with different settings is an error. Each further line
+//! is one [`MapRow`]. Memory per point in flight: w(4L/7) and s every `record_every`-th step only.
+
+use std::collections::HashSet;
+use std::fs::{File, OpenOptions};
+use std::io::{BufRead, BufReader, Seek, SeekFrom, Write};
+use std::path::{Path, PathBuf};
+use std::sync::Mutex;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Instant;
+
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use crate::classify::{Behaviour, Classification, Criteria, SuperSlow, classify};
+use crate::error::{Error, Result};
+use crate::params::Params;
+use crate::record::{Channel, Recorder};
+use crate::simulation::{CancelFlag, Excitation, Model, RunOptions, SliderModel, Status};
+use crate::stepper::Counters;
+
+/// Name of the results file inside the output folder.
+pub const RESULTS_FILE: &str = "map.jsonl";
+/// Version written in the results file's header.
+pub const FORMAT_VERSION: u32 = 1;
+
+/// One grid axis: a list of values, or an inclusive range `{ start, stop, step }`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum Axis {
+    /// Explicit values.
+    List(Vec<f64>),
+    /// start, start + step, …, up to and including stop (within step/1000).
+    Range {
+        /// First value.
+        start: f64,
+        /// Last value (included when on the grid).
+        stop: f64,
+        /// Spacing (> 0).
+        step: f64,
+    },
+    /// A single value.
+    Value(f64),
+}
+
+impl Axis {
+    /// The values of the axis (range values rounded to 1e-9 to avoid 100.00000000000001).
+    pub fn values(&self, field: &str) -> Result<Vec<f64>> {
+        let v = match self {
+            Axis::List(v) => v.clone(),
+            Axis::Value(x) => vec![*x],
+            Axis::Range { start, stop, step } => {
+                if !(start.is_finite() && stop.is_finite() && step.is_finite() && *step > 0.0 && stop >= start) {
+                    return Err(Error::invalid(field, format!("{{start={start}, stop={stop}, step={step}}}"), "need finite start <= stop and step > 0"));
+                }
+                let n = ((stop - start) / step + 1e-3).floor() as usize + 1;
+                (0..n).map(|i| ((start + i as f64 * step) * 1e9).round() / 1e9).collect()
+            }
+        };
+        if v.is_empty() {
+            return Err(Error::invalid(field, "[]", "need at least one value"));
+        }
+        if v.iter().any(|x| !x.is_finite()) {
+            return Err(Error::invalid(field, "non-finite", "all values must be finite"));
+        }
+        Ok(v)
+    }
+}
+
+/// The grid of operating points.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Grid {
+    /// Excitation frequencies f_ex [Hz].
+    pub f_ex_hz: Axis,
+    /// Excitation levels a_ex [m/s²].
+    pub a_ex_m_s2: Axis,
+    /// Initial slider positions s₀ [-].
+    #[serde(default = "default_s0")]
+    pub s0: Axis,
+}
+
+fn default_s0() -> Axis {
+    Axis::Value(0.3)
+}
+
+fn default_duration() -> f64 {
+    120.0
+}
+
+fn default_record_every() -> usize {
+    20
+}
+
+/// A map: parameters, grid, duration, recording interval and classification thresholds. As TOML:
+///
+/// ```toml
+/// duration_s = 120.0          # simulated time per point [s]
+/// # dt_s = 2e-5               # time step; overrides params.dt_s
+/// # record_every = 20         # steps between the samples kept for the classifier
+/// [grid]
+/// f_ex_hz = { start = 100.0, stop = 130.0, step = 2.0 }
+/// a_ex_m_s2 = [4.0, 6.0, 8.0, 10.0, 12.0, 14.0, 16.0]
+/// s0 = 0.3
+/// [params]                    # any keys of `beamslider-batch params` (defaults otherwise)
+/// friction_coefficient = 0.2
+/// [criteria]                  # classification thresholds (defaults otherwise)
+/// high_h = 0.3
+/// ```
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MapConfig {
+    /// Simulated duration per point [s].
+    #[serde(default = "default_duration")]
+    pub duration_s: f64,
+    /// Time step [s]; overrides `params.dt_s` when given.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub dt_s: Option<f64>,
+    /// Keep every k-th step of w(4L/7) and s for the classifier.
+    #[serde(default = "default_record_every")]
+    pub record_every: usize,
+    /// The grid.
+    pub grid: Grid,
+    /// Model parameters.
+    #[serde(default)]
+    pub params: Params,
+    /// Classification thresholds.
+    #[serde(default)]
+    pub criteria: Criteria,
+}
+
+impl Default for MapConfig {
+    /// The paper's map (Fig. 11): f_ex = 100, 102, …, 130 Hz, a_ex = 4, 6, …, 16 m/s², s₀ = 0.3,
+    /// 120 s, default parameters.
+    fn default() -> Self {
+        MapConfig {
+            duration_s: 120.0,
+            dt_s: None,
+            record_every: default_record_every(),
+            grid: Grid {
+                f_ex_hz: Axis::Range { start: 100.0, stop: 130.0, step: 2.0 },
+                a_ex_m_s2: Axis::Range { start: 4.0, stop: 16.0, step: 2.0 },
+                s0: default_s0(),
+            },
+            params: Params::default(),
+            criteria: Criteria::default(),
+        }
+    }
+}
+
+/// One operating point of the grid.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MapPoint {
+    /// Position in the grid (s₀ slowest, then a_ex, f_ex fastest).
+    pub index: usize,
+    /// f_ex [Hz].
+    pub f_ex_hz: f64,
+    /// a_ex [m/s²].
+    pub a_ex_m_s2: f64,
+    /// s₀.
+    pub s0: f64,
+}
+
+impl MapPoint {
+    fn key(&self) -> (u64, u64, u64) {
+        (self.f_ex_hz.to_bits(), self.a_ex_m_s2.to_bits(), self.s0.to_bits())
+    }
+}
+
+/// What decides a row besides the grid point: written to the results header, compared on resume.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Settings {
+    /// Parameters as canonical TOML text (dt_s included).
+    pub params_toml: String,
+    /// Simulated duration per point [s].
+    pub duration_s: f64,
+    /// Recording interval in steps.
+    pub record_every: usize,
+    /// Classification thresholds.
+    pub criteria: Criteria,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+struct Header {
+    beamslider_map: u32,
+    settings: Settings,
+}
+
+impl MapConfig {
+    /// Parse TOML text and validate.
+    pub fn from_toml_str(text: &str) -> Result<MapConfig> {
+        let c: MapConfig = toml::from_str(text).map_err(|e| Error::Toml { path: None, message: e.to_string().trim_end().to_string() })?;
+        c.validate()?;
+        Ok(c)
+    }
+
+    /// Read and validate a TOML file.
+    pub fn from_toml_file(path: impl AsRef<Path>) -> Result<MapConfig> {
+        let path = path.as_ref();
+        let text = std::fs::read_to_string(path).map_err(|source| Error::Io { path: path.display().to_string(), source })?;
+        Self::from_toml_str(&text).map_err(|e| match e {
+            Error::Toml { message, .. } => Error::Toml { path: Some(path.display().to_string()), message },
+            other => other,
+        })
+    }
+
+    /// TOML text of this configuration.
+    pub fn to_toml_string(&self) -> String {
+        toml::to_string(self).expect("plain struct of numbers and strings always serialises")
+    }
+
+    /// The parameters with the `dt_s` override applied.
+    pub fn effective_params(&self) -> Params {
+        let mut p = self.params.clone();
+        if let Some(dt) = self.dt_s {
+            p.dt_s = dt;
+        }
+        p
+    }
+
+    /// Check the settings and the grid.
+    pub fn validate(&self) -> Result<()> {
+        if !(self.duration_s.is_finite() && self.duration_s > 0.0) {
+            return Err(Error::invalid("duration_s", self.duration_s, "must be finite and > 0"));
+        }
+        if self.record_every == 0 {
+            return Err(Error::invalid("record_every", 0, "must be >= 1"));
+        }
+        self.effective_params().validate()?;
+        self.points()?;
+        Ok(())
+    }
+
+    /// All grid points (s₀ slowest, then a_ex, f_ex fastest).
+    pub fn points(&self) -> Result<Vec<MapPoint>> {
+        let f = self.grid.f_ex_hz.values("grid.f_ex_hz")?;
+        let a = self.grid.a_ex_m_s2.values("grid.a_ex_m_s2")?;
+        let s = self.grid.s0.values("grid.s0")?;
+        for &x in &f {
+            Excitation::new(x, 1.0).validate()?;
+        }
+        for &x in &a {
+            Excitation::new(1.0, x).validate()?;
+        }
+        let mut pts = Vec::with_capacity(f.len() * a.len() * s.len());
+        for &s0 in &s {
+            for &a_ex in &a {
+                for &f_ex in &f {
+                    pts.push(MapPoint { index: pts.len(), f_ex_hz: f_ex, a_ex_m_s2: a_ex, s0 });
+                }
+            }
+        }
+        Ok(pts)
+    }
+
+    /// The settings that decide a row besides the point.
+    pub fn settings(&self) -> Settings {
+        Settings {
+            params_toml: self.effective_params().to_toml_string(),
+            duration_s: self.duration_s,
+            record_every: self.record_every,
+            criteria: self.criteria.clone(),
+        }
+    }
+}
+
+/// Solver and contact counters of one run (as [`Counters`]).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
+pub struct RowCounters {
+    /// Time steps taken.
+    pub steps: u64,
+    /// Steps with at least one closed contact.
+    pub contact_steps: u64,
+    /// Steps by number of closed contacts (0..=4).
+    pub closed_histogram: [u64; 5],
+    /// Gauss–Seidel sweeps in total.
+    pub solver_iterations: u64,
+    /// Largest number of sweeps in one step.
+    pub max_iterations: u32,
+    /// Steps that hit the iteration cap.
+    pub cap_hits: u64,
+    /// Fast solver: steps where the previous pattern fitted at once.
+    pub first_guess_hits: u64,
+    /// Fast solver: linear solves.
+    pub linear_solves: u64,
+    /// Fast solver: enumerations of all patterns.
+    pub enumerations: u64,
+    /// Fast solver: Gauss–Seidel fallbacks.
+    pub fallbacks: u64,
+}
+
+impl From<&Counters> for RowCounters {
+    fn from(c: &Counters) -> Self {
+        RowCounters {
+            steps: c.steps,
+            contact_steps: c.contact_steps,
+            closed_histogram: c.closed_histogram,
+            solver_iterations: c.solver_iterations,
+            max_iterations: c.max_iterations,
+            cap_hits: c.cap_hits,
+            first_guess_hits: c.first_guess_hits,
+            linear_solves: c.linear_solves,
+            enumerations: c.enumerations,
+            fallbacks: c.fallbacks,
+        }
+    }
+}
+
+/// One line of the results file: the inputs, the run's status, the behaviour with its features,
+/// the counters and the wall time. NaN features (no turning point) are written as `null`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct MapRow {
+    /// Position in the grid.
+    pub index: usize,
+    /// f_ex [Hz].
+    pub f_ex_hz: f64,
+    /// a_ex [m/s²].
+    pub a_ex_m_s2: f64,
+    /// s₀.
+    pub s0: f64,
+    /// Simulated time reached [s].
+    pub t_end_s: f64,
+    /// Run status: completed, left_beam, diverged.
+    pub status: String,
+    /// Behaviour name.
+    pub behaviour: Behaviour,
+    /// Reason of the decision.
+    pub reason: String,
+    /// Mean s over the final window.
+    pub s_final: f64,
+    /// Mean amplitude over the final window [h].
+    pub amplitude_final_h: f64,
+    /// Mean amplitude over t = 1…3 s [h].
+    pub amplitude_initial_h: f64,
+    /// Largest amplitude [h].
+    pub amplitude_max_h: f64,
+    /// Smallest s.
+    pub s_min: f64,
+    /// Largest s.
+    pub s_max: f64,
+    /// s_final − s₀.
+    pub net_travel: f64,
+    /// Net travel towards the centre.
+    pub travel_to_centre: f64,
+    /// Turning point s (null when none).
+    pub turn_s: Option<f64>,
+    /// Turning point t [s] (null when none).
+    pub turn_t_s: Option<f64>,
+    /// Jump-up times [s].
+    pub jump_up_t_s: Vec<f64>,
+    /// Jump-down times [s].
+    pub jump_down_t_s: Vec<f64>,
+    /// Steady state reached.
+    pub steady: bool,
+    /// Solver counters.
+    pub counters: RowCounters,
+    /// Wall time of the point [s] (the only field that differs between identical runs).
+    pub wall_time_s: f64,
+}
+
+fn finite(x: f64) -> Option<f64> {
+    x.is_finite().then_some(x)
+}
+
+impl MapRow {
+    fn new(p: &MapPoint, t_end_s: f64, status: &Status, c: &Classification, counters: &Counters, wall: f64) -> MapRow {
+        MapRow {
+            index: p.index,
+            f_ex_hz: p.f_ex_hz,
+            a_ex_m_s2: p.a_ex_m_s2,
+            s0: p.s0,
+            t_end_s,
+            status: status.name().to_string(),
+            behaviour: c.behaviour,
+            reason: c.reason.clone(),
+            s_final: c.s_final,
+            amplitude_final_h: c.amplitude_final_h,
+            amplitude_initial_h: c.amplitude_initial_h,
+            amplitude_max_h: c.amplitude_max_h,
+            s_min: c.s_min,
+            s_max: c.s_max,
+            net_travel: c.net_travel,
+            travel_to_centre: c.travel_to_centre,
+            turn_s: finite(c.turn_s),
+            turn_t_s: finite(c.turn_t_s),
+            jump_up_t_s: c.jump_up_t_s.clone(),
+            jump_down_t_s: c.jump_down_t_s.clone(),
+            steady: c.steady,
+            counters: counters.into(),
+            wall_time_s: wall,
+        }
+    }
+
+    /// The row as one JSON line (no trailing newline).
+    pub fn to_json(&self) -> String {
+        serde_json::to_string(self).expect("row serialises")
+    }
+
+    fn key(&self) -> (u64, u64, u64) {
+        (self.f_ex_hz.to_bits(), self.a_ex_m_s2.to_bits(), self.s0.to_bits())
+    }
+}
+
+/// Keeps w(4L/7) and s of every recorded row (channels [W4L7, S] only).
+#[derive(Default)]
+struct SuperSlowRecorder {
+    w: Vec<f64>,
+    s: Vec<f64>,
+}
+
+impl Recorder for SuperSlowRecorder {
+    fn begin(&mut self, _: &[String]) -> Result<()> {
+        Ok(())
+    }
+    fn push(&mut self, row: &[f64]) -> Result<()> {
+        self.w.push(row[0]);
+        self.s.push(row[1]);
+        Ok(())
+    }
+}
+
+/// Run and classify one point. `None` when cancelled.
+pub fn run_point(model: &Model, cfg: &MapConfig, p: &MapPoint, cancel: &AtomicBool) -> Result<Option<MapRow>> {
+    let t0 = Instant::now();
+    let exc = Excitation::new(p.f_ex_hz, p.a_ex_m_s2);
+    let start = model.initial_state(p.s0, &exc)?;
+    let opts = RunOptions {
+        excitation: exc,
+        model: SliderModel::Free,
+        duration_s: cfg.duration_s,
+        record_every: cfg.record_every,
+        channels: vec![Channel::W4L7, Channel::S],
+        audit_contacts: false,
+    };
+    let steps = (cfg.duration_s / model.params.dt_s).round() as usize;
+    let mut rec = SuperSlowRecorder {
+        w: Vec::with_capacity(steps / cfg.record_every + 2),
+        s: Vec::with_capacity(steps / cfg.record_every + 2),
+    };
+    let sum = model.run(&start, &opts, &mut rec, &mut CancelFlag(cancel))?;
+    if let Status::Interrupted { .. } = sum.status {
+        return Ok(None);
+    }
+    let dt = model.params.dt_s * cfg.record_every as f64;
+    let t_end = (rec.s.len().saturating_sub(1)) as f64 * dt;
+    let c = if rec.s.len() >= 2 {
+        let x = SuperSlow::from_displacement(0.0, dt, &rec.w, &rec.s, model.params.thickness_m, 1.0)?;
+        drop(rec);
+        let mut c = classify(&x, &cfg.criteria)?;
+        if sum.status != Status::Completed {
+            c.behaviour = Behaviour::Undetermined;
+            c.reason = sum.status.message();
+        }
+        c
+    } else {
+        Classification {
+            behaviour: Behaviour::Undetermined,
+            reason: sum.status.message(),
+            s_initial: p.s0,
+            s_final: f64::NAN,
+            amplitude_final_h: f64::NAN,
+            amplitude_initial_h: f64::NAN,
+            amplitude_max_h: f64::NAN,
+            s_min: f64::NAN,
+            s_max: f64::NAN,
+            net_travel: f64::NAN,
+            travel_to_centre: f64::NAN,
+            turn_s: f64::NAN,
+            turn_t_s: f64::NAN,
+            jump_up_t_s: vec![],
+            jump_down_t_s: vec![],
+            steady: false,
+        }
+    };
+    Ok(Some(MapRow::new(p, t_end, &sum.status, &c, &sum.counters, t0.elapsed().as_secs_f64())))
+}
+
+/// Contents of an existing results file.
+#[derive(Debug, Clone, Default)]
+pub struct ResultsFile {
+    /// Settings from the header (None for an empty file).
+    pub settings: Option<Settings>,
+    /// Complete rows in file order.
+    pub rows: Vec<MapRow>,
+    /// Byte length of the complete part (a truncated last line starts here).
+    pub good_len: u64,
+    /// Whether the file ended in an incomplete line.
+    pub truncated: bool,
+}
+
+fn io_err(path: &Path, source: std::io::Error) -> Error {
+    Error::Io { path: path.display().to_string(), source }
+}
+
+/// Read a results file. Only lines ending in a newline count; an incomplete or unparsable *last*
+/// line (a run killed while writing) is reported as `truncated` and ignored; a bad line elsewhere
+/// is an error.
+pub fn read_results(path: &Path) -> Result<ResultsFile> {
+    let f = File::open(path).map_err(|e| io_err(path, e))?;
+    let mut r = BufReader::new(f);
+    let mut out = ResultsFile::default();
+    let mut line = String::new();
+    let mut lineno = 0;
+    let mut pending_bad: Option<usize> = None;
+    loop {
+        line.clear();
+        let n = r.read_line(&mut line).map_err(|e| io_err(path, e))?;
+        if n == 0 {
+            break;
+        }
+        lineno += 1;
+        if let Some(bad) = pending_bad {
+            return Err(Error::invalid("results file", format!("{}:{bad}", path.display()), "a line in the middle of the file is not a complete result row"));
+        }
+        if !line.ends_with('\n') {
+            out.truncated = true;
+            break;
+        }
+        let text = line.trim_end();
+        let ok = if lineno == 1 {
+            match serde_json::from_str::<Header>(text) {
+                Ok(h) => {
+                    if h.beamslider_map != FORMAT_VERSION {
+                        return Err(Error::invalid("results file", path.display(), &format!("format version {} (this build reads {FORMAT_VERSION})", h.beamslider_map)));
+                    }
+                    out.settings = Some(h.settings);
+                    true
+                }
+                Err(_) => false,
+            }
+        } else if text.is_empty() {
+            true
+        } else {
+            match serde_json::from_str::<MapRow>(text) {
+                Ok(row) => {
+                    out.rows.push(row);
+                    true
+                }
+                Err(_) => false,
+            }
+        };
+        if ok {
+            out.good_len += n as u64;
+        } else {
+            pending_bad = Some(lineno);
+        }
+    }
+    if pending_bad.is_some() {
+        out.truncated = true;
+    }
+    Ok(out)
+}
+
+/// Progress of a map: called after every finished point with (points done, points total, row).
+pub type Progress<'a> = &'a (dyn Fn(usize, usize, &MapRow) + Sync);
+
+/// Outcome of [`run_map`].
+#[derive(Debug, Clone)]
+pub struct MapOutcome {
+    /// All rows of the grid present in the results (resumed and new), sorted by grid index.
+    pub rows: Vec<MapRow>,
+    /// Points skipped because they were already in the results file.
+    pub resumed: usize,
+    /// Points computed by this call.
+    pub computed: usize,
+    /// Whether the run was cancelled before all points were done.
+    pub cancelled: bool,
+}
+
+/// How to run a map.
+#[derive(Debug, Clone, Default)]
+pub struct MapRunOptions {
+    /// Results file (JSON lines); `None` keeps the rows in memory only.
+    pub out: Option<PathBuf>,
+    /// Continue an existing results file: skip its points (otherwise an existing file is an error).
+    pub resume: bool,
+    /// Worker threads (None = rayon's default: one per core).
+    pub threads: Option<usize>,
+}
+
+struct Sink {
+    file: Option<(File, PathBuf)>,
+    rows: Vec<MapRow>,
+    done: usize,
+    error: Option<Error>,
+}
+
+/// Run the grid of `cfg` in parallel, appending each finished point to the results file.
+/// Setting `cancel` stops the map: points in flight are abandoned, finished ones are kept.
+pub fn run_map(cfg: &MapConfig, opts: &MapRunOptions, cancel: &AtomicBool, progress: Progress<'_>) -> Result<MapOutcome> {
+    cfg.validate()?;
+    let points = cfg.points()?;
+    let settings = cfg.settings();
+    let model = Model::new(cfg.effective_params())?;
+    let mut existing: Vec<MapRow> = Vec::new();
+    let file = match &opts.out {
+        None => None,
+        Some(path) => {
+            if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+                std::fs::create_dir_all(dir).map_err(|e| io_err(dir, e))?;
+            }
+            let exists = path.exists() && std::fs::metadata(path).map(|m| m.len() > 0).unwrap_or(false);
+            if exists && !opts.resume {
+                return Err(Error::invalid("out", path.display(), "the results file exists: resume it, or choose another output"));
+            }
+            let mut f = OpenOptions::new().create(true).read(true).write(true).truncate(false).open(path).map_err(|e| io_err(path, e))?;
+            if exists {
+                let old = read_results(path)?;
+                match &old.settings {
+                    Some(s) if *s == settings => {}
+                    Some(_) => {
+                        return Err(Error::invalid("resume", path.display(), "the results file was written with other settings (parameters, duration, record_every or criteria); only the grid may change"));
+                    }
+                    None => {}
+                }
+                f.set_len(old.good_len).map_err(|e| io_err(path, e))?;
+                f.seek(SeekFrom::End(0)).map_err(|e| io_err(path, e))?;
+                if old.settings.is_none() {
+                    write_line(&mut f, path, &header_line(&settings))?;
+                }
+                existing = old.rows;
+            } else {
+                f.set_len(0).map_err(|e| io_err(path, e))?;
+                write_line(&mut f, path, &header_line(&settings))?;
+            }
+            Some((f, path.clone()))
+        }
+    };
+    // Points already done (by inputs, not by index: the grid may have changed).
+    let done_keys: HashSet<_> = existing.iter().map(MapRow::key).collect();
+    let mut kept: Vec<MapRow> = Vec::new();
+    let mut seen = HashSet::new();
+    for p in &points {
+        if done_keys.contains(&p.key())
+            && seen.insert(p.key())
+            && let Some(r) = existing.iter().find(|r| r.key() == p.key())
+        {
+            let mut r = r.clone();
+            r.index = p.index;
+            kept.push(r);
+        }
+    }
+    let todo: Vec<MapPoint> = points.iter().filter(|p| !done_keys.contains(&p.key())).copied().collect();
+    let total = points.len();
+    let resumed = kept.len();
+    let sink = Mutex::new(Sink { file, rows: kept, done: resumed, error: None });
+    let work = || {
+        todo.par_iter().with_max_len(1).for_each(|p| {
+            if cancel.load(Ordering::Relaxed) {
+                return;
+            }
+            let r = run_point(&model, cfg, p, cancel);
+            let mut g = sink.lock().unwrap_or_else(|e| e.into_inner());
+            match r {
+                Ok(Some(row)) => {
+                    if let Some((f, path)) = &mut g.file
+                        && let Err(e) = write_line(f, path, &row.to_json())
+                    {
+                        g.error.get_or_insert(e);
+                        cancel.store(true, Ordering::Relaxed);
+                        return;
+                    }
+                    g.done += 1;
+                    progress(g.done, total, &row);
+                    g.rows.push(row);
+                }
+                Ok(None) => {}
+                Err(e) => {
+                    g.error.get_or_insert(e);
+                    cancel.store(true, Ordering::Relaxed);
+                }
+            }
+        })
+    };
+    match opts.threads {
+        Some(n) => {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(n.max(1))
+                .build()
+                .map_err(|e| Error::Numerical(format!("cannot start {n} threads: {e}")))?;
+            pool.install(work);
+        }
+        None => work(),
+    }
+    let sink = sink.into_inner().unwrap_or_else(|e| e.into_inner());
+    if let Some(e) = sink.error {
+        return Err(e);
+    }
+    let mut rows = sink.rows;
+    rows.sort_by_key(|r| r.index);
+    let computed = rows.len() - resumed;
+    Ok(MapOutcome { cancelled: rows.len() < total, rows, resumed, computed })
+}
+
+fn header_line(s: &Settings) -> String {
+    serde_json::to_string(&Header { beamslider_map: FORMAT_VERSION, settings: s.clone() }).expect("header serialises")
+}
+
+/// Append one line and flush it to the operating system.
+fn write_line(f: &mut File, path: &Path, line: &str) -> Result<()> {
+    let mut buf = String::with_capacity(line.len() + 1);
+    buf.push_str(line);
+    buf.push('\n');
+    f.write_all(buf.as_bytes()).map_err(|e| io_err(path, e))?;
+    f.flush().map_err(|e| io_err(path, e))
+}
+
+/// The map as text: one row per a_ex (highest first, as in the paper's figure), one column per
+/// f_ex, one letter per behaviour ([`Behaviour::letter`]); one block per s₀.
+pub fn text_table(rows: &[MapRow]) -> String {
+    use std::fmt::Write as _;
+    let mut s0s: Vec<f64> = rows.iter().map(|r| r.s0).collect();
+    s0s.sort_by(f64::total_cmp);
+    s0s.dedup();
+    let mut out = String::new();
+    for s0 in s0s {
+        let sub: Vec<&MapRow> = rows.iter().filter(|r| r.s0 == s0).collect();
+        let mut fs: Vec<f64> = sub.iter().map(|r| r.f_ex_hz).collect();
+        fs.sort_by(f64::total_cmp);
+        fs.dedup();
+        let mut as_: Vec<f64> = sub.iter().map(|r| r.a_ex_m_s2).collect();
+        as_.sort_by(f64::total_cmp);
+        as_.dedup();
+        let _ = writeln!(out, "s0 = {s0}; rows a_ex [m/s^2], columns f_ex [Hz]; I inactivity, T trivial adaption, S signature move, R relaxation oscillation, D self-damping, ? undetermined, . not run");
+        let _ = write!(out, "{:>6} ", "a\\f");
+        for f in &fs {
+            let _ = write!(out, "{:>4}", format!("{f}"));
+        }
+        out.push('\n');
+        for a in as_.iter().rev() {
+            let _ = write!(out, "{:>6} ", format!("{a}"));
+            for f in &fs {
+                let c = sub.iter().find(|r| r.f_ex_hz == *f && r.a_ex_m_s2 == *a).map_or('.', |r| r.behaviour.letter());
+                let _ = write!(out, "{c:>4}");
+            }
+            out.push('\n');
+        }
+    }
+    out
+}

@@ -1,0 +1,135 @@
+//! Operating maps: configuration, thread-count independence, resume after a truncated write.
+
+use std::sync::atomic::AtomicBool;
+
+use beamslider_core::map::{self, MapConfig, MapRow, MapRunOptions, read_results, run_map};
+
+fn small(duration: f64) -> MapConfig {
+    MapConfig::from_toml_str(&format!(
+        "duration_s = {duration}\n[grid]\nf_ex_hz = {{ start = 118.0, stop = 124.0, step = 2.0 }}\na_ex_m_s2 = [6.0, 14.0]\ns0 = 0.3\n"
+    ))
+    .unwrap()
+}
+
+fn tmp(name: &str) -> std::path::PathBuf {
+    let d = std::env::temp_dir().join(format!("bs-map-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// Rows as JSON with the wall time zeroed (the only field allowed to differ).
+fn canon(rows: &[MapRow]) -> Vec<String> {
+    rows.iter().map(|r| MapRow { wall_time_s: 0.0, ..r.clone() }.to_json()).collect()
+}
+
+fn none(_: usize, _: usize, _: &MapRow) {}
+
+#[test]
+fn default_config_is_the_papers_map() {
+    let c = MapConfig::default();
+    let pts = c.points().unwrap();
+    assert_eq!(pts.len(), 16 * 7);
+    assert_eq!(pts[0].f_ex_hz, 100.0);
+    assert_eq!(pts[15].f_ex_hz, 130.0);
+    assert_eq!(pts[16].a_ex_m_s2, 6.0);
+    assert_eq!(pts[111].a_ex_m_s2, 16.0);
+    assert!(pts.iter().all(|p| p.s0 == 0.3));
+    assert_eq!(c.duration_s, 120.0);
+    // Round trip through TOML.
+    let back = MapConfig::from_toml_str(&c.to_toml_string()).unwrap();
+    assert_eq!(back, c);
+}
+
+#[test]
+fn config_errors_name_the_field() {
+    let e = MapConfig::from_toml_str("[grid]\nf_ex_hz = [-1.0]\na_ex_m_s2 = 4.0\n").unwrap_err().to_string();
+    assert!(e.contains("f_ex_hz"), "{e}");
+    let e = MapConfig::from_toml_str("[grid]\nf_ex_hz = { start = 130.0, stop = 100.0, step = 2.0 }\na_ex_m_s2 = 4.0\n").unwrap_err().to_string();
+    assert!(e.contains("grid.f_ex_hz"), "{e}");
+    let e = MapConfig::from_toml_str("duration_s = 0.0\n[grid]\nf_ex_hz = 100.0\na_ex_m_s2 = 4.0\n").unwrap_err().to_string();
+    assert!(e.contains("duration_s"), "{e}");
+    let e = MapConfig::from_toml_str("[grid]\nf_ex_hz = 100.0\na_ex_m_s2 = 4.0\n[params]\nslider_mass_kg = -1.0\n").unwrap_err().to_string();
+    assert!(e.contains("slider_mass_kg"), "{e}");
+    let e = MapConfig::from_toml_str("[grid]\nf_ex_hz = 100.0\na_ex_m_s2 = 4.0\nbogus = 1\n").unwrap_err().to_string();
+    assert!(e.contains("bogus"), "{e}");
+}
+
+#[test]
+fn rows_do_not_depend_on_the_number_of_threads() {
+    let cfg = small(2.0);
+    let cancel = AtomicBool::new(false);
+    let d = tmp("threads");
+    let mut all = Vec::new();
+    for threads in [1, 2, 3] {
+        let out = d.join(format!("t{threads}.jsonl"));
+        let o = run_map(&cfg, &MapRunOptions { out: Some(out.clone()), resume: false, threads: Some(threads) }, &cancel, &none).unwrap();
+        assert_eq!(o.rows.len(), 8);
+        assert_eq!(o.computed, 8);
+        // The file holds the same rows (in completion order).
+        let mut file_rows = read_results(&out).unwrap().rows;
+        file_rows.sort_by_key(|r| r.index);
+        assert_eq!(canon(&file_rows), canon(&o.rows));
+        all.push(canon(&o.rows));
+    }
+    assert_eq!(all[0], all[1]);
+    assert_eq!(all[0], all[2]);
+    // In memory only, too.
+    let o = run_map(&cfg, &MapRunOptions::default(), &cancel, &none).unwrap();
+    assert_eq!(canon(&o.rows), all[0]);
+}
+
+#[test]
+fn resume_after_a_truncated_last_line_loses_nothing_and_duplicates_nothing() {
+    let cfg = small(2.0);
+    let cancel = AtomicBool::new(false);
+    let d = tmp("resume");
+    let full_path = d.join("full.jsonl");
+    let full = run_map(&cfg, &MapRunOptions { out: Some(full_path.clone()), resume: false, threads: Some(2) }, &cancel, &none).unwrap();
+    // A killed run: the header, three complete rows and half of a fourth.
+    let text = std::fs::read_to_string(&full_path).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    let cut = d.join("cut.jsonl");
+    let mut partial = lines[..4].join("\n");
+    partial.push('\n');
+    partial.push_str(&lines[4][..lines[4].len() / 2]);
+    std::fs::write(&cut, &partial).unwrap();
+    let r = read_results(&cut).unwrap();
+    assert!(r.truncated);
+    assert_eq!(r.rows.len(), 3);
+    // Without --resume an existing file is refused.
+    assert!(run_map(&cfg, &MapRunOptions { out: Some(cut.clone()), resume: false, threads: Some(2) }, &cancel, &none).is_err());
+    let o = run_map(&cfg, &MapRunOptions { out: Some(cut.clone()), resume: true, threads: Some(2) }, &cancel, &none).unwrap();
+    assert_eq!(o.resumed, 3);
+    assert_eq!(o.computed, 5);
+    assert_eq!(canon(&o.rows), canon(&full.rows));
+    let after = read_results(&cut).unwrap();
+    assert!(!after.truncated);
+    assert_eq!(after.rows.len(), 8);
+    let mut idx: Vec<usize> = after.rows.iter().map(|r| r.index).collect();
+    idx.sort();
+    assert_eq!(idx, (0..8).collect::<Vec<_>>());
+    // Resuming a complete map computes nothing.
+    let o = run_map(&cfg, &MapRunOptions { out: Some(cut.clone()), resume: true, threads: Some(2) }, &cancel, &none).unwrap();
+    assert_eq!((o.resumed, o.computed), (8, 0));
+    assert_eq!(read_results(&cut).unwrap().rows.len(), 8);
+    // Other settings cannot resume the file; a grown grid can.
+    let mut other = cfg.clone();
+    other.duration_s = 1.0;
+    let e = run_map(&other, &MapRunOptions { out: Some(cut.clone()), resume: true, threads: Some(2) }, &cancel, &none).unwrap_err();
+    assert!(e.to_string().contains("other settings"), "{e}");
+    let mut grown = cfg.clone();
+    grown.grid.a_ex_m_s2 = beamslider_core::Axis::List(vec![6.0, 10.0, 14.0]);
+    let o = run_map(&grown, &MapRunOptions { out: Some(cut.clone()), resume: true, threads: Some(2) }, &cancel, &none).unwrap();
+    assert_eq!((o.resumed, o.computed, o.rows.len()), (8, 4, 12));
+    assert!(map::text_table(&o.rows).lines().count() == 5);
+}
+
+#[test]
+fn cancelled_map_keeps_finished_points() {
+    let cfg = small(2.0);
+    let cancel = AtomicBool::new(true);
+    let o = run_map(&cfg, &MapRunOptions::default(), &cancel, &none).unwrap();
+    assert!(o.cancelled);
+    assert!(o.rows.is_empty());
+}
