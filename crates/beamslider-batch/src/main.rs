@@ -98,6 +98,31 @@ enum Command {
     },
     /// Print the default parameters as TOML (a template for --params).
     Params,
+    /// Operating map (MODEL.md §8, the paper's Fig. 11): classify the behaviour of the free slider at
+    /// every point of an (f_ex, a_ex, s0) grid, in parallel. Each finished point is appended at once
+    /// to DIR/map.jsonl; --resume skips the points already there. At the end DIR/map.txt holds the
+    /// map as a letter table.
+    Map {
+        /// Map configuration (TOML: duration_s, dt_s, record_every, [grid], [params], [criteria]);
+        /// default: the paper's map (f_ex 100..130 step 2 Hz, a_ex 4..16 step 2 m/s^2, s0 0.3, 120 s).
+        #[arg(long, short = 'c', value_name = "FILE")]
+        config: Option<PathBuf>,
+        /// Output folder (map.jsonl, map.toml, map.txt).
+        #[arg(long, short = 'o', value_name = "DIR")]
+        out: PathBuf,
+        /// Worker threads (default: one per core).
+        #[arg(long, short = 'j')]
+        threads: Option<usize>,
+        /// Continue the results in DIR: skip the points already there.
+        #[arg(long)]
+        resume: bool,
+        /// Print the default configuration (the paper's map) as TOML and exit.
+        #[arg(long)]
+        print_config: bool,
+        /// Hide the progress bar.
+        #[arg(long, short = 'q')]
+        quiet: bool,
+    },
 }
 
 fn load_params(c: &Common) -> Result<Params> {
@@ -146,6 +171,17 @@ impl Monitor for Bar {
 
 fn run(cli: Cli) -> Result<()> {
     match cli.command {
+        Command::Map { config, out, threads, resume, print_config, quiet } => {
+            let cfg = match &config {
+                Some(path) => MapConfig::from_toml_file(path)?,
+                None => MapConfig::default(),
+            };
+            if print_config {
+                print!("{}", cfg.to_toml_string());
+                return Ok(());
+            }
+            run_map_command(&cfg, &out, threads, resume, quiet)?;
+        }
         Command::Params => {
             print!("{}", Params::default().to_toml_string());
         }
@@ -207,6 +243,46 @@ fn run(cli: Cli) -> Result<()> {
             w.flush().map_err(io)?;
         }
     }
+    Ok(())
+}
+
+fn run_map_command(cfg: &MapConfig, out: &std::path::Path, threads: Option<usize>, resume: bool, quiet: bool) -> Result<()> {
+    use std::sync::atomic::AtomicBool;
+    std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
+    let results = out.join(map::RESULTS_FILE);
+    let total = cfg.points()?.len();
+    let bar = if quiet { ProgressBar::hidden() } else { ProgressBar::new(total as u64) };
+    bar.set_style(
+        ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {pos}/{len} points (eta {eta}) {msg}")
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    let opts = MapRunOptions { out: Some(results.clone()), resume, threads };
+    let cancel = AtomicBool::new(false);
+    let first = std::sync::atomic::AtomicBool::new(true);
+    let progress = |done: usize, _total: usize, row: &MapRow| {
+        if first.swap(false, std::sync::atomic::Ordering::Relaxed) {
+            // ETA from the points computed now, not the resumed ones.
+            bar.set_position((done - 1) as u64);
+            bar.reset_eta();
+        }
+        bar.set_position(done as u64);
+        bar.set_message(format!("{} Hz {} m/s2: {}", row.f_ex_hz, row.a_ex_m_s2, row.behaviour));
+    };
+    std::fs::write(out.join("map.toml"), cfg.to_toml_string()).with_context(|| format!("cannot write {}", out.join("map.toml").display()))?;
+    let t0 = std::time::Instant::now();
+    let outcome = run_map(cfg, &opts, &cancel, &progress)?;
+    bar.finish_and_clear();
+    let table = map::text_table(&outcome.rows);
+    std::fs::write(out.join("map.txt"), &table).with_context(|| format!("cannot write {}", out.join("map.txt").display()))?;
+    print!("{table}");
+    eprintln!(
+        "{} points: {} computed in {:.1} s, {} from the results file; wrote {}",
+        outcome.rows.len(),
+        outcome.computed,
+        t0.elapsed().as_secs_f64(),
+        outcome.resumed,
+        results.display()
+    );
     Ok(())
 }
 
