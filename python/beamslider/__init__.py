@@ -8,26 +8,34 @@ Python face:
 - :func:`super_slow_manifold` — PCS continuation of the super-slow manifold (§6);
 - :func:`envelope` — |Hilbert| plus moving average (§7);
 - :func:`read_measurement` — the published measured data set (§7);
+- :func:`operating_map`, :func:`classify` — operating maps and behaviour classification (§8);
 - :mod:`beamslider.plotting` — the paper's three-panel figures; ``beamslider`` — the command line.
 """
 
 from ._core import SimulationError
 from .measurement import Measurement, MeasurementFormatError, parse_operating_point, read_measurement
 from .params import Parameters
+from .maps import Classification, classify, classify_result, operating_map, plot_operating_map, read_map
 from .simulate import ManifoldResult, SimulationResult, envelope, manifold_grid, simulate, super_slow_manifold
 
 __version__ = "0.1.0"
 
 __all__ = [
+    "Classification",
     "ManifoldResult",
     "Measurement",
     "MeasurementFormatError",
     "Parameters",
     "SimulationError",
     "SimulationResult",
+    "classify",
+    "classify_result",
     "envelope",
     "manifold_grid",
+    "operating_map",
     "parse_operating_point",
+    "plot_operating_map",
+    "read_map",
     "read_measurement",
     "simulate",
     "super_slow_manifold",

@@ -1,7 +1,7 @@
 """Type stubs of the compiled core binding (private; use the ``beamslider`` package)."""
 
 from os import PathLike
-from typing import Any, Callable, Dict, List, Optional, Sequence, Union
+from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -43,3 +43,22 @@ def super_slow_manifold(
 def hilbert_envelope(x: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]: ...
 def moving_average(x: npt.NDArray[np.float64], window: int) -> npt.NDArray[np.float64]: ...
 def envelope(x: npt.NDArray[np.float64], dt_s: float, window_s: float) -> npt.NDArray[np.float64]: ...
+def classify(
+    s: npt.NDArray[np.float64],
+    amplitude_h: npt.NDArray[np.float64],
+    dt_s: float,
+    *,
+    t0_s: float = 0.0,
+    criteria_toml: Optional[str] = None,
+) -> str: ...
+def default_map_config() -> str: ...
+def map_config(text: str) -> Tuple[str, List[float], List[float], List[float]]: ...
+def read_map_results(path: Union[str, PathLike[str]]) -> Tuple[Optional[str], List[str], bool]: ...
+def run_map(
+    config_toml: str,
+    *,
+    out: Optional[Union[str, PathLike[str]]] = None,
+    resume: bool = False,
+    threads: Optional[int] = None,
+    progress: Optional[Callable[[int, int], Any]] = None,
+) -> List[str]: ...

@@ -1,4 +1,4 @@
-"""The ``beamslider`` command: simulate, manifold, compare, plot.
+"""The ``beamslider`` command: simulate, manifold, compare, map, plot.
 
 Each subcommand writes CSV/JSON results and PNG figures into an output folder (``--out``,
 default ``./beamslider-out``). ``beamslider simulate`` without options runs the paper's
@@ -362,6 +362,60 @@ def cmd_plot(args: argparse.Namespace) -> int:
     return 0
 
 
+def _axis_text(name: str, text: str) -> List[float]:
+    text = text.strip()
+    try:
+        if ":" in text:
+            lo, hi, step = (float(v) for v in text.split(":"))
+            if not (step > 0 and hi >= lo):
+                raise ValueError
+            n = int(np.floor((hi - lo) / step + 1e-3)) + 1
+            return [round(lo + i * step, 9) for i in range(n)]
+        vals = [float(v) for v in text.split(",") if v.strip()]
+        if not vals:
+            raise ValueError
+        return vals
+    except ValueError:
+        raise UserError(f"{name} {text!r}: give START:STOP:STEP or a comma-separated list") from None
+
+
+def cmd_map(args: argparse.Namespace) -> int:
+    from .maps import RESULTS_FILE, map_config_toml, plot_operating_map, run_map_config, text_table
+
+    if args.config:
+        try:
+            config = Path(args.config).read_text(encoding="utf-8")
+        except FileNotFoundError:
+            raise UserError(f"{args.config}: no such file") from None
+        if any(v is not None for v in (args.f_ex, args.a_ex, args.s0, args.t_end, args.params, args.dt)):
+            raise UserError("--config replaces --f-ex/--a-ex/--s0/--t-end/--params/--dt: put them in the TOML file")
+    else:
+        p = _params(args)
+        config = map_config_toml(
+            p, f_ex=_axis_text("--f-ex", args.f_ex or "100:130:2"), a_ex=_axis_text("--a-ex", args.a_ex or "4:16:2"),
+            s0=_axis_text("--s0", args.s0 or "0.3"), t_end=args.t_end if args.t_end is not None else 120.0)
+    if args.print_config:
+        print(config, end="")
+        return 0
+    out = _out(args)
+    t0 = time.perf_counter()
+    table = run_map_config(config, out=out, resume=args.resume, threads=args.threads, progress=args.progress)
+    wall = time.perf_counter() - t0
+    txt = text_table(table)
+    (out / "map.txt").write_text(txt, encoding="utf-8")
+    s0s = sorted(set(table["s0"].tolist()))
+    pngs = []
+    for s0 in s0s:
+        png = out / ("map.png" if len(s0s) == 1 else f"map_s0_{_fmt(s0)}.png")
+        plot_operating_map(table, s0=s0, path=png)
+        pngs.append(png)
+    print(txt, end="")
+    print(f"{len(table['index'])} points in {wall:.1f} s")
+    for path in [out / RESULTS_FILE, out / "map.toml", out / "map.txt", *pngs]:
+        print(f"wrote {path}")
+    return 0
+
+
 # --- argument parsing -------------------------------------------------------------------------
 
 
@@ -449,6 +503,23 @@ def build_parser() -> argparse.ArgumentParser:
     _common(sp)
     _manifold_options(sp, default_on=True)
     sp.set_defaults(func=cmd_compare)
+
+    sp = sub.add_parser("map", help="operating map: behaviour over a grid of f_ex, a_ex (and s0), in parallel",
+                        description="Classify the behaviour of the free slider (MODEL.md §8) at every point of a grid "
+                                    "(default: the paper's map, f_ex 100:130:2 Hz, a_ex 4:16:2 m/s², s0 0.3, 120 s). "
+                                    "Each finished point is appended to DIR/map.jsonl at once; --resume skips the points "
+                                    "already there (also of a map started by beamslider-batch map). Writes map.toml, "
+                                    "map.txt (letter table) and map.png (the categorical map, like the paper's Fig. 11).")
+    sp.add_argument("--config", metavar="TOML", help="map configuration as read by beamslider-batch map --config")
+    sp.add_argument("--f-ex", metavar="GRID", help="frequencies: START:STOP:STEP or a comma list (100:130:2)")
+    sp.add_argument("--a-ex", metavar="GRID", help="levels: START:STOP:STEP or a comma list (4:16:2)")
+    sp.add_argument("--s0", metavar="GRID", help="initial slider positions (0.3)")
+    sp.add_argument("--t-end", type=_positive(float), metavar="S", help="simulated time per point [s] (120)")
+    sp.add_argument("--threads", "-j", type=_positive(int), metavar="N", help="worker threads (default: one per core)")
+    sp.add_argument("--resume", action="store_true", help="continue the map in --out, skipping finished points")
+    sp.add_argument("--print-config", action="store_true", help="print the map configuration (TOML) and exit")
+    _common(sp)
+    sp.set_defaults(func=cmd_map)
 
     sp = sub.add_parser("plot", help="re-plot results written by simulate/compare/manifold, or a measurement",
                         description="Plot a result written earlier (its .csv or .json) and/or a measurement file.")

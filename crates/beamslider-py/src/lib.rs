@@ -11,6 +11,7 @@
 use std::panic::{AssertUnwindSafe, catch_unwind};
 
 use beamslider_core::{
+    Criteria, MapConfig, MapRow, MapRunOptions, SuperSlow,
     Channel, Error, Excitation, ManifoldOptions, MemoryRecorder, Model, Monitor, Params,
     RunOptions, SliderModel, Status, signal,
 };
@@ -339,6 +340,120 @@ fn envelope<'py>(
     Ok(e.into_pyarray(py))
 }
 
+/// Behaviour classification (MODEL.md §8) of super-slow signals sampled every `dt_s`: slider
+/// position `s` and amplitude `amplitude_h` (1-s moving average of |Hilbert(w(4L/7))| / h).
+/// `criteria_toml`: thresholds as TOML keys of the core's `Criteria` (missing keys take defaults).
+/// Returns the classification as JSON text (the fields of a map row).
+#[pyfunction]
+#[pyo3(signature = (s, amplitude_h, dt_s, *, t0_s=0.0, criteria_toml=None))]
+fn classify<'py>(
+    py: Python<'py>,
+    s: PyReadonlyArray1<'py, f64>,
+    amplitude_h: PyReadonlyArray1<'py, f64>,
+    dt_s: f64,
+    t0_s: f64,
+    criteria_toml: Option<&str>,
+) -> PyResult<String> {
+    let criteria: Criteria = match criteria_toml {
+        Some(text) => toml::from_str(text).map_err(|e| PyValueError::new_err(format!("cannot read criteria: {}", e.to_string().trim_end())))?,
+        None => Criteria::default(),
+    };
+    let x = SuperSlow { t0_s, dt_s, s: s.as_slice()?.to_vec(), amplitude_h: amplitude_h.as_slice()?.to_vec() };
+    let c = py.detach(|| guarded(|| beamslider_core::classify(&x, &criteria)))?;
+    serde_json::to_string(&c).map_err(|e| SimulationError::new_err(format!("internal error: {e}")))
+}
+
+/// The default map configuration (the paper's operating map) as TOML text.
+#[pyfunction]
+fn default_map_config() -> String {
+    MapConfig::default().to_toml_string()
+}
+
+/// Validate map configuration TOML; returns (canonical TOML, f_ex list, a_ex list, s0 list).
+#[pyfunction]
+fn map_config(text: &str) -> PyResult<(String, Vec<f64>, Vec<f64>, Vec<f64>)> {
+    let cfg = guarded(|| MapConfig::from_toml_str(text))?;
+    let g = &cfg.grid;
+    let axes = guarded(|| Ok((g.f_ex_hz.values("grid.f_ex_hz")?, g.a_ex_m_s2.values("grid.a_ex_m_s2")?, g.s0.values("grid.s0")?)))?;
+    Ok((cfg.to_toml_string(), axes.0, axes.1, axes.2))
+}
+
+/// Read a map results file (JSON lines): (settings as JSON text or None, rows as JSON texts,
+/// whether the last line was truncated).
+#[pyfunction]
+fn read_map_results(py: Python<'_>, path: std::path::PathBuf) -> PyResult<(Option<String>, Vec<String>, bool)> {
+    let r = py.detach(|| guarded(|| beamslider_core::map::read_results(&path)))?;
+    let settings = r.settings.map(|s| serde_json::to_string(&s).unwrap_or_default());
+    Ok((settings, r.rows.iter().map(MapRow::to_json).collect(), r.truncated))
+}
+
+/// Run an operating map (MODEL.md §8) in parallel: `config_toml` as read by `beamslider-batch map`,
+/// `out` the results file (JSON lines, appended point by point), `resume` to skip its points.
+/// Returns the rows of the grid (JSON texts, sorted by grid index). `progress(done, total)` is
+/// called from the calling thread; Ctrl-C cancels the map (finished points stay in the file) and
+/// raises KeyboardInterrupt.
+#[pyfunction]
+#[pyo3(signature = (config_toml, *, out=None, resume=false, threads=None, progress=None))]
+fn run_map(
+    py: Python<'_>,
+    config_toml: &str,
+    out: Option<std::path::PathBuf>,
+    resume: bool,
+    threads: Option<usize>,
+    progress: Option<Py<PyAny>>,
+) -> PyResult<Vec<String>> {
+    use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+    if threads == Some(0) {
+        return Err(PyValueError::new_err("invalid parameter `threads` = 0: must be >= 1"));
+    }
+    let cfg = guarded(|| MapConfig::from_toml_str(config_toml))?;
+    let opts = MapRunOptions { out, resume, threads };
+    let cancel = AtomicBool::new(false);
+    let done = AtomicUsize::new(0);
+    let total = AtomicUsize::new(0);
+    let poll = |py: Python<'_>| -> PyResult<()> {
+        py.check_signals()?;
+        let (d, t) = (done.load(Ordering::Relaxed), total.load(Ordering::Relaxed));
+        match &progress {
+            Some(cb) if t > 0 => cb.call1(py, (d, t)).map(|_| ()),
+            _ => Ok(()),
+        }
+    };
+    let (outcome, err) = py.detach(|| {
+        std::thread::scope(|sc| {
+            let worker = sc.spawn(|| {
+                guarded(|| {
+                    beamslider_core::run_map(&cfg, &opts, &cancel, &|d, t, _row: &MapRow| {
+                        done.store(d, Ordering::Relaxed);
+                        total.store(t, Ordering::Relaxed);
+                    })
+                })
+            });
+            let mut err: Option<PyErr> = None;
+            while !worker.is_finished() {
+                std::thread::sleep(std::time::Duration::from_millis(100));
+                if err.is_none()
+                    && let Err(e) = Python::attach(|py| poll(py))
+                {
+                    cancel.store(true, Ordering::Relaxed);
+                    err = Some(e);
+                }
+            }
+            let outcome = worker.join().unwrap_or_else(|_| Err(SimulationError::new_err("internal error: map worker panicked")));
+            (outcome, err)
+        })
+    });
+    if let Some(e) = err {
+        return Err(e);
+    }
+    let outcome = outcome?;
+    poll(py)?;
+    if outcome.cancelled {
+        return Err(PyKeyboardInterrupt::new_err("map interrupted"));
+    }
+    Ok(outcome.rows.iter().map(MapRow::to_json).collect())
+}
+
 /// The compiled core of beamslider (private: import `beamslider` instead).
 #[pymodule]
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
@@ -354,5 +469,10 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(hilbert_envelope, m)?)?;
     m.add_function(wrap_pyfunction!(moving_average, m)?)?;
     m.add_function(wrap_pyfunction!(envelope, m)?)?;
+    m.add_function(wrap_pyfunction!(classify, m)?)?;
+    m.add_function(wrap_pyfunction!(default_map_config, m)?)?;
+    m.add_function(wrap_pyfunction!(map_config, m)?)?;
+    m.add_function(wrap_pyfunction!(read_map_results, m)?)?;
+    m.add_function(wrap_pyfunction!(run_map, m)?)?;
     Ok(())
 }
