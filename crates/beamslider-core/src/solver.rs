@@ -203,8 +203,9 @@ pub fn exact(
     }
 }
 
-/// [`exact`] for K closed contacts known at compile time (`prob.k` must equal K).
-#[inline(always)]
+/// [`exact`] for K closed contacts known at compile time (`prob.k` must equal K). Kept out of
+/// line: it does not depend on the number of modes, so one copy per K serves every N.
+#[inline(never)]
 pub fn exact_k<const K: usize>(
     prob: &LocalProblem,
     modes: &mut [ContactMode; MAX_CLOSED],
