@@ -6,15 +6,20 @@ mod common;
 use beamslider_core::*;
 use common::*;
 
-#[test]
-fn fast_matches_tight_reference_over_golden_case() {
-    let tight = Params {
+/// The reference solver converged tightly (1e-12 relative, 1e-16 N s).
+fn tight_reference() -> Params {
+    Params {
         contact_solver: ContactSolver::Reference,
         solver_tol_rel: 1e-12,
         solver_tol_abs: 1e-16,
         solver_max_iter: 1_000_000,
         ..Params::default()
-    };
+    }
+}
+
+#[test]
+fn fast_matches_tight_reference_over_golden_case() {
+    let tight = tight_reference();
     let (r_ref, s_ref) = run(tight, SliderModel::Free, 124.0, 14.0, 0.3, 0.2, 10);
     let (r_fast, s_fast) = run_audit(Params::default(), SliderModel::Free, 124.0, 14.0, 0.3, 0.2, 10, true);
     // (1) every local solution satisfies Signorini–Newton and Coulomb to round-off.
@@ -33,13 +38,7 @@ fn fast_matches_tight_reference_over_golden_case() {
 
 #[test]
 fn fast_matches_tight_reference_pcs() {
-    let tight = Params {
-        contact_solver: ContactSolver::Reference,
-        solver_tol_rel: 1e-12,
-        solver_tol_abs: 1e-16,
-        solver_max_iter: 1_000_000,
-        ..Params::default()
-    };
+    let tight = tight_reference();
     let m = SliderModel::PseudoConstrained { s: 0.25 };
     let (r_ref, _) = run(tight, m, 124.0, 14.0, 0.25, 0.2, 10);
     let (r_fast, _) = run(Params::default(), m, 124.0, 14.0, 0.25, 0.2, 10);
