@@ -56,9 +56,13 @@ pub fn kinematics<const N: usize>(
     q: &[f64; N],
     base: Base,
 ) -> (f64, Option<ClosedContact<N>>) {
+    let pr = probe(beam, slider, i, x_kin, z_c, sin_b, cos_b, q);
+    if !may_close(i, pr.z_p, base.w0, pr.w, slider.half_thickness) {
+        return (pr.x_p, None);
+    }
     let mut c = ClosedContact::EMPTY;
-    let (x_p, closed) = kinematics_into(beam, slider, i, x_kin, z_c, sin_b, cos_b, q, base, &mut c);
-    (x_p, closed.then_some(c))
+    let closed = finish(beam, slider, i, &pr, sin_b, cos_b, q, base, &mut c);
+    (pr.x_p, closed.then_some(c))
 }
 
 /// First half of the kinematics: the point's position and the beam's deflection under it.
@@ -167,26 +171,4 @@ pub fn finish<const N: usize>(
     // 6. w̃ = −A_CN (0, ẇ₀).
     out.wtilde = [-a[0][1] * base.w0_dot, -a[1][1] * base.w0_dot];
     true
-}
-
-/// As [`kinematics`], writing a closed contact into `out` (returns x_P and whether it is closed).
-#[inline(always)]
-#[allow(clippy::too_many_arguments)]
-pub fn kinematics_into<const N: usize>(
-    beam: &Beam,
-    slider: &Slider,
-    i: usize,
-    x_kin: f64,
-    z_c: f64,
-    sin_b: f64,
-    cos_b: f64,
-    q: &[f64; N],
-    base: Base,
-    out: &mut ClosedContact<N>,
-) -> (f64, bool) {
-    let pr = probe(beam, slider, i, x_kin, z_c, sin_b, cos_b, q);
-    if !may_close(i, pr.z_p, base.w0, pr.w, slider.half_thickness) {
-        return (pr.x_p, false);
-    }
-    (pr.x_p, finish(beam, slider, i, &pr, sin_b, cos_b, q, base, out))
 }
