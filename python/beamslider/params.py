@@ -49,6 +49,11 @@ class Parameters:
     """Axial clamping stiffness k_t [N/m]; ``math.inf`` = ideal clamping."""
     damping_ratio: float = 1.0e-3
     """Modal damping ratio D of all modes [-]."""
+    damping_ratio_quadratic: float = 0.0
+    """Amplitude growth D2 of the damping ratio [-]: D(t) = D + 4 D2 (w(L/2,t)/h)^2, so that
+    harmonic balance gives D~(a~) = D + D2 a~^2 (micro-slip in the clamping). 0 = linear."""
+    axial_preload_n: float = 0.0
+    """Static axial force H0 in the beam [N], tension positive (adds H0 K q to the modal forces)."""
     friction_coefficient: float = 0.2
     """Coulomb friction coefficient mu [-]."""
     restitution: float = 0.5

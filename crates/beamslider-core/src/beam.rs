@@ -38,6 +38,8 @@ pub struct Beam {
     pub k: Vec<f64>,
     /// k_ax = 1/(L/(EA) + 1/k_t) [N/m].
     pub k_ax: f64,
+    /// Static axial force H₀ [N] (tension positive); modal force H₀ (Kq)ₙ.
+    pub preload_n: f64,
     /// Shape coefficients (a₁..a₄) of each mode, unit modal mass, in the basis above.
     pub coef: Vec<[f64; 4]>,
     /// Upper bound of |φₘ'(x)| over the tabulated range (sampled, with a 1 % margin).
@@ -117,6 +119,19 @@ impl Beam {
                 k[j * n + i] = v;
             }
         }
+        if p.axial_preload_n < 0.0 {
+            // Compression: diag(ω²) + H₀ K must stay positive definite (below buckling).
+            let stiff = nalgebra::DMatrix::from_fn(n, n, |i, j| {
+                (if i == j { omega[i] * omega[i] } else { 0.0 }) + p.axial_preload_n * k[i * n + j]
+            });
+            if stiff.cholesky().is_none() {
+                return Err(crate::error::Error::invalid(
+                    "axial_preload_n",
+                    p.axial_preload_n,
+                    "compressive preload at or beyond the buckling load of the retained modes",
+                ));
+            }
+        }
         let table = ModeTable::build(&coef, &lambda, l);
         let slope_bound = coef
             .iter()
@@ -142,6 +157,7 @@ impl Beam {
             gamma,
             k,
             k_ax: p.axial_stiffness(),
+            preload_n: p.axial_preload_n,
             coef,
             table,
         })
@@ -222,7 +238,7 @@ impl Beam {
         (0..self.n).map(|m| self.phi_exact(m, x)).collect()
     }
 
-    /// String force Fₙ(q) = (k_ax/2)(qᵀKq)(Kq)ₙ into `out`.
+    /// Axial (string) force Fₙ(q) = ((k_ax/2)(qᵀKq) + H₀)(Kq)ₙ into `out`.
     pub fn string_force(&self, q: &[f64], out: &mut [f64]) {
         let n = self.n;
         let mut kq = vec![0.0; n];
@@ -231,11 +247,11 @@ impl Beam {
         }
         let qkq: f64 = (0..n).map(|i| q[i] * kq[i]).sum();
         for i in 0..n {
-            out[i] = 0.5 * self.k_ax * qkq * kq[i];
+            out[i] = (0.5 * self.k_ax * qkq + self.preload_n) * kq[i];
         }
     }
 
-    /// Potential of the string force, V = (k_ax/8)(qᵀKq)².
+    /// Potential of the axial force, V = (k_ax/8)(qᵀKq)² + (H₀/2) qᵀKq.
     pub fn string_potential(&self, q: &[f64]) -> f64 {
         let n = self.n;
         let mut qkq = 0.0;
@@ -244,7 +260,7 @@ impl Beam {
                 qkq += q[i] * self.k[i * n + j] * q[j];
             }
         }
-        0.125 * self.k_ax * qkq * qkq
+        0.125 * self.k_ax * qkq * qkq + 0.5 * self.preload_n * qkq
     }
 
     /// Single-mode hardening coefficient b* = b h²/φ₁(L/2)², b = (k_ax/2)K₁₁² (MODEL.md §9) [s⁻²].

@@ -56,6 +56,13 @@ pub struct Params {
     pub k_t_n_per_m: f64,
     /// Modal damping ratio D of all modes [-].
     pub damping_ratio: f64,
+    /// Amplitude growth D₂ of the damping ratio [-] (micro-slip in the clamping): the modal
+    /// damping ratio is D + 4 D₂ (w(L/2, t)/h)², so that single-term harmonic balance gives
+    /// D̃(ã) = D + D₂ ã². 0 = linear damping (MODEL.md §2).
+    pub damping_ratio_quadratic: f64,
+    /// Static axial force H₀ in the beam [N], tension positive: adds H₀ K q to the modal forces
+    /// (extension of MODEL.md §2). 0 = no preload.
+    pub axial_preload_n: f64,
     /// Coulomb friction coefficient μ [-].
     pub friction_coefficient: f64,
     /// Normal restitution coefficient ε_N [-] (tangential ε_T = 0).
@@ -92,6 +99,8 @@ impl Default for Params {
             k_r_nm_per_rad: 125.0,
             k_t_n_per_m: 1.93e7,
             damping_ratio: 1.0e-3,
+            damping_ratio_quadratic: 0.0,
+            axial_preload_n: 0.0,
             friction_coefficient: 0.2,
             restitution: 0.5,
             gravity_m_s2: 9.81,
@@ -179,6 +188,7 @@ impl Params {
         let non_negative_finite = [
             ("com_offset_m", self.com_offset_m),
             ("damping_ratio", self.damping_ratio),
+            ("damping_ratio_quadratic", self.damping_ratio_quadratic),
             ("friction_coefficient", self.friction_coefficient),
             ("gravity_m_s2", self.gravity_m_s2),
             ("solver_tol_abs", self.solver_tol_abs),
@@ -187,6 +197,9 @@ impl Params {
             if !(v.is_finite() && v >= 0.0) {
                 return Err(Error::invalid(field, v, "must be finite and >= 0"));
             }
+        }
+        if !self.axial_preload_n.is_finite() {
+            return Err(Error::invalid("axial_preload_n", self.axial_preload_n, "must be finite"));
         }
         if !(self.gap_ratio.is_finite() && self.gap_ratio > 1.0) {
             return Err(Error::invalid(
@@ -316,6 +329,8 @@ mod tests {
         assert_eq!(field_of(Params { n_modes: 21, ..d() }), "n_modes");
         assert_eq!(field_of(Params { damping_ratio: f64::NAN, ..d() }), "damping_ratio");
         assert_eq!(field_of(Params { solver_max_iter: 0, ..d() }), "solver_max_iter");
+        assert_eq!(field_of(Params { damping_ratio_quadratic: -1e-4, ..d() }), "damping_ratio_quadratic");
+        assert_eq!(field_of(Params { axial_preload_n: f64::NAN, ..d() }), "axial_preload_n");
     }
 
     #[test]

@@ -121,6 +121,10 @@ pub struct Stepper<'a, const N: usize> {
     gamma: [f64; N],
     kmat: [[f64; N]; N],
     half_kax: f64,
+    /// Axial preload H₀ [N].
+    preload: f64,
+    /// Amplitude-dependent damping (D₂ > 0): 8 D₂ ωₙ / h² per mode and φₙ(L/2).
+    damp2: Option<([f64; N], [f64; N])>,
     dt: f64,
     eps_n: f64,
     gravity: f64,
@@ -230,6 +234,14 @@ impl<'a, const N: usize> Stepper<'a, N> {
             gamma,
             kmat,
             half_kax: 0.5 * beam.k_ax,
+            preload: beam.preload_n,
+            damp2: (p.damping_ratio_quadratic > 0.0).then(|| {
+                let h2 = p.thickness_m * p.thickness_m;
+                (
+                    std::array::from_fn(|i| 8.0 * p.damping_ratio_quadratic * beam.omega[i] / h2),
+                    std::array::from_fn(|i| beam.phi_exact(i, 0.5 * p.length_m)),
+                )
+            }),
             dt: p.dt_s,
             eps_n: p.restitution,
             gravity: p.gravity_m_s2,
@@ -290,13 +302,24 @@ impl<'a, const N: usize> Stepper<'a, N> {
         for i in 0..N {
             qkq += qm[i] * kq[i];
         }
-        let fnl = self.half_kax * qkq;
+        let fnl = self.half_kax * qkq + self.preload;
         // u_free = u_B + M⁻¹ h_M Δt.
         let mut vb = [0.0; N];
         for i in 0..N {
             let h = -self.damp[i] * s.ub[i] - self.omega2[i] * qm[i] - fnl * kq[i]
                 - self.gamma[i] * w0_ddot;
             vb[i] = s.ub[i] + dt * h;
+        }
+        if let Some((d2, phi_mid)) = &self.damp2 {
+            // Damping ratio D + 4 D₂ (w(L/2)/h)²: extra force 8 D₂ ωₙ (w/h)² uₙ.
+            let mut w_mid = 0.0;
+            for i in 0..N {
+                w_mid += phi_mid[i] * qm[i];
+            }
+            let w2 = w_mid * w_mid;
+            for i in 0..N {
+                vb[i] -= dt * d2[i] * w2 * s.ub[i];
+            }
         }
         self.counters.steps += 1;
         self.last_p = [[0.0; 2]; N_CONTACTS];
