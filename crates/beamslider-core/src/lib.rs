@@ -5,11 +5,12 @@
 //!
 //! Modules follow the physics: [`params`] (§1), [`beam`] (§2), [`slider`] (§3), [`contact`]
 //! (§4), [`solver`] and [`stepper`] (§5), [`simulation`] and [`manifold`] (§6), [`record`] and
-//! [`signal`] (§7).
+//! [`signal`] (§7), [`classify`] and [`map`] (§8), [`enma`] (§9).
 #![warn(missing_docs)]
 
 pub mod beam;
 pub mod contact;
+pub mod enma;
 pub mod error;
 pub mod manifold;
 pub mod params;
@@ -21,6 +22,7 @@ pub mod solver;
 pub mod stepper;
 
 pub use beam::Beam;
+pub use enma::{EnmaOptions, EnmaPoint, EnmaResult, virtual_enma};
 pub use manifold::{Branch, Manifold, ManifoldOptions, super_slow_manifold};
 pub use error::{Error, Result};
 pub use params::{ContactSolver, Params};
