@@ -9,9 +9,11 @@ Python face:
 - :func:`envelope` — |Hilbert| plus moving average (§7);
 - :func:`read_measurement` — the published measured data set (§7);
 - :func:`operating_map`, :func:`classify` — operating maps and behaviour classification (§8);
+- :mod:`beamslider.enma` — virtual ENMA, backbone fit and clamping update (§9);
 - :mod:`beamslider.plotting` — the paper's three-panel figures; ``beamslider`` — the command line.
 """
 
+from . import enma
 from ._core import SimulationError
 from .measurement import Measurement, MeasurementFormatError, parse_operating_point, read_measurement
 from .params import Parameters
@@ -30,6 +32,7 @@ __all__ = [
     "SimulationResult",
     "classify",
     "classify_result",
+    "enma",
     "envelope",
     "manifold_grid",
     "operating_map",

@@ -1,4 +1,4 @@
-"""The ``beamslider`` command: simulate, manifold, compare, map, plot.
+"""The ``beamslider`` command: simulate, manifold, compare, map, plot, enma.
 
 Each subcommand writes CSV/JSON results and PNG figures into an output folder (``--out``,
 default ``./beamslider-out``). ``beamslider simulate`` without options runs the paper's
@@ -528,6 +528,9 @@ def build_parser() -> argparse.ArgumentParser:
     sp.add_argument("--measurement", metavar="FILE", help="measured file to overlay")
     _common(sp, model_options=False)
     sp.set_defaults(func=cmd_plot)
+
+    from . import cli_enma
+    cli_enma.add_parser(sub, _common, _positive)
     return ap
 
 

@@ -331,7 +331,7 @@ pub fn virtual_enma(model: &Model, opts: &EnmaOptions, monitor: &mut dyn Monitor
     let mut theta = 0.0_f64;
     let mut t = 0.0_f64;
     let mut steps: u64 = 0;
-    let t_budget = levels.len() as f64 * opts.max_hold_s;
+    let n_levels = levels.len() as f64;
     let mut points = Vec::with_capacity(levels.len());
     let sensor_w = |q: &[f64]| -> f64 { q.iter().zip(&phi_sensor).map(|(q, f)| q * f).sum() };
     let points_w = |q: &[f64]| -> [f64; N_POINTS] {
@@ -344,7 +344,8 @@ pub fn virtual_enma(model: &Model, opts: &EnmaOptions, monitor: &mut dyn Monitor
         w
     };
 
-    for &(run, a) in &levels {
+    // The monitor sees progress in levels: poll(levels done, number of levels).
+    for (li, &(run, a)) in levels.iter().enumerate() {
         let t_level = t;
         let mut e_prev: Option<f64> = None;
         // History of (amplitude, Ω, e) per period over the steady-state window.
@@ -362,7 +363,7 @@ pub fn virtual_enma(model: &Model, opts: &EnmaOptions, monitor: &mut dyn Monitor
             theta += omega * dt;
             t += dt;
             steps += 1;
-            if steps.is_multiple_of(POLL_EVERY) && !monitor.poll(t, t_budget) {
+            if steps.is_multiple_of(POLL_EVERY) && !monitor.poll(li as f64, n_levels) {
                 return Err(Error::Interrupted { t_s: t });
             }
             if !beam_int.u.iter().all(|v| v.is_finite()) {

@@ -10,6 +10,8 @@
 
 use std::panic::{AssertUnwindSafe, catch_unwind};
 
+mod enma;
+
 use beamslider_core::{
     Criteria, MapConfig, MapRow, MapRunOptions, SuperSlow,
     Channel, Error, Excitation, ManifoldOptions, MemoryRecorder, Model, Monitor, Params,
@@ -474,5 +476,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(map_config, m)?)?;
     m.add_function(wrap_pyfunction!(read_map_results, m)?)?;
     m.add_function(wrap_pyfunction!(run_map, m)?)?;
+    m.add_function(wrap_pyfunction!(enma::virtual_enma, m)?)?;
+    m.add_function(wrap_pyfunction!(enma::beam_properties, m)?)?;
     Ok(())
 }
