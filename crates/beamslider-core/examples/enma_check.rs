@@ -6,7 +6,7 @@ use beamslider_core::{Model, Params};
 fn main() {
     let model = Model::new(Params::default()).unwrap();
     let t0 = std::time::Instant::now();
-    let opts = EnmaOptions { levels_m_s2: vec![0.25, 0.5, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 8.0], ..Default::default() };
+    let opts = EnmaOptions { levels_m_s2: vec![0.25, 0.5, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 8.0, 10.0, 12.0, 15.0, 20.0, 25.0, 30.0], up_and_down: false, ..Default::default() };
     let r = virtual_enma(&model, &opts, &mut ()).unwrap();
     println!("{} levels, {:.1} s simulated, {} steps, {:.2} s wall", r.points.len(), r.simulated_s, r.steps, t0.elapsed().as_secs_f64());
     println!("run  a_ex   ã        f [Hz]     f_bb [Hz]  dev       D~        3rd/1st  settle conv shape");
