@@ -10,10 +10,11 @@ Python face:
 - :func:`read_measurement` — the published measured data set (§7);
 - :func:`operating_map`, :func:`classify` — operating maps and behaviour classification (§8);
 - :mod:`beamslider.enma` — virtual ENMA, backbone fit and clamping update (§9);
+- :mod:`beamslider.discover` — find, name and add the effect a model misses (discrepancy workflow);
 - :mod:`beamslider.plotting` — the paper's three-panel figures; ``beamslider`` — the command line.
 """
 
-from . import enma
+from . import discover, enma
 from ._core import SimulationError
 from .measurement import Measurement, MeasurementFormatError, parse_operating_point, read_measurement
 from .params import Parameters
@@ -32,6 +33,7 @@ __all__ = [
     "SimulationResult",
     "classify",
     "classify_result",
+    "discover",
     "enma",
     "envelope",
     "manifold_grid",

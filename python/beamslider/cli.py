@@ -1,4 +1,4 @@
-"""The ``beamslider`` command: simulate, manifold, compare, map, plot, enma.
+"""The ``beamslider`` command: simulate, manifold, compare, map, plot, enma, discover, synthesize.
 
 Each subcommand writes CSV/JSON results and PNG figures into an output folder (``--out``,
 default ``./beamslider-out``). ``beamslider simulate`` without options runs the paper's
@@ -529,8 +529,9 @@ def build_parser() -> argparse.ArgumentParser:
     _common(sp, model_options=False)
     sp.set_defaults(func=cmd_plot)
 
-    from . import cli_enma
+    from . import cli_discover, cli_enma
     cli_enma.add_parser(sub, _common, _positive)
+    cli_discover.add_parsers(sub, _common, _positive)
     return ap
 
 

@@ -32,9 +32,11 @@ pub fn virtual_enma(py: Python<'_>, params_toml: &str, options_json: &str, progr
 
 /// Modal data of the linear beam: `omega_rad_s`, `gamma`, `k11_per_m`, `k_ax_n_per_m`,
 /// `phi_mid` (φ₁(L/2)), `b_star_per_s2` (MODEL.md §9), `omega1_preload_rad_s` (√(ω₁² + H₀K₁₁)),
-/// and the mode shape φ₁/φ₁(L/2) at 101 points x/L = 0 … 1 (`shape_x_over_l`, `shape_phi1`).
+/// the mode shape φ₁/φ₁(L/2) at 101 points x/L = 0 … 1 (`shape_x_over_l`, `shape_phi1`), the
+/// matrix K (`k_matrix`, N×N rows) and φₘ at the requested `x_over_l` (`phi`, N rows).
 #[pyfunction]
-pub fn beam_properties<'py>(py: Python<'py>, params_toml: &str) -> PyResult<Bound<'py, PyDict>> {
+#[pyo3(signature = (params_toml, x_over_l=Vec::new()))]
+pub fn beam_properties<'py>(py: Python<'py>, params_toml: &str, x_over_l: Vec<f64>) -> PyResult<Bound<'py, PyDict>> {
     let params = parse_params(params_toml)?;
     let thickness = params.thickness_m;
     let half = 0.5 * params.length_m;
@@ -53,5 +55,12 @@ pub fn beam_properties<'py>(py: Python<'py>, params_toml: &str) -> PyResult<Boun
     let shape: Vec<f64> = xi.iter().map(|&x| b.phi_exact(0, x * 2.0 * half) / mid).collect();
     d.set_item("shape_x_over_l", xi)?;
     d.set_item("shape_phi1", shape)?;
+    let n = b.n;
+    let kmat: Vec<Vec<f64>> = (0..n).map(|i| b.k[i * n..(i + 1) * n].to_vec()).collect();
+    d.set_item("k_matrix", kmat)?;
+    let phi: Vec<Vec<f64>> =
+        (0..n).map(|m| x_over_l.iter().map(|&x| b.phi_exact(m, x * 2.0 * half)).collect()).collect();
+    d.set_item("phi", phi)?;
+    d.set_item("preload_n", b.preload_n)?;
     Ok(d)
 }

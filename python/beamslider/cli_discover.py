@@ -1,0 +1,108 @@
+"""``beamslider discover``: measured data + baseline model → named missing effects, updated TOML,
+``report.json``, ``report.md`` and figures; ``beamslider synthesize``: hidden-effect test data."""
+
+from __future__ import annotations
+
+import argparse
+import math
+import time
+from pathlib import Path
+from typing import Any, List, Tuple
+
+from .params import Parameters
+
+
+def add_parsers(sub: Any, common: Any, positive: Any) -> None:
+    sp = sub.add_parser(
+        "discover", help="find and name the effect the model misses, add it, show the gap shrink",
+        description="Compare measured data with the --params baseline (default: the prototype), name the missing "
+                    "physical effect(s) among the candidates (beamslider.discover.EFFECTS), add them and report the "
+                    "gap before and after. Beam level: --enma FILE (ENMA CSV). Slider level: --measured FILE... "
+                    "(published measured format, operating point in the file name). Without data: the paper's "
+                    "case, a synthetic ENMA of the prototype against the ideally clamped beam.")
+    sp.add_argument("--enma", metavar="CSV", help="ENMA data (beam level)")
+    sp.add_argument("--measured", metavar="FILE", nargs="+", help="measured free-slider runs (slider level)")
+    sp.add_argument("--effects", metavar="LIST", help="comma list of candidate effects (default: all of the level)")
+    sp.add_argument("--max-effects", type=positive(int), default=2, metavar="K", help="largest set fitted (2)")
+    sp.add_argument("--seed", type=int, default=0, help="noise seed of the paper's synthetic case (0)")
+    common(sp)
+    sp.set_defaults(func=cmd_discover)
+
+    sp = sub.add_parser(
+        "synthesize", help="hidden-effect data from a truth model (ENMA CSV or measured-format runs)",
+        description="Write data generated from --truth (TOML) with noise: 'enma' a virtual ENMA CSV "
+                    "(enma_data.csv), 'slider' free-slider runs in the published measured format.")
+    sp.add_argument("kind", choices=["enma", "slider"])
+    sp.add_argument("--truth", metavar="TOML", help="truth model (default: the prototype)")
+    sp.add_argument("--seed", type=int, default=0, help="noise seed (0)")
+    sp.add_argument("--points", metavar="LIST", default="110,10,0.3;124,6,0.3",
+                    help="slider: operating points f_ex,a_ex,s0 separated by ';' (110,10,0.3;124,6,0.3)")
+    sp.add_argument("--duration", type=positive(float), default=15.0, metavar="S", help="slider: run length [s] (15)")
+    sp.add_argument("--repeats", type=positive(int), default=2, metavar="N", help="enma: noisy repetitions (2)")
+    common(sp, model_options=False)
+    sp.set_defaults(func=cmd_synthesize)
+
+
+def _points(text: str) -> List[Tuple[float, float, float]]:
+    from .cli import UserError
+
+    out = []
+    for part in text.split(";"):
+        if not part.strip():
+            continue
+        try:
+            f, a, s0 = (float(v) for v in part.split(","))
+        except ValueError:
+            raise UserError(f"--points {text!r}: give f_ex,a_ex,s0 triples separated by ';'") from None
+        out.append((f, a, s0))
+    if not out:
+        raise UserError("--points: no operating points")
+    return out
+
+
+def cmd_discover(args: argparse.Namespace) -> int:
+    from . import discover as dc
+    from . import enma
+    from .cli import UserError, _out
+    from .measurement import read_measurement
+
+    if args.enma and args.measured:
+        raise UserError("give --enma (beam level) or --measured (slider level), not both")
+    effects = [e.strip() for e in args.effects.split(",") if e.strip()] if args.effects else None
+    t0 = time.perf_counter()
+    if args.enma:
+        baseline = Parameters.from_toml(args.params) if args.params else Parameters()
+        d = dc.discover(enma_data=enma.read(args.enma), baseline=baseline, effects=effects, max_effects=args.max_effects)
+    elif args.measured:
+        baseline = Parameters.from_toml(args.params) if args.params else Parameters()
+        runs = [read_measurement(p) for p in args.measured]
+        d = dc.discover(measured=runs, baseline=baseline, effects=effects, max_effects=args.max_effects)
+    else:
+        baseline = (Parameters.from_toml(args.params) if args.params
+                    else Parameters(k_r_nm_per_rad=math.inf, k_t_n_per_m=math.inf))
+        data = dc.synthesize_enma(Parameters(), seed=args.seed)
+        d = dc.discover(enma_data=data, baseline=baseline, effects=effects, max_effects=args.max_effects)
+    out = _out(args)
+    written = dc.write_report(d, out)
+    print((out / "report.md").read_text(encoding="utf-8").split("\n| feature")[0].rstrip())
+    print(f"total {time.perf_counter() - t0:.1f} s")
+    for p in written:
+        print(f"wrote {p}")
+    return 0
+
+
+def cmd_synthesize(args: argparse.Namespace) -> int:
+    from . import discover as dc
+    from .cli import _out
+
+    truth = Parameters.from_toml(args.truth) if args.truth else Parameters()
+    out = _out(args)
+    if args.kind == "enma":
+        data = dc.synthesize_enma(truth, seed=args.seed, repeats=args.repeats)
+        data.write(out / "enma_data.csv")
+        print(f"wrote {out / 'enma_data.csv'}")
+    else:
+        for p in dc.synthesize_slider_runs(truth, operating_points=_points(args.points), duration_s=args.duration,
+                                           out_dir=out, seed=args.seed):
+            print(f"wrote {p}")
+    return 0

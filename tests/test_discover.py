@@ -1,0 +1,109 @@
+"""Discrepancy workflow: the truth model stays inside the test; the workflow gets only the data
+and a baseline model, and must name the hidden effect (or nothing)."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import pytest
+
+import beamslider as bs
+from beamslider import discover as dc
+
+from conftest import is_png, run_cli
+
+IDEAL = bs.Parameters(k_r_nm_per_rad=math.inf, k_t_n_per_m=math.inf)
+
+
+def _discover_beam(truth: bs.Parameters, baseline: bs.Parameters, seed: int = 1) -> dc.Discovery:
+    data = dc.synthesize_enma(truth, seed=seed)
+    return dc.discover(enma_data=data, baseline=baseline)
+
+
+def test_paper_case_names_both_clamping_compliances(tmp_path):
+    d = _discover_beam(bs.Parameters(), IDEAL)
+    assert sorted(d.named_effects) == ["axial_clamping_compliance", "rotational_clamping_compliance"]
+    k_r = d.parameters["rotational_clamping_compliance"]["value"]
+    k_t = d.parameters["axial_clamping_compliance"]["value"]
+    assert abs(k_r / 125.0 - 1) < 0.05 and abs(k_t / 1.93e7 - 1) < 0.05
+    assert d.gap_after <= 0.1 * d.gap_before
+    written = dc.write_report(d, tmp_path)
+    rep = json.loads((tmp_path / "report.json").read_text())
+    for key in ("named_effects", "parameters", "gap_before", "gap_after", "features"):
+        assert key in rep
+    assert set(rep["features"]["f0_hz"]) >= {"measured", "baseline", "updated"}
+    assert rep["parameters"]["rotational_clamping_compliance"]["stderr"] > 0
+    upd = bs.Parameters.from_toml(tmp_path / "updated.toml")
+    assert upd.k_r_nm_per_rad == pytest.approx(k_r)
+    assert is_png(tmp_path / "gap.png") and is_png(tmp_path / "backbone.png")
+    assert "Named effect(s)" in (tmp_path / "report.md").read_text()
+    assert len(written) >= 5
+
+
+@pytest.mark.parametrize("truth, expected", [
+    (bs.Parameters(k_t_n_per_m=math.inf), "rotational_clamping_compliance"),
+    (bs.Parameters(k_r_nm_per_rad=math.inf), "axial_clamping_compliance"),
+])
+def test_one_hidden_compliance_names_only_it(truth, expected):
+    d = _discover_beam(truth, IDEAL, seed=2)
+    assert d.named_effects == [expected]
+    assert d.gap_after <= 0.1 * d.gap_before
+
+
+def test_axial_preload_is_not_mistaken_for_a_compliance():
+    d = _discover_beam(bs.Parameters(axial_preload_n=20.0), bs.Parameters(), seed=3)
+    assert d.named_effects == ["axial_preload"]
+    p = d.parameters["axial_preload"]
+    assert abs(p["value"] - 20.0) < 3 * p["stderr"] + 0.5
+
+
+def test_amplitude_dependent_damping_is_named():
+    d = _discover_beam(bs.Parameters(damping_ratio_quadratic=5e-4), bs.Parameters(), seed=4)
+    assert d.named_effects == ["amplitude_dependent_damping"]
+    assert abs(d.parameters["amplitude_dependent_damping"]["value"] / 5e-4 - 1) < 0.1
+
+
+@pytest.mark.parametrize("seed", [1, 5])
+def test_data_from_the_baseline_names_nothing(seed):
+    d = _discover_beam(bs.Parameters(), bs.Parameters(), seed=seed)
+    assert d.named_effects == [] and d.parameters == {}
+    assert d.gap_after == d.gap_before < 2.0
+
+
+def test_slider_level_friction_is_named_and_bracketed(tmp_path):
+    truth = bs.Parameters(friction_coefficient=0.26)
+    paths = dc.synthesize_slider_runs(truth, operating_points=[(110, 10, 0.3), (124, 6, 0.3)], duration_s=15,
+                                      out_dir=tmp_path / "data", seed=3)
+    runs = [bs.read_measurement(p) for p in paths]
+    assert runs[0].f_ex == 110 and runs[1].a_ex == 6 and runs[0].s0 == 0.3
+    d = dc.discover(measured=runs, baseline=bs.Parameters())
+    assert d.named_effects == ["friction_coefficient"]
+    p = d.parameters["friction_coefficient"]
+    assert abs(p["value"] - 0.26) <= 2 * p["stderr"], p
+    assert p["stderr"] < 0.03
+    assert d.gap_after < 0.5 * d.gap_before
+    dc.write_report(d, tmp_path / "report")
+    assert is_png(tmp_path / "report" / "slider.png")
+
+
+def test_cli_discover_and_synthesize(tmp_path):
+    r = run_cli("synthesize", "enma", "--truth", str(_write(tmp_path / "t.toml", "k_t_n_per_m = inf\n")),
+                "--out", str(tmp_path / "syn"), "--seed", "2", cwd=tmp_path, timeout=300)
+    assert r.returncode == 0, r.stderr
+    base = _write(tmp_path / "b.toml", "k_r_nm_per_rad = inf\nk_t_n_per_m = inf\n")
+    r = run_cli("discover", "--enma", str(tmp_path / "syn" / "enma_data.csv"), "--params", str(base),
+                "--out", str(tmp_path / "d"), cwd=tmp_path, timeout=300)
+    assert r.returncode == 0, r.stderr
+    rep = json.loads((tmp_path / "d" / "report.json").read_text())
+    assert rep["named_effects"] == ["rotational_clamping_compliance"]
+    r = run_cli("discover", "--enma", str(tmp_path / "none.csv"), "--out", str(tmp_path / "e"), cwd=tmp_path)
+    assert r.returncode == 1 and "Traceback" not in r.stderr
+    r = run_cli("discover", "--enma", str(tmp_path / "syn" / "enma_data.csv"), "--effects", "magic",
+                "--out", str(tmp_path / "e"), cwd=tmp_path)
+    assert r.returncode == 1 and "unknown effect 'magic'" in r.stderr
+
+
+def _write(path, text):
+    path.write_text(text)
+    return path
