@@ -11,10 +11,10 @@ model is missing, add it, and show the disagreement shrink.
    bounds and the features it moves.
 3. **Naming** (:func:`discover`): every candidate and every pair is fitted to the disagreement
    (weighted least squares, χ² with the feature uncertainties). Criterion: nothing is named when
-   the baseline agrees (χ² ≤ the 99 % quantile of χ²(n)); otherwise the smallest set whose fit is
-   adequate (χ² ≤ 99 % quantile of χ²(n − k)) wins, and a set with one more effect replaces it only
-   if a likelihood-ratio test accepts it (Δχ² > 6.63, the 99 % quantile of χ²(1)), i.e. a simpler
-   explanation wins unless a richer one is clearly better.
+   the baseline agrees (χ² ≤ the 99 % quantile of χ²(n)); otherwise forward selection by
+   likelihood-ratio tests with the measurement noise: the best single effect is named if it lowers
+   χ² by more than 6.635 (99 % quantile of χ²(1)), and the best pair replaces it only if it lowers
+   χ² by more than 6.635 again — a simpler explanation wins unless a richer one is clearly better.
 4. **Adding it**: :func:`write_report` writes the updated TOML, ``report.json``, ``report.md`` and
    figures; the "after" features come from full simulations of the updated model.
 5. **Synthesiser** (:func:`synthesize_enma`, :func:`synthesize_slider_runs`): hidden-effect data
@@ -704,9 +704,10 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
                         exceeds_uncertainty=bool(abs(before[k] - f.value) > 2 * f.stderr))
                 for k, f in meas.items()}
     criterion = (f"weighted least squares with the feature uncertainties; nothing named if chi2(baseline) <= "
-                 f"chi2_{1 - SIGNIFICANCE:.2f}(n={n}) = {_chi2_quantile(n):.2f}; otherwise the smallest adequate set "
-                 f"(chi2 <= chi2_{1 - SIGNIFICANCE:.2f}(n-k)), replaced by a larger one only if the likelihood-ratio "
-                 f"test accepts it (delta chi2 > {LRT_THRESHOLD} per added effect)")
+                 f"chi2_{1 - SIGNIFICANCE:.2f}(n={n}) = {_chi2_quantile(n):.2f}; otherwise forward selection by "
+                 f"likelihood-ratio tests: the best single effect is named if it lowers chi2 by more than "
+                 f"{LRT_THRESHOLD} (chi2_0.99(1)), and the best pair replaces it only if it lowers chi2 by more than "
+                 f"{LRT_THRESHOLD} again; 'adequate' marks fits with chi2 <= chi2_0.99(n-k)")
     return Discovery(level, named, params_out, features, gap_before, gap_after, chi2_0, fits, criterion, base,
                      updated, behaviours, alts, enma_data if level == "beam" else list(measured or []),
                      time.perf_counter() - t0)
@@ -782,11 +783,12 @@ def write_report(d: Discovery, out_dir: PathLike) -> List[Path]:
     za = [d.features[k]["z_after"] for k in names]
     fig, ax = plt.subplots(figsize=(max(6.0, 0.9 * len(names) + 2), 4.2), constrained_layout=True)
     x = np.arange(len(names))
-    ax.bar(x - 0.2, np.clip(zb, -50, 50), 0.4, label=f"baseline (gap {d.gap_before:.3g})")
-    ax.bar(x + 0.2, np.clip(za, -50, 50), 0.4, label=f"updated (gap {d.gap_after:.3g})")
+    ax.bar(x - 0.2, zb, 0.4, label=f"baseline (gap {d.gap_before:.3g})")
+    ax.bar(x + 0.2, za, 0.4, label=f"updated (gap {d.gap_after:.3g})")
+    ax.set_yscale("symlog", linthresh=2.0)
     ax.axhspan(-2, 2, color="0.85", zorder=0, label="±2 uncertainties")
     ax.set_xticks(x, names, rotation=30, ha="right", fontsize=8)
-    ax.set_ylabel("(model − measured) / uncertainty (clipped at ±50)")
+    ax.set_ylabel("(model − measured) / uncertainty (symlog)")
     ax.set_title("named: " + (", ".join(d.named_effects) or "nothing (model agrees within uncertainty)"))
     ax.legend(fontsize=8)
     ax.grid(alpha=0.3, axis="y")
