@@ -13,8 +13,10 @@ model is missing, add it, and show the disagreement shrink.
    (weighted least squares, χ² with the feature uncertainties). Criterion: nothing is named when
    the baseline agrees (χ² ≤ the 99 % quantile of χ²(n)); otherwise forward selection by
    likelihood-ratio tests with the measurement noise: the best single effect is named if it lowers
-   χ² by more than 6.635 (99 % quantile of χ²(1)), and the best pair replaces it only if it lowers
-   χ² by more than 6.635 again — a simpler explanation wins unless a richer one is clearly better.
+   χ² by more than the 99 % quantile of χ²(1) corrected for picking the best of m candidates
+   (Bonferroni: 1 − 0.01/m, e.g. 9.14 for m = 4), and the best pair containing it replaces it only
+   if it lowers χ² by more than that again (m = the pairs that extend it, e.g. 8.61 for m = 3) —
+   a simpler explanation wins unless a richer one is clearly better.
 4. **Adding it**: :func:`write_report` writes the updated TOML, ``report.json``, ``report.md`` and
    figures; the "after" features come from full simulations of the updated model.
 5. **Synthesiser** (:func:`synthesize_enma`, :func:`synthesize_slider_runs`): hidden-effect data
@@ -47,8 +49,6 @@ from .params import Parameters, resolve
 
 PathLike = Union[str, "os.PathLike[str]"]
 
-#: 99 % quantile of χ²(1): the likelihood-ratio threshold for one more effect.
-LRT_THRESHOLD = 6.635
 SIGNIFICANCE = 0.01
 
 
@@ -581,10 +581,19 @@ def _profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str
                         best_chi2 <= _chi2_quantile(n - k), best_chi2 + k * math.log(max(n, 2)))
 
 
+def _lrt_threshold(df: int, m: int) -> float:
+    """Likelihood-ratio threshold for adding ``df`` effects chosen as the best of ``m`` candidate
+    sets: the (1 − α/m) quantile of χ²(df) (Bonferroni for picking the best of m)."""
+    from scipy.stats import chi2
+
+    return float(chi2.isf(SIGNIFICANCE / max(m, 1), max(df, 1)))
+
+
 def _select(fits: List[CandidateFit], chi2_0: float, n: int) -> Tuple[Optional[CandidateFit], List[Tuple[str, ...]]]:
     """Nothing if the baseline is adequate; else forward selection by likelihood-ratio tests: the
-    best single effect must beat the baseline, and each larger set must beat the current choice,
-    by more than :data:`LRT_THRESHOLD` per added effect."""
+    best single effect must beat the baseline, and the best larger set containing the current
+    choice must beat it, by more than :func:`_lrt_threshold` (99 %, corrected for the number of
+    sets the best was picked from)."""
     if chi2_0 <= _chi2_quantile(n) or not fits:
         return None, []
     by_size: Dict[int, List[CandidateFit]] = {}
@@ -593,9 +602,14 @@ def _select(fits: List[CandidateFit], chi2_0: float, n: int) -> Tuple[Optional[C
     best: Optional[CandidateFit] = None
     best_chi2, best_k = chi2_0, 0
     for k in sorted(by_size):
-        top = min(by_size[k], key=lambda c: c.chi2)
-        if best_chi2 - top.chi2 > LRT_THRESHOLD * (k - best_k):
+        pool = [c for c in by_size[k] if best is None or set(best.effects) <= set(c.effects)]
+        if not pool:
+            continue
+        top = min(pool, key=lambda c: c.chi2)
+        if best_chi2 - top.chi2 > _lrt_threshold(k - best_k, len(pool)):
             best, best_chi2, best_k = top, top.chi2, k
+        else:
+            break
     if best is None:
         return None, []
     alts = [c.effects for c in by_size[len(best.effects)] if c.effects != best.effects and c.chi2 - best.chi2 < 2.0]
@@ -705,9 +719,11 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
                 for k, f in meas.items()}
     criterion = (f"weighted least squares with the feature uncertainties; nothing named if chi2(baseline) <= "
                  f"chi2_{1 - SIGNIFICANCE:.2f}(n={n}) = {_chi2_quantile(n):.2f}; otherwise forward selection by "
-                 f"likelihood-ratio tests: the best single effect is named if it lowers chi2 by more than "
-                 f"{LRT_THRESHOLD} (chi2_0.99(1)), and the best pair replaces it only if it lowers chi2 by more than "
-                 f"{LRT_THRESHOLD} again; 'adequate' marks fits with chi2 <= chi2_0.99(n-k)")
+                 f"likelihood-ratio tests at 99 %, Bonferroni-corrected for picking the best of m sets: the best "
+                 f"single effect is named if it lowers chi2 by more than chi2_(1-0.01/m)(1) (m = "
+                 f"{len(cand_effects)}: {_lrt_threshold(1, len(cand_effects)):.2f}), the best pair containing it "
+                 f"replaces it only if it lowers chi2 by that again (m = {max(len(cand_effects) - 1, 1)}: "
+                 f"{_lrt_threshold(1, max(len(cand_effects) - 1, 1)):.2f}); 'adequate' marks chi2 <= chi2_0.99(n-k)")
     return Discovery(level, named, params_out, features, gap_before, gap_after, chi2_0, fits, criterion, base,
                      updated, behaviours, alts, enma_data if level == "beam" else list(measured or []),
                      time.perf_counter() - t0)
