@@ -141,7 +141,7 @@ def test_degenerate_data():
 
 def test_enma_cli_virtual_and_measured(tmp_path):
     r = run_cli("enma", "--levels", "0.5:3:0.5", "--noise-frequency", "0.002", "--repeats", "2",
-                "--out", str(tmp_path / "v"), "--no-progress", cwd=tmp_path)
+                "--out", str(tmp_path / "v"), "--no-progress", cwd=tmp_path, timeout=600)
     assert r.returncode == 0, r.stderr
     out = tmp_path / "v"
     report = json.loads((out / "enma_report.json").read_text())
@@ -152,7 +152,7 @@ def test_enma_cli_virtual_and_measured(tmp_path):
     upd = bs.Parameters.from_toml(out / "enma_updated.toml")
     assert abs(upd.k_r_nm_per_rad / 125 - 1) < 0.05
     # The written data go back in as a measured file.
-    r = run_cli("enma", str(out / "enma_data.csv"), "--out", str(tmp_path / "m"), cwd=tmp_path)
+    r = run_cli("enma", str(out / "enma_data.csv"), "--out", str(tmp_path / "m"), cwd=tmp_path, timeout=600)
     assert r.returncode == 0, r.stderr
     assert "k_r [N m/rad]" in r.stdout
     bad = tmp_path / "bad.csv"

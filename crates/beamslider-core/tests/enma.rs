@@ -104,12 +104,13 @@ fn up_and_down_runs_and_bad_options() {
     assert!(virtual_enma(&model, &bad, &mut ()).unwrap_err().to_string().contains("kp_per_s"));
     let bad = EnmaOptions { sensor_x_m: Some(0.2), ..opts(&[1.0]) };
     assert!(virtual_enma(&model, &bad, &mut ()).unwrap_err().to_string().contains("sensor_x_m"));
-    // Interrupted through the monitor.
-    struct Stop;
+    // Interrupted through the monitor (it sees progress in levels; stop at the third poll).
+    struct Stop(u32);
     impl beamslider_core::Monitor for Stop {
-        fn poll(&mut self, t: f64, _: f64) -> bool {
-            t < 0.5
+        fn poll(&mut self, _: f64, _: f64) -> bool {
+            self.0 += 1;
+            self.0 < 3
         }
     }
-    assert!(matches!(virtual_enma(&model, &opts(&[1.0]), &mut Stop), Err(Error::Interrupted { .. })));
+    assert!(matches!(virtual_enma(&model, &opts(&[1.0]), &mut Stop(0)), Err(Error::Interrupted { .. })));
 }
