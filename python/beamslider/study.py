@@ -806,10 +806,13 @@ def _json_safe(x: Any) -> Any:
 def sobol_indices(y: np.ndarray, n: int, d: int, *, bootstrap: int = 200, seed: int = 0) -> Dict[str, np.ndarray]:
     """First-order (Saltelli 2010) and total (Jansen 1999) Sobol' indices from outputs ``y`` of a
     Saltelli design (rows A, B, AB_1..AB_D, N each): dict of arrays ``S1``, ``ST``, ``S1_conf``,
-    ``ST_conf`` (bootstrap 95 % half-widths), as SALib's ``sobol.analyze``."""
+    ``ST_conf`` (bootstrap 95 % half-widths); S1 and ST equal SALib's ``sobol.analyze`` (without
+    second order) for the same outputs."""
     y = np.asarray(y, dtype=float)
     if y.shape != (n * (d + 2),):
         raise ValueError(f"need {n * (d + 2)} outputs for N = {n}, D = {d}, got {y.shape}")
+    if np.std(y) > 0:  # standardised over all runs first, as SALib (the S1 estimator is not shift invariant)
+        y = (y - np.mean(y)) / np.std(y)
     ya, yb = y[:n], y[n:2 * n]
     yab = y[2 * n:].reshape(d, n)
 
