@@ -9,7 +9,9 @@
    the final slider position;
 3. both uncertain (μ ~ U[0.22, 0.31], c ~ U[0.95, 1.05]): Sobol' indices from a Saltelli design;
 4. a small map (f_ex 118/124/130 Hz × a_ex 6/10/14 m/s², the same two uncertain inputs, 8 Latin
-   hypercube samples): the most probable behaviour and its probability.
+   hypercube samples): the most probable behaviour and its probability;
+5. the paper's own check: the PCS super-slow manifold (100 periods per s) for c = 0.95, 1, 1.05 —
+   the turning point of its low branch (where the downward sweep jumps up) and the largest amplitude.
 
 Writes DIR/<study>/{study.jsonl,summary.*,*.png} (resumable: re-run the script to continue) and
 DIR/study_sensitivity.txt. Usage: python3 scripts/study_paper_sensitivity.py [--out docs/study] [-j N]
@@ -38,10 +40,34 @@ def studies():
         "friction": StudyConfig(uncertain=[Uncertain("friction_coefficient", "uniform", low=0.2, high=0.31,
                                                      levels=[0.20, 0.22, 0.24, 0.26, 0.28, 0.31])],
                                 method="grid", params=p),
-        "sobol": StudyConfig(uncertain=[MU, FREQ], method="saltelli", samples=16, seed=2023, params=p),
+        "sobol": StudyConfig(uncertain=[MU, FREQ], method="saltelli", samples=64, seed=2023, params=p),
         "map": StudyConfig(uncertain=[MU, FREQ], method="lhs", samples=8, seed=7, params=p,
                            f_ex_hz=[118.0, 124.0, 130.0], a_ex_m_s2=[6.0, 10.0, 14.0]),
     }
+
+
+def manifold_turning_points() -> str:
+    """Turning point of the low branch of the PCS manifold (downward sweep) for c = 0.95, 1, 1.05."""
+    from beamslider import super_slow_manifold
+    from beamslider.study import apply_sample
+
+    lines = ["PCS manifold (124 Hz, 14 m/s^2, 100 periods per s): low-branch turning point and largest amplitude",
+             "factor  turning s  d turning s  max w(4L/7)/h  d max"]
+    ref = None
+    for c in (0.95, 1.0, 1.05):
+        p = apply_sample(Parameters(), {"natural_frequency_factor": c})
+        m = super_slow_manifold(p, f_ex=124.0, a_ex=14.0)
+        a = m.down_amplitude / p.thickness_m
+        k = next((i for i in range(1, len(a)) if a[i] > 2.0 * a[i - 1] and a[i] - a[i - 1] > 0.1), None)
+        turn = float(m.down_s[k - 1]) if k is not None else float("nan")
+        amax = float(max(a.max(), (m.up_amplitude / p.thickness_m).max()))
+        if c == 1.0:
+            ref = (turn, amax)
+        lines.append((c, turn, amax))
+    out = lines[:2]
+    for c, turn, amax in lines[2:]:
+        out.append(f"{c:6.3f}  {turn:.4f}     {turn - ref[0]:+.4f}       {amax:.3f}          {amax - ref[1]:+.3f}")
+    return "\n".join(out) + "\n"
 
 
 def main() -> None:
@@ -74,6 +100,9 @@ def main() -> None:
                 lines.append(f"{x:6.3f}  {f:8.3f}  {t['turn_s'][k]:.4f}   {t['turn_s'][k] - nominal:+.4f}    "
                              f"{t['s_final'][k]:.4f}    {t['amplitude_final_h'][k]:.3f}          {t['behaviour'][k]}")
             report.append("\n".join(lines) + "\n")
+        print(report[-1], flush=True)
+    if not args.only or "manifold" in args.only:
+        report.append(manifold_turning_points())
         print(report[-1], flush=True)
     if not args.only:
         (out / "study_sensitivity.txt").write_text("\n".join(report), encoding="utf-8")

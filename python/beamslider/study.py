@@ -440,11 +440,9 @@ def sample(uncertain: Sequence[Uncertain], method: str, samples: int, *, seed: i
 def apply_sample(params: Parameters, values: Dict[str, float]) -> Parameters:
     """``params`` with the uncertain values set (virtual inputs realised, see the module docstring)."""
     d = params.to_dict()
-    for name, v in values.items():
-        if name == "natural_frequency_factor":
-            d.update(detune(params, float(v)))
-        else:
-            d[name] = float(v)
+    d.update({k: float(v) for k, v in values.items() if k not in VIRTUAL})
+    if "natural_frequency_factor" in values:  # relative to the sampled E, k_r, k_t
+        d.update(detune(Parameters.from_dict(d), float(values["natural_frequency_factor"])))
     return Parameters.from_dict(d)
 
 
