@@ -36,6 +36,7 @@ def main() -> None:
                       chunk_size=args.chunk_size)
     n = args.samples
     print(f"machine: {os.cpu_count()} cores; study: {n} samples x 1 operating point x {args.duration:g} s")
+    run_study(StudyConfig(uncertain=cfg.uncertain, samples=2, duration_s=0.01))  # warm the imports (scipy.stats)
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
         t0 = time.perf_counter()
