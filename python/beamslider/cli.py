@@ -1,4 +1,4 @@
-"""The ``beamslider`` command: simulate, manifold, compare, map, plot, enma, discover, synthesize.
+"""The ``beamslider`` command: simulate, manifold, compare, map, plot, enma, discover, synthesize, study.
 
 Each subcommand writes CSV/JSON results and PNG figures into an output folder (``--out``,
 default ``./beamslider-out``). ``beamslider simulate`` without options runs the paper's
@@ -532,6 +532,9 @@ def build_parser() -> argparse.ArgumentParser:
     from . import cli_discover, cli_enma
     cli_enma.add_parser(sub, _common, _positive)
     cli_discover.add_parsers(sub, _common, _positive)
+
+    from .study import add_cli as add_study_cli  # beamslider study (uncertainty studies, local or Dask)
+    add_study_cli(sub, _common)
     return ap
 
 

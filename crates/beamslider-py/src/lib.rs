@@ -22,6 +22,8 @@ use pyo3::exceptions::{PyException, PyKeyboardInterrupt, PyOSError, PyValueError
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
+mod study;
+
 pyo3::create_exception!(
     _core,
     SimulationError,
@@ -478,5 +480,6 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(run_map, m)?)?;
     m.add_function(wrap_pyfunction!(enma::virtual_enma, m)?)?;
     m.add_function(wrap_pyfunction!(enma::beam_properties, m)?)?;
+    study::register(m)?;
     Ok(())
 }
