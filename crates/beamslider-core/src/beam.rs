@@ -470,8 +470,9 @@ impl ModeTable {
         if !(r >= 0.0 && r < self.intervals_f) {
             return None;
         }
-        let j = r as usize;
-        Some((j, 2.0 * (r - j as f64) - 1.0))
+        // SAFETY: 0 ≤ r < intervals (checked above), so the truncation fits in i32.
+        let ji = unsafe { r.to_int_unchecked::<i32>() };
+        Some((ji as usize, 2.0 * (r - ji as f64) - 1.0))
     }
 
     fn eval(&self, x: f64, phi: &mut [f64], dphi: &mut [f64]) -> bool {

@@ -3,6 +3,7 @@
 
 use crate::beam::{Beam, Loc};
 use crate::slider::{Slider, ZETA_Z};
+use crate::solver::{DIM, MAX_CLOSED};
 
 /// Kinematics of a closed contact: the two columns (normal, tangential) of W and w̃.
 #[derive(Debug, Clone, Copy)]
@@ -27,6 +28,35 @@ impl<const N: usize> ClosedContact<N> {
         wb: [[0.0; N]; 2],
         ws: [[0.0; 3]; 2],
         wtilde: [0.0; 2],
+    };
+}
+
+/// W of the closed contacts of one step, transposed: column a = 2j + r belongs to the j-th
+/// closed contact (r = 0 normal, 1 tangential), and row m holds ∂g_a/∂q_m. With this layout
+/// the Delassus matrix G = Wᵀ M⁻¹ W = Σ_m (row m)ᵀ (M⁻¹ row m) is a sum of outer products of
+/// short vectors, and Wᵀ u = Σ_m u_m (row m).
+#[derive(Debug, Clone, Copy)]
+pub struct Jacobians<const N: usize> {
+    /// Beam part: rows m = 0..N (modal coordinates).
+    pub beam: [[f64; DIM]; N],
+    /// Slider part: rows x_C, z_C, β.
+    pub slider: [[f64; DIM]; 3],
+    /// Imposed gap velocities w̃ per column.
+    pub wtilde: [f64; DIM],
+    /// Contact point (0..4) of the j-th closed contact.
+    pub index: [usize; MAX_CLOSED],
+    /// Normal gap g_N (< 0) of the j-th closed contact [m].
+    pub gap_n: [f64; MAX_CLOSED],
+}
+
+impl<const N: usize> Jacobians<N> {
+    /// All zero.
+    pub const EMPTY: Self = Jacobians {
+        beam: [[0.0; DIM]; N],
+        slider: [[0.0; DIM]; 3],
+        wtilde: [0.0; DIM],
+        index: [0; MAX_CLOSED],
+        gap_n: [0.0; MAX_CLOSED],
     };
 }
 
@@ -60,9 +90,18 @@ pub fn kinematics<const N: usize>(
     if !may_close(i, pr.z_p, base.w0, pr.w, slider.half_thickness) {
         return (pr.x_p, None);
     }
-    let mut c = ClosedContact::EMPTY;
-    let closed = finish(beam, slider, i, &pr, sin_b, cos_b, q, base, &mut c);
-    (pr.x_p, closed.then_some(c))
+    let mut jac = Jacobians::<N>::EMPTY;
+    if !finish(beam, slider, i, &pr, sin_b, cos_b, q, base, &mut jac, 0) {
+        return (pr.x_p, None);
+    }
+    let c = ClosedContact {
+        index: i,
+        gap_n: jac.gap_n[0],
+        wb: [std::array::from_fn(|m| jac.beam[m][0]), std::array::from_fn(|m| jac.beam[m][1])],
+        ws: [std::array::from_fn(|m| jac.slider[m][0]), std::array::from_fn(|m| jac.slider[m][1])],
+        wtilde: [jac.wtilde[0], jac.wtilde[1]],
+    };
+    (pr.x_p, Some(c))
 }
 
 /// First half of the kinematics: the point's position and the beam's deflection under it.
@@ -99,6 +138,12 @@ pub fn probe<const N: usize>(
     q: &[f64; N],
 ) -> Probe<N> {
     let [x_p, z_p] = slider.point(i, x_kin, z_c, sin_b, cos_b);
+    probe_at(beam, x_p, z_p, q)
+}
+
+/// [`probe`] for a point already placed at (x_P, z_P).
+#[inline(always)]
+pub fn probe_at<const N: usize>(beam: &Beam, x_p: f64, z_p: f64, q: &[f64; N]) -> Probe<N> {
     let loc = beam.locate(x_p);
     let phi = beam.phi_n::<N>(&loc);
     let mut w = 0.0;
@@ -115,8 +160,8 @@ pub fn may_close(i: usize, z_p: f64, w0: f64, w: f64, half_thickness: f64) -> bo
     ZETA_Z[i] * (z_p - w0 - w) - half_thickness < 1e-5 * half_thickness
 }
 
-/// Steps 2–6 for a point that passed the pre-check; writes `out` and returns whether the
-/// contact is closed (g_N < 0).
+/// Steps 2–6 for a point that passed the pre-check. When the contact is closed (g_N < 0),
+/// writes it as the `j`-th closed contact of `out` (columns 2j, 2j + 1) and returns true.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 pub fn finish<const N: usize>(
@@ -128,7 +173,8 @@ pub fn finish<const N: usize>(
     cos_b: f64,
     q: &[f64; N],
     base: Base,
-    out: &mut ClosedContact<N>,
+    out: &mut Jacobians<N>,
+    j: usize,
 ) -> bool {
     let zz = ZETA_Z[i];
     let hh = slider.half_thickness;
@@ -150,25 +196,33 @@ pub fn finish<const N: usize>(
         return false;
     }
     let g_t = a[1][0] * d[0] + a[1][1] * d[1];
+    let col = 2 * j;
+    debug_assert!(j < MAX_CLOSED);
     // 5. Slider part A_CN [I₂ | A'(β) r_CP].
     let [dx, dz] = slider.point_dbeta(i, sin_b, cos_b);
-    out.index = i;
-    out.gap_n = g_n;
-    out.ws = [
-        [a[0][0], a[0][1], a[0][0] * dx + a[0][1] * dz],
-        [a[1][0], a[1][1], a[1][0] * dx + a[1][1] * dz],
-    ];
+    out.index[j] = i;
+    out.gap_n[j] = g_n;
+    for r in 0..2 {
+        out.slider[0][col + r] = a[r][0];
+        out.slider[1][col + r] = a[r][1];
+        out.slider[2][col + r] = a[r][0] * dx + a[r][1] * dz;
+    }
     // Beam part −A_CN ∂r_B/∂q_b + (A_CN' (r_P − r_B)) ⊗ φ', with A_CN'(r_P − r_B) = (g_T, −g_N)
     // and ∂r_B/∂q_b = (ζZ (h/2)(w'² − 1) φ', φ − ζZ (h/2) w' φ'): each row is c_φ φ + c_φ' φ'.
     let e = [g_t, -g_n];
+    let mut c_phi = [0.0; 2];
+    let mut c_dphi = [0.0; 2];
     for r in 0..2 {
-        let c_phi = -a[r][1];
-        let c_dphi = -a[r][0] * zz * hh * (wp * wp - 1.0) + a[r][1] * zz * hh * wp + e[r];
-        for m in 0..N {
-            out.wb[r][m] = c_phi * phi[m] + c_dphi * dphi[m];
+        c_phi[r] = -a[r][1];
+        c_dphi[r] = -a[r][0] * zz * hh * (wp * wp - 1.0) + a[r][1] * zz * hh * wp + e[r];
+    }
+    for m in 0..N {
+        for r in 0..2 {
+            out.beam[m][col + r] = c_phi[r] * phi[m] + c_dphi[r] * dphi[m];
         }
     }
     // 6. w̃ = −A_CN (0, ẇ₀).
-    out.wtilde = [-a[0][1] * base.w0_dot, -a[1][1] * base.w0_dot];
+    out.wtilde[col] = -a[0][1] * base.w0_dot;
+    out.wtilde[col + 1] = -a[1][1] * base.w0_dot;
     true
 }

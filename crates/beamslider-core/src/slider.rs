@@ -52,6 +52,19 @@ impl Slider {
         [x + cos_b * rx + sin_b * rz, z - sin_b * rx + cos_b * rz]
     }
 
+    /// All four points at once: (x₀..x₃, z₀..z₃), each as in [`Slider::point`].
+    #[inline(always)]
+    pub fn points(&self, x: f64, z: f64, sin_b: f64, cos_b: f64) -> ([f64; N_CONTACTS], [f64; N_CONTACTS]) {
+        let mut xs = [0.0; N_CONTACTS];
+        let mut zs = [0.0; N_CONTACTS];
+        for i in 0..N_CONTACTS {
+            let [rx, rz] = self.r_cp[i];
+            xs[i] = x + cos_b * rx + sin_b * rz;
+            zs[i] = z - sin_b * rx + cos_b * rz;
+        }
+        (xs, zs)
+    }
+
     /// A'(β) r_CPᵢ = [[0,1],[−1,0]] A(β) r_CPᵢ (derivative of the point position with β).
     #[inline(always)]
     pub fn point_dbeta(&self, i: usize, sin_b: f64, cos_b: f64) -> [f64; 2] {

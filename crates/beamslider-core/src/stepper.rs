@@ -2,7 +2,7 @@
 //! M du = h(t, q, u) dt + W dP, specialised at compile time to the number of modes N.
 
 use crate::beam::Beam;
-use crate::contact::{Base, ClosedContact, finish, may_close, probe};
+use crate::contact::{Base, Jacobians, finish, may_close, probe_at};
 use crate::params::{ContactSolver, Params};
 use crate::slider::{N_CONTACTS, Slider, ZETA_Z};
 use crate::solver::{self, ContactMode, DIM, LocalProblem, MAX_CLOSED};
@@ -147,8 +147,8 @@ pub struct Stepper<'a, const N: usize> {
     pub counters: Counters,
     /// Check every local solution against the contact laws (costs time; for tests).
     pub audit: bool,
-    /// Scratch: kinematics of each contact point in the current step.
-    slots: [ClosedContact<N>; N_CONTACTS],
+    /// Scratch: W and w̃ of the closed contacts of the current step.
+    jac: Jacobians<N>,
     /// Bound of |φₘ'| per mode (for skipping surely-open points).
     slope_bound: [f64; N],
     /// Scratch: the local problem of the current step.
@@ -259,7 +259,7 @@ impl<'a, const N: usize> Stepper<'a, N> {
             last_p: [[0.0; 2]; N_CONTACTS],
             counters: Counters::default(),
             audit: false,
-            slots: [ClosedContact::EMPTY; N_CONTACTS],
+            jac: Jacobians::EMPTY,
             slope_bound: std::array::from_fn(|m| beam.slope_bound[m]),
             prob: LocalProblem::new(0, p.friction_coefficient),
             clock: Clock::new(base.omega, p.dt_s),
@@ -290,13 +290,13 @@ impl<'a, const N: usize> Stepper<'a, N> {
             (a / (om * om) * c, -a / om * sn, -a * c)
         };
         // h_M: beam forces (damping with u_B) and slider gravity.
+        // K q_M, accumulated column by column (K is symmetric: row j = column j), in the same
+        // order j = 0..N for every entry.
         let mut kq = [0.0; N];
-        for i in 0..N {
-            let mut acc = 0.0;
-            for j in 0..N {
-                acc += self.kmat[i][j] * qm[j];
+        for j in 0..N {
+            for i in 0..N {
+                kq[i] += self.kmat[j][i] * qm[j];
             }
-            kq[i] = acc;
         }
         let mut qkq = 0.0;
         for i in 0..N {
@@ -343,60 +343,68 @@ impl<'a, const N: usize> Stepper<'a, N> {
         };
         let (sin_b, cos_b) = sin_cos_small(qsm[2]);
         let base = Base { w0, w0_dot };
+        let (xp, zp) = self.slider.points(x_kin, qsm[1], sin_b, cos_b);
+        if self.kin == Kinematics::Free {
+            for i in [0, 1, 3, 2] {
+                let x_p = xp[i];
+                if !(x_p >= 0.0 && x_p <= self.length) {
+                    // Far beyond the beam within one step: a blow-up, not a slider leaving the beam.
+                    let plausible = x_p.abs() <= 2.0 * self.length;
+                    return Err(if plausible { StepFault::LeftBeam(x_p) } else { StepFault::NonFinite });
+                }
+            }
+        }
         // The four points in pairs (top, bottom) on each side. The bottom point of a pair is
         // only evaluated when it may touch: |w(x_bottom) − w(x_top)| ≤ |Δx| Σ|qₘ| max|φₘ'|,
         // so a pre-check that fails for every w in that range skips it (exactly the same outcome).
+        // Closed contacts are numbered in the order of MODEL.md §3 (counter-clockwise from
+        // top-left: 0, 1, 2, 3), so the right pair's top point 3 is finished last.
         let hh = self.slider.half_thickness;
         let mut slope = 0.0;
         for m in 0..N {
             slope += qm[m].abs() * self.slope_bound[m];
         }
-        let slots = &mut self.slots;
-        let mut closed = [false; N_CONTACTS];
-        for (top, bottom) in [(0usize, 1usize), (3, 2)] {
-            let pa = probe::<N>(self.beam, &self.slider, top, x_kin, qsm[1], sin_b, cos_b, &qm);
-            let [xb, zb] = self.slider.point(bottom, x_kin, qsm[1], sin_b, cos_b);
-            if self.kin == Kinematics::Free {
-                for x_p in [pa.x_p, xb] {
-                    if !(x_p >= 0.0 && x_p <= self.length) {
-                        // Far beyond the beam within one step: a blow-up, not a slider leaving the beam.
-                        let plausible = x_p.abs() <= 2.0 * self.length;
-                        return Err(if plausible { StepFault::LeftBeam(x_p) } else { StepFault::NonFinite });
-                    }
-                }
-            }
-            if may_close(top, pa.z_p, w0, pa.w, hh) {
-                closed[top] = finish::<N>(self.beam, &self.slider, top, &pa, sin_b, cos_b, &qm, base, &mut slots[top]);
-            }
-            let margin = (xb - pa.x_p).abs() * slope * 1.000001 + 1e-15;
-            let surely_open = pa.in_table()
-                && self.beam.in_table(xb)
-                && ZETA_Z[bottom] * (zb - w0 - pa.w) - margin - hh >= 1e-5 * hh;
-            if !surely_open {
-                let pb = probe::<N>(self.beam, &self.slider, bottom, x_kin, qsm[1], sin_b, cos_b, &qm);
-                if may_close(bottom, pb.z_p, w0, pb.w, hh) {
-                    closed[bottom] =
-                        finish::<N>(self.beam, &self.slider, bottom, &pb, sin_b, cos_b, &qm, base, &mut slots[bottom]);
-                }
-            }
-        }
-        // Closed contacts in the order of MODEL.md §3 (counter-clockwise from top-left).
-        let mut idx = [0usize; MAX_CLOSED];
+        let beam = self.beam;
+        let slider = &self.slider;
+        let jac = &mut self.jac;
         let mut k = 0;
-        for i in 0..N_CONTACTS {
-            if closed[i] {
-                idx[k] = i;
+        let may_touch = |top: usize, bottom: usize, in_table: bool, w_top: f64| {
+            let margin = (xp[bottom] - xp[top]).abs() * slope * 1.000001 + 1e-15;
+            let surely_open = in_table
+                && beam.in_table(xp[bottom])
+                && ZETA_Z[bottom] * (zp[bottom] - w0 - w_top) - margin - hh >= 1e-5 * hh;
+            !surely_open
+        };
+        // Left pair: 0 (top), 1 (bottom).
+        let p0 = probe_at::<N>(beam, xp[0], zp[0], &qm);
+        if may_close(0, p0.z_p, w0, p0.w, hh) && finish::<N>(beam, slider, 0, &p0, sin_b, cos_b, &qm, base, jac, k) {
+            k += 1;
+        }
+        if may_touch(0, 1, p0.in_table(), p0.w) {
+            let p1 = probe_at::<N>(beam, xp[1], zp[1], &qm);
+            if may_close(1, p1.z_p, w0, p1.w, hh) && finish::<N>(beam, slider, 1, &p1, sin_b, cos_b, &qm, base, jac, k) {
                 k += 1;
             }
+        }
+        // Right pair: 3 (top), 2 (bottom).
+        let p3 = probe_at::<N>(beam, xp[3], zp[3], &qm);
+        if may_touch(3, 2, p3.in_table(), p3.w) {
+            let p2 = probe_at::<N>(beam, xp[2], zp[2], &qm);
+            if may_close(2, p2.z_p, w0, p2.w, hh) && finish::<N>(beam, slider, 2, &p2, sin_b, cos_b, &qm, base, jac, k) {
+                k += 1;
+            }
+        }
+        if may_close(3, p3.z_p, w0, p3.w, hh) && finish::<N>(beam, slider, 3, &p3, sin_b, cos_b, &qm, base, jac, k) {
+            k += 1;
         }
         self.counters.closed_histogram[k] += 1;
         match k {
             // 3. No contact: u_E = u_B + M⁻¹ h_M Δt.
             0 => {}
-            1 => self.contact_phase::<1>(&idx, s, &mut vb, &mut vs),
-            2 => self.contact_phase::<2>(&idx, s, &mut vb, &mut vs),
-            3 => self.contact_phase::<3>(&idx, s, &mut vb, &mut vs),
-            _ => self.contact_phase::<4>(&idx, s, &mut vb, &mut vs),
+            1 => self.contact_phase::<1>(s, &mut vb, &mut vs),
+            2 => self.contact_phase::<2>(s, &mut vb, &mut vs),
+            3 => self.contact_phase::<3>(s, &mut vb, &mut vs),
+            _ => self.contact_phase::<4>(s, &mut vb, &mut vs),
         }
         s.ub = vb;
         s.us = vs;
@@ -410,83 +418,86 @@ impl<'a, const N: usize> Stepper<'a, N> {
         let check: f64 = s.ub.iter().sum::<f64>() + s.us.iter().sum::<f64>();
         if check.is_finite() { Ok(()) } else { Err(StepFault::NonFinite) }
     }
-    /// Step 3 with K closed contacts `idx` (in order): Delassus matrix, free velocity term,
+    /// Step 3 with the K closed contacts of `self.jac`: Delassus matrix, free velocity term,
     /// local solve, and u_E = u_free + M⁻¹ W P written into (vb, vs).
     #[inline(always)]
-    fn contact_phase<const K: usize>(
-        &mut self,
-        idx: &[usize; MAX_CLOSED],
-        s: &StateN<N>,
-        vb: &mut [f64; N],
-        vs: &mut [f64; 3],
-    ) {
+    fn contact_phase<const K: usize>(&mut self, s: &StateN<N>, vb: &mut [f64; N], vs: &mut [f64; 3]) {
         self.counters.contact_steps += 1;
-        let cs: [&ClosedContact<N>; K] = std::array::from_fn(|j| &self.slots[idx[j]]);
+        let jac = &self.jac;
         let prob = &mut self.prob;
         prob.k = K;
-        // M⁻¹ W, slider part.
+        let nc = 2 * K;
+        // M⁻¹ W, slider part (the beam's modal mass matrix is the identity).
         let minv_s = [self.inv_m, self.inv_m, self.inv_j];
-        let ms: [[[f64; 3]; 2]; K] = std::array::from_fn(|j| {
-            std::array::from_fn(|r| std::array::from_fn(|m| cs[j].ws[r][m] * minv_s[m]))
-        });
+        let mut ys = [[0.0; DIM]; 3];
+        for m in 0..3 {
+            for a in 0..nc {
+                ys[m][a] = jac.slider[m][a] * minv_s[m];
+            }
+        }
+        // c = (I + E)(Wᵀ u_B + w̃) + Wᵀ M⁻¹ h_M Δt = Wᵀ u_free + w̃ + E (Wᵀ u_B + w̃), E = diag(ε_N, 0),
+        // with Wᵀ u = Σ_m u_m (row m of W).
+        let mut wu_b = jac.wtilde;
+        let mut wu_f = jac.wtilde;
+        for m in 0..N {
+            for a in 0..nc {
+                wu_b[a] += jac.beam[m][a] * s.ub[m];
+                wu_f[a] += jac.beam[m][a] * vb[m];
+            }
+        }
+        for m in 0..3 {
+            for a in 0..nc {
+                wu_b[a] += jac.slider[m][a] * s.us[m];
+                wu_f[a] += jac.slider[m][a] * vs[m];
+            }
+        }
         for j in 0..K {
-            let cj = cs[j];
-            // c = (I + E)(Wᵀ u_B + w̃) + Wᵀ M⁻¹ h_M Δt = Wᵀ u_free + w̃ + E (Wᵀ u_B + w̃), E = diag(ε_N, 0).
-            let mut wu_b = cj.wtilde[0];
-            let mut wu_f = cj.wtilde[0];
-            let mut wt_f = cj.wtilde[1];
-            for m in 0..N {
-                wu_b += cj.wb[0][m] * s.ub[m];
-                wu_f += cj.wb[0][m] * vb[m];
-                wt_f += cj.wb[1][m] * vb[m];
-            }
-            for m in 0..3 {
-                wu_b += cj.ws[0][m] * s.us[m];
-                wu_f += cj.ws[0][m] * vs[m];
-                wt_f += cj.ws[1][m] * vs[m];
-            }
-            prob.c[2 * j] = wu_f + self.eps_n * wu_b;
-            prob.c[2 * j + 1] = wt_f;
-            // G = Wᵀ M⁻¹ W (lower triangle, mirrored).
-            for ra in 0..2 {
-                let a = 2 * j + ra;
-                for l in 0..=j {
-                    let cl = cs[l];
-                    for rb in 0..2 {
-                        let b = 2 * l + rb;
-                        if b > a {
-                            continue;
-                        }
-                        let mut gab = 0.0;
-                        for m in 0..N {
-                            gab += cj.wb[ra][m] * cl.wb[rb][m];
-                        }
-                        for m in 0..3 {
-                            gab += cj.ws[ra][m] * ms[l][rb][m];
-                        }
-                        prob.g[a][b] = gab;
-                        prob.g[b][a] = gab;
-                    }
+            prob.c[2 * j] = wu_f[2 * j] + self.eps_n * wu_b[2 * j];
+            prob.c[2 * j + 1] = wu_f[2 * j + 1];
+        }
+        // G = Wᵀ M⁻¹ W = Σ_m (row m)ᵀ (M⁻¹ row m): gt[b][a] = G_ab accumulated over the modes, then
+        // the slider coordinates; its lower triangle (a ≥ b) is mirrored.
+        let mut gt = [[0.0; DIM]; DIM];
+        for m in 0..N {
+            let x = &jac.beam[m];
+            for b in 0..nc {
+                for a in 0..nc {
+                    gt[b][a] += x[a] * x[b];
                 }
             }
         }
+        for m in 0..3 {
+            let x = &jac.slider[m];
+            for b in 0..nc {
+                for a in 0..nc {
+                    gt[b][a] += x[a] * ys[m][b];
+                }
+            }
+        }
+        for b in 0..nc {
+            for a in b..nc {
+                prob.g[a][b] = gt[b][a];
+                prob.g[b][a] = gt[b][a];
+            }
+        }
+        let index: [usize; K] = std::array::from_fn(|j| jac.index[j]);
         let mut p = [0.0; DIM];
         let info = match self.solver {
             ContactSolver::Reference => {
                 for j in 0..K {
-                    p[2 * j] = self.warm[cs[j].index][0];
-                    p[2 * j + 1] = self.warm[cs[j].index][1];
+                    p[2 * j] = self.warm[index[j]][0];
+                    p[2 * j + 1] = self.warm[index[j]][1];
                 }
                 solver::gauss_seidel(prob, &mut p, self.tol_rel, self.tol_abs, self.max_iter)
             }
             ContactSolver::Fast => {
                 let mut modes = [ContactMode::Stick; MAX_CLOSED];
                 for j in 0..K {
-                    modes[j] = self.modes[cs[j].index];
+                    modes[j] = self.modes[index[j]];
                 }
                 let info = solver::exact_k::<K>(prob, &mut modes, &mut p, self.max_iter);
                 for j in 0..K {
-                    self.modes[cs[j].index] = modes[j];
+                    self.modes[index[j]] = modes[j];
                 }
                 info
             }
@@ -502,17 +513,22 @@ impl<'a, const N: usize> Stepper<'a, N> {
         c.linear_solves += info.linear_solves as u64;
         c.enumerations += info.enumerated as u64;
         c.fallbacks += info.fallback as u64;
-        // u_E = u_free + M⁻¹ W P.
+        // u_E = u_free + M⁻¹ W P, contact by contact.
         for j in 0..K {
             let (pn, pt) = (p[2 * j], p[2 * j + 1]);
-            let cj = cs[j];
-            self.warm[cj.index] = [pn, pt];
-            self.last_p[cj.index] = [pn, pt];
-            for m in 0..N {
-                vb[m] += cj.wb[0][m] * pn + cj.wb[1][m] * pt;
+            self.warm[index[j]] = [pn, pt];
+            self.last_p[index[j]] = [pn, pt];
+        }
+        let jac = &self.jac;
+        for m in 0..N {
+            let x = &jac.beam[m];
+            for j in 0..K {
+                vb[m] += x[2 * j] * p[2 * j] + x[2 * j + 1] * p[2 * j + 1];
             }
-            for m in 0..3 {
-                vs[m] += ms[j][0][m] * pn + ms[j][1][m] * pt;
+        }
+        for m in 0..3 {
+            for j in 0..K {
+                vs[m] += ys[m][2 * j] * p[2 * j] + ys[m][2 * j + 1] * p[2 * j + 1];
             }
         }
     }
