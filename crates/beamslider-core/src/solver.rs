@@ -221,29 +221,130 @@ pub fn exact_k<const K: usize>(
         sv = fmax(sv, prob.c[a].abs());
         gmax = fmax(gmax, prob.g[a][a].abs());
     }
+    if K == 1 {
+        return exact_single(prob, modes, p, max_iter, sv, gmax);
+    }
     // 1. The guess, then active-set corrections of the violated contacts.
     let mut trial = *modes;
     for attempt in 0..(2 * k + 2) {
         info.linear_solves += 1;
-        let Some(sol) = solve_pattern::<K>(prob, &trial) else {
-            break;
-        };
-        match check_pattern::<K>(prob, &trial, &sol, sv, gmax) {
-            None => {
+        match try_pattern::<K>(prob, &trial, sv, gmax) {
+            Attempt::Solved(sol) => {
                 *p = sol;
                 *modes = trial;
                 info.first_guess = attempt == 0;
                 return info;
             }
-            Some(next) => {
-                if next == trial {
-                    break;
-                }
-                trial = next;
-            }
+            Attempt::Next(next) if next != trial => trial = next,
+            _ => break,
         }
     }
     enumerate_patterns::<K>(prob, modes, p, max_iter, info, sv, gmax)
+}
+
+/// Outcome of one pattern of the active-set loop of [`exact_k`].
+enum Attempt {
+    /// The pattern's solution satisfies the contact laws.
+    Solved([f64; DIM]),
+    /// It does not; the corrected pattern.
+    Next([ContactMode; MAX_CLOSED]),
+    /// The pattern's linear system is singular.
+    Singular,
+}
+
+/// Solve and check one pattern. Out of line on purpose: inlined into the loop of [`exact_k`],
+/// its pattern-invariant parts (for every pattern) were hoisted in front of the first attempt.
+#[inline(never)]
+fn try_pattern<const K: usize>(prob: &LocalProblem, trial: &[ContactMode; MAX_CLOSED], sv: f64, gmax: f64) -> Attempt {
+    let sol = if K == 2 { solve_pair(prob, trial) } else { solve_pattern::<K>(prob, trial) };
+    let Some(sol) = sol else {
+        return Attempt::Singular;
+    };
+    match check_pattern::<K>(prob, trial, &sol, sv, gmax) {
+        None => Attempt::Solved(sol),
+        Some(next) => Attempt::Next(next),
+    }
+}
+
+/// [`exact_k`] for one contact, written out: the same linear solves and checks as the general
+/// path (bitwise the same results) without its bookkeeping.
+///   open:   P = 0, needs ξ_N = c_N ≥ 0;
+///   stick:  G P = −c (2×2), needs P_N ≥ 0 and |P_T| ≤ μ P_N;
+///   slide σ: (G_NN − σμ G_NT) P_N = −c_N, P_T = −σμ P_N, needs P_N ≥ 0 and σ ξ_T ≥ 0.
+#[inline(always)]
+fn exact_single(
+    prob: &LocalProblem,
+    modes: &mut [ContactMode; MAX_CLOSED],
+    p: &mut [f64; DIM],
+    max_iter: u32,
+    sv: f64,
+    gmax: f64,
+) -> SolveInfo {
+    let g = &prob.g;
+    let c = &prob.c;
+    let mu = prob.mu;
+    let mut info = SolveInfo::default();
+    let mut trial = modes[0];
+    for attempt in 0..4 {
+        info.linear_solves += 1;
+        let (pn, pt) = match trial {
+            ContactMode::Open => (0.0, 0.0),
+            ContactMode::Stick => {
+                let mut a = [[g[0][0], g[0][1]], [g[1][0], g[1][1]]];
+                let amax = fmax(fmax(fmax(fmax(0.0, a[0][0].abs()), a[0][1].abs()), a[1][0].abs()), a[1][1].abs());
+                let Some(y) = gauss_solve::<2>(&mut a, [-c[0], -c[1]], amax) else {
+                    break;
+                };
+                (y[0], y[1])
+            }
+            ContactMode::SlidePos | ContactMode::SlideNeg => {
+                let sigma = if trial == ContactMode::SlidePos { 1.0 } else { -1.0 };
+                let f = -sigma * mu;
+                let v = g[0][0] + f * g[0][1];
+                let Some(y) = gauss_solve::<1>(&mut [[v]], [-c[0]], fmax(0.0, v.abs())) else {
+                    break;
+                };
+                (y[0], f * y[0])
+            }
+        };
+        let pmax = fmax(fmax(0.0, pn.abs()), pt.abs());
+        let (tv, tp) = (EXACT_TOL * sv, EXACT_TOL * fmax(pmax, sv / gmax));
+        let row = |a: usize| c[a] + g[a][0] * pn + g[a][1] * pt;
+        let next = match trial {
+            ContactMode::Open => {
+                if row(0) < -tv { ContactMode::Stick } else { trial }
+            }
+            ContactMode::Stick => {
+                if pn < -tp {
+                    ContactMode::Open
+                } else if pt.abs() > mu * pn + tp {
+                    if pt < 0.0 { ContactMode::SlidePos } else { ContactMode::SlideNeg }
+                } else {
+                    trial
+                }
+            }
+            ContactMode::SlidePos | ContactMode::SlideNeg => {
+                let sigma = if trial == ContactMode::SlidePos { 1.0 } else { -1.0 };
+                if pn < -tp {
+                    ContactMode::Open
+                } else if sigma * row(1) < -tv {
+                    ContactMode::Stick
+                } else {
+                    trial
+                }
+            }
+        };
+        if next == trial {
+            *p = [0.0; DIM];
+            p[0] = pn;
+            p[1] = pt;
+            modes[0] = trial;
+            info.first_guess = attempt == 0;
+            return info;
+        }
+        trial = next;
+    }
+    enumerate_patterns::<1>(prob, modes, p, max_iter, info, sv, gmax)
 }
 
 /// Steps 2 and 3 of [`exact`]: all 4^k patterns, then Gauss–Seidel (rare; kept out of line).
@@ -350,8 +451,39 @@ fn solve_pattern<const K: usize>(prob: &LocalProblem, modes: &[ContactMode; MAX_
     }
 }
 
+/// [`solve_pattern`] for two contacts: one arm per combination of open / sticking / sliding, so
+/// that the reduced system's layout is known at compile time (same arithmetic as the general path).
 #[inline(always)]
-fn solve_reduced<const M: usize>(prob: &LocalProblem, unk: &[Unknown; DIM], rows: &[usize; DIM]) -> Option<[f64; DIM]> {
+fn solve_pair(prob: &LocalProblem, modes: &[ContactMode; MAX_CLOSED]) -> Option<[f64; DIM]> {
+    use ContactMode::*;
+    const NO: usize = usize::MAX;
+    let stick = |col: usize| Unknown { col, tangent_col: NO, factor: 0.0 };
+    // Sliding contact i: P_T = −σμ P_N.
+    let slide = |i: usize| Unknown {
+        col: 2 * i,
+        tangent_col: 2 * i + 1,
+        factor: if modes[i] == SlidePos { -prob.mu } else { prob.mu },
+    };
+    let class = |m: ContactMode| match m {
+        Open => 0,
+        Stick => 1,
+        SlidePos | SlideNeg => 2,
+    };
+    match (class(modes[0]), class(modes[1])) {
+        (0, 0) => Some([0.0; DIM]),
+        (0, 1) => solve_reduced::<2>(prob, &[stick(2), stick(3)], &[2, 3]),
+        (0, _) => solve_reduced::<1>(prob, &[slide(1)], &[2]),
+        (1, 0) => solve_reduced::<2>(prob, &[stick(0), stick(1)], &[0, 1]),
+        (1, 1) => solve_reduced::<4>(prob, &[stick(0), stick(1), stick(2), stick(3)], &[0, 1, 2, 3]),
+        (1, _) => solve_reduced::<3>(prob, &[stick(0), stick(1), slide(1)], &[0, 1, 2]),
+        (_, 0) => solve_reduced::<1>(prob, &[slide(0)], &[0]),
+        (_, 1) => solve_reduced::<3>(prob, &[slide(0), stick(2), stick(3)], &[0, 2, 3]),
+        (_, _) => solve_reduced::<2>(prob, &[slide(0), slide(1)], &[0, 2]),
+    }
+}
+
+#[inline(always)]
+fn solve_reduced<const M: usize>(prob: &LocalProblem, unk: &[Unknown], rows: &[usize]) -> Option<[f64; DIM]> {
     let mut a = [[0.0; M]; M];
     let mut b = [0.0; M];
     let mut amax: f64 = 0.0;
