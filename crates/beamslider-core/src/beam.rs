@@ -229,8 +229,7 @@ impl Beam {
     /// Is x [m] inside the tabulated range?
     #[inline(always)]
     pub fn in_table(&self, x: f64) -> bool {
-        let xi = x / self.length_m;
-        xi >= TABLE_XI_MIN && xi < TABLE_XI_MAX
+        self.table.locate_x(x).is_some()
     }
 
     /// Mode values at x (exact).

@@ -221,14 +221,16 @@ pub fn exact_k<const K: usize>(
         sv = fmax(sv, prob.c[a].abs());
         gmax = fmax(gmax, prob.g[a][a].abs());
     }
+    // Percussion scale below which P counts as zero in the checks: |c| / |G|.
+    let p_floor = sv / gmax;
     if K == 1 {
-        return exact_single(prob, modes, p, max_iter, sv, gmax);
+        return exact_single(prob, modes, p, max_iter, sv, p_floor);
     }
     // 1. The guess, then active-set corrections of the violated contacts.
     let mut trial = *modes;
     for attempt in 0..(2 * k + 2) {
         info.linear_solves += 1;
-        match try_pattern::<K>(prob, &trial, sv, gmax) {
+        match try_pattern::<K>(prob, &trial, sv, p_floor) {
             Attempt::Solved(sol) => {
                 *p = sol;
                 *modes = trial;
@@ -239,7 +241,7 @@ pub fn exact_k<const K: usize>(
             _ => break,
         }
     }
-    enumerate_patterns::<K>(prob, modes, p, max_iter, info, sv, gmax)
+    enumerate_patterns::<K>(prob, modes, p, max_iter, info, sv, p_floor)
 }
 
 /// Outcome of one pattern of the active-set loop of [`exact_k`].
@@ -255,12 +257,12 @@ enum Attempt {
 /// Solve and check one pattern. Out of line on purpose: inlined into the loop of [`exact_k`],
 /// its pattern-invariant parts (for every pattern) were hoisted in front of the first attempt.
 #[inline(never)]
-fn try_pattern<const K: usize>(prob: &LocalProblem, trial: &[ContactMode; MAX_CLOSED], sv: f64, gmax: f64) -> Attempt {
+fn try_pattern<const K: usize>(prob: &LocalProblem, trial: &[ContactMode; MAX_CLOSED], sv: f64, p_floor: f64) -> Attempt {
     let sol = if K == 2 { solve_pair(prob, trial) } else { solve_pattern::<K>(prob, trial) };
     let Some(sol) = sol else {
         return Attempt::Singular;
     };
-    match check_pattern::<K>(prob, trial, &sol, sv, gmax) {
+    match check_pattern::<K>(prob, trial, &sol, sv, p_floor) {
         None => Attempt::Solved(sol),
         Some(next) => Attempt::Next(next),
     }
@@ -278,7 +280,7 @@ fn exact_single(
     p: &mut [f64; DIM],
     max_iter: u32,
     sv: f64,
-    gmax: f64,
+    p_floor: f64,
 ) -> SolveInfo {
     let g = &prob.g;
     let c = &prob.c;
@@ -308,7 +310,7 @@ fn exact_single(
             }
         };
         let pmax = fmax(fmax(0.0, pn.abs()), pt.abs());
-        let (tv, tp) = (EXACT_TOL * sv, EXACT_TOL * fmax(pmax, sv / gmax));
+        let (tv, tp) = (EXACT_TOL * sv, EXACT_TOL * fmax(pmax, p_floor));
         let row = |a: usize| c[a] + g[a][0] * pn + g[a][1] * pt;
         let next = match trial {
             ContactMode::Open => {
@@ -344,7 +346,7 @@ fn exact_single(
         }
         trial = next;
     }
-    enumerate_patterns::<1>(prob, modes, p, max_iter, info, sv, gmax)
+    enumerate_patterns::<1>(prob, modes, p, max_iter, info, sv, p_floor)
 }
 
 /// Steps 2 and 3 of [`exact`]: all 4^k patterns, then Gauss–Seidel (rare; kept out of line).
@@ -356,7 +358,7 @@ fn enumerate_patterns<const K: usize>(
     max_iter: u32,
     mut info: SolveInfo,
     sv: f64,
-    gmax: f64,
+    p_floor: f64,
 ) -> SolveInfo {
     let k = prob.k;
     let mut trial = *modes;
@@ -371,7 +373,7 @@ fn enumerate_patterns<const K: usize>(
         }
         info.linear_solves += 1;
         if let Some(sol) = solve_pattern::<K>(prob, &trial)
-            && check_pattern::<K>(prob, &trial, &sol, sv, gmax).is_none()
+            && check_pattern::<K>(prob, &trial, &sol, sv, p_floor).is_none()
         {
             *p = sol;
             *modes = trial;
@@ -559,14 +561,14 @@ fn check_pattern<const K: usize>(
     modes: &[ContactMode; MAX_CLOSED],
     p: &[f64; DIM],
     sv: f64,
-    gmax: f64,
+    p_floor: f64,
 ) -> Option<[ContactMode; MAX_CLOSED]> {
     let m = 2 * K;
     let mut pmax: f64 = 0.0;
     for v in &p[..m] {
         pmax = fmax(pmax, v.abs());
     }
-    let (tv, tp) = (EXACT_TOL * sv, EXACT_TOL * fmax(pmax, sv / gmax));
+    let (tv, tp) = (EXACT_TOL * sv, EXACT_TOL * fmax(pmax, p_floor));
     let row = |a: usize| {
         let mut x = prob.c[a];
         for b in 0..m {

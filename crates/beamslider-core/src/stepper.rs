@@ -136,6 +136,8 @@ pub struct Stepper<'a, const N: usize> {
     tol_abs: f64,
     max_iter: u32,
     base: BaseMotion,
+    /// a/Ω², −a/Ω, −a: amplitudes of w₀, ẇ₀, ẅ₀.
+    base_amp: [f64; 3],
     kin: Kinematics,
     /// Last percussion of each contact (warm start of the reference solver).
     warm: [[f64; 2]; N_CONTACTS],
@@ -253,6 +255,11 @@ impl<'a, const N: usize> Stepper<'a, N> {
             tol_abs: p.solver_tol_abs,
             max_iter: p.solver_max_iter.min(u32::MAX as usize) as u32,
             base,
+            base_amp: [
+                base.accel / (base.omega * base.omega),
+                -base.accel / base.omega,
+                -base.accel,
+            ],
             kin,
             warm: [[0.0; 2]; N_CONTACTS],
             modes: [ContactMode::Stick; N_CONTACTS],
@@ -286,8 +293,8 @@ impl<'a, const N: usize> Stepper<'a, N> {
         } else {
             // w₀ = (a/Ω²) cos Ωt, ẇ₀ = −(a/Ω) sin Ωt, ẅ₀ = −a cos Ωt.
             let (c, sn) = self.clock.at(t_m);
-            let (a, om) = (self.base.accel, self.base.omega);
-            (a / (om * om) * c, -a / om * sn, -a * c)
+            let [a0, a1, a2] = self.base_amp;
+            (a0 * c, a1 * sn, a2 * c)
         };
         // h_M: beam forces (damping with u_B) and slider gravity.
         // K q_M, accumulated column by column (K is symmetric: row j = column j), in the same
@@ -323,7 +330,7 @@ impl<'a, const N: usize> Stepper<'a, N> {
         }
         self.counters.steps += 1;
         self.last_p = [[0.0; 2]; N_CONTACTS];
-        if self.kin == Kinematics::BeamOnly {
+        if matches!(self.kin, Kinematics::BeamOnly) {
             s.ub = vb;
             for i in 0..N {
                 s.qb[i] = qm[i] + half * s.ub[i];
@@ -344,7 +351,7 @@ impl<'a, const N: usize> Stepper<'a, N> {
         let (sin_b, cos_b) = sin_cos_small(qsm[2]);
         let base = Base { w0, w0_dot };
         let (xp, zp) = self.slider.points(x_kin, qsm[1], sin_b, cos_b);
-        if self.kin == Kinematics::Free {
+        if matches!(self.kin, Kinematics::Free) {
             for i in [0, 1, 3, 2] {
                 let x_p = xp[i];
                 if !(x_p >= 0.0 && x_p <= self.length) {
