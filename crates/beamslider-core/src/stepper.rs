@@ -458,9 +458,11 @@ impl<'a, const N: usize> Stepper<'a, N> {
                 wu_f[a] += jac.slider[m][a] * vs[m];
             }
         }
-        for j in 0..K {
-            prob.c[2 * j] = wu_f[2 * j] + self.eps_n * wu_b[2 * j];
-            prob.c[2 * j + 1] = wu_f[2 * j + 1];
+        // (ε_T = 0: the tangential rows add 0 · (Wᵀ u_B + w̃), which leaves them unchanged; written
+        // for all rows alike so that they vectorise.)
+        for a in 0..nc {
+            let e = if a % 2 == 0 { self.eps_n } else { 0.0 };
+            prob.c[a] = wu_f[a] + e * wu_b[a];
         }
         // G = Wᵀ M⁻¹ W = Σ_m (row m)ᵀ (M⁻¹ row m): gt[b][a] = G_ab accumulated over the modes, then
         // the slider coordinates; its lower triangle (a ≥ b) is mirrored.
@@ -481,10 +483,15 @@ impl<'a, const N: usize> Stepper<'a, N> {
                 }
             }
         }
+        // Row b of G gets column b of gt (right on and above the diagonal: G_ba = G_ab for a ≥ b);
+        // the entries below the diagonal are then mirrored. (All lanes of gt are used, so that its
+        // accumulation stays in whole vectors.)
         for b in 0..nc {
-            for a in b..nc {
+            prob.g[b][..nc].copy_from_slice(&gt[b][..nc]);
+        }
+        for b in 0..nc {
+            for a in b + 1..nc {
                 prob.g[a][b] = gt[b][a];
-                prob.g[b][a] = gt[b][a];
             }
         }
         let index: [usize; K] = std::array::from_fn(|j| jac.index[j]);
