@@ -520,17 +520,21 @@ fn gauss_solve<const M: usize>(a: &mut [[f64; M]; M], mut b: [f64; M], amax: f64
     let tiny = 1e-13 * amax;
     let mut inv_diag = [0.0; M];
     for col in 0..M {
-        let mut piv = col;
+        // Partial pivoting: the first row of largest |a[r][col]| is brought up by swaps with the
+        // current candidate (all indices fixed at compile time, so the rows stay in registers).
         for r in col + 1..M {
-            if a[r][col].abs() > a[piv][col].abs() {
-                piv = r;
+            if a[r][col].abs() > a[col][col].abs() {
+                for c in 0..M {
+                    let t = a[col][c];
+                    a[col][c] = a[r][c];
+                    a[r][c] = t;
+                }
+                b.swap(col, r);
             }
         }
-        if !(a[piv][col].abs() > tiny) {
+        if !(a[col][col].abs() > tiny) {
             return None;
         }
-        a.swap(col, piv);
-        b.swap(col, piv);
         let inv = 1.0 / a[col][col];
         inv_diag[col] = inv;
         for r in col + 1..M {
