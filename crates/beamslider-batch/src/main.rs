@@ -53,6 +53,7 @@ struct Common {
 #[derive(Subcommand)]
 enum Command {
     /// Simulate one run and write the recorded channels as CSV (header row, then one row per record).
+    #[command(allow_negative_numbers = true)] // `--a-ex -1` is a bad value, not an unknown flag
     Simulate {
         #[command(flatten)]
         common: Common,
@@ -79,6 +80,7 @@ enum Command {
         out: PathBuf,
     },
     /// Super-slow manifold by PCS continuation (MODEL.md §6); CSV with columns branch, s, amplitude_m.
+    #[command(allow_negative_numbers = true)] // `--a-ex -1` is a bad value, not an unknown flag
     Manifold {
         #[command(flatten)]
         common: Common,
@@ -102,6 +104,7 @@ enum Command {
     /// every point of an (f_ex, a_ex, s0) grid, in parallel. Each finished point is appended at once
     /// to DIR/map.jsonl; --resume skips the points already there. At the end DIR/map.txt holds the
     /// map as a letter table.
+    #[command(allow_negative_numbers = true)] // `--a-ex -1` is a bad value, not an unknown flag
     Map {
         /// Map configuration (TOML: duration_s, dt_s, record_every, [grid], [params], [criteria]);
         /// default: the paper's map (f_ex 100..130 step 2 Hz, a_ex 4..16 step 2 m/s^2, s0 0.3, 120 s).
@@ -169,7 +172,11 @@ impl Monitor for Bar {
     }
 }
 
-fn run(cli: Cli) -> Result<()> {
+/// Exit status of a run that stopped on a fault (diverged, left the beam) or a map with failed
+/// points; user errors exit with 1.
+const EXIT_FAULT: u8 = 3;
+
+fn run(cli: Cli) -> Result<ExitCode> {
     match cli.command {
         Command::Map { config, out, threads, resume, print_config, quiet } => {
             let cfg = match &config {
@@ -178,9 +185,9 @@ fn run(cli: Cli) -> Result<()> {
             };
             if print_config {
                 print!("{}", cfg.to_toml_string());
-                return Ok(());
+                return Ok(ExitCode::SUCCESS);
             }
-            run_map_command(&cfg, &out, threads, resume, quiet)?;
+            return run_map_command(&cfg, &out, threads, resume, quiet);
         }
         Command::Params => {
             print!("{}", Params::default().to_toml_string());
@@ -198,6 +205,7 @@ fn run(cli: Cli) -> Result<()> {
             };
             let channels = channels.iter().map(|c| Channel::parse(c)).collect::<beamslider_core::Result<Vec<_>>>()?;
             let opts = RunOptions { excitation: exc, model: kind, duration_s: duration, record_every, channels, audit_contacts: false };
+            m.check_run(&start, &opts)?; // before the output file is created: bad input overwrites nothing
             let mut rec = CsvRecorder::new(open_out(&out)?, &out.display().to_string());
             let mut bar = Bar::new(common.quiet, duration.ceil() as u64, "s simulated");
             let t0 = std::time::Instant::now();
@@ -219,7 +227,8 @@ fn run(cli: Cli) -> Result<()> {
                 c.fallbacks
             );
             if sum.status != Status::Completed {
-                bail!("{}", sum.status.message());
+                eprintln!("beamslider-batch: {}", sum.status.message());
+                return Ok(ExitCode::from(EXIT_FAULT));
             }
         }
         Command::Manifold { common, periods, record, from_zero, out } => {
@@ -243,20 +252,22 @@ fn run(cli: Cli) -> Result<()> {
             w.flush().map_err(io)?;
         }
     }
-    Ok(())
+    Ok(ExitCode::SUCCESS)
 }
 
-fn run_map_command(cfg: &MapConfig, out: &std::path::Path, threads: Option<usize>, resume: bool, quiet: bool) -> Result<()> {
+fn run_map_command(cfg: &MapConfig, out: &std::path::Path, threads: Option<usize>, resume: bool, quiet: bool) -> Result<ExitCode> {
     use std::sync::atomic::AtomicBool;
-    std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
     let results = out.join(map::RESULTS_FILE);
+    let opts = MapRunOptions { out: Some(results.clone()), resume, threads };
+    // Refuse bad input before writing anything (map.toml included).
+    map::preflight(cfg, &opts)?;
+    std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
     let total = cfg.points()?.len();
     let bar = if quiet { ProgressBar::hidden() } else { ProgressBar::new(total as u64) };
     bar.set_style(
         ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {pos}/{len} points (eta {eta}) {msg}")
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
-    let opts = MapRunOptions { out: Some(results.clone()), resume, threads };
     let cancel = AtomicBool::new(false);
     let first = std::sync::atomic::AtomicBool::new(true);
     let progress = |done: usize, _total: usize, row: &MapRow| {
@@ -283,13 +294,21 @@ fn run_map_command(cfg: &MapConfig, out: &std::path::Path, threads: Option<usize
         outcome.resumed,
         results.display()
     );
-    Ok(())
+    let failed = outcome.failures();
+    if failed.is_empty() {
+        return Ok(ExitCode::SUCCESS);
+    }
+    eprintln!("beamslider-batch: {} of {} points failed (the others are done):", failed.len(), outcome.rows.len());
+    for r in failed {
+        eprintln!("  #{} f_ex = {} Hz, a_ex = {} m/s^2, s0 = {}: {}: {}", r.index, r.f_ex_hz, r.a_ex_m_s2, r.s0, r.status, r.reason);
+    }
+    Ok(ExitCode::from(EXIT_FAULT))
 }
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
     match run(cli) {
-        Ok(()) => ExitCode::SUCCESS,
+        Ok(code) => code,
         Err(e) => {
             eprintln!("beamslider-batch: error: {e:#}");
             ExitCode::FAILURE

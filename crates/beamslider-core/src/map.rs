@@ -35,6 +35,9 @@ use crate::stepper::Counters;
 pub const RESULTS_FILE: &str = "map.jsonl";
 /// Version written in the results file's header.
 pub const FORMAT_VERSION: u32 = 1;
+/// Largest number of values of one grid axis and of grid points (a range with a tiny step is a
+/// typing error, not a map; it would otherwise exhaust the memory).
+pub const MAX_POINTS: usize = 1_000_000;
 
 /// One grid axis: a list of values, or an inclusive range `{ start, stop, step }`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -65,15 +68,26 @@ impl Axis {
                 if !(start.is_finite() && stop.is_finite() && step.is_finite() && *step > 0.0 && stop >= start) {
                     return Err(Error::invalid(field, format!("{{start={start}, stop={stop}, step={step}}}"), "need finite start <= stop and step > 0"));
                 }
-                let n = ((stop - start) / step + 1e-3).floor() as usize + 1;
-                (0..n).map(|i| ((start + i as f64 * step) * 1e9).round() / 1e9).collect()
+                let n = ((stop - start) / step + 1e-3).floor() + 1.0;
+                if !(n <= MAX_POINTS as f64) {
+                    return Err(Error::invalid(field, format!("{{start={start}, stop={stop}, step={step}}}"), &format!("gives {n:e} values; at most {MAX_POINTS}")));
+                }
+                (0..n as usize).map(|i| ((start + i as f64 * step) * 1e9).round() / 1e9).collect()
             }
         };
         if v.is_empty() {
             return Err(Error::invalid(field, "[]", "need at least one value"));
         }
-        if v.iter().any(|x| !x.is_finite()) {
-            return Err(Error::invalid(field, "non-finite", "all values must be finite"));
+        if v.len() > MAX_POINTS {
+            return Err(Error::invalid(field, format!("{} values", v.len()), &format!("at most {MAX_POINTS}")));
+        }
+        if let Some(x) = v.iter().find(|x| !x.is_finite()) {
+            return Err(Error::invalid(field, x, "all values must be finite"));
+        }
+        let mut sorted = v.clone();
+        sorted.sort_by(f64::total_cmp);
+        if let Some(w) = sorted.windows(2).find(|w| w[0] == w[1]) {
+            return Err(Error::invalid(field, w[0], "appears twice (each grid point is run once)"));
         }
         Ok(v)
     }
@@ -254,6 +268,17 @@ impl MapConfig {
         for &x in &a {
             Excitation::new(1.0, x).validate()?;
         }
+        let p = self.effective_params();
+        if let Some(x) = f.iter().find(|&&x| x * p.dt_s > 0.1) {
+            return Err(Error::invalid("grid.f_ex_hz", x, &format!("too high for dt_s = {:e} s (need 10 steps per excitation period)", p.dt_s)));
+        }
+        let half = 0.5 * p.contact_spacing_m / p.length_m;
+        if let Some(x) = s.iter().find(|&&x| !(x - half >= 0.0 && x + half <= 1.0)) {
+            return Err(Error::invalid("grid.s0", x, &format!("the slider's contact points must lie on the beam: {half:.4} <= s0 <= {:.4}", 1.0 - half)));
+        }
+        if f.len() * a.len() * s.len() > MAX_POINTS {
+            return Err(Error::invalid("grid", format!("{} points", f.len() * a.len() * s.len()), &format!("at most {MAX_POINTS}")));
+        }
         let mut pts = Vec::with_capacity(f.len() * a.len() * s.len());
         for &s0 in &s {
             for &a_ex in &a {
@@ -339,20 +364,28 @@ pub struct MapRow {
     /// Reason of the decision.
     pub reason: String,
     /// Mean s over the final window.
+    #[serde(deserialize_with = "nan_if_null")]
     pub s_final: f64,
     /// Mean amplitude over the final window [h].
+    #[serde(deserialize_with = "nan_if_null")]
     pub amplitude_final_h: f64,
     /// Mean amplitude over t = 1…3 s [h].
+    #[serde(deserialize_with = "nan_if_null")]
     pub amplitude_initial_h: f64,
     /// Largest amplitude [h].
+    #[serde(deserialize_with = "nan_if_null")]
     pub amplitude_max_h: f64,
     /// Smallest s.
+    #[serde(deserialize_with = "nan_if_null")]
     pub s_min: f64,
     /// Largest s.
+    #[serde(deserialize_with = "nan_if_null")]
     pub s_max: f64,
     /// s_final − s₀.
+    #[serde(deserialize_with = "nan_if_null")]
     pub net_travel: f64,
     /// Net travel towards the centre.
+    #[serde(deserialize_with = "nan_if_null")]
     pub travel_to_centre: f64,
     /// Turning point s (null when none).
     pub turn_s: Option<f64>,
@@ -368,6 +401,12 @@ pub struct MapRow {
     pub counters: RowCounters,
     /// Wall time of the point [s] (the only field that differs between identical runs).
     pub wall_time_s: f64,
+}
+
+/// serde_json writes NaN as `null`; read it back as NaN (a point that failed early has no
+/// features).
+fn nan_if_null<'de, D: serde::Deserializer<'de>>(d: D) -> std::result::Result<f64, D::Error> {
+    Ok(Option::<f64>::deserialize(d)?.unwrap_or(f64::NAN))
 }
 
 fn finite(x: f64) -> Option<f64> {
@@ -445,10 +484,8 @@ pub fn run_point(model: &Model, cfg: &MapConfig, p: &MapPoint, cancel: &AtomicBo
         audit_contacts: false,
     };
     let steps = (cfg.duration_s / model.params.dt_s).round() as usize;
-    let mut rec = SuperSlowRecorder {
-        w: Vec::with_capacity(steps / cfg.record_every + 2),
-        s: Vec::with_capacity(steps / cfg.record_every + 2),
-    };
+    let cap = (steps / cfg.record_every + 2).min(1 << 22);
+    let mut rec = SuperSlowRecorder { w: Vec::with_capacity(cap), s: Vec::with_capacity(cap) };
     let sum = model.run(&start, &opts, &mut rec, &mut CancelFlag(cancel))?;
     if let Status::Interrupted { .. } = sum.status {
         return Ok(None);
@@ -465,26 +502,58 @@ pub fn run_point(model: &Model, cfg: &MapConfig, p: &MapPoint, cancel: &AtomicBo
         }
         c
     } else {
-        Classification {
-            behaviour: Behaviour::Undetermined,
-            reason: sum.status.message(),
-            s_initial: p.s0,
-            s_final: f64::NAN,
-            amplitude_final_h: f64::NAN,
-            amplitude_initial_h: f64::NAN,
-            amplitude_max_h: f64::NAN,
-            s_min: f64::NAN,
-            s_max: f64::NAN,
-            net_travel: f64::NAN,
-            travel_to_centre: f64::NAN,
-            turn_s: f64::NAN,
-            turn_t_s: f64::NAN,
-            jump_up_t_s: vec![],
-            jump_down_t_s: vec![],
-            steady: false,
-        }
+        no_classification(p, sum.status.message())
     };
     Ok(Some(MapRow::new(p, t_end, &sum.status, &c, &sum.counters, t0.elapsed().as_secs_f64())))
+}
+
+/// The classification of a point that has no super-slow signals (failed or stopped at once).
+fn no_classification(p: &MapPoint, reason: String) -> Classification {
+    Classification {
+        behaviour: Behaviour::Undetermined,
+        reason,
+        s_initial: p.s0,
+        s_final: f64::NAN,
+        amplitude_final_h: f64::NAN,
+        amplitude_initial_h: f64::NAN,
+        amplitude_max_h: f64::NAN,
+        s_min: f64::NAN,
+        s_max: f64::NAN,
+        net_travel: f64::NAN,
+        travel_to_centre: f64::NAN,
+        turn_s: f64::NAN,
+        turn_t_s: f64::NAN,
+        jump_up_t_s: vec![],
+        jump_down_t_s: vec![],
+        steady: false,
+    }
+}
+
+/// Status of a map row whose run failed with an error (not a run status of the core).
+pub const STATUS_ERROR: &str = "error";
+
+/// Run one point; an error or a panic of the run becomes a row with status `error` and the
+/// message as reason, so that one failing point does not stop the map.
+fn run_point_guarded(model: &Model, cfg: &MapConfig, p: &MapPoint, cancel: &AtomicBool) -> Option<MapRow> {
+    let t0 = Instant::now();
+    let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| run_point(model, cfg, p, cancel)));
+    let message = match r {
+        Ok(Ok(row)) => return row,
+        Ok(Err(e)) => e.to_string(),
+        Err(panic) => {
+            let what = panic
+                .downcast_ref::<&str>()
+                .map(|s| s.to_string())
+                .or_else(|| panic.downcast_ref::<String>().cloned())
+                .unwrap_or_else(|| "unknown panic".into());
+            format!("internal error: {what}")
+        }
+    };
+    let c = no_classification(p, message);
+    let mut row = MapRow::new(p, f64::NAN, &Status::Completed, &c, &Counters::default(), t0.elapsed().as_secs_f64());
+    row.status = STATUS_ERROR.to_string();
+    row.t_end_s = 0.0;
+    Some(row)
 }
 
 /// Contents of an existing results file.
@@ -504,9 +573,9 @@ fn io_err(path: &Path, source: std::io::Error) -> Error {
     Error::Io { path: path.display().to_string(), source }
 }
 
-/// Read a results file. Only lines ending in a newline count; an incomplete or unparsable *last*
-/// line (a run killed while writing) is reported as `truncated` and ignored; a bad line elsewhere
-/// is an error.
+/// Read a results file. Only lines ending in a newline count; an incomplete last line (a run
+/// killed while writing) is reported as `truncated` and ignored; a complete line that is not a
+/// row (or the header, on line 1) is an error naming the line.
 pub fn read_results(path: &Path) -> Result<ResultsFile> {
     let f = File::open(path).map_err(|e| io_err(path, e))?;
     let mut r = BufReader::new(f);
@@ -530,6 +599,12 @@ pub fn read_results(path: &Path) -> Result<ResultsFile> {
         }
         let text = line.trim_end();
         let ok = if lineno == 1 {
+            // The version first: another version may have other settings.
+            if let Some(v) = serde_json::from_str::<serde_json::Value>(text).ok().and_then(|v| v.get("beamslider_map").cloned())
+                && v != serde_json::json!(FORMAT_VERSION)
+            {
+                return Err(Error::invalid("results file", path.display(), &format!("format version {v} (this build reads {FORMAT_VERSION})")));
+            }
             match serde_json::from_str::<Header>(text) {
                 Ok(h) => {
                     if h.beamslider_map != FORMAT_VERSION {
@@ -557,8 +632,10 @@ pub fn read_results(path: &Path) -> Result<ResultsFile> {
             pending_bad = Some(lineno);
         }
     }
-    if pending_bad.is_some() {
-        out.truncated = true;
+    if let Some(bad) = pending_bad {
+        // A kill while writing leaves a line without its newline (handled above); a complete
+        // line that does not parse is damage, and cutting it off would lose data.
+        return Err(Error::invalid("results file", format!("{}:{bad}", path.display()), "this line is not a result row (nor the header on line 1)"));
     }
     Ok(out)
 }
@@ -579,6 +656,13 @@ pub struct MapOutcome {
     pub cancelled: bool,
 }
 
+impl MapOutcome {
+    /// Rows whose run did not complete (status `left_beam`, `diverged` or `error`), by index.
+    pub fn failures(&self) -> Vec<&MapRow> {
+        self.rows.iter().filter(|r| r.status != Status::Completed.name()).collect()
+    }
+}
+
 /// How to run a map.
 #[derive(Debug, Clone, Default)]
 pub struct MapRunOptions {
@@ -595,6 +679,28 @@ struct Sink {
     rows: Vec<MapRow>,
     done: usize,
     error: Option<Error>,
+}
+
+/// Everything [`run_map`] checks before it computes or writes anything: the configuration, the
+/// model (Δt against the highest mode) and the results file (exists without `resume`, written
+/// with other settings, unreadable). Front ends call it before they write files of their own
+/// (`map.toml`), so that a refused map overwrites nothing.
+pub fn preflight(cfg: &MapConfig, opts: &MapRunOptions) -> Result<()> {
+    cfg.validate()?;
+    Model::new(cfg.effective_params())?;
+    if let Some(path) = &opts.out {
+        let exists = path.exists() && std::fs::metadata(path).map(|m| m.len() > 0).unwrap_or(false);
+        if exists && !opts.resume {
+            return Err(Error::invalid("out", path.display(), "the results file exists: resume it, or choose another output"));
+        }
+        if exists {
+            let old = read_results(path)?;
+            if old.settings.as_ref().is_some_and(|s| *s != cfg.settings()) {
+                return Err(Error::invalid("resume", path.display(), "the results file was written with other settings (parameters, duration, record_every or criteria); only the grid may change"));
+            }
+        }
+    }
+    Ok(())
 }
 
 /// Run the grid of `cfg` in parallel, appending each finished point to the results file.
@@ -661,10 +767,10 @@ pub fn run_map(cfg: &MapConfig, opts: &MapRunOptions, cancel: &AtomicBool, progr
             if cancel.load(Ordering::Relaxed) {
                 return;
             }
-            let r = run_point(&model, cfg, p, cancel);
+            let r = run_point_guarded(&model, cfg, p, cancel);
             let mut g = sink.lock().unwrap_or_else(|e| e.into_inner());
             match r {
-                Ok(Some(row)) => {
+                Some(row) => {
                     if let Some((f, path)) = &mut g.file
                         && let Err(e) = write_line(f, path, &row.to_json())
                     {
@@ -676,11 +782,7 @@ pub fn run_map(cfg: &MapConfig, opts: &MapRunOptions, cancel: &AtomicBool, progr
                     progress(g.done, total, &row);
                     g.rows.push(row);
                 }
-                Ok(None) => {}
-                Err(e) => {
-                    g.error.get_or_insert(e);
-                    cancel.store(true, Ordering::Relaxed);
-                }
+                None => {}
             }
         })
     };

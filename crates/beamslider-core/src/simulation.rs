@@ -266,15 +266,18 @@ impl Model {
         })
     }
 
-    /// Integrate from `start` for `opts.duration_s`, streaming rows into `rec`.
-    pub fn run(
-        &self,
-        start: &State,
-        opts: &RunOptions,
-        rec: &mut dyn Recorder,
-        monitor: &mut dyn Monitor,
-    ) -> Result<RunSummary> {
+    /// Check a run's inputs without running it (what [`Model::run`] checks first): front ends call
+    /// it before they create output files, so that bad input overwrites nothing.
+    pub fn check_run(&self, start: &State, opts: &RunOptions) -> Result<()> {
         opts.excitation.validate()?;
+        // The excitation period must be resolved by the time step (at least 10 steps).
+        if opts.excitation.f_ex_hz * self.params.dt_s > 0.1 {
+            return Err(Error::invalid(
+                "f_ex_hz",
+                opts.excitation.f_ex_hz,
+                &format!("too high for dt_s = {:e} s: need f_ex_hz <= {:.6e} (10 steps per period)", self.params.dt_s, 0.1 / self.params.dt_s),
+            ));
+        }
         if !(opts.duration_s.is_finite() && opts.duration_s >= 0.0) {
             return Err(Error::invalid("duration_s", opts.duration_s, "must be finite and >= 0"));
         }
@@ -294,9 +297,9 @@ impl Model {
             return Err(Error::invalid("state", "non-finite", "all state values must be finite"));
         }
         if let SliderModel::PseudoConstrained { s } = opts.model
-            && !s.is_finite()
+            && !(0.0..=1.0).contains(&s)
         {
-            return Err(Error::invalid("s_pcs", s, "must be finite"));
+            return Err(Error::invalid("s_pcs", s, "must lie in [0, 1] (slider position x/L)"));
         }
         for ch in &opts.channels {
             if let Channel::WAt(x) = ch
@@ -305,6 +308,19 @@ impl Model {
                 return Err(Error::invalid("channel w@x", x, "x must lie in [0, length_m]"));
             }
         }
+        Ok(())
+    }
+
+    /// Integrate from `start` for `opts.duration_s`, streaming rows into `rec`.
+    pub fn run(
+        &self,
+        start: &State,
+        opts: &RunOptions,
+        rec: &mut dyn Recorder,
+        monitor: &mut dyn Monitor,
+    ) -> Result<RunSummary> {
+        self.check_run(start, opts)?;
+        let n = self.beam.n;
         macro_rules! go {
             ($($n:literal)*) => {
                 match n {

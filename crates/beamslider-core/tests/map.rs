@@ -133,3 +133,35 @@ fn cancelled_map_keeps_finished_points() {
     assert!(o.cancelled);
     assert!(o.rows.is_empty());
 }
+
+/// Regression: a failed point has NaN features, written as `null`; reading them back failed, so
+/// `--resume` refused the file. Also: a failing point no longer stops the others.
+#[test]
+fn failed_points_are_rows_that_read_back_and_resume() {
+    let cfg = MapConfig::from_toml_str("duration_s = 0.3\nrecord_every = 10\n[grid]\nf_ex_hz = [120.0, 124.0]\na_ex_m_s2 = [6.0, 1e6]\n").unwrap();
+    let cancel = AtomicBool::new(false);
+    let path = tmp("failing").join("map.jsonl");
+    let o = run_map(&cfg, &MapRunOptions { out: Some(path.clone()), resume: false, threads: Some(2) }, &cancel, &none).unwrap();
+    assert_eq!(o.rows.len(), 4);
+    let failed: Vec<usize> = o.failures().iter().map(|r| r.index).collect();
+    assert_eq!(failed, vec![2, 3]);
+    assert!(o.rows[2].s_final.is_nan() || o.rows[2].status != "completed");
+    let back = read_results(&path).unwrap();
+    assert_eq!(back.rows.len(), 4);
+    let o = run_map(&cfg, &MapRunOptions { out: Some(path.clone()), resume: true, threads: Some(2) }, &cancel, &none).unwrap();
+    assert_eq!((o.resumed, o.computed), (4, 0));
+}
+
+#[test]
+fn grids_that_are_typing_errors_are_refused() {
+    for (text, word) in [
+        ("[grid]\nf_ex_hz = [120.0, 120.0]\na_ex_m_s2 = 6.0\n", "twice"),
+        ("[grid]\nf_ex_hz = { start = 100.0, stop = 1e12, step = 1e-3 }\na_ex_m_s2 = 6.0\n", "at most"),
+        ("[grid]\nf_ex_hz = { start = 100.0, stop = 130.0, step = 1e-300 }\na_ex_m_s2 = 6.0\n", "at most"),
+        ("[grid]\nf_ex_hz = 120.0\na_ex_m_s2 = 6.0\ns0 = 0.99\n", "grid.s0"),
+        ("[grid]\nf_ex_hz = 1e5\na_ex_m_s2 = 6.0\n", "grid.f_ex_hz"),
+    ] {
+        let e = MapConfig::from_toml_str(text).unwrap_err().to_string();
+        assert!(e.contains(word), "{text}: {e}");
+    }
+}
