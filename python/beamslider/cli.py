@@ -31,6 +31,9 @@ EXIT_ERROR = 1
 EXIT_FAULT = 3
 EXIT_INTERRUPTED = 130
 
+MAX_GRID = 1_000_000
+"""Most values of a START:STOP:STEP range on the command line (a tiny step is a typing error)."""
+
 
 class UserError(Exception):
     """A mistake on the command line or in an input file: reported in one line."""
@@ -74,9 +77,14 @@ def read_simulation_csv(path: Path) -> Dict[str, np.ndarray]:
     if missing:
         raise UserError(f"{path}: not a beamslider simulation CSV (missing columns {', '.join(missing)})")
     try:
-        data = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # an empty file is reported below
+            data = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
     except ValueError as e:
-        raise UserError(f"{path}: {e}") from None
+        raise UserError(f"{path}: {one_line(e)}") from None
+    if data.shape[0] < 2 or data.shape[1] != len(header):
+        raise UserError(f"{path}: need at least two rows of {len(header)} values (found {data.shape[0]} rows of "
+                        f"{data.shape[1]})")
     return {n: data[:, i] for i, n in enumerate(header)}
 
 
@@ -186,12 +194,13 @@ def _grid(args: argparse.Namespace, p: Parameters) -> Optional[np.ndarray]:
     try:
         if ":" in text:
             lo, hi, step = (float(v) for v in text.split(":"))
-            if not step > 0:
+            if not (step > 0 and hi >= lo and (hi - lo) / step < MAX_GRID):
                 raise ValueError
             return np.round(np.arange(lo, hi + 0.5 * step, step), 10)
         return np.array([float(v) for v in text.split(",") if v.strip()])
     except ValueError:
-        raise UserError(f"--manifold-s {text!r}: give START:STOP:STEP or a comma-separated list of s") from None
+        raise UserError(f"--manifold-s {text!r}: give START:STOP:STEP (STOP >= START, at most {MAX_GRID} values) "
+                        "or a comma-separated list of s") from None
 
 
 def _manifold(args: argparse.Namespace, p: Parameters, f_ex: float, a_ex: float, out: Path) -> ManifoldResult:
@@ -309,6 +318,24 @@ def cmd_compare(args: argparse.Namespace) -> int:
     return _report(result, written)
 
 
+def _read_meta(path: Path) -> Dict[str, Any]:
+    """The JSON summary written beside a result; a UserError naming the file when it is not one."""
+    try:
+        meta = json.loads(path.read_text(encoding="utf-8"))
+    except (json.JSONDecodeError, UnicodeDecodeError) as e:
+        raise UserError(f"{path}: not valid JSON ({e})") from None
+    types = {"kind": str, "params_toml": str, "model": str, "status": str, "message": str, "manifold_csv": str,
+             "measurement": str, "f_ex_hz": (int, float), "a_ex_m_s2": (int, float), "s0": (int, float, type(None)),
+             "counters": dict}
+    bad = [k for k, t in types.items() if isinstance(meta, dict) and k in meta and not isinstance(meta[k], t)]
+    if not isinstance(meta, dict) or bad:
+        what = f"field {bad[0]!r} has the wrong type" if bad else "not a JSON object"
+        raise UserError(f"{path}: not a beamslider result summary ({what})")
+    if meta.get("kind") == "manifold" and not all(k in meta for k in ("f_ex_hz", "a_ex_m_s2")):
+        raise UserError(f"{path}: manifold summary without f_ex_hz / a_ex_m_s2")
+    return meta
+
+
 def cmd_plot(args: argparse.Namespace) -> int:
     from .plotting import plot_manifold, plot_operating_point
 
@@ -321,15 +348,7 @@ def cmd_plot(args: argparse.Namespace) -> int:
     if args.result is not None:
         path = Path(args.result)
         csv_path, json_path = path.with_suffix(".csv"), path.with_suffix(".json")
-        if path.suffix == ".json":
-            try:
-                meta = json.loads(json_path.read_text(encoding="utf-8"))
-            except json.JSONDecodeError as e:
-                raise UserError(f"{json_path}: not valid JSON ({e})") from None
-        elif json_path.exists():
-            meta = json.loads(json_path.read_text(encoding="utf-8"))
-        else:
-            meta = {}
+        meta = _read_meta(json_path) if path.suffix == ".json" or json_path.exists() else {}
         if meta.get("kind") == "manifold":
             p = Parameters.from_toml_text(meta.get("params_toml", ""))
             manifold = read_manifold_csv(csv_path, f_ex=meta["f_ex_hz"], a_ex=meta["a_ex_m_s2"], params=p)
@@ -367,7 +386,7 @@ def _axis_text(name: str, text: str) -> List[float]:
     try:
         if ":" in text:
             lo, hi, step = (float(v) for v in text.split(":"))
-            if not (step > 0 and hi >= lo):
+            if not (step > 0 and hi >= lo and (hi - lo) / step < MAX_GRID):
                 raise ValueError
             n = int(np.floor((hi - lo) / step + 1e-3)) + 1
             return [round(lo + i * step, 9) for i in range(n)]
@@ -376,11 +395,12 @@ def _axis_text(name: str, text: str) -> List[float]:
             raise ValueError
         return vals
     except ValueError:
-        raise UserError(f"{name} {text!r}: give START:STOP:STEP or a comma-separated list") from None
+        raise UserError(f"{name} {text!r}: give START:STOP:STEP (STOP >= START, at most {MAX_GRID} values) "
+                        "or a comma-separated list") from None
 
 
 def cmd_map(args: argparse.Namespace) -> int:
-    from .maps import RESULTS_FILE, map_config_toml, plot_operating_map, run_map_config, text_table
+    from .maps import RESULTS_FILE, failures, map_config_toml, plot_operating_map, run_map_config, text_table
 
     if args.config:
         try:
@@ -392,8 +412,10 @@ def cmd_map(args: argparse.Namespace) -> int:
     else:
         p = _params(args)
         config = map_config_toml(
-            p, f_ex=_axis_text("--f-ex", args.f_ex or "100:130:2"), a_ex=_axis_text("--a-ex", args.a_ex or "4:16:2"),
-            s0=_axis_text("--s0", args.s0 or "0.3"), t_end=args.t_end if args.t_end is not None else 120.0)
+            p, f_ex=_axis_text("--f-ex", "100:130:2" if args.f_ex is None else args.f_ex),
+            a_ex=_axis_text("--a-ex", "4:16:2" if args.a_ex is None else args.a_ex),
+            s0=_axis_text("--s0", "0.3" if args.s0 is None else args.s0),
+            t_end=args.t_end if args.t_end is not None else 120.0)
     if args.print_config:
         print(config, end="")
         return 0
@@ -413,6 +435,12 @@ def cmd_map(args: argparse.Namespace) -> int:
     print(f"{len(table['index'])} points in {wall:.1f} s")
     for path in [out / RESULTS_FILE, out / "map.toml", out / "map.txt", *pngs]:
         print(f"wrote {path}")
+    failed = failures(table)
+    if failed:
+        print(f"beamslider: {len(failed)} of {len(table['index'])} points failed (the others are done):", file=sys.stderr)
+        for line in failed:
+            print(f"  {line}", file=sys.stderr)
+        return EXIT_FAULT
     return 0
 
 

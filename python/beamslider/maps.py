@@ -172,14 +172,16 @@ def run_map_config(config_toml: str, *, out: Optional[Union[str, Path]] = None, 
     ``out/map.toml``)."""
     canonical, f, a, s = _core.map_config(config_toml)
     total = len(f) * len(a) * len(s)
+    if threads is not None and (not isinstance(threads, (int, np.integer)) or isinstance(threads, bool) or threads < 1):
+        raise ValueError(f"invalid parameter `threads` = {threads!r}: must be an integer >= 1")
     results = None
     if out is not None:
         folder = Path(out)
-        folder.mkdir(parents=True, exist_ok=True)
         results = folder / RESULTS_FILE
+        # Everything the run would refuse is refused before map.toml is (over)written.
+        _core.check_map(config_toml, out=results, resume=resume)
+        folder.mkdir(parents=True, exist_ok=True)
         (folder / "map.toml").write_text(canonical, encoding="utf-8")
-    if threads is not None and (not isinstance(threads, (int, np.integer)) or isinstance(threads, bool) or threads < 1):
-        raise ValueError(f"invalid parameter `threads` = {threads!r}: must be an integer >= 1")
     with _progress_bar(progress, total, "map", "pts") as bar:
         rows = _core.run_map(config_toml, out=results, resume=resume,
                              threads=None if threads is None else int(threads), progress=bar)
@@ -205,6 +207,14 @@ def operating_map(params: Optional[Parameters] = None, *, f_ex: Any, a_ex: Any, 
     cfg = map_config_toml(params, f_ex=f_ex, a_ex=a_ex, s0=s0, t_end=t_end, record_every=record_every,
                           criteria=criteria)
     return run_map_config(cfg, out=out, resume=resume, threads=threads, progress=progress)
+
+
+def failures(table: Dict[str, np.ndarray]) -> List[str]:
+    """One line per grid point whose run did not complete (status ``left_beam``, ``diverged`` or
+    ``error``), with its inputs and the reason."""
+    return [f"#{table['index'][i]} f_ex = {table['f_ex_hz'][i]:g} Hz, a_ex = {table['a_ex_m_s2'][i]:g} m/s^2, "
+            f"s0 = {table['s0'][i]:g}: {table['status'][i]}: {table['reason'][i]}"
+            for i in np.flatnonzero(table["status"] != "completed")]
 
 
 def text_table(table: Dict[str, np.ndarray], s0: Optional[float] = None) -> str:

@@ -23,6 +23,9 @@ from . import _core
 DISPLACEMENT_DETREND_S = 0.1
 """Window of the moving average subtracted from the integrated displacement [s] (MODEL.md §7)."""
 
+SAMPLING_TOLERANCE = 0.1
+"""Largest relative deviation of a time step from the file's sampling interval."""
+
 
 class MeasurementFormatError(ValueError):
     """A measured-data file does not have the published format; the message names file and line."""
@@ -105,13 +108,13 @@ def read_measurement(path: Union[str, "os.PathLike[str]"]) -> Measurement:
     0.1 s centred moving average (removes the drift).
 
     Raises ``OSError`` if the file cannot be read and :class:`MeasurementFormatError` (a
-    ``ValueError``) naming the file and line for a wrong column count, a non-numeric line or
-    non-increasing time.
+    ``ValueError``) naming the file and line for a wrong column count, a non-numeric or
+    non-finite value, non-increasing time or uneven sampling (a gap), or fewer than two lines.
     """
     path = Path(path)
     rows = []
     header_seen = False
-    with open(path, "r", encoding="utf-8", errors="replace") as f:
+    with open(path, "r", encoding="utf-8-sig", errors="replace") as f:  # -sig: a leading BOM is not data
         for lineno, raw in enumerate(f, start=1):
             line = raw.strip()
             if not line or line[0] in "#%":
@@ -139,16 +142,33 @@ def read_measurement(path: Union[str, "os.PathLike[str]"]) -> Measurement:
         raise MeasurementFormatError(f"{path}: fewer than two data lines")
     data = np.array([r[0] for r in rows], dtype=float)
     t, v, s = data[:, 0], data[:, 1], data[:, 2]
-    dt = float(np.median(np.diff(t)))
+    steps = np.diff(t)
+    dt = float(np.median(steps))
+    # The velocity is integrated with one sampling interval: a gap (missing samples) or an extra
+    # sample would silently shift the displacement, so uneven sampling is an error.
+    uneven = np.flatnonzero(np.abs(steps - dt) > SAMPLING_TOLERANCE * dt)
+    if uneven.size:
+        i = int(uneven[0]) + 1
+        raise MeasurementFormatError(
+            f"{path}:{rows[i][1]}: time step {steps[i - 1]:g} s differs from the sampling interval {dt:g} s "
+            "(missing or extra samples)"
+        )
     f_ex, a_ex, s0 = parse_operating_point(path.name)
-    return Measurement(path=path, t=t, velocity=v, w=integrate_velocity(v, dt), s=s, f_ex=f_ex, a_ex=a_ex, s0=s0)
+    with np.errstate(over="ignore", invalid="ignore"):
+        w = integrate_velocity(v, dt)
+    if not np.all(np.isfinite(w)):
+        raise MeasurementFormatError(f"{path}: the beam velocity is too large to integrate (displacement overflows)")
+    return Measurement(path=path, t=t, velocity=v, w=w, s=s, f_ex=f_ex, a_ex=a_ex, s0=s0)
 
 
 def integrate_velocity(velocity: np.ndarray, dt: float) -> np.ndarray:
     """Displacement from velocity as in MODEL.md §7: cumulative sum of velocity * dt minus its
     centred moving average over 0.1 s."""
     x = np.cumsum(np.asarray(velocity, dtype=float)) * dt
-    window = max(1, int(round(DISPLACEMENT_DETREND_S / dt)))
+    if not (np.isfinite(dt) and dt > 0):
+        raise ValueError(f"invalid parameter `dt` = {dt!r}: must be finite and > 0")
+    # A window longer than twice the signal averages all of it anyway (and may not fit an integer).
+    window = max(1, int(round(min(DISPLACEMENT_DETREND_S / dt, 2 * x.size + 1))))
     return x - _core.moving_average(np.ascontiguousarray(x), window)
 
 

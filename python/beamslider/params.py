@@ -75,6 +75,12 @@ class Parameters:
 
     def __post_init__(self) -> None:
         self.validate()
+        # Store what the core validated: Python floats and ints (not numpy scalars, not an int
+        # beyond 2**53 in a float field), so that a TOML round trip gives an equal object.
+        for f in dataclasses.fields(self):
+            kind = str(f.type)
+            if kind in ("float", "int"):
+                object.__setattr__(self, f.name, float(getattr(self, f.name)) if kind == "float" else int(getattr(self, f.name)))
 
     # --- conversion -----------------------------------------------------------------------
     def to_dict(self) -> Dict[str, Any]:

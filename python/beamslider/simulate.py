@@ -170,9 +170,12 @@ def simulate(
         raise ValueError(f"invalid parameter `model` = {model!r}: must be one of {', '.join(map(repr, MODELS))}")
     if model != "pcs" and s_pcs is not None:
         raise ValueError("invalid parameter `s_pcs`: only used with model=\"pcs\"")
-    s_pcs_value = None if model != "pcs" else float(s0 if s_pcs is None else s_pcs)
+    f_ex, a_ex, s0 = _number("f_ex", f_ex), _number("a_ex", a_ex), _number("s0", s0)
+    s_pcs_value = None if model != "pcs" else (s0 if s_pcs is None else _number("s_pcs", s_pcs))
     record_every = _positive_int("record_every", record_every)
-    t_end = float(t_end)
+    t_end = _number("t_end", t_end)
+    if not (np.isfinite(t_end) and t_end >= 0):
+        raise ValueError(f"invalid parameter `t_end` = {t_end!r}: must be finite and >= 0 (seconds)")
     with _progress_bar(progress, t_end, f"{model.upper()} {f_ex:g} Hz {a_ex:g} m/s²", "s") as cb:
         out = _core.simulate(
             p.toml_text(),
@@ -214,10 +217,22 @@ def simulate(
     return result
 
 
+def _number(name: str, value: Any) -> float:
+    """A real number argument as float; anything else is a ``ValueError`` naming the argument."""
+    if isinstance(value, (str, bytes, bool, np.bool_)):
+        raise ValueError(f"invalid parameter `{name}` = {value!r}: must be a number")
+    try:
+        return float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"invalid parameter `{name}` = {value!r}: must be a number") from None
+
+
 def _positive_int(name: str, value: Any) -> int:
+    if isinstance(value, (str, bytes, bool, np.bool_)):
+        raise ValueError(f"invalid parameter `{name}` = {value!r}: must be an integer >= 1")
     try:
         v = int(value)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):
         raise ValueError(f"invalid parameter `{name}` = {value!r}: must be an integer >= 1") from None
     if v != value or v < 1:
         raise ValueError(f"invalid parameter `{name}` = {value!r}: must be an integer >= 1")
@@ -254,6 +269,7 @@ def super_slow_manifold(
         progress: show a tqdm progress bar (one tick per s).
     """
     p = resolve(params)
+    f_ex, a_ex = _number("f_ex", f_ex), _number("a_ex", a_ex)
     grid = manifold_grid(p) if s is None else np.atleast_1d(np.asarray(s, dtype=float))
     if grid.ndim != 1 or grid.size == 0:
         raise ValueError("invalid parameter `s`: need a non-empty 1-D sequence of slider positions")

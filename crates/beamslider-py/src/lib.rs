@@ -382,6 +382,16 @@ fn map_config(text: &str) -> PyResult<(String, Vec<f64>, Vec<f64>, Vec<f64>)> {
     Ok((cfg.to_toml_string(), axes.0, axes.1, axes.2))
 }
 
+/// Check a map before anything is written: configuration, Δt, and the results file `out`
+/// (exists without `resume`, other settings). Raises what `run_map` would raise.
+#[pyfunction]
+#[pyo3(signature = (config_toml, *, out=None, resume=false))]
+fn check_map(py: Python<'_>, config_toml: &str, out: Option<std::path::PathBuf>, resume: bool) -> PyResult<()> {
+    let cfg = guarded(|| MapConfig::from_toml_str(config_toml))?;
+    let opts = MapRunOptions { out, resume, threads: None };
+    py.detach(|| guarded(|| beamslider_core::map::preflight(&cfg, &opts)))
+}
+
 /// Read a map results file (JSON lines): (settings as JSON text or None, rows as JSON texts,
 /// whether the last line was truncated).
 #[pyfunction]
@@ -481,5 +491,6 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(enma::virtual_enma, m)?)?;
     m.add_function(wrap_pyfunction!(enma::beam_properties, m)?)?;
     study::register(m)?;
+    m.add_function(wrap_pyfunction!(check_map, m)?)?;
     Ok(())
 }
