@@ -95,6 +95,8 @@ API_CASES = [
     ("s_pcs without pcs", _sim(s_pcs=0.2), ValueError, ["s_pcs"]),
     ("s_pcs off [0, 1]", _sim(model="pcs", s_pcs=5.0), ValueError, ["s_pcs"]),
     ("dt too large", _sim(dt=1e-3), ValueError, ["dt_s", "highest"]),
+    ("k_r denormal (was a hang)", lambda: beamslider.simulate(Parameters(k_r_nm_per_rad=1e-321), **S), ValueError,
+     ["k_r_nm_per_rad", "too small"]),
     # manifold, envelope, classification
     ("manifold periods 0", lambda: beamslider.super_slow_manifold(f_ex=124, a_ex=14, s=[0.3], periods=0), ValueError, ["periods"]),
     ("manifold record > periods", lambda: beamslider.super_slow_manifold(f_ex=124, a_ex=14, s=[0.3], periods=2, record=5), ValueError, ["record"]),

@@ -175,7 +175,7 @@ def simulate(
     record_every = _positive_int("record_every", record_every)
     t_end = _number("t_end", t_end)
     if not (np.isfinite(t_end) and t_end >= 0):
-        raise ValueError(f"invalid parameter `t_end` = {t_end!r}: must be finite and >= 0 (seconds)")
+        raise ValueError(f"invalid parameter `t_end` = {t_end!r}: the duration (duration_s) must be finite and >= 0 s")
     with _progress_bar(progress, t_end, f"{model.upper()} {f_ex:g} Hz {a_ex:g} m/s²", "s") as cb:
         out = _core.simulate(
             p.toml_text(),

@@ -83,6 +83,7 @@ const SIMULATE_CASES: &[Case] = &[
     Case { params: Some(b"density_kg_m3 = 0.0\n"), args: &[], words: &["density_kg_m3"] },
     Case { params: Some(b"k_r_nm_per_rad = -1.0\n"), args: &[], words: &["k_r_nm_per_rad"] },
     Case { params: Some(b"k_t_n_per_m = nan\n"), args: &[], words: &["k_t_n_per_m"] },
+    Case { params: Some(b"k_r_nm_per_rad = 1255e-324\n"), args: &[], words: &["k_r_nm_per_rad", "too small"] },
     Case { params: Some(b"damping_ratio = -1e-3\n"), args: &[], words: &["damping_ratio"] },
     Case { params: Some(b"friction_coefficient = -0.2\n"), args: &[], words: &["friction_coefficient"] },
     Case { params: Some(b"restitution = 1.5\n"), args: &[], words: &["restitution"] },

@@ -189,6 +189,25 @@ fn main() {
     let mut execs = [0u64; 3];
     let mut accepted = [0u64; 3];
     let mut findings: Vec<(String, PathBuf, String)> = Vec::new();
+    // Watchdog: an input that runs for more than 5 s is a hang; save it and stop.
+    let current: std::sync::Arc<std::sync::Mutex<Option<(Instant, &'static str, Vec<u8>)>>> = Default::default();
+    {
+        let current = current.clone();
+        let dir = findings_dir.clone();
+        std::thread::spawn(move || loop {
+            std::thread::sleep(Duration::from_millis(200));
+            let g = current.lock().unwrap_or_else(|e| e.into_inner());
+            if let Some((t0, name, input)) = g.as_ref()
+                && t0.elapsed() > Duration::from_secs(5)
+            {
+                let _ = std::fs::create_dir_all(&dir);
+                let file = dir.join(format!("{name}-hang.txt"));
+                let _ = std::fs::write(&file, input);
+                println!("fuzz_readers: finding in {name}: hang (> 5 s) on the input saved to {}", file.display());
+                std::process::exit(1);
+            }
+        });
+    }
     while start.elapsed() < budget {
         let t = rng.below(3);
         let (name, f, seeds) = &targets[t];
@@ -196,7 +215,9 @@ fn main() {
         let o = &seeds[rng.below(seeds.len())];
         let input = mutate(&mut rng, s, o);
         let t0 = Instant::now();
+        *current.lock().unwrap_or_else(|e| e.into_inner()) = Some((t0, *name, input.clone()));
         let r = catch_unwind(AssertUnwindSafe(|| f(&input, &tmp)));
+        *current.lock().unwrap_or_else(|e| e.into_inner()) = None;
         let slow = t0.elapsed() > Duration::from_secs(1);
         execs[t] += 1;
         let problem = match r {

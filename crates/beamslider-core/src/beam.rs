@@ -87,6 +87,13 @@ impl Beam {
         let ei = p.bending_stiffness();
         // ε = 1/κ = EI/(k_r L); 0 for ideal clamping.
         let eps = ei / (p.k_r_nm_per_rad * l);
+        if !eps.is_finite() {
+            return Err(Error::invalid(
+                "k_r_nm_per_rad",
+                p.k_r_nm_per_rad,
+                &format!("too small: EI/(k_r L) overflows (use k_r_nm_per_rad >= {:e})", ei / l / 1e300),
+            ));
+        }
         let lambda = find_roots(eps, n)?;
         let scale = (ei / (rho_a * l.powi(4))).sqrt();
         let omega: Vec<f64> = lambda.iter().map(|&lam| lam * lam * scale).collect();
@@ -360,7 +367,12 @@ fn find_roots(eps: f64, n: usize) -> Result<Vec<f64>> {
 /// Null vector of B(λ) with positive sine coefficient (largest-magnitude entry 1 before normalising).
 fn null_vector(eps: f64, lam: f64) -> Result<[f64; 4]> {
     let b = boundary_matrix(eps, lam);
-    let svd = SVD::new(b, false, true);
+    // nalgebra's `SVD::new` iterates without a cap and never returns on non-finite input.
+    if !b.iter().all(|v| v.is_finite()) {
+        return Err(Error::Numerical(format!("non-finite boundary matrix at lambda = {lam}")));
+    }
+    let svd = SVD::try_new(b, false, true, 5.0 * f64::EPSILON, 10_000) // the tolerance of `SVD::new`
+        .ok_or_else(|| Error::Numerical("SVD of the boundary matrix did not converge".into()))?;
     let v_t = svd
         .v_t
         .ok_or_else(|| Error::Numerical("SVD of the boundary matrix failed".into()))?;
@@ -516,6 +528,21 @@ impl ModeTable {
 
 #[cfg(test)]
 mod tests {
+    /// Regression (found by the fuzzer): a denormal k_r made EI/(k_r L) infinite and nalgebra's
+    /// SVD loop forever; tiny or huge stiffnesses must give modes or an error, never a hang.
+    #[test]
+    fn extreme_rotational_stiffness_is_an_error_or_modes_never_a_hang() {
+        for k_r in [1255e-324, 1e-320, 1e-300, 1e-200, 1e-100, 1e-12, 1e12, 1e100, 1e300] {
+            let p = Params { k_r_nm_per_rad: k_r, ..Params::default() };
+            match Beam::new(&p) {
+                Ok(b) => assert!(b.omega.iter().all(|w| w.is_finite() && *w > 0.0), "k_r = {k_r}: {:?}", b.omega),
+                Err(e) => assert!(e.to_string().contains("k_r_nm_per_rad") || matches!(e, Error::Numerical(_)), "{e}"),
+            }
+        }
+        let e = Beam::new(&Params { k_r_nm_per_rad: 1255e-324, ..Params::default() }).unwrap_err().to_string();
+        assert!(e.contains("k_r_nm_per_rad"), "{e}");
+    }
+
     use super::*;
 
     fn beam(p: &Params) -> Beam {
