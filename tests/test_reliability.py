@@ -64,6 +64,8 @@ API_CASES = [
     ("dt 0", lambda: Parameters(dt_s=0.0), ValueError, ["dt_s"]),
     ("solver name", lambda: Parameters(contact_solver="magic"), ValueError, ["contact_solver"]),
     ("solver int", lambda: Parameters(contact_solver=3), ValueError, ["contact_solver"]),
+    ("solver with newline (named the next key)", lambda: Parameters(contact_solver="fast\nx"), ValueError, ["contact_solver"]),
+    ("length_m newline", lambda: Parameters(length_m="\n"), ValueError, ["length_m"]),
     ("max_iter 0", lambda: Parameters(solver_max_iter=0), ValueError, ["solver_max_iter"]),
     ("unknown key", lambda: Parameters.from_dict({"lenght_m": 0.1}), ValueError, ["lenght_m"]),
     ("unknown kwarg", lambda: Parameters(lenght_m=0.1), TypeError, ["lenght_m"]),

@@ -140,7 +140,7 @@ def _toml_value(key: str, v: Any, kind: str) -> str:
     if isinstance(v, bool):
         raise ValueError(f"invalid parameter `{key}` = {v!r}: must be a number")
     if isinstance(v, str):
-        return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
+        return _toml_string(v)
     try:
         x = float(v)
     except (TypeError, ValueError):
@@ -152,6 +152,22 @@ def _toml_value(key: str, v: Any, kind: str) -> str:
     if math.isinf(x):
         return "inf" if x > 0 else "-inf"
     return repr(x)
+
+
+def _toml_string(v: str) -> str:
+    """A TOML basic string: quotes, backslashes and control characters escaped, so that the text
+    stays on its line (an error then names the right key); surrogates become invalid escapes
+    that the core reports for this key."""
+    out = []
+    for ch in v:
+        o = ord(ch)
+        if ch in '"\\':
+            out.append("\\" + ch)
+        elif o < 0x20 or o == 0x7F or 0xD800 <= o <= 0xDFFF:
+            out.append(f"\\u{o:04X}")
+        else:
+            out.append(ch)
+    return '"' + "".join(out) + '"'
 
 
 _KINDS = {f.name: str(f.type) for f in dataclasses.fields(Parameters)}
