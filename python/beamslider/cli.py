@@ -21,6 +21,7 @@ from typing import Any, Dict, List, Optional, Sequence
 import numpy as np
 
 from . import _core
+from ._json import json_safe as _json_safe
 from .measurement import Measurement, read_measurement
 from .params import Parameters
 from .simulate import ManifoldResult, SimulationResult, manifold_grid, simulate, super_slow_manifold
@@ -116,21 +117,6 @@ def read_manifold_csv(path: Path, *, f_ex: float, a_ex: float, params: Parameter
         up_s=np.array(up[0]), up_amplitude=np.array(up[1]), down_s=np.array(down[0]),
         down_amplitude=np.array(down[1]), counters={}, f_ex=f_ex, a_ex=a_ex, periods=0, record=0, params=params,
     )
-
-
-def _json_safe(x: Any) -> Any:
-    if isinstance(x, dict):
-        return {k: _json_safe(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple)):
-        return [_json_safe(v) for v in x]
-    if isinstance(x, (np.floating, float)):
-        v = float(x)
-        return v if np.isfinite(v) else str(v)
-    if isinstance(x, np.integer):
-        return int(x)
-    if isinstance(x, Path):
-        return str(x)
-    return x
 
 
 def write_json(path: Path, data: Dict[str, Any]) -> None:

@@ -35,23 +35,8 @@ def add_parser(sub: Any, common: Any, positive: Any) -> None:
     sp.set_defaults(func=cmd_enma)
 
 
-def _grid(text: str):
-    from .cli import UserError
-
-    try:
-        if ":" in text:
-            lo, hi, step = (float(v) for v in text.split(":"))
-            if not step > 0:
-                raise ValueError
-            n = int(math.floor((hi - lo) / step + 1e-9)) + 1
-            return [round(lo + k * step, 12) for k in range(max(n, 0))]
-        return [float(v) for v in text.split(",") if v.strip()]
-    except ValueError:
-        raise UserError(f"--levels {text!r}: give START:STOP:STEP or a comma-separated list of a_ex") from None
-
-
 def cmd_enma(args: argparse.Namespace) -> int:
-    from .cli import UserError, _out, write_json
+    from .cli import UserError, _axis_text, _out, write_json
 
     baseline = (Parameters.from_toml(args.params) if args.params
                 else Parameters(k_r_nm_per_rad=math.inf, k_t_n_per_m=math.inf))
@@ -63,9 +48,7 @@ def cmd_enma(args: argparse.Namespace) -> int:
         truth = None
     else:
         truth = Parameters.from_toml(args.truth) if args.truth else Parameters()
-        levels = _grid(args.levels) if args.levels else list(enma.DEFAULT_LEVELS_M_S2)
-        if not levels:
-            raise UserError("--levels: no levels in the grid")
+        levels = _axis_text("--levels", args.levels) if args.levels else list(enma.DEFAULT_LEVELS_M_S2)
         data = enma.virtual(truth, levels_m_s2=levels, progress=args.progress)
         if args.noise_frequency or args.repeats > 1:
             data = enma.with_noise(data, frequency_rel=args.noise_frequency, seed=args.seed, repeats=args.repeats)

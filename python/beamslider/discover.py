@@ -43,6 +43,7 @@ from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple, Union
 import numpy as np
 
 from . import _core, enma
+from ._json import json_safe as _json_safe
 from .enma import EnmaData
 from .measurement import Measurement, read_measurement, write_measurement
 from .params import Parameters, resolve
@@ -426,19 +427,6 @@ class Discovery:
 
 
 GAP_MEASURE = "RMS over the features of (model - measured) / measurement uncertainty"
-
-
-def _json_safe(x: Any) -> Any:
-    if isinstance(x, dict):
-        return {str(k): _json_safe(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple)):
-        return [_json_safe(v) for v in x]
-    if isinstance(x, (float, np.floating)):
-        v = float(x)
-        return v if math.isfinite(v) else ("inf" if v > 0 else "-inf" if v < 0 else "nan")
-    if isinstance(x, np.integer):
-        return int(x)
-    return x
 
 
 def _chi2_quantile(dof: int) -> float:

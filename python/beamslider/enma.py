@@ -233,7 +233,7 @@ def virtual(params: Optional[Parameters] = None, *, levels_m_s2: Sequence[float]
     n_levels = len(opts["levels_m_s2"]) * (2 if up_and_down and len(opts["levels_m_s2"]) > 1 else 1) - (
         1 if up_and_down and len(opts["levels_m_s2"]) > 1 else 0)
     with _progress_bar(progress, n_levels, "virtual ENMA", "pts") as cb:
-        text = _core.virtual_enma(p.toml_text(), json.dumps(_json_safe(opts)), cb)
+        text = _core.virtual_enma(p.toml_text(), json.dumps(_finite_options(opts)), cb)
         if cb is not None:
             cb(n_levels, n_levels)
     r = json.loads(text)
@@ -259,7 +259,7 @@ def virtual(params: Optional[Parameters] = None, *, levels_m_s2: Sequence[float]
     return data
 
 
-def _json_safe(d: Dict[str, Any]) -> Dict[str, Any]:
+def _finite_options(d: Dict[str, Any]) -> Dict[str, Any]:
     for k, v in d.items():
         if isinstance(v, float) and not math.isfinite(v):
             raise ValueError(f"invalid ENMA option `{k}` = {v}: must be finite")
