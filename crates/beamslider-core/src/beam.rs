@@ -9,6 +9,7 @@
 
 use nalgebra::{Matrix4, SVD};
 
+use crate::arith::fma;
 use crate::error::{Error, Result};
 use crate::params::Params;
 
@@ -506,7 +507,8 @@ impl ModeTable {
     }
 
     /// Evaluation of function f (0 = φ, 1 = φ') of all N modes in interval j at u
-    /// (Estrin's scheme for the quartic: (c₀ + c₁u) + u²((c₂ + c₃u) + u² c₄), short dependency chain).
+    /// (Estrin's scheme for the quartic with fused multiply-adds:
+    /// (c₀ + c₁u) + u²((c₂ + c₃u) + u² c₄), short dependency chain).
     #[inline(always)]
     fn horner_n<const N: usize>(&self, j: usize, f: usize, u: f64) -> [f64; N] {
         debug_assert_eq!(N, self.n);
@@ -520,7 +522,7 @@ impl ModeTable {
         let u2 = u * u;
         let mut p = [0.0; N];
         for m in 0..N {
-            p[m] = (c0[m] + c1[m] * u) + u2 * ((c2[m] + c3[m] * u) + u2 * c4[m]);
+            p[m] = fma(u2, fma(u2, c4[m], fma(c3[m], u, c2[m])), fma(c1[m], u, c0[m]));
         }
         p
     }

@@ -1,6 +1,7 @@
 //! Contact kinematics of MODEL.md §4 for one potential contact point: pre-check, contact frame,
 //! normal gap, force directions Wᵢ = (∂g/∂q)ᵀ and the gap velocity imposed by the base motion.
 
+use crate::arith::{dot, fma};
 use crate::beam::{Beam, Loc};
 use crate::slider::{Slider, ZETA_Z};
 use crate::solver::{DIM, MAX_CLOSED};
@@ -146,10 +147,7 @@ pub fn probe<const N: usize>(
 pub fn probe_at<const N: usize>(beam: &Beam, x_p: f64, z_p: f64, q: &[f64; N]) -> Probe<N> {
     let loc = beam.locate(x_p);
     let phi = beam.phi_n::<N>(&loc);
-    let mut w = 0.0;
-    for m in 0..N {
-        w += phi[m] * q[m];
-    }
+    let w = dot(&phi, q);
     Probe { x_p, z_p, w, loc, phi }
 }
 
@@ -181,21 +179,18 @@ pub fn finish<const N: usize>(
     let rel = pr.z_p - base.w0 - pr.w;
     let phi = &pr.phi;
     let dphi = beam.dphi_n::<N>(&pr.loc);
-    let mut wp = 0.0;
-    for m in 0..N {
-        wp += dphi[m] * q[m];
-    }
+    let wp = dot(&dphi, q);
     // 2. α = atan(w'); contact frame A_CN = ζZ [[−sin α, cos α], [−cos α, −sin α]].
-    let inv = 1.0 / (1.0 + wp * wp).sqrt();
+    let inv = 1.0 / fma(wp, wp, 1.0).sqrt();
     let (sa, ca) = (wp * inv, inv);
     let a = [[-zz * sa, zz * ca], [-zz * ca, -zz * sa]];
     // 3.–4. r_P − r_B with r_B = (x_P, w₀ + w) + ζZ (h/2)(−w', 1); g = A_CN (r_P − r_B).
     let d = [zz * hh * wp, rel - zz * hh];
-    let g_n = a[0][0] * d[0] + a[0][1] * d[1];
+    let g_n = fma(a[0][1], d[1], a[0][0] * d[0]);
     if g_n >= 0.0 {
         return false;
     }
-    let g_t = a[1][0] * d[0] + a[1][1] * d[1];
+    let g_t = fma(a[1][1], d[1], a[1][0] * d[0]);
     let col = 2 * j;
     debug_assert!(j < MAX_CLOSED);
     // 5. Slider part A_CN [I₂ | A'(β) r_CP].
@@ -205,7 +200,7 @@ pub fn finish<const N: usize>(
     for r in 0..2 {
         out.slider[0][col + r] = a[r][0];
         out.slider[1][col + r] = a[r][1];
-        out.slider[2][col + r] = a[r][0] * dx + a[r][1] * dz;
+        out.slider[2][col + r] = fma(a[r][1], dz, a[r][0] * dx);
     }
     // Beam part −A_CN ∂r_B/∂q_b + (A_CN' (r_P − r_B)) ⊗ φ', with A_CN'(r_P − r_B) = (g_T, −g_N)
     // and ∂r_B/∂q_b = (ζZ (h/2)(w'² − 1) φ', φ − ζZ (h/2) w' φ'): each row is c_φ φ + c_φ' φ'.
@@ -214,11 +209,11 @@ pub fn finish<const N: usize>(
     let mut c_dphi = [0.0; 2];
     for r in 0..2 {
         c_phi[r] = -a[r][1];
-        c_dphi[r] = -a[r][0] * zz * hh * (wp * wp - 1.0) + a[r][1] * zz * hh * wp + e[r];
+        c_dphi[r] = fma(-a[r][0] * zz * hh, fma(wp, wp, -1.0), fma(a[r][1] * zz * hh, wp, e[r]));
     }
     for m in 0..N {
         for r in 0..2 {
-            out.beam[m][col + r] = c_phi[r] * phi[m] + c_dphi[r] * dphi[m];
+            out.beam[m][col + r] = fma(c_dphi[r], dphi[m], c_phi[r] * phi[m]);
         }
     }
     // 6. w̃ = −A_CN (0, ẇ₀).

@@ -8,6 +8,7 @@
 //! [`signal`] (§7), [`classify`] and [`map`] (§8), [`enma`] (§9).
 #![warn(missing_docs)]
 
+mod arith;
 pub mod beam;
 pub mod contact;
 pub mod enma;

@@ -411,9 +411,9 @@ fn sane<const N: usize>(model: &Model, slider: &Slider, s: &StateN<N>, x_kin: f6
 
 static SIMD: AtomicBool = AtomicBool::new(true);
 
-/// Use the AVX2 build of the time loop where the CPU has it (default: on). Both builds do the
-/// same IEEE operations in the same order (no FMA contraction), so results are bitwise identical
-/// either way; the switch exists for tests and benchmarks.
+/// Use the AVX2 + FMA build of the time loop where the CPU has it (default: on). Both builds do
+/// the same IEEE operations in the same order (fused multiply-adds are correctly rounded either
+/// way, see `arith`), so results are bitwise identical; the switch exists for tests and benchmarks.
 pub fn set_simd(enabled: bool) {
     SIMD.store(enabled, Ordering::Relaxed);
 }
@@ -427,8 +427,11 @@ fn run_n<const N: usize>(
 ) -> Result<RunSummary> {
     #[cfg(target_arch = "x86_64")]
     {
-        if SIMD.load(Ordering::Relaxed) && std::arch::is_x86_feature_detected!("avx2") {
-            // SAFETY: the CPU supports AVX2, checked just above.
+        if SIMD.load(Ordering::Relaxed)
+            && std::arch::is_x86_feature_detected!("avx2")
+            && std::arch::is_x86_feature_detected!("fma")
+        {
+            // SAFETY: the CPU supports AVX2 and FMA, checked just above.
             return unsafe { run_n_avx2::<N>(model, start, opts, rec, monitor) };
         }
     }
@@ -436,7 +439,7 @@ fn run_n<const N: usize>(
 }
 
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
+#[target_feature(enable = "avx2,fma")]
 fn run_n_avx2<const N: usize>(
     model: &Model,
     start: &State,

@@ -1,5 +1,6 @@
 //! Slider of MODEL.md §3: planar rigid body (x_C, z_C, β) with four potential contact points.
 
+use crate::arith::fma;
 use crate::params::Params;
 
 /// Number of potential contact points.
@@ -49,7 +50,7 @@ impl Slider {
     #[inline(always)]
     pub fn point(&self, i: usize, x: f64, z: f64, sin_b: f64, cos_b: f64) -> [f64; 2] {
         let [rx, rz] = self.r_cp[i];
-        [x + cos_b * rx + sin_b * rz, z - sin_b * rx + cos_b * rz]
+        [fma(sin_b, rz, fma(cos_b, rx, x)), fma(cos_b, rz, fma(-sin_b, rx, z))]
     }
 
     /// All four points at once: (x₀..x₃, z₀..z₃), each as in [`Slider::point`].
@@ -59,8 +60,8 @@ impl Slider {
         let mut zs = [0.0; N_CONTACTS];
         for i in 0..N_CONTACTS {
             let [rx, rz] = self.r_cp[i];
-            xs[i] = x + cos_b * rx + sin_b * rz;
-            zs[i] = z - sin_b * rx + cos_b * rz;
+            xs[i] = fma(sin_b, rz, fma(cos_b, rx, x));
+            zs[i] = fma(cos_b, rz, fma(-sin_b, rx, z));
         }
         (xs, zs)
     }
@@ -69,6 +70,6 @@ impl Slider {
     #[inline(always)]
     pub fn point_dbeta(&self, i: usize, sin_b: f64, cos_b: f64) -> [f64; 2] {
         let [rx, rz] = self.r_cp[i];
-        [-sin_b * rx + cos_b * rz, -cos_b * rx - sin_b * rz]
+        [fma(cos_b, rz, -sin_b * rx), fma(-sin_b, rz, -cos_b * rx)]
     }
 }

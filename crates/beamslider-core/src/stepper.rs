@@ -1,6 +1,7 @@
 //! Moreau's midpoint time-stepping scheme of MODEL.md §5 for the measure differential inclusion
 //! M du = h(t, q, u) dt + W dP, specialised at compile time to the number of modes N.
 
+use crate::arith::{dot, fma};
 use crate::beam::Beam;
 use crate::contact::{Base, Jacobians, finish, may_close, probe_at};
 use crate::params::{ContactSolver, Params};
@@ -189,7 +190,7 @@ impl Clock {
         }
         let (c, s) = self.cs;
         let (rc, rs) = self.rot;
-        self.cs = (c * rc - s * rs, s * rc + c * rs);
+        self.cs = (fma(c, rc, -(s * rs)), fma(s, rc, c * rs));
         self.count += 1;
         self.prev_t = t;
         (c, s)
@@ -197,15 +198,22 @@ impl Clock {
 }
 
 /// sin β and cos β; Taylor series for the small angles the slider has (|β| < 0.1, error
-/// below 1e-17), libm otherwise.
+/// below 1e-17; Horner in β² with fused multiply-adds), libm otherwise.
 #[inline(always)]
 fn sin_cos_small(b: f64) -> (f64, f64) {
     if b.abs() < 0.1 {
         let b2 = b * b;
         // Taylor coefficients (−1)^k/(2k+1)! and (−1)^k/(2k)!, Horner in β².
-        let s = b + b * b2 * (-1.0 / 6.0 + b2 * (1.0 / 120.0 + b2 * (-1.0 / 5040.0 + b2 * (1.0 / 362880.0))));
-        let c = 1.0
-            + b2 * (-0.5 + b2 * (1.0 / 24.0 + b2 * (-1.0 / 720.0 + b2 * (1.0 / 40320.0 + b2 * (-1.0 / 3628800.0)))));
+        let s = fma(
+            b * b2,
+            fma(b2, fma(b2, fma(b2, 1.0 / 362880.0, -1.0 / 5040.0), 1.0 / 120.0), -1.0 / 6.0),
+            b,
+        );
+        let c = fma(
+            b2,
+            fma(b2, fma(b2, fma(b2, fma(b2, -1.0 / 3628800.0, 1.0 / 40320.0), -1.0 / 720.0), 1.0 / 24.0), -0.5),
+            1.0,
+        );
         (s, c)
     } else {
         b.sin_cos()
@@ -280,14 +288,8 @@ impl<'a, const N: usize> Stepper<'a, N> {
         let half = 0.5 * dt;
         // 1. Midpoint.
         let t_m = t_b + half;
-        let mut qm = s.qb;
-        for i in 0..N {
-            qm[i] += half * s.ub[i];
-        }
-        let mut qsm = s.qs;
-        for i in 0..3 {
-            qsm[i] += half * s.us[i];
-        }
+        let qm: [f64; N] = std::array::from_fn(|i| fma(half, s.ub[i], s.qb[i]));
+        let qsm: [f64; 3] = std::array::from_fn(|i| fma(half, s.us[i], s.qs[i]));
         let (w0, w0_dot, w0_ddot) = if self.base.omega == 0.0 {
             self.base.at(t_m)
         } else {
@@ -299,33 +301,29 @@ impl<'a, const N: usize> Stepper<'a, N> {
         // h_M: beam forces (damping with u_B) and slider gravity.
         // K q_M, accumulated column by column (K is symmetric: row j = column j), in the same
         // order j = 0..N for every entry.
-        let mut kq = [0.0; N];
-        for j in 0..N {
+        let mut kq: [f64; N] = std::array::from_fn(|i| self.kmat[0][i] * qm[0]);
+        for j in 1..N {
             for i in 0..N {
-                kq[i] += self.kmat[j][i] * qm[j];
+                kq[i] = fma(self.kmat[j][i], qm[j], kq[i]);
             }
         }
-        let mut qkq = 0.0;
-        for i in 0..N {
-            qkq += qm[i] * kq[i];
-        }
-        let fnl = self.half_kax * qkq + self.preload;
-        // u_free = u_B + M⁻¹ h_M Δt.
+        let fnl = fma(self.half_kax, dot(&qm, &kq), self.preload);
+        // u_free = u_B + M⁻¹ h_M Δt with −h = D u_B + Ω² q_M + F_nl K q_M + γ ẅ₀.
         let mut vb = [0.0; N];
         for i in 0..N {
-            let h = -self.damp[i] * s.ub[i] - self.omega2[i] * qm[i] - fnl * kq[i]
-                - self.gamma[i] * w0_ddot;
-            vb[i] = s.ub[i] + dt * h;
+            let minus_h = fma(
+                self.gamma[i],
+                w0_ddot,
+                fma(fnl, kq[i], fma(self.omega2[i], qm[i], self.damp[i] * s.ub[i])),
+            );
+            vb[i] = fma(-dt, minus_h, s.ub[i]);
         }
         if let Some((d2, phi_mid)) = &self.damp2 {
             // Damping ratio D + 4 D₂ (w(L/2)/h)²: extra force 8 D₂ ωₙ (w/h)² uₙ.
-            let mut w_mid = 0.0;
-            for i in 0..N {
-                w_mid += phi_mid[i] * qm[i];
-            }
+            let w_mid = dot(phi_mid, &qm);
             let w2 = w_mid * w_mid;
             for i in 0..N {
-                vb[i] -= dt * d2[i] * w2 * s.ub[i];
+                vb[i] = fma(-dt * d2[i] * w2, s.ub[i], vb[i]);
             }
         }
         self.counters.steps += 1;
@@ -333,7 +331,7 @@ impl<'a, const N: usize> Stepper<'a, N> {
         if matches!(self.kin, Kinematics::BeamOnly) {
             s.ub = vb;
             for i in 0..N {
-                s.qb[i] = qm[i] + half * s.ub[i];
+                s.qb[i] = fma(half, s.ub[i], qm[i]);
             }
             return if s.ub.iter().all(|v| v.is_finite()) {
                 Ok(())
@@ -341,7 +339,7 @@ impl<'a, const N: usize> Stepper<'a, N> {
                 Err(StepFault::NonFinite)
             };
         }
-        let mut vs = [s.us[0], s.us[1] - dt * self.gravity, s.us[2]];
+        let mut vs = [s.us[0], fma(-dt, self.gravity, s.us[1]), s.us[2]];
 
         // 2. Contact kinematics at (t_M, q_M).
         let x_kin = match self.kin {
@@ -369,7 +367,7 @@ impl<'a, const N: usize> Stepper<'a, N> {
         let hh = self.slider.half_thickness;
         let mut slope = 0.0;
         for m in 0..N {
-            slope += qm[m].abs() * self.slope_bound[m];
+            slope = fma(qm[m].abs(), self.slope_bound[m], slope);
         }
         let beam = self.beam;
         let slider = &self.slider;
@@ -417,10 +415,10 @@ impl<'a, const N: usize> Stepper<'a, N> {
         s.us = vs;
         // 4. q_E = q_M + (Δt/2) u_E.
         for i in 0..N {
-            s.qb[i] = qm[i] + half * s.ub[i];
+            s.qb[i] = fma(half, s.ub[i], qm[i]);
         }
         for i in 0..3 {
-            s.qs[i] = qsm[i] + half * s.us[i];
+            s.qs[i] = fma(half, s.us[i], qsm[i]);
         }
         let check: f64 = s.ub.iter().sum::<f64>() + s.us.iter().sum::<f64>();
         if check.is_finite() { Ok(()) } else { Err(StepFault::NonFinite) }
@@ -444,43 +442,63 @@ impl<'a, const N: usize> Stepper<'a, N> {
         }
         // c = (I + E)(Wᵀ u_B + w̃) + Wᵀ M⁻¹ h_M Δt = Wᵀ u_free + w̃ + E (Wᵀ u_B + w̃), E = diag(ε_N, 0),
         // with Wᵀ u = Σ_m u_m (row m of W).
+        // Beam and slider parts summed separately (two short chains), then added.
         let mut wu_b = jac.wtilde;
         let mut wu_f = jac.wtilde;
         for m in 0..N {
             for a in 0..nc {
-                wu_b[a] += jac.beam[m][a] * s.ub[m];
-                wu_f[a] += jac.beam[m][a] * vb[m];
+                wu_b[a] = fma(jac.beam[m][a], s.ub[m], wu_b[a]);
+                wu_f[a] = fma(jac.beam[m][a], vb[m], wu_f[a]);
             }
         }
-        for m in 0..3 {
+        let mut su_b = [0.0; DIM];
+        let mut su_f = [0.0; DIM];
+        for a in 0..nc {
+            su_b[a] = jac.slider[0][a] * s.us[0];
+            su_f[a] = jac.slider[0][a] * vs[0];
+        }
+        for m in 1..3 {
             for a in 0..nc {
-                wu_b[a] += jac.slider[m][a] * s.us[m];
-                wu_f[a] += jac.slider[m][a] * vs[m];
+                su_b[a] = fma(jac.slider[m][a], s.us[m], su_b[a]);
+                su_f[a] = fma(jac.slider[m][a], vs[m], su_f[a]);
             }
         }
         // (ε_T = 0: the tangential rows add 0 · (Wᵀ u_B + w̃), which leaves them unchanged; written
         // for all rows alike so that they vectorise.)
         for a in 0..nc {
             let e = if a % 2 == 0 { self.eps_n } else { 0.0 };
-            prob.c[a] = wu_f[a] + e * wu_b[a];
+            prob.c[a] = fma(e, wu_b[a] + su_b[a], wu_f[a] + su_f[a]);
         }
         // G = Wᵀ M⁻¹ W = Σ_m (row m)ᵀ (M⁻¹ row m): gt[b][a] = G_ab accumulated over the modes, then
         // the slider coordinates; its lower triangle (a ≥ b) is mirrored.
+        // (Beam and slider parts accumulated separately, then added: two short chains.)
         let mut gt = [[0.0; DIM]; DIM];
-        for m in 0..N {
+        let mut gs = [[0.0; DIM]; DIM];
+        for b in 0..nc {
+            for a in 0..nc {
+                gt[b][a] = jac.beam[0][a] * jac.beam[0][b];
+                gs[b][a] = jac.slider[0][a] * ys[0][b];
+            }
+        }
+        for m in 1..N {
             let x = &jac.beam[m];
             for b in 0..nc {
                 for a in 0..nc {
-                    gt[b][a] += x[a] * x[b];
+                    gt[b][a] = fma(x[a], x[b], gt[b][a]);
                 }
             }
         }
-        for m in 0..3 {
+        for m in 1..3 {
             let x = &jac.slider[m];
             for b in 0..nc {
                 for a in 0..nc {
-                    gt[b][a] += x[a] * ys[m][b];
+                    gs[b][a] = fma(x[a], ys[m][b], gs[b][a]);
                 }
+            }
+        }
+        for b in 0..nc {
+            for a in 0..nc {
+                gt[b][a] += gs[b][a];
             }
         }
         // Row b of G gets column b of gt (right on and above the diagonal: G_ba = G_ab for a ≥ b);
@@ -537,12 +555,12 @@ impl<'a, const N: usize> Stepper<'a, N> {
         for m in 0..N {
             let x = &jac.beam[m];
             for j in 0..K {
-                vb[m] += x[2 * j] * p[2 * j] + x[2 * j + 1] * p[2 * j + 1];
+                vb[m] = fma(x[2 * j + 1], p[2 * j + 1], fma(x[2 * j], p[2 * j], vb[m]));
             }
         }
         for m in 0..3 {
             for j in 0..K {
-                vs[m] += ys[m][2 * j] * p[2 * j] + ys[m][2 * j + 1] * p[2 * j + 1];
+                vs[m] = fma(ys[m][2 * j + 1], p[2 * j + 1], fma(ys[m][2 * j], p[2 * j], vs[m]));
             }
         }
     }
