@@ -62,6 +62,11 @@ impl Loc {
     pub fn inside(&self) -> bool {
         self.inside
     }
+
+    /// The located x [m].
+    pub fn x(&self) -> f64 {
+        self.x
+    }
 }
 
 /// Piecewise Taylor table of φ and φ' (x-derivative) of all modes.
@@ -212,6 +217,19 @@ impl Beam {
             Some((j, u)) => Loc { x, j, u, inside: true },
             None => Loc { x, j: 0, u: 0.0, inside: false },
         }
+    }
+
+    /// [`Beam::locate`] for an x on the beam, which the table (ξ from −1/4 to 5/4) always
+    /// covers: no range check.
+    ///
+    /// # Safety
+    /// 0 ≤ x ≤ L (so that the interval index is in range; not NaN).
+    #[inline(always)]
+    pub(crate) unsafe fn locate_on_beam(&self, x: f64) -> Loc {
+        debug_assert!((0.0..=self.length_m).contains(&x));
+        // SAFETY: forwarded from the caller.
+        let (j, u) = unsafe { self.table.locate_covered(x) };
+        Loc { x, j, u, inside: true }
     }
 
     /// Mode values φ₁..φ_N at a located x (table inside its range, closed form outside).
@@ -478,13 +496,26 @@ impl ModeTable {
     /// Locate x [m] (no division): interval index and local variable u ∈ [−1, 1].
     #[inline(always)]
     fn locate_x(&self, x: f64) -> Option<(usize, f64)> {
-        let r = x * self.x_scale + self.x_offset;
+        let r = fma(x, self.x_scale, self.x_offset);
         if !(r >= 0.0 && r < self.intervals_f) {
             return None;
         }
         // SAFETY: 0 ≤ r < intervals (checked above), so the truncation fits in i32.
         let ji = unsafe { r.to_int_unchecked::<i32>() };
-        Some((ji as usize, 2.0 * (r - ji as f64) - 1.0))
+        Some((ji as usize, fma(2.0, r - ji as f64, -1.0)))
+    }
+
+    /// [`ModeTable::locate_x`] for an x the table covers; the same (j, u).
+    ///
+    /// # Safety
+    /// 0 ≤ x ≤ L.
+    #[inline(always)]
+    unsafe fn locate_covered(&self, x: f64) -> (usize, f64) {
+        let r = fma(x, self.x_scale, self.x_offset);
+        debug_assert!(r >= 0.0 && r < self.intervals_f);
+        // SAFETY: 0 ≤ x ≤ L gives 0 < r < intervals, so the truncation fits in i32.
+        let ji = unsafe { r.to_int_unchecked::<i32>() };
+        (ji as usize, fma(2.0, r - ji as f64, -1.0))
     }
 
     fn eval(&self, x: f64, phi: &mut [f64], dphi: &mut [f64]) -> bool {

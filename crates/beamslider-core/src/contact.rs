@@ -145,7 +145,22 @@ pub fn probe<const N: usize>(
 /// [`probe`] for a point already placed at (x_P, z_P).
 #[inline(always)]
 pub fn probe_at<const N: usize>(beam: &Beam, x_p: f64, z_p: f64, q: &[f64; N]) -> Probe<N> {
-    let loc = beam.locate(x_p);
+    probe_located(beam, beam.locate(x_p), z_p, q)
+}
+
+/// [`probe_at`] for a point on the beam (the table without a range check).
+///
+/// # Safety
+/// 0 ≤ x_P ≤ L.
+#[inline(always)]
+pub(crate) unsafe fn probe_on_beam<const N: usize>(beam: &Beam, x_p: f64, z_p: f64, q: &[f64; N]) -> Probe<N> {
+    // SAFETY: forwarded from the caller.
+    probe_located(beam, unsafe { beam.locate_on_beam(x_p) }, z_p, q)
+}
+
+#[inline(always)]
+fn probe_located<const N: usize>(beam: &Beam, loc: Loc, z_p: f64, q: &[f64; N]) -> Probe<N> {
+    let x_p = loc.x();
     let phi = beam.phi_n::<N>(&loc);
     let w = dot(&phi, q);
     Probe { x_p, z_p, w, loc, phi }

@@ -3,7 +3,7 @@
 
 use crate::arith::{dot, fma};
 use crate::beam::Beam;
-use crate::contact::{Base, Jacobians, finish, may_close, probe_at};
+use crate::contact::{Base, Jacobians, Probe, finish, may_close, probe_at, probe_on_beam};
 use crate::params::{ContactSolver, Params};
 use crate::slider::{N_CONTACTS, Slider, ZETA_Z};
 use crate::solver::{self, ContactMode, DIM, LocalProblem, MAX_CLOSED};
@@ -220,6 +220,22 @@ fn sin_cos_small(b: f64) -> (f64, f64) {
     }
 }
 
+/// The fault of a free slider with a contact point off the beam: the first such point in the
+/// order 0, 1, 3, 2 (kept out of line: it ends the run).
+#[cold]
+#[inline(never)]
+fn left_beam(xp: &[f64; N_CONTACTS], length: f64) -> StepFault {
+    for i in [0, 1, 3, 2] {
+        let x_p = xp[i];
+        if !(x_p >= 0.0 && x_p <= length) {
+            // Far beyond the beam within one step: a blow-up, not a slider leaving the beam.
+            let plausible = x_p.abs() <= 2.0 * length;
+            return if plausible { StepFault::LeftBeam(x_p) } else { StepFault::NonFinite };
+        }
+    }
+    StepFault::NonFinite
+}
+
 impl<'a, const N: usize> Stepper<'a, N> {
     /// Stepper for the given beam (with N modes), parameters, excitation and kinematics.
     pub fn new(beam: &'a Beam, p: &Params, base: BaseMotion, kin: Kinematics) -> Self {
@@ -349,15 +365,15 @@ impl<'a, const N: usize> Stepper<'a, N> {
         let (sin_b, cos_b) = sin_cos_small(qsm[2]);
         let base = Base { w0, w0_dot };
         let (xp, zp) = self.slider.points(x_kin, qsm[1], sin_b, cos_b);
-        if matches!(self.kin, Kinematics::Free) {
-            for i in [0, 1, 3, 2] {
-                let x_p = xp[i];
-                if !(x_p >= 0.0 && x_p <= self.length) {
-                    // Far beyond the beam within one step: a blow-up, not a slider leaving the beam.
-                    let plausible = x_p.abs() <= 2.0 * self.length;
-                    return Err(if plausible { StepFault::LeftBeam(x_p) } else { StepFault::NonFinite });
-                }
-            }
+        // Are all four points on the beam, 0 ≤ x ≤ L? (Evaluated without short-circuit, so that
+        // it vectorises.) The free slider must stay on it; then the mode table needs no range
+        // checks.
+        let mut on_beam = true;
+        for x in xp {
+            on_beam &= (x >= 0.0) & (x <= self.beam.length_m);
+        }
+        if !on_beam && matches!(self.kin, Kinematics::Free) {
+            return Err(left_beam(&xp, self.length));
         }
         // The four points in pairs (top, bottom) on each side. The bottom point of a pair is
         // only evaluated when it may touch: |w(x_bottom) − w(x_top)| ≤ |Δx| Σ|qₘ| max|φₘ'|,
@@ -373,28 +389,41 @@ impl<'a, const N: usize> Stepper<'a, N> {
         let slider = &self.slider;
         let jac = &mut self.jac;
         let mut k = 0;
-        let may_touch = |top: usize, bottom: usize, in_table: bool, w_top: f64| {
+        // (The slope bound holds inside the mode table, which covers the beam.)
+        let may_touch = |top: usize, bottom: usize, w_top: f64| {
             let margin = (xp[bottom] - xp[top]).abs() * slope * 1.000001 + 1e-15;
-            let surely_open = in_table
-                && beam.in_table(xp[bottom])
-                && ZETA_Z[bottom] * (zp[bottom] - w0 - w_top) - margin - hh >= 1e-5 * hh;
+            let surely_open = on_beam && ZETA_Z[bottom] * (zp[bottom] - w0 - w_top) - margin - hh >= 1e-5 * hh;
             !surely_open
         };
+        // (A function, not a closure: closures are not always inlined into the SIMD build.)
+        /// # Safety
+        /// `on_beam` only if 0 ≤ x ≤ L.
+        #[inline(always)]
+        unsafe fn probe_point<const N: usize>(beam: &Beam, on_beam: bool, x: f64, z: f64, q: &[f64; N]) -> Probe<N> {
+            if on_beam {
+                // SAFETY: forwarded from the caller.
+                unsafe { probe_on_beam::<N>(beam, x, z, q) }
+            } else {
+                probe_at::<N>(beam, x, z, q)
+            }
+        }
+        // SAFETY: on_beam says 0 ≤ x ≤ L for all four points (L of the beam itself).
+        let probe = |i: usize| unsafe { probe_point::<N>(beam, on_beam, xp[i], zp[i], &qm) };
         // Left pair: 0 (top), 1 (bottom).
-        let p0 = probe_at::<N>(beam, xp[0], zp[0], &qm);
+        let p0 = probe(0);
         if may_close(0, p0.z_p, w0, p0.w, hh) && finish::<N>(beam, slider, 0, &p0, sin_b, cos_b, &qm, base, jac, k) {
             k += 1;
         }
-        if may_touch(0, 1, p0.in_table(), p0.w) {
-            let p1 = probe_at::<N>(beam, xp[1], zp[1], &qm);
+        if may_touch(0, 1, p0.w) {
+            let p1 = probe(1);
             if may_close(1, p1.z_p, w0, p1.w, hh) && finish::<N>(beam, slider, 1, &p1, sin_b, cos_b, &qm, base, jac, k) {
                 k += 1;
             }
         }
         // Right pair: 3 (top), 2 (bottom).
-        let p3 = probe_at::<N>(beam, xp[3], zp[3], &qm);
-        if may_touch(3, 2, p3.in_table(), p3.w) {
-            let p2 = probe_at::<N>(beam, xp[2], zp[2], &qm);
+        let p3 = probe(3);
+        if may_touch(3, 2, p3.w) {
+            let p2 = probe(2);
             if may_close(2, p2.z_p, w0, p2.w, hh) && finish::<N>(beam, slider, 2, &p2, sin_b, cos_b, &qm, base, jac, k) {
                 k += 1;
             }
