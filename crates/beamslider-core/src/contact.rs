@@ -36,6 +36,10 @@ impl<const N: usize> ClosedContact<N> {
 /// closed contact (r = 0 normal, 1 tangential), and row m holds ∂g_a/∂q_m. With this layout
 /// the Delassus matrix G = Wᵀ M⁻¹ W = Σ_m (row m)ᵀ (M⁻¹ row m) is a sum of outer products of
 /// short vectors, and Wᵀ u = Σ_m u_m (row m).
+///
+/// The columns (and w̃) are stored without the contact frame's normalisation: the true ones
+/// are `scale[j]` = 1/√(1 + w'²) times the stored ones. So the square root and division of
+/// the frame run in parallel with the assembly of G and c, which are scaled at the end.
 #[derive(Debug, Clone, Copy)]
 pub struct Jacobians<const N: usize> {
     /// Beam part: rows m = 0..N (modal coordinates).
@@ -48,6 +52,8 @@ pub struct Jacobians<const N: usize> {
     pub index: [usize; MAX_CLOSED],
     /// Normal gap g_N (< 0) of the j-th closed contact [m].
     pub gap_n: [f64; MAX_CLOSED],
+    /// 1/√(1 + w'²) of the j-th closed contact: true columns = scale × stored columns.
+    pub scale: [f64; MAX_CLOSED],
 }
 
 impl<const N: usize> Jacobians<N> {
@@ -58,6 +64,7 @@ impl<const N: usize> Jacobians<N> {
         wtilde: [0.0; DIM],
         index: [0; MAX_CLOSED],
         gap_n: [0.0; MAX_CLOSED],
+        scale: [0.0; MAX_CLOSED],
     };
 }
 
@@ -95,12 +102,13 @@ pub fn kinematics<const N: usize>(
     if !finish(beam, slider, i, &pr, sin_b, cos_b, q, base, &mut jac, 0) {
         return (pr.x_p, None);
     }
+    let sc = jac.scale[0];
     let c = ClosedContact {
         index: i,
         gap_n: jac.gap_n[0],
-        wb: [std::array::from_fn(|m| jac.beam[m][0]), std::array::from_fn(|m| jac.beam[m][1])],
-        ws: [std::array::from_fn(|m| jac.slider[m][0]), std::array::from_fn(|m| jac.slider[m][1])],
-        wtilde: [jac.wtilde[0], jac.wtilde[1]],
+        wb: [std::array::from_fn(|m| sc * jac.beam[m][0]), std::array::from_fn(|m| sc * jac.beam[m][1])],
+        ws: [std::array::from_fn(|m| sc * jac.slider[m][0]), std::array::from_fn(|m| sc * jac.slider[m][1])],
+        wtilde: [sc * jac.wtilde[0], sc * jac.wtilde[1]],
     };
     (pr.x_p, Some(c))
 }
@@ -195,10 +203,11 @@ pub fn finish<const N: usize>(
     let phi = &pr.phi;
     let dphi = beam.dphi_n::<N>(&pr.loc);
     let wp = dot(&dphi, q);
-    // 2. α = atan(w'); contact frame A_CN = ζZ [[−sin α, cos α], [−cos α, −sin α]].
+    // 2. α = atan(w'); contact frame A_CN = ζZ [[−sin α, cos α], [−cos α, −sin α]]
+    //    = (1/√(1 + w'²)) A with A = ζZ [[−w', 1], [−1, −w']]; everything below is linear in
+    //    A_CN, so it is computed with A and scaled by `inv` afterwards (see [`Jacobians`]).
     let inv = 1.0 / fma(wp, wp, 1.0).sqrt();
-    let (sa, ca) = (wp * inv, inv);
-    let a = [[-zz * sa, zz * ca], [-zz * ca, -zz * sa]];
+    let a = [[-zz * wp, zz], [-zz, -zz * wp]];
     // 3.–4. r_P − r_B with r_B = (x_P, w₀ + w) + ζZ (h/2)(−w', 1); g = A_CN (r_P − r_B).
     let d = [zz * hh * wp, rel - zz * hh];
     let g_n = fma(a[0][1], d[1], a[0][0] * d[0]);
@@ -211,7 +220,8 @@ pub fn finish<const N: usize>(
     // 5. Slider part A_CN [I₂ | A'(β) r_CP].
     let [dx, dz] = slider.point_dbeta(i, sin_b, cos_b);
     out.index[j] = i;
-    out.gap_n[j] = g_n;
+    out.gap_n[j] = inv * g_n;
+    out.scale[j] = inv;
     for r in 0..2 {
         out.slider[0][col + r] = a[r][0];
         out.slider[1][col + r] = a[r][1];

@@ -492,11 +492,16 @@ impl<'a, const N: usize> Stepper<'a, N> {
                 su_f[a] = fma(jac.slider[m][a], vs[m], su_f[a]);
             }
         }
+        // The frame's normalisation of each column (see `Jacobians`).
+        let mut col_scale = [0.0; DIM];
+        for a in 0..nc {
+            col_scale[a] = jac.scale[a / 2];
+        }
         // (ε_T = 0: the tangential rows add 0 · (Wᵀ u_B + w̃), which leaves them unchanged; written
         // for all rows alike so that they vectorise.)
         for a in 0..nc {
             let e = if a % 2 == 0 { self.eps_n } else { 0.0 };
-            prob.c[a] = fma(e, wu_b[a] + su_b[a], wu_f[a] + su_f[a]);
+            prob.c[a] = col_scale[a] * fma(e, wu_b[a] + su_b[a], wu_f[a] + su_f[a]);
         }
         // G = Wᵀ M⁻¹ W = Σ_m (row m)ᵀ (M⁻¹ row m): gt[b][a] = G_ab accumulated over the modes, then
         // the slider coordinates; its lower triangle (a ≥ b) is mirrored.
@@ -527,7 +532,7 @@ impl<'a, const N: usize> Stepper<'a, N> {
         }
         for b in 0..nc {
             for a in 0..nc {
-                gt[b][a] += gs[b][a];
+                gt[b][a] = (gt[b][a] + gs[b][a]) * col_scale[a] * col_scale[b];
             }
         }
         // Row b of G gets column b of gt (right on and above the diagonal: G_ba = G_ab for a ≥ b);
@@ -574,11 +579,14 @@ impl<'a, const N: usize> Stepper<'a, N> {
         c.linear_solves += info.linear_solves as u64;
         c.enumerations += info.enumerated as u64;
         c.fallbacks += info.fallback as u64;
-        // u_E = u_free + M⁻¹ W P, contact by contact.
+        // u_E = u_free + M⁻¹ W P, contact by contact (W P = W_stored (scale · P)).
         for j in 0..K {
             let (pn, pt) = (p[2 * j], p[2 * j + 1]);
             self.warm[index[j]] = [pn, pt];
             self.last_p[index[j]] = [pn, pt];
+        }
+        for a in 0..nc {
+            p[a] *= col_scale[a];
         }
         let jac = &self.jac;
         for m in 0..N {
