@@ -513,9 +513,12 @@ impl ModeTable {
     unsafe fn locate_covered(&self, x: f64) -> (usize, f64) {
         let r = fma(x, self.x_scale, self.x_offset);
         debug_assert!(r >= 0.0 && r < self.intervals_f);
+        // u from ⌊r⌋ in floating point (short chain), the index from it in parallel; for
+        // 0 ≤ r < 2³¹ both are the same as truncation.
+        let fl = r.floor();
         // SAFETY: 0 ≤ x ≤ L gives 0 < r < intervals, so the truncation fits in i32.
-        let ji = unsafe { r.to_int_unchecked::<i32>() };
-        (ji as usize, fma(2.0, r - ji as f64, -1.0))
+        let ji = unsafe { fl.to_int_unchecked::<i32>() };
+        (ji as usize, fma(2.0, r - fl, -1.0))
     }
 
     fn eval(&self, x: f64, phi: &mut [f64], dphi: &mut [f64]) -> bool {

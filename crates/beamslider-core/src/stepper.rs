@@ -198,22 +198,22 @@ impl Clock {
 }
 
 /// sin β and cos β; Taylor series for the small angles the slider has (|β| < 0.1, error
-/// below 1e-17; Horner in β² with fused multiply-adds), libm otherwise.
+/// below 1e-17), libm otherwise. The series are polynomials in y = β², evaluated by Estrin's
+/// scheme with fused multiply-adds (short dependency chain: the contact points wait for them).
 #[inline(always)]
 fn sin_cos_small(b: f64) -> (f64, f64) {
     if b.abs() < 0.1 {
-        let b2 = b * b;
-        // Taylor coefficients (−1)^k/(2k+1)! and (−1)^k/(2k)!, Horner in β².
-        let s = fma(
-            b * b2,
-            fma(b2, fma(b2, fma(b2, 1.0 / 362880.0, -1.0 / 5040.0), 1.0 / 120.0), -1.0 / 6.0),
-            b,
-        );
-        let c = fma(
-            b2,
-            fma(b2, fma(b2, fma(b2, fma(b2, -1.0 / 3628800.0, 1.0 / 40320.0), -1.0 / 720.0), 1.0 / 24.0), -0.5),
-            1.0,
-        );
+        let y = b * b;
+        let y2 = y * y;
+        // sin β = β (1 + s₁y + s₂y² + s₃y³ + s₄y⁴), sₖ = (−1)ᵏ/(2k+1)!.
+        let s_lo = fma(y, -1.0 / 6.0, 1.0);
+        let s_hi = fma(y2, 1.0 / 362880.0, fma(y, -1.0 / 5040.0, 1.0 / 120.0));
+        let s = b * fma(y2, s_hi, s_lo);
+        // cos β = 1 + c₁y + … + c₅y⁵, cₖ = (−1)ᵏ/(2k)!.
+        let c_lo = fma(y, -0.5, 1.0);
+        let c_mid = fma(y, -1.0 / 720.0, 1.0 / 24.0);
+        let c_hi = fma(y, -1.0 / 3628800.0, 1.0 / 40320.0);
+        let c = fma(y2, fma(y2, c_hi, c_mid), c_lo);
         (s, c)
     } else {
         b.sin_cos()
@@ -600,5 +600,22 @@ impl<'a, const N: usize> Stepper<'a, N> {
                 vs[m] = fma(ys[m][2 * j + 1], p[2 * j + 1], fma(ys[m][2 * j], p[2 * j], vs[m]));
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn small_angle_sin_cos_match_libm() {
+        for k in -2000..=2000 {
+            let b = k as f64 * 0.099999 / 2000.0 + 1e-7 * (k as f64).sin();
+            let (s, c) = sin_cos_small(b);
+            let (s0, c0) = b.sin_cos();
+            assert!((s - s0).abs() <= 2.0 * f64::EPSILON * s0.abs(), "sin({b}): {s} vs {s0}");
+            assert!((c - c0).abs() <= 2.0 * f64::EPSILON, "cos({b}): {c} vs {c0}");
+        }
+        assert_eq!(sin_cos_small(0.3), 0.3f64.sin_cos());
     }
 }
