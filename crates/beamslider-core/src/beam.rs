@@ -252,12 +252,6 @@ impl Beam {
         }
     }
 
-    /// Is x [m] inside the tabulated range?
-    #[inline(always)]
-    pub fn in_table(&self, x: f64) -> bool {
-        self.table.locate_x(x).is_some()
-    }
-
     /// Mode values at x (exact).
     pub fn phi_row(&self, x: f64) -> Vec<f64> {
         (0..self.n).map(|m| self.phi_exact(m, x)).collect()

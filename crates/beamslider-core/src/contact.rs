@@ -126,13 +126,6 @@ pub struct Probe<const N: usize> {
     phi: [f64; N],
 }
 
-impl<const N: usize> Probe<N> {
-    /// Is x_P inside the tabulated range (where [`Beam::slope_bound`] holds)?
-    pub fn in_table(&self) -> bool {
-        self.loc.inside()
-    }
-}
-
 /// Position of point `i` and the beam deflection under it (mode values via the table).
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
@@ -156,14 +149,20 @@ pub fn probe_at<const N: usize>(beam: &Beam, x_p: f64, z_p: f64, q: &[f64; N]) -
     probe_located(beam, beam.locate(x_p), z_p, q)
 }
 
-/// [`probe_at`] for a point on the beam (the table without a range check).
+/// [`probe_at`] for the time loop, which has checked all four points at once: `on_beam` says
+/// that 0 ≤ x_P ≤ L (then the table is read without a range check).
 ///
 /// # Safety
-/// 0 ≤ x_P ≤ L.
+/// `on_beam` only if 0 ≤ x_P ≤ L.
 #[inline(always)]
-pub(crate) unsafe fn probe_on_beam<const N: usize>(beam: &Beam, x_p: f64, z_p: f64, q: &[f64; N]) -> Probe<N> {
-    // SAFETY: forwarded from the caller.
-    probe_located(beam, unsafe { beam.locate_on_beam(x_p) }, z_p, q)
+pub(crate) unsafe fn probe_checked<const N: usize>(beam: &Beam, on_beam: bool, x_p: f64, z_p: f64, q: &[f64; N]) -> Probe<N> {
+    // (Two calls, so that in the first the table's `inside` flag is a known constant.)
+    if on_beam {
+        // SAFETY: forwarded from the caller.
+        probe_located(beam, unsafe { beam.locate_on_beam(x_p) }, z_p, q)
+    } else {
+        probe_located(beam, beam.locate(x_p), z_p, q)
+    }
 }
 
 #[inline(always)]

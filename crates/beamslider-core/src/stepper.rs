@@ -3,7 +3,7 @@
 
 use crate::arith::{dot, fma};
 use crate::beam::Beam;
-use crate::contact::{Base, Jacobians, Probe, finish, may_close, probe_at, probe_on_beam};
+use crate::contact::{Base, Jacobians, finish, may_close, probe_checked};
 use crate::params::{ContactSolver, Params};
 use crate::slider::{N_CONTACTS, Slider, ZETA_Z};
 use crate::solver::{self, ContactMode, DIM, LocalProblem, MAX_CLOSED};
@@ -131,7 +131,6 @@ pub struct Stepper<'a, const N: usize> {
     gravity: f64,
     inv_m: f64,
     inv_j: f64,
-    length: f64,
     solver: ContactSolver,
     tol_rel: f64,
     tol_abs: f64,
@@ -273,7 +272,6 @@ impl<'a, const N: usize> Stepper<'a, N> {
             gravity: p.gravity_m_s2,
             inv_m: 1.0 / p.slider_mass_kg,
             inv_j: 1.0 / p.slider_inertia_kg_m2,
-            length: p.length_m,
             solver: p.contact_solver,
             tol_rel: p.solver_tol_rel,
             tol_abs: p.solver_tol_abs,
@@ -373,7 +371,7 @@ impl<'a, const N: usize> Stepper<'a, N> {
             on_beam &= (x >= 0.0) & (x <= self.beam.length_m);
         }
         if !on_beam && matches!(self.kin, Kinematics::Free) {
-            return Err(left_beam(&xp, self.length));
+            return Err(left_beam(&xp, self.beam.length_m));
         }
         // The four points in pairs (top, bottom) on each side. The bottom point of a pair is
         // only evaluated when it may touch: |w(x_bottom) − w(x_top)| ≤ |Δx| Σ|qₘ| max|φₘ'|,
@@ -395,20 +393,8 @@ impl<'a, const N: usize> Stepper<'a, N> {
             let surely_open = on_beam && ZETA_Z[bottom] * (zp[bottom] - w0 - w_top) - margin - hh >= 1e-5 * hh;
             !surely_open
         };
-        // (A function, not a closure: closures are not always inlined into the SIMD build.)
-        /// # Safety
-        /// `on_beam` only if 0 ≤ x ≤ L.
-        #[inline(always)]
-        unsafe fn probe_point<const N: usize>(beam: &Beam, on_beam: bool, x: f64, z: f64, q: &[f64; N]) -> Probe<N> {
-            if on_beam {
-                // SAFETY: forwarded from the caller.
-                unsafe { probe_on_beam::<N>(beam, x, z, q) }
-            } else {
-                probe_at::<N>(beam, x, z, q)
-            }
-        }
-        // SAFETY: on_beam says 0 ≤ x ≤ L for all four points (L of the beam itself).
-        let probe = |i: usize| unsafe { probe_point::<N>(beam, on_beam, xp[i], zp[i], &qm) };
+        // SAFETY: on_beam says 0 ≤ x ≤ L for all four points.
+        let probe = |i: usize| unsafe { probe_checked::<N>(beam, on_beam, xp[i], zp[i], &qm) };
         // Left pair: 0 (top), 1 (bottom).
         let p0 = probe(0);
         if may_close(0, p0.z_p, w0, p0.w, hh) && finish::<N>(beam, slider, 0, &p0, sin_b, cos_b, &qm, base, jac, k) {
