@@ -6,6 +6,8 @@ Python face:
 - :class:`Parameters` — model parameters (MODEL.md §1), TOML in and out;
 - :func:`simulate` — free-slider / pseudo-constrained / beam-only runs (§5–6);
 - :func:`super_slow_manifold` — PCS continuation of the super-slow manifold (§6);
+- :func:`hb_manifold` (:mod:`beamslider.superslow`) — the same manifold by harmonic balance in
+  milliseconds (issue 17, layer (a));
 - :func:`envelope` — |Hilbert| plus moving average (§7);
 - :func:`read_measurement` — the published measured data set (§7);
 - :func:`operating_map`, :func:`classify` — operating maps and behaviour classification (§8);
@@ -14,17 +16,19 @@ Python face:
 - :mod:`beamslider.plotting` — the paper's three-panel figures; ``beamslider`` — the command line.
 """
 
-from . import discover, enma
+from . import discover, enma, superslow
 from ._core import SimulationError
 from .measurement import Measurement, MeasurementFormatError, parse_operating_point, read_measurement
 from .params import Parameters
 from .maps import Classification, classify, classify_result, operating_map, plot_operating_map, read_map
 from .simulate import ManifoldResult, SimulationResult, envelope, manifold_grid, simulate, super_slow_manifold
+from .superslow import HbManifold, hb_manifold
 
 __version__ = "0.1.0"
 
 __all__ = [
     "Classification",
+    "HbManifold",
     "ManifoldResult",
     "Measurement",
     "MeasurementFormatError",
@@ -36,6 +40,7 @@ __all__ = [
     "discover",
     "enma",
     "envelope",
+    "hb_manifold",
     "manifold_grid",
     "operating_map",
     "parse_operating_point",
@@ -43,5 +48,6 @@ __all__ = [
     "read_map",
     "read_measurement",
     "simulate",
+    "superslow",
     "super_slow_manifold",
 ]

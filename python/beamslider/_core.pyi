@@ -65,3 +65,28 @@ def run_map(
     threads: Optional[int] = None,
     progress: Optional[Callable[[int, int], Any]] = None,
 ) -> List[str]: ...
+def hb_manifold(
+    params_toml: str,
+    *,
+    f_ex_hz: float,
+    a_ex_m_s2: float,
+    n_modes: int = 5,
+    harmonics: int = 1,
+    d_eff: Optional[float] = None,
+    omega1_factor: float = 1.0,
+    s_values: Optional[Sequence[float]] = None,
+    max_steps: int = 20000,
+    max_step: float = 0.02,
+) -> Dict[str, Any]: ...
+def hb_closed_form_n1(
+    params_toml: str,
+    *,
+    f_ex_hz: float,
+    a_ex_m_s2: float,
+    s_values: Sequence[float],
+    d_eff: Optional[float] = None,
+    omega1_factor: float = 1.0,
+) -> Dict[str, Any]: ...
+def hb_backbone(
+    params_toml: str, amplitude_h: Sequence[float], s: Sequence[float], omega1_factor: float = 1.0
+) -> List[float]: ...

@@ -257,6 +257,40 @@ impl Beam {
         (0..self.n).map(|m| self.phi_exact(m, x)).collect()
     }
 
+    /// Exact (closed-form) second x-derivative φₘ''(x) [kg^-½ m^-2].
+    pub fn ddphi_exact(&self, m: usize, x: f64) -> f64 {
+        phi_derivative(&self.coef[m], self.lambda[m], x / self.length_m, 2) / (self.length_m * self.length_m)
+    }
+
+    /// Mode slopes φₘ'(x) of all modes at x (exact).
+    pub fn dphi_row(&self, x: f64) -> Vec<f64> {
+        (0..self.n).map(|m| self.dphi_exact(m, x)).collect()
+    }
+
+    /// Second x-derivatives φₘ''(x) of all modes at x (exact).
+    pub fn ddphi_row(&self, x: f64) -> Vec<f64> {
+        (0..self.n).map(|m| self.ddphi_exact(m, x)).collect()
+    }
+
+    /// The slope Gram matrix K (N×N, symmetric) as a nalgebra matrix [1/(kg m)].
+    pub fn k_matrix(&self) -> nalgebra::DMatrix<f64> {
+        nalgebra::DMatrix::from_row_slice(self.n, self.n, &self.k)
+    }
+
+    /// Linear modal stiffness diag(ωₙ²) + H₀ K (the axial preload's geometric stiffness) [s⁻²].
+    pub fn linear_stiffness(&self) -> nalgebra::DMatrix<f64> {
+        let n = self.n;
+        nalgebra::DMatrix::from_fn(n, n, |i, j| {
+            (if i == j { self.omega[i] * self.omega[i] } else { 0.0 }) + self.preload_n * self.k[i * n + j]
+        })
+    }
+
+    /// Single-mode hardening coefficient b = (k_ax/2) K₁₁² of mode 1 (MODEL.md §9) [1/(kg m² s²)]:
+    /// the string force of mode 1 alone is b q₁³.
+    pub fn hardening_b(&self) -> f64 {
+        0.5 * self.k_ax * self.k[0] * self.k[0]
+    }
+
     /// Axial (string) force Fₙ(q) = ((k_ax/2)(qᵀKq) + H₀)(Kq)ₙ into `out`.
     pub fn string_force(&self, q: &[f64], out: &mut [f64]) {
         let n = self.n;
@@ -285,7 +319,7 @@ impl Beam {
     /// Single-mode hardening coefficient b* = b h²/φ₁(L/2)², b = (k_ax/2)K₁₁² (MODEL.md §9) [s⁻²].
     pub fn b_star(&self, thickness_m: f64) -> f64 {
         let phi_mid = self.phi_exact(0, 0.5 * self.length_m);
-        0.5 * self.k_ax * self.k[0].powi(2) * thickness_m.powi(2) / phi_mid.powi(2)
+        self.hardening_b() * thickness_m.powi(2) / phi_mid.powi(2)
     }
 }
 

@@ -21,6 +21,7 @@ pub mod simulation;
 pub mod slider;
 pub mod solver;
 pub mod stepper;
+pub mod superslow;
 
 pub use beam::Beam;
 pub use enma::{EnmaOptions, EnmaPoint, EnmaResult, virtual_enma};
@@ -33,6 +34,7 @@ pub use simulation::{
     set_simd,
 };
 pub use stepper::Counters;
+pub use superslow::{ClosedFormN1, Fold, HbBranch, HbManifold, HbOptions, HbSystem, closed_form_n1, hb_manifold};
 pub mod classify;
 pub mod map;
 pub use classify::{Behaviour, Classification, Criteria, SuperSlow, classify};

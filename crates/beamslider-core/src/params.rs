@@ -260,6 +260,16 @@ impl Params {
     pub fn opening_m(&self) -> f64 {
         self.gap_ratio * self.thickness_m
     }
+
+    /// Slider rotary inertia about its geometric centre, J_G = J_C + m d² [kg m²].
+    pub fn slider_inertia_centre_kg_m2(&self) -> f64 {
+        self.slider_inertia_kg_m2 + self.slider_mass_kg * self.com_offset_m * self.com_offset_m
+    }
+
+    /// First physical slider position s_min = B/(2L) (both contact points on the beam) [-].
+    pub fn s_min(&self) -> f64 {
+        0.5 * self.contact_spacing_m / self.length_m
+    }
 }
 
 #[cfg(test)]

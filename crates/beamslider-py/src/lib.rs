@@ -23,6 +23,7 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
 mod study;
+mod superslow;
 
 pyo3::create_exception!(
     _core,
@@ -491,6 +492,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(enma::virtual_enma, m)?)?;
     m.add_function(wrap_pyfunction!(enma::beam_properties, m)?)?;
     study::register(m)?;
+    superslow::register(m)?;
     m.add_function(wrap_pyfunction!(check_map, m)?)?;
     Ok(())
 }
