@@ -92,3 +92,15 @@ def test_bad_inputs(kwargs, match):
     args.update(kwargs)
     with pytest.raises(ValueError, match=match):
         hb_manifold(**args)
+
+
+def test_cli_hb_manifold(tmp_path, capsys):
+    from beamslider.cli import main
+
+    assert main(["hb-manifold", "--f-ex", "124", "--a-ex", "14", "--n-modes", "2", "--out", str(tmp_path)]) == 0
+    stem = tmp_path / "hb_manifold_124Hz_14ms2"
+    for ext in ("csv", "json", "png"):
+        assert stem.with_suffix("." + ext).exists()
+    rows = stem.with_suffix(".csv").read_text().splitlines()
+    assert rows[0] == "branch,s,amplitude_h,phase_rad,stable" and len(rows) > 50
+    assert "s_up = 0." in capsys.readouterr().out

@@ -543,8 +543,9 @@ def build_parser() -> argparse.ArgumentParser:
     _common(sp, model_options=False)
     sp.set_defaults(func=cmd_plot)
 
-    from . import cli_discover, cli_enma
+    from . import cli_discover, cli_enma, cli_superslow
     cli_enma.add_parser(sub, _common, _positive)
+    cli_superslow.add_parser(sub, _common, _positive)
     cli_discover.add_parsers(sub, _common, _positive)
 
     from .study import add_cli as add_study_cli  # beamslider study (uncertainty studies, local or Dask)

@@ -1,0 +1,79 @@
+"""``beamslider hb-manifold``: the super-slow manifold by harmonic balance (issue 17, layer (a))
+written as CSV + JSON + figure."""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import time
+from typing import Any
+
+import numpy as np
+
+from .superslow import hb_manifold
+
+
+def add_parser(sub: Any, common: Any, positive: Any) -> None:
+    """Register the subcommand (``common`` adds --out/--params/..., ``positive`` is a type)."""
+    sp = sub.add_parser(
+        "hb-manifold", help="super-slow manifold by harmonic balance (milliseconds; slider rigidly attached)",
+        description="Compute the super-slow manifold by N-mode single-term harmonic balance with the slider "
+                    "rigidly attached (pseudo-arclength continuation, folds, stability) and write "
+                    "hb_manifold_<f>Hz_<a>ms2.csv/.json/.png.")
+    sp.add_argument("--f-ex", type=positive(float), default=124.0, metavar="HZ", help="excitation frequency (124)")
+    sp.add_argument("--a-ex", type=positive(float), default=14.0, metavar="M_S2", help="base acceleration amplitude (14)")
+    sp.add_argument("--n-modes", type=positive(int), default=5, metavar="N", help="retained beam modes (5)")
+    sp.add_argument("--d-eff", type=float, metavar="D", help="equivalent damping ratio of all modes (default: params)")
+    common(sp)
+    sp.set_defaults(func=cmd_hb_manifold)
+
+
+def cmd_hb_manifold(args: argparse.Namespace) -> int:
+    from .cli import _fmt, _out, _params, write_json
+
+    p = _params(args)
+    out = _out(args)
+    t0 = time.perf_counter()
+    m = hb_manifold(p, f_ex=args.f_ex, a_ex=args.a_ex, n_modes=args.n_modes, d_eff=args.d_eff)
+    wall = time.perf_counter() - t0
+    stem = f"hb_manifold_{_fmt(m.f_ex)}Hz_{_fmt(m.a_ex)}ms2"
+    with open(out / f"{stem}.csv", "w", newline="", encoding="utf-8") as f:
+        w = csv.writer(f)
+        w.writerow(["branch", "s", "amplitude_h", "phase_rad", "stable"])
+        for name in ("high", "low", "middle"):
+            b = getattr(m, name)
+            for row in zip(b.s, b.amplitude, b.phase, b.stable):
+                w.writerow([name, f"{row[0]:.10g}", f"{row[1]:.10g}", f"{row[2]:.10g}", int(row[3])])
+    write_json(out / f"{stem}.json", {
+        "kind": "hb_manifold", "f_ex_hz": m.f_ex, "a_ex_m_s2": m.a_ex, "n_modes": m.n_modes, "harmonics": m.harmonics,
+        "d_eff": m.d_eff, "s_up": m.s_up, "s_dn": m.s_dn, "s_res": m.s_res.tolist(), "folds_s": m.folds_s.tolist(),
+        "folds_amplitude_h": m.folds_amplitude.tolist(), "steps": m.steps, "warnings": m.warnings,
+        "wall_time_s": wall, "params_toml": p.toml_text(),
+    })
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(6.4, 4.2))
+    for name, style in (("high", "-"), ("low", "-"), ("middle", ":")):
+        b = getattr(m, name)
+        ax.plot(b.s, b.amplitude, style, color={"high": "tab:red", "low": "tab:blue", "middle": "0.4"}[name], label=name)
+    for s in m.folds_s:
+        ax.axvline(s, color="0.7", lw=0.8)
+    ax.set_xlim(0, 0.5)
+    ax.set_xlabel("slider position s = x/L")
+    ax.set_ylabel("amplitude |w(4L/7)| / h")
+    ax.set_title(f"HB manifold, N = {m.n_modes}: {m.f_ex:g} Hz, {m.a_ex:g} m/s²"
+                 + (f", D_eff = {m.d_eff:g}" if m.d_eff is not None else ""))
+    ax.legend()
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(out / f"{stem}.png", dpi=120)
+    plt.close(fig)
+    s_up = "none" if m.s_up is None else f"{m.s_up:.4f}"
+    s_dn = "none" if m.s_dn is None else f"{m.s_dn:.4f}"
+    print(f"HB N={m.n_modes} {m.f_ex:g} Hz, {m.a_ex:g} m/s²: s_up = {s_up}, s_dn = {s_dn} ({1e3 * wall:.1f} ms)")
+    for ext in ("csv", "json", "png"):
+        print(f"wrote {out / f'{stem}.{ext}'}")
+    return 0
