@@ -99,10 +99,17 @@ def calibrate_d_eff():
         m = hb_manifold(f_ex=124, a_ex=8, n_modes=5, d_eff=d)
         return m.s_dn if m.s_dn is not None else 0.5
 
-    lo, hi = 1e-3, 0.2
-    if s_dn(hi) > S_TARGET_DN:
+    # s_dn(D) is not monotone over the whole range (with a large D the coexistence vanishes and
+    # the high branch reaches the centre again): bracket on a coarse scan, then bisect.
+    scan = np.geomspace(1e-3, 0.1, 41)
+    lo = hi = None
+    for d0, d1 in zip(scan[:-1], scan[1:]):
+        if s_dn(d0) > S_TARGET_DN >= s_dn(d1):
+            lo, hi = d0, d1
+            break
+    if lo is None:
         return None
-    for _ in range(50):
+    for _ in range(60):
         mid = np.sqrt(lo * hi)
         if s_dn(mid) > S_TARGET_DN:
             lo = mid
