@@ -76,7 +76,7 @@ def hb_manifold(
     omega1_factor: float = 1.0,
     s_values: Optional[Sequence[float]] = None,
     max_steps: int = 20000,
-    max_step: float = 0.02,
+    max_step: float = 0.05,
 ) -> Dict[str, Any]: ...
 def hb_closed_form_n1(
     params_toml: str,

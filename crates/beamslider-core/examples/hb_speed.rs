@@ -6,7 +6,7 @@
 use std::time::Instant;
 
 use beamslider_core::Params;
-use beamslider_core::superslow::{HbOptions, closed_form_n1, default_grid, hb_manifold};
+use beamslider_core::superslow::{HbOptions, closed_form_n1, closed_form_n1_with_beam, default_grid, hb_manifold};
 
 fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);
@@ -14,6 +14,7 @@ fn median(mut v: Vec<f64>) -> f64 {
 }
 
 fn main() {
+    beam_cost();
     let p = Params::default();
     let grid = default_grid(&p, 201);
     for (f, a) in [(124.0, 14.0), (124.0, 8.0), (126.0, 10.0), (104.0, 14.0)] {
@@ -26,7 +27,19 @@ fn main() {
             t.push(t0.elapsed().as_secs_f64());
         }
         let cf_ms = median(t) * 1e3;
-        let mut line = format!("({f:>5}, {a:>4}) closed form N=1, 201 s: median {cf_ms:.4} ms");
+        // The same with the beam's modes computed once per parameter set.
+        let beam1 = beamslider_core::Beam::new(&Params { n_modes: 1, ..p.clone() }).unwrap();
+        let mut t = Vec::new();
+        for _ in 0..200 {
+            let t0 = Instant::now();
+            let cf = closed_form_n1_with_beam(&beam1, &p, f, a, &grid, None, 1.0).unwrap();
+            std::hint::black_box(&cf);
+            t.push(t0.elapsed().as_secs_f64());
+        }
+        let cf_only_ms = median(t) * 1e3;
+        let mut line = format!(
+            "({f:>5}, {a:>4}) closed form N=1, 201 s: median {cf_only_ms:.4} ms (incl. modes {cf_ms:.4} ms)"
+        );
         for n in [1usize, 2, 5] {
             let o = HbOptions { n_modes: n, ..HbOptions::default() };
             let mut t = Vec::new();
@@ -37,8 +50,22 @@ fn main() {
                 t.push(t0.elapsed().as_secs_f64());
                 steps = m.steps;
             }
-            line += &format!(" | HB N={n}: median {:.3} ms ({steps} steps)", median(t) * 1e3);
+            line += &format!(" | HB N={n} (incl. modes): median {:.3} ms ({steps} steps)", median(t) * 1e3);
         }
         println!("{line}");
+    }
+}
+
+#[allow(dead_code)]
+fn beam_cost() {
+    for n in [1usize, 2, 5] {
+        let p = Params { n_modes: n, ..Params::default() };
+        let mut t = Vec::new();
+        for _ in 0..50 {
+            let t0 = Instant::now();
+            std::hint::black_box(beamslider_core::Beam::new(&p).unwrap());
+            t.push(t0.elapsed().as_secs_f64());
+        }
+        println!("Beam::new N={n}: median {:.3} ms", median(t) * 1e3);
     }
 }

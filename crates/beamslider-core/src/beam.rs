@@ -262,6 +262,23 @@ impl Beam {
         phi_derivative(&self.coef[m], self.lambda[m], x / self.length_m, 2) / (self.length_m * self.length_m)
     }
 
+    /// φₘ(x), φₘ'(x), φₘ''(x) of all modes at x (exact, one sin/cos and two exponentials per
+    /// mode) into the three slices (each of length ≥ N).
+    pub fn shapes_exact(&self, x: f64, phi: &mut [f64], dphi: &mut [f64], ddphi: &mut [f64]) {
+        let l = self.length_m;
+        let xi = x / l;
+        for m in 0..self.n {
+            let (a, lam) = (&self.coef[m], self.lambda[m]);
+            let (s, c) = (lam * xi).sin_cos();
+            let e0 = a[2] * (-lam * xi).exp();
+            let e1 = a[3] * (-lam * (1.0 - xi)).exp();
+            let (ts, tc) = (a[0] * s + a[1] * c, a[0] * c - a[1] * s);
+            phi[m] = ts + e0 + e1;
+            dphi[m] = lam * (tc - e0 + e1) / l;
+            ddphi[m] = lam * lam * (-ts + e0 + e1) / (l * l);
+        }
+    }
+
     /// Mode slopes φₘ'(x) of all modes at x (exact).
     pub fn dphi_row(&self, x: f64) -> Vec<f64> {
         (0..self.n).map(|m| self.dphi_exact(m, x)).collect()

@@ -55,13 +55,13 @@ pub struct HbOptions {
     pub s: Option<Vec<f64>>,
     /// Cap of continuation steps per run (default 20 000).
     pub max_steps: usize,
-    /// Largest arclength step in the scaled coordinates (Q/q_ref, s) (default 0.02).
+    /// Largest arclength step in the scaled coordinates (Q/q_ref, s) (default 0.05).
     pub max_step: f64,
 }
 
 impl Default for HbOptions {
     fn default() -> Self {
-        HbOptions { n_modes: 5, harmonics: 1, d_eff: None, omega1_factor: 1.0, s: None, max_steps: 20_000, max_step: 0.02 }
+        HbOptions { n_modes: 5, harmonics: 1, d_eff: None, omega1_factor: 1.0, s: None, max_steps: 20_000, max_step: 0.05 }
     }
 }
 
@@ -372,8 +372,10 @@ impl HbSystem {
         let u = DVector::from_fn(n, |i, _| y[i] * q);
         let v = DVector::from_fn(n, |i, _| y[n + i] * q);
         let x = s * self.length;
-        let phi = DVector::from_vec(self.beam.phi_row(x));
-        let dphi = DVector::from_vec(self.beam.dphi_row(x));
+        let mut phi = DVector::zeros(n);
+        let mut dphi = DVector::zeros(n);
+        let mut ddphi = DVector::zeros(n);
+        self.beam.shapes_exact(x, phi.as_mut_slice(), dphi.as_mut_slice(), ddphi.as_mut_slice());
         let om2 = self.omega_ex * self.omega_ex;
         // Z = Λ − Ω² M(s).
         let mut z = self.lam.clone();
@@ -453,7 +455,6 @@ impl HbSystem {
         // Parameter column.
         match par {
             Param::S { load } => {
-                let ddphi = DVector::from_vec(self.beam.ddphi_row(x));
                 let l = self.length;
                 // dM/ds w = L[m(Φ′(Φ·w) + Φ(Φ′·w)) + J_G(Φ″(Φ′·w) + Φ′(Φ″·w))].
                 let dm = |w: &DVector<f64>| -> DVector<f64> {
@@ -612,17 +613,25 @@ impl Continuation<'_> {
         None
     }
 
-    /// Unit tangent: [J; borderᵀ] t = e_last.
-    fn tangent(&self, j: &DMatrix<f64>, border: &DVector<f64>) -> Option<DVector<f64>> {
+    /// Unit tangent: [J; borderᵀ] t = e_last; with the stability flag det ∂R/∂x > 0, from the
+    /// same factorisation (Cramer: t_p = det(∂R/∂x)/det[J; borderᵀ] before normalising).
+    fn tangent_stable(&self, j: &DMatrix<f64>, border: &DVector<f64>) -> Option<(DVector<f64>, bool)> {
         let d = self.dim();
         let mut a = DMatrix::zeros(d, d);
         a.rows_mut(0, d - 1).copy_from(j);
         a.row_mut(d - 1).copy_from(&border.transpose());
         let mut e = DVector::zeros(d);
         e[d - 1] = 1.0;
-        let t = a.lu().solve(&e)?;
+        let lu = a.lu();
+        let det_a = lu.determinant();
+        let t = lu.solve(&e)?;
         let nrm = t.norm();
-        (nrm.is_finite() && nrm > 0.0).then(|| t / nrm)
+        let stable = t[d - 1] * det_a > 0.0;
+        (nrm.is_finite() && nrm > 0.0).then(|| (t / nrm, stable))
+    }
+
+    fn tangent(&self, j: &DMatrix<f64>, border: &DVector<f64>) -> Option<DVector<f64>> {
+        self.tangent_stable(j, border).map(|(t, _)| t)
     }
 
     fn stable(&self, j: &DMatrix<f64>) -> bool {
@@ -697,7 +706,7 @@ impl Continuation<'_> {
                 }
                 continue;
             };
-            let Some(t_new) = self.tangent(&c.j, &t) else {
+            let Some((t_new, st)) = self.tangent_stable(&c.j, &t) else {
                 h *= 0.5;
                 if h < self.h_min {
                     return run;
@@ -742,7 +751,6 @@ impl Continuation<'_> {
                     run.folds.push(ym);
                 }
             }
-            let st = self.stable(&c.j);
             run.points.push((c.y.clone(), st));
             y = c.y;
             t = t_new;
@@ -874,9 +882,9 @@ pub fn hb_manifold(params: &Params, f_ex_hz: f64, a_ex: f64, opts: &HbOptions) -
     folds.sort_by(|a, b| a.s.total_cmp(&b.s));
     folds.dedup_by(|a, b| (a.s - b.s).abs() < 1e-7 && (a.amplitude_h - b.amplitude_h).abs() < 1e-6 * (1.0 + b.amplitude_h));
     out.folds = folds;
-    // Linear resonance positions on a 51-point grid, refined by Brent.
+    // Linear resonance positions on a 26-point grid, refined by Brent.
     let g = |s: f64| sys.linear_frequency(s) - sys.omega_ex;
-    out.s_res = bracket_zeros(&g, s_lo, s_hi, 51, 1e-13);
+    out.s_res = bracket_zeros(&g, s_lo, s_hi, 26, 1e-13);
     Ok(out)
 }
 
@@ -1022,7 +1030,7 @@ struct Cubic {
     kappa: f64,
 }
 
-struct N1 {
+struct N1<'a> {
     omega2: f64,
     b: f64,
     c: f64,
@@ -1033,10 +1041,10 @@ struct N1 {
     a_ex: f64,
     length: f64,
     amp_scale: f64,
-    beam: Beam,
+    beam: &'a Beam,
 }
 
-impl N1 {
+impl N1<'_> {
     fn m1(&self, s: f64) -> (f64, f64) {
         let x = s * self.length;
         let phi = self.beam.phi_exact(0, x);
@@ -1126,7 +1134,32 @@ pub fn closed_form_n1_scaled(
         ));
     }
     check_grid(s, params.s_min(), 1.0 - params.s_min())?;
-    let n1 = n1_model(params, f_ex_hz, a_ex, d_eff, omega1_factor)?;
+    let beam = Beam::new(&Params { n_modes: 1, ..params.clone() })?;
+    closed_form_n1_with_beam(&beam, params, f_ex_hz, a_ex, s, d_eff, omega1_factor)
+}
+
+/// [`closed_form_n1_scaled`] with the beam's modes given (computed once per parameter set:
+/// `Beam::new` costs more than the closed form itself). `beam` must come from `params`.
+pub fn closed_form_n1_with_beam(
+    beam: &Beam,
+    params: &Params,
+    f_ex_hz: f64,
+    a_ex: f64,
+    s: &[f64],
+    d_eff: Option<f64>,
+    omega1_factor: f64,
+) -> Result<ClosedFormN1> {
+    check_excitation(f_ex_hz, a_ex)?;
+    check_d_eff(d_eff)?;
+    if params.damping_ratio_quadratic != 0.0 {
+        return Err(Error::invalid(
+            "damping_ratio_quadratic",
+            params.damping_ratio_quadratic,
+            "the N = 1 closed form assumes linear damping (use hb_manifold with n_modes = 1)",
+        ));
+    }
+    check_grid(s, params.s_min(), 1.0 - params.s_min())?;
+    let n1 = n1_model(beam, params, f_ex_hz, a_ex, d_eff, omega1_factor)?;
     let mut out = ClosedFormN1 { s: s.to_vec(), ..Default::default() };
     out.roots_h.reserve(s.len());
     for &si in s {
@@ -1156,12 +1189,11 @@ pub fn closed_form_n1_scaled(
     Ok(out)
 }
 
-fn n1_model(params: &Params, f_ex_hz: f64, a_ex: f64, d_eff: Option<f64>, omega1_factor: f64) -> Result<N1> {
+fn n1_model<'a>(beam: &'a Beam, params: &Params, f_ex_hz: f64, a_ex: f64, d_eff: Option<f64>, omega1_factor: f64) -> Result<N1<'a>> {
     if !(omega1_factor.is_finite() && omega1_factor > 0.0) {
         return Err(Error::invalid("omega1_factor", omega1_factor, "must be finite and > 0"));
     }
-    let p = Params { n_modes: 1, ..params.clone() };
-    let beam = Beam::new(&p)?;
+    let p = params;
     let om = 2.0 * std::f64::consts::PI * f_ex_hz;
     let w1 = beam.omega[0] * omega1_factor;
     let omega2 = w1 * w1 + beam.preload_n * beam.k[0];

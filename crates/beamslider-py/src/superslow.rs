@@ -24,7 +24,7 @@ fn branch_dict<'py>(py: Python<'py>, b: &HbBranch) -> PyResult<Bound<'py, PyDict
 /// `q_im` flat (point, mode)), `folds_s`, `folds_amplitude_h`, `s_up`, `s_dn` (None when absent),
 /// `s_res`, `s_range`, `n_modes`, `steps`, `warnings`.
 #[pyfunction]
-#[pyo3(signature = (params_toml, *, f_ex_hz, a_ex_m_s2, n_modes=5, harmonics=1, d_eff=None, omega1_factor=1.0, s_values=None, max_steps=20_000, max_step=0.02))]
+#[pyo3(signature = (params_toml, *, f_ex_hz, a_ex_m_s2, n_modes=5, harmonics=1, d_eff=None, omega1_factor=1.0, s_values=None, max_steps=20_000, max_step=0.05))]
 #[allow(clippy::too_many_arguments)]
 pub fn hb_manifold<'py>(
     py: Python<'py>,
