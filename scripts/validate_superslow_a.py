@@ -56,18 +56,19 @@ def pcs(f: float, a: float, n_modes: int = 5):
     return m.up_s, up_a, m.down_s, dn_a
 
 
-def jumps(up_s, up_a, dn_s, dn_a, ratio=1.5):
-    """PCS jump positions: where a sweep leaves its branch (midpoint of the step with an amplitude
-    change by more than `ratio`); s_dn from the upward sweep (jump down), s_up from the downward
-    sweep (jump up)."""
+def jumps(up_s, up_a, dn_s, dn_a, level=0.15, ratio=2.0):
+    """PCS jump positions: where a sweep leaves its branch. A jump crosses the level Â = 0.15
+    between two consecutive s with an amplitude ratio above 2 (the low branch rattles at
+    Â ≈ 0.01–0.1 with scatter that must not count); the position is the midpoint of that step.
+    s_dn from the upward sweep (jump down), s_up from the downward sweep (jump up)."""
     s_dn = None
     for k in range(len(up_s) - 1):
-        if up_a[k + 1] < up_a[k] / ratio:
+        if up_a[k] > level > up_a[k + 1] and up_a[k + 1] < up_a[k] / ratio:
             s_dn = 0.5 * (up_s[k] + up_s[k + 1])
             break
     s_up = None
     for k in range(len(dn_s) - 1):
-        if dn_a[k + 1] > dn_a[k] * ratio:
+        if dn_a[k] < level < dn_a[k + 1] and dn_a[k + 1] > dn_a[k] * ratio:
             s_up = 0.5 * (dn_s[k] + dn_s[k + 1])
             break
     return s_up, s_dn
@@ -81,7 +82,7 @@ def rms_high(m, up_s, up_a, s_dn_pcs):
         sel &= up_s < s_dn_pcs
     if not sel.any():
         return float("nan"), 0
-    hb = m.high.amplitude_at(up_s[sel])
+    hb = np.interp(up_s[sel], m.s_grid, m.high_on_grid, left=np.nan, right=np.nan)
     ok = np.isfinite(hb)
     if not ok.any():
         return float("nan"), 0
@@ -146,7 +147,7 @@ def main() -> int:
                           ("N=5 D_eff", dict(n_modes=5, d_eff=d_eff))]:
             if kw.get("d_eff", 0) is None:
                 continue
-            m = hb_manifold(f_ex=f, a_ex=a, **kw)
+            m = hb_manifold(f_ex=f, a_ex=a, s=up_s, sample=True, **kw)
             err, n = rms_high(m, up_s, up_a, sd_p)
             dsu = abs(m.s_up - su_p) if (m.s_up is not None and su_p is not None) else None
             say(f"{f'({f}, {a})':>12} | {fmt(su_p):>8} {fmt(sd_p):>8} | {label:>10} {fmt(m.s_up):>7} "
@@ -160,7 +161,8 @@ def main() -> int:
     say(f"N = 5: RMS target met at {ok_rms} of {sum(1 for r in n5 if np.isfinite(r[8]))} points with a PCS high branch "
         f"on [0.35, 0.5]; s_up target met at {ok_sup} of {sum(1 for r in n5 if r[5] is not None)} points "
         f"where both give a jump-up.")
-    say("PCS s_up / s_dn: midpoint of the Δs = 0.0025 step where a sweep leaves its branch (±0.00125).")
+    say("PCS s_up / s_dn: midpoint of the Δs = 0.0025 step where a sweep crosses Â = 0.15 with an amplitude ratio > 2 (±0.00125);")
+    say("'none' for PCS s_up: the downward sweep never jumps up (no PCS high branch reached from the centre).")
     say("")
 
     # --- §4.6 -----------------------------------------------------------------------------------

@@ -77,6 +77,7 @@ def hb_manifold(
     s_values: Optional[Sequence[float]] = None,
     max_steps: int = 20000,
     max_step: float = 0.05,
+    sample_on_grid: bool = False,
 ) -> Dict[str, Any]: ...
 def hb_closed_form_n1(
     params_toml: str,

@@ -102,6 +102,12 @@ class HbManifold:
     """Parameters used."""
     omega1_factor: float = 1.0
     """Factor applied to ω₁ (sensitivity studies)."""
+    s_grid: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    """The grid s (with ``sample=True``) [-]."""
+    high_on_grid: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    """Â of the high branch solved exactly at each grid s (NaN where it does not exist)."""
+    low_on_grid: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    """Â of the low branch solved exactly at each grid s (NaN where it does not exist)."""
 
     def backbone(self, amplitude: Sequence[float], s: Sequence[float]) -> np.ndarray:
         """Single-mode backbone with the slider Ω_bb(Â, s) [rad/s] (see :func:`backbone`)."""
@@ -158,6 +164,7 @@ def hb_manifold(
     s: Optional[Sequence[float]] = None,
     omega1_factor: float = 1.0,
     max_steps: int = 20_000,
+    sample: bool = False,
 ) -> HbManifold:
     """Super-slow manifold by N-mode single-term harmonic balance (issue 17 §2.3).
 
@@ -175,6 +182,8 @@ def hb_manifold(
             own points; use :meth:`HbBranch.amplitude_at` to sample them.
         omega1_factor: factor on ω₁ (detuning for sensitivity studies, issue §4.6).
         max_steps: cap of continuation steps per run.
+        sample: also solve the high and low branches exactly at every grid s
+            (``high_on_grid``, ``low_on_grid``; costs about 10 µs per point and branch).
 
     Returns:
         :class:`HbManifold` with the branches (s, Â, phase, stable, Q), folds, ``s_up``,
@@ -196,6 +205,7 @@ def hb_manifold(
         omega1_factor=_number("omega1_factor", omega1_factor),
         s_values=_grid(s),
         max_steps=max_steps,
+        sample_on_grid=bool(sample),
     )
     n = int(out["n_modes"])
     return HbManifold(
@@ -219,6 +229,9 @@ def hb_manifold(
         warnings=list(out["warnings"]),
         params=p,
         omega1_factor=float(omega1_factor),
+        s_grid=out["s_grid"],
+        high_on_grid=out["high_on_grid"],
+        low_on_grid=out["low_on_grid"],
     )
 
 

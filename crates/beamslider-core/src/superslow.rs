@@ -57,11 +57,14 @@ pub struct HbOptions {
     pub max_steps: usize,
     /// Largest arclength step in the scaled coordinates (Q/q_ref, s) (default 0.05).
     pub max_step: f64,
+    /// Also solve the high and low branches exactly at every s of the grid
+    /// ([`HbManifold::high_on_grid`], [`HbManifold::low_on_grid`]; default false).
+    pub sample_on_grid: bool,
 }
 
 impl Default for HbOptions {
     fn default() -> Self {
-        HbOptions { n_modes: 5, harmonics: 1, d_eff: None, omega1_factor: 1.0, s: None, max_steps: 20_000, max_step: 0.05 }
+        HbOptions { n_modes: 5, harmonics: 1, d_eff: None, omega1_factor: 1.0, s: None, max_steps: 20_000, max_step: 0.05, sample_on_grid: false }
     }
 }
 
@@ -165,6 +168,12 @@ pub struct HbManifold {
     pub steps: usize,
     /// Anything that went wrong without making the result unusable (step caps, ...).
     pub warnings: Vec<String>,
+    /// The grid s (with `sample_on_grid`).
+    pub s_grid: Vec<f64>,
+    /// Â of the high branch solved at each grid s (NaN where the branch does not exist).
+    pub high_on_grid: Vec<f64>,
+    /// Â of the low branch solved at each grid s (NaN where the branch does not exist).
+    pub low_on_grid: Vec<f64>,
 }
 
 struct PointOut {
@@ -882,10 +891,41 @@ pub fn hb_manifold(params: &Params, f_ex_hz: f64, a_ex: f64, opts: &HbOptions) -
     folds.sort_by(|a, b| a.s.total_cmp(&b.s));
     folds.dedup_by(|a, b| (a.s - b.s).abs() < 1e-7 && (a.amplitude_h - b.amplitude_h).abs() < 1e-6 * (1.0 + b.amplitude_h));
     out.folds = folds;
+    if opts.sample_on_grid {
+        out.s_grid = grid.clone();
+        out.high_on_grid = grid.iter().map(|&x| sample_branch(&sys, &out.high, x)).collect();
+        out.low_on_grid = grid.iter().map(|&x| sample_branch(&sys, &out.low, x)).collect();
+    }
     // Linear resonance positions on a 26-point grid, refined by Brent.
     let g = |s: f64| sys.linear_frequency(s) - sys.omega_ex;
     out.s_res = bracket_zeros(&g, s_lo, s_hi, 26, 1e-13);
     Ok(out)
+}
+
+/// Â of a branch (monotone in s) at s: Newton at fixed s from Q interpolated between the
+/// neighbouring continuation points (the interpolated Â if Newton fails); NaN outside the branch.
+fn sample_branch(sys: &HbSystem, b: &HbBranch, s: f64) -> f64 {
+    let n = sys.n;
+    for i in 0..b.len().saturating_sub(1) {
+        let (a, c) = (b.s[i], b.s[i + 1]);
+        let (lo, hi) = if a <= c { (a, c) } else { (c, a) };
+        if s < lo || s > hi {
+            continue;
+        }
+        let w = if c != a { (s - a) / (c - a) } else { 0.0 };
+        let lerp = |v: &[f64], k: usize| v[i * n + k] + w * (v[(i + 1) * n + k] - v[i * n + k]);
+        let u: Vec<f64> = (0..n).map(|k| lerp(&b.q_re, k)).collect();
+        let v: Vec<f64> = (0..n).map(|k| lerp(&b.q_im, k)).collect();
+        return match sys.solve_point(s, &u, &v) {
+            Ok((u, v)) => {
+                let wr: f64 = sys.p47.iter().zip(&u).map(|(a, b)| a * b).sum();
+                let wi: f64 = sys.p47.iter().zip(&v).map(|(a, b)| a * b).sum();
+                wr.hypot(wi) / sys.thickness
+            }
+            Err(_) => b.amplitude_h[i] + w * (b.amplitude_h[i + 1] - b.amplitude_h[i]),
+        };
+    }
+    f64::NAN
 }
 
 /// Zeros of f on [lo, hi], bracketed on `count` uniform points and refined by Brent.

@@ -22,9 +22,10 @@ fn branch_dict<'py>(py: Python<'py>, b: &HbBranch) -> PyResult<Bound<'py, PyDict
 /// HB super-slow manifold (issue 17 §2.3). Returns a dict: branches `high`, `low`, `middle`,
 /// `up_run`, `down_run` (dicts of arrays `s`, `amplitude_h`, `phase_rad`, `stable`, `q_re`,
 /// `q_im` flat (point, mode)), `folds_s`, `folds_amplitude_h`, `s_up`, `s_dn` (None when absent),
-/// `s_res`, `s_range`, `n_modes`, `steps`, `warnings`.
+/// `s_res`, `s_range`, `n_modes`, `steps`, `warnings`, and with `sample_on_grid` the branches
+/// solved on the grid: `s_grid`, `high_on_grid`, `low_on_grid` (NaN where absent).
 #[pyfunction]
-#[pyo3(signature = (params_toml, *, f_ex_hz, a_ex_m_s2, n_modes=5, harmonics=1, d_eff=None, omega1_factor=1.0, s_values=None, max_steps=20_000, max_step=0.05))]
+#[pyo3(signature = (params_toml, *, f_ex_hz, a_ex_m_s2, n_modes=5, harmonics=1, d_eff=None, omega1_factor=1.0, s_values=None, max_steps=20_000, max_step=0.05, sample_on_grid=false))]
 #[allow(clippy::too_many_arguments)]
 pub fn hb_manifold<'py>(
     py: Python<'py>,
@@ -38,9 +39,10 @@ pub fn hb_manifold<'py>(
     s_values: Option<Vec<f64>>,
     max_steps: usize,
     max_step: f64,
+    sample_on_grid: bool,
 ) -> PyResult<Bound<'py, PyDict>> {
     let params = parse_params(params_toml)?;
-    let opts = HbOptions { n_modes, harmonics, d_eff, omega1_factor, s: s_values, max_steps, max_step };
+    let opts = HbOptions { n_modes, harmonics, d_eff, omega1_factor, s: s_values, max_steps, max_step, sample_on_grid };
     let m = py.detach(|| guarded(|| core_hb(&params, f_ex_hz, a_ex_m_s2, &opts)))?;
     let d = PyDict::new(py);
     d.set_item("high", branch_dict(py, &m.high)?)?;
@@ -57,6 +59,9 @@ pub fn hb_manifold<'py>(
     d.set_item("n_modes", m.n_modes)?;
     d.set_item("steps", m.steps)?;
     d.set_item("warnings", m.warnings)?;
+    d.set_item("s_grid", m.s_grid.into_pyarray(py))?;
+    d.set_item("high_on_grid", m.high_on_grid.into_pyarray(py))?;
+    d.set_item("low_on_grid", m.low_on_grid.into_pyarray(py))?;
     Ok(d)
 }
 
