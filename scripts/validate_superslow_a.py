@@ -118,7 +118,10 @@ def calibrate_d_eff():
             hi = mid
         if hi / lo < 1 + 1e-6:
             break
-    return float(np.sqrt(lo * hi))
+    # s_dn jumps from 'none' to about 0.31 at D* (the high branch pinches off; its part near the
+    # centre becomes an isola that continuation from the clamping does not reach): return the
+    # side of the bracket where the high branch ends.
+    return float(hi)
 
 
 def main() -> int:
@@ -129,6 +132,13 @@ def main() -> int:
     d_eff = calibrate_d_eff()
     say(f"D_eff calibration (all modes, N = 5, (124 Hz, 8 m/s²), high branch to end at s = {S_TARGET_DN}): "
         f"D_eff = {fmt(d_eff, 5)}")
+    if d_eff is not None:
+        for d in (d_eff / 1.01, d_eff, 1.25 * d_eff, 1.5 * d_eff, 2 * d_eff):
+            m = hb_manifold(f_ex=124, a_ex=8, n_modes=5, d_eff=d)
+            say(f"   D_eff = {d:.5f}: s_up = {fmt(m.s_up)}, s_dn = {fmt(m.s_dn)}, max Â on the high branch = "
+                f"{np.max(m.high.amplitude):.3f}")
+        say("   s_dn(D_eff) is discontinuous: below D* the high branch reaches the centre, above it ends near "
+            "s = 0.31 and its centre part becomes an isola; no D_eff gives exactly 0.32.")
     say("")
 
     # --- §4.1 -----------------------------------------------------------------------------------
