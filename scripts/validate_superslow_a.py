@@ -56,19 +56,19 @@ def pcs(f: float, a: float, n_modes: int = 5):
     return m.up_s, up_a, m.down_s, dn_a
 
 
-def jumps(up_s, up_a, dn_s, dn_a, level=0.15, ratio=2.0):
-    """PCS jump positions: where a sweep leaves its branch. A jump crosses the level Â = 0.15
-    between two consecutive s with an amplitude ratio above 2 (the low branch rattles at
-    Â ≈ 0.01–0.1 with scatter that must not count); the position is the midpoint of that step.
-    s_dn from the upward sweep (jump down), s_up from the downward sweep (jump up)."""
+def jumps(up_s, up_a, dn_s, dn_a, high=0.3, ratio=2.0):
+    """PCS jump positions: where a sweep leaves its branch. A jump changes the amplitude by more
+    than a factor 2 between two consecutive s, with the high side above Â = 0.3 (the low branch
+    rattles at Â ≈ 0.01–0.18 with scatter that must not count); the position is the midpoint of
+    that step. s_dn from the upward sweep (jump down), s_up from the downward sweep (jump up)."""
     s_dn = None
     for k in range(len(up_s) - 1):
-        if up_a[k] > level > up_a[k + 1] and up_a[k + 1] < up_a[k] / ratio:
+        if up_a[k] > high and up_a[k + 1] < up_a[k] / ratio:
             s_dn = 0.5 * (up_s[k] + up_s[k + 1])
             break
     s_up = None
     for k in range(len(dn_s) - 1):
-        if dn_a[k] < level < dn_a[k + 1] and dn_a[k + 1] > dn_a[k] * ratio:
+        if dn_a[k + 1] > high and dn_a[k + 1] > dn_a[k] * ratio:
             s_up = 0.5 * (dn_s[k] + dn_s[k + 1])
             break
     return s_up, s_dn
@@ -77,7 +77,7 @@ def jumps(up_s, up_a, dn_s, dn_a, level=0.15, ratio=2.0):
 def rms_high(m, up_s, up_a, s_dn_pcs):
     """RMS relative error of the HB high branch against the PCS upward sweep on s ∈ [0.35, 0.5]
     where the PCS sweep is still on its high branch."""
-    sel = (up_s >= 0.35 - 1e-9) & (up_s <= 0.5 + 1e-9)
+    sel = (up_s >= 0.35 - 1e-9) & (up_s <= 0.5 + 1e-9) & (up_a > 0.3)  # PCS on its high branch
     if s_dn_pcs is not None:
         sel &= up_s < s_dn_pcs
     if not sel.any():
@@ -171,8 +171,9 @@ def main() -> int:
     say(f"N = 5: RMS target met at {ok_rms} of {sum(1 for r in n5 if np.isfinite(r[8]))} points with a PCS high branch "
         f"on [0.35, 0.5]; s_up target met at {ok_sup} of {sum(1 for r in n5 if r[5] is not None)} points "
         f"where both give a jump-up.")
-    say("PCS s_up / s_dn: midpoint of the Δs = 0.0025 step where a sweep crosses Â = 0.15 with an amplitude ratio > 2 (±0.00125);")
-    say("'none' for PCS s_up: the downward sweep never jumps up (no PCS high branch reached from the centre).")
+    say("PCS s_up / s_dn: midpoint of the Δs = 0.0025 step where a sweep changes Â by a factor > 2 with the high side > 0.3 (±0.00125);")
+    say("'none' for PCS s_up: the downward sweep never jumps up. RMS n = 0: the PCS upward sweep has no high branch")
+    say("(Â > 0.3) on [0.35, 0.5] (it jumped down before 0.35, or never rose: self-damping at (124, 6)).")
     say("")
 
     # --- §4.6 -----------------------------------------------------------------------------------
