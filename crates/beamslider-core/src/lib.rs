@@ -5,7 +5,8 @@
 //!
 //! Modules follow the physics: [`params`] (§1), [`beam`] (§2), [`slider`] (§3), [`contact`]
 //! (§4), [`solver`] and [`stepper`] (§5), [`simulation`] and [`manifold`] (§6), [`record`] and
-//! [`signal`] (§7), [`classify`] and [`map`] (§8), [`enma`] (§9).
+//! [`signal`] (§7), [`classify`] and [`map`] (§8), [`enma`] (§9); [`superslow`]: the super-slow
+//! manifold by harmonic balance (issue 17, layer (a)).
 #![warn(missing_docs)]
 
 mod arith;
