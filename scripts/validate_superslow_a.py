@@ -137,8 +137,8 @@ def main() -> int:
             m = hb_manifold(f_ex=124, a_ex=8, n_modes=5, d_eff=d)
             say(f"   D_eff = {d:.5f}: s_up = {fmt(m.s_up)}, s_dn = {fmt(m.s_dn)}, max Â on the high branch = "
                 f"{np.max(m.high.amplitude):.3f}")
-        say("   s_dn(D_eff) is discontinuous: below D* the high branch reaches the centre, above it ends near "
-            "s = 0.31 and its centre part becomes an isola; no D_eff gives exactly 0.32.")
+        say("   s_dn(D_eff) is discontinuous: just below D* ≈ 0.019 the high branch reaches the centre, just above "
+            "it ends near s ≈ 0.32 (its centre part becomes an isola) and s_dn decreases with D_eff.")
     say("")
 
     # --- §4.1 -----------------------------------------------------------------------------------
