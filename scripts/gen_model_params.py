@@ -43,16 +43,26 @@ def field_docs(source: str) -> Dict[str, str]:
     return docs
 
 
+ASCII = {"ρ": "rho", "ρAL": "rho*A*L", "μ": "mu", "ε_N": "eps_N", "D₂": "D2", "H₀": "H0"}
+"""How a symbol is spelled in the (ASCII) field documentation."""
+
+
 def meaning_and_unit(doc: str, symbol: str) -> Tuple[str, str]:
-    """First sentence of the field documentation without the symbol, and the unit in brackets."""
-    first = re.split(r"(?<=[\]).])\s", doc, maxsplit=1)[0].rstrip(".")
-    m = re.search(r"\[([^\]]*)\]", first)
-    unit = m.group(1) if m else "-"
-    text = re.sub(r"\s*\[[^\]]*\]", "", first)
-    if symbol not in ("—", ""):
-        text = re.sub(r"\s" + re.escape(symbol.replace("₂", "2").replace("₀", "0")) + r"(?=\b|\s|$)", "", text)
-        text = re.sub(r"\s" + re.escape(symbol) + r"(?=\s|$|,)", "", text)
-    text = text.replace("``", "`").replace("math.inf", "inf").replace("Gauss-Seidel", "Gauss–Seidel")
+    """Meaning (the documentation's first sentence up to the unit, without the symbol, plus a
+    remark after the unit that starts with ',' or ';') and the unit in brackets."""
+    first = re.split(r"(?<=\.)\s", doc, maxsplit=1)[0].rstrip(".")
+    m = re.match(r"(.*?)\s*\[([^\]]*)\](.*)$", first)
+    if m:
+        text, unit, rest = m.group(1), m.group(2), m.group(3)
+        if rest[:1] in (",", ";") or rest.startswith(" ("):
+            text += rest
+    else:
+        text, unit = first, "-"
+    for sym in (symbol, ASCII.get(symbol)):
+        if sym and sym != "—":
+            text = re.sub(r"(?<=\s)" + re.escape(sym) + r"(?=\s|$|,|;)\s?", "", text, count=1).rstrip()
+    text = re.sub(r"\s+([,;])", r"\1", text)
+    text = text.replace("``", "`").replace("`math.inf`", "`inf`").replace("Gauss-Seidel", "Gauss–Seidel")
     pretty = {"kg/m^3": "kg/m³", "kg m^2": "kg m²", "m/s^2": "m/s²"}
     return text.strip(), pretty.get(unit, unit)
 
