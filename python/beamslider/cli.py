@@ -555,7 +555,7 @@ def _common(sp: argparse.ArgumentParser, *, model_options: bool = True) -> None:
     sp.add_argument("--window", type=_positive(float), default=1.0, metavar="S",
                     help="moving-average window of the envelope [s] (default 1)")
     if model_options:
-        sp.add_argument("--params", metavar="TOML", help="parameter file (TOML keys of beamslider.Parameters)")
+        sp.add_argument("--params", metavar="TOML", help="parameter file (TOML keys of beamslider.Parameters, listed in docs/model.md §1)")
         sp.add_argument("--dt", type=_positive(float), metavar="S", help="time step [s] (default 2e-5)")
         sp.add_argument("--solver", choices=["fast", "reference"], help="local contact solver (default fast)")
 
