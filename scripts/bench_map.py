@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Benchmark: wall time of the paper's full operating map (MODEL.md §8, Fig. 11): 112 points,
+"""Benchmark: wall time of the paper's full operating map (docs/model.md §8, Fig. 11): 112 points,
 f_ex = 100, 102, …, 130 Hz × a_ex = 4, 6, …, 16 m/s², s0 = 0.3, 120 s each, on all cores.
 
 Usage:  python3 scripts/bench_map.py [--out docs] [--threads N] [--t-end 120]

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Validation of the four representative operating points of MODEL.md §8 (paper, section 4).
+"""Validation of the four representative operating points of docs/model.md §8 (paper, section 4).
 
 Runs the free-slider model for 120 s from s0 = 0.3 at
   (124 Hz, 14 m/s²) signature move, (104 Hz, 14 m/s²) trivial adaption,

@@ -6,10 +6,12 @@ import numpy as np
 import pytest
 
 import beamslider
+from beamslider.cli import manifold_file_stem
 from beamslider.measurement import write_measurement
 from conftest import is_png, run_cli
 
 FAST_MANIFOLD = ["--manifold-s", "0.2,0.3", "--manifold-periods", "4", "--manifold-record", "2"]
+FAST_MANIFOLD_STEM = manifold_file_stem(124, 14, 4, 2, [0.2, 0.3])  # manifold_124Hz_14ms2_4periods_avg2_s<hash>
 
 
 def _ok(p):
@@ -47,7 +49,7 @@ def test_simulate_writes_csv_json_png(tmp_path):
     assert header == "t_s,w_4L7_m,s,xC_m,zC_m,beta_rad"
     data = np.loadtxt(out / f"{stem}.csv", delimiter=",", skiprows=1)
     assert data.shape == (1501, 6)
-    assert (out / "manifold_124Hz_14ms2.csv").read_text().startswith("sweep,s,amplitude_m")
+    assert (out / f"{FAST_MANIFOLD_STEM}.csv").read_text().startswith("branch,s,amplitude_m")
     assert "wrote" in p.stdout
 
 
@@ -61,11 +63,12 @@ def test_simulate_options_and_progress(tmp_path):
 def test_manifold_and_plot_round_trip(tmp_path):
     _ok(run_cli("manifold", *FAST_MANIFOLD, "--out", "m", "--no-progress", cwd=tmp_path))
     m = tmp_path / "m"
-    assert is_png(m / "manifold_124Hz_14ms2.png")
-    meta = json.loads((m / "manifold_124Hz_14ms2.json").read_text())
+    assert FAST_MANIFOLD_STEM.startswith("manifold_124Hz_14ms2_4periods_avg2_s")
+    assert is_png(m / f"{FAST_MANIFOLD_STEM}.png")
+    meta = json.loads((m / f"{FAST_MANIFOLD_STEM}.json").read_text())
     assert meta["up"]["s"] == [0.2, 0.3] and meta["down"]["s"] == [0.3, 0.2]
-    _ok(run_cli("plot", str(m / "manifold_124Hz_14ms2.json"), "--out", "p", cwd=tmp_path))
-    assert is_png(tmp_path / "p" / "manifold_124Hz_14ms2.png")
+    _ok(run_cli("plot", str(m / f"{FAST_MANIFOLD_STEM}.json"), "--out", "p", cwd=tmp_path))
+    assert is_png(tmp_path / "p" / f"{FAST_MANIFOLD_STEM}.png")
 
 
 def test_compare_and_plot_with_measurement(tmp_path):

@@ -1,4 +1,4 @@
-"""ENMA of the beam without slider and model updating of its clamping (paper §3, MODEL.md §9)."""
+"""ENMA of the beam without slider and model updating of its clamping (paper §3, docs/model.md §9)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""beamslider.envelope (MODEL.md §7): |Hilbert| then a moving average."""
+"""beamslider.envelope (docs/model.md §7): |Hilbert| then a moving average."""
 
 import numpy as np
 import pytest

@@ -1,4 +1,4 @@
-"""beamslider.super_slow_manifold (MODEL.md §6) on a coarse grid."""
+"""beamslider.super_slow_manifold (docs/model.md §6) on a coarse grid."""
 
 import numpy as np
 import pytest

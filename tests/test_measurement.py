@@ -1,4 +1,4 @@
-"""beamslider.read_measurement (MODEL.md §7): the published data-set format, integration of the
+"""beamslider.read_measurement (docs/model.md §7): the published data-set format, integration of the
 velocity, and errors naming file and line."""
 
 import numpy as np
@@ -38,7 +38,7 @@ def test_generated_file(tmp_path):
     np.testing.assert_allclose(m.t, t, atol=1e-12)
     np.testing.assert_allclose(m.velocity, v, rtol=1e-9)
     np.testing.assert_allclose(m.s, s, rtol=1e-9)
-    # MODEL.md §7 exactly: cumulative sum of v*dt minus its 0.1 s moving average.
+    # docs/model.md §7 exactly: cumulative sum of v*dt minus its 0.1 s moving average.
     x = np.cumsum(m.velocity) * DT
     np.testing.assert_allclose(m.w, x - _movmean(x, 1000), rtol=0, atol=1e-12)
     # ... which recovers the displacement away from the ends (up to the rectangle rule's lag).

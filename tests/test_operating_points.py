@@ -1,4 +1,4 @@
-"""Long runs of the behaviours of MODEL.md §8 (slow: deselected by default, run with ``-m slow``)."""
+"""Long runs of the behaviours of docs/model.md §8 (slow: deselected by default, run with ``-m slow``)."""
 
 import numpy as np
 import pytest

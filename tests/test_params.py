@@ -1,4 +1,4 @@
-"""beamslider.Parameters (MODEL.md §1): defaults, TOML in and out, validation by the core."""
+"""beamslider.Parameters (docs/model.md §1): defaults, TOML in and out, validation by the core."""
 
 import dataclasses
 import math

@@ -1,4 +1,4 @@
-"""beamslider.simulate (MODEL.md §5–6): golden trajectories, results, errors, GIL, progress."""
+"""beamslider.simulate (docs/model.md §5–6): golden trajectories, results, errors, GIL, progress."""
 
 import threading
 import time
@@ -62,7 +62,7 @@ def test_result_arrays_and_counters():
 def test_fast_and_reference_solvers_agree_over_a_short_run():
     a = simulate(f_ex=124, a_ex=14, t_end=0.01)
     b = simulate(Parameters(**REFERENCE), f_ex=124, a_ex=14, t_end=0.01)
-    assert _rel(a.w, b.w) < 1e-2  # MODEL.md §5: the reference stop rule leaves ~0.2 % differences
+    assert _rel(a.w, b.w) < 1e-2  # docs/model.md §5: the reference stop rule leaves ~0.2 % differences
 
 
 def test_beam_only_has_no_slider_motion_and_dt_override():

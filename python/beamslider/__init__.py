@@ -1,9 +1,9 @@
 """beamslider: the self-adaptive beam–slider system of Müller, Beck & Krack (MSSP 2023).
 
-A Rust core (``beamslider._core``) integrates the model of MODEL.md (§1–§6); this package is its
+A Rust core (``beamslider._core``) integrates the model of docs/model.md (§1–§6); this package is its
 Python face:
 
-- :class:`Parameters` — model parameters (MODEL.md §1), TOML in and out;
+- :class:`Parameters` — model parameters (docs/model.md §1), TOML in and out;
 - :func:`simulate` — free-slider / pseudo-constrained / beam-only runs (§5–6);
 - :func:`super_slow_manifold` — PCS continuation of the super-slow manifold (§6);
 - :func:`hb_manifold` (:mod:`beamslider.superslow`) — the same manifold by harmonic balance in

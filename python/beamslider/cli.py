@@ -1,7 +1,10 @@
 """The ``beamslider`` command: simulate, manifold, compare, map, plot, enma, discover, synthesize, study.
 
 Each subcommand writes CSV/JSON results and PNG figures into an output folder (``--out``,
-default ``./beamslider-out``). ``beamslider simulate`` without options runs the paper's
+default ``./beamslider-out``). ``simulate``, ``manifold``, ``compare`` and ``plot`` never replace an
+existing file without ``--force``, and a refused run creates nothing (not even the folder).
+Figures need matplotlib (``pip install "beamslider[plot]"``); without it these commands write
+their data and skip the figure with a one-line note (``beamslider plot`` is an error). ``beamslider simulate`` without options runs the paper's
 signature-move case (124 Hz, 14 m/s², s₀ = 0.3) for 60 s with the PCS manifold overlaid.
 User errors give a one-line message and a non-zero exit status, never a traceback.
 """
@@ -10,7 +13,9 @@ from __future__ import annotations
 
 import argparse
 import csv
+import hashlib
 import json
+import os
 import re
 import sys
 import time
@@ -22,6 +27,7 @@ import numpy as np
 
 from . import _core
 from ._json import json_safe as _json_safe
+from ._mpl import PlotDependencyError
 from .measurement import Measurement, read_measurement
 from .params import Parameters
 from .simulate import ManifoldResult, SimulationResult, manifold_grid, simulate, super_slow_manifold
@@ -47,20 +53,44 @@ def _fmt(x: float) -> str:
     return f"{x:g}".replace(".", "p")
 
 
-def simulation_stem(result: SimulationResult) -> str:
-    """File name stem of a run, e.g. ``fs_124Hz_14ms2_s0p3``."""
-    if result.model == "fs":
-        where = f"s0_{_fmt(result.s0)}"
-    elif result.model == "pcs":
-        where = f"s_{_fmt(result.s[0])}" if len(result.s) else "pcs"
+def run_stem(model: str, f_ex: float, a_ex: float, s0: float, s_pcs: Optional[float] = None) -> str:
+    """File name stem of a run, e.g. ``fs_124Hz_14ms2_s0_0p3``."""
+    if model == "fs":
+        where = f"s0_{_fmt(s0)}"
+    elif model == "pcs":
+        where = f"s_{_fmt(s0 if s_pcs is None else s_pcs)}"
     else:
         where = "beam"
-    return f"{result.model}_{_fmt(result.f_ex)}Hz_{_fmt(result.a_ex)}ms2_{where}"
+    return f"{model}_{_fmt(f_ex)}Hz_{_fmt(a_ex)}ms2_{where}"
 
 
-def manifold_stem(m: ManifoldResult) -> str:
-    """File name stem of a manifold, e.g. ``manifold_124Hz_14ms2``."""
-    return f"manifold_{_fmt(m.f_ex)}Hz_{_fmt(m.a_ex)}ms2"
+def simulation_stem(result: SimulationResult) -> str:
+    """File name stem of a run, e.g. ``fs_124Hz_14ms2_s0_0p3``."""
+    s_pcs = float(result.s[0]) if result.model == "pcs" and len(result.s) else None
+    return run_stem(result.model, result.f_ex, result.a_ex, result.s0, s_pcs)
+
+
+DEFAULT_MANIFOLD_RECORD = 25
+
+
+def manifold_file_stem(f_ex: float, a_ex: float, periods: int, record: int = DEFAULT_MANIFOLD_RECORD,
+                       s: Optional[Sequence[float]] = None) -> str:
+    """File name stem of a manifold carrying the settings that change it, e.g.
+    ``manifold_124Hz_14ms2_100periods`` (plus ``_avgR`` for a non-default averaging and
+    ``_s<hash>`` for a slider grid other than the default)."""
+    stem = f"manifold_{_fmt(f_ex)}Hz_{_fmt(a_ex)}ms2_{int(periods)}periods"
+    if record != DEFAULT_MANIFOLD_RECORD:
+        stem += f"_avg{int(record)}"
+    if s is not None:
+        digest = hashlib.sha1(",".join(f"{float(v):.12g}" for v in s).encode()).hexdigest()[:8]
+        stem += f"_s{digest}"
+    return stem
+
+
+def manifold_stem(m: ManifoldResult, s: Optional[Sequence[float]] = None) -> str:
+    """File name stem of a computed manifold (see :func:`manifold_file_stem`); ``s`` = the grid
+    asked for, None for the default grid."""
+    return manifold_file_stem(m.f_ex, m.a_ex, m.periods, m.record, s)
 
 
 def write_simulation_csv(path: Path, result: SimulationResult) -> None:
@@ -89,13 +119,17 @@ def read_simulation_csv(path: Path) -> Dict[str, np.ndarray]:
     return {n: data[:, i] for i, n in enumerate(header)}
 
 
+MANIFOLD_HEADER = ["branch", "s", "amplitude_m"]
+"""Columns of a manifold CSV, the same as ``beamslider-batch manifold`` writes (docs/model.md §6)."""
+
+
 def write_manifold_csv(path: Path, m: ManifoldResult) -> None:
     with open(path, "w", newline="", encoding="utf-8") as f:
         w = csv.writer(f)
-        w.writerow(["sweep", "s", "amplitude_m"])
-        for sweep, ss, aa in (("up", m.up_s, m.up_amplitude), ("down", m.down_s, m.down_amplitude)):
+        w.writerow(MANIFOLD_HEADER)
+        for branch, ss, aa in (("up", m.up_s, m.up_amplitude), ("down", m.down_s, m.down_amplitude)):
             for s, a in zip(ss, aa):
-                w.writerow([sweep, f"{s:.6g}", f"{a:.10e}"])
+                w.writerow([branch, f"{s:.6g}", f"{a:.10e}"])
 
 
 def read_manifold_csv(path: Path, *, f_ex: float, a_ex: float, params: Parameters) -> ManifoldResult:
@@ -104,8 +138,9 @@ def read_manifold_csv(path: Path, *, f_ex: float, a_ex: float, params: Parameter
     with open(path, "r", encoding="utf-8") as f:
         r = csv.reader(f)
         header = next(r, None)
-        if header != ["sweep", "s", "amplitude_m"]:
-            raise UserError(f"{path}: not a beamslider manifold CSV (header sweep,s,amplitude_m)")
+        # "sweep" is the name older versions of this package wrote for the branch column.
+        if header not in (MANIFOLD_HEADER, ["sweep", "s", "amplitude_m"]):
+            raise UserError(f"{path}: not a beamslider manifold CSV (header branch,s,amplitude_m)")
         for lineno, row in enumerate(r, start=2):
             try:
                 target = {"up": up, "down": down}[row[0]]
@@ -113,9 +148,11 @@ def read_manifold_csv(path: Path, *, f_ex: float, a_ex: float, params: Parameter
                 target[1].append(float(row[2]))
             except (KeyError, IndexError, ValueError):
                 raise UserError(f"{path}:{lineno}: malformed manifold row {row!r}") from None
+    m = re.search(r"_(\d+)periods", Path(path).name)  # the file name carries the periods per s-step
     return ManifoldResult(
         up_s=np.array(up[0]), up_amplitude=np.array(up[1]), down_s=np.array(down[0]),
-        down_amplitude=np.array(down[1]), counters={}, f_ex=f_ex, a_ex=a_ex, periods=0, record=0, params=params,
+        down_amplitude=np.array(down[1]), counters={}, f_ex=f_ex, a_ex=a_ex, periods=int(m.group(1)) if m else 0,
+        record=0, params=params,
     )
 
 
@@ -173,6 +210,37 @@ def _out(args: argparse.Namespace) -> Path:
     return out
 
 
+def _plan_outputs(args: argparse.Namespace, names: Sequence[str]) -> Path:
+    """Check, before anything runs, that the output folder can be made and that none of the files
+    ``names`` exists (unless ``--force``). Creates nothing: the folder is made when the first file
+    is written (:func:`_out`)."""
+    out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise UserError(f"cannot use output folder {out}: it is a file")
+    parent = out
+    while not parent.exists() and parent != parent.parent:
+        parent = parent.parent
+    if not out.exists() and not (parent.is_dir() and os.access(parent, os.W_OK | os.X_OK)):
+        raise UserError(f"cannot create output folder {out}: {parent} is not a writable folder")
+    if not getattr(args, "force", False):
+        existing = [out / n for n in names if (out / n).exists()]
+        if existing:
+            more = f" (and {len(existing) - 1} more)" if len(existing) > 1 else ""
+            raise UserError(f"{existing[0]}{more} exists from an earlier run: pass --force to overwrite, "
+                            "or choose another folder with --out DIR")
+    return out
+
+
+def _figure(draw, *args: Any, **kwargs: Any) -> bool:
+    """Draw a figure; without matplotlib print a one-line note instead and return False."""
+    try:
+        draw(*args, **kwargs)
+        return True
+    except PlotDependencyError as e:
+        print(f"beamslider: figure skipped: {e}", file=sys.stderr)
+        return False
+
+
 def _grid(args: argparse.Namespace, p: Parameters) -> Optional[np.ndarray]:
     if args.manifold_s is None:
         return None
@@ -189,10 +257,21 @@ def _grid(args: argparse.Namespace, p: Parameters) -> Optional[np.ndarray]:
                         "or a comma-separated list of s") from None
 
 
+def _manifold_name(args: argparse.Namespace, p: Parameters, f_ex: float, a_ex: float) -> str:
+    """Stem of the manifold files this command line will write."""
+    return manifold_file_stem(f_ex, a_ex, args.manifold_periods, args.manifold_record, _grid(args, p))
+
+
+def _check_manifold_args(args: argparse.Namespace) -> None:
+    if args.manifold_record > args.manifold_periods:
+        raise UserError(f"--manifold-record {args.manifold_record}: must not exceed --manifold-periods "
+                        f"({args.manifold_periods})")
+
+
 def _manifold(args: argparse.Namespace, p: Parameters, f_ex: float, a_ex: float, out: Path) -> ManifoldResult:
     m = super_slow_manifold(p, f_ex=f_ex, a_ex=a_ex, s=_grid(args, p), periods=args.manifold_periods,
                             record=args.manifold_record, progress=args.progress)
-    write_manifold_csv(out / f"{manifold_stem(m)}.csv", m)
+    write_manifold_csv(_out(args) / f"{_manifold_name(args, p, f_ex, a_ex)}.csv", m)
     return m
 
 
@@ -209,23 +288,31 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     from .plotting import plot_operating_point
 
     p = _params(args)
-    out = _out(args)
+    stem = run_stem(args.model, args.f_ex, args.a_ex, args.s0, args.s_pcs)
+    with_manifold = args.manifold and args.model != "beam"
+    man_name = f"{_manifold_name(args, p, args.f_ex, args.a_ex)}.csv" if with_manifold else None
+    # Bad input is named before anything else: a run of zero length checks all of it.
+    simulate(p, f_ex=args.f_ex, a_ex=args.a_ex, s0=args.s0, t_end=0.0, model=args.model, s_pcs=args.s_pcs,
+             record_every=args.record_every)
+    if with_manifold:
+        _check_manifold_args(args)
+    out = _plan_outputs(args, [f"{stem}.csv", f"{stem}.json", f"{stem}.png"] + ([man_name] if man_name else []))
     t0 = time.perf_counter()
     result = simulate(p, f_ex=args.f_ex, a_ex=args.a_ex, s0=args.s0, t_end=args.t_end, model=args.model,
                       s_pcs=args.s_pcs, record_every=args.record_every, progress=args.progress)
     wall = time.perf_counter() - t0
-    stem = simulation_stem(result)
     written = [out / f"{stem}.csv", out / f"{stem}.json", out / f"{stem}.png"]
-    write_simulation_csv(written[0], result)
+    write_simulation_csv(_out(args) / f"{stem}.csv", result)
     manifold = None
     summary = simulation_summary(result, t_end=args.t_end, record_every=args.record_every, wall_s=wall,
                                  window=args.window)
-    if args.manifold and args.model != "beam":
+    if with_manifold:
         manifold = _manifold(args, p, args.f_ex, args.a_ex, out)
-        summary["manifold_csv"] = f"{manifold_stem(manifold)}.csv"
-        written.insert(2, out / summary["manifold_csv"])
+        summary["manifold_csv"] = man_name
+        written.insert(2, out / man_name)
     write_json(written[1], summary)
-    plot_operating_point(result, manifold=manifold, window=args.window, path=written[-1])
+    if not _figure(plot_operating_point, result, manifold=manifold, window=args.window, path=written[-1]):
+        written.pop()
     print(f"{result.model.upper()} {args.f_ex:g} Hz, {args.a_ex:g} m/s², {args.t_end:g} s: {result.status}; "
           f"final s = {summary['final_s']:.4f}, amplitude/h = {summary['final_amplitude_over_h']:.3f} "
           f"({wall:.1f} s)")
@@ -236,18 +323,20 @@ def cmd_manifold(args: argparse.Namespace) -> int:
     from .plotting import plot_manifold
 
     p = _params(args)
-    out = _out(args)
+    stem = _manifold_name(args, p, args.f_ex, args.a_ex)
+    simulate(p, f_ex=args.f_ex, a_ex=args.a_ex, t_end=0.0, model="beam")  # names bad input first
+    _check_manifold_args(args)
+    out = _plan_outputs(args, [f"{stem}.{ext}" for ext in ("csv", "json", "png")])
     t0 = time.perf_counter()
     m = _manifold(args, p, args.f_ex, args.a_ex, out)
-    stem = manifold_stem(m)
     write_json(out / f"{stem}.json", {
         "kind": "manifold", "f_ex_hz": m.f_ex, "a_ex_m_s2": m.a_ex, "periods": m.periods, "record": m.record,
         "up": {"s": m.up_s.tolist(), "amplitude_m": m.up_amplitude.tolist()},
         "down": {"s": m.down_s.tolist(), "amplitude_m": m.down_amplitude.tolist()},
         "counters": m.counters, "wall_time_s": time.perf_counter() - t0, "params_toml": p.toml_text(),
     })
-    plot_manifold(m, path=out / f"{stem}.png")
-    for ext in ("csv", "json", "png"):
+    exts = ["csv", "json"] + (["png"] if _figure(plot_manifold, m, path=out / f"{stem}.png") else [])
+    for ext in exts:
         print(f"wrote {out / f'{stem}.{ext}'}")
     return 0
 
@@ -273,14 +362,19 @@ def cmd_compare(args: argparse.Namespace) -> int:
         s0 = float(meas.s[0]) if args.start_from_measured else s0
     t_end = args.t_end if args.t_end is not None else float(meas.t[-1] - meas.t[0])
     p = _params(args)
-    out = _out(args)
+    name = Path(args.measurement).name
+    stem = "compare_" + (name[:-3] if name.lower().endswith(".gz") else Path(name).stem).rsplit(".txt", 1)[0]
+    man_name = f"{_manifold_name(args, p, f_ex, a_ex)}.csv" if args.manifold else None
+    simulate(p, f_ex=f_ex, a_ex=a_ex, s0=s0, t_end=0.0, record_every=args.record_every)  # names bad input first
+    if args.manifold:
+        _check_manifold_args(args)
+    out = _plan_outputs(args, [f"{stem}_model.csv", f"{stem}.json", f"{stem}.png"] + ([man_name] if man_name else []))
     t0 = time.perf_counter()
     result = simulate(p, f_ex=f_ex, a_ex=a_ex, s0=s0, t_end=t_end, record_every=args.record_every,
                       progress=args.progress)
     wall = time.perf_counter() - t0
-    stem = f"compare_{Path(args.measurement).stem}"
     written = [out / f"{stem}_model.csv", out / f"{stem}.json", out / f"{stem}.png"]
-    write_simulation_csv(written[0], result)
+    write_simulation_csv(_out(args) / f"{stem}_model.csv", result)
     summary = simulation_summary(result, t_end=t_end, record_every=args.record_every, wall_s=wall,
                                  window=args.window)
     menv = meas.envelope(args.window)
@@ -294,10 +388,12 @@ def cmd_compare(args: argparse.Namespace) -> int:
     manifold = None
     if args.manifold:
         manifold = _manifold(args, p, f_ex, a_ex, out)
-        summary["manifold_csv"] = f"{manifold_stem(manifold)}.csv"
-        written.insert(2, out / summary["manifold_csv"])
+        summary["manifold_csv"] = man_name
+        written.insert(2, out / man_name)
     write_json(written[1], summary)
-    plot_operating_point(result, manifold=manifold, measurement=meas, window=args.window, path=written[-1])
+    if not _figure(plot_operating_point, result, manifold=manifold, measurement=meas, window=args.window,
+                   path=written[-1]):
+        written.pop()
     print(f"model final s = {summary['final_s']:.4f} (measured {summary['measured_final_s']:.4f}), "
           f"amplitude/h = {summary['final_amplitude_over_h']:.3f} "
           f"(measured {summary['measured_final_amplitude_over_h']:.3f})")
@@ -323,9 +419,9 @@ def _read_meta(path: Path) -> Dict[str, Any]:
 
 
 def cmd_plot(args: argparse.Namespace) -> int:
+    from ._mpl import require_matplotlib
     from .plotting import plot_manifold, plot_operating_point
 
-    out = _out(args)
     if args.result is None and args.measurement is None:
         raise UserError("nothing to plot: give a simulation result (CSV or JSON) and/or --measurement FILE")
     result = None
@@ -338,7 +434,11 @@ def cmd_plot(args: argparse.Namespace) -> int:
         if meta.get("kind") == "manifold":
             p = Parameters.from_toml_text(meta.get("params_toml", ""))
             manifold = read_manifold_csv(csv_path, f_ex=meta["f_ex_hz"], a_ex=meta["a_ex_m_s2"], params=p)
-            target = out / f"{path.stem}.png"
+            if isinstance(meta.get("periods"), int):
+                manifold.periods = meta["periods"]
+            require_matplotlib("beamslider plot")
+            out = _plan_outputs(args, [f"{path.stem}.png"])
+            target = _out(args) / f"{path.stem}.png"
             plot_manifold(manifold, path=target)
             print(f"wrote {target}")
             return 0
@@ -361,7 +461,10 @@ def cmd_plot(args: argparse.Namespace) -> int:
     meas = _measurement(args.measurement) if args.measurement else None
     if result is None and meas is not None:
         stem = Path(args.measurement).stem
-    target = out / f"{stem}.png"
+        stem = Path(stem).stem if args.measurement.lower().endswith(".gz") else stem
+    require_matplotlib("beamslider plot")
+    _plan_outputs(args, [f"{stem}.png"])
+    target = _out(args) / f"{stem}.png"
     plot_operating_point(result, manifold=manifold, measurement=meas, window=args.window, path=target)
     print(f"wrote {target}")
     return 0
@@ -452,9 +555,14 @@ def _common(sp: argparse.ArgumentParser, *, model_options: bool = True) -> None:
     sp.add_argument("--window", type=_positive(float), default=1.0, metavar="S",
                     help="moving-average window of the envelope [s] (default 1)")
     if model_options:
-        sp.add_argument("--params", metavar="TOML", help="parameter file (TOML keys of beamslider.Parameters)")
+        sp.add_argument("--params", metavar="TOML", help="parameter file (TOML keys of beamslider.Parameters, listed in docs/model.md §1)")
         sp.add_argument("--dt", type=_positive(float), metavar="S", help="time step [s] (default 2e-5)")
         sp.add_argument("--solver", choices=["fast", "reference"], help="local contact solver (default fast)")
+
+
+def _force_option(sp: argparse.ArgumentParser) -> None:
+    sp.add_argument("--force", action="store_true",
+                    help="overwrite files of an earlier run in --out (default: refuse and write nothing)")
 
 
 def _manifold_options(sp: argparse.ArgumentParser, *, default_on: bool) -> None:
@@ -462,8 +570,9 @@ def _manifold_options(sp: argparse.ArgumentParser, *, default_on: bool) -> None:
         sp.add_argument("--no-manifold", dest="manifold", action="store_false",
                         help="skip the PCS manifold of panel (c)")
     sp.add_argument("--manifold-periods", type=_positive(int), default=100, metavar="N",
-                    help="excitation periods per slider position (default 100, paper 300)")
-    sp.add_argument("--manifold-record", type=_positive(int), default=25, metavar="N",
+                    help="excitation periods per s-step, i.e. simulated at each slider position (default 100, "
+                         "paper 300); part of the manifold's file name")
+    sp.add_argument("--manifold-record", type=_positive(int), default=DEFAULT_MANIFOLD_RECORD, metavar="N",
                     help="periods averaged at each slider position (default 25)")
     sp.add_argument("--manifold-s", metavar="GRID",
                     help="slider positions: START:STOP:STEP or a comma list (default B/(2L)..0.5 by 0.005)")
@@ -491,15 +600,17 @@ def build_parser() -> argparse.ArgumentParser:
     sp.add_argument("--s-pcs", type=float, metavar="S", help="slider position of the PCS model (default s0)")
     sp.add_argument("--record-every", type=_positive(int), default=10, metavar="K", help="keep every K-th step (10)")
     _common(sp)
+    _force_option(sp)
     _manifold_options(sp, default_on=True)
     sp.set_defaults(func=cmd_simulate)
 
     sp = sub.add_parser("manifold", help="super-slow manifold by PCS continuation",
-                        description="Compute the super-slow manifold (upward and downward sweeps) and write "
-                                    "manifold_<f>Hz_<a>ms2.csv/.json/.png.")
+                        description="Compute the super-slow manifold (upward and downward sweeps, docs/model.md §6) "
+                                    "and write manifold_<f>Hz_<a>ms2_<N>periods.csv/.json/.png.")
     sp.add_argument("--f-ex", type=_positive(float), default=124.0, metavar="HZ", help="excitation frequency (124)")
     sp.add_argument("--a-ex", type=float, default=14.0, metavar="M_S2", help="base acceleration amplitude (14)")
     _common(sp)
+    _force_option(sp)
     _manifold_options(sp, default_on=False)
     sp.set_defaults(func=cmd_manifold, manifold=True)
 
@@ -515,11 +626,12 @@ def build_parser() -> argparse.ArgumentParser:
     sp.add_argument("--t-end", type=_positive(float), metavar="S", help="simulated time (default: measured duration)")
     sp.add_argument("--record-every", type=_positive(int), default=10, metavar="K", help="keep every K-th step (10)")
     _common(sp)
+    _force_option(sp)
     _manifold_options(sp, default_on=True)
     sp.set_defaults(func=cmd_compare)
 
     sp = sub.add_parser("map", help="operating map: behaviour over a grid of f_ex, a_ex (and s0), in parallel",
-                        description="Classify the behaviour of the free slider (MODEL.md §8) at every point of a grid "
+                        description="Classify the behaviour of the free slider (docs/model.md §8) at every point of a grid "
                                     "(default: the paper's map, f_ex 100:130:2 Hz, a_ex 4:16:2 m/s², s0 0.3, 120 s). "
                                     "Each finished point is appended to DIR/map.jsonl at once; --resume skips the points "
                                     "already there (also of a map started by beamslider-batch map). Writes map.toml, "
@@ -541,6 +653,7 @@ def build_parser() -> argparse.ArgumentParser:
     sp.add_argument("--manifold", metavar="CSV", help="manifold CSV to overlay")
     sp.add_argument("--measurement", metavar="FILE", help="measured file to overlay")
     _common(sp, model_options=False)
+    _force_option(sp)
     sp.set_defaults(func=cmd_plot)
 
     from . import cli_discover, cli_enma, cli_superslow
@@ -564,6 +677,9 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         return EXIT_INTERRUPTED
     except (UserError, ValueError, _core.SimulationError) as e:
         print(f"beamslider: error: {one_line(e)}", file=sys.stderr)
+        return EXIT_ERROR
+    except PlotDependencyError as e:
+        print(f"beamslider: error: {e}", file=sys.stderr)
         return EXIT_ERROR
     except OSError as e:
         where = f"{e.filename}: " if getattr(e, "filename", None) else ""

@@ -104,7 +104,7 @@ def _g(x: float, fmt: str = ".4g") -> str:
 def _markdown(r: Dict[str, Any]) -> str:
     f, u, b, n = r["fit"], r["update"], r["baseline"], r["updated"]
     lines = [
-        "# ENMA model updating (paper section 3, MODEL.md section 9)",
+        "# ENMA model updating (paper section 3, docs/model.md section 9)",
         "",
         f"Data: {r['data']['source']}, {r['data']['points']} points, a~ = "
         f"{r['data']['amplitude_h_range'][0]:.3f} ... {r['data']['amplitude_h_range'][1]:.3f}",

@@ -22,7 +22,7 @@ model is missing, add it, and show the disagreement shrink.
 5. **Synthesiser** (:func:`synthesize_enma`, :func:`synthesize_slider_runs`): hidden-effect data
    from any truth model, with noise and a seed.
 
-Beam-level fits use the single-mode harmonic-balance relations of MODEL.md §9 generalised to a
+Beam-level fits use the single-mode harmonic-balance relations of docs/model.md §9 generalised to a
 preloaded first mode (eigenvector of diag(ω²) + H₀K) as a fast surrogate, bias-corrected by one
 virtual ENMA of the baseline (the estimator's own small biases — time step, five-point damping
 estimate, amplitude dependence of the shape — cancel); slider-level fits run the free-slider model.
@@ -152,7 +152,7 @@ def _ls_slope(t: np.ndarray, s: np.ndarray) -> Tuple[float, float]:
 def slider_features(t: np.ndarray, s: np.ndarray, amplitude_h: np.ndarray, *, tag: str = "",
                     noise_s: float = 0.0) -> Tuple[Dict[str, Feature], str]:
     """Slider-level features of one run (s(t) and the envelope of w(4L/7)/h), named
-    ``<feature>@<tag>``, and the behaviour type (MODEL.md §8). ``noise_s`` is the standard
+    ``<feature>@<tag>``, and the behaviour type (docs/model.md §8). ``noise_s`` is the standard
     deviation of the measured s (enters the uncertainties)."""
     from .maps import classify
 
@@ -269,7 +269,7 @@ _X5 = [1 / 6, 1 / 3, 1 / 2, 2 / 3, 5 / 6]
 
 
 def beam_surrogate(params: Parameters) -> Dict[str, float]:
-    """Beam-level features of a model from the single-mode relations (MODEL.md §9) of its first
+    """Beam-level features of a model from the single-mode relations (docs/model.md §9) of its first
     mode with preload: eigenpair of diag(ω²) + H₀K, b* = (k_ax/2)(vᵀKv)² h²/ψ(L/2)², shape ψ."""
     b = _core.beam_properties(params.toml_text(), _X5)
     om = np.asarray(b["omega_rad_s"])
@@ -767,6 +767,9 @@ def synthesize_slider_runs(truth: Optional[Parameters] = None, *, operating_poin
 
 def write_report(d: Discovery, out_dir: PathLike) -> List[Path]:
     """Write ``updated.toml``, ``report.json``, ``report.md`` and the figures into ``out_dir``."""
+    from ._mpl import require_matplotlib
+
+    require_matplotlib("the discover report's figures")
     import matplotlib
 
     matplotlib.use("Agg", force=False)

@@ -1,5 +1,5 @@
 """Experimental Nonlinear Modal Analysis (ENMA) of the beam without slider and model updating of
-its clamping (paper §3, MODEL.md §9).
+its clamping (paper §3, docs/model.md §9).
 
 - :func:`virtual` — a virtual ENMA of any model: phase-resonance testing with a phase-locked loop
   at stepped excitation levels (run by the Rust core);
@@ -206,7 +206,7 @@ def virtual(params: Optional[Parameters] = None, *, levels_m_s2: Sequence[float]
             ki_per_s2: float = 400.0, start_frequency_hz: Optional[float] = None, settle_periods: int = 50,
             phase_tol_rad: float = 1e-4, amplitude_tol: float = 1e-5, frequency_tol: float = 1e-6,
             eval_periods: int = 100, max_hold_s: float = 60.0, progress: bool = False) -> EnmaData:
-    """Virtual ENMA of the beam of ``params`` (the slider is ignored; MODEL.md §9, paper §3.1).
+    """Virtual ENMA of the beam of ``params`` (the slider is ignored; docs/model.md §9, paper §3.1).
 
     The excitation levels ``levels_m_s2`` [m/s²] are stepped up (and back down when
     ``up_and_down``). At each level a PI phase-locked loop (gains ``kp_per_s`` [rad/s per rad],
@@ -317,7 +317,7 @@ def concat(parts: Sequence[EnmaData]) -> EnmaData:
 
 @dataclass
 class BackboneFit:
-    """Least-squares fit of ω̃² = ω² + ¾ b* ã² (MODEL.md §9, paper eq. (4)).
+    """Least-squares fit of ω̃² = ω² + ¾ b* ã² (docs/model.md §9, paper eq. (4)).
 
     Attributes:
         omega2: ω² [rad²/s²]; b_star: b* [s⁻²]; covariance: 2×2 covariance of (ω², b*) from the
@@ -408,7 +408,7 @@ def fit_backbone(data: EnmaData) -> BackboneFit:
 
 
 def model_backbone(params: Optional[Parameters] = None) -> Tuple[float, float]:
-    """(ω², b*) of a model's first mode (ω including an axial preload, b* of MODEL.md §9)."""
+    """(ω², b*) of a model's first mode (ω including an axial preload, b* of docs/model.md §9)."""
     b = _core.beam_properties(resolve(params).toml_text())
     return b["omega1_preload_rad_s"] ** 2, b["b_star_per_s2"]
 
@@ -472,7 +472,7 @@ def solve_k_r(params: Parameters, omega_rad_s: float) -> float:
 
 def k_t_from_b_star(params: Parameters, b_star: float) -> Tuple[float, float]:
     """(k_t, b*_∞): k_t = EA / (L (b*_∞/b* − 1)) with b*_∞ of ``params`` at k_t = ∞
-    (MODEL.md §9). k_t = inf when b* ≥ b*_∞."""
+    (docs/model.md §9). k_t = inf when b* ≥ b*_∞."""
     p = resolve(params)
     b_inf = model_backbone(_with(p, k_t_n_per_m=math.inf))[1]
     if not b_star > 0:
@@ -485,7 +485,7 @@ def k_t_from_b_star(params: Parameters, b_star: float) -> Tuple[float, float]:
 
 def update_clamping(params: Optional[Parameters], fit: BackboneFit, *, full_output: bool = False
                     ) -> Union[Parameters, ClampingUpdate]:
-    """Update the clamping of ``params`` from a backbone fit (paper §3.2, MODEL.md §9):
+    """Update the clamping of ``params`` from a backbone fit (paper §3.2, docs/model.md §9):
     k_r solves ω_model(k_r) = ω; k_t = EA / (L (b*_∞/b* − 1)) with b*_∞ at the updated k_r and
     k_t → ∞; the damping ratio becomes the fit's mean measured damping (if any). Geometry,
     material and everything else stay as in ``params``.
@@ -529,6 +529,9 @@ def plot_enma(data: EnmaData, fit: Optional[BackboneFit] = None, *,
     """The paper's Fig. 3: (a) frequency vs amplitude (points coloured by amplitude, the fitted
     backbone, the backbones of ``models``), (b) damping vs amplitude, (c) deflection shape with the
     linear mode shapes of ``models``. Returns the figure; saves it when ``path`` is given."""
+    from ._mpl import require_matplotlib
+
+    require_matplotlib("plot_enma")
     import matplotlib
 
     if path is not None:

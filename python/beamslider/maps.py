@@ -249,6 +249,9 @@ def plot_operating_map(table: Dict[str, np.ndarray], *, s0: Optional[float] = No
     """Categorical map of the behaviours over (f_ex, a_ex) with a legend, like the paper's Fig. 11
     (one cell per grid point; cells not run are left blank, undetermined cells hatched).
     Returns the figure; writes it to ``path`` when given."""
+    from ._mpl import require_matplotlib
+
+    require_matplotlib("plot_operating_map")
     from matplotlib.figure import Figure
     from matplotlib.patches import Patch, Rectangle
 

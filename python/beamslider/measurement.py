@@ -1,17 +1,20 @@
-"""Reader of the published measured data set (MODEL.md §7).
+"""Reader of the published measured data set (docs/model.md §7).
 
 Each file has three numeric columns: time [s], beam velocity at x = 4L/7 relative to the frame
 [m/s] and relative slider position s [-], sampled at 1e-4 s. The operating point is in the file
 name, e.g. ``Time_VelBeam_RelSliderPos__fex124_ExcLevel14_RelSliderPosStart03.txt``
 (f_ex = 124 Hz, a_ex = 14 m/s^2, s0 = 0.3). Columns may be separated by whitespace, commas,
 semicolons or tabs; lines starting with ``#`` or ``%`` and one leading header line of column
-names are skipped.
+names are skipped. A file may be gzip-compressed (name ending in ``.gz``), like the sample in
+``examples/data/``.
 """
 
 from __future__ import annotations
 
+import gzip
 import os
 import re
+import zlib
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Optional, Tuple, Union
@@ -21,7 +24,7 @@ import numpy as np
 from . import _core
 
 DISPLACEMENT_DETREND_S = 0.1
-"""Window of the moving average subtracted from the integrated displacement [s] (MODEL.md §7)."""
+"""Window of the moving average subtracted from the integrated displacement [s] (docs/model.md §7)."""
 
 SAMPLING_TOLERANCE = 0.1
 """Largest relative deviation of a time step from the file's sampling interval."""
@@ -33,7 +36,7 @@ class MeasurementFormatError(ValueError):
 
 @dataclass
 class Measurement:
-    """One measured run (the published data set, MODEL.md §7)."""
+    """One measured run (the published data set, docs/model.md §7)."""
 
     path: Path
     """File it was read from."""
@@ -58,7 +61,7 @@ class Measurement:
         return float(self.t[1] - self.t[0])
 
     def envelope(self, window: float = 1.0) -> np.ndarray:
-        """Super-slow amplitude of w(4L/7) [m] (MODEL.md §7)."""
+        """Super-slow amplitude of w(4L/7) [m] (docs/model.md §7)."""
         from .simulate import envelope
 
         return envelope(self.t, self.w, window=window)
@@ -104,7 +107,7 @@ def _is_number(tok: str) -> bool:
 
 def read_measurement(path: Union[str, "os.PathLike[str]"]) -> Measurement:
     """Read one file of the published measured data set and integrate the velocity to the
-    displacement (MODEL.md §7): cumulative sum of velocity times the sampling interval, minus its
+    displacement (docs/model.md §7): cumulative sum of velocity times the sampling interval, minus its
     0.1 s centred moving average (removes the drift).
 
     Raises ``OSError`` if the file cannot be read and :class:`MeasurementFormatError` (a
@@ -114,30 +117,34 @@ def read_measurement(path: Union[str, "os.PathLike[str]"]) -> Measurement:
     path = Path(path)
     rows = []
     header_seen = False
-    with open(path, "r", encoding="utf-8-sig", errors="replace") as f:  # -sig: a leading BOM is not data
-        for lineno, raw in enumerate(f, start=1):
-            line = raw.strip()
-            if not line or line[0] in "#%":
-                continue
-            toks = [t for t in _SPLIT.split(line) if t]
-            if not rows and not header_seen and not any(_is_number(t) for t in toks):
-                header_seen = True  # one line of column names before the data
-                continue
-            if len(toks) != 3:
-                raise MeasurementFormatError(
-                    f"{path}:{lineno}: expected 3 columns (time, beam velocity, slider position), found {len(toks)}"
-                )
-            try:
-                vals = [float(t) for t in toks]
-            except ValueError:
-                raise MeasurementFormatError(f"{path}:{lineno}: non-numeric value in {line[:60]!r}") from None
-            if not all(np.isfinite(vals)):
-                raise MeasurementFormatError(f"{path}:{lineno}: non-finite value in {line[:60]!r}")
-            if rows and not vals[0] > rows[-1][0][0]:
-                raise MeasurementFormatError(
-                    f"{path}:{lineno}: time {vals[0]:g} s does not increase (previous {rows[-1][0][0]:g} s)"
-                )
-            rows.append((vals, lineno))
+    opener = gzip.open if path.name.lower().endswith(".gz") else open
+    try:
+        with opener(path, "rt", encoding="utf-8-sig", errors="replace") as f:  # -sig: a leading BOM is not data
+            for lineno, raw in enumerate(f, start=1):
+                line = raw.strip()
+                if not line or line[0] in "#%":
+                    continue
+                toks = [t for t in _SPLIT.split(line) if t]
+                if not rows and not header_seen and not any(_is_number(t) for t in toks):
+                    header_seen = True  # one line of column names before the data
+                    continue
+                if len(toks) != 3:
+                    raise MeasurementFormatError(
+                        f"{path}:{lineno}: expected 3 columns (time, beam velocity, slider position), found {len(toks)}"
+                    )
+                try:
+                    vals = [float(t) for t in toks]
+                except ValueError:
+                    raise MeasurementFormatError(f"{path}:{lineno}: non-numeric value in {line[:60]!r}") from None
+                if not all(np.isfinite(vals)):
+                    raise MeasurementFormatError(f"{path}:{lineno}: non-finite value in {line[:60]!r}")
+                if rows and not vals[0] > rows[-1][0][0]:
+                    raise MeasurementFormatError(
+                        f"{path}:{lineno}: time {vals[0]:g} s does not increase (previous {rows[-1][0][0]:g} s)"
+                    )
+                rows.append((vals, lineno))
+    except (EOFError, zlib.error, gzip.BadGzipFile) as e:  # a truncated or corrupt .gz
+        raise MeasurementFormatError(f"{path}: not a readable gzip file ({e})") from None
     if len(rows) < 2:
         raise MeasurementFormatError(f"{path}: fewer than two data lines")
     data = np.array([r[0] for r in rows], dtype=float)
@@ -153,7 +160,7 @@ def read_measurement(path: Union[str, "os.PathLike[str]"]) -> Measurement:
             f"{path}:{rows[i][1]}: time step {steps[i - 1]:g} s differs from the sampling interval {dt:g} s "
             "(missing or extra samples)"
         )
-    f_ex, a_ex, s0 = parse_operating_point(path.name)
+    f_ex, a_ex, s0 = parse_operating_point(path.name[:-3] if path.name.lower().endswith(".gz") else path.name)
     with np.errstate(over="ignore", invalid="ignore"):
         w = integrate_velocity(v, dt)
     if not np.all(np.isfinite(w)):
@@ -162,7 +169,7 @@ def read_measurement(path: Union[str, "os.PathLike[str]"]) -> Measurement:
 
 
 def integrate_velocity(velocity: np.ndarray, dt: float) -> np.ndarray:
-    """Displacement from velocity as in MODEL.md §7: cumulative sum of velocity * dt minus its
+    """Displacement from velocity as in docs/model.md §7: cumulative sum of velocity * dt minus its
     centred moving average over 0.1 s."""
     x = np.cumsum(np.asarray(velocity, dtype=float)) * dt
     if not (np.isfinite(dt) and dt > 0):
@@ -174,6 +181,6 @@ def integrate_velocity(velocity: np.ndarray, dt: float) -> np.ndarray:
 
 def write_measurement(path: Union[str, "os.PathLike[str]"], t: np.ndarray, velocity: np.ndarray, s: np.ndarray) -> None:
     """Write a file in the published format (tab-separated, no header): for tests and for
-    exporting a simulation as a pseudo-measurement."""
+    exporting a simulation as a pseudo-measurement. A name ending in ``.gz`` is gzip-compressed."""
     data = np.column_stack([t, velocity, s])
-    np.savetxt(os.fspath(path), data, fmt="%.10g", delimiter="\t")
+    np.savetxt(os.fspath(path), data, fmt="%.10g", delimiter="\t")  # numpy compresses *.gz itself

@@ -1,4 +1,4 @@
-"""Model parameters of MODEL.md §1 (defaults = the paper's prototype), as TOML.
+"""Model parameters of docs/model.md §1 (defaults = the paper's prototype), as TOML.
 
 The field names are the TOML keys the Rust core reads (``crates/beamslider-core/src/params.rs``);
 validation is done by the core, so Python and Rust accept exactly the same files.
@@ -20,7 +20,7 @@ PathLike = Union[str, "os.PathLike[str]"]
 
 @dataclass
 class Parameters:
-    """All model parameters, SI units (MODEL.md §1). Invalid values raise ``ValueError``
+    """All model parameters, SI units (docs/model.md §1). Invalid values raise ``ValueError``
     naming the field and its allowed range, at construction and before every run."""
 
     length_m: float = 0.140
@@ -65,7 +65,7 @@ class Parameters:
     dt_s: float = 2e-5
     """Fixed time step [s]."""
     contact_solver: str = "fast"
-    """Local contact solver (MODEL.md §5): "fast" (exact) or "reference" (Gauss-Seidel of the paper)."""
+    """Local contact solver (docs/model.md §5): "fast" (exact) or "reference" (Gauss-Seidel of the paper)."""
     solver_tol_rel: float = 1e-5
     """Relative stop tolerance of the Gauss-Seidel solver [-]."""
     solver_tol_abs: float = 1e-7
@@ -129,8 +129,49 @@ class Parameters:
             f.write(text)
 
     def natural_frequencies_hz(self) -> list:
-        """Linear natural frequencies f_1..f_N of the elastically clamped beam [Hz] (MODEL.md §2)."""
+        """Linear natural frequencies f_1..f_N of the elastically clamped beam [Hz] (docs/model.md §2)."""
         return list(_core.natural_frequencies(self.toml_text()))
+
+
+SYMBOLS: Dict[str, str] = {
+    "length_m": "L", "thickness_m": "h", "density_kg_m3": "ρ", "beam_mass_kg": "ρAL", "youngs_modulus_pa": "E",
+    "slider_mass_kg": "m", "slider_inertia_kg_m2": "J_C", "contact_spacing_m": "B", "com_offset_m": "d",
+    "gap_ratio": "R/h", "k_r_nm_per_rad": "k_r", "k_t_n_per_m": "k_t", "damping_ratio": "D",
+    "damping_ratio_quadratic": "D₂", "axial_preload_n": "H₀", "friction_coefficient": "μ", "restitution": "ε_N",
+    "gravity_m_s2": "g", "n_modes": "N", "dt_s": "Δt", "contact_solver": "—", "solver_tol_rel": "—",
+    "solver_tol_abs": "—", "solver_max_iter": "—",
+}
+"""Symbol of each field in docs/model.md."""
+
+ALLOWED: Dict[str, str] = {
+    "length_m": "finite, > 0",
+    "thickness_m": "finite, > 0",
+    "density_kg_m3": "finite, > 0",
+    "beam_mass_kg": "finite, > 0",
+    "youngs_modulus_pa": "finite, > 0",
+    "slider_mass_kg": "finite, > 0",
+    "slider_inertia_kg_m2": "finite, > 0",
+    "contact_spacing_m": "finite, > 0, < `length_m`",
+    "com_offset_m": "finite, ≥ 0",
+    "gap_ratio": "finite, > 1, `gap_ratio`·`thickness_m` < `length_m`",
+    "k_r_nm_per_rad": "> 0, `inf` allowed (ideal clamping)",
+    "k_t_n_per_m": "> 0, `inf` allowed (ideal clamping)",
+    "damping_ratio": "finite, ≥ 0",
+    "damping_ratio_quadratic": "finite, ≥ 0",
+    "axial_preload_n": "finite; a compression below the buckling load of the retained modes",
+    "friction_coefficient": "finite, ≥ 0",
+    "restitution": "in [0, 1]",
+    "gravity_m_s2": "finite, ≥ 0",
+    "n_modes": "integer 1..20",
+    "dt_s": "finite, > 0; below the stability limit ≈ 2/ω_N of the highest mode; ≥ 10 steps per excitation period",
+    "contact_solver": '"fast" or "reference"',
+    "solver_tol_rel": "finite, > 0",
+    "solver_tol_abs": "finite, ≥ 0",
+    "solver_max_iter": "integer ≥ 1",
+}
+"""Allowed values of each field, as the core's validation (``Params::validate`` in
+crates/beamslider-core/src/params.rs) enforces them; docs/model.md §1 shows this table and
+tests/test_model_doc.py probes the core with values at each bound."""
 
 
 def _toml_value(key: str, v: Any, kind: str) -> str:

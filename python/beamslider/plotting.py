@@ -1,21 +1,26 @@
 """Figures as the paper shows them (its Figs. 6–9): for one operating point (a) w(4L/7)/h against
 time, (b) slider position s against time, (c) super-slow dynamics: envelope amplitude/h against s
-with the PCS manifold branches (MODEL.md §6–7) overlaid; model and measurement overlaid.
+with the PCS manifold branches (docs/model.md §6–7) overlaid; model and measurement overlaid.
 
 Figures are built with ``matplotlib.figure.Figure`` (no pyplot, no global backend change), so
-they work headless and in threads; ``path`` writes a PNG.
+they work headless and in threads; ``path`` writes a PNG. matplotlib is an optional dependency
+(``pip install "beamslider[plot]"``): this module imports without it, and each ``plot_*`` raises
+an ``ImportError`` naming the extra when it is missing.
 """
 
 from __future__ import annotations
 
 import os
-from typing import Optional, Union
+from typing import TYPE_CHECKING, Optional, Union
 
 import numpy as np
-from matplotlib.figure import Figure
 
+from ._mpl import require_matplotlib
 from .measurement import Measurement
 from .simulate import ManifoldResult, SimulationResult
+
+if TYPE_CHECKING:  # pragma: no cover
+    from matplotlib.figure import Figure
 
 PathLike = Union[str, "os.PathLike[str]"]
 
@@ -39,7 +44,7 @@ def plot_operating_point(
     path: Optional[PathLike] = None,
     dpi: int = 120,
 ) -> Figure:
-    """Three-panel figure of one operating point (MODEL.md §7 post-processing).
+    """Three-panel figure of one operating point (docs/model.md §7 post-processing).
 
     Args:
         result: simulated run (model), or None.
@@ -52,6 +57,8 @@ def plot_operating_point(
     """
     if result is None and measurement is None and manifold is None:
         raise ValueError("nothing to plot: give a simulation result, a measurement or a manifold")
+    require_matplotlib("plot_operating_point")
+    from matplotlib.figure import Figure
     h = (result.params if result is not None else manifold.params if manifold is not None else None)
     thickness = h.thickness_m if h is not None else 1e-3
     fig = Figure(figsize=(12, 6.5), layout="constrained")
@@ -78,11 +85,23 @@ def plot_operating_point(
             ax_a.plot(s[0], env[0] / thickness, "o", color=color, ms=6, mfc="white", zorder=5)
             ax_a.plot(s[-1], env[-1] / thickness, "o", color=color, ms=6, zorder=5)
     if manifold is not None:
+        per = f", {manifold.periods} periods per s-step" if manifold.periods else ""
         ax_a.plot(manifold.up_s, manifold.up_amplitude / thickness, "^--", color=UP_COLOR, ms=3, lw=0.8,
-                  label="PCS manifold, upward sweep")
+                  label=f"PCS manifold, upward sweep{per}")
         ax_a.plot(manifold.down_s, manifold.down_amplitude / thickness, "v--", color=DOWN_COLOR, ms=3, lw=0.8,
-                  label="PCS manifold, downward sweep")
+                  label=f"PCS manifold, downward sweep{per}")
+    if result is not None and not result.completed:
+        # A run that stopped early (diverged, left the beam) may leave too little for an envelope.
+        t_stop = float(result.t[-1]) if len(result.t) else 0.0
+        empty = not any(env is not None and len(t) > 2 and t[-1] - t[0] >= window for _, _, t, _, _, env in series)
+        note = f"model run {result.status} at t = {t_stop:.4g} s" + (
+            f":\nshorter than the {window:g}-s envelope window,\nno super-slow amplitude to show" if empty else "")
+        ax_a.text(0.5, 0.5 if empty else 0.04, note, transform=ax_a.transAxes, ha="center",
+                  va="center" if empty else "bottom", fontsize=9, color="0.3",
+                  bbox=dict(boxstyle="round", fc="white", ec="0.7"))
 
+    ax_w.set_xlabel("time t [s]")
+    ax_w.tick_params(labelbottom=True)
     ax_w.set_ylabel("w(4L/7) / h")
     ax_w.set_title("(a) beam response", loc="left")
     ax_s.set_xlabel("time t [s]")
@@ -99,6 +118,8 @@ def plot_operating_point(
     if ax_a.lines:
         ax_a.legend(loc="best", fontsize=8)
     fig.suptitle(title or _title(result, measurement, manifold))
+    fig.supxlabel(f"w(4L/7): elastic deflection of the beam at the laser position x = 4L/7;  "
+                  f"h = beam thickness = {thickness * 1e3:g} mm;  L = beam length", fontsize=9, color="0.25")
     if path is not None:
         fig.savefig(os.fspath(path), dpi=dpi)
     return fig
@@ -127,7 +148,10 @@ def plot_manifold(
     path: Optional[PathLike] = None,
     dpi: int = 120,
 ) -> Figure:
-    """Super-slow manifold (MODEL.md §6): amplitude/h of w(4L/7) against s, both sweeps."""
+    """Super-slow manifold (docs/model.md §6): amplitude/h of w(4L/7) against s, both sweeps."""
+    require_matplotlib("plot_manifold")
+    from matplotlib.figure import Figure
+
     h = manifold.params.thickness_m
     fig = Figure(figsize=(7, 4.5), layout="constrained")
     ax = fig.add_subplot()
@@ -136,11 +160,11 @@ def plot_manifold(
     ax.plot(manifold.down_s, np.asarray(manifold.down_amplitude) / h, "v-", color=DOWN_COLOR, ms=3, lw=0.8,
             label="downward sweep")
     ax.set_xlabel("slider position s = x/L")
-    ax.set_ylabel("amplitude of w(4L/7) / h")
+    ax.set_ylabel(f"amplitude of w(4L/7) / h   (h = {h * 1e3:g} mm)")
     ax.grid(True, lw=0.3, alpha=0.6)
     ax.legend(loc="best", fontsize=8)
-    ax.set_title(title or f"PCS manifold, f_ex = {manifold.f_ex:g} Hz, a_ex = {manifold.a_ex:g} m/s² "
-                 f"({manifold.periods} periods per s)")
+    per = f" ({manifold.periods} periods per s-step)" if manifold.periods else ""
+    ax.set_title(title or f"PCS manifold, f_ex = {manifold.f_ex:g} Hz, a_ex = {manifold.a_ex:g} m/s²{per}")
     if path is not None:
         fig.savefig(os.fspath(path), dpi=dpi)
     return fig

@@ -1,4 +1,4 @@
-"""Runs of the free-slider (FS), pseudo-constrained (PCS) and beam-only models (MODEL.md §5–6),
+"""Runs of the free-slider (FS), pseudo-constrained (PCS) and beam-only models (docs/model.md §5–6),
 the super-slow manifold (§6) and the envelope post-processing (§7)."""
 
 from __future__ import annotations
@@ -24,7 +24,7 @@ class SimulationResult:
     t: np.ndarray
     """Time [s]."""
     w: np.ndarray
-    """Elastic beam displacement at the laser position x = 4L/7 [m] (MODEL.md §7)."""
+    """Elastic beam displacement at the laser position x = 4L/7 [m] (docs/model.md §7)."""
     s: np.ndarray
     """Relative slider position s = x_C/L [-] (the prescribed s for the PCS)."""
     x_c: np.ndarray
@@ -64,7 +64,7 @@ class SimulationResult:
 
     def envelope(self, window: float = 1.0) -> np.ndarray:
         """Super-slow amplitude of w(4L/7) [m]: |Hilbert| then a ``window``-second moving average
-        (MODEL.md §7)."""
+        (docs/model.md §7)."""
         return envelope(self.t, self.w, window=window)
 
     def columns(self) -> Dict[str, np.ndarray]:
@@ -81,7 +81,7 @@ class SimulationResult:
 
 @dataclass
 class ManifoldResult:
-    """Super-slow manifold: steady-state amplitude of w(4L/7) against s (MODEL.md §6)."""
+    """Super-slow manifold: steady-state amplitude of w(4L/7) against s (docs/model.md §6)."""
 
     up_s: np.ndarray
     """Slider positions of the upward sweep [-]."""
@@ -144,10 +144,10 @@ def simulate(
     record_every: int = 10,
     progress: bool = False,
 ) -> SimulationResult:
-    """Integrate the beam–slider system with Moreau's midpoint scheme (MODEL.md §5–6).
+    """Integrate the beam–slider system with Moreau's midpoint scheme (docs/model.md §5–6).
 
     Args:
-        params: model parameters (``None``: the defaults of MODEL.md §1).
+        params: model parameters (``None``: the defaults of docs/model.md §1).
         f_ex: excitation frequency [Hz].
         a_ex: base-acceleration amplitude [m/s^2].
         s0: initial relative slider position [-] of the free slider.
@@ -241,7 +241,7 @@ def _positive_int(name: str, value: Any) -> int:
 
 def manifold_grid(params: Optional[Parameters] = None) -> np.ndarray:
     """Default slider positions of the physical manifold sweep: s = 0, 0.005, ..., 0.5 from the
-    first s whose contact points lie on the beam (s >= B/(2L), MODEL.md §6)."""
+    first s whose contact points lie on the beam (s >= B/(2L), docs/model.md §6)."""
     return np.asarray(_core.physical_manifold_grid(resolve(params).toml_text()))
 
 
@@ -256,7 +256,7 @@ def super_slow_manifold(
     progress: bool = False,
 ) -> ManifoldResult:
     """Super-slow manifold by sequential PCS continuation in s, upward then downward from the
-    same initial state (MODEL.md §6).
+    same initial state (docs/model.md §6).
 
     Args:
         params: model parameters (``None``: defaults).
@@ -304,7 +304,7 @@ def super_slow_manifold(
 
 
 def envelope(t: Any, w: Any, window: float = 1.0) -> np.ndarray:
-    """Super-slow amplitude of a uniformly sampled signal (MODEL.md §7): |Hilbert(w)| (FFT-based
+    """Super-slow amplitude of a uniformly sampled signal (docs/model.md §7): |Hilbert(w)| (FFT-based
     analytic signal) followed by a centred moving average over ``window`` seconds.
 
     Args:

@@ -1,4 +1,4 @@
-"""Uncertainty studies: behaviour probabilities and sensitivities of the free slider (MODEL.md §8)
+"""Uncertainty studies: behaviour probabilities and sensitivities of the free slider (docs/model.md §8)
 under uncertain parameters, run locally (rayon through the Rust core) or on a Dask cluster.
 
 A study samples the uncertain parameters (distributions from TOML; Latin hypercube, scrambled
@@ -30,7 +30,7 @@ Sensitivity indices:
 - ``"grid"``: ``rho`` plus the main effect: the mean output at each level of each parameter.
 
 The virtual uncertain parameter ``natural_frequency_factor`` (c) detunes the linear natural
-frequencies of the beam by the factor c while holding the nonlinear coefficient b* of MODEL.md §9:
+frequencies of the beam by the factor c while holding the nonlinear coefficient b* of docs/model.md §9:
 Young's modulus E and the rotational clamping stiffness k_r are scaled by c² (so the ratio
 κ = k_r L/(EI), hence the mode shapes and the matrix K, are unchanged and every ωₙ scales by c
 exactly, for zero axial preload), and the axial clamping stiffness k_t is changed so that
@@ -909,6 +909,9 @@ def plot_behaviour_probability(result: StudyResult, *, s0: Optional[float] = Non
                                ax: Any = None, title: Optional[str] = None) -> Any:
     """Map of the most probable behaviour over (f_ex, a_ex), each cell shaded by its probability
     (full colour = 1) and labelled with it. Returns the figure; writes it to ``path`` when given."""
+    from ._mpl import require_matplotlib
+
+    require_matplotlib("plot_behaviour_probability")
     from matplotlib.colors import to_rgb
     from matplotlib.figure import Figure
     from matplotlib.patches import Patch, Rectangle
@@ -956,6 +959,9 @@ def plot_sensitivity(result: StudyResult, *, point: int = 0, path: Optional[Unio
     """Bars of the sensitivity indices at one operating point (index in map order): one panel per
     output, one group per uncertain input (S1 and ST with their 95 % intervals for a saltelli
     study, the rank correlation otherwise)."""
+    from ._mpl import require_matplotlib
+
+    require_matplotlib("plot_sensitivity")
     from matplotlib.figure import Figure
 
     p = result.points[point]

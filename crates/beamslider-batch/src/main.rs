@@ -1,4 +1,4 @@
-//! `beamslider-batch`: batch runs of the beam–slider model (MODEL.md) from the command line.
+//! `beamslider-batch`: batch runs of the beam–slider model (docs/model.md) from the command line.
 
 use std::fs::File;
 use std::io::{BufWriter, Write};
@@ -79,7 +79,7 @@ enum Command {
         #[arg(long, short = 'o', value_name = "FILE")]
         out: PathBuf,
     },
-    /// Super-slow manifold by PCS continuation (MODEL.md §6); CSV with columns branch, s, amplitude_m.
+    /// Super-slow manifold by PCS continuation (docs/model.md §6); CSV with columns branch, s, amplitude_m.
     #[command(allow_negative_numbers = true)] // `--a-ex -1` is a bad value, not an unknown flag
     Manifold {
         #[command(flatten)]
@@ -100,7 +100,7 @@ enum Command {
     },
     /// Print the default parameters as TOML (a template for --params).
     Params,
-    /// Operating map (MODEL.md §8, the paper's Fig. 11): classify the behaviour of the free slider at
+    /// Operating map (docs/model.md §8, the paper's Fig. 11): classify the behaviour of the free slider at
     /// every point of an (f_ex, a_ex, s0) grid, in parallel. Each finished point is appended at once
     /// to DIR/map.jsonl; --resume skips the points already there. At the end DIR/map.txt holds the
     /// map as a letter table.

@@ -1,4 +1,4 @@
-//! Virtual ENMA of the default model against the single-mode backbone (MODEL.md §9).
+//! Virtual ENMA of the default model against the single-mode backbone (docs/model.md §9).
 //! `cargo run --release -p beamslider-core --example enma_check`
 use beamslider_core::enma::{EnmaOptions, backbone_rad_s, virtual_enma};
 use beamslider_core::{Model, Params};

@@ -88,7 +88,7 @@ fn main() {
     });
     let results = results.into_inner().unwrap();
     let mut ok = true;
-    println!("{seconds} s runs from s0 = 0.3 (defaults of MODEL.md §1)");
+    println!("{seconds} s runs from s0 = 0.3 (defaults of docs/model.md §1)");
     println!("point          solver     status     final s   final amp/h  s range   period [s]  wall [s]");
     for (k, &(f, a)) in points.iter().enumerate() {
         let fast = results[2 * k].as_ref().unwrap();

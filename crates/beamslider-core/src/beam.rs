@@ -1,11 +1,11 @@
-//! Beam of MODEL.md §2: linear modes of the elastically clamped Euler–Bernoulli beam,
+//! Beam of docs/model.md §2: linear modes of the elastically clamped Euler–Bernoulli beam,
 //! modal mass normalisation, γₙ, the slope Gram matrix K and the string force
 //! Fₙ(q) = (k_ax/2)(qᵀKq)(Kq)ₙ; fast tabulated evaluation of φ and φ'.
 //!
 //! Mode shapes are written in the well-conditioned basis
 //! φ(ξ) = a₁ sin λξ + a₂ cos λξ + a₃ e^{−λξ} + a₄ e^{−λ(1−ξ)}, which spans the same space as
 //! sin, cos, sinh, cosh but loses no digits for high modes. a₁ (the sine coefficient) is
-//! positive, as MODEL.md's convention c₁ = +1 asks.
+//! positive, as docs/model.md's convention c₁ = +1 asks.
 
 use nalgebra::{Matrix4, SVD};
 
@@ -333,7 +333,7 @@ impl Beam {
         0.125 * self.k_ax * qkq * qkq + 0.5 * self.preload_n * qkq
     }
 
-    /// Single-mode hardening coefficient b* = b h²/φ₁(L/2)², b = (k_ax/2)K₁₁² (MODEL.md §9) [s⁻²].
+    /// Single-mode hardening coefficient b* = b h²/φ₁(L/2)², b = (k_ax/2)K₁₁² (docs/model.md §9) [s⁻²].
     pub fn b_star(&self, thickness_m: f64) -> f64 {
         let phi_mid = self.phi_exact(0, 0.5 * self.length_m);
         self.hardening_b() * thickness_m.powi(2) / phi_mid.powi(2)
@@ -367,7 +367,7 @@ fn phi_derivative(a: &[f64; 4], lam: f64, xi: f64, k: usize) -> f64 {
         * (a[0] * sk + a[1] * ck + sign * a[2] * (-lam * xi).exp() + a[3] * (-lam * (1.0 - xi)).exp())
 }
 
-/// Boundary matrix B(λ) of MODEL.md §2 in the exponential basis, rows scaled by 1/(κλ)
+/// Boundary matrix B(λ) of docs/model.md §2 in the exponential basis, rows scaled by 1/(κλ)
 /// so that ε = 1/κ = 0 (ideal clamping) is regular.
 fn boundary_matrix(eps: f64, lam: f64) -> Matrix4<f64> {
     let e = (-lam).exp();
@@ -635,7 +635,7 @@ mod tests {
         let f = beam(&Params::default()).frequencies_hz();
         let expect = [260.2805, 719.0106, 1412.324, 2338.976, 3500.124];
         for (a, b) in f.iter().zip(expect) {
-            // MODEL.md gives 7 significant digits; our values must agree to 1e-6 relative.
+            // docs/model.md gives 7 significant digits; our values must agree to 1e-6 relative.
             assert!(((a - b) / b).abs() < 1e-6, "{a} vs {b}");
         }
     }

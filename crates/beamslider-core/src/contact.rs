@@ -1,4 +1,4 @@
-//! Contact kinematics of MODEL.md §4 for one potential contact point: pre-check, contact frame,
+//! Contact kinematics of docs/model.md §4 for one potential contact point: pre-check, contact frame,
 //! normal gap, force directions Wᵢ = (∂g/∂q)ᵀ and the gap velocity imposed by the base motion.
 
 use crate::arith::{dot, fma};
@@ -77,7 +77,7 @@ pub struct Base {
     pub w0_dot: f64,
 }
 
-/// MODEL.md §4 for point `i` at configuration (beam q, slider (x_C, z_C, β)); `x_kin` is the
+/// docs/model.md §4 for point `i` at configuration (beam q, slider (x_C, z_C, β)); `x_kin` is the
 /// x_C used for the kinematics (x_C itself for the free slider, s·L for the PCS).
 ///
 /// Returns the point's x-coordinate and, when the contact is closed (g_N < 0), its kinematics.

@@ -1,5 +1,5 @@
 //! Virtual Experimental Nonlinear Modal Analysis (ENMA) of the beam without slider (paper §3.1,
-//! MODEL.md §9): phase-resonance testing with a phase-locked loop at stepped excitation levels.
+//! docs/model.md §9): phase-resonance testing with a phase-locked loop at stepped excitation levels.
 //!
 //! The beam-only model (N modes, preload and amplitude-dependent damping included) is integrated
 //! with the same midpoint scheme as the stepper, but with an excitation phase θ(t) = ∫Ω dt whose
@@ -155,7 +155,7 @@ pub struct EnmaPoint {
     pub amplitude_h: f64,
     /// Phase-resonant frequency Ω/2π [Hz].
     pub frequency_hz: f64,
-    /// Damping estimate D̃ = |ŵᴴ 1 a| / (2 ŵᴴŵ Ω²) [-] (MODEL.md §9).
+    /// Damping estimate D̃ = |ŵᴴ 1 a| / (2 ŵᴴŵ Ω²) [-] (docs/model.md §9).
     pub damping_ratio: f64,
     /// Mean phase error over the evaluated periods [rad].
     pub phase_error_rad: f64,
@@ -220,7 +220,7 @@ impl<'a> BeamOnly<'a> {
         }
     }
 
-    /// One step with base acceleration ẅ₀ = w0_ddot at the midpoint (MODEL.md §2, §5 without
+    /// One step with base acceleration ẅ₀ = w0_ddot at the midpoint (docs/model.md §2, §5 without
     /// contacts): q_M = q_B + Δt/2 u_B; u_E = u_B + Δt h(q_M, u_B); q_E = q_M + Δt/2 u_E.
     #[inline]
     fn step(&mut self, w0_ddot: f64) {
@@ -443,7 +443,7 @@ pub fn virtual_enma(model: &Model, opts: &EnmaOptions, monitor: &mut dyn Monitor
     Ok(EnmaResult { points, simulated_s: t, steps })
 }
 
-/// Evaluate the accumulated window of one level (MODEL.md §9).
+/// Evaluate the accumulated window of one level (docs/model.md §9).
 #[allow(clippy::too_many_arguments)]
 fn evaluate(
     model: &Model,
@@ -493,7 +493,7 @@ fn evaluate(
     })
 }
 
-/// Single-mode backbone of MODEL.md §9: ω̃(ã) = √(ω² + ¾ b* ã²) [rad/s], with ω the linear
+/// Single-mode backbone of docs/model.md §9: ω̃(ã) = √(ω² + ¾ b* ã²) [rad/s], with ω the linear
 /// frequency of mode 1 (including a preload, Rayleigh quotient) and b* of the model.
 pub fn backbone_rad_s(model: &Model, amplitude_h: f64) -> f64 {
     let b = &model.beam;

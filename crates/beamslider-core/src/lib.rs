@@ -1,5 +1,5 @@
 //! beamslider-core: the self-adaptive beam–slider system of Müller, Beck & Krack (MSSP 2023),
-//! as specified in the project's MODEL.md — a geometrically nonlinear, elastically clamped beam
+//! as specified in the project's docs/model.md — a geometrically nonlinear, elastically clamped beam
 //! (modal reduction) carrying a rigid slider in frictional, unilateral contact, integrated with
 //! Moreau's midpoint time-stepping scheme.
 //!

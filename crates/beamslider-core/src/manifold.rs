@@ -1,4 +1,4 @@
-//! Super-slow (invariant) manifold of MODEL.md §6: the steady-state beam amplitude as a function
+//! Super-slow (invariant) manifold of docs/model.md §6: the steady-state beam amplitude as a function
 //! of slider position, by sequential continuation of the pseudo-constrained slider (PCS) in s,
 //! upwards and then downwards from the same initial state.
 

@@ -1,11 +1,11 @@
-//! Model parameters of MODEL.md §1 (defaults = the paper's prototype), TOML I/O and validation.
+//! Model parameters of docs/model.md §1 (defaults = the paper's prototype), TOML I/O and validation.
 
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
 use crate::error::{Error, Result};
 
-/// Local contact solver used in each time step (MODEL.md §5).
+/// Local contact solver used in each time step (docs/model.md §5).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
 #[serde(rename_all = "lowercase")]
 pub enum ContactSolver {
@@ -13,7 +13,7 @@ pub enum ContactSolver {
     /// patterns as fallback, Gauss–Seidel as last resort.
     #[default]
     Fast,
-    /// Augmented-Lagrangian / proximal-point nonlinear Gauss–Seidel exactly as in MODEL.md §5.
+    /// Augmented-Lagrangian / proximal-point nonlinear Gauss–Seidel exactly as in docs/model.md §5.
     Reference,
 }
 
@@ -58,10 +58,10 @@ pub struct Params {
     pub damping_ratio: f64,
     /// Amplitude growth D₂ of the damping ratio [-] (micro-slip in the clamping): the modal
     /// damping ratio is D + 4 D₂ (w(L/2, t)/h)², so that single-term harmonic balance gives
-    /// D̃(ã) = D + D₂ ã². 0 = linear damping (MODEL.md §2).
+    /// D̃(ã) = D + D₂ ã². 0 = linear damping (docs/model.md §2).
     pub damping_ratio_quadratic: f64,
     /// Static axial force H₀ in the beam [N], tension positive: adds H₀ K q to the modal forces
-    /// (extension of MODEL.md §2). 0 = no preload.
+    /// (extension of docs/model.md §2). 0 = no preload.
     pub axial_preload_n: f64,
     /// Coulomb friction coefficient μ [-].
     pub friction_coefficient: f64,

@@ -1,4 +1,4 @@
-//! Post-processing of MODEL.md §7: analytic-signal envelope (Hilbert transform via FFT) and
+//! Post-processing of docs/model.md §7: analytic-signal envelope (Hilbert transform via FFT) and
 //! the centred moving average.
 
 use rustfft::{FftPlanner, num_complex::Complex};
@@ -55,7 +55,7 @@ pub fn moving_average(x: &[f64], window: usize) -> Vec<f64> {
         .collect()
 }
 
-/// Envelope of MODEL.md §7: |Hilbert(x)| followed by a moving average over `window_s` seconds
+/// Envelope of docs/model.md §7: |Hilbert(x)| followed by a moving average over `window_s` seconds
 /// of samples spaced `dt_s`.
 pub fn envelope(x: &[f64], dt_s: f64, window_s: f64) -> Vec<f64> {
     let k = (window_s / dt_s).round().max(1.0) as usize;

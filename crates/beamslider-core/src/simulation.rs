@@ -1,4 +1,4 @@
-//! Runs of the free-slider (FS), pseudo-constrained (PCS) and beam-only models (MODEL.md §5–6):
+//! Runs of the free-slider (FS), pseudo-constrained (PCS) and beam-only models (docs/model.md §5–6):
 //! initial states, the time loop with recording, status on faults, cancellation and progress.
 
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -50,7 +50,7 @@ impl Excitation {
     }
 }
 
-/// Which model to integrate (MODEL.md §6).
+/// Which model to integrate (docs/model.md §6).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum SliderModel {
     /// Free slider.
@@ -225,7 +225,7 @@ impl Model {
         Ok(Model { params, beam })
     }
 
-    /// Free-slider initial state of MODEL.md §5: beam at rest, x_C = s₀L, z_C = −d + w₀(0), β = 0.
+    /// Free-slider initial state of docs/model.md §5: beam at rest, x_C = s₀L, z_C = −d + w₀(0), β = 0.
     /// Errors when a contact point would lie outside the beam.
     pub fn initial_state(&self, s0: f64, excitation: &Excitation) -> Result<State> {
         excitation.validate()?;

@@ -1,4 +1,4 @@
-//! Slider of MODEL.md §3: planar rigid body (x_C, z_C, β) with four potential contact points.
+//! Slider of docs/model.md §3: planar rigid body (x_C, z_C, β) with four potential contact points.
 
 use crate::arith::fma;
 use crate::params::Params;

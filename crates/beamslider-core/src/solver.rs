@@ -1,11 +1,11 @@
-//! Local contact problem of MODEL.md §5 and its two solvers.
+//! Local contact problem of docs/model.md §5 and its two solvers.
 //!
 //! For k closed contacts find P = (P_N, P_T)ᵢ with ξ = G P + c such that per contact
 //! Signorini–Newton (ξ_N ≥ 0, P_N ≥ 0, ξ_N P_N = 0) and Coulomb (|P_T| ≤ μ P_N, P_T opposing
 //! ξ_T when sliding) hold.
 //!
 //! * [`gauss_seidel`]: the reference augmented-Lagrangian / proximal-point nonlinear
-//!   Gauss–Seidel, exactly as MODEL.md §5 writes it (order, rᵢ, warm start, stop rule).
+//!   Gauss–Seidel, exactly as docs/model.md §5 writes it (order, rᵢ, warm start, stop rule).
 //! * [`exact`]: an exact solution — each contact is open, sticking or sliding in one of two
 //!   directions; for a guessed pattern the conditions are a linear system. The previous step's
 //!   pattern is tried first, then a few active-set corrections, then all 4^k patterns, and the
@@ -120,7 +120,7 @@ pub struct SolveInfo {
     pub fallback: bool,
 }
 
-/// Reference solver of MODEL.md §5. `p` holds the warm start on entry and the result on exit.
+/// Reference solver of docs/model.md §5. `p` holds the warm start on entry and the result on exit.
 pub fn gauss_seidel(
     prob: &LocalProblem,
     p: &mut [f64; DIM],

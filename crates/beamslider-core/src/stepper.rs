@@ -1,4 +1,4 @@
-//! Moreau's midpoint time-stepping scheme of MODEL.md §5 for the measure differential inclusion
+//! Moreau's midpoint time-stepping scheme of docs/model.md §5 for the measure differential inclusion
 //! M du = h(t, q, u) dt + W dP, specialised at compile time to the number of modes N.
 
 use crate::arith::{dot, fma};
@@ -55,7 +55,7 @@ impl Counters {
     }
 }
 
-/// Where the contact kinematics take the slider's horizontal position from (MODEL.md §6).
+/// Where the contact kinematics take the slider's horizontal position from (docs/model.md §6).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Kinematics {
     /// Free slider: x_C itself.
@@ -295,7 +295,7 @@ impl<'a, const N: usize> Stepper<'a, N> {
         }
     }
 
-    /// One step from t_B to t_B + Δt (MODEL.md §5, steps 1–4).
+    /// One step from t_B to t_B + Δt (docs/model.md §5, steps 1–4).
     #[inline(always)]
     pub fn step(&mut self, s: &mut StateN<N>, t_b: f64) -> Result<(), StepFault> {
         let dt = self.dt;
@@ -376,7 +376,7 @@ impl<'a, const N: usize> Stepper<'a, N> {
         // The four points in pairs (top, bottom) on each side. The bottom point of a pair is
         // only evaluated when it may touch: |w(x_bottom) − w(x_top)| ≤ |Δx| Σ|qₘ| max|φₘ'|,
         // so a pre-check that fails for every w in that range skips it (exactly the same outcome).
-        // Closed contacts are numbered in the order of MODEL.md §3 (counter-clockwise from
+        // Closed contacts are numbered in the order of docs/model.md §3 (counter-clockwise from
         // top-left: 0, 1, 2, 3), so the right pair's top point 3 is finished last.
         let hh = self.slider.half_thickness;
         let mut slope = 0.0;

@@ -1,4 +1,4 @@
-//! Virtual ENMA (MODEL.md §9, paper §3.1): backbone, damping estimate, PLL independence.
+//! Virtual ENMA (docs/model.md §9, paper §3.1): backbone, damping estimate, PLL independence.
 
 use beamslider_core::enma::{EnmaOptions, Run, backbone_rad_s, virtual_enma};
 use beamslider_core::{Error, Model, Params};

@@ -1,4 +1,4 @@
-//! Reproduction of the reference trajectories (MODEL.md §5–6) with the reference contact solver.
+//! Reproduction of the reference trajectories (docs/model.md §5–6) with the reference contact solver.
 
 mod common;
 use beamslider_core::*;

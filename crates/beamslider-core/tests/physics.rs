@@ -1,4 +1,4 @@
-//! Physical checks of the model and the integrator (MODEL.md §2–§6).
+//! Physical checks of the model and the integrator (docs/model.md §2–§6).
 
 mod common;
 use beamslider_core::contact::{Base, kinematics};

@@ -1,4 +1,4 @@
-//! Property tests of the local contact solvers (MODEL.md §5), with proptest.
+//! Property tests of the local contact solvers (docs/model.md §5), with proptest.
 //!
 //! For random symmetric positive-definite Delassus matrices G, free velocities c and friction
 //! coefficients μ, both solvers must return finite percussions that satisfy Signorini–Newton

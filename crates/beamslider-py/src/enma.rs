@@ -1,4 +1,4 @@
-//! Binding of the virtual ENMA (`beamslider_core::enma`) and the beam's modal data (MODEL.md §9).
+//! Binding of the virtual ENMA (`beamslider_core::enma`) and the beam's modal data (docs/model.md §9).
 
 use beamslider_core::enma::{EnmaOptions, virtual_enma as core_enma};
 use beamslider_core::{Error, Model};
@@ -31,7 +31,7 @@ pub fn virtual_enma(py: Python<'_>, params_toml: &str, options_json: &str, progr
 }
 
 /// Modal data of the linear beam: `omega_rad_s`, `gamma`, `k11_per_m`, `k_ax_n_per_m`,
-/// `phi_mid` (φ₁(L/2)), `b_star_per_s2` (MODEL.md §9), `omega1_preload_rad_s` (√(ω₁² + H₀K₁₁)),
+/// `phi_mid` (φ₁(L/2)), `b_star_per_s2` (docs/model.md §9), `omega1_preload_rad_s` (√(ω₁² + H₀K₁₁)),
 /// the mode shape φ₁/φ₁(L/2) at 101 points x/L = 0 … 1 (`shape_x_over_l`, `shape_phi1`), the
 /// matrix K (`k_matrix`, N×N rows) and φₘ at the requested `x_over_l` (`phi`, N rows).
 #[pyfunction]

@@ -84,7 +84,7 @@ fn params_dict<'py>(py: Python<'py>, p: &Params) -> PyResult<Bound<'py, PyDict>>
     Ok(d)
 }
 
-/// Default parameters of MODEL.md §1 as a dict.
+/// Default parameters of docs/model.md §1 as a dict.
 #[pyfunction]
 fn default_params(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
     params_dict(py, &Params::default())
@@ -110,7 +110,7 @@ fn canonical_toml(text: &str) -> PyResult<String> {
     Ok(parse_params(text)?.to_toml_string())
 }
 
-/// Natural frequencies f₁..f_N [Hz] of the linear beam (MODEL.md §2).
+/// Natural frequencies f₁..f_N [Hz] of the linear beam (docs/model.md §2).
 #[pyfunction]
 fn natural_frequencies(py: Python<'_>, params_toml: &str) -> PyResult<Vec<f64>> {
     let p = parse_params(params_toml)?;
@@ -154,7 +154,7 @@ impl Monitor for PyMonitor {
 /// Names of the recorded columns, in the order of `RECORDED`.
 const RECORDED: [&str; 6] = ["t_s", "w_4L7_m", "s", "xC_m", "zC_m", "beta_rad"];
 
-/// Integrate the FS / PCS / beam-only model (MODEL.md §5–6) and return a dict with the recorded
+/// Integrate the FS / PCS / beam-only model (docs/model.md §5–6) and return a dict with the recorded
 /// columns (numpy arrays keyed by `t_s`, `w_4L7_m`, `s`, `xC_m`, `zC_m`, `beta_rad`), `status`,
 /// `message`, `counters` (dict) and `final_state` (dict).
 #[pyfunction]
@@ -256,7 +256,7 @@ fn counters_dict<'py>(py: Python<'py>, c: &beamslider_core::Counters) -> PyResul
     Ok(d)
 }
 
-/// Default slider positions of the physical manifold sweep (MODEL.md §6): the reference grid
+/// Default slider positions of the physical manifold sweep (docs/model.md §6): the reference grid
 /// s = 0, 0.005, …, 0.5 from the first s whose contact points lie on the beam.
 #[pyfunction]
 fn physical_manifold_grid(py: Python<'_>, params_toml: &str) -> PyResult<Vec<f64>> {
@@ -264,7 +264,7 @@ fn physical_manifold_grid(py: Python<'_>, params_toml: &str) -> PyResult<Vec<f64
     py.detach(|| guarded(|| Ok(ManifoldOptions::physical(&Model::new(p)?).s_values)))
 }
 
-/// Super-slow manifold by PCS continuation (MODEL.md §6). Returns a dict with `up_s`,
+/// Super-slow manifold by PCS continuation (docs/model.md §6). Returns a dict with `up_s`,
 /// `up_amplitude_m`, `down_s`, `down_amplitude_m` (numpy arrays) and `counters`.
 /// `progress(points_done, points_total)` is called after every s.
 #[pyfunction]
@@ -303,7 +303,7 @@ fn super_slow_manifold<'py>(
     Ok(d)
 }
 
-/// |analytic signal| of x (discrete Hilbert transform via FFT, MODEL.md §7).
+/// |analytic signal| of x (discrete Hilbert transform via FFT, docs/model.md §7).
 #[pyfunction]
 fn hilbert_envelope<'py>(py: Python<'py>, x: PyReadonlyArray1<'py, f64>) -> PyResult<Bound<'py, PyArray1<f64>>> {
     let x = x.as_slice()?.to_vec();
@@ -323,7 +323,7 @@ fn moving_average<'py>(
     Ok(e.into_pyarray(py))
 }
 
-/// Envelope of MODEL.md §7: |Hilbert(x)|, then a moving average over `window_s` seconds of
+/// Envelope of docs/model.md §7: |Hilbert(x)|, then a moving average over `window_s` seconds of
 /// samples spaced `dt_s`.
 #[pyfunction]
 fn envelope<'py>(
@@ -345,7 +345,7 @@ fn envelope<'py>(
     Ok(e.into_pyarray(py))
 }
 
-/// Behaviour classification (MODEL.md §8) of super-slow signals sampled every `dt_s`: slider
+/// Behaviour classification (docs/model.md §8) of super-slow signals sampled every `dt_s`: slider
 /// position `s` and amplitude `amplitude_h` (1-s moving average of |Hilbert(w(4L/7))| / h).
 /// `criteria_toml`: thresholds as TOML keys of the core's `Criteria` (missing keys take defaults).
 /// Returns the classification as JSON text (the fields of a map row).
@@ -402,7 +402,7 @@ fn read_map_results(py: Python<'_>, path: std::path::PathBuf) -> PyResult<(Optio
     Ok((settings, r.rows.iter().map(MapRow::to_json).collect(), r.truncated))
 }
 
-/// Run an operating map (MODEL.md §8) in parallel: `config_toml` as read by `beamslider-batch map`,
+/// Run an operating map (docs/model.md §8) in parallel: `config_toml` as read by `beamslider-batch map`,
 /// `out` the results file (JSON lines, appended point by point), `resume` to skip its points.
 /// Returns the rows of the grid (JSON texts, sorted by grid index). `progress(done, total)` is
 /// called from the calling thread; Ctrl-C cancels the map (finished points stay in the file) and

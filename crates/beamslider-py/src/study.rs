@@ -1,7 +1,7 @@
 //! Uncertainty studies (binding side): run a *chunk* of study points — each its own parameter set,
 //! operating point (f_ex, a_ex, s₀) and duration — in parallel with rayon, the interpreter
 //! released, and return the rows in the operating-map row format (`beamslider_core::map::MapRow`,
-//! MODEL.md §8). Each point is the core's `map::run_point` (a free-slider run from rest,
+//! docs/model.md §8). Each point is the core's `map::run_point` (a free-slider run from rest,
 //! classified by `classify`), so a study row is bitwise the map row of the same inputs.
 //!
 //! The sampling, the results file and the distribution over a Dask cluster live in
