@@ -98,9 +98,16 @@ def test_cli_hb_manifold(tmp_path, capsys):
     from beamslider.cli import main
 
     assert main(["hb-manifold", "--f-ex", "124", "--a-ex", "14", "--n-modes", "2", "--out", str(tmp_path)]) == 0
-    stem = tmp_path / "hb_manifold_124Hz_14ms2"
+    stem = "hb_manifold_124Hz_14ms2_N2"
     for ext in ("csv", "json", "png"):
-        assert stem.with_suffix("." + ext).exists()
-    rows = stem.with_suffix(".csv").read_text().splitlines()
+        assert (tmp_path / f"{stem}.{ext}").exists()
+    rows = (tmp_path / f"{stem}.csv").read_text().splitlines()
     assert rows[0] == "branch,s,amplitude_h,phase_rad,stable" and len(rows) > 50
     assert "s_up = 0." in capsys.readouterr().out
+    # A second run refuses to overwrite (the outputs carry N in their names) unless --force.
+    before = (tmp_path / f"{stem}.csv").read_bytes()
+    assert main(["hb-manifold", "--f-ex", "124", "--a-ex", "14", "--n-modes", "2", "--out", str(tmp_path)]) != 0
+    assert "--force" in capsys.readouterr().err
+    assert (tmp_path / f"{stem}.csv").read_bytes() == before
+    assert main(["hb-manifold", "--f-ex", "124", "--a-ex", "14", "--n-modes", "2", "--out", str(tmp_path),
+                 "--force"]) == 0

@@ -8,7 +8,6 @@ import csv
 import time
 from typing import Any
 
-import numpy as np
 
 from .superslow import hb_manifold
 
@@ -25,18 +24,23 @@ def add_parser(sub: Any, common: Any, positive: Any) -> None:
     sp.add_argument("--n-modes", type=positive(int), default=5, metavar="N", help="retained beam modes (5)")
     sp.add_argument("--d-eff", type=float, metavar="D", help="equivalent damping ratio of all modes (default: params)")
     common(sp)
+    from .cli import _force_option
+
+    _force_option(sp)
     sp.set_defaults(func=cmd_hb_manifold)
 
 
 def cmd_hb_manifold(args: argparse.Namespace) -> int:
-    from .cli import _fmt, _out, _params, write_json
+    from .cli import _figure, _fmt, _out, _params, _plan_outputs, write_json
 
     p = _params(args)
-    out = _out(args)
+    stem = f"hb_manifold_{_fmt(args.f_ex)}Hz_{_fmt(args.a_ex)}ms2_N{args.n_modes}" + (
+        f"_Deff{_fmt(args.d_eff)}" if args.d_eff is not None else "")
+    _plan_outputs(args, [f"{stem}.{ext}" for ext in ("csv", "json", "png")])
     t0 = time.perf_counter()
     m = hb_manifold(p, f_ex=args.f_ex, a_ex=args.a_ex, n_modes=args.n_modes, d_eff=args.d_eff)
     wall = time.perf_counter() - t0
-    stem = f"hb_manifold_{_fmt(m.f_ex)}Hz_{_fmt(m.a_ex)}ms2"
+    out = _out(args)
     with open(out / f"{stem}.csv", "w", newline="", encoding="utf-8") as f:
         w = csv.writer(f)
         w.writerow(["branch", "s", "amplitude_h", "phase_rad", "stable"])
@@ -50,6 +54,20 @@ def cmd_hb_manifold(args: argparse.Namespace) -> int:
         "folds_amplitude_h": m.folds_amplitude.tolist(), "steps": m.steps, "warnings": m.warnings,
         "wall_time_s": wall, "params_toml": p.toml_text(),
     })
+    drew = _figure(_draw, m, out / f"{stem}.png")
+    s_up = "none" if m.s_up is None else f"{m.s_up:.4f}"
+    s_dn = "none" if m.s_dn is None else f"{m.s_dn:.4f}"
+    print(f"HB N={m.n_modes} {m.f_ex:g} Hz, {m.a_ex:g} m/s²: s_up = {s_up}, s_dn = {s_dn} ({1e3 * wall:.1f} ms)")
+    for ext in ("csv", "json", "png") if drew else ("csv", "json"):
+        print(f"wrote {out / f'{stem}.{ext}'}")
+    return 0
+
+
+def _draw(m: Any, path: Any) -> None:
+    """The manifold figure (needs the ``plot`` extra)."""
+    from ._mpl import require_matplotlib
+
+    require_matplotlib("the hb-manifold figure")
     import matplotlib
 
     matplotlib.use("Agg")
@@ -69,11 +87,5 @@ def cmd_hb_manifold(args: argparse.Namespace) -> int:
     ax.legend()
     ax.grid(alpha=0.3)
     fig.tight_layout()
-    fig.savefig(out / f"{stem}.png", dpi=120)
+    fig.savefig(path, dpi=120)
     plt.close(fig)
-    s_up = "none" if m.s_up is None else f"{m.s_up:.4f}"
-    s_dn = "none" if m.s_dn is None else f"{m.s_dn:.4f}"
-    print(f"HB N={m.n_modes} {m.f_ex:g} Hz, {m.a_ex:g} m/s²: s_up = {s_up}, s_dn = {s_dn} ({1e3 * wall:.1f} ms)")
-    for ext in ("csv", "json", "png"):
-        print(f"wrote {out / f'{stem}.{ext}'}")
-    return 0

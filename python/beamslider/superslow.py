@@ -10,7 +10,7 @@ position in milliseconds (a PCS sweep, :func:`beamslider.super_slow_manifold`, t
   the zeros of its discriminant, the linear resonance position and the high-branch estimate;
 - :func:`backbone` — the single-mode backbone with the slider, Ω² M₁(s) = ω₁² + ¾ b a².
 
-Amplitudes are Â = |w(4L/7)| / h (MODEL.md §7's measure). Known limit (issue 17 §8): with the
+Amplitudes are Â = |w(4L/7)| / h (docs/model.md §7's measure). Known limit (issue 17 §8): with the
 beam's 0.1 % damping, single-term HB gives no jump-down of the high branch (``s_dn`` is None);
 an equivalent damping ``d_eff`` is the option that can end it.
 """

@@ -1,7 +1,7 @@
 //! Layer (a) of issue 17: the super-slow manifold by harmonic balance (HB).
 //!
 //! On the super-slow scale the slider is taken as rigidly attached to the beam at x = sL
-//! (issue 17 §2.1). A Ritz reduction with the N beam modes of MODEL.md §2 gives
+//! (issue 17 §2.1). A Ritz reduction with the N beam modes of docs/model.md §2 gives
 //!
 //! ```text
 //! M(s) q̈ + C q̇ + Λ q + f_nl(q) = Γ(s) a_ex cos Ωt,
@@ -10,7 +10,7 @@
 //! f_nl(q) = (k_ax/2)(qᵀKq) K q,
 //! ```
 //!
-//! with the project's extensions of MODEL.md §2: the axial preload H₀ adds H₀K to Λ, and the
+//! with the project's extensions of docs/model.md §2: the axial preload H₀ adds H₀K to Λ, and the
 //! amplitude-dependent damping D₂ (modal damping ratio D + 4D₂(w(L/2)/h)²) enters through the
 //! exact first harmonic of its cubic term. The slider's weight is neglected (no static sag).
 //!
