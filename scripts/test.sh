@@ -41,10 +41,11 @@ else
   [ ${#PYTHONS[@]} -gt 0 ] || PYTHONS=(python3)
 fi
 
-# One abi3 wheel, built by pip through maturin (the same build as `pip install .`).
+# One abi3 wheel, built by pip through maturin (as `pip install .`, but with the lighter
+# ci-wheel profile of Cargo.toml: no LTO, parallel code generation).
 WHEELS=target/test-wheels
 rm -rf "$WHEELS"
-"${PYTHONS[0]}" -m pip wheel --no-deps --disable-pip-version-check --quiet --wheel-dir "$WHEELS" .
+MATURIN_PEP517_ARGS="--profile ci-wheel" "${PYTHONS[0]}" -m pip wheel --no-deps --disable-pip-version-check --quiet --wheel-dir "$WHEELS" .
 WHEEL=$(ls "$WHEELS"/beamslider-*.whl)
 echo "scripts/test.sh: built $(basename "$WHEEL")"
 
