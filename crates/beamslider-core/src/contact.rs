@@ -3,8 +3,8 @@
 
 use crate::arith::{dot, fma};
 use crate::beam::{Beam, Loc};
-use crate::slider::{Slider, ZETA_Z};
-use crate::solver::{DIM, MAX_CLOSED};
+use crate::excitation::BaseState;
+use crate::slider::{DIM, MAX_CLOSED, Slider, ZETA_Z};
 
 /// Kinematics of a closed contact: the two columns (normal, tangential) of W and w̃.
 #[derive(Debug, Clone, Copy)]
@@ -68,15 +68,6 @@ impl<const N: usize> Jacobians<N> {
     };
 }
 
-/// Base motion at one instant: w₀ and ẇ₀.
-#[derive(Debug, Clone, Copy)]
-pub struct Base {
-    /// Base displacement w₀ [m].
-    pub w0: f64,
-    /// Base velocity ẇ₀ [m/s].
-    pub w0_dot: f64,
-}
-
 /// MODEL.md §4 for point `i` at configuration (beam q, slider (x_C, z_C, β)); `x_kin` is the
 /// x_C used for the kinematics (x_C itself for the free slider, s·L for the PCS).
 ///
@@ -92,7 +83,7 @@ pub fn kinematics<const N: usize>(
     sin_b: f64,
     cos_b: f64,
     q: &[f64; N],
-    base: Base,
+    base: BaseState,
 ) -> (f64, Option<ClosedContact<N>>) {
     let pr = probe(beam, slider, i, x_kin, z_c, sin_b, cos_b, q);
     if !may_close(i, pr.z_p, base.w0, pr.w, slider.half_thickness) {
@@ -192,7 +183,7 @@ pub fn finish<const N: usize>(
     sin_b: f64,
     cos_b: f64,
     q: &[f64; N],
-    base: Base,
+    base: BaseState,
     out: &mut Jacobians<N>,
     j: usize,
 ) -> bool {

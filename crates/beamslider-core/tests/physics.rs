@@ -1,7 +1,8 @@
 //! Physical checks of the model and the integrator (MODEL.md §2–§6).
 
 mod common;
-use beamslider_core::contact::{Base, kinematics};
+use beamslider_core::contact::kinematics;
+use beamslider_core::excitation::BaseState;
 use beamslider_core::slider::Slider;
 use beamslider_core::*;
 
@@ -101,7 +102,7 @@ fn normal_gap_velocities(model: &Model, qb: &[f64], ub: &[f64], qs: [f64; 3], us
     let (sb, cb) = qsm[2].sin_cos();
     let mut out = Vec::new();
     for i in 0..4 {
-        let (_, c) = kinematics::<5>(&model.beam, &slider, i, qsm[0], qsm[1], sb, cb, &qm, Base { w0: 0.0, w0_dot: 0.0 });
+        let (_, c) = kinematics::<5>(&model.beam, &slider, i, qsm[0], qsm[1], sb, cb, &qm, BaseState { w0: 0.0, w0_dot: 0.0 });
         if let Some(c) = c {
             let v = |ubv: &[f64], usv: [f64; 3]| -> f64 {
                 (0..5).map(|m| c.wb[0][m] * ubv[m]).sum::<f64>() + (0..3).map(|m| c.ws[0][m] * usv[m]).sum::<f64>()
