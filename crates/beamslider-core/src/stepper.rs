@@ -342,7 +342,7 @@ impl<'a, const N: usize> Stepper<'a, N> {
             (a0 * c, a1 * sn, a2 * c)
         };
         // h_M: beam forces (damping with u_B) and slider gravity.
-        let vb = self.beam_free_velocity(&qm, &s.ub, w0_ddot);
+        let mut vb = self.beam_free_velocity(&qm, &s.ub, w0_ddot);
         self.counters.steps += 1;
         self.last_p = [[0.0; 2]; N_CONTACTS];
         if matches!(self.kin, Kinematics::BeamOnly) {
