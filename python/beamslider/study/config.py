@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import dataclasses
-import json
 import math
 import os
 from dataclasses import dataclass, field
@@ -269,7 +268,9 @@ class StudyConfig:
 
     def to_toml_text(self) -> str:
         """TOML text of the study (readable by :meth:`from_toml_text`)."""
-        return _dump_toml(self.to_dict())
+        import tomli_w
+
+        return tomli_w.dumps(self.to_dict())
 
     def map_toml(self) -> str:
         """The map configuration the core runs each point with (grid = the operating points)."""
@@ -317,34 +318,6 @@ def _axis_values(name: str, v: Any) -> List[float]:
     if arr.ndim != 1 or arr.size == 0:
         raise ValueError(f"invalid `{name}`: give a number, a list or {{start, stop, step}}")
     return [float(x) for x in arr]
-
-
-def _dump_value(v: Any) -> str:
-    if isinstance(v, str):
-        return json.dumps(v)
-    if isinstance(v, bool):
-        return "true" if v else "false"
-    if isinstance(v, (list, tuple)):
-        return "[" + ", ".join(_dump_value(x) for x in v) + "]"
-    if isinstance(v, (int, np.integer)):
-        return str(int(v))
-    return _toml_number(v)
-
-
-def _dump_toml(d: Dict[str, Any]) -> str:
-    out: List[str] = []
-    for k, v in d.items():
-        if not isinstance(v, dict):
-            out.append(f"{k} = {_dump_value(v)}")
-    for k, v in d.items():
-        if isinstance(v, dict):
-            sub = {kk: vv for kk, vv in v.items() if not isinstance(vv, dict)}
-            if sub or len(sub) == len(v):
-                out += ["", f"[{k}]"] + [f"{kk} = {_dump_value(vv)}" for kk, vv in sub.items()]
-            for kk, vv in v.items():
-                if isinstance(vv, dict):
-                    out += ["", f"[{k}.{kk}]"] + [f"{a} = {_dump_value(b)}" for a, b in vv.items()]
-    return "\n".join(out).lstrip("\n") + "\n"
 
 
 def read_config(path: Union[str, "os.PathLike[str]"]) -> StudyConfig:
