@@ -92,7 +92,7 @@ def run_study(config: Union[StudyConfig, str, "os.PathLike[str]"], *, out: Optio
     times on top of Dask's own retries). ``on_chunk(done, total)`` is called after each finished
     chunk (Dask). Ctrl-C stops the study keeping the finished points (``KeyboardInterrupt``).
     """
-    from .simulate import _progress_bar
+    from ..simulate import _progress_bar
 
     if not isinstance(config, StudyConfig):
         config = read_config(config)
