@@ -658,7 +658,10 @@ mod tests {
                 (1..n).map(|j| (h0 * b.k[j]).powi(2) / (b.omega[j].powi(2) - b.omega[0].powi(2))).sum();
             let err = m.omega_rayleigh_rad_s.powi(2) - m.omega_rad_s.powi(2);
             assert!(err > 0.0, "H0 = {h0}: Rayleigh must be an upper bound");
-            assert!((err / pert - 1.0).abs() < 0.05, "H0 = {h0}: error {err} vs second-order {pert}");
+            // The next term is of third order: the mismatch shrinks in proportion to H₀
+            // (6.5 % at 150 N with the defaults).
+            let tol = 0.1 * h0.abs() / 150.0 + 1e-3;
+            assert!((err / pert - 1.0).abs() < tol, "H0 = {h0}: error {err} vs second-order {pert}");
             // The eigenpair solves the problem.
             let r: f64 = (0..n)
                 .map(|i| {
