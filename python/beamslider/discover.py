@@ -188,12 +188,13 @@ def slider_features(t: np.ndarray, s: np.ndarray, amplitude_h: np.ndarray, *, ta
 
 
 def _ei_over_l(p: Parameters) -> float:
-    area = p.beam_mass_kg / (p.density_kg_m3 * p.length_m)
-    return p.youngs_modulus_pa * (area / p.thickness_m) * p.thickness_m ** 3 / 12 / p.length_m
+    """EI/L [N m] (the core's beam)."""
+    return _core.beam_properties(p.toml_text())["ei_n_m2"] / p.length_m
 
 
 def _ea_over_l(p: Parameters) -> float:
-    return p.youngs_modulus_pa * p.beam_mass_kg / (p.density_kg_m3 * p.length_m) / p.length_m
+    """EA/L [N/m] (the core's beam)."""
+    return _core.beam_properties(p.toml_text())["ea_n"] / p.length_m
 
 
 @dataclass(frozen=True)
@@ -270,17 +271,11 @@ _X5 = [1 / 6, 1 / 3, 1 / 2, 2 / 3, 5 / 6]
 
 def beam_surrogate(params: Parameters) -> Dict[str, float]:
     """Beam-level features of a model from the single-mode relations (docs/model.md §9) of its first
-    mode with preload: eigenpair of diag(ω²) + H₀K, b* = (k_ax/2)(vᵀKv)² h²/ψ(L/2)², shape ψ."""
+    mode with preload (the core's ``Beam::first_mode``: eigenpair of diag(ω²) + H₀K,
+    b* = (k_ax/2)(vᵀKv)² h²/ψ(L/2)², shape ψ = Σ vₙφₙ)."""
     b = _core.beam_properties(params.toml_text(), _X5)
-    om = np.asarray(b["omega_rad_s"])
-    K = np.asarray(b["k_matrix"])
-    lam, V = np.linalg.eigh(np.diag(om ** 2) + b["preload_n"] * K)
-    v = V[:, 0]
-    psi = v @ np.asarray(b["phi"])
-    if psi[2] < 0:
-        v, psi = -v, -psi
-    bstar = 0.5 * b["k_ax_n_per_m"] * float(v @ K @ v) ** 2 * params.thickness_m ** 2 / psi[2] ** 2
-    return dict(f0_hz=math.sqrt(max(lam[0], 0.0)) / (2 * math.pi), b_star=bstar,
+    psi = np.asarray(b["mode1_vector"]) @ np.asarray(b["phi"])
+    return dict(f0_hz=b["omega1_preload_rad_s"] / (2 * math.pi), b_star=b["b_star_preload_per_s2"],
                 damping_0=params.damping_ratio, damping_2=params.damping_ratio_quadratic,
                 shape_L6=0.5 * (psi[0] + psi[4]) / psi[2], shape_L3=0.5 * (psi[1] + psi[3]) / psi[2])
 

@@ -410,7 +410,7 @@ def fit_backbone(data: EnmaData) -> BackboneFit:
 def model_backbone(params: Optional[Parameters] = None) -> Tuple[float, float]:
     """(ω², b*) of a model's first mode (ω including an axial preload, b* of docs/model.md §9)."""
     b = _core.beam_properties(resolve(params).toml_text())
-    return b["omega1_preload_rad_s"] ** 2, b["b_star_per_s2"]
+    return b["omega1_preload_rad_s"] ** 2, b["b_star_preload_per_s2"]
 
 
 def beam_properties(params: Optional[Parameters] = None) -> Dict[str, Any]:
@@ -451,7 +451,7 @@ def solve_k_r(params: Parameters, omega_rad_s: float) -> float:
     from scipy.optimize import brentq
 
     p = resolve(params)
-    ei_l = p.youngs_modulus_pa * (p.beam_mass_kg / (p.density_kg_m3 * p.length_m)) * p.thickness_m ** 2 / 12 / p.length_m
+    ei_l = beam_properties(p)["ei_n_m2"] / p.length_m
     w_inf = _omega1(p, math.inf)
     lo, hi = 1e-4 * ei_l, 1e9 * ei_l
     w_lo = _omega1(p, lo)
@@ -478,7 +478,7 @@ def k_t_from_b_star(params: Parameters, b_star: float) -> Tuple[float, float]:
     if not b_star > 0:
         raise ValueError(f"the fitted b* = {b_star:g} s^-2 is not positive: no softening clamping explains it")
     ratio = b_inf / b_star - 1.0
-    ea = p.youngs_modulus_pa * p.beam_mass_kg / (p.density_kg_m3 * p.length_m)
+    ea = beam_properties(p)["ea_n"]
     k_t = math.inf if ratio <= 0 else ea / (p.length_m * ratio)
     return k_t, b_inf
 

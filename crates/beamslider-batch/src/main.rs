@@ -196,13 +196,14 @@ fn run(cli: Cli) -> Result<ExitCode> {
             let params = load_params(&common)?;
             let m = Model::new(params)?;
             let exc = Excitation::new(common.f_ex, common.a_ex);
-            let (kind, start) = match model {
-                ModelKind::Fs => (SliderModel::Free, m.initial_state(s0, &exc)?),
+            let kind = match model {
+                ModelKind::Fs => SliderModel::Free,
                 ModelKind::Pcs => {
                     let Some(s) = s_pcs else { bail!("--model pcs needs --s-pcs") };
-                    (SliderModel::PseudoConstrained { s }, m.initial_state_pcs(&exc)?)
+                    SliderModel::PseudoConstrained { s }
                 }
             };
+            let start = m.start(kind, s0, &exc)?;
             let channels = channels.iter().map(|c| Channel::parse(c)).collect::<beamslider_core::Result<Vec<_>>>()?;
             let opts = RunOptions { excitation: exc, model: kind, duration_s: duration, record_every, channels, audit_contacts: false };
             m.check_run(&start, &opts)?; // before the output file is created: bad input overwrites nothing

@@ -3,10 +3,12 @@
 
 use crate::arith::{dot, fma};
 use crate::beam::{Beam, Loc};
-use crate::slider::{Slider, ZETA_Z};
-use crate::solver::{DIM, MAX_CLOSED};
+use crate::excitation::BaseState;
+use crate::slider::{DIM, MAX_CLOSED, Slider, ZETA_Z};
 
-/// Kinematics of a closed contact: the two columns (normal, tangential) of W and w̃.
+/// Kinematics of a closed contact: the two columns (normal, tangential) of W and w̃ (the
+/// unit tests' view of one contact; the time loop works on [`Jacobians`]).
+#[cfg(test)]
 #[derive(Debug, Clone, Copy)]
 pub struct ClosedContact<const N: usize> {
     /// Which of the four points (0..4).
@@ -21,6 +23,7 @@ pub struct ClosedContact<const N: usize> {
     pub wtilde: [f64; 2],
 }
 
+#[cfg(test)]
 impl<const N: usize> ClosedContact<N> {
     /// Placeholder value (no contact).
     pub const EMPTY: Self = ClosedContact {
@@ -68,15 +71,7 @@ impl<const N: usize> Jacobians<N> {
     };
 }
 
-/// Base motion at one instant: w₀ and ẇ₀.
-#[derive(Debug, Clone, Copy)]
-pub struct Base {
-    /// Base displacement w₀ [m].
-    pub w0: f64,
-    /// Base velocity ẇ₀ [m/s].
-    pub w0_dot: f64,
-}
-
+#[cfg(test)]
 /// docs/model.md §4 for point `i` at configuration (beam q, slider (x_C, z_C, β)); `x_kin` is the
 /// x_C used for the kinematics (x_C itself for the free slider, s·L for the PCS).
 ///
@@ -92,7 +87,7 @@ pub fn kinematics<const N: usize>(
     sin_b: f64,
     cos_b: f64,
     q: &[f64; N],
-    base: Base,
+    base: BaseState,
 ) -> (f64, Option<ClosedContact<N>>) {
     let pr = probe(beam, slider, i, x_kin, z_c, sin_b, cos_b, q);
     if !may_close(i, pr.z_p, base.w0, pr.w, slider.half_thickness) {
@@ -192,7 +187,7 @@ pub fn finish<const N: usize>(
     sin_b: f64,
     cos_b: f64,
     q: &[f64; N],
-    base: Base,
+    base: BaseState,
     out: &mut Jacobians<N>,
     j: usize,
 ) -> bool {
@@ -244,4 +239,65 @@ pub fn finish<const N: usize>(
     out.wtilde[col] = -a[0][1] * base.w0_dot;
     out.wtilde[col + 1] = -a[1][1] * base.w0_dot;
     true
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::*;
+
+    /// Gap velocities (normal) of the closed contacts at the midpoint of a step.
+    fn normal_gap_velocities(model: &Model, qb: &[f64], ub: &[f64], qs: [f64; 3], us: [f64; 3], ue_b: &[f64], ue_s: [f64; 3]) -> Vec<(f64, f64)> {
+        let dt = model.params.dt_s;
+        let slider = Slider::new(&model.params);
+        let mut qm = [0.0; 5];
+        for i in 0..5 {
+            qm[i] = qb[i] + 0.5 * dt * ub[i];
+        }
+        let qsm: Vec<f64> = (0..3).map(|i| qs[i] + 0.5 * dt * us[i]).collect();
+        let (sb, cb) = qsm[2].sin_cos();
+        let mut out = Vec::new();
+        for i in 0..4 {
+            let (_, c) = kinematics::<5>(&model.beam, &slider, i, qsm[0], qsm[1], sb, cb, &qm, BaseState { w0: 0.0, w0_dot: 0.0 });
+            if let Some(c) = c {
+                let v = |ubv: &[f64], usv: [f64; 3]| -> f64 {
+                    (0..5).map(|m| c.wb[0][m] * ubv[m]).sum::<f64>() + (0..3).map(|m| c.ws[0][m] * usv[m]).sum::<f64>()
+                };
+                out.push((v(ub, us), v(ue_b, ue_s)));
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn released_slider_rebounds_with_restitution() {
+        for eps in [0.0, 0.5, 1.0] {
+            let model = Model::new(Params { restitution: eps, ..Params::default() }).unwrap();
+            let exc = Excitation::new(124.0, 0.0);
+            let mut start = model.initial_state(0.3, &exc).unwrap();
+            start.slider_u = [0.0, -0.05, 0.0];
+            let opts = RunOptions {
+                excitation: exc,
+                model: SliderModel::Free,
+                duration_s: 2e-3,
+                record_every: 1,
+                channels: vec![Channel::ModalQ, Channel::ModalU, Channel::XC, Channel::ZC, Channel::Beta, Channel::SliderU, Channel::Percussions],
+                audit_contacts: false,
+            };
+            let mut rec = MemoryRecorder::new();
+            model.run(&start, &opts, &mut rec, &mut ()).unwrap();
+            let w = rec.names.len();
+            let rows: Vec<&[f64]> = rec.data.chunks(w).collect();
+            // First step with a percussion: the impact.
+            let k = rows.iter().position(|r| r[w - 8..].iter().any(|p| *p != 0.0)).expect("no impact");
+            let (b, e) = (rows[k - 1], rows[k]);
+            let gv = normal_gap_velocities(&model, &b[0..5], &b[5..10], [b[10], b[11], b[12]], [b[13], b[14], b[15]], &e[5..10], [e[13], e[14], e[15]]);
+            assert!(!gv.is_empty());
+            for (before, after) in gv {
+                eprintln!("eps {eps}: gap velocity before {before:e}, after {after:e}");
+                assert!(before < -1e-3, "approaching");
+                assert!((after + eps * before).abs() < 1e-10 * before.abs(), "eps {eps}: {after} vs {}", -eps * before);
+            }
+        }
+    }
 }

@@ -27,6 +27,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
 use crate::simulation::{Model, Monitor, POLL_EVERY};
+use crate::stepper::beam_integrator;
 
 /// Number of response points x = L/6 … 5L/6 (the paper's multi-point vibrometer).
 pub const N_POINTS: usize = 5;
@@ -186,72 +187,6 @@ pub struct EnmaResult {
     pub steps: u64,
 }
 
-/// Beam-only integrator with a phase-driven excitation (same midpoint scheme as the stepper).
-struct BeamOnly<'a> {
-    model: &'a Model,
-    q: Vec<f64>,
-    u: Vec<f64>,
-    qm: Vec<f64>,
-    kq: Vec<f64>,
-    omega2: Vec<f64>,
-    damp: Vec<f64>,
-    damp2: Vec<f64>,
-    phi_mid: Vec<f64>,
-    dt: f64,
-}
-
-impl<'a> BeamOnly<'a> {
-    fn new(model: &'a Model) -> Self {
-        let b = &model.beam;
-        let p = &model.params;
-        let n = b.n;
-        let h2 = p.thickness_m * p.thickness_m;
-        BeamOnly {
-            model,
-            q: vec![0.0; n],
-            u: vec![0.0; n],
-            qm: vec![0.0; n],
-            kq: vec![0.0; n],
-            omega2: b.omega.iter().map(|w| w * w).collect(),
-            damp: b.omega.iter().map(|w| 2.0 * p.damping_ratio * w).collect(),
-            damp2: b.omega.iter().map(|w| 8.0 * p.damping_ratio_quadratic * w / h2).collect(),
-            phi_mid: (0..n).map(|m| b.phi_exact(m, 0.5 * p.length_m)).collect(),
-            dt: p.dt_s,
-        }
-    }
-
-    /// One step with base acceleration ẅ₀ = w0_ddot at the midpoint (docs/model.md §2, §5 without
-    /// contacts): q_M = q_B + Δt/2 u_B; u_E = u_B + Δt h(q_M, u_B); q_E = q_M + Δt/2 u_E.
-    #[inline]
-    fn step(&mut self, w0_ddot: f64) {
-        let b = &self.model.beam;
-        let n = b.n;
-        let half = 0.5 * self.dt;
-        for i in 0..n {
-            self.qm[i] = self.q[i] + half * self.u[i];
-        }
-        let mut qkq = 0.0;
-        let mut w_mid = 0.0;
-        for i in 0..n {
-            let row = &b.k[i * n..(i + 1) * n];
-            let acc: f64 = row.iter().zip(&self.qm).map(|(k, q)| k * q).sum();
-            self.kq[i] = acc;
-            qkq += self.qm[i] * acc;
-            w_mid += self.phi_mid[i] * self.qm[i];
-        }
-        let fnl = 0.5 * b.k_ax * qkq + b.preload_n;
-        let w2 = w_mid * w_mid;
-        for i in 0..n {
-            let h = -(self.damp[i] + self.damp2[i] * w2) * self.u[i]
-                - self.omega2[i] * self.qm[i]
-                - fnl * self.kq[i]
-                - b.gamma[i] * w0_ddot;
-            self.u[i] += self.dt * h;
-            self.q[i] = self.qm[i] + half * self.u[i];
-        }
-    }
-}
-
 /// Accumulated normal equations of the fit w(xⱼ) ≈ Σ cₖ bₖ(θ) over a window.
 #[derive(Clone, Copy)]
 struct Fit {
@@ -317,8 +252,8 @@ pub fn virtual_enma(model: &Model, opts: &EnmaOptions, monitor: &mut dyn Monitor
         return Err(Error::invalid("sensor_x_m", sensor_x, "sensor sits at a node of mode 1"));
     }
     let two_pi = 2.0 * std::f64::consts::PI;
-    // Linear frequency of mode 1 including the preload (Rayleigh quotient of diag(ω²) + H₀K).
-    let omega_lin = (beam.omega[0].powi(2) + beam.preload_n * beam.k[0]).max(0.0).sqrt();
+    // Linear frequency of mode 1 including the preload (lowest eigenvalue of diag(ω²) + H₀K).
+    let omega_lin = beam.first_mode(p.thickness_m).omega_rad_s;
     let mut omega = opts.start_frequency_hz.map(|f| two_pi * f).unwrap_or(omega_lin);
 
     let mut levels: Vec<(Run, f64)> = opts.levels_m_s2.iter().map(|&a| (Run::Up, a)).collect();
@@ -327,7 +262,9 @@ pub fn virtual_enma(model: &Model, opts: &EnmaOptions, monitor: &mut dyn Monitor
     }
 
     let dt = p.dt_s;
-    let mut beam_int = BeamOnly::new(model);
+    // The stepper's beam-only path (one integrator and one set of beam forces in the crate).
+    let mut beam_int = beam_integrator(beam, p)
+        .ok_or_else(|| Error::invalid("n_modes", beam.n, "must lie in 1..=20"))?;
     let mut theta = 0.0_f64;
     let mut t = 0.0_f64;
     let mut steps: u64 = 0;
@@ -359,20 +296,20 @@ pub fn virtual_enma(model: &Model, opts: &EnmaOptions, monitor: &mut dyn Monitor
         loop {
             // Excitation at the midpoint: ẅ₀ = −a cos θ_M.
             let theta_m = theta + 0.5 * omega * dt;
-            beam_int.step(-a * theta_m.cos());
+            let stepped = beam_int.step(-a * theta_m.cos());
             theta += omega * dt;
             t += dt;
             steps += 1;
             if steps.is_multiple_of(POLL_EVERY) && !monitor.poll(li as f64, n_levels) {
                 return Err(Error::Interrupted { t_s: t });
             }
-            if !beam_int.u.iter().all(|v| v.is_finite()) {
+            if stepped.is_err() {
                 return Err(Error::Numerical(format!(
                     "virtual ENMA blew up at t = {t:.6} s (level {a} m/s²); try a smaller dt_s"
                 )));
             }
-            let w_s = sensor_w(&beam_int.q);
-            let w_pts = points_w(&beam_int.q);
+            let w_s = sensor_w(beam_int.q());
+            let w_pts = points_w(beam_int.q());
             let mut w_period = w_pts;
             w_period[0] = w_s; // column 0 of the per-period fit is the phase sensor
             period.add(theta, &w_period, omega);
@@ -516,12 +453,12 @@ mod tests {
         let model = Model::new(p).unwrap();
         let (f, a) = (262.0, 3.0);
         let omega = 2.0 * std::f64::consts::PI * f;
-        let mut b = BeamOnly::new(&model);
+        let mut b = beam_integrator(&model.beam, &model.params).unwrap();
         let steps = 5000;
         let dt = model.params.dt_s;
         for k in 0..steps {
             let t_m = (k as f64 + 0.5) * dt;
-            b.step(-a * (omega * t_m).cos());
+            b.step(-a * (omega * t_m).cos()).unwrap();
         }
         let n = model.beam.n;
         let start = State { t_s: 0.0, q: vec![0.0; n], u: vec![0.0; n], slider_q: [0.0; 3], slider_u: [0.0; 3] };
@@ -531,10 +468,10 @@ mod tests {
             ..RunOptions::free(Excitation::new(f, a), 0.0)
         };
         let r = model.run(&start, &opts, &mut NullRecorder, &mut ()).unwrap();
-        let scale = b.q.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+        let scale = b.q().iter().fold(0.0_f64, |m, v| m.max(v.abs()));
         assert!(scale > 1e-6);
         for i in 0..n {
-            assert!((r.state.q[i] - b.q[i]).abs() < 1e-9 * scale, "mode {i}: {} vs {}", r.state.q[i], b.q[i]);
+            assert!((r.state.q[i] - b.q()[i]).abs() < 1e-9 * scale, "mode {i}: {} vs {}", r.state.q[i], b.q()[i]);
         }
     }
 }

@@ -3,7 +3,7 @@
 //! (modal reduction) carrying a rigid slider in frictional, unilateral contact, integrated with
 //! Moreau's midpoint time-stepping scheme.
 //!
-//! Modules follow the physics: [`params`] (§1), [`beam`] (§2), [`slider`] (§3), [`contact`]
+//! Modules follow the physics: [`params`] (§1), [`beam`] and [`excitation`] (§2), [`slider`] (§3), [`contact`]
 //! (§4), [`solver`] and [`stepper`] (§5), [`simulation`] and [`manifold`] (§6), [`record`] and
 //! [`signal`] (§7), [`classify`] and [`map`] (§8), [`enma`] (§9); [`superslow`]: the super-slow
 //! manifold by harmonic balance (issue 17, layer (a)).
@@ -11,10 +11,13 @@
 
 mod arith;
 pub mod beam;
+pub mod classify;
 pub mod contact;
 pub mod enma;
 pub mod error;
+pub mod excitation;
 pub mod manifold;
+pub mod map;
 pub mod params;
 pub mod record;
 pub mod signal;
@@ -36,7 +39,5 @@ pub use simulation::{
 };
 pub use stepper::Counters;
 pub use superslow::{ClosedFormN1, Fold, HbBranch, HbManifold, HbOptions, HbSystem, closed_form_n1, hb_manifold};
-pub mod classify;
-pub mod map;
 pub use classify::{Behaviour, Classification, Criteria, SuperSlow, classify};
 pub use map::{Axis, Grid, MapConfig, MapOutcome, MapPoint, MapRow, MapRunOptions, run_map};

@@ -8,47 +8,8 @@ use crate::error::{Error, Result};
 use crate::params::Params;
 use crate::record::{Channel, Recorder};
 use crate::slider::Slider;
-use crate::stepper::{BaseMotion, Counters, Kinematics, StateN, StepFault, Stepper};
-
-/// Harmonic base excitation: ẅ₀ = −a_ex cos(2π f_ex t).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Excitation {
-    /// Excitation frequency f_ex [Hz].
-    pub f_ex_hz: f64,
-    /// Base-acceleration amplitude a_ex [m/s²].
-    pub a_ex_m_s2: f64,
-}
-
-impl Excitation {
-    /// Excitation at f_ex [Hz] and a_ex [m/s²].
-    pub fn new(f_ex_hz: f64, a_ex_m_s2: f64) -> Self {
-        Excitation { f_ex_hz, a_ex_m_s2 }
-    }
-
-    /// f_ex must be finite and > 0, a_ex finite and ≥ 0.
-    pub fn validate(&self) -> Result<()> {
-        if !(self.f_ex_hz.is_finite() && self.f_ex_hz > 0.0) {
-            return Err(Error::invalid("f_ex_hz", self.f_ex_hz, "must be finite and > 0"));
-        }
-        if !(self.a_ex_m_s2.is_finite() && self.a_ex_m_s2 >= 0.0) {
-            return Err(Error::invalid("a_ex_m_s2", self.a_ex_m_s2, "must be finite and >= 0"));
-        }
-        Ok(())
-    }
-
-    /// The base motion w₀(t) = (a_ex/Ω²) cos Ωt.
-    pub fn base(&self) -> BaseMotion {
-        BaseMotion {
-            omega: 2.0 * std::f64::consts::PI * self.f_ex_hz,
-            accel: self.a_ex_m_s2,
-        }
-    }
-
-    /// Excitation period 1/f_ex [s].
-    pub fn period_s(&self) -> f64 {
-        1.0 / self.f_ex_hz
-    }
-}
+pub use crate::excitation::Excitation;
+use crate::stepper::{Counters, Kinematics, StateN, StepFault, Stepper};
 
 /// Which model to integrate (docs/model.md §6).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -241,7 +202,7 @@ impl Model {
                 ),
             ));
         }
-        let (w0, _, _) = excitation.base().at(0.0);
+        let (w0, _, _) = excitation.at(0.0);
         let n = self.beam.n;
         Ok(State {
             t_s: 0.0,
@@ -255,7 +216,7 @@ impl Model {
     /// PCS / manifold initial state: all zero except z_C = −d + w₀(0).
     pub fn initial_state_pcs(&self, excitation: &Excitation) -> Result<State> {
         excitation.validate()?;
-        let (w0, _, _) = excitation.base().at(0.0);
+        let (w0, _, _) = excitation.at(0.0);
         let n = self.beam.n;
         Ok(State {
             t_s: 0.0,
@@ -264,6 +225,16 @@ impl Model {
             slider_q: [0.0, -self.params.com_offset_m + w0, 0.0],
             slider_u: [0.0; 3],
         })
+    }
+
+    /// The initial state of a run of `model` (docs/model.md §5–6): [`Self::initial_state`] at s₀ for
+    /// the free slider, [`Self::initial_state_pcs`] for the pseudo-constrained slider and the beam
+    /// alone. Every front end starts its runs here.
+    pub fn start(&self, model: SliderModel, s0: f64, excitation: &Excitation) -> Result<State> {
+        match model {
+            SliderModel::Free => self.initial_state(s0, excitation),
+            SliderModel::PseudoConstrained { .. } | SliderModel::BeamOnly => self.initial_state_pcs(excitation),
+        }
     }
 
     /// Check a run's inputs without running it (what [`Model::run`] checks first): front ends call
@@ -461,7 +432,7 @@ fn run_n_generic<const N: usize>(
     let p = &model.params;
     let dt = p.dt_s;
     let l = p.length_m;
-    let base = opts.excitation.base();
+    let base = opts.excitation;
     let kin = match opts.model {
         SliderModel::Free => Kinematics::Free,
         SliderModel::PseudoConstrained { s } => Kinematics::Fixed(s * l),

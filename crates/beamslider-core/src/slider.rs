@@ -5,6 +5,10 @@ use crate::params::Params;
 
 /// Number of potential contact points.
 pub const N_CONTACTS: usize = 4;
+/// Largest number of simultaneously closed contacts: all four points of the slider.
+pub const MAX_CLOSED: usize = N_CONTACTS;
+/// Size of the local contact problem's arrays: a normal and a tangential direction per contact.
+pub const DIM: usize = 2 * MAX_CLOSED;
 
 /// Top (+1) / bottom (−1) side of each contact point, counted counter-clockwise from top-left.
 pub const ZETA_Z: [f64; N_CONTACTS] = [1.0, -1.0, -1.0, 1.0];

@@ -11,10 +11,8 @@
 //!   pattern is tried first, then a few active-set corrections, then all 4^k patterns, and the
 //!   tightly converged Gauss–Seidel as a last resort.
 
-/// Largest number of simultaneously closed contacts.
-pub const MAX_CLOSED: usize = 4;
-/// Size of the local problem's arrays (2 per contact).
-pub const DIM: usize = 2 * MAX_CLOSED;
+/// The problem's sizes come from the slider's geometry (four contact points, two directions each).
+pub use crate::slider::{DIM, MAX_CLOSED};
 
 /// A local contact problem with k closed contacts (only the leading 2k entries are used).
 #[derive(Debug, Clone)]

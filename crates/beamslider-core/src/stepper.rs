@@ -3,10 +3,11 @@
 
 use crate::arith::{dot, fma};
 use crate::beam::Beam;
-use crate::contact::{Base, Jacobians, finish, may_close, probe_checked};
+use crate::contact::{Jacobians, finish, may_close, probe_checked};
+use crate::excitation::{BaseState, Excitation};
 use crate::params::{ContactSolver, Params};
-use crate::slider::{N_CONTACTS, Slider, ZETA_Z};
-use crate::solver::{self, ContactMode, DIM, LocalProblem, MAX_CLOSED};
+use crate::slider::{DIM, MAX_CLOSED, N_CONTACTS, Slider, ZETA_Z};
+use crate::solver::{self, ContactMode, LocalProblem};
 
 /// Counters of a run, reported with every result.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
@@ -88,31 +89,6 @@ pub enum StepFault {
     NonFinite,
 }
 
-/// Harmonic base excitation w₀(t) = (a/Ω²) cos Ωt.
-#[derive(Debug, Clone, Copy)]
-pub struct BaseMotion {
-    /// Ω = 2π f_ex [rad/s].
-    pub omega: f64,
-    /// Base acceleration amplitude a_ex [m/s²].
-    pub accel: f64,
-}
-
-impl BaseMotion {
-    /// w₀, ẇ₀ and ẅ₀ at t.
-    #[inline(always)]
-    pub fn at(&self, t: f64) -> (f64, f64, f64) {
-        if self.omega == 0.0 {
-            return (0.0, 0.0, -self.accel);
-        }
-        let (s, c) = (self.omega * t).sin_cos();
-        (
-            self.accel / (self.omega * self.omega) * c,
-            -self.accel / self.omega * s,
-            -self.accel * c,
-        )
-    }
-}
-
 /// The time stepper for N modes.
 pub struct Stepper<'a, const N: usize> {
     beam: &'a Beam,
@@ -135,7 +111,9 @@ pub struct Stepper<'a, const N: usize> {
     tol_rel: f64,
     tol_abs: f64,
     max_iter: u32,
-    base: BaseMotion,
+    base: Excitation,
+    /// Ω = 2π f_ex [rad/s].
+    omega: f64,
     /// a/Ω², −a/Ω, −a: amplitudes of w₀, ẇ₀, ẅ₀.
     base_amp: [f64; 3],
     kin: Kinematics,
@@ -237,7 +215,8 @@ fn left_beam(xp: &[f64; N_CONTACTS], length: f64) -> StepFault {
 
 impl<'a, const N: usize> Stepper<'a, N> {
     /// Stepper for the given beam (with N modes), parameters, excitation and kinematics.
-    pub fn new(beam: &'a Beam, p: &Params, base: BaseMotion, kin: Kinematics) -> Self {
+    pub fn new(beam: &'a Beam, p: &Params, base: Excitation, kin: Kinematics) -> Self {
+        let omega = base.omega_rad_s();
         assert_eq!(beam.n, N, "stepper specialised for the wrong number of modes");
         let mut omega2 = [0.0; N];
         let mut damp = [0.0; N];
@@ -277,11 +256,8 @@ impl<'a, const N: usize> Stepper<'a, N> {
             tol_abs: p.solver_tol_abs,
             max_iter: p.solver_max_iter.min(u32::MAX as usize) as u32,
             base,
-            base_amp: [
-                base.accel / (base.omega * base.omega),
-                -base.accel / base.omega,
-                -base.accel,
-            ],
+            omega,
+            base_amp: [base.a_ex_m_s2 / (omega * omega), -base.a_ex_m_s2 / omega, -base.a_ex_m_s2],
             kin,
             warm: [[0.0; 2]; N_CONTACTS],
             modes: [ContactMode::Stick; N_CONTACTS],
@@ -291,8 +267,61 @@ impl<'a, const N: usize> Stepper<'a, N> {
             jac: Jacobians::EMPTY,
             slope_bound: std::array::from_fn(|m| beam.slope_bound[m]),
             prob: LocalProblem::new(0, p.friction_coefficient),
-            clock: Clock::new(base.omega, p.dt_s),
+            clock: Clock::new(omega, p.dt_s),
         }
+    }
+
+    /// Beam part of docs/model.md §5 step 3 (the beam has no mass matrix to invert): the velocity
+    /// u_B + Δt h(t_M, q_M, u_B) with −h = 2Dω u_B + ω² q_M + ((k_ax/2) q_MᵀKq_M + H₀) K q_M + γ ẅ₀
+    /// (docs/model.md §2 and the preload), plus the amplitude-dependent damping 8 D₂ ωₙ (w(L/2)/h)² uₙ.
+    /// The one place where the beam's forces are written: every stepping path goes through it.
+    #[inline(always)]
+    fn beam_free_velocity(&self, qm: &[f64; N], ub: &[f64; N], w0_ddot: f64) -> [f64; N] {
+        let dt = self.dt;
+        // K q_M, accumulated column by column (K is symmetric: row j = column j), in the same
+        // order j = 0..N for every entry.
+        let mut kq: [f64; N] = std::array::from_fn(|i| self.kmat[0][i] * qm[0]);
+        for j in 1..N {
+            for i in 0..N {
+                kq[i] = fma(self.kmat[j][i], qm[j], kq[i]);
+            }
+        }
+        let fnl = fma(self.half_kax, dot(qm, &kq), self.preload);
+        // u_free = u_B + M⁻¹ h_M Δt with −h = D u_B + Ω² q_M + F_nl K q_M + γ ẅ₀.
+        let mut vb = [0.0; N];
+        for i in 0..N {
+            let minus_h = fma(
+                self.gamma[i],
+                w0_ddot,
+                fma(fnl, kq[i], fma(self.omega2[i], qm[i], self.damp[i] * ub[i])),
+            );
+            vb[i] = fma(-dt, minus_h, ub[i]);
+        }
+        if let Some((d2, phi_mid)) = &self.damp2 {
+            // Damping ratio D + 4 D₂ (w(L/2)/h)²: extra force 8 D₂ ωₙ (w/h)² uₙ.
+            let w_mid = dot(phi_mid, qm);
+            let w2 = w_mid * w_mid;
+            for i in 0..N {
+                vb[i] = fma(-dt * d2[i] * w2, ub[i], vb[i]);
+            }
+        }
+        vb
+    }
+
+    /// One beam-only step (no slider) from (q_B, u_B) with the base acceleration ẅ₀ at the
+    /// midpoint given by the caller: q_M = q_B + Δt/2 u_B, u_E = [`Self::beam_free_velocity`],
+    /// q_E = q_M + Δt/2 u_E. The virtual ENMA drives the beam this way with its phase-locked
+    /// excitation; [`Self::step`] takes the same path for [`Kinematics::BeamOnly`].
+    #[inline]
+    pub fn step_beam(&mut self, s: &mut StateN<N>, w0_ddot: f64) -> Result<(), StepFault> {
+        let half = 0.5 * self.dt;
+        let qm: [f64; N] = std::array::from_fn(|i| fma(half, s.ub[i], s.qb[i]));
+        s.ub = self.beam_free_velocity(&qm, &s.ub, w0_ddot);
+        for i in 0..N {
+            s.qb[i] = fma(half, s.ub[i], qm[i]);
+        }
+        self.counters.steps += 1;
+        if s.ub.iter().all(|v| v.is_finite()) { Ok(()) } else { Err(StepFault::NonFinite) }
     }
 
     /// One step from t_B to t_B + Δt (docs/model.md §5, steps 1–4).
@@ -304,7 +333,7 @@ impl<'a, const N: usize> Stepper<'a, N> {
         let t_m = t_b + half;
         let qm: [f64; N] = std::array::from_fn(|i| fma(half, s.ub[i], s.qb[i]));
         let qsm: [f64; 3] = std::array::from_fn(|i| fma(half, s.us[i], s.qs[i]));
-        let (w0, w0_dot, w0_ddot) = if self.base.omega == 0.0 {
+        let (w0, w0_dot, w0_ddot) = if self.omega == 0.0 {
             self.base.at(t_m)
         } else {
             // w₀ = (a/Ω²) cos Ωt, ẇ₀ = −(a/Ω) sin Ωt, ẅ₀ = −a cos Ωt.
@@ -313,33 +342,7 @@ impl<'a, const N: usize> Stepper<'a, N> {
             (a0 * c, a1 * sn, a2 * c)
         };
         // h_M: beam forces (damping with u_B) and slider gravity.
-        // K q_M, accumulated column by column (K is symmetric: row j = column j), in the same
-        // order j = 0..N for every entry.
-        let mut kq: [f64; N] = std::array::from_fn(|i| self.kmat[0][i] * qm[0]);
-        for j in 1..N {
-            for i in 0..N {
-                kq[i] = fma(self.kmat[j][i], qm[j], kq[i]);
-            }
-        }
-        let fnl = fma(self.half_kax, dot(&qm, &kq), self.preload);
-        // u_free = u_B + M⁻¹ h_M Δt with −h = D u_B + Ω² q_M + F_nl K q_M + γ ẅ₀.
-        let mut vb = [0.0; N];
-        for i in 0..N {
-            let minus_h = fma(
-                self.gamma[i],
-                w0_ddot,
-                fma(fnl, kq[i], fma(self.omega2[i], qm[i], self.damp[i] * s.ub[i])),
-            );
-            vb[i] = fma(-dt, minus_h, s.ub[i]);
-        }
-        if let Some((d2, phi_mid)) = &self.damp2 {
-            // Damping ratio D + 4 D₂ (w(L/2)/h)²: extra force 8 D₂ ωₙ (w/h)² uₙ.
-            let w_mid = dot(phi_mid, &qm);
-            let w2 = w_mid * w_mid;
-            for i in 0..N {
-                vb[i] = fma(-dt * d2[i] * w2, s.ub[i], vb[i]);
-            }
-        }
+        let mut vb = self.beam_free_velocity(&qm, &s.ub, w0_ddot);
         self.counters.steps += 1;
         self.last_p = [[0.0; 2]; N_CONTACTS];
         if matches!(self.kin, Kinematics::BeamOnly) {
@@ -361,7 +364,7 @@ impl<'a, const N: usize> Stepper<'a, N> {
             _ => qsm[0],
         };
         let (sin_b, cos_b) = sin_cos_small(qsm[2]);
-        let base = Base { w0, w0_dot };
+        let base = BaseState { w0, w0_dot };
         let (xp, zp) = self.slider.points(x_kin, qsm[1], sin_b, cos_b);
         // Are all four points on the beam, 0 ≤ x ≤ L? (Evaluated without short-circuit, so that
         // it vectorises.) The free slider must stay on it; then the mode table needs no range
@@ -587,6 +590,53 @@ impl<'a, const N: usize> Stepper<'a, N> {
             }
         }
     }
+}
+
+/// A beam-only integrator whose number of modes is known at run time (the virtual ENMA): the
+/// stepper's [`Stepper::step_beam`] behind a trait object.
+pub trait BeamIntegrator {
+    /// One step with base acceleration ẅ₀ [m/s²] at the midpoint.
+    fn step(&mut self, w0_ddot: f64) -> Result<(), StepFault>;
+    /// Modal coordinates q.
+    fn q(&self) -> &[f64];
+    /// Modal velocities q̇.
+    fn u(&self) -> &[f64];
+}
+
+struct BeamOnlyN<'a, const N: usize> {
+    stepper: Stepper<'a, N>,
+    state: StateN<N>,
+}
+
+impl<const N: usize> BeamIntegrator for BeamOnlyN<'_, N> {
+    #[inline]
+    fn step(&mut self, w0_ddot: f64) -> Result<(), StepFault> {
+        self.stepper.step_beam(&mut self.state, w0_ddot)
+    }
+    fn q(&self) -> &[f64] {
+        &self.state.qb
+    }
+    fn u(&self) -> &[f64] {
+        &self.state.ub
+    }
+}
+
+/// The beam of `beam` at rest (q = q̇ = 0) as a [`BeamIntegrator`] with `beam.n` modes (1..=20).
+pub fn beam_integrator<'a>(beam: &'a Beam, p: &Params) -> Option<Box<dyn BeamIntegrator + 'a>> {
+    fn make<'a, const N: usize>(beam: &'a Beam, p: &Params) -> Box<dyn BeamIntegrator + 'a> {
+        let base = Excitation::new(0.0, 0.0);
+        let state = StateN { qb: [0.0; N], ub: [0.0; N], qs: [0.0; 3], us: [0.0; 3] };
+        Box::new(BeamOnlyN { stepper: Stepper::<N>::new(beam, p, base, Kinematics::BeamOnly), state })
+    }
+    macro_rules! go {
+        ($($n:literal)*) => {
+            match beam.n {
+                $($n => Some(make::<$n>(beam, p)),)*
+                _ => None,
+            }
+        };
+    }
+    go!(1 2 3 4 5 6 7 8 9 10 11 12 13 14 15 16 17 18 19 20)
 }
 
 #[cfg(test)]

@@ -31,7 +31,9 @@ pub fn virtual_enma(py: Python<'_>, params_toml: &str, options_json: &str, progr
 }
 
 /// Modal data of the linear beam: `omega_rad_s`, `gamma`, `k11_per_m`, `k_ax_n_per_m`,
-/// `phi_mid` (φ₁(L/2)), `b_star_per_s2` (docs/model.md §9), `omega1_preload_rad_s` (√(ω₁² + H₀K₁₁)),
+/// `phi_mid` (φ₁(L/2)), `b_star_per_s2` (docs/model.md §9), the first mode with the axial preload
+/// (`Beam::first_mode`: `omega1_preload_rad_s` from the eigenvalue problem, its Rayleigh estimate
+/// `omega1_rayleigh_rad_s`, `b_star_preload_per_s2`, `mode1_vector`), `ei_n_m2` (EI), `ea_n` (EA),
 /// the mode shape φ₁/φ₁(L/2) at 101 points x/L = 0 … 1 (`shape_x_over_l`, `shape_phi1`), the
 /// matrix K (`k_matrix`, N×N rows) and φₘ at the requested `x_over_l` (`phi`, N rows).
 #[pyfunction]
@@ -49,7 +51,13 @@ pub fn beam_properties<'py>(py: Python<'py>, params_toml: &str, x_over_l: Vec<f6
     d.set_item("k_ax_n_per_m", b.k_ax)?;
     d.set_item("phi_mid", b.phi_exact(0, half))?;
     d.set_item("b_star_per_s2", b.b_star(thickness))?;
-    d.set_item("omega1_preload_rad_s", (b.omega[0].powi(2) + b.preload_n * b.k[0]).max(0.0).sqrt())?;
+    let first = b.first_mode(thickness);
+    d.set_item("omega1_preload_rad_s", first.omega_rad_s)?;
+    d.set_item("omega1_rayleigh_rad_s", first.omega_rayleigh_rad_s)?;
+    d.set_item("b_star_preload_per_s2", first.b_star_per_s2)?;
+    d.set_item("mode1_vector", first.vector)?;
+    d.set_item("ei_n_m2", model.params.bending_stiffness())?;
+    d.set_item("ea_n", model.params.youngs_modulus_pa * model.params.area_m2())?;
     let xi: Vec<f64> = (0..=100).map(|i| i as f64 / 100.0).collect();
     let mid = b.phi_exact(0, half);
     let shape: Vec<f64> = xi.iter().map(|&x| b.phi_exact(0, x * 2.0 * half) / mid).collect();

@@ -188,10 +188,7 @@ fn simulate<'py>(
     let outcome = py.detach(|| {
         guarded(|| {
             let m = Model::new(params)?;
-            let start = match slider_model {
-                SliderModel::Free => m.initial_state(s0, &excitation)?,
-                _ => m.initial_state_pcs(&excitation)?,
-            };
+            let start = m.start(slider_model, s0, &excitation)?;
             let opts = RunOptions {
                 excitation,
                 model: slider_model,

@@ -1,0 +1,137 @@
+"""Running a study: all points through the Rust core locally, or chunks of points on a Dask cluster."""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import time
+from pathlib import Path
+from typing import Any, Callable, List, Optional, Tuple, Union
+
+import numpy as np
+
+from .. import _core
+from .config import RESULTS_FILE, StudyConfig, read_config
+from .results import _Memory, _Writer
+from .sampling import StudyPoint, study_points
+from .statistics import StudyResult, aggregate
+
+
+def _run_chunk(map_toml: str, chunk: List[Tuple[int, str, float, float, float, float]],
+               threads: Optional[int]) -> List[str]:
+    """A Dask task: one chunk of points through the Rust core (rayon, interpreter released)."""
+    from beamslider import _core as core
+
+    return core.run_study_chunk(map_toml, chunk, threads=threads)
+
+
+def _chunks(todo: List[StudyPoint], size: int) -> List[List[StudyPoint]]:
+    return [todo[i:i + size] for i in range(0, len(todo), size)]
+
+
+def _run_dask(scheduler: Any, map_toml: str, todo: List[StudyPoint], writer: _Writer, *, chunk_size: int,
+              task_threads: Optional[int], max_retries: int, on_chunk: Optional[Callable[[int, int], None]],
+              tick: Callable[[], None]) -> None:
+    try:
+        from distributed import Client, as_completed
+    except ImportError:  # pragma: no cover
+        raise ImportError("running a study on a cluster needs dask.distributed: pip install 'beamslider[study]'") from None
+    own = not isinstance(scheduler, Client)
+    client = Client(scheduler) if own else scheduler
+    tag = hashlib.sha1(map_toml.encode()).hexdigest()[:10]
+    chunks = _chunks(todo, chunk_size)
+    try:
+        futures = {}
+        for k, ch in enumerate(chunks):
+            fut = client.submit(_run_chunk, map_toml, [p.chunk_tuple() for p in ch], task_threads,
+                                key=f"beamslider-study-{tag}-{ch[0].index}-{ch[-1].index}-{time.time_ns()}", pure=False)
+            futures[fut] = (k, 0)
+        ac = as_completed(list(futures))
+        done = 0
+        for fut in ac:
+            k, tries = futures.pop(fut)
+            try:
+                rows = fut.result()
+            except Exception as e:  # a lost worker (KilledWorker, CommClosedError, ...) or a bad point
+                if isinstance(e, (ValueError, KeyboardInterrupt)) or tries >= max_retries:
+                    raise
+                ch = chunks[k]
+                new = client.submit(_run_chunk, map_toml, [p.chunk_tuple() for p in ch], task_threads,
+                                    key=f"beamslider-study-{tag}-{ch[0].index}-{ch[-1].index}-r{tries + 1}-{time.time_ns()}",
+                                    pure=False)
+                futures[new] = (k, tries + 1)
+                ac.add(new)
+                continue
+            writer.add(rows)
+            done += 1
+            tick()
+            if on_chunk is not None:
+                on_chunk(done, len(chunks))
+    finally:
+        for fut in list(futures):
+            fut.cancel()
+        if own:
+            client.close()
+
+
+def run_study(config: Union[StudyConfig, str, "os.PathLike[str]"], *, out: Optional[Union[str, Path]] = None,
+              resume: bool = False, scheduler: Any = None, threads: Optional[int] = None,
+              chunk_size: Optional[int] = None, task_threads: Optional[int] = 1, max_retries: int = 3,
+              progress: bool = False, on_chunk: Optional[Callable[[int, int], None]] = None) -> "StudyResult":
+    """Run a study and aggregate it.
+
+    ``config``: a :class:`StudyConfig` or the path of its TOML file. ``out``: output folder; every
+    finished point is appended to ``out/study.jsonl`` at once (and the configuration written to
+    ``out/study.toml``); ``resume=True`` keeps the points already there and runs the rest.
+
+    Local (``scheduler=None``): all points in one call of the Rust core on ``threads`` threads
+    (default one per core). Dask (``scheduler`` = a scheduler address such as
+    ``"tcp://10.0.0.5:8786"`` or a ``distributed.Client``): chunks of ``chunk_size`` points (default
+    the configuration's) as tasks, each on ``task_threads`` rayon threads (default 1: Dask already
+    runs one task per worker thread); a chunk whose worker died is re-run (up to ``max_retries``
+    times on top of Dask's own retries). ``on_chunk(done, total)`` is called after each finished
+    chunk (Dask). Ctrl-C stops the study keeping the finished points (``KeyboardInterrupt``).
+    """
+    from ..simulate import _progress_bar
+
+    if not isinstance(config, StudyConfig):
+        config = read_config(config)
+    if threads is not None and (isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) or threads < 1):
+        raise ValueError(f"invalid parameter `threads` = {threads!r}: must be an integer >= 1")
+    size = config.chunk_size if chunk_size is None else chunk_size
+    if isinstance(size, bool) or not isinstance(size, (int, np.integer)) or size < 1:
+        raise ValueError(f"invalid parameter `chunk_size` = {size!r}: must be an integer >= 1")
+    map_toml = config.map_toml()
+    points = study_points(config)
+    by_index = {p.index: p for p in points}
+    if out is not None:
+        folder = Path(out)
+        folder.mkdir(parents=True, exist_ok=True)
+        writer: _Writer = _Writer(folder / RESULTS_FILE, config, by_index, resume)
+        (folder / "study.toml").write_text(config.to_toml_text(), encoding="utf-8")
+    else:
+        writer = _Memory(by_index)
+    todo = [p for p in points if p.index not in writer.rows]
+    try:
+        with _progress_bar(progress, len(points), "study", "pts") as cb:
+            def tick() -> None:
+                if cb is not None:
+                    cb(len(writer.rows), len(points))
+
+            tick()
+            if todo and scheduler is None:
+                def on_rows(batch: List[str]) -> None:
+                    writer.add(batch)
+                    tick()
+
+                writer.add(_core.run_study_chunk(map_toml, [p.chunk_tuple() for p in todo], threads=threads,
+                                                 on_rows=on_rows))
+            elif todo:
+                _run_dask(scheduler, map_toml, todo, writer, chunk_size=int(size), task_threads=task_threads,
+                          max_retries=max_retries, on_chunk=on_chunk, tick=tick)
+    finally:
+        writer.close()
+    missing = [i for i in by_index if i not in writer.rows]
+    if missing:  # pragma: no cover - every path above either completes or raises
+        raise RuntimeError(f"{len(missing)} points of the study are missing")
+    return aggregate(config, [writer.rows[i] for i in sorted(writer.rows)])
