@@ -5,7 +5,7 @@
 //!
 //! Modules follow the physics: [`params`] (§1), [`beam`] (§2), [`slider`] (§3), [`contact`]
 //! (§4), [`solver`] and [`stepper`] (§5), [`simulation`] and [`manifold`] (§6), [`record`] and
-//! [`signal`] (§7), [`classify`] and [`map`] (§8), [`enma`] (§9).
+//! [`signal`] and [`envelope_stream`] (§7), [`classify`] and [`map`] (§8), [`enma`] (§9).
 #![warn(missing_docs)]
 
 mod arith;
@@ -17,6 +17,7 @@ pub mod manifold;
 pub mod params;
 pub mod record;
 pub mod signal;
+pub mod envelope_stream;
 pub mod simulation;
 pub mod slider;
 pub mod solver;
@@ -29,10 +30,10 @@ pub use error::{Error, Result};
 pub use params::{ContactSolver, Params};
 pub use record::{Channel, CsvRecorder, MemoryRecorder, NullRecorder, Recorder};
 pub use simulation::{
-    CancelFlag, Excitation, Model, Monitor, RunOptions, RunSummary, SliderModel, State, Status,
-    set_simd,
+    CancelFlag, Checkpoint, Excitation, Model, Monitor, RunOptions, RunSummary, SliderModel, State,
+    Status, set_simd,
 };
-pub use stepper::Counters;
+pub use stepper::{Counters, StepperMemory};
 pub mod classify;
 pub mod map;
 pub use classify::{Behaviour, Classification, Criteria, SuperSlow, classify};
