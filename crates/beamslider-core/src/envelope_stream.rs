@@ -10,8 +10,8 @@
 //!   depends only on the samples within ±M of it.
 //! - Both A and s are averaged over fixed bins of [`BIN_S`] (0.2 s) counted from the start;
 //!   a bin is final once M samples past its end are known. [`EnvelopeStream::super_slow`] then
-//!   takes the centred moving average of A over 1 s (5 bins), the paper's super-slow amplitude,
-//!   and hands s and A to the classifier ([`crate::classify`]).
+//!   takes the centred moving average of A over 1 s (5 bins) of the final bins, the paper's
+//!   super-slow amplitude, and hands s and A to the classifier ([`crate::classify`]).
 //!
 //! The stream's state (final bins, the raw samples still needed) is serialisable; the f64
 //! vectors are written as hexadecimal bit patterns so that they read back exactly.
@@ -181,9 +181,11 @@ impl EnvelopeStream {
     }
 
     /// The super-slow signals for the classifier: s per bin and A = centred `window_s` moving
-    /// average (1 s in the paper) of the binned amplitude divided by the thickness `h_m`.
+    /// average (1 s in the paper) of the binned amplitude divided by the thickness `h_m`, over
+    /// the final bins only (the last ≤ 0.25 s of a run, whose Hilbert filter would see past the
+    /// end, are left out: no end effect, and a run continued later sees the same values).
     pub fn super_slow(&self, h_m: f64, window_s: f64) -> SuperSlow {
-        let (a, s) = self.bins();
+        let (a, s) = (&self.bins_a, self.bins_s.clone());
         let dt = self.bin as f64 * self.sample_dt_s;
         let k = ((window_s / dt).round() as usize).max(1);
         let a_h: Vec<f64> = a.iter().map(|v| v / h_m).collect();

@@ -627,8 +627,8 @@ fn finish_point(model: &Model, cfg: &MapConfig, p: &MapPoint, status: Status, co
     }
     let dt = model.params.dt_s * cfg.record_every as f64;
     let t_end = (stream.len().saturating_sub(1)) as f64 * dt;
-    let c = if stream.len() >= 2 {
-        let x = stream.super_slow(model.params.thickness_m, 1.0);
+    let x = stream.super_slow(model.params.thickness_m, 1.0);
+    let c = if x.s.len() >= 2 {
         let mut c = classify(&x, &cfg.criteria)?;
         if status != Status::Completed {
             c.behaviour = Behaviour::Undetermined;
@@ -636,8 +636,10 @@ fn finish_point(model: &Model, cfg: &MapConfig, p: &MapPoint, status: Status, co
             c.phase = "failed".into();
         }
         c
-    } else {
+    } else if status != Status::Completed {
         no_classification(p, status.message())
+    } else {
+        no_classification(p, format!("too short to classify: the super-slow signals need two {} s bins", crate::envelope_stream::BIN_S))
     };
     let end = (status == Status::Completed).then(|| EndState::new(&cp, stream));
     Ok(Some(MapRow::new(p, t_end, &status, &c, counters, t0.elapsed().as_secs_f64(), end)))
