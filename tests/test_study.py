@@ -146,7 +146,7 @@ def test_local_study_rows_are_map_rows_and_resume_after_a_truncated_write(tmp_pa
         run_study(cfg, out=part)
     resumed = run_study(cfg, out=part, resume=True, threads=1)
     assert rows_of(part / RESULTS_FILE) == rows_of(path)
-    assert np.array_equal(resumed.table["s_final"], full.table["s_final"])
+    assert np.array_equal(resumed.table["s_final"], full.table["s_final"], equal_nan=True)  # 0.3 s: too short to classify (NaN)
     with pytest.raises(ValueError, match="another study configuration"):
         run_study(tiny(seed=4), out=part, resume=True)
     again = read_study(part)

@@ -175,12 +175,17 @@ def rows_to_table(rows: Sequence[Dict[str, Any]]) -> Dict[str, np.ndarray]:
 
 def read_map(path: Union[str, Path]) -> Dict[str, np.ndarray]:
     """Read a map's results (``map.jsonl`` or its folder) into the table of :func:`operating_map`.
-    A truncated last line (a map killed while writing) is ignored."""
+    A truncated last line (a map killed while writing) is ignored; of an extended map the latest
+    row of each point is read."""
     path = Path(path)
     if path.is_dir():
         path = path / RESULTS_FILE
     _settings, rows, _truncated = _core.read_map_results(path)
-    return rows_to_table([json.loads(r) for r in rows])
+    latest: Dict[tuple, Dict[str, Any]] = {}
+    for r in map(json.loads, rows):  # a later row of a point (an extended run) replaces the earlier
+        latest.pop((r["f_ex_hz"], r["a_ex_m_s2"], r["s0"]), None)
+        latest[(r["f_ex_hz"], r["a_ex_m_s2"], r["s0"])] = r
+    return rows_to_table(list(latest.values()))
 
 
 def run_map_config(config_toml: str, *, out: Optional[Union[str, Path]] = None, resume: bool = False,

@@ -718,7 +718,8 @@ fn run_point_guarded(model: &Model, cfg: &MapConfig, job: &Job, cancel: &AtomicB
 pub struct ResultsFile {
     /// Settings from the header (None for an empty file).
     pub settings: Option<Settings>,
-    /// Complete rows in file order.
+    /// Complete rows in file order (an extended map has a later row for each continued point:
+    /// see [`latest`]).
     pub rows: Vec<MapRow>,
     /// Byte length of the complete part (a truncated last line starts here).
     pub good_len: u64,
@@ -797,12 +798,16 @@ pub fn read_results(path: &Path) -> Result<ResultsFile> {
         // line that does not parse is damage, and cutting it off would lose data.
         return Err(Error::invalid("results file", format!("{}:{bad}", path.display()), "this line is not a result row (nor the header on line 1)"));
     }
-    // A later row of the same point (an extended run) replaces the earlier one.
-    let mut seen = HashSet::new();
-    let mut rows: Vec<MapRow> = out.rows.into_iter().rev().filter(|r| seen.insert(r.key())).collect();
-    rows.reverse();
-    out.rows = rows;
     Ok(out)
+}
+
+/// The rows of a map's results file as they stand: a later row of the same point (an extended
+/// run) replaces the earlier one.
+pub fn latest(rows: Vec<MapRow>) -> Vec<MapRow> {
+    let mut seen = HashSet::new();
+    let mut rows: Vec<MapRow> = rows.into_iter().rev().filter(|r| seen.insert(r.key())).collect();
+    rows.reverse();
+    rows
 }
 
 /// Progress of a map: called after every finished point with (points done, points total, row).
@@ -942,7 +947,7 @@ pub fn run_map(cfg: &MapConfig, opts: &MapRunOptions, cancel: &AtomicBool, progr
                     let tmp = path.with_extension("jsonl.extend-tmp");
                     let mut text = header_line(&settings);
                     text.push('\n');
-                    for r in &old.rows {
+                    for r in &latest(old.rows.clone()) {
                         text.push_str(&r.to_json());
                         text.push('\n');
                     }
@@ -958,7 +963,7 @@ pub fn run_map(cfg: &MapConfig, opts: &MapRunOptions, cancel: &AtomicBool, progr
                 if old.settings.is_none() {
                     write_line(&mut f, path, &header_line(&settings))?;
                 }
-                existing = old.rows;
+                existing = latest(old.rows);
             } else {
                 f.set_len(0).map_err(|e| io_err(path, e))?;
                 write_line(&mut f, path, &header_line(&settings))?;
