@@ -151,3 +151,100 @@ def test_representative_operating_points():
     for (f, a), want in expected.items():
         t = beamslider.operating_map(f_ex=f, a_ex=a, s0=0.3, t_end=120.0)
         assert t["behaviour"][0] == want, (f, a, t["reason"][0])
+
+
+def _same_rows(a, b, idx):
+    """Rows `idx` of two tables equal in every field but the wall time."""
+    assert set(a) == set(b)
+    for k in a:
+        if k == "wall_time_s":
+            continue
+        if a[k].dtype == object:
+            assert [list(a[k][i]) for i in idx] == [list(b[k][i]) for i in idx], k
+        else:
+            np.testing.assert_array_equal(a[k][idx], b[k][idx], err_msg=k)
+
+
+def test_extend_to_continues_only_not_settled_points_bitwise(tmp_path, capsys):
+    """Issue 15: a 3-s map extended to 6 s re-runs only its not-settled points, from their saved
+    end states, and each re-run row is the row of the 6-s map (but the wall time)."""
+    grid = dict(f_ex=[100.0, 120.0, 124.0], a_ex=[4.0, 14.0], s0=[0.3, 0.7])
+    long = beamslider.operating_map(**grid, t_end=6.0, threads=2)
+    short = beamslider.operating_map(**grid, t_end=3.0, threads=2, out=tmp_path / "m")
+    unsettled = np.flatnonzero(short["behaviour"] == "not_settled")
+    settled = np.flatnonzero(short["behaviour"] != "not_settled")
+    assert len(unsettled) and len(settled), short["behaviour"]
+    assert short["has_end_state"].all()
+    capsys.readouterr()
+    ext = beamslider.operating_map(**grid, t_end=3.0, threads=2, out=tmp_path / "m", extend_to=6.0)
+    printed = capsys.readouterr().out
+    assert f"re-ran {len(unsettled)} not-settled of 12 points" in printed, printed
+    _same_rows(ext, long, unsettled)
+    _same_rows(ext, short, settled)
+    assert (ext["t_end_s"][unsettled] == 6.0).all() and (ext["t_end_s"][settled] == 3.0).all()
+    # The results file reads back to the same table; the text table says how long the runs were.
+    _same(read_map(tmp_path / "m"), ext)
+    assert "t_end = 6 s (settled points kept from 3 s)" in text_table(ext)
+    # Repeating the call (e.g. after a Ctrl-C) re-runs nothing more.
+    again = beamslider.operating_map(**grid, t_end=3.0, threads=2, out=tmp_path / "m", extend_to=6.0)
+    assert "re-ran 0 not-settled" in capsys.readouterr().out
+    _same(again, ext)
+
+
+def test_extend_to_bad_input_is_a_value_error(tmp_path):
+    grid = dict(f_ex=[120.0], a_ex=[14.0], s0=0.3)
+    with pytest.raises(ValueError, match="extend_to"):
+        beamslider.operating_map(**grid, t_end=1.0, out=tmp_path / "none", extend_to=2.0)
+    beamslider.operating_map(**grid, t_end=0.5, out=tmp_path / "m")
+    for bad in (0.5, 0.2, float("nan"), "x"):
+        with pytest.raises(ValueError, match="extend_to"):
+            beamslider.operating_map(**grid, t_end=0.5, out=tmp_path / "m", extend_to=bad)
+    with pytest.raises(ValueError, match="extend_to"):
+        beamslider.operating_map(**grid, t_end=0.5, extend_to=1.0)
+    with pytest.raises(ValueError, match="t_end"):
+        beamslider.operating_map(**grid, t_end=0.4, out=tmp_path / "m", extend_to=1.0)
+    # A map written without end states (rows stripped, as an old version wrote them).
+    lines = (tmp_path / "m" / RESULTS_FILE).read_text().splitlines()
+    rows = [json.loads(l) for l in lines[1:]]
+    for r in rows:
+        r.pop("end")
+        r["behaviour"] = "not_settled"
+    (tmp_path / "m" / RESULTS_FILE).write_text("\n".join([lines[0]] + [json.dumps(r) for r in rows]) + "\n")
+    with pytest.raises(ValueError, match="extend_to.*end state"):
+        beamslider.operating_map(**grid, t_end=0.5, out=tmp_path / "m", extend_to=1.0)
+
+
+def test_cli_map_extend_to(tmp_path):
+    r = run_cli("map", "--f-ex", "100,124", "--a-ex", "4,14", "--t-end", "2", "--no-progress", "--out", str(tmp_path),
+                cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    assert "t_end = 2 s" in (tmp_path / "map.txt").read_text()
+    r = run_cli("map", "--extend-to", "3", "--no-progress", "--out", str(tmp_path), cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    assert "re-ran" in r.stdout and "not-settled" in r.stdout, r.stdout
+    assert "t_end = 3 s" in (tmp_path / "map.txt").read_text()
+    r = run_cli("map", "--extend-to", "3", "--no-progress", "--out", str(tmp_path), cwd=tmp_path)
+    assert r.returncode == 1 and "extend-to" in r.stderr
+
+
+def test_plot_shows_settings_and_one_panel_per_s0(tmp_path):
+    t = beamslider.operating_map(f_ex=[118.0, 124.0], a_ex=[6.0, 14.0], s0=[0.3, 0.4], t_end=0.5)
+    fig = plot_operating_map(t, path=tmp_path / "two.png", mark_changes=True)
+    axes = [a for a in fig.axes if a.get_title()]
+    assert len(axes) == 2
+    assert "0.3" in axes[0].get_title() and "0.4" in axes[1].get_title() and "t_end = 0.5 s" in axes[0].get_title()
+    assert is_png(tmp_path / "two.png")
+    txt = text_table(t)
+    assert txt.count("t_end = 0.5 s") == 2 and "s0 = 0.4" in txt
+    with pytest.raises(ValueError, match="s0"):
+        plot_operating_map(t, s0=0.5)
+
+
+@pytest.mark.slow
+def test_start_position_example_106hz_10ms2():
+    """The paper's Fig. 12 (var_start_pos): 106 Hz, 10 m/s², 120 s: trivial adaption from
+    s0 = 0.3, signature move from s0 = 0.4."""
+    t = beamslider.operating_map(f_ex=106.0, a_ex=10.0, s0=[0.3, 0.4], t_end=120.0)
+    assert list(t["behaviour"]) == ["trivial_adaption", "signature_move"], list(t["reason"])
+    # The run from 0.4 ends nearer the clamping than it started: net travel is a feature only.
+    assert t["net_travel"][1] < 0

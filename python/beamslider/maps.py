@@ -1,4 +1,4 @@
-"""Operating maps (MODEL.md §8, the paper's Fig. 11) and the behaviour classification.
+"""Operating maps (docs/model.md §8, the paper's Fig. 11) and the behaviour classification.
 
 The work is done by the Rust core (``beamslider-core``: modules ``classify`` and ``map``); this
 module builds the map configuration (the same TOML ``beamslider-batch map --config`` reads),
@@ -10,6 +10,7 @@ the categorical map. A map started by ``beamslider map``, ``beamslider-batch map
 from __future__ import annotations
 
 import json
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Dict, List, Optional, Sequence, Union
@@ -24,16 +25,16 @@ RESULTS_FILE = "map.jsonl"
 """Name of the results file inside a map's output folder."""
 
 BEHAVIOURS = ("inactivity", "trivial_adaption", "signature_move", "relaxation_oscillation", "self_damping",
-              "undetermined")
-"""Behaviour names as written in results files (MODEL.md §8), in legend order."""
+              "not_settled", "undetermined")
+"""Behaviour names as written in results files (docs/model.md §8), in legend order."""
 
 LETTERS = {"inactivity": "I", "trivial_adaption": "T", "signature_move": "S", "relaxation_oscillation": "R",
-           "self_damping": "D", "undetermined": "?"}
+           "self_damping": "D", "not_settled": "N", "undetermined": "?"}
 """One letter per behaviour for text tables."""
 
 LABELS = {"inactivity": "inactivity", "trivial_adaption": "trivial adaption", "signature_move": "signature move",
           "relaxation_oscillation": "relaxation oscillation", "self_damping": "self-damping",
-          "undetermined": "undetermined"}
+          "not_settled": "not settled", "undetermined": "undetermined"}
 
 _SCALARS = ("index", "f_ex_hz", "a_ex_m_s2", "s0", "t_end_s", "s_final", "amplitude_final_h", "amplitude_initial_h",
             "amplitude_max_h", "s_min", "s_max", "net_travel", "travel_to_centre", "turn_s", "turn_t_s",
@@ -51,7 +52,8 @@ class Classification:
     features: Dict[str, Any] = field(default_factory=dict)
     """s_initial, s_final, amplitude_final_h, amplitude_initial_h, amplitude_max_h, s_min, s_max,
     net_travel, travel_to_centre, turn_s, turn_t_s (NaN when no turning point), jump_up_t_s,
-    jump_down_t_s, steady."""
+    jump_down_t_s, steady, phase (the phase reached at the end, e.g. ``steady_high`` or, for
+    ``not_settled``, ``high_towards_centre``)."""
 
 
 def _criteria_toml(criteria: Optional[Dict[str, float]]) -> Optional[str]:
@@ -92,14 +94,28 @@ def classify(t: Any, s: Any, amplitude_h: Any, *, criteria: Optional[Dict[str, f
     return Classification(behaviour=behaviour, reason=reason, features=c)
 
 
+def super_slow_signals(result: SimulationResult, *, window: float = 1.0):
+    """The super-slow signals a map classifies (core module ``envelope_stream``): times of 0.2-s
+    bins, s averaged per bin, and A = ``window``-second moving average of the binned |analytic
+    signal| of w(4L/7) (FIR Hilbert transformer) in units of h. Returns (t, s, A)."""
+    if len(result.t) < 2:
+        raise ValueError("the run has fewer than two samples")
+    t0, dt, s, a = _core.super_slow_signals(np.ascontiguousarray(result.w, dtype=float),
+                                           np.ascontiguousarray(result.s, dtype=float),
+                                           float(result.dt_record), result.params.thickness_m, float(window))
+    s = np.asarray(s)
+    return float(result.t[0]) + t0 + dt * np.arange(len(s)), s, np.asarray(a)
+
+
 def classify_result(result: SimulationResult, *, window: float = 1.0,
                     criteria: Optional[Dict[str, float]] = None) -> Classification:
-    """Classify a free-slider run of :func:`beamslider.simulate` from its s(t) and the envelope of
-    w(4L/7) (``window``-second moving average, in units of the thickness h)."""
+    """Classify a free-slider run of :func:`beamslider.simulate` by its phases, from the same
+    super-slow signals as a map point (:func:`super_slow_signals`): the label of a run from rest
+    equals the map's label of that point for the same duration and recording interval."""
     if result.model != "fs":
         raise ValueError(f"classification needs a free-slider run (model 'fs'), got {result.model!r}")
-    amp = result.envelope(window) / result.params.thickness_m
-    return classify(result.t, result.s, amp, criteria=criteria)
+    t, s, amp = super_slow_signals(result, window=window)
+    return classify(t, s, amp, criteria=criteria)
 
 
 def _axis(name: str, values: Any) -> List[float]:
@@ -130,7 +146,8 @@ def default_map_config() -> str:
 
 def rows_to_table(rows: Sequence[Dict[str, Any]]) -> Dict[str, np.ndarray]:
     """Map rows (dicts as in the results file) as a dict of numpy arrays: the scalar features
-    (float; NaN for a missing turning point), ``behaviour``, ``reason``, ``status`` (str),
+    (float; NaN for a missing turning point), ``behaviour``, ``reason``, ``status``, ``phase`` (str),
+    ``has_end_state`` (bool: the run can be continued by ``extend_to``),
     ``steady`` (bool), ``jump_up_t_s``/``jump_down_t_s`` (object arrays of lists) and the solver
     counters as ``counters_<name>`` (int)."""
     rows = sorted(rows, key=lambda r: r["index"])
@@ -138,8 +155,9 @@ def rows_to_table(rows: Sequence[Dict[str, Any]]) -> Dict[str, np.ndarray]:
     for k in _SCALARS:
         out[k] = np.array([np.nan if r.get(k) is None else r[k] for r in rows], dtype=float)
     out["index"] = out["index"].astype(int)
-    for k in ("behaviour", "reason", "status"):
-        out[k] = np.array([r[k] for r in rows], dtype=object).astype(str) if rows else np.array([], dtype=str)
+    for k in ("behaviour", "reason", "status", "phase"):
+        out[k] = np.array([r.get(k, "") for r in rows], dtype=object).astype(str) if rows else np.array([], dtype=str)
+    out["has_end_state"] = np.array(["end" in r for r in rows], dtype=bool)
     out["steady"] = np.array([bool(r["steady"]) for r in rows], dtype=bool)
     for k in ("jump_up_t_s", "jump_down_t_s"):
         arr = np.empty(len(rows), dtype=object)
@@ -157,42 +175,58 @@ def rows_to_table(rows: Sequence[Dict[str, Any]]) -> Dict[str, np.ndarray]:
 
 def read_map(path: Union[str, Path]) -> Dict[str, np.ndarray]:
     """Read a map's results (``map.jsonl`` or its folder) into the table of :func:`operating_map`.
-    A truncated last line (a map killed while writing) is ignored."""
+    A truncated last line (a map killed while writing) is ignored; of an extended map the latest
+    row of each point is read."""
     path = Path(path)
     if path.is_dir():
         path = path / RESULTS_FILE
     _settings, rows, _truncated = _core.read_map_results(path)
-    return rows_to_table([json.loads(r) for r in rows])
+    latest: Dict[tuple, Dict[str, Any]] = {}
+    for r in map(json.loads, rows):  # a later row of a point (an extended run) replaces the earlier
+        latest.pop((r["f_ex_hz"], r["a_ex_m_s2"], r["s0"]), None)
+        latest[(r["f_ex_hz"], r["a_ex_m_s2"], r["s0"])] = r
+    return rows_to_table(list(latest.values()))
 
 
 def run_map_config(config_toml: str, *, out: Optional[Union[str, Path]] = None, resume: bool = False,
-                   threads: Optional[int] = None, progress: bool = False) -> Dict[str, np.ndarray]:
+                   threads: Optional[int] = None, progress: bool = False, extend: bool = False,
+                   report: bool = True) -> Dict[str, np.ndarray]:
     """Run a map from configuration TOML text (see :func:`map_config_toml`); ``out`` is the output
     folder (results appended to ``out/map.jsonl`` point by point, the configuration written to
-    ``out/map.toml``)."""
+    ``out/map.toml``). ``extend``: the map in ``out`` was run for a shorter duration; continue its
+    not-settled points from their saved end states to the configuration's duration (the count
+    is printed when ``report``)."""
     canonical, f, a, s = _core.map_config(config_toml)
     total = len(f) * len(a) * len(s)
     if threads is not None and (not isinstance(threads, (int, np.integer)) or isinstance(threads, bool) or threads < 1):
         raise ValueError(f"invalid parameter `threads` = {threads!r}: must be an integer >= 1")
     results = None
+    if extend and out is None:
+        raise ValueError("invalid parameter `extend_to`: needs `out`, the folder of the map to extend")
     if out is not None:
         folder = Path(out)
         results = folder / RESULTS_FILE
         # Everything the run would refuse is refused before map.toml is (over)written.
-        _core.check_map(config_toml, out=results, resume=resume)
+        _core.check_map(config_toml, out=results, resume=resume, extend=extend)
         folder.mkdir(parents=True, exist_ok=True)
         (folder / "map.toml").write_text(canonical, encoding="utf-8")
     with _progress_bar(progress, total, "map", "pts") as bar:
-        rows = _core.run_map(config_toml, out=results, resume=resume,
-                             threads=None if threads is None else int(threads), progress=bar)
-    return rows_to_table([json.loads(r) for r in rows])
+        rows, extended = _core.run_map(config_toml, out=results, resume=resume,
+                                       threads=None if threads is None else int(threads), progress=bar,
+                                       extend=extend)
+    table = rows_to_table([json.loads(r) for r in rows])
+    if report and (extend or extended):
+        t_end = float(re.search(r"^duration_s\s*=\s*(\S+)", canonical, re.M).group(1))
+        print(f"re-ran {extended} not-settled of {len(table['index'])} points from their saved end states "
+              f"to t_end = {t_end:g} s")
+    return table
 
 
 def operating_map(params: Optional[Parameters] = None, *, f_ex: Any, a_ex: Any, s0: Any = 0.3,
                   t_end: float = 120.0, threads: Optional[int] = None, out: Optional[Union[str, Path]] = None,
                   resume: bool = False, record_every: int = 20, criteria: Optional[Dict[str, float]] = None,
-                  progress: bool = False) -> Dict[str, np.ndarray]:
-    """Operating map (MODEL.md §8): the behaviour of the free slider at every (f_ex, a_ex, s0) of the
+                  progress: bool = False, extend_to: Optional[float] = None) -> Dict[str, np.ndarray]:
+    """Operating map (docs/model.md §8): the behaviour of the free slider at every (f_ex, a_ex, s0) of the
     grid, each point a ``t_end``-second run from rest classified by the core, in parallel on
     ``threads`` threads (default: one per core).
 
@@ -201,9 +235,34 @@ def operating_map(params: Optional[Parameters] = None, *, f_ex: Any, a_ex: Any, 
     ``beamslider-batch map`` with the same settings can be resumed, and vice versa). Ctrl-C stops
     the map (``KeyboardInterrupt``) keeping the finished points.
 
+    ``extend_to``: extend the map in ``out`` (run for ``t_end`` seconds) to ``extend_to`` seconds:
+    the points that had not settled (``not_settled``) continue from the end states saved in the
+    results file — each continued row is bitwise the row of a ``extend_to``-second run from rest,
+    but for the wall time — and the settled points keep their rows; the number of re-run points
+    is printed. An interrupted extension is finished by the same call.
+
     Returns a dict of numpy arrays, one entry per grid point in grid order (s0 slowest, then a_ex,
     f_ex fastest): see :func:`rows_to_table`.
     """
+    if extend_to is not None:
+        try:
+            te = float(extend_to)
+        except (TypeError, ValueError):
+            raise ValueError(f"invalid parameter `extend_to` = {extend_to!r}: give a number of seconds") from None
+        if not (np.isfinite(te) and te > float(t_end)):
+            raise ValueError(f"invalid parameter `extend_to` = {extend_to!r}: must exceed the map's t_end ({float(t_end):g} s)")
+        if out is None:
+            raise ValueError("invalid parameter `extend_to`: needs `out`, the folder of the map to extend")
+        results = Path(out) / RESULTS_FILE
+        if not results.exists():
+            raise ValueError(f"invalid parameter `extend_to`: no map to extend in {out} ({RESULTS_FILE} missing)")
+        settings, _rows, _trunc = _core.read_map_results(results)
+        done = json.loads(settings)["duration_s"] if settings else None
+        if done not in (float(t_end), te):
+            raise ValueError(f"invalid parameter `t_end` = {t_end!r}: the map in {out} was run for {done} s")
+        cfg = map_config_toml(params, f_ex=f_ex, a_ex=a_ex, s0=s0, t_end=te, record_every=record_every,
+                              criteria=criteria)
+        return run_map_config(cfg, out=out, threads=threads, progress=progress, extend=True)
     cfg = map_config_toml(params, f_ex=f_ex, a_ex=a_ex, s0=s0, t_end=t_end, record_every=record_every,
                           criteria=criteria)
     return run_map_config(cfg, out=out, resume=resume, threads=threads, progress=progress)
@@ -217,16 +276,29 @@ def failures(table: Dict[str, np.ndarray]) -> List[str]:
             for i in np.flatnonzero(table["status"] != "completed")]
 
 
+def t_end_text(table: Dict[str, np.ndarray], s0: Optional[float] = None) -> str:
+    """``t_end = 120 s``, or for an extended map ``t_end = 120 s (settled points kept from 60 s)``."""
+    m = table["status"] == "completed"
+    if s0 is not None:
+        m &= table["s0"] == s0
+    if not m.any():
+        return "t_end = -"
+    lo, hi = float(table["t_end_s"][m].min()), float(table["t_end_s"][m].max())
+    if lo == hi:
+        return f"t_end = {round(hi, 3):g} s"
+    return f"t_end = {round(hi, 3):g} s (settled points kept from {round(lo, 3):g} s)"
+
+
 def text_table(table: Dict[str, np.ndarray], s0: Optional[float] = None) -> str:
-    """The map as text: rows a_ex (highest first), columns f_ex, one letter per behaviour
-    (:data:`LETTERS`; ``.`` = not run)."""
+    """The map as text: per s0 a header with s0 and t_end, rows a_ex (highest first), columns
+    f_ex, one letter per behaviour (:data:`LETTERS`; ``.`` = not run)."""
     s0s = sorted(set(table["s0"].tolist())) if s0 is None else [s0]
     out = []
     for s in s0s:
         m = table["s0"] == s
         fs = sorted(set(table["f_ex_hz"][m].tolist()))
         as_ = sorted(set(table["a_ex_m_s2"][m].tolist()), reverse=True)
-        out.append(f"s0 = {s:g}; rows a_ex [m/s^2], columns f_ex [Hz]; "
+        out.append(f"s0 = {s:g}, {t_end_text(table, s)}; rows a_ex [m/s^2], columns f_ex [Hz]; "
                    + ", ".join(f"{LETTERS[b]} {LABELS[b]}" for b in BEHAVIOURS))
         corner = "a\\f"
         out.append(f"{corner:>6} " + "".join(f"{f:>4g}" for f in fs))
@@ -240,42 +312,42 @@ def text_table(table: Dict[str, np.ndarray], s0: Optional[float] = None) -> str:
 
 
 COLOURS = {"inactivity": "#9e9e9e", "trivial_adaption": "#1f77b4", "signature_move": "#2ca02c",
-           "relaxation_oscillation": "#ff7f0e", "self_damping": "#d62728", "undetermined": "#ffffff"}
+           "relaxation_oscillation": "#ff7f0e", "self_damping": "#d62728", "not_settled": "#f3e79b",
+           "undetermined": "#ffffff"}
 """Colour of each behaviour in the map figure."""
 
+_HATCH = {"undetermined": "//", "not_settled": ".."}
 
-def plot_operating_map(table: Dict[str, np.ndarray], *, s0: Optional[float] = None, title: Optional[str] = None,
-                       path: Optional[Union[str, Path]] = None, ax: Any = None) -> Any:
-    """Categorical map of the behaviours over (f_ex, a_ex) with a legend, like the paper's Fig. 11
-    (one cell per grid point; cells not run are left blank, undetermined cells hatched).
-    Returns the figure; writes it to ``path`` when given."""
-    from ._mpl import require_matplotlib
 
-    require_matplotlib("plot_operating_map")
-    from matplotlib.figure import Figure
-    from matplotlib.patches import Patch, Rectangle
+def changed_with_s0(table: Dict[str, np.ndarray]) -> List[tuple]:
+    """(f_ex, a_ex) points of the grid whose behaviour differs between the s0 values of the map."""
+    out = []
+    keys = sorted(set(zip(table["f_ex_hz"].tolist(), table["a_ex_m_s2"].tolist())))
+    for f, a in keys:
+        m = (table["f_ex_hz"] == f) & (table["a_ex_m_s2"] == a)
+        if len(set(table["behaviour"][m].tolist())) > 1 and m.sum() > 1:
+            out.append((f, a))
+    return out
 
-    s0s = sorted(set(table["s0"].tolist()))
-    if not s0s:
-        raise ValueError("the map is empty")
-    s0 = s0s[0] if s0 is None else s0
+
+def _panel(ax: Any, table: Dict[str, np.ndarray], s0: float, title: Optional[str], marks: Sequence[tuple]) -> set:
+    from matplotlib.patches import Rectangle
+
     m = table["s0"] == s0
     fs = np.array(sorted(set(table["f_ex_hz"][m].tolist())))
     as_ = np.array(sorted(set(table["a_ex_m_s2"][m].tolist())))
     dfs = np.diff(fs).min() if len(fs) > 1 else 1.0
     das = np.diff(as_).min() if len(as_) > 1 else 1.0
-    if ax is None:
-        fig = Figure(figsize=(7.5, 4.2), layout="constrained")  # no pyplot: headless and thread-safe
-        ax = fig.add_subplot()
-    else:
-        fig = ax.figure
     present = set()
     for i in np.flatnonzero(m):
         b = str(table["behaviour"][i])
         present.add(b)
         f, a = table["f_ex_hz"][i], table["a_ex_m_s2"][i]
         ax.add_patch(Rectangle((f - dfs / 2, a - das / 2), dfs, das, facecolor=COLOURS.get(b, "w"),
-                               edgecolor="k", linewidth=0.4, hatch="//" if b == "undetermined" else None))
+                               edgecolor="k", linewidth=0.4, hatch=_HATCH.get(b)))
+    for f, a in marks:
+        ax.add_patch(Rectangle((f - dfs / 2 + 0.06 * dfs, a - das / 2 + 0.06 * das), 0.88 * dfs, 0.88 * das,
+                               facecolor="none", edgecolor="k", linewidth=2.0))
     ax.set_xlim(fs[0] - dfs / 2, fs[-1] + dfs / 2)
     ax.set_ylim(as_[0] - das / 2, as_[-1] + das / 2)
     ax.set_xticks(fs if len(fs) <= 20 else fs[:: int(np.ceil(len(fs) / 20))])
@@ -283,10 +355,51 @@ def plot_operating_map(table: Dict[str, np.ndarray], *, s0: Optional[float] = No
     ax.tick_params(axis="x", labelsize=8)
     ax.set_xlabel(r"excitation frequency $f_\mathrm{ex}$ [Hz]")
     ax.set_ylabel(r"excitation level $a_\mathrm{ex}$ [m/s$^2$]")
-    ax.set_title(title if title is not None else f"operating map, $s_0$ = {s0:g}")
-    handles = [Patch(facecolor=COLOURS[b], edgecolor="k", label=LABELS[b], hatch="//" if b == "undetermined" else None)
-               for b in BEHAVIOURS if b != "undetermined" or b in present]
-    ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False, fontsize=9)
+    ax.set_title(title if title is not None else f"operating map, $s_0$ = {s0:g}, {t_end_text(table, s0)}",
+                 fontsize=10)
+    return present
+
+
+def plot_operating_map(table: Dict[str, np.ndarray], *, s0: Optional[float] = None, title: Optional[str] = None,
+                       path: Optional[Union[str, Path]] = None, ax: Any = None,
+                       mark_changes: bool = False) -> Any:
+    """Categorical map of the behaviours over (f_ex, a_ex) with a legend, like the paper's Fig. 11
+    (one cell per grid point; cells not run are left blank, undetermined cells hatched, not-settled
+    cells dotted). The title gives s0 and t_end. A map over several s0 draws one panel per s0
+    (unless ``s0`` picks one); ``mark_changes`` outlines the points whose behaviour changes with
+    s0 (the paper's start-position example, Fig. 12). Returns the figure; writes it to ``path``
+    when given."""
+    from ._mpl import require_matplotlib
+
+    require_matplotlib("plot_operating_map")
+    from matplotlib.figure import Figure
+    from matplotlib.patches import Patch
+
+    s0s = sorted(set(table["s0"].tolist()))
+    if not s0s:
+        raise ValueError("the map is empty")
+    if s0 is not None and s0 not in s0s:
+        raise ValueError(f"invalid parameter `s0` = {s0!r}: the map has s0 in {s0s}")
+    panels = [s0] if s0 is not None else s0s
+    if ax is not None and len(panels) > 1:
+        raise ValueError("invalid parameter `ax`: a map over several s0 draws several panels; give `s0` or no `ax`")
+    marks = changed_with_s0(table) if mark_changes else []
+    if ax is None:
+        fig = Figure(figsize=(1.5 + 6.0 * len(panels), 4.2), layout="constrained")  # no pyplot: headless
+        axes = fig.subplots(1, len(panels), squeeze=False)[0]
+    else:
+        fig = ax.figure
+        axes = [ax]
+    present = set()
+    for a, s in zip(axes, panels):
+        present |= _panel(a, table, s, title if len(panels) == 1 else None, marks)
+    if title is not None and len(panels) > 1:
+        fig.suptitle(title)
+    handles = [Patch(facecolor=COLOURS[b], edgecolor="k", label=LABELS[b], hatch=_HATCH.get(b))
+               for b in BEHAVIOURS if b not in _HATCH or b in present]
+    if marks:
+        handles.append(Patch(facecolor="none", edgecolor="k", linewidth=2.0, label="changes with $s_0$"))
+    axes[-1].legend(handles=handles, loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False, fontsize=9)
     if path is not None:
         fig.savefig(str(path), dpi=150)
     return fig

@@ -102,8 +102,9 @@ enum Command {
     Params,
     /// Operating map (docs/model.md §8, the paper's Fig. 11): classify the behaviour of the free slider at
     /// every point of an (f_ex, a_ex, s0) grid, in parallel. Each finished point is appended at once
-    /// to DIR/map.jsonl; --resume skips the points already there. At the end DIR/map.txt holds the
-    /// map as a letter table.
+    /// to DIR/map.jsonl; --resume skips the points already there; --extend-to T continues the
+    /// points that had not settled from their saved end states to T seconds. At the end
+    /// DIR/map.txt holds the map as a letter table.
     #[command(allow_negative_numbers = true)] // `--a-ex -1` is a bad value, not an unknown flag
     Map {
         /// Map configuration (TOML: duration_s, dt_s, record_every, [grid], [params], [criteria]);
@@ -119,6 +120,10 @@ enum Command {
         /// Continue the results in DIR: skip the points already there.
         #[arg(long)]
         resume: bool,
+        /// Extend the map in DIR to T seconds: continue its not-settled points from their saved
+        /// end states (bitwise the T-second runs); the configuration defaults to DIR/map.toml.
+        #[arg(long, value_name = "T")]
+        extend_to: Option<f64>,
         /// Print the default configuration (the paper's map) as TOML and exit.
         #[arg(long)]
         print_config: bool,
@@ -178,16 +183,24 @@ const EXIT_FAULT: u8 = 3;
 
 fn run(cli: Cli) -> Result<ExitCode> {
     match cli.command {
-        Command::Map { config, out, threads, resume, print_config, quiet } => {
-            let cfg = match &config {
+        Command::Map { config, out, threads, resume, extend_to, print_config, quiet } => {
+            let saved = out.join("map.toml");
+            let mut cfg = match &config {
                 Some(path) => MapConfig::from_toml_file(path)?,
+                None if extend_to.is_some() && saved.exists() => MapConfig::from_toml_file(&saved)?,
                 None => MapConfig::default(),
             };
+            if let Some(t) = extend_to {
+                if !(t.is_finite() && t > cfg.duration_s) {
+                    anyhow::bail!("invalid --extend-to {t}: must exceed the map's duration ({} s)", cfg.duration_s);
+                }
+                cfg.duration_s = t;
+            }
             if print_config {
                 print!("{}", cfg.to_toml_string());
                 return Ok(ExitCode::SUCCESS);
             }
-            return run_map_command(&cfg, &out, threads, resume, quiet);
+            return run_map_command(&cfg, &out, threads, resume, extend_to.is_some(), quiet);
         }
         Command::Params => {
             print!("{}", Params::default().to_toml_string());
@@ -256,10 +269,10 @@ fn run(cli: Cli) -> Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
-fn run_map_command(cfg: &MapConfig, out: &std::path::Path, threads: Option<usize>, resume: bool, quiet: bool) -> Result<ExitCode> {
+fn run_map_command(cfg: &MapConfig, out: &std::path::Path, threads: Option<usize>, resume: bool, extend: bool, quiet: bool) -> Result<ExitCode> {
     use std::sync::atomic::AtomicBool;
     let results = out.join(map::RESULTS_FILE);
-    let opts = MapRunOptions { out: Some(results.clone()), resume, threads };
+    let opts = MapRunOptions { out: Some(results.clone()), resume, threads, extend };
     // Refuse bad input before writing anything (map.toml included).
     map::preflight(cfg, &opts)?;
     std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
@@ -287,6 +300,9 @@ fn run_map_command(cfg: &MapConfig, out: &std::path::Path, threads: Option<usize
     let table = map::text_table(&outcome.rows);
     std::fs::write(out.join("map.txt"), &table).with_context(|| format!("cannot write {}", out.join("map.txt").display()))?;
     print!("{table}");
+    if extend || outcome.extended > 0 {
+        eprintln!("re-ran {} not-settled points from their saved end states to t = {} s", outcome.extended, cfg.duration_s);
+    }
     eprintln!(
         "{} points: {} computed in {:.1} s, {} from the results file; wrote {}",
         outcome.rows.len(),

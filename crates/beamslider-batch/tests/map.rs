@@ -88,3 +88,25 @@ fn print_config_is_the_papers_map() {
     assert!(text.contains("duration_s = 120.0"), "{text}");
     assert!(text.contains("start = 100.0") && text.contains("stop = 130.0"), "{text}");
 }
+
+/// `--extend-to T` continues the not-settled points of the map in DIR (configuration from
+/// DIR/map.toml), prints how many it re-ran, and refuses T ≤ the map's duration.
+#[test]
+fn extend_to_reruns_the_not_settled_points() {
+    let dir = std::env::temp_dir().join(format!("bsb-extend-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let cfg = dir.join("c.toml");
+    std::fs::write(&cfg, "duration_s = 2.0\n[grid]\nf_ex_hz = [100.0, 124.0]\na_ex_m_s2 = [4.0, 14.0]\n").unwrap();
+    let out = dir.join("m");
+    let st = bin().args(["map", "-q", "-j", "2", "-c"]).arg(&cfg).arg("-o").arg(&out).status().unwrap();
+    assert!(st.success());
+    let o = bin().args(["map", "-q", "-j", "2", "--extend-to", "3", "-o"]).arg(&out).output().unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert!(err.contains("re-ran") && err.contains("not-settled points"), "{err}");
+    assert!(String::from_utf8_lossy(&o.stdout).contains("t_end = 3 s"));
+    let o = bin().args(["map", "-q", "--extend-to", "2.5", "-o"]).arg(&out).output().unwrap();
+    assert!(!o.status.success() && String::from_utf8_lossy(&o.stderr).contains("extend-to"));
+    let _ = std::fs::remove_dir_all(&dir);
+}

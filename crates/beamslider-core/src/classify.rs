@@ -1,53 +1,60 @@
-//! Behaviour classification of one free-slider run (MODEL.md §8; paper, section 4 and Fig. 11)
-//! from its super-slow signals: the slider position s(t) and the super-slow amplitude A(t) of
-//! the beam at the laser position, A = 1-s moving average of |Hilbert(w(4L/7))| (MODEL.md §7),
-//! measured in units of the beam thickness h.
+//! Behaviour classification of one free-slider run by its phases (MODEL.md §8; paper, section 4
+//! and Figs. 6–9, 11–12) from its super-slow signals: the slider position s(t) and the
+//! super-slow amplitude A(t) of the beam at the laser position, A = 1-s moving average of
+//! |Hilbert(w(4L/7))| (MODEL.md §7), in units of the beam thickness h.
 //!
-//! # Criteria
+//! # Coordinates: starts on either half and on either side of the final position
 //!
-//! Directions are taken relative to the beam's centre s = ½ (the anti-node of the first mode):
-//! the *distance from the clamping* is c(s) = min(s, 1 − s), so "towards the centre" means c
-//! increases and "towards the clamping" means c decreases (the beam is symmetric, so runs started
-//! on either half are treated alike). Final levels come from the run's last
-//! [`Criteria::steady_window_s`] = 15 s (the *final window*). Defaults in brackets.
+//! The beam is symmetric about its centre: a run started on the far half (s₀ > ½) is classified
+//! in the mirrored coordinate s′ = 1 − s, otherwise s′ = s, so that s′ = 0 is the nearer clamping
+//! and ½ the centre; "towards the centre" means s′ increases, "towards the clamping" s′
+//! decreases. No rule compares the final position with s₀ (the net travel s_final − s₀ is a
+//! feature only): a start nearer the centre than the final position and one nearer the clamping
+//! are classified alike.
+//!
+//! # Ingredients (defaults in brackets)
 //!
 //! - **Jumps** of A: rises / falls by at least [`Criteria::jump_abs_h`] (0.2 h) *and* by a
 //!   factor [`Criteria::jump_ratio`] (2) within [`Criteria::jump_window_s`] (3 s), looked for
-//!   after [`Criteria::jump_after_s`] (2 s, when the beam has built up its vibration from rest).
-//!   This is the image, after the 1-s moving average, of a jump between the co-existing low and
-//!   high branches of the super-slow manifold (instantaneous on the super-slow time scale; the
-//!   beam's amplitude settles with 1/(Dω) ≈ 1.3 s). A gradual rise along one branch while the
-//!   slider travels is not a jump. Jumps of one direction closer than two windows are merged.
+//!   after [`Criteria::jump_after_s`] (2 s, when the beam has built up its vibration from rest):
+//!   the image, after the 1-s moving average, of a jump between the co-existing low and high
+//!   branches of the super-slow manifold. Jumps of one direction closer than two windows are
+//!   merged. Jumps split the run into **branch phases**: low before the first jump up, high after
+//!   a jump up, low again after a jump down.
+//! - **Direction of travel** of a phase: the change of s′ over it; more than
+//!   [`Criteria::still_s`] (0.01 L = 1.4 mm) is travel towards the centre / the clamping.
 //! - **Turning point** (s, t): the slider first moves towards the clamping by more than
-//!   [`Criteria::turn_s`] (0.005), reaches its closest approach to the clamping and then comes
-//!   back towards the centre by more than [`Criteria::turn_s`].
-//! - **Steady state**: over the final window s varies by less than [`Criteria::steady_s`] (0.03)
-//!   and A by less than [`Criteria::steady_rel`] (30 %) of its mean plus
-//!   [`Criteria::steady_abs_h`] (0.02 h).
+//!   [`Criteria::turn_s`] (0.005), reaches its closest approach and comes back by more than
+//!   [`Criteria::turn_s`] (a feature).
+//! - **Steady state** (settled): over the final [`Criteria::steady_window_s`] (15 s) s varies by
+//!   less than [`Criteria::steady_s`] (0.03) and A by less than [`Criteria::steady_rel`] (30 %) of
+//!   its mean plus [`Criteria::steady_abs_h`] (0.02 h). Final levels: high ≥ [`Criteria::high_h`]
+//!   (0.3 h; the adapted states of the paper's map end at 0.45–1.3 h), low < [`Criteria::low_h`]
+//!   (0.05 h: harmonic vibration, the upper contacts no longer lift off).
 //!
-//! Decision, in this order:
+//! # The behaviours, by their phases (paper, section 4)
 //!
-//! 1. **inactivity**: |s − s₀| ≤ [`Criteria::still_s`] (0.01 L = 1.4 mm) during the whole run —
-//!    the slider does not move (an adapting slider travels 0.05–0.2 L).
-//! 2. **relaxation oscillation**: at least [`Criteria::relax_min_cycles`] (2) cycles of a jump up
-//!    followed by a jump down, or at least two jumps down without a steady state at the end — the
-//!    high branch ends with a jump down and the cycle repeats (the super-slow back-and-forth of s
-//!    with alternating high and low vibration).
-//! 3. no steady state → `undetermined`.
-//! 4. high final level, A_final ≥ [`Criteria::high_h`] (0.3 h; the adapted states of the paper's
-//!    map end at 0.45–1.3 h), with the slider ending nearer the centre than s₀ and no jump down:
-//!    - **signature move** if A jumped up: phase 1 on the low branch (usually moving towards the
-//!      clamping: the turning point; at the edge of the range the slider may stick instead), the
-//!      jump up, phase 2 back towards the centre on the high branch, phase 3 steady;
-//!    - **trivial adaption** if there was no jump and the slider moved monotonically towards the
-//!      centre (first dip towards the clamping ≤ [`Criteria::still_s`]) while the vibration rose.
-//! 5. low final level, A_final < [`Criteria::low_h`] (0.05 h: very low, harmonic vibration, the
-//!    upper contacts no longer lift off; the paper's self-damping ends at ≈ 0.01–0.02 h), with the
-//!    slider ending nearer the clamping than s₀ by more than [`Criteria::still_s`]: **self-damping**
-//!    (a transient jump up on the way is allowed, as in the paper's Fig. 9).
+//! 1. **inactivity**: no travel, |s − s₀| ≤ [`Criteria::still_s`] during the whole run.
+//! 2. **relaxation oscillation**: recurring jump up / jump down — at least
+//!    [`Criteria::relax_min_cycles`] (2) cycles of a jump up followed by a jump down, or at least
+//!    two jumps down without a steady state at the end.
+//! 3. **not settled** (its own outcome): none of the above and no steady state when the run ended;
+//!    the row names the phase reached (branch, direction of travel, the behaviour it is a phase
+//!    of). Running longer (maps: `extend_to`) decides it.
+//! 4. steady, high final level, no jump down:
+//!    - **signature move**: a low-branch phase moving towards the clamping (phase 1; at the edge
+//!      of the range the slider may stick instead: travel towards the centre ≤ still_s), a jump
+//!      up, a high-branch phase moving back towards the centre by more than turn_s (phase 2), a
+//!      steady high level (phase 3);
+//!    - **trivial adaption**: the high level reached without a jump by travelling (more than
+//!      still_s) to the final position — towards the centre from a start nearer the clamping,
+//!      and alike from the other side. A first dip towards the clamping is reported as a feature.
+//! 5. steady, low final level: **self-damping** — the slider travelled to a position with very
+//!    low, harmonic vibration (from the paper's map starts: towards the clamping; a transient jump
+//!    up on the way is allowed, as in the paper's Fig. 9).
 //! 6. everything else is `undetermined`, with the reason: a failed run (left the beam, diverged),
-//!    a final level between the thresholds, a high branch lost once and regained, a high final
-//!    level nearer the clamping, a low final level without travel towards the clamping, …
+//!    a final level between the thresholds, a high branch lost once and regained, a jump up
+//!    after a low-branch phase towards the centre, a jump up without the move back, …
 
 use serde::{Deserialize, Serialize};
 
@@ -68,18 +75,21 @@ pub enum Behaviour {
     RelaxationOscillation,
     /// s keeps moving towards the clamping; very low steady vibration.
     SelfDamping,
+    /// No steady state when the run ended (and no recurrent jumps): see the phase reached.
+    NotSettled,
     /// None of the above could be decided (see [`Classification::reason`]).
     Undetermined,
 }
 
 impl Behaviour {
     /// All behaviours, in the order of the paper's map legend (undetermined last).
-    pub const ALL: [Behaviour; 6] = [
+    pub const ALL: [Behaviour; 7] = [
         Behaviour::Inactivity,
         Behaviour::TrivialAdaption,
         Behaviour::SignatureMove,
         Behaviour::RelaxationOscillation,
         Behaviour::SelfDamping,
+        Behaviour::NotSettled,
         Behaviour::Undetermined,
     ];
 
@@ -91,11 +101,12 @@ impl Behaviour {
             Behaviour::SignatureMove => "signature_move",
             Behaviour::RelaxationOscillation => "relaxation_oscillation",
             Behaviour::SelfDamping => "self_damping",
+            Behaviour::NotSettled => "not_settled",
             Behaviour::Undetermined => "undetermined",
         }
     }
 
-    /// One letter for text maps: I, T, S, R, D (self-damping), ? (undetermined).
+    /// One letter for text maps: I, T, S, R, D (self-damping), N (not settled), ? (undetermined).
     pub fn letter(&self) -> char {
         match self {
             Behaviour::Inactivity => 'I',
@@ -103,6 +114,7 @@ impl Behaviour {
             Behaviour::SignatureMove => 'S',
             Behaviour::RelaxationOscillation => 'R',
             Behaviour::SelfDamping => 'D',
+            Behaviour::NotSettled => 'N',
             Behaviour::Undetermined => '?',
         }
     }
@@ -112,7 +124,7 @@ impl Behaviour {
         Behaviour::ALL
             .into_iter()
             .find(|b| b.name() == name)
-            .ok_or_else(|| Error::invalid("behaviour", name, "one of inactivity, trivial_adaption, signature_move, relaxation_oscillation, self_damping, undetermined"))
+            .ok_or_else(|| Error::invalid("behaviour", name, "one of inactivity, trivial_adaption, signature_move, relaxation_oscillation, self_damping, not_settled, undetermined"))
     }
 }
 
@@ -246,6 +258,13 @@ pub struct Classification {
     pub jump_down_t_s: Vec<f64>,
     /// Whether s and A are steady over the final window.
     pub steady: bool,
+    /// The phase reached at the end of the run: `steady_high`, `steady_low`,
+    /// `steady_intermediate`, `still` (inactivity), `cycling` (relaxation oscillation), or for a
+    /// run that has not settled `<branch>_<travel>` with branch `low` / `high` (after the last
+    /// jump, or by the level A ≥ high_h when there was none) and travel `towards_centre` / `towards_clamping` / `still` over the final
+    /// window (see the reason for the behaviour it is a phase of).
+    #[serde(default)]
+    pub phase: String,
 }
 
 fn centre_distance(s: f64) -> f64 {
@@ -319,7 +338,7 @@ fn jumps(x: &SuperSlow, c: &Criteria) -> (Vec<f64>, Vec<f64>) {
     (up, down)
 }
 
-/// Classify one run's super-slow signals (see the module documentation for the criteria).
+/// Classify one run's super-slow signals by its phases (see the module documentation).
 pub fn classify(x: &SuperSlow, c: &Criteria) -> Result<Classification> {
     let n = x.s.len();
     if n != x.amplitude_h.len() {
@@ -349,32 +368,36 @@ pub fn classify(x: &SuperSlow, c: &Criteria) -> Result<Classification> {
         && at_hi - at_lo < c.steady_rel * a_final + c.steady_abs_h;
     let still = x.s.iter().all(|s| (s - s0).abs() <= c.still_s);
 
-    // Turning point: closest approach to the clamping (smallest c) such that the slider first
-    // moved towards the clamping by more than turn_s and afterwards came back by more than turn_s.
-    let cd: Vec<f64> = x.s.iter().map(|&s| centre_distance(s)).collect();
-    let c0 = cd[0];
+    // s′: distance from the nearer clamping of the start's half (mirrored on the far half).
+    let mirrored = s0 > 0.5;
+    let sp: Vec<f64> = x.s.iter().map(|&s| if mirrored { 1.0 - s } else { s }).collect();
+    let sp0 = sp[0];
+    let sp_final = mean(&sp[n - nw..]);
+    let sp_at = |t: f64| sp[(((t - x.t0_s) / x.dt_s).round().max(0.0) as usize).min(n - 1)];
+
+    // Turning point (a feature): the first closest approach to the clamping followed by a
+    // return towards the centre, each by more than turn_s.
     let mut turn: Option<usize> = None;
     {
-        // running minimum of c; the first minimum followed by a rise > turn_s
         let mut i_min = 0;
         for i in 1..n {
-            if cd[i] < cd[i_min] {
+            if sp[i] < sp[i_min] {
                 i_min = i;
             }
-            if c0 - cd[i_min] > c.turn_s && cd[i] - cd[i_min] > c.turn_s {
+            if sp0 - sp[i_min] > c.turn_s && sp[i] - sp[i_min] > c.turn_s {
                 turn = Some(i_min);
                 break;
             }
         }
     }
     let (jump_up, jump_down) = jumps(x, c);
+    let mut events: Vec<(f64, bool)> = jump_up.iter().map(|&t| (t, true)).chain(jump_down.iter().map(|&t| (t, false))).collect();
+    events.sort_by(|a, b| a.0.total_cmp(&b.0));
     // Jump-up → jump-down cycles.
     let mut cycles = 0;
     {
         let mut last_up: Option<f64> = None;
-        let mut events: Vec<(f64, bool)> = jump_up.iter().map(|&t| (t, true)).chain(jump_down.iter().map(|&t| (t, false))).collect();
-        events.sort_by(|a, b| a.0.total_cmp(&b.0));
-        for (t, is_up) in events {
+        for &(t, is_up) in &events {
             if is_up {
                 last_up = Some(t);
             } else if last_up.take().is_some() {
@@ -382,7 +405,7 @@ pub fn classify(x: &SuperSlow, c: &Criteria) -> Result<Classification> {
             }
         }
     }
-    let travel_to_centre = centre_distance(s_final) - c0;
+    let travel_to_centre = centre_distance(s_final) - centre_distance(s0);
     let mut out = Classification {
         behaviour: Behaviour::Undetermined,
         reason: String::new(),
@@ -400,43 +423,101 @@ pub fn classify(x: &SuperSlow, c: &Criteria) -> Result<Classification> {
         jump_up_t_s: jump_up.clone(),
         jump_down_t_s: jump_down.clone(),
         steady,
+        phase: String::new(),
     };
-    let (b, reason) = if still {
-        (Behaviour::Inactivity, format!("the slider stays within {} of s0 (|s - s0| <= {})", c.still_s, c.still_s))
+    let travel = |d: f64| {
+        if d > c.still_s {
+            "towards_centre"
+        } else if d < -c.still_s {
+            "towards_clamping"
+        } else {
+            "still"
+        }
+    };
+    let (b, phase, reason): (Behaviour, String, String) = if still {
+        (Behaviour::Inactivity, "still".into(), format!("no travel: the slider stays within {} of s0", c.still_s))
     } else if cycles >= c.relax_min_cycles || (jump_down.len() >= 2 && !steady) {
         (
             Behaviour::RelaxationOscillation,
-            format!("{} jump-up/jump-down cycles of the amplitude ({} up, {} down); s between {s_min:.3} and {s_max:.3}", cycles, jump_up.len(), jump_down.len()),
+            "cycling".into(),
+            format!("recurring jump up / jump down: {} cycles ({} up, {} down); s between {s_min:.3} and {s_max:.3}", cycles, jump_up.len(), jump_down.len()),
         )
     } else if !steady {
-        (Behaviour::Undetermined, format!("no steady state in the last {} s and no recurrent jumps", c.steady_window_s))
+        // The phase reached when the run ended: branch (from the jumps, else the level) and the
+        // travel over the final window.
+        let (branch, since) = match events.last() {
+            Some(&(t, true)) => ("high", format!(" after the jump up at t = {t:.1} s")),
+            Some(&(t, false)) => ("low", format!(" after the jump down at t = {t:.1} s")),
+            None => {
+                let a_end = x.amplitude_h[n - 1];
+                (if a_end >= c.high_h { "high" } else { "low" }, " (no jump)".to_string())
+            }
+        };
+        let d = sp[n - 1] - sp[n - nw];
+        let tr = travel(d);
+        let of = match (branch, tr, events.last().map(|e| e.1)) {
+            ("low", "towards_clamping", None) => "phase 1 of a signature move or of self-damping",
+            ("high", "towards_centre", Some(true)) => "phase 2 of a signature move",
+            ("high", "towards_clamping", Some(true)) => "phase 2 of self-damping (or a high branch not yet turned)",
+            (_, "towards_centre", None) => "phase 1 of a trivial adaption",
+            (_, "still", _) => "travel has stopped but the amplitude is still changing",
+            _ => "no phase of a single behaviour",
+        };
+        let what = match tr {
+            "towards_centre" => "moving towards the centre",
+            "towards_clamping" => "moving towards the clamping",
+            _ => "nearly still",
+        };
+        (
+            Behaviour::NotSettled,
+            format!("{branch}_{tr}"),
+            format!(
+                "not settled at t = {:.1} s: {branch} {}{since}, {what} ({:+.3} in the last {} s): {of}",
+                x.t(n - 1),
+                if events.is_empty() { "level" } else { "branch" },
+                if mirrored { -d } else { d },
+                c.steady_window_s
+            ),
+        )
     } else if a_final >= c.high_h {
-        let dip = c0 - cd.iter().copied().fold(f64::INFINITY, f64::min);
+        let dip = sp0 - sp.iter().copied().fold(f64::INFINITY, f64::min);
         if !jump_down.is_empty() {
-            (Behaviour::Undetermined, format!("high final level {a_final:.2} h, but the high branch was lost once (jump down at t = {:.1} s) and regained without recurrence", jump_down[0]))
-        } else if travel_to_centre <= 0.0 {
-            (Behaviour::Undetermined, format!("high final level {a_final:.2} h, but the slider ended nearer the clamping ({travel_to_centre:+.3})"))
-        } else if !jump_up.is_empty() {
+            (Behaviour::Undetermined, "steady_high".into(), format!("high final level {a_final:.2} h, but the high branch was lost once (jump down at t = {:.1} s) and regained without recurrence", jump_down[0]))
+        } else if let Some(&tj) = jump_up.first() {
+            // Phase 1: the low branch up to the jump; phase 2: after the jump, back towards the
+            // centre from the closest approach to the clamping around the jump.
+            let ij = (((tj - x.t0_s) / x.dt_s).round().max(0.0) as usize).min(n - 1);
+            let k = ((c.jump_window_s / x.dt_s).round() as usize).max(1);
+            let d1 = sp_at(tj) - sp0;
+            let low_after = sp[ij.saturating_sub(k)..].iter().copied().fold(f64::INFINITY, f64::min);
+            let back = sp_final - low_after;
             let how = match turn {
                 Some(_) => format!("turning point at s = {:.3} (t = {:.1} s)", out.turn_s, out.turn_t_s),
-                None => "no turning point (the slider stuck on the low branch instead of moving towards the clamping)".into(),
+                None => "no turning point".into(),
             };
-            (Behaviour::SignatureMove, format!("jump up from the low branch at t = {:.1} s, {how}, then towards the centre; high final level {a_final:.2} h", jump_up[0]))
-        } else if dip <= c.still_s {
-            (Behaviour::TrivialAdaption, format!("moves towards the centre ({travel_to_centre:+.3}) without a jump, monotonically within {} (first dip {dip:.3}); high final level {a_final:.2} h", c.still_s))
+            if d1 > c.still_s {
+                (Behaviour::Undetermined, "steady_high".into(), format!("jump up at t = {tj:.1} s after a low-branch phase towards the centre ({d1:+.3}), high final level {a_final:.2} h: neither signature move (phase 1 towards the clamping) nor trivial adaption (no jump)"))
+            } else if back <= c.turn_s {
+                (Behaviour::Undetermined, "steady_high".into(), format!("jump up at t = {tj:.1} s to a high final level {a_final:.2} h, but no high-branch phase back towards the centre ({back:+.3})"))
+            } else {
+                let p1 = if d1 < -c.still_s { format!("low branch towards the clamping ({d1:+.3})") } else { format!("low branch, slider stuck ({d1:+.3})") };
+                (Behaviour::SignatureMove, "steady_high".into(), format!("phases: {p1}, jump up at t = {tj:.1} s, {how}, high branch back towards the centre ({back:+.3}), steady high level {a_final:.2} h"))
+            }
+        } else if (sp_final - sp0).abs() > c.still_s {
+            let side = if sp_final > sp0 { "towards the centre" } else { "towards the clamping, from a start nearer the centre than the final position" };
+            let dip_note = if dip > c.still_s && sp_final > sp0 { format!(" after a first dip of {dip:.3} towards the clamping") } else { String::new() };
+            (Behaviour::TrivialAdaption, "steady_high".into(), format!("high level {a_final:.2} h reached without a jump, travelling {side} ({:+.3}){dip_note}", sp_final - sp0))
         } else {
-            (Behaviour::Undetermined, format!("high final level {a_final:.2} h without a jump, but the slider first moved {dip:.3} towards the clamping"))
+            (Behaviour::Undetermined, "steady_high".into(), format!("high final level {a_final:.2} h without a jump and without net travel"))
         }
     } else if a_final < c.low_h {
-        if travel_to_centre < -c.still_s {
-            (Behaviour::SelfDamping, format!("moved towards the clamping ({travel_to_centre:+.3}) and stays there; low final level {a_final:.3} h"))
-        } else {
-            (Behaviour::Undetermined, format!("low final level {a_final:.3} h but the slider did not end nearer the clamping"))
-        }
+        let side = if sp_final < sp0 { "towards the clamping" } else { "towards the centre" };
+        (Behaviour::SelfDamping, "steady_low".into(), format!("travelled {side} ({:+.3}) to a steady low, harmonic level {a_final:.3} h", sp_final - sp0))
     } else {
-        (Behaviour::Undetermined, format!("final level {a_final:.3} h between the low ({}) and high ({}) thresholds", c.low_h, c.high_h))
+        (Behaviour::Undetermined, "steady_intermediate".into(), format!("final level {a_final:.3} h between the low ({}) and high ({}) thresholds", c.low_h, c.high_h))
     };
     out.behaviour = b;
+    out.phase = phase;
     out.reason = reason;
     Ok(out)
 }

@@ -5,7 +5,7 @@
 //!
 //! Modules follow the physics: [`params`] (§1), [`beam`] and [`excitation`] (§2), [`slider`] (§3), [`contact`]
 //! (§4), [`solver`] and [`stepper`] (§5), [`simulation`] and [`manifold`] (§6), [`record`] and
-//! [`signal`] (§7), [`classify`] and [`map`] (§8), [`enma`] (§9); [`superslow`]: the super-slow
+//! [`signal`] and [`envelope_stream`] (§7), [`classify`] and [`map`] (§8), [`enma`] (§9); [`superslow`]: the super-slow
 //! manifold by harmonic balance (issue 17, layer (a)).
 #![warn(missing_docs)]
 
@@ -21,6 +21,7 @@ pub mod map;
 pub mod params;
 pub mod record;
 pub mod signal;
+pub mod envelope_stream;
 pub mod simulation;
 pub mod slider;
 pub mod solver;
@@ -34,10 +35,10 @@ pub use error::{Error, Result};
 pub use params::{ContactSolver, Params};
 pub use record::{Channel, CsvRecorder, MemoryRecorder, NullRecorder, Recorder};
 pub use simulation::{
-    CancelFlag, Excitation, Model, Monitor, RunOptions, RunSummary, SliderModel, State, Status,
-    set_simd,
+    CancelFlag, Checkpoint, Excitation, Model, Monitor, RunOptions, RunSummary, SliderModel, State,
+    Status, set_simd,
 };
-pub use stepper::Counters;
+pub use stepper::{Counters, StepperMemory};
 pub use superslow::{ClosedFormN1, Fold, HbBranch, HbManifold, HbOptions, HbSystem, closed_form_n1, hb_manifold};
 pub use classify::{Behaviour, Classification, Criteria, SuperSlow, classify};
 pub use map::{Axis, Grid, MapConfig, MapOutcome, MapPoint, MapRow, MapRunOptions, run_map};

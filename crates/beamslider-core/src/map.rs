@@ -8,10 +8,17 @@
 //! kill is cut off first). Every point is computed independently from the same inputs, so the rows
 //! do not depend on the number of threads (bitwise, apart from `wall_time_s`).
 //!
-//! Results file: line 1 is a header `{"beamslider_map": 1, "settings": {...}}` with everything
+//! Results file: line 1 is a header `{"beamslider_map": 2, "settings": {...}}` with everything
 //! that decides a row besides the grid point (parameters, duration, recording interval,
 //! classification thresholds); resuming with different settings is an error. Each further line
-//! is one [`MapRow`]. Memory per point in flight: w(4L/7) and s every `record_every`-th step only.
+//! is one [`MapRow`]; a later row of the same point replaces an earlier one (extension).
+//!
+//! Every completed row carries its run's end state ([`EndState`]: the state, the step index, the
+//! stepper's memory and the super-slow signals so far, [`crate::envelope_stream`]). A map can
+//! therefore be **extended in time** ([`MapRunOptions::extend`]): the points that had not
+//! settled ([`Behaviour::NotSettled`]) continue from their saved end states to the new duration,
+//! bitwise as if they had run there from the start; settled points keep their rows. Memory per
+//! point in flight: the binned super-slow signals and a few hundred raw samples.
 
 use std::collections::HashSet;
 use std::fs::{File, OpenOptions};
@@ -24,17 +31,21 @@ use std::time::Instant;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use crate::classify::{Behaviour, Classification, Criteria, SuperSlow, classify};
+use crate::classify::{Behaviour, Classification, Criteria, classify};
+use crate::envelope_stream::{EnvelopeStream, hexf};
 use crate::error::{Error, Result};
 use crate::params::Params;
 use crate::record::{Channel, Recorder};
-use crate::simulation::{CancelFlag, Excitation, Model, RunOptions, SliderModel, Status};
-use crate::stepper::Counters;
+use crate::simulation::{CancelFlag, Checkpoint, Excitation, Model, RunOptions, SliderModel, State, Status};
+use crate::stepper::{Counters, StepperMemory};
 
 /// Name of the results file inside the output folder.
 pub const RESULTS_FILE: &str = "map.jsonl";
 /// Version written in the results file's header.
-pub const FORMAT_VERSION: u32 = 1;
+pub const FORMAT_VERSION: u32 = 2;
+/// Versions this build reads (version 1: rows classified by the rules before the phases, without
+/// end states; read for display, never resumed or extended).
+pub const READABLE_VERSIONS: [u32; 2] = [1, 2];
 /// Largest number of values of one grid axis and of grid points (a range with a tiny step is a
 /// typing error, not a map; it would otherwise exhaust the memory).
 pub const MAX_POINTS: usize = 1_000_000;
@@ -397,10 +408,108 @@ pub struct MapRow {
     pub jump_down_t_s: Vec<f64>,
     /// Steady state reached.
     pub steady: bool,
+    /// Phase reached at the end of the run (see [`Classification::phase`]).
+    #[serde(default)]
+    pub phase: String,
     /// Solver counters.
     pub counters: RowCounters,
     /// Wall time of the point [s] (the only field that differs between identical runs).
     pub wall_time_s: f64,
+    /// End state of a completed run, to continue it (None for failed runs and study rows).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub end: Option<EndState>,
+}
+
+/// The end state of a completed run: everything needed to continue it bitwise (see
+/// [`Checkpoint`]) and the super-slow signals so far (the classification of the continued run
+/// sees the whole run). The f64 values are written as hexadecimal bit patterns (exact).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct EndState {
+    /// Steps since the start.
+    pub step: u64,
+    /// t_origin, t, q (N), u (N), slider q (3), slider u (3), warm-start percussions (8), last
+    /// percussions (8), excitation clock (3), largest audited residual.
+    #[serde(with = "hexf")]
+    pub x: Vec<f64>,
+    /// Last contact pattern per contact.
+    pub modes: [u8; 4],
+    /// Steps since the clock's last re-synchronisation.
+    pub clock_count: u32,
+    /// Counters (max_residual is in `x`).
+    pub counters: RowCounters,
+    /// Super-slow signals so far.
+    pub signals: EnvelopeStream,
+}
+
+impl EndState {
+    fn new(cp: &Checkpoint, signals: EnvelopeStream) -> EndState {
+        let m = &cp.memory;
+        let mut x = vec![cp.t_origin_s, cp.state.t_s];
+        x.extend_from_slice(&cp.state.q);
+        x.extend_from_slice(&cp.state.u);
+        x.extend_from_slice(&cp.state.slider_q);
+        x.extend_from_slice(&cp.state.slider_u);
+        x.extend(m.warm.iter().flatten());
+        x.extend(m.last_p.iter().flatten());
+        x.extend_from_slice(&m.clock);
+        x.push(m.counters.max_residual);
+        EndState { step: cp.step, x, modes: m.modes, clock_count: m.clock_count, counters: (&m.counters).into(), signals }
+    }
+
+    /// The checkpoint and the signals, checked against the model (number of modes) and the
+    /// recording interval.
+    fn restore(&self, n_modes: usize, sample_dt_s: f64) -> Result<(Checkpoint, EnvelopeStream)> {
+        let n = n_modes;
+        if self.x.len() != 2 + 2 * n + 6 + 8 + 8 + 3 + 1 {
+            return Err(Error::invalid("end state", format!("{} values", self.x.len()), &format!("does not fit a model with {n} modes")));
+        }
+        let x = &self.x;
+        let mut k = 2;
+        let mut take = |m: usize| {
+            let v = x[k..k + m].to_vec();
+            k += m;
+            v
+        };
+        let q = take(n);
+        let u = take(n);
+        let sq = take(3);
+        let su = take(3);
+        let warm = take(8);
+        let last = take(8);
+        let clock = take(3);
+        let pair = |v: &[f64], i: usize| [v[2 * i], v[2 * i + 1]];
+        let c = &self.counters;
+        let counters = Counters {
+            steps: c.steps,
+            contact_steps: c.contact_steps,
+            closed_histogram: c.closed_histogram,
+            solver_iterations: c.solver_iterations,
+            max_iterations: c.max_iterations,
+            cap_hits: c.cap_hits,
+            first_guess_hits: c.first_guess_hits,
+            linear_solves: c.linear_solves,
+            enumerations: c.enumerations,
+            fallbacks: c.fallbacks,
+            max_residual: x[x.len() - 1],
+        };
+        let cp = Checkpoint {
+            t_origin_s: x[0],
+            step: self.step,
+            state: State { t_s: x[1], q, u, slider_q: [sq[0], sq[1], sq[2]], slider_u: [su[0], su[1], su[2]] },
+            memory: StepperMemory {
+                warm: std::array::from_fn(|i| pair(&warm, i)),
+                modes: self.modes,
+                last_p: std::array::from_fn(|i| pair(&last, i)),
+                counters,
+                clock: [clock[0], clock[1], clock[2]],
+                clock_count: self.clock_count,
+            },
+        };
+        let mut signals = self.signals.clone();
+        signals.validate(sample_dt_s)?;
+        Ok((cp, signals))
+    }
 }
 
 /// serde_json writes NaN as `null`; read it back as NaN (a point that failed early has no
@@ -414,7 +523,7 @@ fn finite(x: f64) -> Option<f64> {
 }
 
 impl MapRow {
-    fn new(p: &MapPoint, t_end_s: f64, status: &Status, c: &Classification, counters: &Counters, wall: f64) -> MapRow {
+    fn new(p: &MapPoint, t_end_s: f64, status: &Status, c: &Classification, counters: &Counters, wall: f64, end: Option<EndState>) -> MapRow {
         MapRow {
             index: p.index,
             f_ex_hz: p.f_ex_hz,
@@ -437,8 +546,10 @@ impl MapRow {
             jump_up_t_s: c.jump_up_t_s.clone(),
             jump_down_t_s: c.jump_down_t_s.clone(),
             steady: c.steady,
+            phase: c.phase.clone(),
             counters: counters.into(),
             wall_time_s: wall,
+            end,
         }
     }
 
@@ -450,61 +561,88 @@ impl MapRow {
     fn key(&self) -> (u64, u64, u64) {
         (self.f_ex_hz.to_bits(), self.a_ex_m_s2.to_bits(), self.s0.to_bits())
     }
+
+    /// A not-settled completed row with an end state before `t_end_s`: continued by an extension.
+    pub fn continuable(&self, t_end_s: f64) -> bool {
+        self.behaviour == Behaviour::NotSettled && self.status == Status::Completed.name() && self.end.is_some() && self.t_end_s < t_end_s
+    }
+
+    fn point(&self) -> MapPoint {
+        MapPoint { index: self.index, f_ex_hz: self.f_ex_hz, a_ex_m_s2: self.a_ex_m_s2, s0: self.s0 }
+    }
 }
 
-/// Keeps w(4L/7) and s of every recorded row (channels [W4L7, S] only).
-#[derive(Default)]
-struct SuperSlowRecorder {
-    w: Vec<f64>,
-    s: Vec<f64>,
-}
+/// Feeds w(4L/7) and s of every recorded row (channels [W4L7, S]) into the super-slow stream.
+struct StreamRecorder<'a>(&'a mut EnvelopeStream);
 
-impl Recorder for SuperSlowRecorder {
+impl Recorder for StreamRecorder<'_> {
     fn begin(&mut self, _: &[String]) -> Result<()> {
         Ok(())
     }
     fn push(&mut self, row: &[f64]) -> Result<()> {
-        self.w.push(row[0]);
-        self.s.push(row[1]);
+        self.0.push(row[0], row[1]);
         Ok(())
     }
 }
 
-/// Run and classify one point. `None` when cancelled.
-pub fn run_point(model: &Model, cfg: &MapConfig, p: &MapPoint, cancel: &AtomicBool) -> Result<Option<MapRow>> {
-    let t0 = Instant::now();
-    let exc = Excitation::new(p.f_ex_hz, p.a_ex_m_s2);
-    let start = model.initial_state(p.s0, &exc)?;
-    let opts = RunOptions {
-        excitation: exc,
+fn run_options(cfg: &MapConfig, p: &MapPoint) -> RunOptions {
+    RunOptions {
+        excitation: Excitation::new(p.f_ex_hz, p.a_ex_m_s2),
         model: SliderModel::Free,
         duration_s: cfg.duration_s,
         record_every: cfg.record_every,
         channels: vec![Channel::W4L7, Channel::S],
         audit_contacts: false,
-    };
-    let steps = (cfg.duration_s / model.params.dt_s).round() as usize;
-    let cap = (steps / cfg.record_every + 2).min(1 << 22);
-    let mut rec = SuperSlowRecorder { w: Vec::with_capacity(cap), s: Vec::with_capacity(cap) };
-    let sum = model.run(&start, &opts, &mut rec, &mut CancelFlag(cancel))?;
-    if let Status::Interrupted { .. } = sum.status {
+    }
+}
+
+/// Run and classify one point from rest. `None` when cancelled.
+pub fn run_point(model: &Model, cfg: &MapConfig, p: &MapPoint, cancel: &AtomicBool) -> Result<Option<MapRow>> {
+    let t0 = Instant::now();
+    let exc = Excitation::new(p.f_ex_hz, p.a_ex_m_s2);
+    let start = model.initial_state(p.s0, &exc)?;
+    let opts = run_options(cfg, p);
+    let mut stream = EnvelopeStream::new(model.params.dt_s * cfg.record_every as f64)?;
+    let (sum, cp) = model.run_checkpointed(&start, &opts, &mut StreamRecorder(&mut stream), &mut CancelFlag(cancel))?;
+    finish_point(model, cfg, p, sum.status, &sum.counters, cp, stream, t0)
+}
+
+/// Continue a not-settled point from the end state of its row to `cfg.duration_s` and classify
+/// the whole run: bitwise the row of a run from rest to `cfg.duration_s` (but the wall time).
+/// `None` when cancelled.
+pub fn continue_point(model: &Model, cfg: &MapConfig, row: &MapRow, cancel: &AtomicBool) -> Result<Option<MapRow>> {
+    let t0 = Instant::now();
+    let end = row.end.as_ref().ok_or_else(|| Error::invalid("extend_to", row.index, "this row has no saved end state (map written by an older version?)"))?;
+    let (cp, mut stream) = end.restore(model.beam.n, model.params.dt_s * cfg.record_every as f64)?;
+    let p = row.point();
+    let opts = run_options(cfg, &p);
+    let (sum, cp) = model.run_from(&cp, &opts, &mut StreamRecorder(&mut stream), &mut CancelFlag(cancel))?;
+    finish_point(model, cfg, &p, sum.status, &sum.counters, cp, stream, t0)
+}
+
+#[allow(clippy::too_many_arguments)]
+fn finish_point(model: &Model, cfg: &MapConfig, p: &MapPoint, status: Status, counters: &Counters, cp: Checkpoint, stream: EnvelopeStream, t0: Instant) -> Result<Option<MapRow>> {
+    if let Status::Interrupted { .. } = status {
         return Ok(None);
     }
     let dt = model.params.dt_s * cfg.record_every as f64;
-    let t_end = (rec.s.len().saturating_sub(1)) as f64 * dt;
-    let c = if rec.s.len() >= 2 {
-        let x = SuperSlow::from_displacement(0.0, dt, &rec.w, &rec.s, model.params.thickness_m, 1.0)?;
-        drop(rec);
+    let t_end = (stream.len().saturating_sub(1)) as f64 * dt;
+    let x = stream.super_slow(model.params.thickness_m, 1.0);
+    let c = if x.s.len() >= 2 {
         let mut c = classify(&x, &cfg.criteria)?;
-        if sum.status != Status::Completed {
+        if status != Status::Completed {
             c.behaviour = Behaviour::Undetermined;
-            c.reason = sum.status.message();
+            c.reason = status.message();
+            c.phase = "failed".into();
         }
         c
+    } else if status != Status::Completed {
+        no_classification(p, status.message())
     } else {
-        no_classification(p, sum.status.message())
+        no_classification(p, format!("too short to classify: the super-slow signals need two {} s bins", crate::envelope_stream::BIN_S))
     };
-    Ok(Some(MapRow::new(p, t_end, &sum.status, &c, &sum.counters, t0.elapsed().as_secs_f64())))
+    let end = (status == Status::Completed).then(|| EndState::new(&cp, stream));
+    Ok(Some(MapRow::new(p, t_end, &status, &c, counters, t0.elapsed().as_secs_f64(), end)))
 }
 
 /// The classification of a point that has no super-slow signals (failed or stopped at once).
@@ -526,17 +664,36 @@ fn no_classification(p: &MapPoint, reason: String) -> Classification {
         jump_up_t_s: vec![],
         jump_down_t_s: vec![],
         steady: false,
+        phase: "failed".into(),
     }
 }
 
 /// Status of a map row whose run failed with an error (not a run status of the core).
 pub const STATUS_ERROR: &str = "error";
 
-/// Run one point; an error or a panic of the run becomes a row with status `error` and the
+/// What to compute for one grid point: a run from rest, or the continuation of a not-settled
+/// row from its end state.
+enum Job {
+    Fresh(MapPoint),
+    Continue(MapPoint, Box<MapRow>),
+}
+
+/// Run one job; an error or a panic of the run becomes a row with status `error` and the
 /// message as reason, so that one failing point does not stop the map.
-fn run_point_guarded(model: &Model, cfg: &MapConfig, p: &MapPoint, cancel: &AtomicBool) -> Option<MapRow> {
+fn run_point_guarded(model: &Model, cfg: &MapConfig, job: &Job, cancel: &AtomicBool) -> Option<MapRow> {
     let t0 = Instant::now();
-    let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| run_point(model, cfg, p, cancel)));
+    let p = match job {
+        Job::Fresh(p) | Job::Continue(p, _) => p,
+    };
+    let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| match job {
+        Job::Fresh(p) => run_point(model, cfg, p, cancel),
+        Job::Continue(p, row) => continue_point(model, cfg, row, cancel).map(|r| {
+            r.map(|mut r| {
+                r.index = p.index;
+                r
+            })
+        }),
+    }));
     let message = match r {
         Ok(Ok(row)) => return row,
         Ok(Err(e)) => e.to_string(),
@@ -550,7 +707,7 @@ fn run_point_guarded(model: &Model, cfg: &MapConfig, p: &MapPoint, cancel: &Atom
         }
     };
     let c = no_classification(p, message);
-    let mut row = MapRow::new(p, f64::NAN, &Status::Completed, &c, &Counters::default(), t0.elapsed().as_secs_f64());
+    let mut row = MapRow::new(p, f64::NAN, &Status::Completed, &c, &Counters::default(), t0.elapsed().as_secs_f64(), None);
     row.status = STATUS_ERROR.to_string();
     row.t_end_s = 0.0;
     Some(row)
@@ -561,12 +718,15 @@ fn run_point_guarded(model: &Model, cfg: &MapConfig, p: &MapPoint, cancel: &Atom
 pub struct ResultsFile {
     /// Settings from the header (None for an empty file).
     pub settings: Option<Settings>,
-    /// Complete rows in file order.
+    /// Complete rows in file order (an extended map has a later row for each continued point:
+    /// see [`latest`]).
     pub rows: Vec<MapRow>,
     /// Byte length of the complete part (a truncated last line starts here).
     pub good_len: u64,
     /// Whether the file ended in an incomplete line.
     pub truncated: bool,
+    /// Format version of the header (0 for an empty file).
+    pub version: u32,
 }
 
 fn io_err(path: &Path, source: std::io::Error) -> Error {
@@ -601,15 +761,16 @@ pub fn read_results(path: &Path) -> Result<ResultsFile> {
         let ok = if lineno == 1 {
             // The version first: another version may have other settings.
             if let Some(v) = serde_json::from_str::<serde_json::Value>(text).ok().and_then(|v| v.get("beamslider_map").cloned())
-                && v != serde_json::json!(FORMAT_VERSION)
+                && !READABLE_VERSIONS.iter().any(|r| v == serde_json::json!(r))
             {
                 return Err(Error::invalid("results file", path.display(), &format!("format version {v} (this build reads {FORMAT_VERSION})")));
             }
             match serde_json::from_str::<Header>(text) {
                 Ok(h) => {
-                    if h.beamslider_map != FORMAT_VERSION {
+                    if !READABLE_VERSIONS.contains(&h.beamslider_map) {
                         return Err(Error::invalid("results file", path.display(), &format!("format version {} (this build reads {FORMAT_VERSION})", h.beamslider_map)));
                     }
+                    out.version = h.beamslider_map;
                     out.settings = Some(h.settings);
                     true
                 }
@@ -640,6 +801,15 @@ pub fn read_results(path: &Path) -> Result<ResultsFile> {
     Ok(out)
 }
 
+/// The rows of a map's results file as they stand: a later row of the same point (an extended
+/// run) replaces the earlier one.
+pub fn latest(rows: Vec<MapRow>) -> Vec<MapRow> {
+    let mut seen = HashSet::new();
+    let mut rows: Vec<MapRow> = rows.into_iter().rev().filter(|r| seen.insert(r.key())).collect();
+    rows.reverse();
+    rows
+}
+
 /// Progress of a map: called after every finished point with (points done, points total, row).
 pub type Progress<'a> = &'a (dyn Fn(usize, usize, &MapRow) + Sync);
 
@@ -650,8 +820,10 @@ pub struct MapOutcome {
     pub rows: Vec<MapRow>,
     /// Points skipped because they were already in the results file.
     pub resumed: usize,
-    /// Points computed by this call.
+    /// Points computed by this call (from rest or continued).
     pub computed: usize,
+    /// Not-settled points continued from their saved end states by this call.
+    pub extended: usize,
     /// Whether the run was cancelled before all points were done.
     pub cancelled: bool,
 }
@@ -672,6 +844,10 @@ pub struct MapRunOptions {
     pub resume: bool,
     /// Worker threads (None = rayon's default: one per core).
     pub threads: Option<usize>,
+    /// Extend the map in `out` to `cfg.duration_s`: the results file must exist with the same
+    /// settings but a shorter (or, when resuming an interrupted extension, the same) duration;
+    /// its not-settled points continue from their end states, the others keep their rows.
+    pub extend: bool,
 }
 
 struct Sink {
@@ -688,17 +864,55 @@ struct Sink {
 pub fn preflight(cfg: &MapConfig, opts: &MapRunOptions) -> Result<()> {
     cfg.validate()?;
     Model::new(cfg.effective_params())?;
+    if opts.extend && opts.out.is_none() {
+        return Err(Error::invalid("extend_to", cfg.duration_s, "needs the results file of the map to extend (out)"));
+    }
     if let Some(path) = &opts.out {
         let exists = path.exists() && std::fs::metadata(path).map(|m| m.len() > 0).unwrap_or(false);
-        if exists && !opts.resume {
+        if exists && !opts.resume && !opts.extend {
             return Err(Error::invalid("out", path.display(), "the results file exists: resume it, or choose another output"));
+        }
+        if opts.extend && !exists {
+            return Err(Error::invalid("extend_to", path.display(), "no results file to extend"));
         }
         if exists {
             let old = read_results(path)?;
-            if old.settings.as_ref().is_some_and(|s| *s != cfg.settings()) {
-                return Err(Error::invalid("resume", path.display(), "the results file was written with other settings (parameters, duration, record_every or criteria); only the grid may change"));
-            }
+            check_settings(cfg, opts, path, &old)?;
         }
+    }
+    Ok(())
+}
+
+/// The settings of an existing results file against the map to run (resume: equal; extend:
+/// equal but for a duration ≤ the new one, and end states saved for the not-settled points).
+fn check_settings(cfg: &MapConfig, opts: &MapRunOptions, path: &Path, old: &ResultsFile) -> Result<()> {
+    let new = cfg.settings();
+    if old.settings.is_some() && old.version != FORMAT_VERSION {
+        let what = if opts.extend { "extend_to" } else { "resume" };
+        return Err(Error::invalid(what, path.display(), &format!("the results file has format version {} (rows classified by older rules, no end states); start a new map", old.version)));
+    }
+    let Some(s) = &old.settings else {
+        if opts.extend {
+            return Err(Error::invalid("extend_to", path.display(), "the results file has no map to extend"));
+        }
+        return Ok(());
+    };
+    if opts.extend {
+        let mut same = s.clone();
+        same.duration_s = new.duration_s;
+        if same != new {
+            return Err(Error::invalid("extend_to", path.display(), "the results file was written with other settings (parameters, record_every or criteria); only the duration may change"));
+        }
+        if s.duration_s > new.duration_s {
+            return Err(Error::invalid("extend_to", new.duration_s, &format!("must exceed the map's t_end ({} s)", s.duration_s)));
+        }
+        if let Some(r) = old.rows.iter().find(|r| r.behaviour == Behaviour::NotSettled && r.status == Status::Completed.name() && r.end.is_none()) {
+            return Err(Error::invalid("extend_to", path.display(), &format!("point #{} (f_ex = {} Hz, a_ex = {} m/s^2, s0 = {}) has no saved end state", r.index, r.f_ex_hz, r.a_ex_m_s2, r.s0)));
+        }
+        return Ok(());
+    }
+    if *s != new {
+        return Err(Error::invalid("resume", path.display(), "the results file was written with other settings (parameters, duration, record_every or criteria); only the grid may change"));
     }
     Ok(())
 }
@@ -718,25 +932,38 @@ pub fn run_map(cfg: &MapConfig, opts: &MapRunOptions, cancel: &AtomicBool, progr
                 std::fs::create_dir_all(dir).map_err(|e| io_err(dir, e))?;
             }
             let exists = path.exists() && std::fs::metadata(path).map(|m| m.len() > 0).unwrap_or(false);
-            if exists && !opts.resume {
+            if exists && !opts.resume && !opts.extend {
                 return Err(Error::invalid("out", path.display(), "the results file exists: resume it, or choose another output"));
+            }
+            if opts.extend && !exists {
+                return Err(Error::invalid("extend_to", path.display(), "no results file to extend"));
+            }
+            if exists {
+                let old = read_results(path)?;
+                check_settings(cfg, opts, path, &old)?;
+                if old.settings.as_ref().is_some_and(|s| *s != settings) {
+                    // Extension: the header takes the new duration. Write the new file beside
+                    // the old one and swap them, so that a kill loses nothing.
+                    let tmp = path.with_extension("jsonl.extend-tmp");
+                    let mut text = header_line(&settings);
+                    text.push('\n');
+                    for r in &latest(old.rows.clone()) {
+                        text.push_str(&r.to_json());
+                        text.push('\n');
+                    }
+                    std::fs::write(&tmp, text).map_err(|e| io_err(&tmp, e))?;
+                    std::fs::rename(&tmp, path).map_err(|e| io_err(path, e))?;
+                }
             }
             let mut f = OpenOptions::new().create(true).read(true).write(true).truncate(false).open(path).map_err(|e| io_err(path, e))?;
             if exists {
                 let old = read_results(path)?;
-                match &old.settings {
-                    Some(s) if *s == settings => {}
-                    Some(_) => {
-                        return Err(Error::invalid("resume", path.display(), "the results file was written with other settings (parameters, duration, record_every or criteria); only the grid may change"));
-                    }
-                    None => {}
-                }
                 f.set_len(old.good_len).map_err(|e| io_err(path, e))?;
                 f.seek(SeekFrom::End(0)).map_err(|e| io_err(path, e))?;
                 if old.settings.is_none() {
                     write_line(&mut f, path, &header_line(&settings))?;
                 }
-                existing = old.rows;
+                existing = latest(old.rows);
             } else {
                 f.set_len(0).map_err(|e| io_err(path, e))?;
                 write_line(&mut f, path, &header_line(&settings))?;
@@ -758,7 +985,11 @@ pub fn run_map(cfg: &MapConfig, opts: &MapRunOptions, cancel: &AtomicBool, progr
             kept.push(r);
         }
     }
-    let todo: Vec<MapPoint> = points.iter().filter(|p| !done_keys.contains(&p.key())).copied().collect();
+    // Not-settled rows that end before the map's duration continue from their end states.
+    let (cont, kept): (Vec<MapRow>, Vec<MapRow>) = kept.into_iter().partition(|r| r.continuable(cfg.duration_s));
+    let extended = cont.len();
+    let mut todo: Vec<Job> = cont.into_iter().map(|r| Job::Continue(r.point(), Box::new(r))).collect();
+    todo.extend(points.iter().filter(|p| !done_keys.contains(&p.key())).map(|p| Job::Fresh(*p)));
     let total = points.len();
     let resumed = kept.len();
     let sink = Mutex::new(Sink { file, rows: kept, done: resumed, error: None });
@@ -803,7 +1034,7 @@ pub fn run_map(cfg: &MapConfig, opts: &MapRunOptions, cancel: &AtomicBool, progr
     let mut rows = sink.rows;
     rows.sort_by_key(|r| r.index);
     let computed = rows.len() - resumed;
-    Ok(MapOutcome { cancelled: rows.len() < total, rows, resumed, computed })
+    Ok(MapOutcome { cancelled: rows.len() < total, rows, resumed, computed, extended })
 }
 
 fn header_line(s: &Settings) -> String {
@@ -817,6 +1048,24 @@ fn write_line(f: &mut File, path: &Path, line: &str) -> Result<()> {
     buf.push('\n');
     f.write_all(buf.as_bytes()).map_err(|e| io_err(path, e))?;
     f.flush().map_err(|e| io_err(path, e))
+}
+
+/// "t_end = 120 s", or for an extended map "t_end = 120 s (settled points kept from 60 s)".
+fn t_end_text(rows: &[&MapRow]) -> String {
+    let ok: Vec<f64> = rows.iter().filter(|r| r.status == Status::Completed.name()).map(|r| r.t_end_s).collect();
+    let hi = ok.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let lo = ok.iter().copied().fold(f64::INFINITY, f64::min);
+    if ok.is_empty() {
+        "t_end = -".into()
+    } else if lo == hi {
+        format!("t_end = {} s", round3(hi))
+    } else {
+        format!("t_end = {} s (settled points kept from {} s)", round3(hi), round3(lo))
+    }
+}
+
+fn round3(x: f64) -> f64 {
+    (x * 1000.0).round() / 1000.0
 }
 
 /// The map as text: one row per a_ex (highest first, as in the paper's figure), one column per
@@ -835,7 +1084,11 @@ pub fn text_table(rows: &[MapRow]) -> String {
         let mut as_: Vec<f64> = sub.iter().map(|r| r.a_ex_m_s2).collect();
         as_.sort_by(f64::total_cmp);
         as_.dedup();
-        let _ = writeln!(out, "s0 = {s0}; rows a_ex [m/s^2], columns f_ex [Hz]; I inactivity, T trivial adaption, S signature move, R relaxation oscillation, D self-damping, ? undetermined, . not run");
+        let _ = writeln!(
+            out,
+            "s0 = {s0}, {}; rows a_ex [m/s^2], columns f_ex [Hz]; I inactivity, T trivial adaption, S signature move, R relaxation oscillation, D self-damping, N not settled, ? undetermined, . not run",
+            t_end_text(&sub)
+        );
         let _ = write!(out, "{:>6} ", "a\\f");
         for f in &fs {
             let _ = write!(out, "{:>4}", format!("{f}"));

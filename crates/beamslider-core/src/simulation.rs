@@ -9,7 +9,7 @@ use crate::params::Params;
 use crate::record::{Channel, Recorder};
 use crate::slider::Slider;
 pub use crate::excitation::Excitation;
-use crate::stepper::{Counters, Kinematics, StateN, StepFault, Stepper};
+use crate::stepper::{Counters, Kinematics, StateN, StepFault, Stepper, StepperMemory};
 
 /// Which model to integrate (docs/model.md §6).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -130,6 +130,22 @@ pub struct RunSummary {
     pub state: State,
     /// Solver and contact counters.
     pub counters: Counters,
+}
+
+/// A run's state after a number of steps, with everything needed to continue it bitwise as if
+/// it had never stopped: the state, the step index counted from the run's start time
+/// `t_origin_s` (time = t_origin_s + step·Δt, computed as in the uninterrupted run), and the
+/// stepper's memory (warm start, contact patterns, counters, excitation clock).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Checkpoint {
+    /// Start time of the run [s] (0 for a run from rest).
+    pub t_origin_s: f64,
+    /// Steps taken since `t_origin_s`.
+    pub step: u64,
+    /// The state after `step` steps.
+    pub state: State,
+    /// The stepper's memory after `step` steps.
+    pub memory: StepperMemory,
 }
 
 /// Polled every few thousand steps; return `false` to interrupt the run.
@@ -291,11 +307,55 @@ impl Model {
         monitor: &mut dyn Monitor,
     ) -> Result<RunSummary> {
         self.check_run(start, opts)?;
+        Ok(self.dispatch(start, None, opts, rec, monitor)?.0)
+    }
+
+    /// As [`Model::run`], and also return the checkpoint at the end of the run (meaningful when
+    /// the status is `Completed`).
+    pub fn run_checkpointed(
+        &self,
+        start: &State,
+        opts: &RunOptions,
+        rec: &mut dyn Recorder,
+        monitor: &mut dyn Monitor,
+    ) -> Result<(RunSummary, Checkpoint)> {
+        self.check_run(start, opts)?;
+        self.dispatch(start, None, opts, rec, monitor)
+    }
+
+    /// Continue a run from a checkpoint until `opts.duration_s` after the run's start time
+    /// (`checkpoint.t_origin_s`): the steps, recorded rows (every `opts.record_every`-th step
+    /// counted from the start; the checkpoint's own row is not repeated), counters and end state
+    /// are bitwise those of the run that went there without stopping, given the same model and
+    /// options.
+    pub fn run_from(
+        &self,
+        checkpoint: &Checkpoint,
+        opts: &RunOptions,
+        rec: &mut dyn Recorder,
+        monitor: &mut dyn Monitor,
+    ) -> Result<(RunSummary, Checkpoint)> {
+        self.check_run(&checkpoint.state, opts)?;
+        let total = (opts.duration_s / self.params.dt_s).round() as u64;
+        if checkpoint.step > total {
+            return Err(Error::invalid("duration_s", opts.duration_s, &format!("the checkpoint is already at step {} (t = {} s)", checkpoint.step, checkpoint.state.t_s)));
+        }
+        self.dispatch(&checkpoint.state, Some(checkpoint), opts, rec, monitor)
+    }
+
+    fn dispatch(
+        &self,
+        start: &State,
+        resume: Option<&Checkpoint>,
+        opts: &RunOptions,
+        rec: &mut dyn Recorder,
+        monitor: &mut dyn Monitor,
+    ) -> Result<(RunSummary, Checkpoint)> {
         let n = self.beam.n;
         macro_rules! go {
             ($($n:literal)*) => {
                 match n {
-                    $($n => run_n::<$n>(self, start, opts, rec, monitor),)*
+                    $($n => run_n::<$n>(self, start, resume, opts, rec, monitor),)*
                     _ => Err(Error::invalid("n_modes", n, "must lie in 1..=20")),
                 }
             };
@@ -392,10 +452,11 @@ pub fn set_simd(enabled: bool) {
 fn run_n<const N: usize>(
     model: &Model,
     start: &State,
+    resume: Option<&Checkpoint>,
     opts: &RunOptions,
     rec: &mut dyn Recorder,
     monitor: &mut dyn Monitor,
-) -> Result<RunSummary> {
+) -> Result<(RunSummary, Checkpoint)> {
     #[cfg(target_arch = "x86_64")]
     {
         if SIMD.load(Ordering::Relaxed)
@@ -403,10 +464,10 @@ fn run_n<const N: usize>(
             && std::arch::is_x86_feature_detected!("fma")
         {
             // SAFETY: the CPU supports AVX2 and FMA, checked just above.
-            return unsafe { run_n_avx2::<N>(model, start, opts, rec, monitor) };
+            return unsafe { run_n_avx2::<N>(model, start, resume, opts, rec, monitor) };
         }
     }
-    run_n_generic::<N>(model, start, opts, rec, monitor)
+    run_n_generic::<N>(model, start, resume, opts, rec, monitor)
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -414,21 +475,23 @@ fn run_n<const N: usize>(
 fn run_n_avx2<const N: usize>(
     model: &Model,
     start: &State,
+    resume: Option<&Checkpoint>,
     opts: &RunOptions,
     rec: &mut dyn Recorder,
     monitor: &mut dyn Monitor,
-) -> Result<RunSummary> {
-    run_n_generic::<N>(model, start, opts, rec, monitor)
+) -> Result<(RunSummary, Checkpoint)> {
+    run_n_generic::<N>(model, start, resume, opts, rec, monitor)
 }
 
 #[inline(always)]
 fn run_n_generic<const N: usize>(
     model: &Model,
     start: &State,
+    resume: Option<&Checkpoint>,
     opts: &RunOptions,
     rec: &mut dyn Recorder,
     monitor: &mut dyn Monitor,
-) -> Result<RunSummary> {
+) -> Result<(RunSummary, Checkpoint)> {
     let p = &model.params;
     let dt = p.dt_s;
     let l = p.length_m;
@@ -440,6 +503,14 @@ fn run_n_generic<const N: usize>(
     };
     let mut stepper = Stepper::<N>::new(&model.beam, p, base, kin);
     stepper.audit = opts.audit_contacts;
+    // A continued run counts its steps from the original start (t = t0 + k Δt as there).
+    let (t0, k0) = match resume {
+        Some(c) => {
+            stepper.restore(&c.memory);
+            (c.t_origin_s, c.step)
+        }
+        None => (start.t_s, 0),
+    };
     let slider = Slider::new(p);
     let writer = RowWriter {
         phi_4l7: model.beam.phi_row(4.0 / 7.0 * l),
@@ -456,20 +527,22 @@ fn run_n_generic<const N: usize>(
     rec.begin(&names)?;
     let mut row = Vec::with_capacity(names.len());
     let mut st = to_state_n::<N>(start);
-    let t0 = start.t_s;
     let steps = (opts.duration_s / dt).round() as u64;
     let t_end = t0 + steps as f64 * dt;
-    writer.fill(&mut row, t0, &st, &stepper.last_p);
-    rec.push(&row)?;
+    if resume.is_none() {
+        writer.fill(&mut row, t0, &st, &stepper.last_p);
+        rec.push(&row)?;
+    }
     let every = opts.record_every as u64;
     let mut good = st;
-    let mut good_t = t0;
+    let mut good_t = start.t_s;
+    let mut good_k = k0;
     let mut status = Status::Completed;
     let x_kin_of = |s: &StateN<N>| match kin {
         Kinematics::Fixed(x) => x,
         _ => s.qs[0],
     };
-    for k in 0..steps {
+    for k in k0..steps {
         let t_b = t0 + k as f64 * dt;
         match stepper.step(&mut st, t_b) {
             Ok(()) => {}
@@ -493,25 +566,30 @@ fn run_n_generic<const N: usize>(
             rec.push(&row)?;
             good = st;
             good_t = t;
+            good_k = done;
         }
         if done % POLL_EVERY == 0 && !monitor.poll(t, t_end) {
             status = Status::Interrupted { t_s: t };
             good = st;
             good_t = t;
+            good_k = done;
             break;
         }
         if done == steps {
             good = st;
             good_t = t;
+            good_k = done;
         }
     }
-    if steps == 0 {
-        good_t = t0;
-    }
     monitor.poll(good_t, t_end);
-    Ok(RunSummary {
-        status,
-        state: from_state_n(&good, good_t),
-        counters: stepper.counters,
-    })
+    let state = from_state_n(&good, good_t);
+    let checkpoint = Checkpoint { t_origin_s: t0, step: good_k, state: state.clone(), memory: stepper.memory() };
+    Ok((
+        RunSummary {
+            status,
+            state,
+            counters: stepper.counters,
+        },
+        checkpoint,
+    ))
 }

@@ -56,6 +56,46 @@ impl Counters {
     }
 }
 
+/// Everything the stepper carries from one step to the next besides the state (q, u): the
+/// warm-start percussions of the reference solver (docs/model.md §5), the last contact pattern of the
+/// fast solver, the last percussions, the counters and the phase of the excitation clock.
+/// Restoring it with [`Stepper::restore`] makes a run continued from a saved state bitwise the
+/// run that never stopped.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StepperMemory {
+    /// Warm-start percussion (P_N, P_T) of each contact.
+    pub warm: [[f64; 2]; N_CONTACTS],
+    /// Last contact pattern of each contact (0 open, 1 stick, 2 slide +, 3 slide −).
+    pub modes: [u8; N_CONTACTS],
+    /// Percussions of the last step.
+    pub last_p: [[f64; 2]; N_CONTACTS],
+    /// Counters so far.
+    pub counters: Counters,
+    /// Excitation clock: (cos Ωt, sin Ωt) of the next midpoint, the last midpoint time, and
+    /// the steps since the last re-synchronisation.
+    pub clock: [f64; 3],
+    /// Steps since the clock's last re-synchronisation.
+    pub clock_count: u32,
+}
+
+fn mode_code(m: ContactMode) -> u8 {
+    match m {
+        ContactMode::Open => 0,
+        ContactMode::Stick => 1,
+        ContactMode::SlidePos => 2,
+        ContactMode::SlideNeg => 3,
+    }
+}
+
+fn mode_of(c: u8) -> ContactMode {
+    match c {
+        0 => ContactMode::Open,
+        2 => ContactMode::SlidePos,
+        3 => ContactMode::SlideNeg,
+        _ => ContactMode::Stick,
+    }
+}
+
 /// Where the contact kinematics take the slider's horizontal position from (docs/model.md §6).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Kinematics {
@@ -269,6 +309,29 @@ impl<'a, const N: usize> Stepper<'a, N> {
             prob: LocalProblem::new(0, p.friction_coefficient),
             clock: Clock::new(omega, p.dt_s),
         }
+    }
+
+    /// What the stepper carries between steps (see [`StepperMemory`]).
+    pub fn memory(&self) -> StepperMemory {
+        StepperMemory {
+            warm: self.warm,
+            modes: self.modes.map(mode_code),
+            last_p: self.last_p,
+            counters: self.counters,
+            clock: [self.clock.cs.0, self.clock.cs.1, self.clock.prev_t],
+            clock_count: self.clock.count,
+        }
+    }
+
+    /// Continue from a saved [`StepperMemory`] (of a stepper with the same model and excitation).
+    pub fn restore(&mut self, m: &StepperMemory) {
+        self.warm = m.warm;
+        self.modes = m.modes.map(mode_of);
+        self.last_p = m.last_p;
+        self.counters = m.counters;
+        self.clock.cs = (m.clock[0], m.clock[1]);
+        self.clock.prev_t = m.clock[2];
+        self.clock.count = m.clock_count;
     }
 
     /// Beam part of docs/model.md §5 step 3 (the beam has no mass matrix to invert): the velocity

@@ -63,7 +63,7 @@ fn rows_do_not_depend_on_the_number_of_threads() {
     let mut all = Vec::new();
     for threads in [1, 2, 3] {
         let out = d.join(format!("t{threads}.jsonl"));
-        let o = run_map(&cfg, &MapRunOptions { out: Some(out.clone()), resume: false, threads: Some(threads) }, &cancel, &none).unwrap();
+        let o = run_map(&cfg, &MapRunOptions { out: Some(out.clone()), resume: false, threads: Some(threads), extend: false }, &cancel, &none).unwrap();
         assert_eq!(o.rows.len(), 8);
         assert_eq!(o.computed, 8);
         // The file holds the same rows (in completion order).
@@ -85,7 +85,7 @@ fn resume_after_a_truncated_last_line_loses_nothing_and_duplicates_nothing() {
     let cancel = AtomicBool::new(false);
     let d = tmp("resume");
     let full_path = d.join("full.jsonl");
-    let full = run_map(&cfg, &MapRunOptions { out: Some(full_path.clone()), resume: false, threads: Some(2) }, &cancel, &none).unwrap();
+    let full = run_map(&cfg, &MapRunOptions { out: Some(full_path.clone()), resume: false, threads: Some(2), extend: false }, &cancel, &none).unwrap();
     // A killed run: the header, three complete rows and half of a fourth.
     let text = std::fs::read_to_string(&full_path).unwrap();
     let lines: Vec<&str> = text.lines().collect();
@@ -98,8 +98,8 @@ fn resume_after_a_truncated_last_line_loses_nothing_and_duplicates_nothing() {
     assert!(r.truncated);
     assert_eq!(r.rows.len(), 3);
     // Without --resume an existing file is refused.
-    assert!(run_map(&cfg, &MapRunOptions { out: Some(cut.clone()), resume: false, threads: Some(2) }, &cancel, &none).is_err());
-    let o = run_map(&cfg, &MapRunOptions { out: Some(cut.clone()), resume: true, threads: Some(2) }, &cancel, &none).unwrap();
+    assert!(run_map(&cfg, &MapRunOptions { out: Some(cut.clone()), resume: false, threads: Some(2), extend: false }, &cancel, &none).is_err());
+    let o = run_map(&cfg, &MapRunOptions { out: Some(cut.clone()), resume: true, threads: Some(2), extend: false }, &cancel, &none).unwrap();
     assert_eq!(o.resumed, 3);
     assert_eq!(o.computed, 5);
     assert_eq!(canon(&o.rows), canon(&full.rows));
@@ -110,17 +110,17 @@ fn resume_after_a_truncated_last_line_loses_nothing_and_duplicates_nothing() {
     idx.sort();
     assert_eq!(idx, (0..8).collect::<Vec<_>>());
     // Resuming a complete map computes nothing.
-    let o = run_map(&cfg, &MapRunOptions { out: Some(cut.clone()), resume: true, threads: Some(2) }, &cancel, &none).unwrap();
+    let o = run_map(&cfg, &MapRunOptions { out: Some(cut.clone()), resume: true, threads: Some(2), extend: false }, &cancel, &none).unwrap();
     assert_eq!((o.resumed, o.computed), (8, 0));
     assert_eq!(read_results(&cut).unwrap().rows.len(), 8);
     // Other settings cannot resume the file; a grown grid can.
     let mut other = cfg.clone();
     other.duration_s = 1.0;
-    let e = run_map(&other, &MapRunOptions { out: Some(cut.clone()), resume: true, threads: Some(2) }, &cancel, &none).unwrap_err();
+    let e = run_map(&other, &MapRunOptions { out: Some(cut.clone()), resume: true, threads: Some(2), extend: false }, &cancel, &none).unwrap_err();
     assert!(e.to_string().contains("other settings"), "{e}");
     let mut grown = cfg.clone();
     grown.grid.a_ex_m_s2 = beamslider_core::Axis::List(vec![6.0, 10.0, 14.0]);
-    let o = run_map(&grown, &MapRunOptions { out: Some(cut.clone()), resume: true, threads: Some(2) }, &cancel, &none).unwrap();
+    let o = run_map(&grown, &MapRunOptions { out: Some(cut.clone()), resume: true, threads: Some(2), extend: false }, &cancel, &none).unwrap();
     assert_eq!((o.resumed, o.computed, o.rows.len()), (8, 4, 12));
     assert!(map::text_table(&o.rows).lines().count() == 5);
 }
@@ -141,14 +141,14 @@ fn failed_points_are_rows_that_read_back_and_resume() {
     let cfg = MapConfig::from_toml_str("duration_s = 0.3\nrecord_every = 10\n[grid]\nf_ex_hz = [120.0, 124.0]\na_ex_m_s2 = [6.0, 1e6]\n").unwrap();
     let cancel = AtomicBool::new(false);
     let path = tmp("failing").join("map.jsonl");
-    let o = run_map(&cfg, &MapRunOptions { out: Some(path.clone()), resume: false, threads: Some(2) }, &cancel, &none).unwrap();
+    let o = run_map(&cfg, &MapRunOptions { out: Some(path.clone()), resume: false, threads: Some(2), extend: false }, &cancel, &none).unwrap();
     assert_eq!(o.rows.len(), 4);
     let failed: Vec<usize> = o.failures().iter().map(|r| r.index).collect();
     assert_eq!(failed, vec![2, 3]);
     assert!(o.rows[2].s_final.is_nan() || o.rows[2].status != "completed");
     let back = read_results(&path).unwrap();
     assert_eq!(back.rows.len(), 4);
-    let o = run_map(&cfg, &MapRunOptions { out: Some(path.clone()), resume: true, threads: Some(2) }, &cancel, &none).unwrap();
+    let o = run_map(&cfg, &MapRunOptions { out: Some(path.clone()), resume: true, threads: Some(2), extend: false }, &cancel, &none).unwrap();
     assert_eq!((o.resumed, o.computed), (4, 0));
 }
 
@@ -164,4 +164,71 @@ fn grids_that_are_typing_errors_are_refused() {
         let e = MapConfig::from_toml_str(text).unwrap_err().to_string();
         assert!(e.contains(word), "{text}: {e}");
     }
+}
+
+/// Issue 15: a 3-s map extended to 6 s continues exactly its not-settled points from their saved
+/// end states; each continued row is bitwise the row of the 6-s map (all fields but the wall
+/// time), the settled rows are kept, and only the not-settled points are re-run.
+#[test]
+fn extended_map_rows_are_bitwise_those_of_the_longer_map() {
+    let cancel = AtomicBool::new(false);
+    let dir = tmp("extend");
+    let grid = "[grid]\nf_ex_hz = [100.0, 120.0, 124.0]\na_ex_m_s2 = [4.0, 14.0]\ns0 = [0.3, 0.7]\n";
+    let cfg = |d: f64| MapConfig::from_toml_str(&format!("duration_s = {d}\n{grid}")).unwrap();
+    let long = run_map(&cfg(6.0), &MapRunOptions { out: None, resume: false, threads: Some(2), extend: false }, &cancel, &none).unwrap();
+    let path = dir.join("map.jsonl");
+    let short = run_map(&cfg(3.0), &MapRunOptions { out: Some(path.clone()), resume: false, threads: Some(2), extend: false }, &cancel, &none).unwrap();
+    let unsettled: Vec<usize> = short.rows.iter().filter(|r| r.behaviour == beamslider_core::Behaviour::NotSettled).map(|r| r.index).collect();
+    assert!(!unsettled.is_empty() && unsettled.len() < short.rows.len(), "need both kinds: {:?}", short.rows.iter().map(|r| r.behaviour).collect::<Vec<_>>());
+    assert!(short.rows.iter().all(|r| r.end.is_some()));
+    // Extend: only the not-settled points run.
+    let ext = run_map(&cfg(6.0), &MapRunOptions { out: Some(path.clone()), resume: false, threads: Some(2), extend: true }, &cancel, &none).unwrap();
+    assert_eq!(ext.extended, unsettled.len());
+    assert_eq!(ext.computed, unsettled.len());
+    assert_eq!(ext.resumed, short.rows.len() - unsettled.len());
+    let (a, b, c) = (canon(&ext.rows), canon(&long.rows), canon(&short.rows));
+    for i in 0..a.len() {
+        if unsettled.contains(&i) {
+            assert_eq!(a[i], b[i], "continued point {i} differs from the 6-s run");
+        } else {
+            assert_eq!(a[i], c[i], "settled point {i} was not kept");
+        }
+    }
+    // The file reads back to the extended rows (later rows replace earlier ones).
+    let back = read_results(&path).unwrap();
+    assert_eq!(back.settings.unwrap().duration_s, 6.0);
+    let mut rows = map::latest(back.rows.clone());
+    rows.sort_by_key(|r| r.index);
+    assert_eq!(canon(&rows), a);
+    // Nothing left to extend: a second call re-runs nothing.
+    let again = run_map(&cfg(6.0), &MapRunOptions { out: Some(path.clone()), resume: true, threads: Some(2), extend: false }, &cancel, &none).unwrap();
+    assert_eq!((again.extended, again.computed), (0, 0));
+    // Extending to a shorter duration, or a map that is not there, is an error naming extend_to.
+    let e = run_map(&cfg(4.0), &MapRunOptions { out: Some(path.clone()), resume: false, threads: Some(2), extend: true }, &cancel, &none).unwrap_err().to_string();
+    assert!(e.contains("extend_to"), "{e}");
+    let e = run_map(&cfg(6.0), &MapRunOptions { out: Some(dir.join("none.jsonl")), resume: false, threads: Some(2), extend: true }, &cancel, &none).unwrap_err().to_string();
+    assert!(e.contains("extend_to"), "{e}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The checkpointed run continued with `run_from` is bitwise the run that never stopped.
+#[test]
+fn run_from_checkpoint_is_bitwise_the_uninterrupted_run() {
+    use beamslider_core::{Channel, Excitation, MemoryRecorder, Model, Params, RunOptions, SliderModel};
+    let model = Model::new(Params::default()).unwrap();
+    let exc = Excitation::new(124.0, 14.0);
+    let start = model.initial_state(0.3, &exc).unwrap();
+    let opts = |d: f64| RunOptions { excitation: exc, model: SliderModel::Free, duration_s: d, record_every: 7, channels: vec![Channel::W4L7, Channel::S, Channel::Percussions], audit_contacts: false };
+    let mut whole = MemoryRecorder::new();
+    let (sum_whole, _) = model.run_checkpointed(&start, &opts(0.5), &mut whole, &mut ()).unwrap();
+    let mut first = MemoryRecorder::new();
+    let (_, cp) = model.run_checkpointed(&start, &opts(0.2), &mut first, &mut ()).unwrap();
+    let mut second = MemoryRecorder::new();
+    let (sum, _) = model.run_from(&cp, &opts(0.5), &mut second, &mut ()).unwrap();
+    assert_eq!(sum.state, sum_whole.state);
+    assert_eq!(sum.counters, sum_whole.counters);
+    let bits = |r: &MemoryRecorder| r.data.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+    let mut joined = bits(&first);
+    joined.extend(bits(&second));
+    assert_eq!(joined, bits(&whole));
 }

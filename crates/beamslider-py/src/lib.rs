@@ -342,6 +342,41 @@ fn envelope<'py>(
     Ok(e.into_pyarray(py))
 }
 
+/// The super-slow signals a map point is classified from (core module `envelope_stream`,
+/// docs/model.md §7): w(4L/7) [m] and s sampled every `dt_s` from a run from rest, binned over 0.2 s;
+/// A = `window_s` moving average of the binned |analytic signal| divided by `thickness_m`.
+/// Returns (t0 of the first bin [s], bin spacing [s], s per bin, A per bin [h]).
+#[pyfunction]
+fn super_slow_signals<'py>(
+    py: Python<'py>,
+    w: PyReadonlyArray1<'py, f64>,
+    s: PyReadonlyArray1<'py, f64>,
+    dt_s: f64,
+    thickness_m: f64,
+    window_s: f64,
+) -> PyResult<(f64, f64, Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<f64>>)> {
+    if !(window_s.is_finite() && window_s > 0.0) {
+        return Err(PyValueError::new_err(format!("invalid parameter `window` = {window_s}: must be finite and > 0 (seconds)")));
+    }
+    if !(thickness_m.is_finite() && thickness_m > 0.0) {
+        return Err(PyValueError::new_err(format!("invalid parameter `thickness_m` = {thickness_m}: must be finite and > 0")));
+    }
+    let (w, s) = (w.as_slice()?.to_vec(), s.as_slice()?.to_vec());
+    if w.len() != s.len() {
+        return Err(PyValueError::new_err("invalid parameter `s`: w and s must have the same length"));
+    }
+    let x = py.detach(|| {
+        guarded(|| {
+            let mut st = beamslider_core::envelope_stream::EnvelopeStream::new(dt_s)?;
+            for (a, b) in w.iter().zip(&s) {
+                st.push(*a, *b);
+            }
+            Ok(st.super_slow(thickness_m, window_s))
+        })
+    })?;
+    Ok((x.t0_s, x.dt_s, x.s.into_pyarray(py), x.amplitude_h.into_pyarray(py)))
+}
+
 /// Behaviour classification (docs/model.md §8) of super-slow signals sampled every `dt_s`: slider
 /// position `s` and amplitude `amplitude_h` (1-s moving average of |Hilbert(w(4L/7))| / h).
 /// `criteria_toml`: thresholds as TOML keys of the core's `Criteria` (missing keys take defaults).
@@ -381,12 +416,13 @@ fn map_config(text: &str) -> PyResult<(String, Vec<f64>, Vec<f64>, Vec<f64>)> {
 }
 
 /// Check a map before anything is written: configuration, Δt, and the results file `out`
-/// (exists without `resume`, other settings). Raises what `run_map` would raise.
+/// (exists without `resume`, other settings; with `extend`: the map to extend to the config's
+/// duration). Raises what `run_map` would raise.
 #[pyfunction]
-#[pyo3(signature = (config_toml, *, out=None, resume=false))]
-fn check_map(py: Python<'_>, config_toml: &str, out: Option<std::path::PathBuf>, resume: bool) -> PyResult<()> {
+#[pyo3(signature = (config_toml, *, out=None, resume=false, extend=false))]
+fn check_map(py: Python<'_>, config_toml: &str, out: Option<std::path::PathBuf>, resume: bool, extend: bool) -> PyResult<()> {
     let cfg = guarded(|| MapConfig::from_toml_str(config_toml))?;
-    let opts = MapRunOptions { out, resume, threads: None };
+    let opts = MapRunOptions { out, resume, threads: None, extend };
     py.detach(|| guarded(|| beamslider_core::map::preflight(&cfg, &opts)))
 }
 
@@ -400,12 +436,14 @@ fn read_map_results(py: Python<'_>, path: std::path::PathBuf) -> PyResult<(Optio
 }
 
 /// Run an operating map (docs/model.md §8) in parallel: `config_toml` as read by `beamslider-batch map`,
-/// `out` the results file (JSON lines, appended point by point), `resume` to skip its points.
-/// Returns the rows of the grid (JSON texts, sorted by grid index). `progress(done, total)` is
+/// `out` the results file (JSON lines, appended point by point), `resume` to skip its points,
+/// `extend` to continue its not-settled points from their end states to the config's duration.
+/// Returns (the rows of the grid as JSON texts sorted by grid index, the number of not-settled
+/// points continued from their end states). `progress(done, total)` is
 /// called from the calling thread; Ctrl-C cancels the map (finished points stay in the file) and
 /// raises KeyboardInterrupt.
 #[pyfunction]
-#[pyo3(signature = (config_toml, *, out=None, resume=false, threads=None, progress=None))]
+#[pyo3(signature = (config_toml, *, out=None, resume=false, threads=None, progress=None, extend=false))]
 fn run_map(
     py: Python<'_>,
     config_toml: &str,
@@ -413,13 +451,14 @@ fn run_map(
     resume: bool,
     threads: Option<usize>,
     progress: Option<Py<PyAny>>,
-) -> PyResult<Vec<String>> {
+    extend: bool,
+) -> PyResult<(Vec<String>, usize)> {
     use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
     if threads == Some(0) {
         return Err(PyValueError::new_err("invalid parameter `threads` = 0: must be >= 1"));
     }
     let cfg = guarded(|| MapConfig::from_toml_str(config_toml))?;
-    let opts = MapRunOptions { out, resume, threads };
+    let opts = MapRunOptions { out, resume, threads, extend };
     let cancel = AtomicBool::new(false);
     let done = AtomicUsize::new(0);
     let total = AtomicUsize::new(0);
@@ -463,7 +502,7 @@ fn run_map(
     if outcome.cancelled {
         return Err(PyKeyboardInterrupt::new_err("map interrupted"));
     }
-    Ok(outcome.rows.iter().map(MapRow::to_json).collect())
+    Ok((outcome.rows.iter().map(MapRow::to_json).collect(), outcome.extended))
 }
 
 /// The compiled core of beamslider (private: import `beamslider` instead).
@@ -482,6 +521,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(moving_average, m)?)?;
     m.add_function(wrap_pyfunction!(envelope, m)?)?;
     m.add_function(wrap_pyfunction!(classify, m)?)?;
+    m.add_function(wrap_pyfunction!(super_slow_signals, m)?)?;
     m.add_function(wrap_pyfunction!(default_map_config, m)?)?;
     m.add_function(wrap_pyfunction!(map_config, m)?)?;
     m.add_function(wrap_pyfunction!(read_map_results, m)?)?;

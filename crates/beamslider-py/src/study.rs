@@ -124,7 +124,9 @@ fn run_chunk(cfg: &MapConfig, points: &[ChunkPoint], threads: Option<usize>, can
             c.duration_s = *duration_s;
             let p = MapPoint { index: *index, f_ex_hz: *f_ex_hz, a_ex_m_s2: *a_ex_m_s2, s0: *s0 };
             match map::run_point(model, &c, &p, cancel) {
-                Ok(Some(row)) => {
+                Ok(Some(mut row)) => {
+                    // A study keeps the classification, not the end state (not extended).
+                    row.end = None;
                     let json = MapRow::to_json(&row);
                     fresh.lock().unwrap_or_else(|e| e.into_inner()).push(json.clone());
                     rows.lock().unwrap_or_else(|e| e.into_inner()).push((*index, json));
