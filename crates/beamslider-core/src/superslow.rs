@@ -597,11 +597,17 @@ impl Continuation<'_> {
         2 * self.sys.n + 1
     }
 
-    /// Newton on [R(y); tᵀ(y − y_pred)] = 0.
+    /// Newton on [R(y); tᵀ(y − y_pred)] = 0 from y_pred.
     fn correct(&self, y_pred: &DVector<f64>, t: &DVector<f64>) -> Option<Corrected> {
+        self.newton(y_pred, y_pred, t, 12, 1e-11)
+    }
+
+    /// Newton on [R(y); tᵀ(y − y_pred)] = 0 from `start`, at most `max_iter` iterations, converged
+    /// when the step is below `tol` · (1 + max|y|).
+    fn newton(&self, start: &DVector<f64>, y_pred: &DVector<f64>, t: &DVector<f64>, max_iter: usize, tol: f64) -> Option<Corrected> {
         let d = self.dim();
-        let mut y = y_pred.clone();
-        for it in 0..12 {
+        let mut y = start.clone();
+        for it in 0..max_iter {
             let (r, j) = self.sys.eval(&y, self.par, true);
             let mut a = DMatrix::zeros(d, d);
             a.rows_mut(0, d - 1).copy_from(&j);
@@ -614,7 +620,7 @@ impl Continuation<'_> {
                 return None;
             }
             y += &dy;
-            if dy.amax() <= 1e-11 * (1.0 + y.amax()) {
+            if dy.amax() <= tol * (1.0 + y.amax()) {
                 let (_, j) = self.sys.eval(&y, self.par, true);
                 return Some(Corrected { y, j, iters: it + 1 });
             }
@@ -668,27 +674,7 @@ impl Continuation<'_> {
     }
 
     fn correct_from(&self, start: &DVector<f64>, y_pred: &DVector<f64>, t: &DVector<f64>) -> Option<Corrected> {
-        let d = self.dim();
-        let mut y = start.clone();
-        for it in 0..15 {
-            let (r, j) = self.sys.eval(&y, self.par, true);
-            let mut a = DMatrix::zeros(d, d);
-            a.rows_mut(0, d - 1).copy_from(&j);
-            a.row_mut(d - 1).copy_from(&t.transpose());
-            let mut rhs = DVector::zeros(d);
-            rhs.rows_mut(0, d - 1).copy_from(&(-&r));
-            rhs[d - 1] = -t.dot(&(&y - y_pred));
-            let dy = a.lu().solve(&rhs)?;
-            if !dy.iter().all(|v| v.is_finite()) {
-                return None;
-            }
-            y += &dy;
-            if dy.amax() <= 1e-13 * (1.0 + y.amax()) {
-                let (_, j) = self.sys.eval(&y, self.par, true);
-                return Some(Corrected { y, j, iters: it + 1 });
-            }
-        }
-        None
+        self.newton(start, y_pred, t, 15, 1e-13)
     }
 
     /// Trace from y0 in the direction of increasing (dir > 0) or decreasing parameter until it
