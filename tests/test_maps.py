@@ -168,7 +168,9 @@ def _same_rows(a, b, idx):
 def test_extend_to_continues_only_not_settled_points_bitwise(tmp_path, capsys):
     """Issue 15: a 3-s map extended to 6 s re-runs only its not-settled points, from their saved
     end states, and each re-run row is the row of the 6-s map (but the wall time)."""
-    grid = dict(f_ex=[100.0, 120.0, 124.0], a_ex=[4.0, 14.0], s0=[0.3, 0.7])
+    # Windows of 1 s: with the default ones (15 s, drift over 30 s) no 3-s run is settled.
+    grid = dict(f_ex=[100.0, 120.0, 124.0], a_ex=[4.0, 14.0], s0=[0.3, 0.7],
+                criteria={"steady_window_s": 1.0, "steady_drift_window_s": 1.0})
     long = beamslider.operating_map(**grid, t_end=6.0, threads=2)
     short = beamslider.operating_map(**grid, t_end=3.0, threads=2, out=tmp_path / "m")
     unsettled = np.flatnonzero(short["behaviour"] == "not_settled")

@@ -28,13 +28,20 @@
 //!   [`Criteria::turn_s`] (a feature).
 //! - **Steady state** (settled): over the final [`Criteria::steady_window_s`] (15 s) s varies by
 //!   less than [`Criteria::steady_s`] (0.03) and A by less than [`Criteria::steady_rel`] (30 %) of
-//!   its mean plus [`Criteria::steady_abs_h`] (0.02 h). Final levels: high ≥ [`Criteria::high_h`]
+//!   its mean plus [`Criteria::steady_abs_h`] (0.02 h), *and* neither drifts over the final
+//!   [`Criteria::steady_drift_window_s`] (30 s, the super-slow time scale: longer than the
+//!   fluctuations of s on a settled high branch, ≈ 10 s): the least-squares straight line through
+//!   s changes by less than [`Criteria::steady_drift_s`] (0.005 = 0.7 mm) across it, the one
+//!   through A by less than [`Criteria::steady_trend_rel`] (10 %) of its mean plus
+//!   [`Criteria::steady_trend_abs_h`] (0.005 h). The ranges alone let a slow steady drift pass
+//!   (a slider still creeping on the super-slow scale at t_end). Final levels: high ≥ [`Criteria::high_h`]
 //!   (0.3 h; the adapted states of the paper's map end at 0.45–1.3 h), low < [`Criteria::low_h`]
 //!   (0.05 h: harmonic vibration, the upper contacts no longer lift off).
 //!
 //! # The behaviours, by their phases (paper, section 4)
 //!
-//! 1. **inactivity**: no travel, |s − s₀| ≤ [`Criteria::still_s`] during the whole run.
+//! 1. **inactivity**: no travel, |s − s₀| ≤ [`Criteria::still_s`] during the whole run, and
+//!    settled (a slider creeping away from s₀ at t_end is not settled).
 //! 2. **relaxation oscillation**: recurring jump up / jump down — at least
 //!    [`Criteria::relax_min_cycles`] (2) cycles of a jump up followed by a jump down, or at least
 //!    two jumps down without a steady state at the end.
@@ -50,8 +57,12 @@
 //!      still_s) to the final position — towards the centre from a start nearer the clamping,
 //!      and alike from the other side. A first dip towards the clamping is reported as a feature.
 //! 5. steady, low final level: **self-damping** — the slider travelled to a position with very
-//!    low, harmonic vibration (from the paper's map starts: towards the clamping; a transient jump
-//!    up on the way is allowed, as in the paper's Fig. 9).
+//!    low, harmonic vibration (paper, section 1: "move to a certain position leading to low
+//!    steady-state vibrations"). From the paper's map starts that position is nearer the clamping
+//!    (Fig. 9: phase 1 towards the clamping, a transient jump up, on towards the clamping while the
+//!    amplitude decays); a high branch lost on the way (a jump down, then the low branch towards
+//!    the clamping) is allowed. The direction of the net travel from s₀ is a feature, not a
+//!    criterion (starts on either side of the final position are classified alike).
 //! 6. everything else is `undetermined`, with the reason: a failed run (left the beam, diverged),
 //!    a final level between the thresholds, a high branch lost once and regained, a jump up
 //!    after a low-branch phase towards the centre, a jump up without the move back, …
@@ -162,6 +173,20 @@ pub struct Criteria {
     pub steady_rel: f64,
     /// Plus this absolute allowance [h].
     pub steady_abs_h: f64,
+    /// Length of the final window over which s and A must not drift at steady state [s]
+    /// (capped at the run's duration).
+    pub steady_drift_window_s: f64,
+    /// Largest change of s across the drift window along its least-squares line at steady state
+    /// (0.005 L = 0.7 mm per 30 s: 1.4 × the largest drift of the paper's representative runs at
+    /// 120 s, 0.0035 at (106 Hz, 10 m/s², s0 = 0.3); the 60-s runs of the paper's maps that
+    /// later changed their label by drift drift ≥ 0.0056).
+    pub steady_drift_s: f64,
+    /// Largest change of A across the drift window along its least-squares line at steady
+    /// state, relative to its mean (10 %: the representative runs change ≤ 2.1 % at 120 s; the
+    /// drifting 60-s runs 16–80 %).
+    pub steady_trend_rel: f64,
+    /// Plus this absolute allowance [h] (the low, harmonic levels are 0.005–0.03 h).
+    pub steady_trend_abs_h: f64,
     /// Final levels A_final ≥ this are high (successful adaption) [h].
     pub high_h: f64,
     /// Final levels A_final < this are low (self-damping) [h].
@@ -183,6 +208,10 @@ impl Default for Criteria {
             steady_s: 0.03,
             steady_rel: 0.3,
             steady_abs_h: 0.02,
+            steady_drift_window_s: 30.0,
+            steady_drift_s: 0.005,
+            steady_trend_rel: 0.1,
+            steady_trend_abs_h: 0.005,
             high_h: 0.3,
             low_h: 0.05,
             relax_min_cycles: 2,
@@ -275,6 +304,24 @@ fn mean(x: &[f64]) -> f64 {
     if x.is_empty() { f64::NAN } else { x.iter().sum::<f64>() / x.len() as f64 }
 }
 
+/// Change across the samples `x` (spaced uniformly) of their least-squares straight line:
+/// slope · (n − 1) in units of the sample index.
+fn fitted_change(x: &[f64]) -> f64 {
+    let n = x.len();
+    if n < 2 {
+        return 0.0;
+    }
+    let ic = 0.5 * (n - 1) as f64;
+    let xm = mean(x);
+    let (mut sxy, mut sxx) = (0.0, 0.0);
+    for (i, &v) in x.iter().enumerate() {
+        let d = i as f64 - ic;
+        sxy += d * (v - xm);
+        sxx += d * d;
+    }
+    sxy / sxx * (n - 1) as f64
+}
+
 fn range(x: &[f64]) -> (f64, f64) {
     x.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &v| (lo.min(v), hi.max(v)))
 }
@@ -363,9 +410,16 @@ pub fn classify(x: &SuperSlow, c: &Criteria) -> Result<Classification> {
     let (_, a_max) = range(&x.amplitude_h);
     let (st_lo, st_hi) = range(s_tail);
     let (at_lo, at_hi) = range(a_tail);
+    // Drift across the final drift window along the least-squares lines (s in L, A in h).
+    let nd = (((c.steady_drift_window_s / x.dt_s).round() as usize).max(2)).min(n);
+    let drift_s = fitted_change(&x.s[n - nd..]);
+    let a_drift = &x.amplitude_h[n - nd..];
+    let trend_a = fitted_change(a_drift);
     let steady = duration >= c.steady_window_s
         && st_hi - st_lo < c.steady_s
-        && at_hi - at_lo < c.steady_rel * a_final + c.steady_abs_h;
+        && at_hi - at_lo < c.steady_rel * a_final + c.steady_abs_h
+        && drift_s.abs() < c.steady_drift_s
+        && trend_a.abs() < c.steady_trend_rel * mean(a_drift) + c.steady_trend_abs_h;
     let still = x.s.iter().all(|s| (s - s0).abs() <= c.still_s);
 
     // s′: distance from the nearer clamping of the start's half (mirrored on the far half).
@@ -426,15 +480,15 @@ pub fn classify(x: &SuperSlow, c: &Criteria) -> Result<Classification> {
         phase: String::new(),
     };
     let travel = |d: f64| {
-        if d > c.still_s {
+        if d >= c.steady_drift_s {
             "towards_centre"
-        } else if d < -c.still_s {
+        } else if d <= -c.steady_drift_s {
             "towards_clamping"
         } else {
             "still"
         }
     };
-    let (b, phase, reason): (Behaviour, String, String) = if still {
+    let (b, phase, reason): (Behaviour, String, String) = if still && steady {
         (Behaviour::Inactivity, "still".into(), format!("no travel: the slider stays within {} of s0", c.still_s))
     } else if cycles >= c.relax_min_cycles || (jump_down.len() >= 2 && !steady) {
         (
@@ -453,14 +507,16 @@ pub fn classify(x: &SuperSlow, c: &Criteria) -> Result<Classification> {
                 (if a_end >= c.high_h { "high" } else { "low" }, " (no jump)".to_string())
             }
         };
-        let d = sp[n - 1] - sp[n - nw];
+        // Travel over the final window: the change along the least-squares line of s′ (a drift
+        // of steady_drift_s or more is travel; the end points alone are noisy).
+        let d = if mirrored { -drift_s } else { drift_s };
         let tr = travel(d);
         let of = match (branch, tr, events.last().map(|e| e.1)) {
             ("low", "towards_clamping", None) => "phase 1 of a signature move or of self-damping",
             ("high", "towards_centre", Some(true)) => "phase 2 of a signature move",
             ("high", "towards_clamping", Some(true)) => "phase 2 of self-damping (or a high branch not yet turned)",
             (_, "towards_centre", None) => "phase 1 of a trivial adaption",
-            (_, "still", _) => "travel has stopped but the amplitude is still changing",
+            (_, "still", _) => "no drift of s, but s or the amplitude still varies",
             _ => "no phase of a single behaviour",
         };
         let what = match tr {
@@ -472,11 +528,12 @@ pub fn classify(x: &SuperSlow, c: &Criteria) -> Result<Classification> {
             Behaviour::NotSettled,
             format!("{branch}_{tr}"),
             format!(
-                "not settled at t = {:.1} s: {branch} {}{since}, {what} ({:+.3} in the last {} s): {of}",
+                "not settled at t = {:.1} s: {branch} {}{since}, {what} ({:+.4} in the last {} s, A {:+.3} h): {of}",
                 x.t(n - 1),
                 if events.is_empty() { "level" } else { "branch" },
-                if mirrored { -d } else { d },
-                c.steady_window_s
+                drift_s,
+                (nd - 1) as f64 * x.dt_s,
+                trend_a
             ),
         )
     } else if a_final >= c.high_h {
@@ -512,7 +569,16 @@ pub fn classify(x: &SuperSlow, c: &Criteria) -> Result<Classification> {
         }
     } else if a_final < c.low_h {
         let side = if sp_final < sp0 { "towards the clamping" } else { "towards the centre" };
-        (Behaviour::SelfDamping, "steady_low".into(), format!("travelled {side} ({:+.3}) to a steady low, harmonic level {a_final:.3} h", sp_final - sp0))
+        // The last phase: since the last jump (a lost high branch, or the transient jump up of
+        // the paper's Fig. 9), reported as a feature.
+        let last = match events.last() {
+            Some(&(t, up)) => {
+                let d = sp_final - sp_at(t);
+                format!(", since the jump {} at t = {t:.1} s {} ({d:+.3})", if up { "up" } else { "down" }, if d < 0.0 { "towards the clamping" } else { "towards the centre" })
+            }
+            None => String::new(),
+        };
+        (Behaviour::SelfDamping, "steady_low".into(), format!("travelled {side} ({:+.3}{last}) to a steady low, harmonic level {a_final:.3} h", sp_final - sp0))
     } else {
         (Behaviour::Undetermined, "steady_intermediate".into(), format!("final level {a_final:.3} h between the low ({}) and high ({}) thresholds", c.low_h, c.high_h))
     };

@@ -30,7 +30,9 @@ fn decide(x: &SuperSlow) -> beamslider_core::Classification {
 
 #[test]
 fn inactivity_slider_does_not_move() {
-    let x = signals(|t| 0.3 + 0.003 * (t / 7.0).sin(), |t| build_up(t, 0.14));
+    // A wobble of ±0.003 with a period of 5 s (a slower one would look like a drift within the
+    // 15-s final window: see slow_drift_is_not_settled).
+    let x = signals(|t| 0.3 + 0.003 * (t / 0.8).sin(), |t| build_up(t, 0.14));
     let c = decide(&x);
     assert_eq!(c.behaviour, Behaviour::Inactivity, "{c:?}");
     assert!(c.net_travel.abs() < 0.01);
@@ -135,8 +137,8 @@ type Case = (&'static str, Behaviour, Box<dyn Fn(f64) -> (f64, f64)>);
 /// start-position example (Fig. 12: 106 Hz, 10 m/s², s0 = 0.3 trivial, s0 = 0.4 signature).
 fn cases() -> Vec<Case> {
     vec![
-        ("inactivity from 0.3", Behaviour::Inactivity, Box::new(|t| (0.3 + 0.003 * (t / 7.0).sin(), build_up(t, 0.14)))),
-        ("inactivity from 0.45", Behaviour::Inactivity, Box::new(|t| (0.45 - 0.004 * (t / 9.0).sin(), build_up(t, 0.2)))),
+        ("inactivity from 0.3", Behaviour::Inactivity, Box::new(|t| (0.3 + 0.003 * (t / 0.8).sin(), build_up(t, 0.14)))),
+        ("inactivity from 0.45", Behaviour::Inactivity, Box::new(|t| (0.45 - 0.004 * (t / 0.9).sin(), build_up(t, 0.2)))),
         // Trivial adaption: to 0.369 without a jump, from below (towards the centre) and from above.
         (
             "trivial from 0.3 (nearer the clamping)",
@@ -224,6 +226,60 @@ fn not_settled_names_the_phase_reached() {
     // Settled runs name their final phase.
     let c = decide(&cut(120.0));
     assert_eq!((c.behaviour, c.phase.as_str()), (Behaviour::SignatureMove, "steady_high"));
+}
+
+/// The runs of the paper's maps that passed the range rule at 60 s but changed their label by
+/// 120 s (issue 15): a steady drift of s by 0.006–0.024 per 30 s, or a rising amplitude, within
+/// the ranges of the final 15 s (|Δs| < 0.03, ΔA < 30 %). Each must be not settled; the same
+/// signals without the drift, or with half the threshold's drift, are settled.
+#[test]
+fn slow_drift_is_not_settled() {
+    let c = Criteria::default();
+    // High level, s creeping towards the centre by 0.006 per 15 s (as (106 Hz, 6 m/s²) at 60 s).
+    let creep = |rate: f64| signals(move |t| 0.3 + 0.07 * (1.0 - (-t / 10.0).exp()) + rate * t, |t| build_up(t, 0.2 + 0.6 * (1.0 - (-t / 10.0).exp())));
+    let x = creep(0.006 / 15.0);
+    let r = classify(&x, &c).unwrap();
+    assert_eq!(r.behaviour, Behaviour::NotSettled, "{}", r.reason);
+    assert_eq!(r.phase, "high_towards_centre", "{}", r.reason);
+    assert!(r.reason.contains("phase 1 of a trivial adaption"), "{}", r.reason);
+    // The range rule alone would have passed it.
+    let old = Criteria { steady_drift_s: f64::INFINITY, steady_trend_rel: f64::INFINITY, ..Criteria::default() };
+    assert!(0.006 / 15.0 * c.steady_drift_window_s > 2.0 * c.steady_drift_s);
+    assert_eq!(classify(&x, &old).unwrap().behaviour, Behaviour::TrivialAdaption);
+    // Without the creep (and with a creep of half the threshold): settled, trivial adaption.
+    for rate in [0.0, 0.5 * c.steady_drift_s / c.steady_drift_window_s] {
+        let r = classify(&creep(rate), &c).unwrap();
+        assert_eq!(r.behaviour, Behaviour::TrivialAdaption, "rate {rate}: {}", r.reason);
+        assert!(r.steady);
+    }
+    // Mirrored (start on the far half): the same.
+    let xm = creep(0.006 / 15.0);
+    let xm = SuperSlow { s: xm.s.iter().map(|s| 1.0 - s).collect(), ..xm };
+    let r = classify(&xm, &c).unwrap();
+    assert_eq!((r.behaviour, r.phase.as_str()), (Behaviour::NotSettled, "high_towards_centre"), "{}", r.reason);
+
+    // Amplitude still rising by 16 % per 30 s at an intermediate level, s nearly still (as
+    // (102 Hz, 4 m/s²) at 60 s): not settled, not "undetermined: level between the thresholds".
+    let x = signals(|t| 0.3 + 0.02 * (1.0 - (-t / 10.0).exp()) + 0.0001 * t, |t| build_up(t, 0.1 + 0.0015 * t));
+    let r = classify(&x, &c).unwrap();
+    assert_eq!(r.behaviour, Behaviour::NotSettled, "{}", r.reason);
+    assert!(!r.steady);
+    assert_eq!(classify(&x, &old).unwrap().behaviour, Behaviour::Undetermined);
+
+    // Low level, slider creeping towards the clamping by 0.01 per 15 s (as (120 Hz, 6 m/s²) from
+    // s0 = 0.4 at 60 s): not self-damping yet.
+    let x = signals(|t| ramp(t, 0.0, 40.0, 0.4, 0.39) - 0.01 / 15.0 * (t - 40.0).max(0.0), |t| build_up(t, 0.03));
+    let r = classify(&x, &c).unwrap();
+    assert_eq!((r.behaviour, r.phase.as_str()), (Behaviour::NotSettled, "low_towards_clamping"), "{}", r.reason);
+    // Within 0.01 of s0 all the time but creeping away at the end (as (130 Hz, 8 m/s²) from 0.4
+    // at 60 s): not inactivity.
+    let x = signals(|t| 0.4 + 0.006 / 15.0 * (t - 96.0).max(0.0), |t| build_up(t, 0.03));
+    let r = classify(&x, &c).unwrap();
+    assert_eq!(r.behaviour, Behaviour::NotSettled, "{}", r.reason);
+    assert_eq!(classify(&x, &old).unwrap().behaviour, Behaviour::Inactivity);
+    // Settled low level after the creep stopped: self-damping.
+    let x = signals(|t| ramp(t, 0.0, 90.0, 0.4, 0.25), |t| build_up(t, 0.03) - ramp(t, 30.0, 90.0, 0.0, 0.02));
+    assert_eq!(classify(&x, &c).unwrap().behaviour, Behaviour::SelfDamping);
 }
 
 #[test]
