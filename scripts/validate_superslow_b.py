@@ -38,6 +38,10 @@ REPRESENTATIVE = [(124.0, 14.0), (104.0, 14.0), (126.0, 10.0), (124.0, 6.0), (10
 TRAINING = REPRESENTATIVE + [(124.0, 8.0), (116.0, 12.0), (110.0, 8.0), (120.0, 6.0), (130.0, 12.0), (114.0, 4.0), (100.0, 10.0)]
 
 
+# Table settings of the validation (issue §3.1: Δs 0.01–0.02, ≥ 40 settling periods, window ≥ 1 s).
+TABLE_OPTS = dict(ds=0.01, settle_periods=100, window_s=2.0)
+
+
 def table_path(f, a):
     return DRIFT / f"drift_{f:g}Hz_{a:g}ms2.jsonl"
 
@@ -48,7 +52,7 @@ def stage_tables(points=None):
     for f, a in points or TRAINING:
         p = table_path(f, a)
         t0 = time.perf_counter()
-        t = drift_table(f_ex=f, a_ex=a, ds=0.02, out=p, resume=p.exists(), progress=True)
+        t = drift_table(f_ex=f, a_ex=a, **TABLE_OPTS, out=p, resume=p.exists(), progress=True)
         wall = time.perf_counter() - t0
         s_up, s_dn = t.s_jumps()
         line = f"({f:g}, {a:g}): {len(t.s)} rows, {t.computed} computed in {wall:.1f} s wall; PCS s_up = {s_up}, s_dn = {s_dn}"
@@ -57,6 +61,26 @@ def stage_tables(points=None):
     with open(DRIFT / "timings.jsonl", "a", encoding="utf-8") as fh:
         for r in log:
             fh.write(json.dumps(r) + "\n")
+
+
+MAP_DRIFT = Path("/tmp/beamslider_drift_map")  # 112 tables (~8 MB): not committed
+# The per-point b1 tables of the map: the issue's coarse sweep (Δs 0.02, 40 settling periods, 1-s window).
+MAP_TABLE_OPTS = dict(ds=0.02, settle_periods=40, window_s=1.0)
+
+
+def stage_map_tables():
+    """b1 drift tables at every point of the map (resumable; for the b1 map of §4.4)."""
+    ref = read_map(ROOT / "docs" / "operating_map.jsonl")
+    MAP_DRIFT.mkdir(parents=True, exist_ok=True)
+    t0 = time.perf_counter()
+    n = 0
+    for f, a in sorted(set(zip(map(float, ref["f_ex_hz"]), map(float, ref["a_ex_m_s2"])))):
+        p = MAP_DRIFT / f"drift_{f:g}Hz_{a:g}ms2.jsonl"
+        t1 = time.perf_counter()
+        t = drift_table(f_ex=f, a_ex=a, **MAP_TABLE_OPTS, out=p, resume=p.exists())
+        n += t.computed
+        print(f"({f:g}, {a:g}) {t.computed} rows computed in {time.perf_counter() - t1:.1f} s", flush=True)
+    print(f"map tables: {n} rows in {time.perf_counter() - t0:.1f} s wall", flush=True)
 
 
 def available_tables():
@@ -132,7 +156,9 @@ def stage_runs():
     ref04 = read_map(ROOT / "docs" / "operating_map_s0.4.jsonl")
     tables = available_tables()
     lines = ["§4.3  Representative runs: predictor against the FS map rows (120 s)",
-             "b1: the point's own PCS drift table; b2: the law fitted on the other training points (leave one out); s_dn from the PCS table (b1) / none (b2)",
+             "b1: V from the point's own PCS drift table (Δs 0.01, 100 settling periods, 2-s windows) on the HB N = 5 manifold, s_dn from the table; "
+             "PCS: table alone (its Â, V, s_up, s_dn); b2: the law fitted on the other training points (leave one out), s_dn none (HB)",
+             "FS columns from docs/operating_map.jsonl (s0 = 0.3) and docs/operating_map_s0.4.jsonl: t_up = first jump-up time, turn = turning point s, T = mean jump-up interval",
              f"{'point':>11} {'s0':>4} {'src':>4} | {'FS behaviour':>22} {'pred behaviour':>22} | {'FS s_f':>6} {'pr s_f':>6} | "
              f"{'FS t_up':>7} {'pr t_up':>7} | {'FS turn':>7} {'pr s_up':>7} | {'FS s-range':>13} {'pr s-range':>13} | {'FS T':>5} {'pr T':>5}"]
     for (f, a), s0 in [(pt, 0.3) for pt in REPRESENTATIVE] + [((106.0, 10.0), 0.4)]:
@@ -145,12 +171,13 @@ def stage_runs():
         own = [t for t in tables if (t.f_ex, t.a_ex) == (f, a)]
         variants = []
         if own:
-            variants.append(("b1", own[0], "table"))
+            variants.append(("b1", own[0], "table", "hb"))
+            variants.append(("PCS", own[0], "table", "table"))
         others = [t for t in tables if (t.f_ex, t.a_ex) != (f, a)]
         if len(others) >= 2:
-            variants.append(("b2", fit_drift_law(others), "hb"))
-        for name, drift, sdn in variants:
-            r = predict(f_ex=f, a_ex=a, s0=s0, drift=drift, s_dn=sdn)
+            variants.append(("b2", fit_drift_law(others), "hb", "hb"))
+        for name, drift, sdn, source in variants:
+            r = predict(f_ex=f, a_ex=a, s0=s0, drift=drift, s_dn=sdn, source=source)
             ups = [e for e in r.events if e[0] == "jump_up"]
             downs = [e for e in r.events if e[0] == "jump_down"]
             fs_ups = list(fsr["jump_up_t_s"]) if fsr["jump_up_t_s"] is not None else []
@@ -195,8 +222,63 @@ def _figure_signature(r, f, a):
     plt.close(fig)
 
 
+def _b1_map(f_ex, a_ex, source):
+    rows = {}
+    for a in a_ex:
+        for f in f_ex:
+            p = MAP_DRIFT / f"drift_{f:g}Hz_{a:g}ms2.jsonl"
+            if not p.exists():
+                return None
+            tab = read_drift_table(p)
+            t0 = time.perf_counter()
+            r = predict(f_ex=f, a_ex=a, s0=0.3, t_end=120.0, drift=tab, source=source, s_dn="table")
+            c = r.classification
+            rows[(f, a)] = {"behaviour": r.behaviour, "s_final": r.s_final, "steady": c["steady"], "extrapolated": False,
+                            "wall_time_s": time.perf_counter() - t0}
+    return rows
+
+
+def _compare(title, pred, grid_ref, ref, train, f_ex, a_ex, names):
+    letter = dict(zip(names, "ITSRDN?"))
+    conf = np.zeros((7, 7), int)
+    agree, dis, errs, errs_all = 0, [], [], []
+    idx = {(float(ref["f_ex_hz"][j]), float(ref["a_ex_m_s2"][j])): j for j in range(len(ref["f_ex_hz"]))}
+    for key, b_ref in grid_ref.items():
+        r = pred[key]
+        i = idx[key]
+        conf[names.index(b_ref), names.index(r["behaviour"])] += 1
+        if ref["steady"][i] and r["steady"]:
+            errs_all.append(abs(r["s_final"] - ref["s_final"][i]))
+        if r["behaviour"] == b_ref:
+            agree += 1
+            if ref["steady"][i] and np.isfinite(ref["s_final"][i]):
+                errs.append(abs(r["s_final"] - ref["s_final"][i]))
+        else:
+            f, a = key
+            neigh = [grid_ref.get((f + df, a + da)) for df, da in ((2, 0), (-2, 0), (0, 2), (0, -2))]
+            border = any(nb is not None and nb != b_ref for nb in neigh)
+            dis.append(f"  ({f:g}, {a:g}): FS {b_ref}, predicted {r['behaviour']}; {'on a class border' if border else 'inside a region'}"
+                       + (" [training point]" if key in train else "") + (" [extrapolated]" if r.get("extrapolated") else ""))
+    n = len(grid_ref)
+    on_border = sum("on a class border" in d for d in dis)
+    lines = ["", title, f"agreement: {agree}/{n} = {100 * agree / n:.1f} % (bar 80 %, stretch 90 %); disagreements on a class border of the FS map: {on_border} of {len(dis)}",
+             "confusion matrix (rows FS, columns predicted): " + " ".join(letter[x] for x in names)]
+    for k, nm in enumerate(names):
+        lines.append(f"  {letter[nm]} {nm:>22}: " + " ".join(f"{v:3d}" for v in conf[k]))
+    if errs:
+        lines.append(f"final-s error over agreeing points steady in FS (n = {len(errs)}): median {np.median(errs):.4f}, 90th percentile {np.percentile(errs, 90):.4f} (targets 0.015 / 0.04)")
+    if errs_all:
+        lines.append(f"final-s error over all points steady in both (n = {len(errs_all)}): median {np.median(errs_all):.4f}, 90th percentile {np.percentile(errs_all, 90):.4f}")
+    lines.append("text map (FS | predicted), rows a_ex, columns f_ex " + " ".join(f"{f:g}" for f in f_ex))
+    for a in sorted(a_ex, reverse=True):
+        lines.append(f"  {a:4g}  " + " ".join(letter[grid_ref[(f, a)]] for f in f_ex) + "  |  " + " ".join(letter[pred[(f, a)]["behaviour"]] for f in f_ex))
+    lines.append("disagreements:")
+    lines.extend(dis)
+    return lines
+
+
 def stage_map():
-    """§4.4: the map by the b2 predictor against the FS map."""
+    """§4.4: the map by the predictor (b2 law; b1 per-point tables) against the FS map."""
     tables = available_tables()
     t0 = time.perf_counter()
     law = fit_drift_law(tables)
@@ -210,63 +292,37 @@ def stage_map():
     t_map = time.perf_counter() - t0
     pred = {(r["f_ex_hz"], r["a_ex_m_s2"]): r for r in rows}
     names = ["inactivity", "trivial_adaption", "signature_move", "relaxation_oscillation", "self_damping", "not_settled", "undetermined"]
-    letter = dict(zip(names, "ITSRDN?"))
-    conf = np.zeros((7, 7), int)
-    agree = 0
-    dis = []
-    errs = []
-    grid_ref = {}
-    for i in range(len(ref["f_ex_hz"])):
-        key = (float(ref["f_ex_hz"][i]), float(ref["a_ex_m_s2"][i]))
-        grid_ref[key] = ref["behaviour"][i]
+    grid_ref = {(float(ref["f_ex_hz"][i]), float(ref["a_ex_m_s2"][i])): ref["behaviour"][i] for i in range(len(ref["f_ex_hz"]))}
     train = {(t.f_ex, t.a_ex) for t in tables}
-    for key, b_ref in grid_ref.items():
-        r = pred[key]
-        conf[names.index(b_ref), names.index(r["behaviour"])] += 1
-        if r["behaviour"] == b_ref:
-            agree += 1
-            i = [j for j in range(len(ref["f_ex_hz"])) if (ref["f_ex_hz"][j], ref["a_ex_m_s2"][j]) == key][0]
-            if ref["steady"][i] and np.isfinite(ref["s_final"][i]):
-                errs.append(abs(r["s_final"] - ref["s_final"][i]))
-        else:
-            f, a = key
-            neigh = [grid_ref.get((f + df, a + da)) for df, da in ((2, 0), (-2, 0), (0, 2), (0, -2))]
-            border = any(n is not None and n != b_ref for n in neigh)
-            dis.append(f"  ({f:g}, {a:g}): FS {b_ref}, predicted {r['behaviour']}; {'on a class border' if border else 'inside a region'}"
-                       + (" [training point]" if key in train else "") + (" [extrapolated]" if r["extrapolated"] else ""))
     n = len(grid_ref)
-    # final s over all points where both settle (regardless of class)
-    errs_all = []
-    for i in range(len(ref["f_ex_hz"])):
-        key = (float(ref["f_ex_hz"][i]), float(ref["a_ex_m_s2"][i]))
-        r = pred[key]
-        if ref["steady"][i] and r["steady"]:
-            errs_all.append(abs(r["s_final"] - ref["s_final"][i]))
-    lines = [f"§4.4  Whole map (7 × 16, s0 = 0.3, 120 s): b2 predictor (law fitted on {len(tables)} PCS tables: "
-             + ", ".join(f"({f:g}, {a:g})" for f, a in sorted(train)) + ") against docs/operating_map.jsonl",
-             f"s_dn: HB manifold (single-term HB: none); leave-one-point-out V error {law.loo['rms_error']:.5f} 1/s = {law.loo['ratio']:.2f} × typical |V| ({law.loo['typical_v']:.5f} 1/s)",
-             f"agreement: {agree}/{n} = {100 * agree / n:.1f} % (bar 80 %, stretch 90 %)",
-             "confusion matrix (rows FS, columns predicted): " + " ".join(letter[x] for x in names)]
-    for k, nm in enumerate(names):
-        lines.append(f"  {letter[nm]} {nm:>22}: " + " ".join(f"{v:3d}" for v in conf[k]))
-    if errs:
-        lines.append(f"final-s error over agreeing steady points (n = {len(errs)}): median {np.median(errs):.4f}, 90th percentile {np.percentile(errs, 90):.4f} (targets 0.015 / 0.04)")
-    if errs_all:
-        lines.append(f"final-s error over all points steady in both (n = {len(errs_all)}): median {np.median(errs_all):.4f}, 90th percentile {np.percentile(errs_all, 90):.4f}")
-    lines.append(f"extrapolated points: {sum(r['extrapolated'] for r in rows)} of {n}")
-    lines.append(f"timing: fit {t_fit:.2f} s (manifolds of the training points included), map {t_map:.2f} s ({1e3 * t_map / n:.1f} ms per point)")
-    lines.append("disagreements:")
-    lines.extend(dis)
-    # text maps side by side
-    lines.append("text maps (FS | predicted), rows a_ex, columns f_ex " + " ".join(f"{f:g}" for f in f_ex))
-    for a in sorted(a_ex, reverse=True):
-        lines.append(f"  {a:4g}  " + " ".join(letter[grid_ref[(f, a)]] for f in f_ex) + "  |  " + " ".join(letter[pred[(f, a)]["behaviour"]] for f in f_ex))
+    lines = [f"§4.4  Whole map (7 × 16, s0 = 0.3, 120 s) against the FS map docs/operating_map.jsonl",
+             f"b2 law: kNN (k = {law.k}) on features {', '.join(law_features())}, fitted on {len(tables)} PCS tables "
+             + ", ".join(f"({f:g}, {a:g})" for f, a in sorted(train))
+             + f"; leave-one-point-out V error {law.loo['rms_error']:.5f} 1/s = {law.loo['ratio']:.2f} × typical |V| ({law.loo['typical_v']:.5f} 1/s)",
+             f"timing b2: fit {t_fit:.2f} s (layer-(a) manifolds of the training points included), map {t_map:.2f} s ({1e3 * t_map / n:.1f} ms per point); "
+             f"extrapolated points: {sum(r['extrapolated'] for r in rows)} of {n}"]
+    lines += _compare("b2 (transferable law; s_up and branches from HB N = 5, s_dn: HB = none)", pred, grid_ref, ref, train, f_ex, a_ex, names)
+    preds = {"b2": pred}
+    for source, title in (("hb", "b1 (per-point PCS table Δs 0.02: V; HB N = 5 branches and s_up; s_dn from the PCS table)"),
+                          ("table", "b1-PCS (per-point PCS table only: V, Â, s_up and s_dn from its sweeps; no layer (a))")):
+        b1 = _b1_map(f_ex, a_ex, source)
+        if b1 is None:
+            lines.append(f"\n{title}: tables missing (run the map_tables stage)")
+            continue
+        preds[f"b1-{source}"] = b1
+        lines += _compare(title, b1, grid_ref, ref, set(), f_ex, a_ex, names)
     (OUT / "validation_b_map.txt").write_text("\n".join(lines) + "\n", encoding="utf-8")
     print("\n".join(lines))
-    _figure_maps(grid_ref, pred, f_ex, a_ex, names)
+    _figure_maps(grid_ref, preds, f_ex, a_ex, names)
 
 
-def _figure_maps(grid_ref, pred, f_ex, a_ex, names):
+def law_features():
+    from beamslider.slowflow import FEATURES
+
+    return FEATURES
+
+
+def _figure_maps(grid_ref, preds, f_ex, a_ex, names):
     try:
         import matplotlib
 
@@ -277,19 +333,20 @@ def _figure_maps(grid_ref, pred, f_ex, a_ex, names):
         return
     colours = ["0.6", "tab:green", "tab:blue", "tab:orange", "tab:red", "tab:purple", "k"]
     cmap = ListedColormap(colours)
-    fig, axes = plt.subplots(1, 2, figsize=(11, 3.8), sharey=True)
-    for ax, src, title in ((axes[0], {k: v for k, v in grid_ref.items()}, "FS model (120 s)"),
-                           (axes[1], {k: v["behaviour"] for k, v in pred.items()}, "reduced predictor (b2)")):
+    panels = [("FS model (120 s)", grid_ref)] + [(f"predictor {k}", {q: v["behaviour"] for q, v in p.items()}) for k, p in preds.items()]
+    fig, axes = plt.subplots(1, len(panels), figsize=(4.2 * len(panels), 3.8), sharey=True)
+    for ax, (title, src) in zip(axes, panels):
         z = np.array([[names.index(src[(f, a)]) for f in f_ex] for a in a_ex])
         ax.imshow(z, origin="lower", cmap=cmap, vmin=-0.5, vmax=6.5, aspect="auto",
                   extent=(f_ex[0] - 1, f_ex[-1] + 1, a_ex[0] - 1, a_ex[-1] + 1))
-        ax.set_title(title)
+        agree = sum(src[q] == grid_ref[q] for q in grid_ref)
+        ax.set_title(title if title.startswith("FS") else f"{title}: {agree}/{len(grid_ref)}", fontsize=10)
         ax.set_xlabel("f_ex [Hz]")
     axes[0].set_ylabel("a_ex [m/s²]")
     handles = [plt.Rectangle((0, 0), 1, 1, color=c) for c in colours]
     fig.legend(handles, names, loc="lower center", ncol=7, fontsize=8)
     fig.tight_layout(rect=(0, 0.08, 1, 1))
-    fig.savefig(OUT / "map_predicted_vs_fs.png", dpi=120)
+    fig.savefig(OUT / "map_predicted_vs_fs.png", dpi=110)
     plt.close(fig)
 
 
@@ -321,7 +378,7 @@ def stage_speed():
 
 if __name__ == "__main__":
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("stage", choices=["tables", "slopes", "runs", "map", "speed", "all"])
+    ap.add_argument("stage", choices=["tables", "map_tables", "slopes", "runs", "map", "speed", "all"])
     ap.add_argument("--points", help="tables: only these points, e.g. 124:14,126:10")
     args = ap.parse_args()
     pts = None
@@ -329,6 +386,8 @@ if __name__ == "__main__":
         pts = [tuple(float(x) for x in p.split(":")) for p in args.points.split(",")]
     if args.stage in ("tables", "all"):
         stage_tables(pts)
+    if args.stage in ("map_tables", "all"):
+        stage_map_tables()
     if args.stage in ("slopes", "all"):
         stage_slopes()
     if args.stage in ("runs", "all"):

@@ -71,8 +71,13 @@ def test_predict_signature_move_on_the_hb_manifold():
     zero at 0.42 → a signature move that jumps exactly at the manifold's s_up."""
     t = _synthetic_table(124, 14, lambda s: -0.005 + 0 * s, lambda s: 0.05 * (0.42 - s))
     m = hb_manifold(f_ex=124, a_ex=14)
-    r = predict(f_ex=124, a_ex=14, s0=0.3, drift=t, manifold=m)
+    r = predict(f_ex=124, a_ex=14, s0=0.3, drift=t, manifold=m, build_up=0)
     assert r.behaviour == "signature_move", r.classification["reason"]
+    # Default: the flow starts after 3 envelope time constants 3/(D Ω) of the build-up from rest.
+    r2 = predict(f_ex=124, a_ex=14, s0=0.3, drift=t, manifold=m)
+    t_b = 3 / (0.001 * 2 * np.pi * 124)
+    assert r2.build_up_s == pytest.approx(t_b)
+    assert r2.events[0][1] == pytest.approx((0.3 - m.s_up) / 0.005 + t_b, rel=1e-9)
     kinds = [e[0] for e in r.events]
     assert kinds[0] == "jump_up"
     assert abs(r.events[0][2] - m.s_up) < 1e-9

@@ -85,29 +85,29 @@ class DriftTable:
         o = np.argsort(s)
         return s[o], v[o], e[o]
 
+    s_up_pcs: Optional[float] = None
+    """Jump-up position of the PCS down sweep: midpoint between its last low-branch s and the s
+    where it left the branch (half coordinate; None if it never jumped)."""
+    s_dn_pcs: Optional[float] = None
+    """Jump-down position of the PCS up sweep (likewise)."""
+
     def s_jumps(self) -> Tuple[Optional[float], Optional[float]]:
-        """(s_up, s_dn) of the PCS sweeps: midpoints between the last row on the native branch and
-        the first row after the jump (None where a sweep never jumped)."""
-        out = []
-        for sw, br in (("down", "L"), ("up", "H")):
-            m = self.sweep == sw
-            idx = np.nonzero(m)[0]
-            jumps = [i for i in idx if self.jump[i]]
-            if not jumps:
-                out.append(None)
-                continue
-            j = jumps[0]
-            prev = [i for i in idx if self.s[i] != self.s[j] and not self.jump[i]]
-            sp = [min(self.s[i], 1 - self.s[i]) for i in prev]
-            sj = min(self.s[j], 1 - self.s[j])
-            near = min(sp, key=lambda x: abs(x - sj)) if sp else sj
-            out.append(0.5 * (near + sj))
-        return out[0], out[1]
+        """(s_up, s_dn) of the PCS sweeps (see ``s_up_pcs``, ``s_dn_pcs``)."""
+        return self.s_up_pcs, self.s_dn_pcs
 
 
 def _table_from(header: str, rows: Sequence[str], computed: int = 0, path=None) -> DriftTable:
     h = json.loads(header)
     rs = [json.loads(r) for r in rows]
+    half = lambda x: min(x, 1.0 - x)  # noqa: E731
+    jumps = {}
+    for sw in ("down", "up"):
+        seq = sorted((r for r in rs if r["sweep"] == sw), key=lambda r: r["index"])
+        jumps[sw] = None
+        for a_, b_ in zip(seq, seq[1:]):
+            if b_["jump"]:
+                jumps[sw] = 0.5 * (half(a_["s"]) + half(b_["s"]))
+                break
     # One row per (s, branch), preferring the branch's native sweep.
     keep: Dict[Tuple[float, str], dict] = {}
     for r in rs:
@@ -130,6 +130,8 @@ def _table_from(header: str, rows: Sequence[str], computed: int = 0, path=None) 
         params_toml=h["params_toml"],
         computed=computed,
         path=None if path is None else str(path),
+        s_up_pcs=jumps["down"],
+        s_dn_pcs=jumps["up"],
     )
 
 
@@ -245,7 +247,9 @@ def features(manifold, branch: str, s: Sequence[float]) -> Dict[str, np.ndarray]
 
     Returns a dict of arrays: ``lift_off`` Λ_g = Ω²|ŵ_abs|/g with ŵ_abs = a_ex/Ω² + Φ(s)ᵀQ;
     ``slope_gap`` θ̂/θ_gap with θ̂ = |Φ'(s)ᵀQ|, θ_gap = (R − h)/B; ``slope_mu`` θ̂/μ; ``f_slope``
-    = −(Ω²/2g) Re[ŵ_abs conj(Φ'(s)ᵀQ)]; ``a_ex_g`` = a_ex/g; ``amplitude`` Â.
+    = −(Ω²/2g) Re[ŵ_abs conj(Φ'(s)ᵀQ)]; ``a_ex_g`` = a_ex/g; ``amplitude`` Â; ``ds_res`` =
+    s − s_res (the first linear-resonance position of layer (a), 0.5 if there is none);
+    ``amp_rel`` = Â / max Â of the high branch.
     """
     p = manifold.params
     b = manifold.high if branch == "H" else manifold.low
@@ -268,15 +272,23 @@ def features(manifold, branch: str, s: Sequence[float]) -> Dict[str, np.ndarray]
         "f_slope": -(omega**2 / (2 * g)) * np.real(w_abs * np.conj(theta)),
         "a_ex_g": np.full(s.shape, manifold.a_ex / g),
         "amplitude": np.interp(s, bs, b.amplitude[o]),
+        "ds_res": s - (float(manifold.s_res[0]) if len(manifold.s_res) else 0.5),
+        "amp_rel": np.interp(s, bs, b.amplitude[o]) / (float(np.max(manifold.high.amplitude)) if len(manifold.high) else 1.0),
     }
 
 
-# The regression inputs (standardised): log Λ_g, θ̂/θ_gap, f_slope, a_ex/g, Â.
-FEATURES = ("log_lift_off", "slope_gap", "f_slope", "a_ex_g", "amplitude")
+# The regression inputs (standardised). Chosen by the leave-one-operating-point-out error on the
+# 12 validation tables (docs/superslow/validation_b_law.txt): with the issue's list (log Λ_g,
+# θ̂/θ_gap, f_slope, a_ex/g, Â) the error was 0.68 × typical |V| (k = 6), with s − s_res and
+# Â/max Â_H in place of a_ex/g and Â it is 0.53 ×.
+FEATURES = ("log_lift_off", "slope_gap", "f_slope", "ds_res", "amp_rel")
 
 
 def _x(feat: Dict[str, np.ndarray]) -> np.ndarray:
-    return np.stack([np.log(np.maximum(feat["lift_off"], 1e-12)), feat["slope_gap"], feat["f_slope"], feat["a_ex_g"], feat["amplitude"]], axis=1)
+    cols = []
+    for name in FEATURES:
+        cols.append(np.log(np.maximum(feat["lift_off"], 1e-12)) if name == "log_lift_off" else np.asarray(feat[name], dtype=float))
+    return np.stack(cols, axis=1)
 
 
 @dataclass
@@ -314,7 +326,9 @@ class DriftLaw:
     def evaluate(self, branch: str, feat: Dict[str, np.ndarray], exclude_group: Optional[int] = None) -> Tuple[np.ndarray, np.ndarray]:
         """V at the given features (half coordinate, towards the centre positive) and a flag per
         point: True where a feature lies outside the training range (extrapolation)."""
-        x = _x(feat)
+        return self._evaluate_x(branch, _x(feat), np.asarray(feat["lift_off"]), exclude_group)
+
+    def _evaluate_x(self, branch, x, lift_off, exclude_group=None):
         xt, vt = self.x[branch], self.v[branch]
         if exclude_group is not None:
             keep = self.groups[branch] != exclude_group
@@ -330,7 +344,7 @@ class DriftLaw:
         dk = np.sqrt(np.take_along_axis(d2, idx, axis=1))
         w = 1.0 / np.maximum(dk, 1e-6)
         out = (w * vt[idx]).sum(axis=1) / w.sum(axis=1)
-        out[feat["lift_off"] < 1.0] = 0.0
+        out[lift_off < 1.0] = 0.0
         outside = np.any((x < self.lo - 1e-9) | (x > self.hi + 1e-9), axis=1)
         return out, outside
 
@@ -407,8 +421,7 @@ def fit_drift_law(tables: Sequence[DriftTable], *, params: Optional[Parameters] 
             if not m.any():
                 continue
             xb = X[br][m]
-            feat = {"lift_off": np.exp(xb[:, 0]), "slope_gap": xb[:, 1], "f_slope": xb[:, 2], "a_ex_g": xb[:, 3], "amplitude": xb[:, 4]}
-            pred, _ = law.evaluate(br, feat, exclude_group=gi)
+            pred, _ = law._evaluate_x(br, xb, np.exp(xb[:, 0]), exclude_group=gi)
             e = pred - V[br][m]
             err2[br].extend(e.tolist())
             e_all.extend(e.tolist())
@@ -470,6 +483,8 @@ class Prediction:
     """Extrapolation, degenerate cycles, ..."""
     timings_s: Dict[str, float]
     """Wall times: manifold (a), drift evaluation, slow flow [s]."""
+    build_up_s: float = 0.0
+    """Build-up time used [s] (s = s0 until then)."""
     f_ex: float = 0.0
     a_ex: float = 0.0
     s0: float = 0.3
@@ -555,6 +570,7 @@ def predict(
     d_eff: Optional[float] = None,
     manifold=None,
     source: str = "hb",
+    build_up: Union[str, float] = "auto",
 ) -> Prediction:
     """Predict the behaviour of one operating point with the reduced super-slow model (issue 17).
 
@@ -574,6 +590,10 @@ def predict(
         source: 'hb' — branches, Â and s_up from the HB manifold (layer (a)), V from ``drift``;
             'table' — everything from the PCS drift table (b1 only: its rows' Â and V, its sweeps'
             jump positions for s_up and s_dn; no layer (a)).
+        build_up: time [s] the beam needs from rest to vibrate on the manifold; s stays at s0
+            and Â ramps up meanwhile. 'auto': three envelope time constants 3/(D Ω) of the
+            first mode (D = d_eff or the parameters' damping ratio; 3.9 s at 124 Hz); 0: start on
+            the manifold.
 
     Returns:
         :class:`Prediction` with s(t), Â(t), the events, the classifier's behaviour and the
@@ -593,6 +613,15 @@ def predict(
         raise ValueError(f"invalid parameter `drift`: the table is for ({drift.f_ex:g} Hz, {drift.a_ex:g} m/s²), not ({f_ex:g}, {a_ex:g})")
     if source not in ("hb", "table"):
         raise ValueError(f"invalid parameter `source` = {source!r}: 'hb' or 'table'")
+    if isinstance(build_up, str):
+        if build_up != "auto":
+            raise ValueError(f"invalid parameter `build_up` = {build_up!r}: 'auto' or a time in seconds")
+        damping = d_eff if d_eff is not None else p.damping_ratio
+        t_build = 3.0 / (damping * 2 * math.pi * f_ex) if damping > 0 else 0.0
+    else:
+        t_build = _number("build_up", build_up)
+        if t_build < 0:
+            raise ValueError(f"invalid parameter `build_up` = {build_up}: must be >= 0")
     t0 = time.perf_counter()
     if source == "table":
         if not isinstance(drift, DriftTable):
@@ -606,7 +635,8 @@ def predict(
         t1 = time.perf_counter()
         low, high, lf, hf, info = slow_model(mf, drift, s_dn=s_dn)
     t2 = time.perf_counter()
-    r = _core.slow_flow(tuple(low), tuple(high), low_ends_in_fold=lf, high_ends_in_fold=hf, s0=s0, t_end_s=t_end)
+    r = _core.slow_flow(tuple(low), tuple(high), low_ends_in_fold=lf, high_ends_in_fold=hf, s0=s0, t_end_s=t_end,
+                        build_up_s=float(min(t_build, t_end)))
     t3 = time.perf_counter()
     cls = json.loads(r["classification"])
     warnings = list(r["warnings"])
@@ -619,7 +649,7 @@ def predict(
         behaviour=cls["behaviour"], classification=cls, s_final=float(r["s_final"]),
         amplitude_final=float(r["amplitude_final_h"]), s_up=info["s_up"], s_dn=info["s_dn"], s_dn_source=info["s_dn_source"],
         features=info["features"], extrapolated=bool(info["extrapolated"]), warnings=warnings,
-        timings_s={"manifold": t1 - t0, "drift": t2 - t1, "slow_flow": t3 - t2}, f_ex=f_ex, a_ex=a_ex, s0=s0,
+        timings_s={"manifold": t1 - t0, "drift": t2 - t1, "slow_flow": t3 - t2}, build_up_s=float(min(t_build, t_end)), f_ex=f_ex, a_ex=a_ex, s0=s0,
     )
 
 

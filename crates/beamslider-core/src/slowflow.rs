@@ -149,11 +149,15 @@ pub struct SlowFlowOptions {
     pub criteria: Criteria,
     /// Cap on events (jumps) before the flow is stopped with a warning.
     pub max_events: usize,
+    /// Build-up time [s]: a run from rest needs a few envelope time constants before the beam
+    /// vibrates on the manifold; until then s stays at s₀ and Â(t) = Â(s₀)(1 − e^{−3t/t_b})
+    /// (default 0: the flow starts on the manifold).
+    pub build_up_s: f64,
 }
 
 impl Default for SlowFlowOptions {
     fn default() -> Self {
-        SlowFlowOptions { t_end_s: 120.0, dt_out_s: 0.2, smooth_s: 1.0, criteria: Criteria::default(), max_events: 100_000 }
+        SlowFlowOptions { t_end_s: 120.0, dt_out_s: 0.2, smooth_s: 1.0, criteria: Criteria::default(), max_events: 100_000, build_up_s: 0.0 }
     }
 }
 
@@ -241,6 +245,9 @@ pub fn slow_flow(model: &SlowModel, s0: f64, opts: &SlowFlowOptions) -> Result<P
     if !(opts.dt_out_s.is_finite() && opts.dt_out_s > 0.0 && opts.t_end_s / opts.dt_out_s <= 1e7) {
         return Err(Error::invalid("dt_out_s", opts.dt_out_s, "must be > 0 with at most 1e7 samples"));
     }
+    if !(opts.build_up_s.is_finite() && opts.build_up_s >= 0.0) {
+        return Err(Error::invalid("build_up_s", opts.build_up_s, "must be finite and >= 0"));
+    }
     if !(opts.smooth_s.is_finite() && opts.smooth_s >= 0.0) {
         return Err(Error::invalid("smooth_s", opts.smooth_s, "must be finite and >= 0"));
     }
@@ -262,8 +269,12 @@ pub fn slow_flow(model: &SlowModel, s0: f64, opts: &SlowFlowOptions) -> Result<P
     let mut warnings = Vec::new();
     let mut events: Vec<Event> = Vec::new();
     let mut segs: Vec<Segment> = Vec::new();
-    let (mut t, mut s, mut beta) = (0.0_f64, sp0, start);
     let t_end = opts.t_end_s;
+    let t_b = opts.build_up_s.min(t_end);
+    let (mut t, mut s, mut beta) = (t_b, sp0, start);
+    if t_b > 0.0 {
+        segs.push(Segment { t_a: 0.0, t_b, s_a: sp0, b: 0.0, z: sp0, v: 0.0, branch: start });
+    }
     let mut zero_time_events = 0usize;
     let rest = |t: f64, s: f64, beta: BranchLabel| Segment { t_a: t, t_b: t_end, s_a: s, b: 0.0, z: s, v: 0.0, branch: beta };
     while t < t_end {
@@ -375,7 +386,8 @@ pub fn slow_flow(model: &SlowModel, s0: f64, opts: &SlowFlowOptions) -> Result<P
         let sj = seg.at(tj.clamp(seg.t_a, seg.t_b)).clamp(br.lo(), br.hi());
         ts.push(tj);
         ss.push(glob(sj));
-        aa.push(br.amplitude_at(sj));
+        let ramp = if tj < t_b { 1.0 - (-3.0 * tj / t_b).exp() } else { 1.0 };
+        aa.push(ramp * br.amplitude_at(sj));
         bb.push(seg.branch);
     }
     let last = segs[segs.len() - 1];

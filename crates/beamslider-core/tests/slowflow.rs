@@ -180,3 +180,15 @@ fn bad_input_is_an_error_not_a_panic() {
     assert!(slow_flow(&bad, 0.3, &SlowFlowOptions::default()).is_err());
     assert!(slow_flow(&SlowModel::default(), 0.3, &SlowFlowOptions::default()).is_err());
 }
+
+#[test]
+fn build_up_delays_the_flow_and_ramps_the_amplitude() {
+    let m = model(|_| -0.005, |s| 0.1 * (0.4 - s), None);
+    let o = SlowFlowOptions { build_up_s: 4.0, ..SlowFlowOptions::default() };
+    let p = slow_flow(&m, 0.35, &o).unwrap();
+    assert!((p.events[0].t_s - 24.0).abs() < 1e-9, "jump up at 4 + 20 s, got {}", p.events[0].t_s);
+    assert_eq!(p.s[10], 0.35); // t = 2 s
+    assert!(p.amplitude_h[0] == 0.0 && p.amplitude_h[10] < 0.1 && p.amplitude_h[10] > 0.09);
+    assert_eq!(p.classification.behaviour, Behaviour::SignatureMove);
+    assert!(slow_flow(&m, 0.35, &SlowFlowOptions { build_up_s: f64::NAN, ..SlowFlowOptions::default() }).is_err());
+}
