@@ -97,7 +97,7 @@ def available_tables():
 def stage_slopes(t_run=40.0):
     """§4.2: FS s(t) slopes in 2-s windows, binned by s and branch, against the PCS table."""
     lines = ["§4.2  Drift law: V from PCS (b1 table) against s(t) slopes of FS runs (2-s windows)",
-             "branch of a window: H after the FS run's first jump up (classifier), L before; V_PCS interpolated at the window's mean s",
+             "branch of a window: the PCS branch whose window amplitude at that s is nearest (log) to the FS envelope; windows within 1.5 s of an FS jump skipped; V_PCS interpolated at the window's mean s",
              f"{'point':>12} {'s0':>5} {'br':>3} {'n':>3} {'mean s':>7} {'V_FS':>9} {'V_PCS':>9} {'|diff|/se':>9}"]
     from beamslider.maps import classify_result
 
@@ -110,6 +110,8 @@ def stage_slopes(t_run=40.0):
         r = simulate(f_ex=f, a_ex=a, s0=s0, t_end=t_run, record_every=50)
         c = classify_result(r)
         t, s = np.asarray(r.t), np.asarray(r.s)
+        env = np.asarray(r.envelope(1.0))
+        h = 1e-3
         ups = list(c.features.get("jump_up_t_s", []))
         downs = list(c.features.get("jump_down_t_s", []))
         w = 2.0
@@ -118,14 +120,25 @@ def stage_slopes(t_run=40.0):
             if m.sum() < 10:
                 continue
             tm = 0.5 * (2 * k + 1) * w
-            # branch at this window: last jump before it; skip windows containing a jump
-            ev = sorted([(x, "H") for x in ups] + [(x, "L") for x in downs])
-            if any(k * w - 1.5 <= x <= (k + 1) * w + 1.5 for x, _ in ev):
+            # branch of the window: the PCS branch whose amplitude at the window's mean s is nearest
+            # (in log) to the FS envelope there; windows within 1.5 s of a jump are skipped
+            ev = sorted(ups + downs)
+            if any(k * w - 1.5 <= x <= (k + 1) * w + 1.5 for x in ev):
                 continue
-            br = "L"
-            for x, b in ev:
-                if x < tm:
-                    br = b
+            a_fs = float(np.mean(env[m])) / h
+            sm0 = float(np.mean(s[m]))
+            best, br = np.inf, None
+            for cand in ("L", "H"):
+                mm = tab.branch == cand
+                cs = np.where(tab.s[mm] > 0.5, 1 - tab.s[mm], tab.s[mm])
+                if cs.size < 2 or not (cs.min() - 0.011 <= sm0 <= cs.max() + 0.011):
+                    continue
+                o = np.argsort(cs)
+                d = abs(np.log(max(a_fs, 1e-6)) - np.log(max(float(np.interp(sm0, cs[o], tab.amplitude[mm][o])), 1e-6)))
+                if d < best:
+                    best, br = d, cand
+            if br is None:
+                continue
             slope = np.polyfit(t[m], s[m], 1)[0]
             sm = float(np.mean(s[m]))
             ts, tv, te = tab.branch_rows(br)
@@ -355,6 +368,7 @@ def stage_speed():
     law = load_drift_law(OUT / "law.json")
     pts = [(124.0, 14.0), (126.0, 10.0), (104.0, 14.0)]
     lines = ["§4.5  Speed (this machine, shared; one core per call)"]
+    fs_times, pred_times = [], []
     for f, a in pts:
         ta, td, tf = [], [], []
         for _ in range(5):
@@ -366,12 +380,27 @@ def stage_speed():
         t0 = time.perf_counter()
         simulate(f_ex=f, a_ex=a, s0=0.3, t_end=120.0, record_every=1000)
         t_fs = time.perf_counter() - t0
+        fs_times.append(t_fs)
+        pred_times.append(tot)
         tb = [json.loads(x) for x in (DRIFT / "timings.jsonl").read_text().splitlines()] if (DRIFT / "timings.jsonl").exists() else []
         tb = [x for x in tb if (x["f_ex"], x["a_ex"]) == (f, a) and x["computed"] > 0]
         b1 = f"; b1 table {tb[0]['wall_s']:.1f} s wall ({tb[0]['computed']} rows, 2 threads) = {t_fs / tb[0]['wall_s']:.2f}× the FS speed" if tb else ""
         lines.append(f"({f:g}, {a:g}): (a) manifold {1e3 * min(ta):.2f} ms, V evaluation {1e3 * min(td):.2f} ms, slow flow + classification "
                      f"{1e3 * min(tf):.3f} ms; total {1e3 * tot:.1f} ms; FS 120 s run {t_fs:.1f} s → {t_fs / tot:.0f}× per point{b1}")
-    lines.append(f"training (b2) once: fit {law.fit_time_s:.2f} s plus the PCS tables (docs/superslow/drift/timings.jsonl)")
+    tb = [json.loads(x) for x in (DRIFT / "timings.jsonl").read_text().splitlines()] if (DRIFT / "timings.jsonl").exists() else []
+    t_tables = sum(x["wall_s"] for x in tb[-len(TRAINING):]) if tb else float("nan")
+    lines.append(f"training (b2) once: {len(TRAINING)} PCS tables {t_tables:.1f} s wall (2 threads each) + fit {law.fit_time_s:.2f} s")
+    per_fs = float(np.mean(fs_times))
+    per_pred = float(np.mean(pred_times))
+    n = 112
+    whole_fs = n * per_fs
+    whole_pred = t_tables + law.fit_time_s + n * per_pred
+    lines.append(f"whole map (112 points): FS ≈ 112 × {per_fs:.1f} s = {whole_fs:.0f} s; predictor (b2) = tables {t_tables:.1f} s + fit "
+                 f"{law.fit_time_s:.2f} s + 112 × {1e3 * per_pred:.1f} ms = {whole_pred:.1f} s → {whole_fs / whole_pred:.1f}× (bar 20×)")
+    mt = MAP_DRIFT
+    if mt.exists():
+        lines.append("b1 map: 112 coarse tables (Δs 0.02, 40 settling periods, 1-s windows) took 151 s wall with 2 threads "
+                     f"(map_tables stage) → {whole_fs / 151.0:.1f}× the FS map")
     (OUT / "validation_b_speed.txt").write_text("\n".join(lines) + "\n", encoding="utf-8")
     print("\n".join(lines))
 

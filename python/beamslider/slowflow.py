@@ -222,22 +222,33 @@ def read_drift_table(path: Union[str, os.PathLike]) -> DriftTable:
 # Features of issue 17 §3.2 from layer (a)
 
 
-_BEAM_CACHE: Dict[Tuple[str, Tuple[float, ...]], dict] = {}
+_BEAM_CACHE: Dict[tuple, tuple] = {}
 
 
 def _modes(p: Parameters, n_modes: int, s: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
-    """Φ(s) [kg^-½] and Φ'(s) [kg^-½ m^-1] of the first n_modes modes at positions s (the slope by
-    a central difference of the exact mode shapes, step 1e-6 L)."""
+    """Φ(s) [kg^-½] and Φ'(s) [kg^-½ m^-1] of the first n_modes modes at positions s: linear
+    interpolation in a table of the exact mode shapes on 4001 points of [0, 1] (the slope by a
+    central difference, step 1e-6 L), computed once per parameter set."""
     import dataclasses
 
-    q = dataclasses.replace(p, n_modes=int(n_modes))
-    h = 1e-6
-    xs = np.concatenate([s, s - h, s + h])
-    d = _core.beam_properties(q.toml_text(), [float(v) for v in xs])
-    phi = np.asarray(d["phi"], dtype=float)  # (modes, points)
-    n = s.size
-    f0, fm, fp = phi[:, :n], phi[:, n:2 * n], phi[:, 2 * n:]
-    return f0.T, ((fp - fm) / (2 * h * p.length_m)).T
+    key = (repr(p), int(n_modes))
+    if key not in _BEAM_CACHE:
+        q = dataclasses.replace(p, n_modes=int(n_modes))
+        g = np.linspace(0.0, 1.0, 4001)
+        h = 1e-6
+        xs = np.concatenate([g, np.clip(g - h, 0, 1), np.clip(g + h, 0, 1)])
+        d = _core.beam_properties(q.toml_text(), [float(v) for v in xs])
+        phi = np.asarray(d["phi"], dtype=float)
+        n = g.size
+        f0, fm, fp = phi[:, :n], phi[:, n:2 * n], phi[:, 2 * n:]
+        step = (np.clip(g + h, 0, 1) - np.clip(g - h, 0, 1)) * p.length_m
+        if len(_BEAM_CACHE) > 16:
+            _BEAM_CACHE.clear()
+        _BEAM_CACHE[key] = (g, f0, (fp - fm) / step)
+    g, f0, df = _BEAM_CACHE[key]
+    phi = np.stack([np.interp(s, g, f0[k]) for k in range(f0.shape[0])], axis=1)
+    dphi = np.stack([np.interp(s, g, df[k]) for k in range(df.shape[0])], axis=1)
+    return phi, dphi
 
 
 def features(manifold, branch: str, s: Sequence[float]) -> Dict[str, np.ndarray]:
@@ -322,6 +333,7 @@ class DriftLaw:
     """Per held-out operating point: RMS error and typical |V|."""
     fit_time_s: float = 0.0
     """Wall time of the fit (including the layer-(a) manifolds of the training points) [s]."""
+    _trees: dict = field(default_factory=dict, repr=False, compare=False)
 
     def evaluate(self, branch: str, feat: Dict[str, np.ndarray], exclude_group: Optional[int] = None) -> Tuple[np.ndarray, np.ndarray]:
         """V at the given features (half coordinate, towards the centre positive) and a flag per
@@ -329,19 +341,22 @@ class DriftLaw:
         return self._evaluate_x(branch, _x(feat), np.asarray(feat["lift_off"]), exclude_group)
 
     def _evaluate_x(self, branch, x, lift_off, exclude_group=None):
-        xt, vt = self.x[branch], self.v[branch]
-        if exclude_group is not None:
-            keep = self.groups[branch] != exclude_group
-            xt, vt = xt[keep], vt[keep]
+        from scipy.spatial import cKDTree
+
+        key = (branch, exclude_group)
+        if key not in self._trees:
+            xt, vt = self.x[branch], self.v[branch]
+            if exclude_group is not None:
+                keep = self.groups[branch] != exclude_group
+                xt, vt = xt[keep], vt[keep]
+            self._trees[key] = (cKDTree((xt - self.mean) / self.std) if xt.shape[0] else None, vt)
+        tree, vt = self._trees[key]
         out = np.zeros(x.shape[0])
-        if xt.shape[0] == 0:
+        if tree is None:
             return out, np.ones(x.shape[0], dtype=bool)
-        z = (x - self.mean) / self.std
-        zt = (xt - self.mean) / self.std
-        d2 = ((z[:, None, :] - zt[None, :, :]) ** 2).sum(axis=2)
-        k = min(self.k, xt.shape[0])
-        idx = np.argpartition(d2, k - 1, axis=1)[:, :k]
-        dk = np.sqrt(np.take_along_axis(d2, idx, axis=1))
+        k = min(self.k, vt.size)
+        dk, idx = tree.query((x - self.mean) / self.std, k=k)
+        dk, idx = dk.reshape(x.shape[0], k), idx.reshape(x.shape[0], k)
         w = 1.0 / np.maximum(dk, 1e-6)
         out = (w * vt[idx]).sum(axis=1) / w.sum(axis=1)
         out[lift_off < 1.0] = 0.0
@@ -634,12 +649,23 @@ def predict(
         mf = manifold if manifold is not None else _manifold_for(p, f_ex, a_ex, n_modes, d_eff)
         t1 = time.perf_counter()
         low, high, lf, hf, info = slow_model(mf, drift, s_dn=s_dn)
+        if (s_dn == "table" and info["s_dn"] is not None and info["s_up"] is not None and info["s_dn"] <= info["s_up"]):
+            # The PCS high branch ends below the HB jump-up: the combined model has no
+            # coexistence interval (a jump up would land nowhere). Fall back to the table's
+            # own branches and jumps (source='table'), and say so.
+            low, high, lf, hf, su, sd = table_model(drift)
+            note = (f"PCS s_dn = {info['s_dn']:.4f} lies below the HB s_up = {info['s_up']:.4f}: no coexistence in the "
+                    "combined model; the PCS table's own branches and jumps are used")
+            info = {"extrapolated": False, "features": {}, "s_up": su if lf else None, "s_dn": sd if hf else None,
+                    "s_dn_source": "table" if hf else "none", "note": note}
     t2 = time.perf_counter()
     r = _core.slow_flow(tuple(low), tuple(high), low_ends_in_fold=lf, high_ends_in_fold=hf, s0=s0, t_end_s=t_end,
                         build_up_s=float(min(t_build, t_end)))
     t3 = time.perf_counter()
     cls = json.loads(r["classification"])
     warnings = list(r["warnings"])
+    if info.get("note"):
+        warnings.insert(0, info["note"])
     if info["extrapolated"]:
         pts = ", ".join(f"({f:g}, {a:g})" for f, a in drift.points)
         warnings.insert(0, f"drift law used outside its training range (trained on {pts}): V extrapolated from the nearest samples")
@@ -732,7 +758,10 @@ def predicted_map(
             k += 1
     if path is not None:
         path.parent.mkdir(parents=True, exist_ok=True)
-        import tomllib
+        try:
+            import tomllib
+        except ImportError:  # Python < 3.11
+            import tomli as tomllib
 
         criteria = tomllib.loads(_core.default_map_config()).get("criteria", {})
         settings = {"params_toml": p.toml_text(), "duration_s": float(t_end), "record_every": 1, "criteria": criteria}
