@@ -316,6 +316,11 @@ def stage_map():
              f"extrapolated points: {sum(r['extrapolated'] for r in rows)} of {n}"]
     lines += _compare("b2 (transferable law; s_up and branches from HB N = 5, s_dn: HB = none)", pred, grid_ref, ref, train, f_ex, a_ex, names)
     preds = {"b2": pred}
+    rows_law = predicted_map(drift=law, f_ex=f_ex, a_ex=a_ex, s0=0.3, t_end=120.0, s_dn="law")
+    pred_law = {(r["f_ex_hz"], r["a_ex_m_s2"]): r for r in rows_law}
+    lines.append("b2 s_dn learnt from the PCS tables (s_dn='law'), leave one point out: "
+                 + "; ".join(f"({r['f_ex']:g}, {r['a_ex']:g}) PCS {_fmt(r['s_dn_pcs'], 3)} law {_fmt(r['s_dn_law'], 3)}" for r in law.loo_s_dn))
+    lines += _compare("b2 with s_dn='law' (learnt jump-down; not the default)", pred_law, grid_ref, ref, train, f_ex, a_ex, names)
     for source, title in (("hb", "b1 (per-point PCS table Δs 0.02: V; HB N = 5 branches and s_up; s_dn from the PCS table)"),
                           ("table", "b1-PCS (per-point PCS table only: V, Â, s_up and s_dn from its sweeps; no layer (a))")):
         b1 = _b1_map(f_ex, a_ex, source)

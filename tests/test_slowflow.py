@@ -123,6 +123,16 @@ def test_features_and_law_constraints(tmp_path):
     save_drift_law(law, tmp_path / "law.json")
     back = load_drift_law(tmp_path / "law.json")
     np.testing.assert_array_equal(back.evaluate("H", f)[0], law.evaluate("H", f)[0])
+    # s_dn learnt from the tables: none when no table's high branch ends; where the training
+    # tables' high branches end at 0.33, the in-sample s_dn lies between HB s_up and 0.5.
+    assert law.s_dn(m) is None and all(r["s_dn_law"] is None for r in law.loo_s_dn)
+    for tb in tables:
+        tb.s_dn_pcs = 0.33
+    law2 = fit_drift_law(tables, k=3)
+    sdn = law2.s_dn(m)
+    assert sdn is not None and m.s_up < sdn < 0.5
+    r3 = predict(f_ex=124, a_ex=14, drift=law2, s_dn="law")
+    assert r3.s_dn == pytest.approx(sdn) and r3.s_dn_source == "law"
     rows = predicted_map(drift=law, f_ex=[122, 124], a_ex=[14], out=tmp_path / "pm")
     from beamslider import read_map
 
@@ -130,6 +140,10 @@ def test_features_and_law_constraints(tmp_path):
     assert len(rows) == 2 and len(tab["behaviour"]) == 2
     with pytest.raises(FileExistsError):
         predicted_map(drift=law, f_ex=[122], a_ex=[14], out=tmp_path / "pm")
+    from beamslider import operating_map
+
+    om = operating_map(f_ex=[122, 124], a_ex=[14], predictor=law)
+    assert list(om["behaviour"]) == [r["behaviour"] for r in rows]
 
 
 def test_predict_cli(tmp_path):

@@ -128,8 +128,9 @@ def add_parser_b(sub: Any, common: Any, positive: Any) -> None:
     g = sp.add_mutually_exclusive_group(required=True)
     g.add_argument("--drift", metavar="JSONL", help="drift table of this operating point (beamslider drift-table)")
     g.add_argument("--law", metavar="JSON", help="fitted drift law (beamslider.superslow.fit_drift_law(...).save)")
-    sp.add_argument("--s-dn", choices=["hb", "table", "none"], default="hb",
-                    help="jump-down position: from the HB manifold (default), from the PCS table, or none")
+    sp.add_argument("--s-dn", choices=["hb", "table", "law", "none"], default="hb",
+                    help="jump-down position: from the HB manifold (default), from the PCS table (--drift), "
+                         "learnt by the law (--law), or none")
     sp.add_argument("--d-eff", type=float, metavar="D", help="equivalent damping ratio of the HB manifold")
     common(sp)
     _force_option(sp)

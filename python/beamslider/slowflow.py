@@ -333,12 +333,47 @@ class DriftLaw:
     """Per held-out operating point: RMS error and typical |V|."""
     fit_time_s: float = 0.0
     """Wall time of the fit (including the layer-(a) manifolds of the training points) [s]."""
+    x_exist: np.ndarray = field(default_factory=lambda: np.zeros((0, len(FEATURES))))
+    """Features of HB high-branch nodes on [max(s_up, 0.2), 0.5] of the training points (for s_dn)."""
+    y_exist: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    """1 where the PCS high branch exists at that node (below the table's s_dn), else 0."""
+    g_exist: np.ndarray = field(default_factory=lambda: np.zeros(0, int))
+    """Operating-point index of each existence sample."""
+    loo_s_dn: List[dict] = field(default_factory=list)
+    """Leave-one-point-out s_dn of the law against the PCS tables' s_dn."""
     _trees: dict = field(default_factory=dict, repr=False, compare=False)
 
     def evaluate(self, branch: str, feat: Dict[str, np.ndarray], exclude_group: Optional[int] = None) -> Tuple[np.ndarray, np.ndarray]:
         """V at the given features (half coordinate, towards the centre positive) and a flag per
         point: True where a feature lies outside the training range (extrapolation)."""
         return self._evaluate_x(branch, _x(feat), np.asarray(feat["lift_off"]), exclude_group)
+
+    def s_dn(self, manifold, exclude_group: Optional[int] = None) -> Optional[float]:
+        """Jump-down position learnt from the PCS tables (s_dn="law"): the first HB high-branch node
+        above max(s_up, 0.2) where the distance-weighted vote of the k nearest training nodes says
+        the PCS high branch no longer exists (None: it reaches the centre)."""
+        if self.y_exist.size == 0 or len(manifold.high) == 0:
+            return None
+        s = _exist_nodes(manifold)
+        if s.size == 0:
+            return None
+        p = self._exist_prob(_x(features(manifold, "H", s)), exclude_group)
+        gone = np.nonzero(p < 0.5)[0]
+        return None if gone.size == 0 else float(s[gone[0]])
+
+    def _exist_prob(self, x, exclude_group=None):
+        from scipy.spatial import cKDTree
+
+        key = ("exist", exclude_group)
+        if key not in self._trees:
+            keep = self.g_exist != exclude_group if exclude_group is not None else np.ones(self.y_exist.size, bool)
+            self._trees[key] = (cKDTree((self.x_exist[keep] - self.mean) / self.std), self.y_exist[keep])
+        tree, y = self._trees[key]
+        k = min(self.k, y.size)
+        dk, idx = tree.query((x - self.mean) / self.std, k=k)
+        dk, idx = dk.reshape(x.shape[0], k), idx.reshape(x.shape[0], k)
+        w = 1.0 / np.maximum(dk, 1e-6)
+        return (w * y[idx]).sum(axis=1) / w.sum(axis=1)
 
     def _evaluate_x(self, branch, x, lift_off, exclude_group=None):
         from scipy.spatial import cKDTree
@@ -362,6 +397,12 @@ class DriftLaw:
         out[lift_off < 1.0] = 0.0
         outside = np.any((x < self.lo - 1e-9) | (x > self.hi + 1e-9), axis=1)
         return out, outside
+
+
+def _exist_nodes(manifold) -> np.ndarray:
+    lo = max(manifold.s_up or 0.2, 0.2)
+    hi = float(np.max(manifold.high.s))
+    return np.linspace(lo, hi, 31) if hi > lo else np.zeros(0)
 
 
 def _manifold_for(params, f_ex, a_ex, n_modes, d_eff):
@@ -405,8 +446,15 @@ def fit_drift_law(tables: Sequence[DriftTable], *, params: Optional[Parameters] 
     xs: Dict[str, list] = {"L": [], "H": []}
     vs: Dict[str, list] = {"L": [], "H": []}
     gs: Dict[str, list] = {"L": [], "H": []}
+    xe, ye, ge, mfs = [], [], [], []
     for gi, t in enumerate(tables):
         mf = _manifold_for(p, t.f_ex, t.a_ex, n_modes, None)
+        mfs.append(mf)
+        se = _exist_nodes(mf) if len(mf.high) else np.zeros(0)
+        if se.size:
+            xe.append(_x(features(mf, "H", se)))
+            ye.append(np.ones(se.size) if t.s_dn_pcs is None else (se <= t.s_dn_pcs).astype(float))
+            ge.append(np.full(se.size, gi))
         for br, (x, v) in _training_samples(t, mf).items():
             xs[br].append(x)
             vs[br].append(v)
@@ -425,7 +473,11 @@ def fit_drift_law(tables: Sequence[DriftTable], *, params: Optional[Parameters] 
     std = allx.std(axis=0)
     std[std == 0] = 1.0
     law = DriftLaw(x=X, v=V, groups=G, mean=allx.mean(axis=0), std=std, lo=allx.min(axis=0), hi=allx.max(axis=0),
-                   points=[(t.f_ex, t.a_ex) for t in tables], k=int(k))
+                   points=[(t.f_ex, t.a_ex) for t in tables], k=int(k),
+                   x_exist=np.concatenate(xe) if xe else np.zeros((0, len(FEATURES))),
+                   y_exist=np.concatenate(ye) if ye else np.zeros(0), g_exist=np.concatenate(ge) if ge else np.zeros(0, int))
+    for gi, t in enumerate(tables):
+        law.loo_s_dn.append({"f_ex": t.f_ex, "a_ex": t.a_ex, "s_dn_pcs": t.s_dn_pcs, "s_dn_law": law.s_dn(mfs[gi], exclude_group=gi)})
     # Leave one operating point out.
     err2 = {"L": [], "H": []}
     for gi, t in enumerate(tables):
@@ -516,8 +568,8 @@ def slow_model(manifold, drift, *, s_dn: str = "hb", nodes: int = 121):
 
     Returns (low, high, low_ends_in_fold, high_ends_in_fold, info dict).
     """
-    if s_dn not in ("hb", "table", "none"):
-        raise ValueError(f"invalid parameter `s_dn` = {s_dn!r}: one of 'hb', 'table', 'none'")
+    if s_dn not in ("hb", "table", "law", "none"):
+        raise ValueError(f"invalid parameter `s_dn` = {s_dn!r}: one of 'hb', 'table', 'law', 'none'")
     lo_all, hi_all = manifold.s_range
     s_up = manifold.s_up
     s_dn_v = manifold.s_dn if s_dn == "hb" else None
@@ -525,6 +577,10 @@ def slow_model(manifold, drift, *, s_dn: str = "hb", nodes: int = 121):
         if not isinstance(drift, DriftTable):
             raise ValueError("invalid parameter `s_dn` = 'table': needs a DriftTable as drift")
         s_dn_v = drift.s_jumps()[1]
+    if s_dn == "law":
+        if not isinstance(drift, DriftLaw):
+            raise ValueError("invalid parameter `s_dn` = 'law': needs a DriftLaw as drift")
+        s_dn_v = drift.s_dn(manifold)
     info = {"extrapolated": False, "features": {}, "s_up": s_up, "s_dn": s_dn_v, "s_dn_source": s_dn if s_dn_v is not None else "none"}
     out = {}
     for br in ("L", "H"):
@@ -598,7 +654,9 @@ def predict(
         drift: a :class:`DriftTable` of this operating point (b1) or a fitted :class:`DriftLaw`
             (b2). A law used outside its training range is reported (``extrapolated``, a warning),
             never silently.
-        s_dn: source of the jump-down position ('hb', 'table', 'none'; see :func:`slow_model`).
+        s_dn: source of the jump-down position: 'hb' (the HB manifold's own; none with single-term
+            HB), 'table' (the PCS sweep of a DriftTable), 'law' (learnt from the PCS tables by a
+            fitted DriftLaw, :meth:`DriftLaw.s_dn`), 'none'.
         n_modes: modes of the HB manifold.
         d_eff: equivalent damping ratio of the HB manifold (issue §2.5.1; None: off).
         manifold: a precomputed :func:`beamslider.superslow.hb_manifold` result (skips layer (a)).
@@ -687,6 +745,7 @@ def save_drift_law(law: DriftLaw, path: Union[str, os.PathLike]) -> None:
         "groups": {b: law.groups[b].tolist() for b in law.groups}, "mean": law.mean.tolist(), "std": law.std.tolist(),
         "lo": law.lo.tolist(), "hi": law.hi.tolist(), "points": [list(p) for p in law.points], "loo": law.loo,
         "loo_per_point": law.loo_per_point, "fit_time_s": law.fit_time_s,
+        "x_exist": law.x_exist.tolist(), "y_exist": law.y_exist.tolist(), "g_exist": law.g_exist.tolist(), "loo_s_dn": law.loo_s_dn,
     }
     Path(path).write_text(json.dumps(d), encoding="utf-8")
 
@@ -696,6 +755,8 @@ def load_drift_law(path: Union[str, os.PathLike]) -> DriftLaw:
     d = json.loads(Path(path).read_text(encoding="utf-8"))
     if d.get("kind") != "beamslider drift law":
         raise ValueError(f"invalid parameter `law`: {path} is not a beamslider drift law file")
+    if list(d.get("features", [])) != list(FEATURES):
+        raise ValueError(f"invalid parameter `law`: {path} uses the features {d.get('features')}, this version {list(FEATURES)}")
     arr = lambda v: np.asarray(v, dtype=float)  # noqa: E731
     n = len(FEATURES)
     return DriftLaw(
@@ -703,6 +764,8 @@ def load_drift_law(path: Union[str, os.PathLike]) -> DriftLaw:
         groups={b: np.asarray(v, dtype=int) for b, v in d["groups"].items()}, mean=arr(d["mean"]), std=arr(d["std"]),
         lo=arr(d["lo"]), hi=arr(d["hi"]), points=[tuple(p) for p in d["points"]], k=int(d["k"]), loo=d.get("loo", {}),
         loo_per_point=d.get("loo_per_point", []), fit_time_s=float(d.get("fit_time_s", 0.0)),
+        x_exist=arr(d.get("x_exist", [])).reshape(-1, n), y_exist=arr(d.get("y_exist", [])),
+        g_exist=np.asarray(d.get("g_exist", []), dtype=int), loo_s_dn=d.get("loo_s_dn", []),
     )
 
 
