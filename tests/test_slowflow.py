@@ -157,3 +157,17 @@ def test_predict_cli(tmp_path):
     assert js["behaviour"] and js["timings_s"]["slow_flow"] < 1.0
     assert main(args) != 0  # refuses to overwrite
     assert main(args + ["--force"]) == 0
+
+
+def test_drift_table_cli(tmp_path):
+    from beamslider.cli import main
+
+    args = ["drift-table", "--f-ex", "124", "--a-ex", "14", "--ds", "0.2", "--window-s", "0.1", "--settle-periods", "5",
+            "--out", str(tmp_path), "--no-progress"]
+    assert main(args) == 0
+    path = tmp_path / "drift_124Hz_14ms2.jsonl"
+    t = read_drift_table(path)
+    assert len(t.s) >= 4 and set(t.branch) <= {"L", "H"}
+    assert main(args) != 0  # exists: refused without --resume / --force
+    assert main(args + ["--resume"]) == 0  # complete: nothing recomputed
+    np.testing.assert_array_equal(read_drift_table(path).v, t.v)
