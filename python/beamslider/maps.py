@@ -225,7 +225,8 @@ def run_map_config(config_toml: str, *, out: Optional[Union[str, Path]] = None, 
 def operating_map(params: Optional[Parameters] = None, *, f_ex: Any, a_ex: Any, s0: Any = 0.3,
                   t_end: float = 120.0, threads: Optional[int] = None, out: Optional[Union[str, Path]] = None,
                   resume: bool = False, record_every: int = 20, criteria: Optional[Dict[str, float]] = None,
-                  progress: bool = False, extend_to: Optional[float] = None) -> Dict[str, np.ndarray]:
+                  progress: bool = False, extend_to: Optional[float] = None,
+                  predictor: Optional[Any] = None) -> Dict[str, np.ndarray]:
     """Operating map (docs/model.md §8): the behaviour of the free slider at every (f_ex, a_ex, s0) of the
     grid, each point a ``t_end``-second run from rest classified by the core, in parallel on
     ``threads`` threads (default: one per core).
@@ -241,9 +242,22 @@ def operating_map(params: Optional[Parameters] = None, *, f_ex: Any, a_ex: Any, 
     but for the wall time — and the settled points keep their rows; the number of re-run points
     is printed. An interrupted extension is finished by the same call.
 
+    ``predictor``: a fitted drift law (:func:`beamslider.superslow.fit_drift_law`): the map is
+    predicted by the reduced super-slow model instead of FS runs (milliseconds per point; one s0;
+    same results format, see :func:`beamslider.slowflow.predicted_map`).
+
     Returns a dict of numpy arrays, one entry per grid point in grid order (s0 slowest, then a_ex,
     f_ex fastest): see :func:`rows_to_table`.
     """
+    if predictor is not None:
+        from .slowflow import predicted_map
+
+        s0s = np.atleast_1d(np.asarray(s0, dtype=float))
+        if s0s.size != 1 or resume or extend_to is not None:
+            raise ValueError("invalid parameter `predictor`: takes one s0 and no resume / extend_to")
+        rows = predicted_map(params, drift=predictor, f_ex=[float(v) for v in np.atleast_1d(f_ex)],
+                             a_ex=[float(v) for v in np.atleast_1d(a_ex)], s0=float(s0s[0]), t_end=float(t_end), out=out)
+        return rows_to_table(rows)
     if extend_to is not None:
         try:
             te = float(extend_to)

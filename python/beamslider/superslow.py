@@ -302,3 +302,19 @@ def backbone(
     out = _core.hb_backbone(resolve(params).toml_text(), [float(v) for v in a.ravel()], [float(v) for v in x.ravel()],
                             _number("omega1_factor", omega1_factor))
     return np.asarray(out).reshape(a.shape)
+
+
+# Layer (b) (issue 17 §3): drift law, slow flow and the predictor live in beamslider.slowflow.
+from .slowflow import (  # noqa: E402
+    DriftLaw,
+    DriftTable,
+    Prediction,
+    drift_table,
+    features,
+    fit_drift_law,
+    load_drift_law,
+    predict,
+    predicted_map,
+    read_drift_table,
+    save_drift_law,
+)

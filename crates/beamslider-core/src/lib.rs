@@ -6,13 +6,15 @@
 //! Modules follow the physics: [`params`] (§1), [`beam`] and [`excitation`] (§2), [`slider`] (§3), [`contact`]
 //! (§4), [`solver`] and [`stepper`] (§5), [`simulation`] and [`manifold`] (§6), [`record`] and
 //! [`signal`] and [`envelope_stream`] (§7), [`classify`] and [`map`] (§8), [`enma`] (§9); [`superslow`]: the super-slow
-//! manifold by harmonic balance (issue 17, layer (a)).
+//! manifold by harmonic balance (issue 17, layer (a)); [`drift`] and [`slowflow`]: the drift law
+//! from the PCS model and the slow flow (issue 17, layer (b)).
 #![warn(missing_docs)]
 
 mod arith;
 pub mod beam;
 pub mod classify;
 pub mod contact;
+pub mod drift;
 pub mod enma;
 pub mod error;
 pub mod excitation;
@@ -24,6 +26,7 @@ pub mod signal;
 pub mod envelope_stream;
 pub mod simulation;
 pub mod slider;
+pub mod slowflow;
 pub mod solver;
 pub mod stepper;
 pub mod superslow;

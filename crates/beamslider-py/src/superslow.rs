@@ -1,7 +1,10 @@
 //! Binding of layer (a) of issue 17 (`beamslider_core::superslow`): the harmonic-balance
 //! super-slow manifold, its N = 1 closed form and the single-mode backbone. Types and errors only.
 
+use beamslider_core::drift::{BranchLabel, DriftOptions, drift_table_pcs as core_drift};
+use beamslider_core::slowflow::{EventKind, SlowBranch, SlowFlowOptions, SlowModel, slow_flow as core_slow_flow};
 use beamslider_core::superslow::{HbBranch, HbOptions, HbSystem, closed_form_n1_scaled, hb_manifold as core_hb};
+use beamslider_core::{Criteria, Excitation, Model};
 use numpy::IntoPyArray;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -118,5 +121,146 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(hb_manifold, m)?)?;
     m.add_function(wrap_pyfunction!(hb_closed_form_n1, m)?)?;
     m.add_function(wrap_pyfunction!(hb_backbone, m)?)?;
+    register_b(m)?;
+    Ok(())
+}
+
+/// Drift table V(s, branch) from the PCS model (issue 17 §3.1; `beamslider_core::drift`). Returns
+/// (header JSON, rows as JSON texts in production order, rows computed now). Rows are appended
+/// to `out` as produced; `resume` continues an existing file with the same settings.
+/// `progress(done, total)` is called from the calling thread; Ctrl-C stops both sweeps (rows
+/// written so far stay in the file) and raises KeyboardInterrupt.
+#[pyfunction]
+#[pyo3(signature = (params_toml, *, f_ex_hz, a_ex_m_s2, s_values, settle_periods=40, first_settle_periods=400, window_s=1.0, sub_windows=4, mirror=false, out=None, resume=false, progress=None))]
+#[allow(clippy::too_many_arguments)]
+pub fn drift_table_pcs(
+    py: Python<'_>,
+    params_toml: &str,
+    f_ex_hz: f64,
+    a_ex_m_s2: f64,
+    s_values: Vec<f64>,
+    settle_periods: usize,
+    first_settle_periods: usize,
+    window_s: f64,
+    sub_windows: usize,
+    mirror: bool,
+    out: Option<std::path::PathBuf>,
+    resume: bool,
+    progress: Option<Py<PyAny>>,
+) -> PyResult<(String, Vec<String>, usize)> {
+    use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+    let params = parse_params(params_toml)?;
+    let opts = DriftOptions { s_values, settle_periods, first_settle_periods, window_s, sub_windows, mirror };
+    let exc = Excitation::new(f_ex_hz, a_ex_m_s2);
+    let cancel = AtomicBool::new(false);
+    let done = AtomicUsize::new(0);
+    let total = AtomicUsize::new(0);
+    let poll = |py: Python<'_>| -> PyResult<()> {
+        py.check_signals()?;
+        let (d, t) = (done.load(Ordering::Relaxed), total.load(Ordering::Relaxed));
+        match &progress {
+            Some(cb) if t > 0 => cb.call1(py, (d, t)).map(|_| ()),
+            _ => Ok(()),
+        }
+    };
+    let (outcome, err) = py.detach(|| {
+        std::thread::scope(|sc| {
+            let worker = sc.spawn(|| {
+                guarded(|| {
+                    let model = Model::new(params)?;
+                    core_drift(&model, &exc, &opts, out.as_deref(), resume, &cancel, &|d, t| {
+                        done.store(d, Ordering::Relaxed);
+                        total.store(t, Ordering::Relaxed);
+                    })
+                })
+            });
+            let mut err: Option<PyErr> = None;
+            while !worker.is_finished() {
+                std::thread::sleep(std::time::Duration::from_millis(100));
+                if err.is_none()
+                    && let Err(e) = Python::attach(|py| poll(py))
+                {
+                    cancel.store(true, Ordering::Relaxed);
+                    err = Some(e);
+                }
+            }
+            let outcome = worker.join().unwrap_or_else(|_| Err(crate::SimulationError::new_err("internal error: drift worker panicked")));
+            (outcome, err)
+        })
+    });
+    if let Some(e) = err {
+        return Err(e);
+    }
+    let table = outcome?;
+    poll(py)?;
+    let js = |e: serde_json::Error| crate::SimulationError::new_err(format!("internal error: {e}"));
+    let header = serde_json::to_string(&table.header).map_err(js)?;
+    let rows = table.rows.iter().map(|r| serde_json::to_string(r).map_err(js)).collect::<PyResult<Vec<_>>>()?;
+    Ok((header, rows, table.computed))
+}
+
+/// Read a drift-table file: (header JSON, rows as JSON texts; a truncated last line is dropped).
+#[pyfunction]
+pub fn read_drift_table(py: Python<'_>, path: std::path::PathBuf) -> PyResult<(String, Vec<String>)> {
+    let (h, rows) = py.detach(|| guarded(|| beamslider_core::drift::read_drift_table(&path)))?;
+    let js = |e: serde_json::Error| crate::SimulationError::new_err(format!("internal error: {e}"));
+    Ok((serde_json::to_string(&h).map_err(js)?, rows.iter().map(|r| serde_json::to_string(r).map_err(js)).collect::<PyResult<Vec<_>>>()?))
+}
+
+/// Slow flow (issue 17 §3.3; `beamslider_core::slowflow`) on branches given by their nodes
+/// (half coordinate s′ ∈ (0, ½], increasing): `low` / `high` = (s, amplitude_h, v_per_s). Returns a
+/// dict: `t_s`, `s`, `amplitude_h`, `branch` (0 = L, 1 = H), `events` (list of (kind, t_s, s)),
+/// `s_final`, `amplitude_final_h`, `branch_final`, `branch_initial` ("L"/"H"),
+/// `classification` (JSON text), `warnings`.
+#[pyfunction]
+#[pyo3(signature = (low, high, *, low_ends_in_fold, high_ends_in_fold, s0, t_end_s=120.0, dt_out_s=0.2, smooth_s=1.0, build_up_s=0.0, criteria_json=None))]
+#[allow(clippy::too_many_arguments, clippy::type_complexity)]
+pub fn slow_flow<'py>(
+    py: Python<'py>,
+    low: (Vec<f64>, Vec<f64>, Vec<f64>),
+    high: (Vec<f64>, Vec<f64>, Vec<f64>),
+    low_ends_in_fold: bool,
+    high_ends_in_fold: bool,
+    s0: f64,
+    t_end_s: f64,
+    dt_out_s: f64,
+    smooth_s: f64,
+    build_up_s: f64,
+    criteria_json: Option<&str>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let criteria: Criteria = match criteria_json {
+        Some(t) => serde_json::from_str(t).map_err(|e| pyo3::exceptions::PyValueError::new_err(format!("invalid parameter `criteria`: {e}")))?,
+        None => Criteria::default(),
+    };
+    let mk = |b: (Vec<f64>, Vec<f64>, Vec<f64>)| SlowBranch { s: b.0, amplitude_h: b.1, v_per_s: b.2 };
+    let model = SlowModel { low: mk(low), high: mk(high), low_ends_in_fold, high_ends_in_fold };
+    let opts = SlowFlowOptions { t_end_s, dt_out_s, smooth_s, criteria, build_up_s, ..SlowFlowOptions::default() };
+    let p = py.detach(|| guarded(|| core_slow_flow(&model, s0, &opts)))?;
+    let lab = |b: BranchLabel| if b == BranchLabel::L { "L" } else { "H" };
+    let d = PyDict::new(py);
+    d.set_item("t_s", p.t_s.into_pyarray(py))?;
+    d.set_item("s", p.s.into_pyarray(py))?;
+    d.set_item("amplitude_h", p.amplitude_h.into_pyarray(py))?;
+    d.set_item("branch", p.branch.iter().map(|&b| (b == BranchLabel::H) as u8).collect::<Vec<u8>>().into_pyarray(py))?;
+    let kind = |k: EventKind| match k {
+        EventKind::JumpUp => "jump_up",
+        EventKind::JumpDown => "jump_down",
+        EventKind::Equilibrium => "equilibrium",
+        EventKind::Wall => "wall",
+    };
+    d.set_item("events", p.events.iter().map(|e| (kind(e.kind), e.t_s, e.s)).collect::<Vec<_>>())?;
+    d.set_item("s_final", p.s_final)?;
+    d.set_item("amplitude_final_h", p.amplitude_final_h)?;
+    d.set_item("branch_final", lab(p.branch_final))?;
+    d.set_item("branch_initial", lab(p.branch_initial))?;
+    d.set_item("classification", serde_json::to_string(&p.classification).map_err(|e| crate::SimulationError::new_err(format!("internal error: {e}")))?)?;
+    d.set_item("warnings", p.warnings)?;
+    Ok(d)
+}
+
+pub fn register_b(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(drift_table_pcs, m)?)?;
+    m.add_function(wrap_pyfunction!(read_drift_table, m)?)?;
+    m.add_function(wrap_pyfunction!(slow_flow, m)?)?;
     Ok(())
 }

@@ -1,0 +1,432 @@
+"""Validation of layer (b) of issue 17 (§4.2–4.5): drift law, slow flow and the predicted map.
+
+Not part of the fast test suite (PCS drift tables take minutes per operating point).
+
+    python scripts/validate_superslow_b.py tables      # PCS drift tables (resumable) -> docs/superslow/drift/
+    python scripts/validate_superslow_b.py slopes      # §4.2: V from PCS against s(t) slopes of short FS runs
+    python scripts/validate_superslow_b.py runs        # §4.3: representative runs (b1 tables and b2 LOO law)
+    python scripts/validate_superslow_b.py map         # §4.4: predicted map (b2) against docs/operating_map.jsonl
+    python scripts/validate_superslow_b.py speed       # §4.5: timings
+    python scripts/validate_superslow_b.py all
+
+Everything is written to docs/superslow/ (validation_b*.txt, figures, drift/*.jsonl, law.json).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "python"))
+
+from beamslider import read_map, simulate  # noqa: E402
+from beamslider.slowflow import (drift_table, fit_drift_law, load_drift_law, predict, predicted_map,  # noqa: E402
+                                 read_drift_table, save_drift_law)
+from beamslider.superslow import hb_manifold  # noqa: E402
+
+OUT = ROOT / "docs" / "superslow"
+DRIFT = OUT / "drift"
+# The four representative points of MODEL.md §8, (106, 10) for the start-position pair, (124, 8)
+# of seed Fig. 4b, then points spread over the map for the transferable law (b2).
+REPRESENTATIVE = [(124.0, 14.0), (104.0, 14.0), (126.0, 10.0), (124.0, 6.0), (106.0, 10.0)]
+TRAINING = REPRESENTATIVE + [(124.0, 8.0), (116.0, 12.0), (110.0, 8.0), (120.0, 6.0), (130.0, 12.0), (114.0, 4.0), (100.0, 10.0)]
+
+
+# Table settings of the validation (issue §3.1: Δs 0.01–0.02, ≥ 40 settling periods, window ≥ 1 s).
+TABLE_OPTS = dict(ds=0.01, settle_periods=100, window_s=2.0)
+
+
+def table_path(f, a):
+    return DRIFT / f"drift_{f:g}Hz_{a:g}ms2.jsonl"
+
+
+def stage_tables(points=None):
+    DRIFT.mkdir(parents=True, exist_ok=True)
+    log = []
+    for f, a in points or TRAINING:
+        p = table_path(f, a)
+        t0 = time.perf_counter()
+        t = drift_table(f_ex=f, a_ex=a, **TABLE_OPTS, out=p, resume=p.exists(), progress=True)
+        wall = time.perf_counter() - t0
+        s_up, s_dn = t.s_jumps()
+        line = f"({f:g}, {a:g}): {len(t.s)} rows, {t.computed} computed in {wall:.1f} s wall; PCS s_up = {s_up}, s_dn = {s_dn}"
+        print(line, flush=True)
+        log.append({"f_ex": f, "a_ex": a, "rows": int(len(t.s)), "computed": int(t.computed), "wall_s": wall})
+    with open(DRIFT / "timings.jsonl", "a", encoding="utf-8") as fh:
+        for r in log:
+            fh.write(json.dumps(r) + "\n")
+
+
+MAP_DRIFT = Path("/tmp/beamslider_drift_map")  # 112 tables (~8 MB): not committed
+# The per-point b1 tables of the map: the issue's coarse sweep (Δs 0.02, 40 settling periods, 1-s window).
+MAP_TABLE_OPTS = dict(ds=0.02, settle_periods=40, window_s=1.0)
+
+
+def stage_map_tables():
+    """b1 drift tables at every point of the map (resumable; for the b1 map of §4.4)."""
+    ref = read_map(ROOT / "docs" / "operating_map.jsonl")
+    MAP_DRIFT.mkdir(parents=True, exist_ok=True)
+    t0 = time.perf_counter()
+    n = 0
+    for f, a in sorted(set(zip(map(float, ref["f_ex_hz"]), map(float, ref["a_ex_m_s2"])))):
+        p = MAP_DRIFT / f"drift_{f:g}Hz_{a:g}ms2.jsonl"
+        t1 = time.perf_counter()
+        t = drift_table(f_ex=f, a_ex=a, **MAP_TABLE_OPTS, out=p, resume=p.exists())
+        n += t.computed
+        print(f"({f:g}, {a:g}) {t.computed} rows computed in {time.perf_counter() - t1:.1f} s", flush=True)
+    print(f"map tables: {n} rows in {time.perf_counter() - t0:.1f} s wall", flush=True)
+
+
+def available_tables():
+    out = []
+    for f, a in TRAINING:
+        p = table_path(f, a)
+        if p.exists():
+            t = read_drift_table(p)
+            if (t.sweep == "up").sum() >= 3 and (t.sweep == "down").sum() >= 3:
+                out.append(t)
+    return out
+
+
+def stage_slopes(t_run=40.0):
+    """§4.2: FS s(t) slopes in 2-s windows, binned by s and branch, against the PCS table."""
+    lines = ["§4.2  Drift law: V from PCS (b1 table) against s(t) slopes of FS runs (2-s windows)",
+             "branch of a window: the PCS branch whose window amplitude at that s is nearest (log) to the FS envelope; windows within 1.5 s of an FS jump skipped; V_PCS interpolated at the window's mean s",
+             f"{'point':>12} {'s0':>5} {'br':>3} {'n':>3} {'mean s':>7} {'V_FS':>9} {'V_PCS':>9} {'|diff|/se':>9}"]
+    from beamslider.maps import classify_result
+
+    summary = []
+    for (f, a), s0 in (((124.0, 14.0), 0.3), ((126.0, 10.0), 0.3), ((104.0, 14.0), 0.3), ((124.0, 6.0), 0.3)):
+        p = table_path(f, a)
+        if not p.exists():
+            continue
+        tab = read_drift_table(p)
+        r = simulate(f_ex=f, a_ex=a, s0=s0, t_end=t_run, record_every=50)
+        c = classify_result(r)
+        t, s = np.asarray(r.t), np.asarray(r.s)
+        env = np.asarray(r.envelope(1.0))
+        h = 1e-3
+        ups = list(c.features.get("jump_up_t_s", []))
+        downs = list(c.features.get("jump_down_t_s", []))
+        w = 2.0
+        for k in range(int(2.0 / w), int(t_run / w)):
+            m = (t >= k * w) & (t < (k + 1) * w)
+            if m.sum() < 10:
+                continue
+            tm = 0.5 * (2 * k + 1) * w
+            # branch of the window: the PCS branch whose amplitude at the window's mean s is nearest
+            # (in log) to the FS envelope there; windows within 1.5 s of a jump are skipped
+            ev = sorted(ups + downs)
+            if any(k * w - 1.5 <= x <= (k + 1) * w + 1.5 for x in ev):
+                continue
+            a_fs = float(np.mean(env[m])) / h
+            sm0 = float(np.mean(s[m]))
+            best, br = np.inf, None
+            for cand in ("L", "H"):
+                mm = tab.branch == cand
+                cs = np.where(tab.s[mm] > 0.5, 1 - tab.s[mm], tab.s[mm])
+                if cs.size < 2 or not (cs.min() - 0.011 <= sm0 <= cs.max() + 0.011):
+                    continue
+                o = np.argsort(cs)
+                d = abs(np.log(max(a_fs, 1e-6)) - np.log(max(float(np.interp(sm0, cs[o], tab.amplitude[mm][o])), 1e-6)))
+                if d < best:
+                    best, br = d, cand
+            if br is None:
+                continue
+            slope = np.polyfit(t[m], s[m], 1)[0]
+            sm = float(np.mean(s[m]))
+            ts, tv, te = tab.branch_rows(br)
+            if ts.size < 2 or not (ts[0] - 0.011 <= sm <= ts[-1] + 0.011):
+                continue
+            vp = float(np.interp(sm, ts, tv))
+            ep = float(np.interp(sm, ts, te))
+            summary.append((br, slope, vp, ep))
+            lines.append(f"({f:g}, {a:g}) {s0:5.2f} {br:>3} {int(m.sum()):3d} {sm:7.4f} {slope:9.5f} {vp:9.5f} {abs(slope - vp) / max(ep, 1e-9):9.2f}")
+    if summary:
+        fs = np.array([x[1] for x in summary])
+        pc = np.array([x[2] for x in summary])
+        typ = float(np.sqrt(np.mean(fs ** 2)))
+        lines.append(f"windows: {len(summary)}; RMS(V_FS − V_PCS) = {np.sqrt(np.mean((fs - pc) ** 2)):.5f} 1/s; typical |V_FS| (RMS) = {typ:.5f} 1/s; "
+                     f"sign agreement {np.mean(np.sign(fs) == np.sign(pc)) * 100:.0f} %; correlation {np.corrcoef(fs, pc)[0, 1]:.2f}")
+    (OUT / "validation_b_slopes.txt").write_text("\n".join(lines) + "\n", encoding="utf-8")
+    print("\n".join(lines))
+
+
+def _fmt(x, nd=4):
+    return "—" if x is None or (isinstance(x, float) and not np.isfinite(x)) else f"{x:.{nd}f}"
+
+
+def stage_runs():
+    """§4.3: representative runs, b1 (own PCS table) and b2 (law fitted without this point)."""
+    fs = {(r_f, r_a): i for i, (r_f, r_a) in enumerate(zip(*[read_map(ROOT / "docs" / "operating_map.jsonl")[k] for k in ("f_ex_hz", "a_ex_m_s2")]))}
+    ref03 = read_map(ROOT / "docs" / "operating_map.jsonl")
+    ref04 = read_map(ROOT / "docs" / "operating_map_s0.4.jsonl")
+    tables = available_tables()
+    lines = ["§4.3  Representative runs: predictor against the FS map rows (120 s)",
+             "b1: V from the point's own PCS drift table (Δs 0.01, 100 settling periods, 2-s windows) on the HB N = 5 manifold, s_dn from the table; "
+             "PCS: table alone (its Â, V, s_up, s_dn); b2: the law fitted on the other training points (leave one out), s_dn none (HB)",
+             "FS columns from docs/operating_map.jsonl (s0 = 0.3) and docs/operating_map_s0.4.jsonl: t_up = first jump-up time, turn = turning point s, T = mean jump-up interval",
+             f"{'point':>11} {'s0':>4} {'src':>4} | {'FS behaviour':>22} {'pred behaviour':>22} | {'FS s_f':>6} {'pr s_f':>6} | "
+             f"{'FS t_up':>7} {'pr t_up':>7} | {'FS turn':>7} {'pr s_up':>7} | {'FS s-range':>13} {'pr s-range':>13} | {'FS T':>5} {'pr T':>5}"]
+    for (f, a), s0 in [(pt, 0.3) for pt in REPRESENTATIVE] + [((106.0, 10.0), 0.4)]:
+        ref = ref03 if s0 == 0.3 else ref04
+        idx = [i for i in range(len(ref["f_ex_hz"])) if ref["f_ex_hz"][i] == f and ref["a_ex_m_s2"][i] == a]
+        if not idx:
+            continue
+        i = idx[0]
+        fsr = {k: ref[k][i] for k in ref}
+        own = [t for t in tables if (t.f_ex, t.a_ex) == (f, a)]
+        variants = []
+        if own:
+            variants.append(("b1", own[0], "table", "hb"))
+            variants.append(("PCS", own[0], "table", "table"))
+        others = [t for t in tables if (t.f_ex, t.a_ex) != (f, a)]
+        if len(others) >= 2:
+            variants.append(("b2", fit_drift_law(others), "hb", "hb"))
+        for name, drift, sdn, source in variants:
+            r = predict(f_ex=f, a_ex=a, s0=s0, drift=drift, s_dn=sdn, source=source)
+            ups = [e for e in r.events if e[0] == "jump_up"]
+            downs = [e for e in r.events if e[0] == "jump_down"]
+            fs_ups = list(fsr["jump_up_t_s"]) if fsr["jump_up_t_s"] is not None else []
+            period_fs = float(np.mean(np.diff(fs_ups))) if len(fs_ups) >= 2 else None
+            pu = [e[1] for e in ups]
+            period_pr = float(np.mean(np.diff(pu))) if len(pu) >= 2 else None
+            lines.append(
+                f"({f:g}, {a:g}) {s0:4.1f} {name:>4} | {fsr['behaviour']:>22} {r.behaviour:>22} | {_fmt(fsr['s_final'])} {_fmt(r.s_final)} | "
+                f"{_fmt(fs_ups[0] if fs_ups else None, 1):>7} {_fmt(pu[0] if pu else None, 1):>7} | {_fmt(fsr['turn_s']):>7} {_fmt(ups[0][2] if ups else None):>7} | "
+                f"{_fmt(fsr['s_min'], 3)}–{_fmt(fsr['s_max'], 3)} {_fmt(float(np.min(r.s)), 3)}–{_fmt(float(np.max(r.s)), 3)} | "
+                f"{_fmt(period_fs, 1):>5} {_fmt(period_pr, 1):>5}" + ("  [extrapolated]" if r.extrapolated else "") + (f"  jumps down: {len(downs)}" if downs else ""))
+            if (f, a, s0) == (124.0, 14.0, 0.3) and name == "b1":
+                _figure_signature(r, f, a)
+    (OUT / "validation_b_runs.txt").write_text("\n".join(lines) + "\n", encoding="utf-8")
+    print("\n".join(lines))
+    del fs
+
+
+def _figure_signature(r, f, a):
+    try:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        return
+    m = hb_manifold(f_ex=f, a_ex=a)
+    fig, ax = plt.subplots(figsize=(6.4, 4.2))
+    for b, c in ((m.high, "tab:red"), (m.low, "tab:blue"), (m.middle, "0.6")):
+        ax.plot(b.s, b.amplitude, color=c, lw=1)
+    ax.plot(r.s, r.amplitude, "k.", ms=2, label="slow flow (b1)")
+    for k, t, s in r.events:
+        if k == "jump_up":
+            ax.axvline(s, color="k", ls=":", lw=0.8)
+    ax.set_xlabel("s")
+    ax.set_ylabel("Â")
+    ax.set_xlim(0.2, 0.5)
+    ax.set_title(f"predicted signature move on the HB manifold ({f:g} Hz, {a:g} m/s², s0 = 0.3)")
+    ax.legend()
+    fig.tight_layout()
+    fig.savefig(OUT / "signature_move_predicted.png", dpi=120)
+    plt.close(fig)
+
+
+def _b1_map(f_ex, a_ex, source):
+    rows = {}
+    for a in a_ex:
+        for f in f_ex:
+            p = MAP_DRIFT / f"drift_{f:g}Hz_{a:g}ms2.jsonl"
+            if not p.exists():
+                return None
+            tab = read_drift_table(p)
+            t0 = time.perf_counter()
+            r = predict(f_ex=f, a_ex=a, s0=0.3, t_end=120.0, drift=tab, source=source, s_dn="table")
+            c = r.classification
+            rows[(f, a)] = {"behaviour": r.behaviour, "s_final": r.s_final, "steady": c["steady"], "extrapolated": False,
+                            "wall_time_s": time.perf_counter() - t0}
+    return rows
+
+
+def _compare(title, pred, grid_ref, ref, train, f_ex, a_ex, names):
+    letter = dict(zip(names, "ITSRDN?"))
+    conf = np.zeros((7, 7), int)
+    agree, dis, errs, errs_all = 0, [], [], []
+    idx = {(float(ref["f_ex_hz"][j]), float(ref["a_ex_m_s2"][j])): j for j in range(len(ref["f_ex_hz"]))}
+    for key, b_ref in grid_ref.items():
+        r = pred[key]
+        i = idx[key]
+        conf[names.index(b_ref), names.index(r["behaviour"])] += 1
+        if ref["steady"][i] and r["steady"]:
+            errs_all.append(abs(r["s_final"] - ref["s_final"][i]))
+        if r["behaviour"] == b_ref:
+            agree += 1
+            if ref["steady"][i] and np.isfinite(ref["s_final"][i]):
+                errs.append(abs(r["s_final"] - ref["s_final"][i]))
+        else:
+            f, a = key
+            neigh = [grid_ref.get((f + df, a + da)) for df, da in ((2, 0), (-2, 0), (0, 2), (0, -2))]
+            border = any(nb is not None and nb != b_ref for nb in neigh)
+            dis.append(f"  ({f:g}, {a:g}): FS {b_ref}, predicted {r['behaviour']}; {'on a class border' if border else 'inside a region'}"
+                       + (" [training point]" if key in train else "") + (" [extrapolated]" if r.get("extrapolated") else ""))
+    n = len(grid_ref)
+    on_border = sum("on a class border" in d for d in dis)
+    lines = ["", title, f"agreement: {agree}/{n} = {100 * agree / n:.1f} % (bar 80 %, stretch 90 %); disagreements on a class border of the FS map: {on_border} of {len(dis)}",
+             "confusion matrix (rows FS, columns predicted): " + " ".join(letter[x] for x in names)]
+    for k, nm in enumerate(names):
+        lines.append(f"  {letter[nm]} {nm:>22}: " + " ".join(f"{v:3d}" for v in conf[k]))
+    if errs:
+        lines.append(f"final-s error over agreeing points steady in FS (n = {len(errs)}): median {np.median(errs):.4f}, 90th percentile {np.percentile(errs, 90):.4f} (targets 0.015 / 0.04)")
+    if errs_all:
+        lines.append(f"final-s error over all points steady in both (n = {len(errs_all)}): median {np.median(errs_all):.4f}, 90th percentile {np.percentile(errs_all, 90):.4f}")
+    lines.append("text map (FS | predicted), rows a_ex, columns f_ex " + " ".join(f"{f:g}" for f in f_ex))
+    for a in sorted(a_ex, reverse=True):
+        lines.append(f"  {a:4g}  " + " ".join(letter[grid_ref[(f, a)]] for f in f_ex) + "  |  " + " ".join(letter[pred[(f, a)]["behaviour"]] for f in f_ex))
+    lines.append("disagreements:")
+    lines.extend(dis)
+    return lines
+
+
+def stage_map():
+    """§4.4: the map by the predictor (b2 law; b1 per-point tables) against the FS map."""
+    tables = available_tables()
+    t0 = time.perf_counter()
+    law = fit_drift_law(tables)
+    t_fit = time.perf_counter() - t0
+    save_drift_law(law, OUT / "law.json")
+    ref = read_map(ROOT / "docs" / "operating_map.jsonl")
+    f_ex = sorted(set(float(x) for x in ref["f_ex_hz"]))
+    a_ex = sorted(set(float(x) for x in ref["a_ex_m_s2"]))
+    t0 = time.perf_counter()
+    rows = predicted_map(drift=law, f_ex=f_ex, a_ex=a_ex, s0=0.3, t_end=120.0, out=OUT / "predicted_map", force=True)
+    t_map = time.perf_counter() - t0
+    pred = {(r["f_ex_hz"], r["a_ex_m_s2"]): r for r in rows}
+    names = ["inactivity", "trivial_adaption", "signature_move", "relaxation_oscillation", "self_damping", "not_settled", "undetermined"]
+    grid_ref = {(float(ref["f_ex_hz"][i]), float(ref["a_ex_m_s2"][i])): ref["behaviour"][i] for i in range(len(ref["f_ex_hz"]))}
+    train = {(t.f_ex, t.a_ex) for t in tables}
+    n = len(grid_ref)
+    lines = [f"§4.4  Whole map (7 × 16, s0 = 0.3, 120 s) against the FS map docs/operating_map.jsonl",
+             f"b2 law: kNN (k = {law.k}) on features {', '.join(law_features())}, fitted on {len(tables)} PCS tables "
+             + ", ".join(f"({f:g}, {a:g})" for f, a in sorted(train))
+             + f"; leave-one-point-out V error {law.loo['rms_error']:.5f} 1/s = {law.loo['ratio']:.2f} × typical |V| ({law.loo['typical_v']:.5f} 1/s)",
+             f"timing b2: fit {t_fit:.2f} s (layer-(a) manifolds of the training points included), map {t_map:.2f} s ({1e3 * t_map / n:.1f} ms per point); "
+             f"extrapolated points: {sum(r['extrapolated'] for r in rows)} of {n}"]
+    lines += _compare("b2 (transferable law; s_up and branches from HB N = 5, s_dn: HB = none)", pred, grid_ref, ref, train, f_ex, a_ex, names)
+    preds = {"b2": pred}
+    rows_law = predicted_map(drift=law, f_ex=f_ex, a_ex=a_ex, s0=0.3, t_end=120.0, s_dn="law")
+    pred_law = {(r["f_ex_hz"], r["a_ex_m_s2"]): r for r in rows_law}
+    lines.append("b2 s_dn learnt from the PCS tables (s_dn='law'), leave one point out: "
+                 + "; ".join(f"({r['f_ex']:g}, {r['a_ex']:g}) PCS {_fmt(r['s_dn_pcs'], 3)} law {_fmt(r['s_dn_law'], 3)}" for r in law.loo_s_dn))
+    lines += _compare("b2 with s_dn='law' (learnt jump-down; not the default)", pred_law, grid_ref, ref, train, f_ex, a_ex, names)
+    for source, title in (("hb", "b1 (per-point PCS table Δs 0.02: V; HB N = 5 branches and s_up; s_dn from the PCS table)"),
+                          ("table", "b1-PCS (per-point PCS table only: V, Â, s_up and s_dn from its sweeps; no layer (a))")):
+        b1 = _b1_map(f_ex, a_ex, source)
+        if b1 is None:
+            lines.append(f"\n{title}: tables missing (run the map_tables stage)")
+            continue
+        preds[f"b1-{source}"] = b1
+        lines += _compare(title, b1, grid_ref, ref, set(), f_ex, a_ex, names)
+    (OUT / "validation_b_map.txt").write_text("\n".join(lines) + "\n", encoding="utf-8")
+    print("\n".join(lines))
+    _figure_maps(grid_ref, preds, f_ex, a_ex, names)
+
+
+def law_features():
+    from beamslider.slowflow import FEATURES
+
+    return FEATURES
+
+
+def _figure_maps(grid_ref, preds, f_ex, a_ex, names):
+    try:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+        from matplotlib.colors import ListedColormap
+    except ImportError:
+        return
+    colours = ["0.6", "tab:green", "tab:blue", "tab:orange", "tab:red", "tab:purple", "k"]
+    cmap = ListedColormap(colours)
+    panels = [("FS model (120 s)", grid_ref)] + [(f"predictor {k}", {q: v["behaviour"] for q, v in p.items()}) for k, p in preds.items()]
+    fig, axes = plt.subplots(1, len(panels), figsize=(4.2 * len(panels), 3.8), sharey=True)
+    for ax, (title, src) in zip(axes, panels):
+        z = np.array([[names.index(src[(f, a)]) for f in f_ex] for a in a_ex])
+        ax.imshow(z, origin="lower", cmap=cmap, vmin=-0.5, vmax=6.5, aspect="auto",
+                  extent=(f_ex[0] - 1, f_ex[-1] + 1, a_ex[0] - 1, a_ex[-1] + 1))
+        agree = sum(src[q] == grid_ref[q] for q in grid_ref)
+        ax.set_title(title if title.startswith("FS") else f"{title}: {agree}/{len(grid_ref)}", fontsize=10)
+        ax.set_xlabel("f_ex [Hz]")
+    axes[0].set_ylabel("a_ex [m/s²]")
+    handles = [plt.Rectangle((0, 0), 1, 1, color=c) for c in colours]
+    fig.legend(handles, names, loc="lower center", ncol=7, fontsize=8)
+    fig.tight_layout(rect=(0, 0.08, 1, 1))
+    fig.savefig(OUT / "map_predicted_vs_fs.png", dpi=110)
+    plt.close(fig)
+
+
+def stage_speed():
+    """§4.5: wall times per point on this machine."""
+    law = load_drift_law(OUT / "law.json")
+    pts = [(124.0, 14.0), (126.0, 10.0), (104.0, 14.0)]
+    lines = ["§4.5  Speed (this machine, shared; one core per call)"]
+    fs_times, pred_times = [], []
+    for f, a in pts:
+        ta, td, tf = [], [], []
+        for _ in range(5):
+            r = predict(f_ex=f, a_ex=a, drift=law)
+            ta.append(r.timings_s["manifold"])
+            td.append(r.timings_s["drift"])
+            tf.append(r.timings_s["slow_flow"])
+        tot = min(ta) + min(td) + min(tf)
+        t0 = time.perf_counter()
+        simulate(f_ex=f, a_ex=a, s0=0.3, t_end=120.0, record_every=1000)
+        t_fs = time.perf_counter() - t0
+        fs_times.append(t_fs)
+        pred_times.append(tot)
+        tb = [json.loads(x) for x in (DRIFT / "timings.jsonl").read_text().splitlines()] if (DRIFT / "timings.jsonl").exists() else []
+        tb = [x for x in tb if (x["f_ex"], x["a_ex"]) == (f, a) and x["computed"] > 0]
+        b1 = f"; b1 table {tb[0]['wall_s']:.1f} s wall ({tb[0]['computed']} rows, 2 threads) = {t_fs / tb[0]['wall_s']:.2f}× the FS speed" if tb else ""
+        lines.append(f"({f:g}, {a:g}): (a) manifold {1e3 * min(ta):.2f} ms, V evaluation {1e3 * min(td):.2f} ms, slow flow + classification "
+                     f"{1e3 * min(tf):.3f} ms; total {1e3 * tot:.1f} ms; FS 120 s run {t_fs:.1f} s → {t_fs / tot:.0f}× per point{b1}")
+    tb = [json.loads(x) for x in (DRIFT / "timings.jsonl").read_text().splitlines()] if (DRIFT / "timings.jsonl").exists() else []
+    t_tables = sum(x["wall_s"] for x in tb[-len(TRAINING):]) if tb else float("nan")
+    lines.append(f"training (b2) once: {len(TRAINING)} PCS tables {t_tables:.1f} s wall (2 threads each) + fit {law.fit_time_s:.2f} s")
+    per_fs = float(np.mean(fs_times))
+    per_pred = float(np.mean(pred_times))
+    n = 112
+    whole_fs = n * per_fs
+    whole_pred = t_tables + law.fit_time_s + n * per_pred
+    lines.append(f"whole map (112 points): FS ≈ 112 × {per_fs:.1f} s = {whole_fs:.0f} s; predictor (b2) = tables {t_tables:.1f} s + fit "
+                 f"{law.fit_time_s:.2f} s + 112 × {1e3 * per_pred:.1f} ms = {whole_pred:.1f} s → {whole_fs / whole_pred:.1f}× (bar 20×)")
+    mt = MAP_DRIFT
+    if mt.exists():
+        lines.append("b1 map: 112 coarse tables (Δs 0.02, 40 settling periods, 1-s windows) took 151 s wall with 2 threads "
+                     f"(map_tables stage) → {whole_fs / 151.0:.1f}× the FS map")
+    (OUT / "validation_b_speed.txt").write_text("\n".join(lines) + "\n", encoding="utf-8")
+    print("\n".join(lines))
+
+
+if __name__ == "__main__":
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("stage", choices=["tables", "map_tables", "slopes", "runs", "map", "speed", "all"])
+    ap.add_argument("--points", help="tables: only these points, e.g. 124:14,126:10")
+    args = ap.parse_args()
+    pts = None
+    if args.points:
+        pts = [tuple(float(x) for x in p.split(":")) for p in args.points.split(",")]
+    if args.stage in ("tables", "all"):
+        stage_tables(pts)
+    if args.stage in ("map_tables", "all"):
+        stage_map_tables()
+    if args.stage in ("slopes", "all"):
+        stage_slopes()
+    if args.stage in ("runs", "all"):
+        stage_runs()
+    if args.stage in ("map", "all"):
+        stage_map()
+    if args.stage in ("speed", "all"):
+        stage_speed()

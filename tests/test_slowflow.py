@@ -1,0 +1,173 @@
+"""Layer (b) of issue 17: PCS drift tables (resume, mirror symmetry), the slow flow on the HB
+manifold with synthetic drift, the fitted law's constraints, the predict CLI."""
+
+import json
+
+import numpy as np
+import pytest
+
+from beamslider import Parameters
+from beamslider.slowflow import (DriftTable, drift_table, features, fit_drift_law, load_drift_law, predict,
+                                 predicted_map, read_drift_table, save_drift_law)
+from beamslider.superslow import hb_manifold
+
+SHORT = dict(settle_periods=5, first_settle_periods=20, window_s=0.1, sub_windows=2)
+
+
+def _synthetic_table(f_ex, a_ex, v_low, v_high):
+    s = np.linspace(0.036, 0.5, 30)
+    return DriftTable(f_ex=f_ex, a_ex=a_ex, s=np.concatenate([s, s]), branch=np.array(["L"] * 30 + ["H"] * 30),
+                      v=np.concatenate([v_low(s), v_high(s)]), v_se=np.zeros(60), amplitude=np.zeros(60),
+                      jump=np.zeros(60, bool), sweep=np.array(["down"] * 30 + ["up"] * 30))
+
+
+def test_drift_table_resumes_bitwise(tmp_path):
+    out = tmp_path / "d.jsonl"
+    full = drift_table(f_ex=124, a_ex=14, s=[0.3, 0.32, 0.34], out=out, **SHORT)
+    lines = out.read_text().splitlines()
+    assert len(lines) == 1 + len(full.s)
+    # A killed run: keep the header, one row of each sweep, and half a line.
+    rows = [json.loads(x) for x in lines[1:]]
+    keep = [lines[0]] + [lines[1 + i] for i, r in enumerate(rows) if r["index"] == 0] + [lines[-1][:40]]
+    out.write_text("\n".join(keep))
+    with pytest.raises(ValueError, match="exists"):
+        drift_table(f_ex=124, a_ex=14, s=[0.3, 0.32, 0.34], out=out, **SHORT)
+    with pytest.raises(ValueError, match="other parameters"):
+        drift_table(f_ex=124, a_ex=12, s=[0.3, 0.32, 0.34], out=out, resume=True, **SHORT)
+    again = drift_table(f_ex=124, a_ex=14, s=[0.3, 0.32, 0.34], out=out, resume=True, **SHORT)
+    assert again.computed == len(full.s) - 2
+    np.testing.assert_array_equal(again.v, full.v)
+    np.testing.assert_array_equal(again.s, full.s)
+    back = read_drift_table(out)
+    np.testing.assert_array_equal(back.v, full.v)
+    assert set(back.branch) <= {"L", "H"}
+
+
+def test_drift_table_mirror_symmetry():
+    """V(1 − s) = −V(s) (issue §3.1) on generated tables: the far half is an independent PCS run."""
+    near = drift_table(f_ex=124, a_ex=14, s=[0.3, 0.4], settle_periods=10, first_settle_periods=40, window_s=0.2, sub_windows=4)
+    far = drift_table(f_ex=124, a_ex=14, s=[0.3, 0.4], settle_periods=10, first_settle_periods=40, window_s=0.2, sub_windows=4,
+                      mirror=True)
+    assert np.all(far.s > 0.5)
+    for br in ("L", "H"):
+        s1, v1, e1 = near.branch_rows(br)
+        s2, v2, e2 = far.branch_rows(br)  # half coordinate: far-half V negated
+        np.testing.assert_allclose(s1, s2, atol=1e-12)
+        assert np.all(np.abs(v1 - v2) <= 3 * (e1 + e2) + 1e-3 * np.abs(v1) + 1e-9), (br, v1, v2, e1, e2)
+    assert np.any(np.abs(near.v) > 1e-4)  # the test compares non-trivial drift
+
+
+def test_drift_table_bad_input(tmp_path):
+    with pytest.raises(ValueError, match="s_values"):
+        drift_table(f_ex=124, a_ex=14, s=[0.3, 0.2], **SHORT)
+    with pytest.raises(ValueError, match="s_values"):
+        drift_table(f_ex=124, a_ex=14, s=[0.01, 0.3], **SHORT)
+    with pytest.raises(ValueError, match="sub_windows"):
+        drift_table(f_ex=124, a_ex=14, s=[0.3], settle_periods=5, first_settle_periods=5, window_s=0.1, sub_windows=1)
+
+
+def test_predict_signature_move_on_the_hb_manifold():
+    """Synthetic drift on the real HB manifold: V_L < 0 drives to the HB fold s_up, V_H has a stable
+    zero at 0.42 → a signature move that jumps exactly at the manifold's s_up."""
+    t = _synthetic_table(124, 14, lambda s: -0.005 + 0 * s, lambda s: 0.05 * (0.42 - s))
+    m = hb_manifold(f_ex=124, a_ex=14)
+    r = predict(f_ex=124, a_ex=14, s0=0.3, drift=t, manifold=m, build_up=0)
+    assert r.behaviour == "signature_move", r.classification["reason"]
+    # Default: the flow starts after 3 envelope time constants 3/(D Ω) of the build-up from rest.
+    r2 = predict(f_ex=124, a_ex=14, s0=0.3, drift=t, manifold=m)
+    t_b = 3 / (0.001 * 2 * np.pi * 124)
+    assert r2.build_up_s == pytest.approx(t_b)
+    assert r2.events[0][1] == pytest.approx((0.3 - m.s_up) / 0.005 + t_b, rel=1e-9)
+    kinds = [e[0] for e in r.events]
+    assert kinds[0] == "jump_up"
+    assert abs(r.events[0][2] - m.s_up) < 1e-9
+    assert abs(r.events[0][1] - (0.3 - m.s_up) / 0.005) < 1e-6
+    assert abs(r.s_final - 0.42) < 2e-3
+    assert r.amplitude_final == pytest.approx(float(m.high.amplitude_at([r.s_final])[0]), rel=1e-3)
+    assert r.s_dn is None and r.s_dn_source == "none"
+
+
+def test_predict_rejects_bad_input():
+    t = _synthetic_table(124, 14, lambda s: -0.005 + 0 * s, lambda s: 0.05 * (0.42 - s))
+    with pytest.raises(ValueError, match="s0"):
+        predict(f_ex=124, a_ex=14, s0=0.01, drift=t)
+    with pytest.raises(ValueError, match="drift"):
+        predict(f_ex=124, a_ex=12, s0=0.3, drift=t)
+    with pytest.raises(ValueError, match="drift"):
+        predict(f_ex=124, a_ex=14, s0=0.3, drift=None)
+    with pytest.raises(ValueError, match="s_dn"):
+        predict(f_ex=124, a_ex=14, s0=0.3, drift=t, s_dn="pcs")
+
+
+def test_features_and_law_constraints(tmp_path):
+    """Λ_g from the closed form; a law fitted on synthetic tables is 0 where Λ_g < 1, is
+    reported outside its training range, and round-trips through JSON."""
+    m = hb_manifold(f_ex=124, a_ex=14)
+    s = np.array([0.3, 0.4, 0.45])
+    f = features(m, "H", s)
+    assert np.all(f["lift_off"] > 1) and np.all(f["slope_gap"] > 0)
+    # Λ_g at the high amplitude: Ω²|ŵ_abs|/g with |ŵ_abs| ≥ |w(s)| ~ Â h.
+    assert np.all(f["lift_off"] > (2 * np.pi * 124) ** 2 * 0.5e-3 / 9.81)
+    tables = [_synthetic_table(f_, a_, lambda s: -0.004 + 0 * s, lambda s: 0.03 * (0.42 - s)) for f_, a_ in ((124, 14), (120, 12), (126, 10))]
+    law = fit_drift_law(tables, k=3)
+    assert np.isfinite(law.loo["ratio"])
+    feat = dict(f)
+    feat["lift_off"] = np.array([0.5, 2.0, 0.9])
+    v, _ = law.evaluate("H", feat)
+    assert v[0] == 0.0 and v[2] == 0.0
+    far = {k_: np.asarray(v_) * 10 for k_, v_ in f.items()}
+    _, outside = law.evaluate("H", far)
+    assert outside.all()
+    r = predict(f_ex=104, a_ex=4, drift=law)
+    assert r.extrapolated and "outside its training range" in r.warnings[0]
+    save_drift_law(law, tmp_path / "law.json")
+    back = load_drift_law(tmp_path / "law.json")
+    np.testing.assert_array_equal(back.evaluate("H", f)[0], law.evaluate("H", f)[0])
+    # s_dn learnt from the tables: none when no table's high branch ends; where the training
+    # tables' high branches end at 0.33, the in-sample s_dn lies between HB s_up and 0.5.
+    assert law.s_dn(m) is None and all(r["s_dn_law"] is None for r in law.loo_s_dn)
+    for tb in tables:
+        tb.s_dn_pcs = 0.33
+    law2 = fit_drift_law(tables, k=3)
+    sdn = law2.s_dn(m)
+    assert sdn is not None and m.s_up < sdn < 0.5
+    r3 = predict(f_ex=124, a_ex=14, drift=law2, s_dn="law")
+    assert r3.s_dn == pytest.approx(sdn) and r3.s_dn_source == "law"
+    rows = predicted_map(drift=law, f_ex=[122, 124], a_ex=[14], out=tmp_path / "pm")
+    from beamslider import read_map
+
+    tab = read_map(tmp_path / "pm")
+    assert len(rows) == 2 and len(tab["behaviour"]) == 2
+    with pytest.raises(FileExistsError):
+        predicted_map(drift=law, f_ex=[122], a_ex=[14], out=tmp_path / "pm")
+    from beamslider import operating_map
+
+    om = operating_map(f_ex=[122, 124], a_ex=[14], predictor=law)
+    assert list(om["behaviour"]) == [r["behaviour"] for r in rows]
+
+
+def test_predict_cli(tmp_path):
+    from beamslider.cli import main
+
+    t = drift_table(f_ex=124, a_ex=14, s=[0.25, 0.3, 0.4, 0.5], out=tmp_path / "d.jsonl", **SHORT)
+    assert len(t.s) >= 4
+    args = ["predict", "--f-ex", "124", "--a-ex", "14", "--drift", str(tmp_path / "d.jsonl"), "--out", str(tmp_path / "o")]
+    assert main(args) == 0
+    js = json.loads((tmp_path / "o" / "predict_124Hz_14ms2_s0_0p3.json").read_text())
+    assert js["behaviour"] and js["timings_s"]["slow_flow"] < 1.0
+    assert main(args) != 0  # refuses to overwrite
+    assert main(args + ["--force"]) == 0
+
+
+def test_drift_table_cli(tmp_path):
+    from beamslider.cli import main
+
+    args = ["drift-table", "--f-ex", "124", "--a-ex", "14", "--ds", "0.2", "--window-s", "0.1", "--settle-periods", "5",
+            "--out", str(tmp_path), "--no-progress"]
+    assert main(args) == 0
+    path = tmp_path / "drift_124Hz_14ms2.jsonl"
+    t = read_drift_table(path)
+    assert len(t.s) >= 4 and set(t.branch) <= {"L", "H"}
+    assert main(args) != 0  # exists: refused without --resume / --force
+    assert main(args + ["--resume"]) == 0  # complete: nothing recomputed
+    np.testing.assert_array_equal(read_drift_table(path).v, t.v)
