@@ -12,8 +12,9 @@ import os
 import re
 import sys
 from pathlib import Path
-from typing import Any, Dict, List, Optional, Sequence
+from typing import Any, Dict, List, Sequence
 
+from .. import _core
 from .._json import json_safe
 from .._mpl import PlotDependencyError
 from ..params import Parameters
@@ -24,8 +25,8 @@ EXIT_ERROR = 1
 EXIT_FAULT = 3
 EXIT_INTERRUPTED = 130
 
-MAX_GRID = 1_000_000
-"""Most values of a START:STOP:STEP range on the command line (a tiny step is a typing error)."""
+MAX_GRID: int = _core.MAX_AXIS_VALUES
+"""Most values of a START:STOP:STEP range (the core's; a tiny step is a typing error)."""
 
 
 class UserError(Exception):
@@ -162,26 +163,20 @@ def report(result: Any, written: Sequence[Path]) -> int:
 # --- ranges -----------------------------------------------------------------------------------
 
 
-def axis_values(name: str, text: str) -> List[float]:
-    """Values of a command-line grid: ``START:STOP:STEP`` (STOP included when a whole number of
-    steps away, to 1e-3 of a step) or a comma-separated list. A UserError naming ``name`` otherwise."""
+def axis_values(name: str, text: str, *, what: str = "a comma-separated list") -> List[float]:
+    """Values of a command-line grid: ``START:STOP:STEP`` or a comma-separated list (at least one
+    value). The range is the core's (``map::Axis``, the same rule as a map configuration's
+    ``{ start, stop, step }``): STOP included when within STEP/1000 of the grid, values rounded
+    to 1e-9, at most ``MAX_GRID`` values. A UserError naming ``name`` otherwise."""
     text = text.strip()
     try:
         if ":" in text:
             lo, hi, step = (float(v) for v in text.split(":"))
-            if not (step > 0 and hi >= lo and (hi - lo) / step < MAX_GRID):
-                raise ValueError
-            n = int((hi - lo) / step + 1e-3) + 1
-            return [round(lo + i * step, 9) for i in range(n)]
+            return list(_core.range_values(name, lo, hi, step))
         vals = [float(v) for v in text.split(",") if v.strip()]
         if not vals:
             raise ValueError
         return vals
     except ValueError:
         raise UserError(f"{name} {text!r}: give START:STOP:STEP (STOP >= START, at most {MAX_GRID} values) "
-                        "or a comma-separated list") from None
-
-
-def optional_axis(name: str, text: Optional[str]) -> Optional[List[float]]:
-    """:func:`axis_values` of an option that may be absent (None)."""
-    return None if text is None else axis_values(name, text)
+                        f"or {what}") from None

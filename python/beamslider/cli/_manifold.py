@@ -10,7 +10,7 @@ import numpy as np
 
 from ..params import Parameters
 from ..simulate import ManifoldResult, super_slow_manifold
-from ._common import MAX_GRID, UserError, out_dir, positive
+from ._common import UserError, axis_values, out_dir, positive
 from ._files import DEFAULT_MANIFOLD_RECORD, manifold_file_stem, write_manifold_csv
 
 
@@ -32,17 +32,7 @@ def grid(args: argparse.Namespace) -> Optional[np.ndarray]:
     """The slider positions of --manifold-s (None: the default grid)."""
     if args.manifold_s is None:
         return None
-    text = args.manifold_s.strip()
-    try:
-        if ":" in text:
-            lo, hi, step = (float(v) for v in text.split(":"))
-            if not (step > 0 and hi >= lo and (hi - lo) / step < MAX_GRID):
-                raise ValueError
-            return np.round(np.arange(lo, hi + 0.5 * step, step), 10)
-        return np.array([float(v) for v in text.split(",") if v.strip()])
-    except ValueError:
-        raise UserError(f"--manifold-s {text!r}: give START:STOP:STEP (STOP >= START, at most {MAX_GRID} values) "
-                        "or a comma-separated list of s") from None
+    return np.array(axis_values("--manifold-s", args.manifold_s, what="a comma-separated list of s"))
 
 
 def manifold_name(args: argparse.Namespace, f_ex: float, a_ex: float) -> str:

@@ -9,6 +9,7 @@ import time
 from pathlib import Path
 from typing import Any
 
+from .. import _toml
 from ._common import EXIT_FAULT, UserError, add_common, axis_values, figure, out_dir, params_from_args, positive
 
 
@@ -62,14 +63,14 @@ def cmd_map(args: argparse.Namespace) -> int:
             s0=axis_values("--s0", "0.3" if args.s0 is None else args.s0),
             t_end=args.t_end if args.t_end is not None else 120.0)
     if extend:
-        import re
-
-        m = re.search(r"^duration_s\s*=\s*(\S+)", config, re.M)
-        old = float(m.group(1)) if m else 120.0
+        try:
+            tables = _toml.loads(config)
+        except _toml.TOMLDecodeError as e:
+            raise UserError(f"{args.config}: {e}") from None
+        old = float(tables.get("duration_s", 120.0))
         if not (args.extend_to > old):
             raise UserError(f"--extend-to {args.extend_to:g}: must exceed the map's t_end ({old:g} s)")
-        config = re.sub(r"^duration_s\s*=.*$", f"duration_s = {float(args.extend_to)!r}", config, count=1, flags=re.M) \
-            if m else f"duration_s = {float(args.extend_to)!r}\n" + config
+        config = _toml.dumps({**tables, "duration_s": float(args.extend_to)})
     if args.print_config:
         print(config, end="")
         return 0
