@@ -357,16 +357,8 @@ fn envelope<'py>(
     dt_s: f64,
     window_s: f64,
 ) -> PyResult<Bound<'py, PyArray1<f64>>> {
-    if !(dt_s.is_finite() && dt_s > 0.0) {
-        return Err(PyValueError::new_err(format!("invalid parameter `dt_s` = {dt_s}: must be finite and > 0")));
-    }
-    if !(window_s.is_finite() && window_s > 0.0) {
-        return Err(PyValueError::new_err(format!(
-            "invalid parameter `window` = {window_s}: must be finite and > 0 (seconds)"
-        )));
-    }
     let x = x.as_slice()?.to_vec();
-    let e = py.detach(|| signal::envelope(&x, dt_s, window_s));
+    let e = py.detach(|| guarded(|| signal::envelope_checked(&x, dt_s, window_s)))?;
     Ok(e.into_pyarray(py))
 }
 
@@ -383,25 +375,8 @@ fn super_slow_signals<'py>(
     thickness_m: f64,
     window_s: f64,
 ) -> PyResult<(f64, f64, Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<f64>>)> {
-    if !(window_s.is_finite() && window_s > 0.0) {
-        return Err(PyValueError::new_err(format!("invalid parameter `window` = {window_s}: must be finite and > 0 (seconds)")));
-    }
-    if !(thickness_m.is_finite() && thickness_m > 0.0) {
-        return Err(PyValueError::new_err(format!("invalid parameter `thickness_m` = {thickness_m}: must be finite and > 0")));
-    }
     let (w, s) = (w.as_slice()?.to_vec(), s.as_slice()?.to_vec());
-    if w.len() != s.len() {
-        return Err(PyValueError::new_err("invalid parameter `s`: w and s must have the same length"));
-    }
-    let x = py.detach(|| {
-        guarded(|| {
-            let mut st = beamslider_core::envelope_stream::EnvelopeStream::new(dt_s)?;
-            for (a, b) in w.iter().zip(&s) {
-                st.push(*a, *b);
-            }
-            Ok(st.super_slow(thickness_m, window_s))
-        })
-    })?;
+    let x = py.detach(|| guarded(|| beamslider_core::envelope_stream::EnvelopeStream::of_series(&w, &s, dt_s, thickness_m, window_s)))?;
     Ok((x.t0_s, x.dt_s, x.s.into_pyarray(py), x.amplitude_h.into_pyarray(py)))
 }
 
