@@ -818,19 +818,28 @@ pub fn preflight(cfg: &MapConfig, opts: &MapRunOptions) -> Result<()> {
         return Err(Error::invalid("extend_to", cfg.duration_s, "needs the results file of the map to extend (out)"));
     }
     if let Some(path) = &opts.out {
-        let exists = path.exists() && std::fs::metadata(path).map(|m| m.len() > 0).unwrap_or(false);
-        if exists && !opts.resume && !opts.extend {
-            return Err(Error::invalid("out", path.display(), "the results file exists: resume it, or choose another output"));
-        }
-        if opts.extend && !exists {
-            return Err(Error::invalid("extend_to", path.display(), "no results file to extend"));
-        }
-        if exists {
-            let old = read_results(path)?;
-            check_settings(cfg, opts, path, &old)?;
-        }
+        existing_results(cfg, opts, path)?;
     }
     Ok(())
+}
+
+/// The results file `path` of the map to run, read and checked (None when absent or empty): an
+/// existing file needs `resume` or `extend` and the same settings ([`check_settings`]); `extend`
+/// needs one.
+fn existing_results(cfg: &MapConfig, opts: &MapRunOptions, path: &Path) -> Result<Option<ResultsFile>> {
+    let exists = path.exists() && std::fs::metadata(path).map(|m| m.len() > 0).unwrap_or(false);
+    if exists && !opts.resume && !opts.extend {
+        return Err(Error::invalid("out", path.display(), "the results file exists: resume it, or choose another output"));
+    }
+    if opts.extend && !exists {
+        return Err(Error::invalid("extend_to", path.display(), "no results file to extend"));
+    }
+    if !exists {
+        return Ok(None);
+    }
+    let old = read_results(path)?;
+    check_settings(cfg, opts, path, &old)?;
+    Ok(Some(old))
 }
 
 /// The settings of an existing results file against the map to run (resume: equal; extend:
@@ -881,29 +890,22 @@ pub fn run_map(cfg: &MapConfig, opts: &MapRunOptions, cancel: &AtomicBool, progr
             if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
                 std::fs::create_dir_all(dir).map_err(|e| io_err(dir, e))?;
             }
-            let exists = path.exists() && std::fs::metadata(path).map(|m| m.len() > 0).unwrap_or(false);
-            if exists && !opts.resume && !opts.extend {
-                return Err(Error::invalid("out", path.display(), "the results file exists: resume it, or choose another output"));
-            }
-            if opts.extend && !exists {
-                return Err(Error::invalid("extend_to", path.display(), "no results file to extend"));
-            }
-            if exists {
-                let old = read_results(path)?;
-                check_settings(cfg, opts, path, &old)?;
-                if old.settings.as_ref().is_some_and(|s| *s != settings) {
-                    // Extension: the header takes the new duration. Write the new file beside
-                    // the old one and swap them, so that a kill loses nothing.
-                    let tmp = path.with_extension("jsonl.extend-tmp");
-                    let mut text = header_line(&settings);
+            let old = existing_results(cfg, opts, path)?;
+            let exists = old.is_some();
+            if let Some(old) = old
+                && old.settings.as_ref().is_some_and(|s| *s != settings)
+            {
+                // Extension: the header takes the new duration. Write the new file beside the
+                // old one and swap them, so that a kill loses nothing.
+                let tmp = path.with_extension("jsonl.extend-tmp");
+                let mut text = header_line(&settings);
+                text.push('\n');
+                for r in &latest(old.rows) {
+                    text.push_str(&r.to_json());
                     text.push('\n');
-                    for r in &latest(old.rows.clone()) {
-                        text.push_str(&r.to_json());
-                        text.push('\n');
-                    }
-                    std::fs::write(&tmp, text).map_err(|e| io_err(&tmp, e))?;
-                    std::fs::rename(&tmp, path).map_err(|e| io_err(path, e))?;
                 }
+                std::fs::write(&tmp, text).map_err(|e| io_err(&tmp, e))?;
+                std::fs::rename(&tmp, path).map_err(|e| io_err(path, e))?;
             }
             let mut f = OpenOptions::new().create(true).read(true).write(true).truncate(false).open(path).map_err(|e| io_err(path, e))?;
             if exists {

@@ -218,29 +218,26 @@ impl Model {
                 ),
             ));
         }
-        let (w0, _, _) = excitation.at(0.0);
-        let n = self.beam.n;
-        Ok(State {
-            t_s: 0.0,
-            q: vec![0.0; n],
-            u: vec![0.0; n],
-            slider_q: [s0 * p.length_m, -p.com_offset_m + w0, 0.0],
-            slider_u: [0.0; 3],
-        })
+        Ok(self.at_rest(s0 * p.length_m, excitation))
     }
 
     /// PCS / manifold initial state: all zero except z_C = −d + w₀(0).
     pub fn initial_state_pcs(&self, excitation: &Excitation) -> Result<State> {
         excitation.validate()?;
+        Ok(self.at_rest(0.0, excitation))
+    }
+
+    /// Beam and slider at rest at t = 0: q = u = 0, x_C = `x_c_m`, z_C = −d + w₀(0), β = 0.
+    fn at_rest(&self, x_c_m: f64, excitation: &Excitation) -> State {
         let (w0, _, _) = excitation.at(0.0);
         let n = self.beam.n;
-        Ok(State {
+        State {
             t_s: 0.0,
             q: vec![0.0; n],
             u: vec![0.0; n],
-            slider_q: [0.0, -self.params.com_offset_m + w0, 0.0],
+            slider_q: [x_c_m, -self.params.com_offset_m + w0, 0.0],
             slider_u: [0.0; 3],
-        })
+        }
     }
 
     /// The initial state of a run of `model` (docs/model.md §5–6): [`Self::initial_state`] at s₀ for

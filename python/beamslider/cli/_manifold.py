@@ -10,7 +10,7 @@ import numpy as np
 
 from ..params import Parameters
 from ..simulate import ManifoldResult, super_slow_manifold
-from ._common import UserError, axis_values, out_dir, positive
+from ._common import UserError, add_common, add_force, axis_values, out_dir, positive
 from ._files import DEFAULT_MANIFOLD_RECORD, manifold_file_stem, write_manifold_csv
 
 
@@ -26,6 +26,21 @@ def add_manifold_options(sp: argparse.ArgumentParser, *, default_on: bool) -> No
                     help="periods averaged at each slider position (default 25)")
     sp.add_argument("--manifold-s", metavar="GRID",
                     help="slider positions: START:STOP:STEP or a comma list (default B/(2L)..0.5 by 0.005)")
+
+
+def add_operating_point(sp: argparse.ArgumentParser) -> None:
+    """--f-ex and --a-ex with the signature move's values as defaults."""
+    sp.add_argument("--f-ex", type=positive(float), default=124.0, metavar="HZ", help="excitation frequency (124)")
+    sp.add_argument("--a-ex", type=float, default=14.0, metavar="M_S2", help="base acceleration amplitude (14)")
+
+
+def add_run_options(sp: argparse.ArgumentParser) -> None:
+    """What ``simulate`` and ``compare`` share after their own options: --record-every, the common
+    options, --force and the manifold options (on by default)."""
+    sp.add_argument("--record-every", type=positive(int), default=10, metavar="K", help="keep every K-th step (10)")
+    add_common(sp)
+    add_force(sp)
+    add_manifold_options(sp, default_on=True)
 
 
 def grid(args: argparse.Namespace) -> Optional[np.ndarray]:

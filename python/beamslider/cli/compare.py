@@ -9,9 +9,9 @@ from pathlib import Path
 from typing import Any
 
 from ..simulate import simulate
-from ._common import UserError, add_common, add_force, figure, out_dir, params_from_args, plan_outputs, positive, report, write_json
+from ._common import UserError, figure, out_dir, params_from_args, plan_outputs, positive, report, write_json
 from ._files import measurement, simulation_summary, write_simulation_csv
-from ._manifold import add_manifold_options, check_manifold_args, manifold_name, run_manifold
+from ._manifold import add_run_options, check_manifold_args, manifold_name, run_manifold
 
 
 def add_parser(sub: Any) -> None:
@@ -26,10 +26,7 @@ def add_parser(sub: Any) -> None:
     sp.add_argument("--start-from-measured", action="store_true",
                     help="start the model at the first measured s instead of the nominal s0")
     sp.add_argument("--t-end", type=positive(float), metavar="S", help="simulated time (default: measured duration)")
-    sp.add_argument("--record-every", type=positive(int), default=10, metavar="K", help="keep every K-th step (10)")
-    add_common(sp)
-    add_force(sp)
-    add_manifold_options(sp, default_on=True)
+    add_run_options(sp)
     sp.set_defaults(func=cmd_compare)
 
 

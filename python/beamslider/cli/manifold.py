@@ -8,8 +8,8 @@ import time
 from typing import Any
 
 from ..simulate import simulate
-from ._common import add_common, add_force, figure, params_from_args, plan_outputs, positive, write_json
-from ._manifold import add_manifold_options, check_manifold_args, manifold_name, run_manifold
+from ._common import add_common, add_force, figure, params_from_args, plan_outputs, write_json
+from ._manifold import add_manifold_options, add_operating_point, check_manifold_args, manifold_name, run_manifold
 
 
 def add_parser(sub: Any) -> None:
@@ -17,8 +17,7 @@ def add_parser(sub: Any) -> None:
     sp = sub.add_parser("manifold", help="super-slow manifold by PCS continuation",
                         description="Compute the super-slow manifold (upward and downward sweeps, docs/model.md §6) "
                                     "and write manifold_<f>Hz_<a>ms2_<N>periods.csv/.json/.png.")
-    sp.add_argument("--f-ex", type=positive(float), default=124.0, metavar="HZ", help="excitation frequency (124)")
-    sp.add_argument("--a-ex", type=float, default=14.0, metavar="M_S2", help="base acceleration amplitude (14)")
+    add_operating_point(sp)
     add_common(sp)
     add_force(sp)
     add_manifold_options(sp, default_on=False)

@@ -8,9 +8,9 @@ import time
 from typing import Any
 
 from ..simulate import simulate
-from ._common import add_common, add_force, figure, out_dir, params_from_args, plan_outputs, positive, report, write_json
+from ._common import figure, out_dir, params_from_args, plan_outputs, positive, report, write_json
 from ._files import run_stem, simulation_summary, write_simulation_csv
-from ._manifold import add_manifold_options, check_manifold_args, manifold_name, run_manifold
+from ._manifold import add_operating_point, add_run_options, check_manifold_args, manifold_name, run_manifold
 
 
 def add_parser(sub: Any) -> None:
@@ -18,17 +18,13 @@ def add_parser(sub: Any) -> None:
     sp = sub.add_parser("simulate", help="run one operating point and plot it (default: the signature move)",
                         description="Run one operating point (default: 124 Hz, 14 m/s², s0 = 0.3, 60 s) and "
                                     "write <stem>.csv, <stem>.json and the three-panel figure <stem>.png.")
-    sp.add_argument("--f-ex", type=positive(float), default=124.0, metavar="HZ", help="excitation frequency (124)")
-    sp.add_argument("--a-ex", type=float, default=14.0, metavar="M_S2", help="base acceleration amplitude (14)")
+    add_operating_point(sp)
     sp.add_argument("--s0", type=float, default=0.3, help="initial slider position x/L (0.3)")
     sp.add_argument("--t-end", type=positive(float), default=60.0, metavar="S", help="simulated time [s] (60)")
     sp.add_argument("--model", choices=["fs", "pcs", "beam"], default="fs",
                     help="free slider, pseudo-constrained slider or beam only (fs)")
     sp.add_argument("--s-pcs", type=float, metavar="S", help="slider position of the PCS model (default s0)")
-    sp.add_argument("--record-every", type=positive(int), default=10, metavar="K", help="keep every K-th step (10)")
-    add_common(sp)
-    add_force(sp)
-    add_manifold_options(sp, default_on=True)
+    add_run_options(sp)
     sp.set_defaults(func=cmd_simulate)
 
 
