@@ -133,3 +133,83 @@ pub fn watched<T: Send>(cancel: &AtomicBool, period: Duration, work: impl FnOnce
         worker.join().unwrap_or_else(|p| Err(internal(panic_message(p.as_ref()))))
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_job_once_in_any_order_and_on_done_sees_each() {
+        let jobs: Vec<u64> = (0..50).collect();
+        let cancel = AtomicBool::new(false);
+        let mut seen = Vec::new();
+        let out = run_batch(&jobs, Some(2), &cancel, |j| Ok(Some(j * j)), |r: &u64| {
+            seen.push(*r);
+            Ok(())
+        })
+        .unwrap();
+        assert!(!out.cancelled);
+        let mut got = out.results.clone();
+        got.sort_unstable();
+        assert_eq!(got, jobs.iter().map(|j| j * j).collect::<Vec<_>>());
+        seen.sort_unstable();
+        assert_eq!(seen, got);
+    }
+
+    #[test]
+    fn a_panic_becomes_an_error_and_stops_the_batch() {
+        let jobs: Vec<u32> = (0..20).collect();
+        let cancel = AtomicBool::new(false);
+        let r = run_batch(&jobs, Some(1), &cancel, |&j| if j == 3 { panic!("job three") } else { Ok(Some(j)) }, |_: &u32| Ok(()));
+        let e = r.unwrap_err().to_string();
+        assert!(e.contains("internal error: job three"), "{e}");
+        assert!(cancel.load(Ordering::Relaxed));
+    }
+
+    #[test]
+    fn an_error_of_on_done_stops_the_batch() {
+        let jobs: Vec<u32> = (0..20).collect();
+        let cancel = AtomicBool::new(false);
+        let r = run_batch(&jobs, Some(1), &cancel, |&j| Ok(Some(j)), |_: &u32| Err(Error::Numerical("disk full".into())));
+        assert!(r.unwrap_err().to_string().contains("disk full"));
+    }
+
+    #[test]
+    fn cancelled_jobs_are_reported() {
+        let jobs: Vec<u32> = (0..10).collect();
+        let cancel = AtomicBool::new(false);
+        let out = run_batch(&jobs, Some(1), &cancel, |&j| {
+            if j == 4 {
+                cancel.store(true, Ordering::Relaxed);
+                return Ok(None);
+            }
+            Ok(Some(j))
+        }, |_: &u32| Ok(()))
+        .unwrap();
+        assert!(out.cancelled && out.results.len() < jobs.len());
+    }
+
+    #[test]
+    fn watched_polls_until_done_and_cancels_when_poll_says_so() {
+        let cancel = AtomicBool::new(false);
+        let mut polls = 0;
+        let r = watched(&cancel, Duration::from_millis(1), || {
+            while !cancel.load(Ordering::Relaxed) {
+                std::thread::sleep(Duration::from_millis(1));
+            }
+            Ok(7)
+        }, || {
+            polls += 1;
+            polls < 3
+        });
+        assert_eq!(r.unwrap(), 7);
+        assert_eq!(polls, 3);
+        let e = watched(&AtomicBool::new(false), Duration::from_millis(1), || -> Result<()> { panic!("boom") }, || true).unwrap_err();
+        assert!(e.to_string().contains("internal error: boom"), "{e}");
+    }
+
+    #[test]
+    fn zero_threads_is_one_thread() {
+        assert_eq!(with_threads(Some(0), rayon::current_num_threads).unwrap(), 1);
+    }
+}
