@@ -77,7 +77,7 @@ fn detached<T: Send>(
 ) -> PyResult<T> {
     let mut err: Option<PyErr> = None;
     let outcome = py.detach(|| {
-        runner::watched(cancel, std::time::Duration::from_millis(period_ms), work, || match Python::attach(|py| poll(py)) {
+        runner::watched(cancel, std::time::Duration::from_millis(period_ms), work, || match Python::attach(&poll) {
             Ok(()) => true,
             Err(e) => {
                 err = Some(e);
