@@ -24,11 +24,9 @@ use std::collections::HashSet;
 use std::fs::{File, OpenOptions};
 use std::io::{BufRead, BufReader, Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
-use std::sync::Mutex;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::AtomicBool;
 use std::time::Instant;
 
-use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::classify::{Behaviour, Classification, Criteria, classify};
@@ -36,6 +34,7 @@ use crate::envelope_stream::{EnvelopeStream, hexf};
 use crate::error::{Error, Result};
 use crate::params::Params;
 use crate::record::{Channel, Recorder};
+use crate::runner::{catch_panic, run_batch};
 use crate::simulation::{CancelFlag, Checkpoint, Excitation, Model, RunOptions, SliderModel, State, Status};
 use crate::stepper::{Counters, StepperMemory};
 
@@ -221,6 +220,9 @@ pub struct Settings {
 struct Header {
     beamslider_map: u32,
     settings: Settings,
+    /// A study's configuration (study results files only, [`crate::study::StudyResults`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    study: Option<serde_json::Value>,
 }
 
 impl MapConfig {
@@ -312,48 +314,6 @@ impl MapConfig {
     }
 }
 
-/// Solver and contact counters of one run (as [`Counters`]).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
-pub struct RowCounters {
-    /// Time steps taken.
-    pub steps: u64,
-    /// Steps with at least one closed contact.
-    pub contact_steps: u64,
-    /// Steps by number of closed contacts (0..=4).
-    pub closed_histogram: [u64; 5],
-    /// Gauss–Seidel sweeps in total.
-    pub solver_iterations: u64,
-    /// Largest number of sweeps in one step.
-    pub max_iterations: u32,
-    /// Steps that hit the iteration cap.
-    pub cap_hits: u64,
-    /// Fast solver: steps where the previous pattern fitted at once.
-    pub first_guess_hits: u64,
-    /// Fast solver: linear solves.
-    pub linear_solves: u64,
-    /// Fast solver: enumerations of all patterns.
-    pub enumerations: u64,
-    /// Fast solver: Gauss–Seidel fallbacks.
-    pub fallbacks: u64,
-}
-
-impl From<&Counters> for RowCounters {
-    fn from(c: &Counters) -> Self {
-        RowCounters {
-            steps: c.steps,
-            contact_steps: c.contact_steps,
-            closed_histogram: c.closed_histogram,
-            solver_iterations: c.solver_iterations,
-            max_iterations: c.max_iterations,
-            cap_hits: c.cap_hits,
-            first_guess_hits: c.first_guess_hits,
-            linear_solves: c.linear_solves,
-            enumerations: c.enumerations,
-            fallbacks: c.fallbacks,
-        }
-    }
-}
-
 /// One line of the results file: the inputs, the run's status, the behaviour with its features,
 /// the counters and the wall time. NaN features (no turning point) are written as `null`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -411,13 +371,17 @@ pub struct MapRow {
     /// Phase reached at the end of the run (see [`Classification::phase`]).
     #[serde(default)]
     pub phase: String,
-    /// Solver counters.
-    pub counters: RowCounters,
+    /// Solver counters (without `max_residual`).
+    pub counters: Counters,
     /// Wall time of the point [s] (the only field that differs between identical runs).
     pub wall_time_s: f64,
     /// End state of a completed run, to continue it (None for failed runs and study rows).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub end: Option<EndState>,
+    /// Further keys of the row, kept as read and written after the others (a study row's
+    /// `sample`, `point` and `params`, [`crate::study::StudyResults`]).
+    #[serde(flatten, default, skip_serializing_if = "serde_json::Map::is_empty")]
+    pub extra: serde_json::Map<String, serde_json::Value>,
 }
 
 /// The end state of a completed run: everything needed to continue it bitwise (see
@@ -437,7 +401,7 @@ pub struct EndState {
     /// Steps since the clock's last re-synchronisation.
     pub clock_count: u32,
     /// Counters (max_residual is in `x`).
-    pub counters: RowCounters,
+    pub counters: Counters,
     /// Super-slow signals so far.
     pub signals: EnvelopeStream,
 }
@@ -454,7 +418,7 @@ impl EndState {
         x.extend(m.last_p.iter().flatten());
         x.extend_from_slice(&m.clock);
         x.push(m.counters.max_residual);
-        EndState { step: cp.step, x, modes: m.modes, clock_count: m.clock_count, counters: (&m.counters).into(), signals }
+        EndState { step: cp.step, x, modes: m.modes, clock_count: m.clock_count, counters: m.counters, signals }
     }
 
     /// The checkpoint and the signals, checked against the model (number of modes) and the
@@ -479,20 +443,7 @@ impl EndState {
         let last = take(8);
         let clock = take(3);
         let pair = |v: &[f64], i: usize| [v[2 * i], v[2 * i + 1]];
-        let c = &self.counters;
-        let counters = Counters {
-            steps: c.steps,
-            contact_steps: c.contact_steps,
-            closed_histogram: c.closed_histogram,
-            solver_iterations: c.solver_iterations,
-            max_iterations: c.max_iterations,
-            cap_hits: c.cap_hits,
-            first_guess_hits: c.first_guess_hits,
-            linear_solves: c.linear_solves,
-            enumerations: c.enumerations,
-            fallbacks: c.fallbacks,
-            max_residual: x[x.len() - 1],
-        };
+        let counters = Counters { max_residual: x[x.len() - 1], ..self.counters };
         let cp = Checkpoint {
             t_origin_s: x[0],
             step: self.step,
@@ -547,9 +498,10 @@ impl MapRow {
             jump_down_t_s: c.jump_down_t_s.clone(),
             steady: c.steady,
             phase: c.phase.clone(),
-            counters: counters.into(),
+            counters: Counters { max_residual: 0.0, ..*counters },
             wall_time_s: wall,
             end,
+            extra: serde_json::Map::new(),
         }
     }
 
@@ -685,7 +637,7 @@ fn run_point_guarded(model: &Model, cfg: &MapConfig, job: &Job, cancel: &AtomicB
     let p = match job {
         Job::Fresh(p) | Job::Continue(p, _) => p,
     };
-    let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| match job {
+    let r = catch_panic(|| match job {
         Job::Fresh(p) => run_point(model, cfg, p, cancel),
         Job::Continue(p, row) => continue_point(model, cfg, row, cancel).map(|r| {
             r.map(|mut r| {
@@ -693,18 +645,11 @@ fn run_point_guarded(model: &Model, cfg: &MapConfig, job: &Job, cancel: &AtomicB
                 r
             })
         }),
-    }));
+    });
     let message = match r {
         Ok(Ok(row)) => return row,
         Ok(Err(e)) => e.to_string(),
-        Err(panic) => {
-            let what = panic
-                .downcast_ref::<&str>()
-                .map(|s| s.to_string())
-                .or_else(|| panic.downcast_ref::<String>().cloned())
-                .unwrap_or_else(|| "unknown panic".into());
-            format!("internal error: {what}")
-        }
+        Err(what) => format!("internal error: {what}"),
     };
     let c = no_classification(p, message);
     let mut row = MapRow::new(p, f64::NAN, &Status::Completed, &c, &Counters::default(), t0.elapsed().as_secs_f64(), None);
@@ -727,10 +672,21 @@ pub struct ResultsFile {
     pub truncated: bool,
     /// Format version of the header (0 for an empty file).
     pub version: u32,
+    /// The study configuration of the header (a study results file), as JSON.
+    pub study: Option<serde_json::Value>,
 }
 
-fn io_err(path: &Path, source: std::io::Error) -> Error {
+pub(crate) fn io_err(path: &Path, source: std::io::Error) -> Error {
     Error::Io { path: path.display().to_string(), source }
+}
+
+impl ResultsFile {
+    /// The header line as read (version, settings and, for a study, its configuration) as JSON
+    /// text; None for a file without a header.
+    pub fn header_json(&self) -> Option<String> {
+        let s = self.settings.as_ref()?;
+        Some(serde_json::to_string(&Header { beamslider_map: self.version, settings: s.clone(), study: self.study.clone() }).expect("header serialises"))
+    }
 }
 
 /// Read a results file. Only lines ending in a newline count; an incomplete last line (a run
@@ -772,6 +728,7 @@ pub fn read_results(path: &Path) -> Result<ResultsFile> {
                     }
                     out.version = h.beamslider_map;
                     out.settings = Some(h.settings);
+                    out.study = h.study;
                     true
                 }
                 Err(_) => false,
@@ -850,13 +807,6 @@ pub struct MapRunOptions {
     pub extend: bool,
 }
 
-struct Sink {
-    file: Option<(File, PathBuf)>,
-    rows: Vec<MapRow>,
-    done: usize,
-    error: Option<Error>,
-}
-
 /// Everything [`run_map`] checks before it computes or writes anything: the configuration, the
 /// model (Δt against the highest mode) and the results file (exists without `resume`, written
 /// with other settings, unreadable). Front ends call it before they write files of their own
@@ -868,19 +818,28 @@ pub fn preflight(cfg: &MapConfig, opts: &MapRunOptions) -> Result<()> {
         return Err(Error::invalid("extend_to", cfg.duration_s, "needs the results file of the map to extend (out)"));
     }
     if let Some(path) = &opts.out {
-        let exists = path.exists() && std::fs::metadata(path).map(|m| m.len() > 0).unwrap_or(false);
-        if exists && !opts.resume && !opts.extend {
-            return Err(Error::invalid("out", path.display(), "the results file exists: resume it, or choose another output"));
-        }
-        if opts.extend && !exists {
-            return Err(Error::invalid("extend_to", path.display(), "no results file to extend"));
-        }
-        if exists {
-            let old = read_results(path)?;
-            check_settings(cfg, opts, path, &old)?;
-        }
+        existing_results(cfg, opts, path)?;
     }
     Ok(())
+}
+
+/// The results file `path` of the map to run, read and checked (None when absent or empty): an
+/// existing file needs `resume` or `extend` and the same settings ([`check_settings`]); `extend`
+/// needs one.
+fn existing_results(cfg: &MapConfig, opts: &MapRunOptions, path: &Path) -> Result<Option<ResultsFile>> {
+    let exists = path.exists() && std::fs::metadata(path).map(|m| m.len() > 0).unwrap_or(false);
+    if exists && !opts.resume && !opts.extend {
+        return Err(Error::invalid("out", path.display(), "the results file exists: resume it, or choose another output"));
+    }
+    if opts.extend && !exists {
+        return Err(Error::invalid("extend_to", path.display(), "no results file to extend"));
+    }
+    if !exists {
+        return Ok(None);
+    }
+    let old = read_results(path)?;
+    check_settings(cfg, opts, path, &old)?;
+    Ok(Some(old))
 }
 
 /// The settings of an existing results file against the map to run (resume: equal; extend:
@@ -931,29 +890,22 @@ pub fn run_map(cfg: &MapConfig, opts: &MapRunOptions, cancel: &AtomicBool, progr
             if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
                 std::fs::create_dir_all(dir).map_err(|e| io_err(dir, e))?;
             }
-            let exists = path.exists() && std::fs::metadata(path).map(|m| m.len() > 0).unwrap_or(false);
-            if exists && !opts.resume && !opts.extend {
-                return Err(Error::invalid("out", path.display(), "the results file exists: resume it, or choose another output"));
-            }
-            if opts.extend && !exists {
-                return Err(Error::invalid("extend_to", path.display(), "no results file to extend"));
-            }
-            if exists {
-                let old = read_results(path)?;
-                check_settings(cfg, opts, path, &old)?;
-                if old.settings.as_ref().is_some_and(|s| *s != settings) {
-                    // Extension: the header takes the new duration. Write the new file beside
-                    // the old one and swap them, so that a kill loses nothing.
-                    let tmp = path.with_extension("jsonl.extend-tmp");
-                    let mut text = header_line(&settings);
+            let old = existing_results(cfg, opts, path)?;
+            let exists = old.is_some();
+            if let Some(old) = old
+                && old.settings.as_ref().is_some_and(|s| *s != settings)
+            {
+                // Extension: the header takes the new duration. Write the new file beside the
+                // old one and swap them, so that a kill loses nothing.
+                let tmp = path.with_extension("jsonl.extend-tmp");
+                let mut text = header_line(&settings);
+                text.push('\n');
+                for r in &latest(old.rows) {
+                    text.push_str(&r.to_json());
                     text.push('\n');
-                    for r in &latest(old.rows.clone()) {
-                        text.push_str(&r.to_json());
-                        text.push('\n');
-                    }
-                    std::fs::write(&tmp, text).map_err(|e| io_err(&tmp, e))?;
-                    std::fs::rename(&tmp, path).map_err(|e| io_err(path, e))?;
                 }
+                std::fs::write(&tmp, text).map_err(|e| io_err(&tmp, e))?;
+                std::fs::rename(&tmp, path).map_err(|e| io_err(path, e))?;
             }
             let mut f = OpenOptions::new().create(true).read(true).write(true).truncate(false).open(path).map_err(|e| io_err(path, e))?;
             if exists {
@@ -992,57 +944,34 @@ pub fn run_map(cfg: &MapConfig, opts: &MapRunOptions, cancel: &AtomicBool, progr
     todo.extend(points.iter().filter(|p| !done_keys.contains(&p.key())).map(|p| Job::Fresh(*p)));
     let total = points.len();
     let resumed = kept.len();
-    let sink = Mutex::new(Sink { file, rows: kept, done: resumed, error: None });
-    let work = || {
-        todo.par_iter().with_max_len(1).for_each(|p| {
-            if cancel.load(Ordering::Relaxed) {
-                return;
-            }
-            let r = run_point_guarded(&model, cfg, p, cancel);
-            let mut g = sink.lock().unwrap_or_else(|e| e.into_inner());
-            match r {
-                Some(row) => {
-                    if let Some((f, path)) = &mut g.file
-                        && let Err(e) = write_line(f, path, &row.to_json())
-                    {
-                        g.error.get_or_insert(e);
-                        cancel.store(true, Ordering::Relaxed);
-                        return;
-                    }
-                    g.done += 1;
-                    progress(g.done, total, &row);
-                    g.rows.push(row);
-                }
-                None => {}
-            }
-        })
-    };
-    match opts.threads {
-        Some(n) => {
-            let pool = rayon::ThreadPoolBuilder::new()
-                .num_threads(n.max(1))
-                .build()
-                .map_err(|e| Error::Numerical(format!("cannot start {n} threads: {e}")))?;
-            pool.install(work);
+    let mut file = file;
+    let mut done = resumed;
+    let batch = run_batch(&todo, opts.threads, cancel, |job| Ok(run_point_guarded(&model, cfg, job, cancel)), |row: &MapRow| {
+        if let Some((f, path)) = &mut file {
+            write_line(f, path, &row.to_json())?;
         }
-        None => work(),
-    }
-    let sink = sink.into_inner().unwrap_or_else(|e| e.into_inner());
-    if let Some(e) = sink.error {
-        return Err(e);
-    }
-    let mut rows = sink.rows;
+        done += 1;
+        progress(done, total, row);
+        Ok(())
+    })?;
+    let mut rows = kept;
+    rows.extend(batch.results);
     rows.sort_by_key(|r| r.index);
     let computed = rows.len() - resumed;
     Ok(MapOutcome { cancelled: rows.len() < total, rows, resumed, computed, extended })
 }
 
+/// The header line of a results file (without the newline); `study`: a study's configuration.
+pub(crate) fn header_line_with(s: &Settings, study: Option<&serde_json::Value>) -> String {
+    serde_json::to_string(&Header { beamslider_map: FORMAT_VERSION, settings: s.clone(), study: study.cloned() }).expect("header serialises")
+}
+
 fn header_line(s: &Settings) -> String {
-    serde_json::to_string(&Header { beamslider_map: FORMAT_VERSION, settings: s.clone() }).expect("header serialises")
+    header_line_with(s, None)
 }
 
 /// Append one line and flush it to the operating system.
-fn write_line(f: &mut File, path: &Path, line: &str) -> Result<()> {
+pub(crate) fn write_line(f: &mut File, path: &Path, line: &str) -> Result<()> {
     let mut buf = String::with_capacity(line.len() + 1);
     buf.push_str(line);
     buf.push('\n');

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import hashlib
+import json
 import os
 import time
 from pathlib import Path
@@ -12,7 +13,7 @@ import numpy as np
 
 from .. import _core
 from .config import RESULTS_FILE, StudyConfig, read_config
-from .results import _Memory, _Writer
+from .results import open_results
 from .sampling import StudyPoint, study_points
 from .statistics import StudyResult, aggregate
 
@@ -29,7 +30,7 @@ def _chunks(todo: List[StudyPoint], size: int) -> List[List[StudyPoint]]:
     return [todo[i:i + size] for i in range(0, len(todo), size)]
 
 
-def _run_dask(scheduler: Any, map_toml: str, todo: List[StudyPoint], writer: _Writer, *, chunk_size: int,
+def _run_dask(scheduler: Any, map_toml: str, todo: List[StudyPoint], writer: Any, *, chunk_size: int,
               task_threads: Optional[int], max_retries: int, on_chunk: Optional[Callable[[int, int], None]],
               tick: Callable[[], None]) -> None:
     try:
@@ -103,20 +104,19 @@ def run_study(config: Union[StudyConfig, str, "os.PathLike[str]"], *, out: Optio
         raise ValueError(f"invalid parameter `chunk_size` = {size!r}: must be an integer >= 1")
     map_toml = config.map_toml()
     points = study_points(config)
-    by_index = {p.index: p for p in points}
     if out is not None:
         folder = Path(out)
         folder.mkdir(parents=True, exist_ok=True)
-        writer: _Writer = _Writer(folder / RESULTS_FILE, config, by_index, resume)
+        writer = open_results(config, points, folder / RESULTS_FILE, resume)
         (folder / "study.toml").write_text(config.to_toml_text(), encoding="utf-8")
     else:
-        writer = _Memory(by_index)
-    todo = [p for p in points if p.index not in writer.rows]
+        writer = open_results(config, points, None, False)
+    todo = [p for p in points if p.index not in writer]
     try:
         with _progress_bar(progress, len(points), "study", "pts") as cb:
             def tick() -> None:
                 if cb is not None:
-                    cb(len(writer.rows), len(points))
+                    cb(len(writer), len(points))
 
             tick()
             if todo and scheduler is None:
@@ -131,7 +131,6 @@ def run_study(config: Union[StudyConfig, str, "os.PathLike[str]"], *, out: Optio
                           max_retries=max_retries, on_chunk=on_chunk, tick=tick)
     finally:
         writer.close()
-    missing = [i for i in by_index if i not in writer.rows]
-    if missing:  # pragma: no cover - every path above either completes or raises
-        raise RuntimeError(f"{len(missing)} points of the study are missing")
-    return aggregate(config, [writer.rows[i] for i in sorted(writer.rows)])
+    if len(writer) != len(points):  # pragma: no cover - every path above either completes or raises
+        raise RuntimeError(f"{len(points) - len(writer)} points of the study are missing")
+    return aggregate(config, [json.loads(r) for r in writer.rows()])

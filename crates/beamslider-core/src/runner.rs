@@ -1,0 +1,215 @@
+//! The one runner for batches of independent runs (operating maps, uncertainty studies, and any
+//! later batch such as design runs or predictor validations; MODEL.md §8).
+//!
+//! A batch is a list of jobs, each computed independently from its own inputs, so its results do
+//! not depend on the number of threads or on the order in which jobs finish (bitwise). The runner
+//! owns what every batch needs and nothing of the physics:
+//! - **parallelism**: rayon, one job at a time per worker (`with_max_len(1)`), on a pool of
+//!   `threads` workers (default: rayon's global pool, one per core);
+//! - **cancellation**: a shared flag; jobs not yet started are skipped, a job in flight sees the
+//!   flag through its own run (e.g. [`crate::CancelFlag`]) and returns `Ok(None)`;
+//! - **results**: each finished result is handed to `on_done` (append to a results file, count
+//!   progress) under one lock, in completion order, then kept; the caller sorts;
+//! - **errors**: an error or a panic of a job (panic → [`Error::Numerical`], never across the
+//!   caller's boundary) or of `on_done` stops the batch: the flag is set and the first error is
+//!   returned. A batch that wants a failed job to be a result row (maps) converts the error in
+//!   its job function instead.
+//!
+//! [`watched`] runs a whole batch on a worker thread while the calling thread polls (Ctrl-C,
+//! progress bars): the one watcher loop of every front end.
+
+use std::any::Any;
+use std::sync::Mutex;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Duration;
+
+use rayon::prelude::*;
+
+use crate::error::{Error, Result};
+
+/// Outcome of [`run_batch`].
+#[derive(Debug, Clone)]
+pub struct BatchOutcome<R> {
+    /// The results of the finished jobs, in completion order.
+    pub results: Vec<R>,
+    /// Whether the batch was cancelled before all jobs had a result.
+    pub cancelled: bool,
+}
+
+/// The text of a panic payload (`&str` or `String`; "unknown panic" otherwise).
+pub fn panic_message(payload: &(dyn Any + Send)) -> String {
+    payload
+        .downcast_ref::<&str>()
+        .map(|s| s.to_string())
+        .or_else(|| payload.downcast_ref::<String>().cloned())
+        .unwrap_or_else(|| "unknown panic".into())
+}
+
+/// Run `f`; a panic becomes `Err(its message)`.
+pub fn catch_panic<T>(f: impl FnOnce() -> T) -> std::result::Result<T, String> {
+    std::panic::catch_unwind(std::panic::AssertUnwindSafe(f)).map_err(|p| panic_message(p.as_ref()))
+}
+
+/// The error of a panic in a job: "internal error: <message>".
+fn internal(what: String) -> Error {
+    Error::Numerical(format!("internal error: {what}"))
+}
+
+/// Run `work` on `threads` rayon workers (None: the global pool, one per core).
+pub fn with_threads<T: Send>(threads: Option<usize>, work: impl FnOnce() -> T + Send) -> Result<T> {
+    match threads {
+        Some(n) => Ok(rayon::ThreadPoolBuilder::new()
+            .num_threads(n.max(1))
+            .build()
+            .map_err(|e| Error::Numerical(format!("cannot start {n} threads: {e}")))?
+            .install(work)),
+        None => Ok(work()),
+    }
+}
+
+/// Run every job of `jobs` in parallel (module header). `run(job)` computes one job: `Ok(None)`
+/// when it saw the cancellation flag. `on_done(&result)` is called under one lock for every
+/// finished result before it is kept (an error stops the batch).
+pub fn run_batch<J, R>(
+    jobs: &[J],
+    threads: Option<usize>,
+    cancel: &AtomicBool,
+    run: impl Fn(&J) -> Result<Option<R>> + Sync,
+    on_done: impl FnMut(&R) -> Result<()> + Send,
+) -> Result<BatchOutcome<R>>
+where
+    J: Sync,
+    R: Send,
+{
+    struct Sink<R, F> {
+        results: Vec<R>,
+        on_done: F,
+        error: Option<Error>,
+    }
+    let sink = Mutex::new(Sink { results: Vec::with_capacity(jobs.len()), on_done, error: None });
+    let fail = |g: &mut Sink<R, _>, e: Error| {
+        g.error.get_or_insert(e);
+        cancel.store(true, Ordering::Relaxed);
+    };
+    with_threads(threads, || {
+        jobs.par_iter().with_max_len(1).for_each(|job| {
+            if cancel.load(Ordering::Relaxed) {
+                return;
+            }
+            let r = catch_panic(|| run(job)).unwrap_or_else(|what| Err(internal(what)));
+            let mut g = sink.lock().unwrap_or_else(|e| e.into_inner());
+            match r {
+                Ok(Some(res)) => match (g.on_done)(&res) {
+                    Ok(()) => g.results.push(res),
+                    Err(e) => fail(&mut g, e),
+                },
+                Ok(None) => {}
+                Err(e) => fail(&mut g, e),
+            }
+        })
+    })?;
+    let sink = sink.into_inner().unwrap_or_else(|e| e.into_inner());
+    if let Some(e) = sink.error {
+        return Err(e);
+    }
+    Ok(BatchOutcome { cancelled: sink.results.len() < jobs.len(), results: sink.results })
+}
+
+/// Run `work` on a scoped worker thread while the calling thread calls `poll()` every `period`
+/// (signals, progress). When `poll` returns false the flag `cancel` is set (the work is expected
+/// to stop soon) and polling stops; the work is always joined. A panic of the work becomes
+/// [`Error::Numerical`].
+pub fn watched<T: Send>(cancel: &AtomicBool, period: Duration, work: impl FnOnce() -> Result<T> + Send, mut poll: impl FnMut() -> bool) -> Result<T> {
+    std::thread::scope(|sc| {
+        let worker = sc.spawn(|| catch_panic(work).unwrap_or_else(|what| Err(internal(what))));
+        let mut polling = true;
+        while !worker.is_finished() {
+            std::thread::sleep(period);
+            if polling && !poll() {
+                cancel.store(true, Ordering::Relaxed);
+                polling = false;
+            }
+        }
+        worker.join().unwrap_or_else(|p| Err(internal(panic_message(p.as_ref()))))
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_job_once_in_any_order_and_on_done_sees_each() {
+        let jobs: Vec<u64> = (0..50).collect();
+        let cancel = AtomicBool::new(false);
+        let mut seen = Vec::new();
+        let out = run_batch(&jobs, Some(2), &cancel, |j| Ok(Some(j * j)), |r: &u64| {
+            seen.push(*r);
+            Ok(())
+        })
+        .unwrap();
+        assert!(!out.cancelled);
+        let mut got = out.results.clone();
+        got.sort_unstable();
+        assert_eq!(got, jobs.iter().map(|j| j * j).collect::<Vec<_>>());
+        seen.sort_unstable();
+        assert_eq!(seen, got);
+    }
+
+    #[test]
+    fn a_panic_becomes_an_error_and_stops_the_batch() {
+        let jobs: Vec<u32> = (0..20).collect();
+        let cancel = AtomicBool::new(false);
+        let r = run_batch(&jobs, Some(1), &cancel, |&j| if j == 3 { panic!("job three") } else { Ok(Some(j)) }, |_: &u32| Ok(()));
+        let e = r.unwrap_err().to_string();
+        assert!(e.contains("internal error: job three"), "{e}");
+        assert!(cancel.load(Ordering::Relaxed));
+    }
+
+    #[test]
+    fn an_error_of_on_done_stops_the_batch() {
+        let jobs: Vec<u32> = (0..20).collect();
+        let cancel = AtomicBool::new(false);
+        let r = run_batch(&jobs, Some(1), &cancel, |&j| Ok(Some(j)), |_: &u32| Err(Error::Numerical("disk full".into())));
+        assert!(r.unwrap_err().to_string().contains("disk full"));
+    }
+
+    #[test]
+    fn cancelled_jobs_are_reported() {
+        let jobs: Vec<u32> = (0..10).collect();
+        let cancel = AtomicBool::new(false);
+        let out = run_batch(&jobs, Some(1), &cancel, |&j| {
+            if j == 4 {
+                cancel.store(true, Ordering::Relaxed);
+                return Ok(None);
+            }
+            Ok(Some(j))
+        }, |_: &u32| Ok(()))
+        .unwrap();
+        assert!(out.cancelled && out.results.len() < jobs.len());
+    }
+
+    #[test]
+    fn watched_polls_until_done_and_cancels_when_poll_says_so() {
+        let cancel = AtomicBool::new(false);
+        let mut polls = 0;
+        let r = watched(&cancel, Duration::from_millis(1), || {
+            while !cancel.load(Ordering::Relaxed) {
+                std::thread::sleep(Duration::from_millis(1));
+            }
+            Ok(7)
+        }, || {
+            polls += 1;
+            polls < 3
+        });
+        assert_eq!(r.unwrap(), 7);
+        assert_eq!(polls, 3);
+        let e = watched(&AtomicBool::new(false), Duration::from_millis(1), || -> Result<()> { panic!("boom") }, || true).unwrap_err();
+        assert!(e.to_string().contains("internal error: boom"), "{e}");
+    }
+
+    #[test]
+    fn zero_threads_is_one_thread() {
+        assert_eq!(with_threads(Some(0), rayon::current_num_threads).unwrap(), 1);
+    }
+}
