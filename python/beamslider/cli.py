@@ -38,6 +38,9 @@ EXIT_ERROR = 1
 EXIT_FAULT = 3
 EXIT_INTERRUPTED = 130
 
+MAX_INT = 2**63 - 1
+"""Largest integer option value (counts such as --record-every, --threads)."""
+
 MAX_GRID = 1_000_000
 """Most values of a START:STOP:STEP range on the command line (a tiny step is a typing error)."""
 
@@ -97,12 +100,30 @@ def write_simulation_csv(path: Path, result: SimulationResult) -> None:
     """Recorded columns under the core's channel names."""
     cols = result.columns()
     data = np.column_stack(list(cols.values()))
-    np.savetxt(path, data, delimiter=",", header=",".join(cols), comments="", fmt="%.10e")
+    np.savetxt(path, data, delimiter=",", header=",".join(cols), comments="", fmt="%.17g")  # round trip
 
 
 def read_simulation_csv(path: Path) -> Dict[str, np.ndarray]:
-    with open(path, "r", encoding="utf-8") as f:
-        header = f.readline().strip().split(",")
+    """The columns of a trajectory file (.npz memory-mapped, or CSV); a UserError naming the file
+    when it is not one."""
+    if not path.exists():
+        raise UserError(f"{path}: no such file")
+    if path.suffix == ".npz":
+        from .simulate import read_trajectory
+
+        try:
+            cols = read_trajectory(path)
+        except ValueError as e:
+            raise UserError(one_line(e)) from None
+        missing = [n for n in ("t_s", "w_4L7_m", "s", "xC_m", "zC_m", "beta_rad") if n not in cols]
+        if missing or len(cols["t_s"]) < 2:
+            raise UserError(f"{path}: not a beamslider trajectory with two or more rows")
+        return cols
+    try:
+        with open(path, "r", encoding="utf-8") as f:
+            header = f.readline().strip().split(",")
+    except UnicodeDecodeError:
+        raise UserError(f"{path}: not a text CSV file (not UTF-8)") from None
     need = ["t_s", "w_4L7_m", "s", "xC_m", "zC_m", "beta_rad"]
     missing = [n for n in need if n not in header]
     if missing:
@@ -110,7 +131,7 @@ def read_simulation_csv(path: Path) -> Dict[str, np.ndarray]:
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # an empty file is reported below
-            data = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
+            data = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2, encoding="utf-8")
     except ValueError as e:
         raise UserError(f"{path}: {one_line(e)}") from None
     if data.shape[0] < 2 or data.shape[1] != len(header):
@@ -284,6 +305,13 @@ def _report(result: SimulationResult, written: Sequence[Path]) -> int:
     return 0
 
 
+def write_json_atomic(path: Path, data: Dict[str, Any]) -> None:
+    """JSON written under a temporary name and renamed: never a half-written summary."""
+    tmp = path.with_name(f".{path.name}.partial-{os.getpid()}")
+    write_json(tmp, data)
+    os.replace(tmp, path)
+
+
 def cmd_simulate(args: argparse.Namespace) -> int:
     from .plotting import plot_operating_point
 
@@ -291,26 +319,35 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     stem = run_stem(args.model, args.f_ex, args.a_ex, args.s0, args.s_pcs)
     with_manifold = args.manifold and args.model != "beam"
     man_name = f"{_manifold_name(args, p, args.f_ex, args.a_ex)}.csv" if with_manifold else None
-    # Bad input is named before anything else: a run of zero length checks all of it.
-    simulate(p, f_ex=args.f_ex, a_ex=args.a_ex, s0=args.s0, t_end=0.0, model=args.model, s_pcs=args.s_pcs,
-             record_every=args.record_every)
+    # Bad input is named before anything else.
+    simulate(p, f_ex=args.f_ex, a_ex=args.a_ex, s0=args.s0, t_end=args.t_end, model=args.model, s_pcs=args.s_pcs,
+             record_every=args.record_every, _check_only=True)
     if with_manifold:
         _check_manifold_args(args)
-    out = _plan_outputs(args, [f"{stem}.csv", f"{stem}.json", f"{stem}.png"] + ([man_name] if man_name else []))
+    data_name = f"{stem}.{args.format}"
+    out = _plan_outputs(args, [data_name, f"{stem}.json", f"{stem}.png"] + ([man_name] if man_name else []))
+    out = _out(args)
+    written = [out / data_name, out / f"{stem}.json", out / f"{stem}.png"]
+    base = {"kind": "simulation", "data": data_name, "format": args.format, "complete": False,
+            "model": args.model, "f_ex_hz": args.f_ex, "a_ex_m_s2": args.a_ex, "s0": args.s0,
+            "t_end_s": args.t_end, "record_every": args.record_every, "params_toml": p.toml_text()}
+    # The sidecar says "incomplete" until the data file is in place (plot refuses it meanwhile).
+    write_json_atomic(written[1], base)
     t0 = time.perf_counter()
+    # The trajectory streams from the core to disk (temporary name, renamed when complete).
     result = simulate(p, f_ex=args.f_ex, a_ex=args.a_ex, s0=args.s0, t_end=args.t_end, model=args.model,
-                      s_pcs=args.s_pcs, record_every=args.record_every, progress=args.progress)
+                      s_pcs=args.s_pcs, record_every=args.record_every, progress=args.progress,
+                      out=written[0], overwrite=True)
     wall = time.perf_counter() - t0
-    written = [out / f"{stem}.csv", out / f"{stem}.json", out / f"{stem}.png"]
-    write_simulation_csv(_out(args) / f"{stem}.csv", result)
     manifold = None
     summary = simulation_summary(result, t_end=args.t_end, record_every=args.record_every, wall_s=wall,
                                  window=args.window)
+    summary.update({"data": data_name, "format": args.format, "complete": True})
     if with_manifold:
         manifold = _manifold(args, p, args.f_ex, args.a_ex, out)
         summary["manifold_csv"] = man_name
         written.insert(2, out / man_name)
-    write_json(written[1], summary)
+    write_json_atomic(written[1], summary)
     if not _figure(plot_operating_point, result, manifold=manifold, window=args.window, path=written[-1]):
         written.pop()
     print(f"{result.model.upper()} {args.f_ex:g} Hz, {args.a_ex:g} m/s², {args.t_end:g} s: {result.status}; "
@@ -324,7 +361,7 @@ def cmd_manifold(args: argparse.Namespace) -> int:
 
     p = _params(args)
     stem = _manifold_name(args, p, args.f_ex, args.a_ex)
-    simulate(p, f_ex=args.f_ex, a_ex=args.a_ex, t_end=0.0, model="beam")  # names bad input first
+    simulate(p, f_ex=args.f_ex, a_ex=args.a_ex, t_end=1.0, model="beam", _check_only=True)  # names bad input first
     _check_manifold_args(args)
     out = _plan_outputs(args, [f"{stem}.{ext}" for ext in ("csv", "json", "png")])
     t0 = time.perf_counter()
@@ -365,16 +402,15 @@ def cmd_compare(args: argparse.Namespace) -> int:
     name = Path(args.measurement).name
     stem = "compare_" + (name[:-3] if name.lower().endswith(".gz") else Path(name).stem).rsplit(".txt", 1)[0]
     man_name = f"{_manifold_name(args, p, f_ex, a_ex)}.csv" if args.manifold else None
-    simulate(p, f_ex=f_ex, a_ex=a_ex, s0=s0, t_end=0.0, record_every=args.record_every)  # names bad input first
+    simulate(p, f_ex=f_ex, a_ex=a_ex, s0=s0, t_end=t_end, record_every=args.record_every, _check_only=True)  # names bad input first
     if args.manifold:
         _check_manifold_args(args)
     out = _plan_outputs(args, [f"{stem}_model.csv", f"{stem}.json", f"{stem}.png"] + ([man_name] if man_name else []))
     t0 = time.perf_counter()
+    written = [_out(args) / f"{stem}_model.csv", out / f"{stem}.json", out / f"{stem}.png"]
     result = simulate(p, f_ex=f_ex, a_ex=a_ex, s0=s0, t_end=t_end, record_every=args.record_every,
-                      progress=args.progress)
+                      progress=args.progress, out=written[0], overwrite=True)
     wall = time.perf_counter() - t0
-    written = [out / f"{stem}_model.csv", out / f"{stem}.json", out / f"{stem}.png"]
-    write_simulation_csv(_out(args) / f"{stem}_model.csv", result)
     summary = simulation_summary(result, t_end=t_end, record_every=args.record_every, wall_s=wall,
                                  window=args.window)
     menv = meas.envelope(args.window)
@@ -384,13 +420,14 @@ def cmd_compare(args: argparse.Namespace) -> int:
         "measured_final_s": float(meas.s[-1]),
         "measured_final_amplitude_m": float(menv[-1]),
         "measured_final_amplitude_over_h": float(menv[-1] / p.thickness_m),
+        "data": written[0].name, "format": "csv", "complete": True,
     })
     manifold = None
     if args.manifold:
         manifold = _manifold(args, p, f_ex, a_ex, out)
         summary["manifold_csv"] = man_name
         written.insert(2, out / man_name)
-    write_json(written[1], summary)
+    write_json_atomic(written[1], summary)
     if not _figure(plot_operating_point, result, manifold=manifold, measurement=meas, window=args.window,
                    path=written[-1]):
         written.pop()
@@ -442,8 +479,17 @@ def cmd_plot(args: argparse.Namespace) -> int:
             plot_manifold(manifold, path=target)
             print(f"wrote {target}")
             return 0
-        if meta.get("kind") == "compare":
+        if meta.get("complete") is False:
+            raise UserError(f"{json_path}: the run that writes {meta.get('data', 'this result')} did not finish "
+                            "(incomplete result): run it again")
+        if isinstance(meta.get("data"), str):
+            csv_path = path.with_name(meta["data"])
+        elif meta.get("kind") == "compare":
             csv_path = path.with_name(f"{path.stem}_model.csv")
+        elif path.suffix == ".npz":
+            csv_path = path
+        if csv_path.suffix == ".npz" and not meta:
+            raise UserError(f"{path}: no summary {json_path.name} beside it: cannot tell whether the run finished")
         p = Parameters.from_toml_text(meta["params_toml"]) if "params_toml" in meta else Parameters()
         cols = read_simulation_csv(csv_path)
         result = SimulationResult(
@@ -525,10 +571,13 @@ def cmd_map(args: argparse.Namespace) -> int:
     if args.print_config:
         print(config, end="")
         return 0
-    out = _out(args)
+    out = Path(args.out)  # created by the map itself, after the scheduler (if any) answered
     t0 = time.perf_counter()
+    if args.scheduler and args.scheduler_file:
+        raise UserError("give --scheduler or --scheduler-file, not both")
     table = run_map_config(config, out=out, resume=args.resume, threads=args.threads, progress=args.progress,
-                           extend=extend)
+                           extend=extend, scheduler=args.scheduler, scheduler_file=args.scheduler_file,
+                           chunk_size=args.chunk_size)
     wall = time.perf_counter() - t0
     txt = text_table(table)
     (out / "map.txt").write_text(txt, encoding="utf-8")
@@ -560,16 +609,23 @@ def _positive(kind):
             raise argparse.ArgumentTypeError(f"{text!r} is not a valid {kind.__name__}") from None
         if not v > 0:
             raise argparse.ArgumentTypeError(f"{text!r} must be > 0")
+        if kind is int and v > MAX_INT:
+            raise argparse.ArgumentTypeError(f"{text!r} is too large (at most {MAX_INT})")
+        if kind is float and not np.isfinite(v):
+            raise argparse.ArgumentTypeError(f"{text!r} must be finite")
         return v
     return parse
 
 
-def _common(sp: argparse.ArgumentParser, *, model_options: bool = True) -> None:
+def _common(sp: argparse.ArgumentParser, *, model_options: bool = True, window: bool = True) -> None:
     sp.add_argument("--out", default=DEFAULT_OUT, metavar="DIR",
                     help=f"output folder for CSV/JSON/PNG (default ./{DEFAULT_OUT})")
+    sp.add_argument("--progress", dest="progress", action="store_true", default=None,
+                    help="progress bars even when standard error is not a terminal (default: only on a terminal)")
     sp.add_argument("--no-progress", dest="progress", action="store_false", help="no progress bars")
-    sp.add_argument("--window", type=_positive(float), default=1.0, metavar="S",
-                    help="moving-average window of the envelope [s] (default 1)")
+    if window:  # maps and studies classify with the core's fixed 1-s window: no option there
+        sp.add_argument("--window", type=_positive(float), default=1.0, metavar="S",
+                        help="moving-average window of the envelope [s] (default 1)")
     if model_options:
         sp.add_argument("--params", metavar="TOML", help="parameter file (TOML keys of beamslider.Parameters, listed in docs/model.md §1)")
         sp.add_argument("--dt", type=_positive(float), metavar="S", help="time step [s] (default 2e-5)")
@@ -615,6 +671,9 @@ def build_parser() -> argparse.ArgumentParser:
                     help="free slider, pseudo-constrained slider or beam only (fs)")
     sp.add_argument("--s-pcs", type=float, metavar="S", help="slider position of the PCS model (default s0)")
     sp.add_argument("--record-every", type=_positive(int), default=10, metavar="K", help="keep every K-th step (10)")
+    sp.add_argument("--format", choices=["npz", "csv"], default="npz",
+                    help="trajectory file: npz (NumPy, default; np.load or beamslider.read_trajectory) or csv "
+                         "(shortest round-trip numbers); streamed to disk as the run goes")
     _common(sp)
     _force_option(sp)
     _manifold_options(sp, default_on=True)
@@ -664,7 +723,12 @@ def build_parser() -> argparse.ArgumentParser:
                     help="extend the map in --out to T seconds: continue its not-settled points from their saved end "
                          "states (bitwise the T-second runs), keep the settled ones; prints the number re-run")
     sp.add_argument("--print-config", action="store_true", help="print the map configuration (TOML) and exit")
-    _common(sp)
+    sp.add_argument("--scheduler", metavar="ADDRESS",
+                    help="run the points on a Dask cluster: scheduler address, e.g. tcp://host:8786 (docs/cluster.md)")
+    sp.add_argument("--scheduler-file", metavar="FILE", help="run on the Dask cluster of this scheduler file "
+                    "(dask scheduler --scheduler-file FILE)")
+    sp.add_argument("--chunk-size", type=_positive(int), default=8, metavar="N", help="points per Dask task (8)")
+    _common(sp, window=False)
     sp.set_defaults(func=cmd_map)
 
     sp = sub.add_parser("plot", help="re-plot results written by simulate/compare/manifold, or a measurement",
@@ -695,7 +759,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     except KeyboardInterrupt:
         print("beamslider: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
-    except (UserError, ValueError, _core.SimulationError) as e:
+    except (UserError, ValueError, OverflowError, _core.SimulationError) as e:
         print(f"beamslider: error: {one_line(e)}", file=sys.stderr)
         return EXIT_ERROR
     except PlotDependencyError as e:

@@ -23,7 +23,7 @@ def add_parser(sub: Any, common: Any, positive: Any) -> None:
     sp.add_argument("--a-ex", type=positive(float), default=14.0, metavar="M_S2", help="base acceleration amplitude (14)")
     sp.add_argument("--n-modes", type=positive(int), default=5, metavar="N", help="retained beam modes (5)")
     sp.add_argument("--d-eff", type=float, metavar="D", help="equivalent damping ratio of all modes (default: params)")
-    common(sp)
+    common(sp, window=False)
     from .cli import _force_option
 
     _force_option(sp)

@@ -22,7 +22,7 @@
 
 use std::collections::HashSet;
 use std::fs::{File, OpenOptions};
-use std::io::{BufRead, BufReader, Seek, SeekFrom, Write};
+use std::io::{BufRead, BufReader, Write};
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -34,6 +34,7 @@ use serde::{Deserialize, Serialize};
 use crate::classify::{Behaviour, Classification, Criteria, classify};
 use crate::envelope_stream::{EnvelopeStream, hexf};
 use crate::error::{Error, Result};
+use crate::lock::ResultsLock;
 use crate::params::Params;
 use crate::record::{Channel, Recorder};
 use crate::simulation::{CancelFlag, Checkpoint, Excitation, Model, RunOptions, SliderModel, State, Status};
@@ -673,13 +674,29 @@ pub const STATUS_ERROR: &str = "error";
 
 /// What to compute for one grid point: a run from rest, or the continuation of a not-settled
 /// row from its end state.
-enum Job {
+#[derive(Debug, Clone)]
+pub enum Job {
+    /// A run from rest.
     Fresh(MapPoint),
+    /// The continuation of a not-settled row (the grid point, the row with its end state).
     Continue(MapPoint, Box<MapRow>),
 }
 
+impl Job {
+    /// The grid point of the job.
+    pub fn point(&self) -> &MapPoint {
+        match self {
+            Job::Fresh(p) | Job::Continue(p, _) => p,
+        }
+    }
+}
+
 /// Run one job; an error or a panic of the run becomes a row with status `error` and the
-/// message as reason, so that one failing point does not stop the map.
+/// message as reason, so that one failing point does not stop the map. `None` when cancelled.
+pub fn run_job(model: &Model, cfg: &MapConfig, job: &Job, cancel: &AtomicBool) -> Option<MapRow> {
+    run_point_guarded(model, cfg, job, cancel)
+}
+
 fn run_point_guarded(model: &Model, cfg: &MapConfig, job: &Job, cancel: &AtomicBool) -> Option<MapRow> {
     let t0 = Instant::now();
     let p = match job {
@@ -850,13 +867,6 @@ pub struct MapRunOptions {
     pub extend: bool,
 }
 
-struct Sink {
-    file: Option<(File, PathBuf)>,
-    rows: Vec<MapRow>,
-    done: usize,
-    error: Option<Error>,
-}
-
 /// Everything [`run_map`] checks before it computes or writes anything: the configuration, the
 /// model (Δt against the highest mode) and the results file (exists without `resume`, written
 /// with other settings, unreadable). Front ends call it before they write files of their own
@@ -917,107 +927,148 @@ fn check_settings(cfg: &MapConfig, opts: &MapRunOptions, path: &Path, old: &Resu
     Ok(())
 }
 
-/// Run the grid of `cfg` in parallel, appending each finished point to the results file.
-/// Setting `cancel` stops the map: points in flight are abandoned, finished ones are kept.
-pub fn run_map(cfg: &MapConfig, opts: &MapRunOptions, cancel: &AtomicBool, progress: Progress<'_>) -> Result<MapOutcome> {
-    cfg.validate()?;
-    let points = cfg.points()?;
-    let settings = cfg.settings();
-    let model = Model::new(cfg.effective_params())?;
-    let mut existing: Vec<MapRow> = Vec::new();
-    let file = match &opts.out {
-        None => None,
-        Some(path) => {
-            if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-                std::fs::create_dir_all(dir).map_err(|e| io_err(dir, e))?;
+/// The results of a map being run: the rows kept from an existing results file, the jobs still
+/// to do, and — with a results file — the file, locked for this process ([`ResultsLock`]: a
+/// second writer fails at once naming the holder) and opened for appending (O_APPEND, one write
+/// per row). Shared by the local runner ([`run_map`]) and front ends that run the jobs
+/// elsewhere (a Dask cluster) and append the rows here.
+#[derive(Debug)]
+pub struct MapResults {
+    file: Option<(File, PathBuf, ResultsLock)>,
+    /// Rows of the grid so far: kept from the file, then appended.
+    pub rows: Vec<MapRow>,
+    /// Points still to compute (continuations first, then runs from rest).
+    pub jobs: Vec<Job>,
+    /// Points in the grid.
+    pub total: usize,
+    /// Points kept from the results file.
+    pub resumed: usize,
+    /// Not-settled points to be continued from their end states.
+    pub extended: usize,
+}
+
+impl MapResults {
+    /// Check the map (as [`preflight`]), take the results file's lock, cut off a torn last line,
+    /// write the header of a new file and plan the jobs.
+    pub fn open(cfg: &MapConfig, opts: &MapRunOptions) -> Result<MapResults> {
+        cfg.validate()?;
+        let points = cfg.points()?;
+        let settings = cfg.settings();
+        Model::new(cfg.effective_params())?;
+        let mut existing: Vec<MapRow> = Vec::new();
+        let file = match &opts.out {
+            None => {
+                if opts.extend {
+                    return Err(Error::invalid("extend_to", cfg.duration_s, "needs the results file of the map to extend (out)"));
+                }
+                None
             }
-            let exists = path.exists() && std::fs::metadata(path).map(|m| m.len() > 0).unwrap_or(false);
-            if exists && !opts.resume && !opts.extend {
-                return Err(Error::invalid("out", path.display(), "the results file exists: resume it, or choose another output"));
-            }
-            if opts.extend && !exists {
-                return Err(Error::invalid("extend_to", path.display(), "no results file to extend"));
-            }
-            if exists {
-                let old = read_results(path)?;
-                check_settings(cfg, opts, path, &old)?;
-                if old.settings.as_ref().is_some_and(|s| *s != settings) {
-                    // Extension: the header takes the new duration. Write the new file beside
-                    // the old one and swap them, so that a kill loses nothing.
-                    let tmp = path.with_extension("jsonl.extend-tmp");
-                    let mut text = header_line(&settings);
-                    text.push('\n');
-                    for r in &latest(old.rows.clone()) {
-                        text.push_str(&r.to_json());
+            Some(path) => {
+                if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+                    std::fs::create_dir_all(dir).map_err(|e| io_err(dir, e))?;
+                }
+                let lock = ResultsLock::acquire(path)?;
+                let exists = path.exists() && std::fs::metadata(path).map(|m| m.len() > 0).unwrap_or(false);
+                if exists && !opts.resume && !opts.extend {
+                    return Err(Error::invalid("out", path.display(), "the results file exists: resume it, or choose another output"));
+                }
+                if opts.extend && !exists {
+                    return Err(Error::invalid("extend_to", path.display(), "no results file to extend"));
+                }
+                if exists {
+                    let old = read_results(path)?;
+                    check_settings(cfg, opts, path, &old)?;
+                    if old.settings.as_ref().is_some_and(|s| *s != settings) {
+                        // Extension: the header takes the new duration. Write the new file beside
+                        // the old one and swap them, so that a kill loses nothing.
+                        let tmp = path.with_extension("jsonl.extend-tmp");
+                        let mut text = header_line(&settings);
                         text.push('\n');
+                        for r in &latest(old.rows.clone()) {
+                            text.push_str(&r.to_json());
+                            text.push('\n');
+                        }
+                        std::fs::write(&tmp, text).map_err(|e| io_err(&tmp, e))?;
+                        std::fs::rename(&tmp, path).map_err(|e| io_err(path, e))?;
                     }
-                    std::fs::write(&tmp, text).map_err(|e| io_err(&tmp, e))?;
-                    std::fs::rename(&tmp, path).map_err(|e| io_err(path, e))?;
-                }
-            }
-            let mut f = OpenOptions::new().create(true).read(true).write(true).truncate(false).open(path).map_err(|e| io_err(path, e))?;
-            if exists {
-                let old = read_results(path)?;
-                f.set_len(old.good_len).map_err(|e| io_err(path, e))?;
-                f.seek(SeekFrom::End(0)).map_err(|e| io_err(path, e))?;
-                if old.settings.is_none() {
+                    let old = read_results(path)?;
+                    // A torn last line (a writer killed mid-row) is cut off; we hold the lock.
+                    OpenOptions::new().write(true).open(path).and_then(|f| f.set_len(old.good_len)).map_err(|e| io_err(path, e))?;
+                    let mut f = OpenOptions::new().append(true).open(path).map_err(|e| io_err(path, e))?;
+                    if old.settings.is_none() {
+                        write_line(&mut f, path, &header_line(&settings))?;
+                    }
+                    existing = latest(old.rows);
+                    Some((f, path.clone(), lock))
+                } else {
+                    let mut f = OpenOptions::new().create(true).truncate(true).write(true).open(path).map_err(|e| io_err(path, e))?;
                     write_line(&mut f, path, &header_line(&settings))?;
+                    drop(f);
+                    let f = OpenOptions::new().append(true).open(path).map_err(|e| io_err(path, e))?;
+                    Some((f, path.clone(), lock))
                 }
-                existing = latest(old.rows);
-            } else {
-                f.set_len(0).map_err(|e| io_err(path, e))?;
-                write_line(&mut f, path, &header_line(&settings))?;
             }
-            Some((f, path.clone()))
+        };
+        // Points already done (by inputs, not by index: the grid may have changed).
+        let done_keys: HashSet<_> = existing.iter().map(MapRow::key).collect();
+        let mut kept: Vec<MapRow> = Vec::new();
+        let mut seen = HashSet::new();
+        for p in &points {
+            if done_keys.contains(&p.key())
+                && seen.insert(p.key())
+                && let Some(r) = existing.iter().find(|r| r.key() == p.key())
+            {
+                let mut r = r.clone();
+                r.index = p.index;
+                kept.push(r);
+            }
         }
-    };
-    // Points already done (by inputs, not by index: the grid may have changed).
-    let done_keys: HashSet<_> = existing.iter().map(MapRow::key).collect();
-    let mut kept: Vec<MapRow> = Vec::new();
-    let mut seen = HashSet::new();
-    for p in &points {
-        if done_keys.contains(&p.key())
-            && seen.insert(p.key())
-            && let Some(r) = existing.iter().find(|r| r.key() == p.key())
-        {
-            let mut r = r.clone();
-            r.index = p.index;
-            kept.push(r);
-        }
+        // Not-settled rows that end before the map's duration continue from their end states.
+        let (cont, kept): (Vec<MapRow>, Vec<MapRow>) = kept.into_iter().partition(|r| r.continuable(cfg.duration_s));
+        let extended = cont.len();
+        let mut jobs: Vec<Job> = cont.into_iter().map(|r| Job::Continue(r.point(), Box::new(r))).collect();
+        jobs.extend(points.iter().filter(|p| !done_keys.contains(&p.key())).map(|p| Job::Fresh(*p)));
+        let resumed = kept.len();
+        Ok(MapResults { file, rows: kept, jobs, total: points.len(), resumed, extended })
     }
-    // Not-settled rows that end before the map's duration continue from their end states.
-    let (cont, kept): (Vec<MapRow>, Vec<MapRow>) = kept.into_iter().partition(|r| r.continuable(cfg.duration_s));
-    let extended = cont.len();
-    let mut todo: Vec<Job> = cont.into_iter().map(|r| Job::Continue(r.point(), Box::new(r))).collect();
-    todo.extend(points.iter().filter(|p| !done_keys.contains(&p.key())).map(|p| Job::Fresh(*p)));
-    let total = points.len();
-    let resumed = kept.len();
-    let sink = Mutex::new(Sink { file, rows: kept, done: resumed, error: None });
+
+    /// Append a finished row: one line, one write to the file opened with O_APPEND.
+    pub fn append(&mut self, row: MapRow) -> Result<()> {
+        if let Some((f, path, _)) = &mut self.file {
+            write_line(f, path, &row.to_json())?;
+        }
+        self.rows.push(row);
+        Ok(())
+    }
+
+    /// The outcome: all rows sorted by grid index (releases the lock).
+    pub fn finish(self) -> MapOutcome {
+        let mut rows = self.rows;
+        rows.sort_by_key(|r| r.index);
+        let computed = rows.len() - self.resumed;
+        MapOutcome { cancelled: rows.len() < self.total, rows, resumed: self.resumed, computed, extended: self.extended }
+    }
+}
+
+/// Run `jobs` in parallel (rayon, `threads` workers or one per core), handing each finished row
+/// to `on_row`; an error of `on_row` cancels the rest and is returned.
+pub fn run_jobs(cfg: &MapConfig, jobs: &[Job], threads: Option<usize>, cancel: &AtomicBool, on_row: &(dyn Fn(MapRow) -> Result<()> + Sync)) -> Result<()> {
+    let model = Model::new(cfg.effective_params())?;
+    let error: Mutex<Option<Error>> = Mutex::new(None);
     let work = || {
-        todo.par_iter().with_max_len(1).for_each(|p| {
+        jobs.par_iter().with_max_len(1).for_each(|job| {
             if cancel.load(Ordering::Relaxed) {
                 return;
             }
-            let r = run_point_guarded(&model, cfg, p, cancel);
-            let mut g = sink.lock().unwrap_or_else(|e| e.into_inner());
-            match r {
-                Some(row) => {
-                    if let Some((f, path)) = &mut g.file
-                        && let Err(e) = write_line(f, path, &row.to_json())
-                    {
-                        g.error.get_or_insert(e);
-                        cancel.store(true, Ordering::Relaxed);
-                        return;
-                    }
-                    g.done += 1;
-                    progress(g.done, total, &row);
-                    g.rows.push(row);
-                }
-                None => {}
+            if let Some(row) = run_point_guarded(&model, cfg, job, cancel)
+                && let Err(e) = on_row(row)
+            {
+                error.lock().unwrap_or_else(|e| e.into_inner()).get_or_insert(e);
+                cancel.store(true, Ordering::Relaxed);
             }
         })
     };
-    match opts.threads {
+    match threads {
         Some(n) => {
             let pool = rayon::ThreadPoolBuilder::new()
                 .num_threads(n.max(1))
@@ -1027,14 +1078,28 @@ pub fn run_map(cfg: &MapConfig, opts: &MapRunOptions, cancel: &AtomicBool, progr
         }
         None => work(),
     }
-    let sink = sink.into_inner().unwrap_or_else(|e| e.into_inner());
-    if let Some(e) = sink.error {
-        return Err(e);
+    match error.into_inner().unwrap_or_else(|e| e.into_inner()) {
+        Some(e) => Err(e),
+        None => Ok(()),
     }
-    let mut rows = sink.rows;
-    rows.sort_by_key(|r| r.index);
-    let computed = rows.len() - resumed;
-    Ok(MapOutcome { cancelled: rows.len() < total, rows, resumed, computed, extended })
+}
+
+/// Run the grid of `cfg` in parallel, appending each finished point to the results file.
+/// Setting `cancel` stops the map: points in flight are abandoned, finished ones are kept.
+pub fn run_map(cfg: &MapConfig, opts: &MapRunOptions, cancel: &AtomicBool, progress: Progress<'_>) -> Result<MapOutcome> {
+    let mut results = MapResults::open(cfg, opts)?;
+    let jobs = std::mem::take(&mut results.jobs);
+    let total = results.total;
+    let sink = Mutex::new(results);
+    run_jobs(cfg, &jobs, opts.threads, cancel, &|row| {
+        let mut g = sink.lock().unwrap_or_else(|e| e.into_inner());
+        g.append(row)?;
+        if let Some(last) = g.rows.last() {
+            progress(g.rows.len(), total, last);
+        }
+        Ok(())
+    })?;
+    Ok(sink.into_inner().unwrap_or_else(|e| e.into_inner()).finish())
 }
 
 fn header_line(s: &Settings) -> String {

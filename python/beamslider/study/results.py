@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 from pathlib import Path
 from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
 
@@ -59,25 +60,31 @@ class _Writer:
         self.points = points
         self.rows: Dict[int, Dict[str, Any]] = {}
         header = _header(config)
-        exists = path.exists() and path.stat().st_size > 0
-        if exists and not resume:
-            raise ValueError(f"{path}: the results file exists: resume it, or choose another output")
-        if exists:
-            old, rows, good, _trunc = read_results(path)
-            if old is not None and (old.get("settings") != header["settings"] or old.get("study") != header["study"]):
-                raise ValueError(f"{path}: the results file was written by another study configuration")
-            with open(path, "r+b") as f:
-                f.truncate(good)
-            for r in rows:
-                self._check(r)
-                self.rows[int(r["index"])] = r
-            self.f = open(path, "a", encoding="utf-8")
-            if old is None:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        # One writer per results file: a second one fails here, naming the holder's PID.
+        self.lock = _core.ResultsLock(path)
+        try:
+            exists = path.exists() and path.stat().st_size > 0
+            if exists and not resume:
+                raise ValueError(f"{path}: the results file exists: resume it, or choose another output")
+            if exists:
+                old, rows, good, _trunc = read_results(path)
+                if old is not None and (old.get("settings") != header["settings"] or old.get("study") != header["study"]):
+                    raise ValueError(f"{path}: the results file was written by another study configuration")
+                with open(path, "r+b") as f:
+                    f.truncate(good)
+                for r in rows:
+                    self._check(r)
+                    self.rows[int(r["index"])] = r
+                self.fd = os.open(path, os.O_WRONLY | os.O_APPEND)
+                if old is None:
+                    self._line(header)
+            else:
+                self.fd = os.open(path, os.O_WRONLY | os.O_APPEND | os.O_CREAT | os.O_TRUNC, 0o644)
                 self._line(header)
-        else:
-            path.parent.mkdir(parents=True, exist_ok=True)
-            self.f = open(path, "w", encoding="utf-8")
-            self._line(header)
+        except BaseException:
+            self.lock.release()
+            raise
 
     def _check(self, r: Dict[str, Any]) -> None:
         p = self.points.get(int(r.get("index", -1)))
@@ -86,8 +93,11 @@ class _Writer:
             raise ValueError(f"{self.path}: row {r.get('index')} does not belong to this study")
 
     def _line(self, obj: Dict[str, Any]) -> None:
-        self.f.write(json.dumps(obj, separators=(",", ":")) + "\n")
-        self.f.flush()
+        # One write of the whole line to a file opened with O_APPEND: rows never interleave.
+        data = (json.dumps(obj, separators=(",", ":")) + "\n").encode("utf-8")
+        n = os.write(self.fd, data)
+        while n < len(data):  # pragma: no cover - regular files take the whole write
+            n += os.write(self.fd, data[n:])
 
     def add(self, texts: Sequence[str]) -> None:
         for t in texts:
@@ -101,7 +111,8 @@ class _Writer:
             self.rows[i] = r
 
     def close(self) -> None:
-        self.f.close()
+        os.close(self.fd)
+        self.lock.release()
 
 
 class _Memory(_Writer):
