@@ -374,3 +374,19 @@ def test_unreachable_scheduler_writes_nothing(tmp_path, monkeypatch):
     with pytest.raises(ValueError, match="scheduler_file"):
         run_study(cfg, out=tmp_path / "s", scheduler_file=str(tmp_path / "missing.json"))
     assert not (tmp_path / "s").exists()
+
+
+def test_blocked_envelope_matches_the_whole_run_fft():
+    from beamslider.simulate import blocked_envelope
+
+    rng = np.random.default_rng(3)
+    n = 2_500_001  # prime-ish length, 50 s at 2e-5 s
+    t = np.arange(n) * 2e-5
+    slow = 1 + 0.5 * np.sin(2 * np.pi * 0.05 * t) + 0.2 * np.tanh((t - 20) / 0.5)
+    w = 1e-3 * slow * np.sin(2 * np.pi * 124 * t + 0.3 * np.sin(2 * np.pi * 0.1 * t)) \
+        + 2e-5 * np.sin(2 * np.pi * 780 * t) + 1e-6 * rng.standard_normal(n)
+    exact = beamslider.envelope(t, w, window=1.0)
+    fast = blocked_envelope(t, w, window=1.0)
+    rel = np.abs(fast - exact) / exact.max()
+    print(f"blocked envelope: max deviation {rel.max():.2e} of the peak")
+    assert rel.max() < 1e-3

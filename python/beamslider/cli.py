@@ -185,7 +185,7 @@ def write_json(path: Path, data: Dict[str, Any]) -> None:
 
 def simulation_summary(result: SimulationResult, *, t_end: float, record_every: int, wall_s: float,
                        window: float) -> Dict[str, Any]:
-    env = result.envelope(window) if len(result.t) > 2 else np.array([np.nan])
+    env = result.display_envelope(window) if len(result.t) > 2 else np.array([np.nan])
     return {
         "kind": "simulation",
         "model": result.model,

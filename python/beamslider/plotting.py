@@ -110,7 +110,7 @@ def plot_operating_point(
         series.append(("measurement", MEASURED_COLOR, measurement.t, measurement.w, measurement.s,
                        measurement.envelope(window) if len(measurement.t) > 2 else None))
     if result is not None:
-        env = result.envelope(window) if len(result.t) > 2 else None
+        env = result.display_envelope(window) if len(result.t) > 2 else None
         series.append(("model", MODEL_COLOR, result.t, result.w, result.s, env))
 
     for label, color, t, w, s, env in series:
