@@ -233,19 +233,19 @@ def test_second_writer_of_a_results_file_fails_at_once_naming_folder_and_pid(tmp
         pass
 
 
-def test_study_writer_takes_the_lock(tmp_path):
+def test_study_results_file_takes_the_lock(tmp_path):
     from beamslider.study import StudyConfig, Uncertain
-    from beamslider.study.results import _Writer
+    from beamslider.study.results import open_results
     from beamslider.study.sampling import study_points
 
     cfg = StudyConfig(uncertain=[Uncertain("friction_coefficient", "uniform", low=0.22, high=0.31)],
                       f_ex_hz=[120.0], a_ex_m_s2=[10.0], method="lhs", samples=2, seed=1, duration_s=1.0)
-    pts = {p.index: p for p in study_points(cfg)}
-    w = _Writer(tmp_path / "study.jsonl", cfg, pts, resume=False)
-    with pytest.raises(BlockingIOError, match="PID"):
-        _Writer(tmp_path / "study.jsonl", cfg, pts, resume=True)
+    pts = study_points(cfg)
+    w = open_results(cfg, pts, tmp_path / "study.jsonl", False)
+    with pytest.raises(BlockingIOError, match=f"PID {os.getpid()}"):
+        open_results(cfg, pts, tmp_path / "study.jsonl", True)
     w.close()
-    _Writer(tmp_path / "study.jsonl", cfg, pts, resume=True).close()
+    open_results(cfg, pts, tmp_path / "study.jsonl", True).close()
 
 
 def test_reader_ignores_a_torn_last_row(tmp_path):

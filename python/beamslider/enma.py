@@ -9,6 +9,10 @@ its clamping (paper §3, docs/model.md §9).
 - :func:`update_clamping` — k_r from ω (root finding on the linear model), k_t from b*, the mean
   damping ratio; returns updated :class:`~beamslider.Parameters`;
 - :func:`model_backbone` — (ω², b*) of a model; :func:`plot_enma` — the paper's Fig. 3 panels.
+
+One module of about 600 lines on purpose: the four steps of one workflow (data, fit, update,
+figure) share :class:`EnmaData` and its checks, and the public namespace ``beamslider.enma`` is
+this file; the numerics it needs (virtual ENMA, beam quantities) are in the Rust core.
 """
 
 from __future__ import annotations

@@ -10,14 +10,13 @@ the categorical map. A map started by ``beamslider map``, ``beamslider-batch map
 from __future__ import annotations
 
 import json
-import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Dict, List, Optional, Sequence, Union
 
 import numpy as np
 
-from . import _core
+from . import _core, _toml
 from .params import Parameters, resolve
 from .simulate import SimulationResult, _progress_bar
 
@@ -59,23 +58,37 @@ class Classification:
     ``not_settled``, ``high_towards_centre``)."""
 
 
+def _number(name: str, v: Any) -> Any:
+    """A number for a TOML value (int stays int; bools and non-numbers are a ValueError naming ``name``)."""
+    if isinstance(v, (bool, np.bool_)):
+        raise ValueError(f"invalid parameter `{name}` = {v!r}: expected a number")
+    if isinstance(v, (int, np.integer)):
+        return int(v)
+    try:
+        return float(v)
+    except (TypeError, ValueError):
+        raise ValueError(f"invalid parameter `{name}` = {v!r}: expected a number") from None
+
+
 def _criteria_toml(criteria: Optional[Dict[str, float]]) -> Optional[str]:
     if not criteria:
         return None
-    return "".join(f"{k} = {_toml_number(v)}\n" for k, v in criteria.items())
+    return _toml.dumps({str(k): _number(f"criteria.{k}", v) for k, v in criteria.items()})
 
 
-def _toml_number(v: Any) -> str:
-    if isinstance(v, (bool, np.bool_)):
-        raise ValueError(f"expected a number, got {v!r}")
-    if isinstance(v, (int, np.integer)):
-        return str(int(v))
-    x = float(v)
-    if np.isnan(x):
-        return "nan"
-    if np.isinf(x):
-        return "inf" if x > 0 else "-inf"
-    return repr(x)
+def map_config_dict(params: Optional[Parameters] = None, *, f_ex: Any, a_ex: Any, s0: Any = 0.3,
+                    t_end: float = 120.0, record_every: int = 20, dt_s: Optional[float] = None,
+                    criteria: Optional[Dict[str, float]] = None) -> Dict[str, Any]:
+    """The tables of a map configuration (see :func:`map_config_toml`)."""
+    d: Dict[str, Any] = {"duration_s": float(t_end), "record_every": int(record_every)}
+    if dt_s is not None:
+        d["dt_s"] = float(dt_s)
+    d["grid"] = {key: _axis(name, values) for key, name, values in
+                 (("f_ex_hz", "f_ex", f_ex), ("a_ex_m_s2", "a_ex", a_ex), ("s0", "s0", s0))}
+    d["params"] = _toml.loads(resolve(params).toml_text())
+    if criteria:
+        d["criteria"] = {str(k): _number(f"criteria.{k}", v) for k, v in criteria.items()}
+    return d
 
 
 def classify(t: Any, s: Any, amplitude_h: Any, *, criteria: Optional[Dict[str, float]] = None) -> Classification:
@@ -139,14 +152,8 @@ def map_config_toml(params: Optional[Parameters] = None, *, f_ex: Any, a_ex: Any
                     t_end: float = 120.0, record_every: int = 20,
                     criteria: Optional[Dict[str, float]] = None) -> str:
     """The map configuration as TOML (the format of ``beamslider-batch map --config``)."""
-    p = resolve(params)
-    lines = [f"duration_s = {_toml_number(float(t_end))}", f"record_every = {int(record_every)}", "", "[grid]"]
-    for key, name, values in (("f_ex_hz", "f_ex", f_ex), ("a_ex_m_s2", "a_ex", a_ex), ("s0", "s0", s0)):
-        lines.append(f"{key} = [{', '.join(_toml_number(v) for v in _axis(name, values))}]")
-    lines += ["", "[params]", p.toml_text().strip()]
-    if criteria:
-        lines += ["", "[criteria]", _criteria_toml(criteria).strip()]
-    return "\n".join(lines) + "\n"
+    return _toml.dumps(map_config_dict(params, f_ex=f_ex, a_ex=a_ex, s0=s0, t_end=t_end,
+                                         record_every=record_every, criteria=criteria))
 
 
 def default_map_config() -> str:
@@ -268,7 +275,7 @@ def run_map_config(config_toml: str, *, out: Optional[Union[str, Path]] = None, 
             client.close()
     table = rows_to_table([json.loads(r) for r in rows])
     if report and (extend or extended):
-        t_end = float(re.search(r"^duration_s\s*=\s*(\S+)", canonical, re.M).group(1))
+        t_end = float(_toml.loads(canonical)["duration_s"])
         print(f"re-ran {extended} not-settled of {len(table['index'])} points from their saved end states "
               f"to t_end = {t_end:g} s")
     return table

@@ -13,7 +13,8 @@ import re
 from dataclasses import dataclass
 from typing import Any, Dict, Union
 
-from . import _core
+
+from . import _core, _toml
 
 PathLike = Union[str, "os.PathLike[str]"]
 
@@ -174,48 +175,32 @@ crates/beamslider-core/src/params.rs) enforces them; docs/model.md §1 shows thi
 tests/test_model_doc.py probes the core with values at each bound."""
 
 
-def _toml_value(key: str, v: Any, kind: str) -> str:
-    """One TOML value; floats for float fields and integers for integer fields so that the
-    core's (strict) TOML reader sees the type it expects, anything else as given so that the
-    core names the field in its error."""
+def _toml_value(key: str, v: Any, kind: str) -> Any:
+    """One value for the TOML text: floats for float fields and integers for integer fields so that
+    the core's (strict) TOML reader sees the type it expects, strings as given so that the core
+    names the field in its error."""
     if isinstance(v, bool):
         raise ValueError(f"invalid parameter `{key}` = {v!r}: must be a number")
     if isinstance(v, str):
-        return _toml_string(v)
+        if any(0xD800 <= ord(ch) <= 0xDFFF for ch in v):
+            raise ValueError(f"invalid parameter `{key}` = {v!r}: must be valid text (a lone surrogate is not)")
+        return v
     try:
         x = float(v)
     except (TypeError, ValueError):
         raise ValueError(f"invalid parameter `{key}` = {v!r}: must be a number") from None
     if kind == "int" and math.isfinite(x) and x == int(x):
-        return str(int(x))
-    if math.isnan(x):
-        return "nan"
-    if math.isinf(x):
-        return "inf" if x > 0 else "-inf"
-    return repr(x)
-
-
-def _toml_string(v: str) -> str:
-    """A TOML basic string: quotes, backslashes and control characters escaped, so that the text
-    stays on its line (an error then names the right key); surrogates become invalid escapes
-    that the core reports for this key."""
-    out = []
-    for ch in v:
-        o = ord(ch)
-        if ch in '"\\':
-            out.append("\\" + ch)
-        elif o < 0x20 or o == 0x7F or 0xD800 <= o <= 0xDFFF:
-            out.append(f"\\u{o:04X}")
-        else:
-            out.append(ch)
-    return '"' + "".join(out) + '"'
+        return int(x)
+    return x
 
 
 _KINDS = {f.name: str(f.type) for f in dataclasses.fields(Parameters)}
 
 
 def _to_toml(values: Dict[str, Any]) -> str:
-    return "".join(f"{k} = {_toml_value(k, v, _KINDS.get(k, 'float'))}\n" for k, v in values.items())
+    """TOML text of parameter values (tomli-w; one ``key = value`` line per value, in order, so
+    that a core error's line number names the key, see :func:`_one_line`)."""
+    return _toml.dumps({k: _toml_value(k, v, _KINDS.get(k, "float")) for k, v in values.items()})
 
 
 def _one_line(err: ValueError, values: Dict[str, Any]) -> ValueError:

@@ -8,9 +8,8 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
-fn bin() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_beamslider-batch"))
-}
+mod common;
+use common::{bin, rows};
 
 fn tmp(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("bsb-bad-{}-{name}", std::process::id()));
@@ -297,23 +296,6 @@ fn map_with_failing_points_finishes_the_others_and_lists_failures() {
     assert_eq!(o.status.code(), Some(3), "{err}");
     assert!(err.contains("0 computed") && err.contains("4 from the results file"), "{err}");
     assert_eq!(std::fs::read_to_string(out.join("map.jsonl")).unwrap(), text);
-}
-
-fn rows(path: &Path) -> Vec<String> {
-    let text = std::fs::read_to_string(path).unwrap();
-    let mut v: Vec<(usize, String)> = text
-        .split_inclusive('\n')
-        .skip(1)
-        .filter(|l| l.ends_with('\n'))
-        .map(|l| {
-            let l = l.trim_end();
-            let cut = l.find(",\"wall_time_s\":").expect("wall time field");
-            let idx: usize = l["{\"index\":".len()..l.find(',').unwrap()].parse().unwrap();
-            (idx, l[..cut].to_string())
-        })
-        .collect();
-    v.sort();
-    v.into_iter().map(|(_, l)| l).collect()
 }
 
 #[cfg(unix)]

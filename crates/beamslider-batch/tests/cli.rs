@@ -1,10 +1,7 @@
 //! Smoke tests of the `beamslider-batch` binary.
 
-use std::process::Command;
-
-fn bin() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_beamslider-batch"))
-}
+mod common;
+use common::bin;
 
 #[test]
 fn help_lists_simulate() {

@@ -1,29 +1,10 @@
 //! `beamslider-batch map`: kill a map mid-run, resume it, compare with an uninterrupted run.
 
-use std::process::{Command, Stdio};
+use std::process::Stdio;
 use std::time::{Duration, Instant};
 
-fn bin() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_beamslider-batch"))
-}
-
-fn rows(path: &std::path::Path) -> Vec<String> {
-    // Complete lines after the header, wall time removed, sorted by grid index.
-    let text = std::fs::read_to_string(path).unwrap();
-    let mut v: Vec<(usize, String)> = text
-        .split_inclusive('\n')
-        .skip(1)
-        .filter(|l| l.ends_with('\n'))
-        .map(|l| {
-            let l = l.trim_end();
-            let cut = l.find(",\"wall_time_s\":").expect("wall time field");
-            let idx: usize = l["{\"index\":".len()..l.find(',').unwrap()].parse().unwrap();
-            (idx, l[..cut].to_string())
-        })
-        .collect();
-    v.sort();
-    v.into_iter().map(|(_, l)| l).collect()
-}
+mod common;
+use common::{bin, rows};
 
 #[test]
 fn killed_map_resumes_without_loss_or_duplicates() {

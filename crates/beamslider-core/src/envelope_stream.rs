@@ -180,6 +180,22 @@ impl EnvelopeStream {
         (a, s)
     }
 
+    /// The super-slow signals of whole recorded series: w(4L/7) [m] and s sampled every
+    /// `sample_dt_s` from a run from rest, pushed in order, then [`EnvelopeStream::super_slow`]
+    /// with thickness `h_m` and window `window_s` (inputs checked).
+    pub fn of_series(w: &[f64], s: &[f64], sample_dt_s: f64, h_m: f64, window_s: f64) -> Result<SuperSlow> {
+        crate::signal::positive("window", window_s, " (seconds)")?;
+        crate::signal::positive("thickness_m", h_m, "")?;
+        if w.len() != s.len() {
+            return Err(Error::invalid("s", format!("{} samples", s.len()), &format!("w and s must have the same length ({} samples of w)", w.len())));
+        }
+        let mut st = EnvelopeStream::new(sample_dt_s)?;
+        for (a, b) in w.iter().zip(s) {
+            st.push(*a, *b);
+        }
+        Ok(st.super_slow(h_m, window_s))
+    }
+
     /// The super-slow signals for the classifier: s per bin and A = centred `window_s` moving
     /// average (1 s in the paper) of the binned amplitude divided by the thickness `h_m`, over
     /// the final bins only (the last ≤ 0.25 s of a run, whose Hilbert filter would see past the

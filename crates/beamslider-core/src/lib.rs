@@ -5,7 +5,7 @@
 //!
 //! Modules follow the physics: [`params`] (§1), [`beam`] and [`excitation`] (§2), [`slider`] (§3), [`contact`]
 //! (§4), [`solver`] and [`stepper`] (§5), [`simulation`] and [`manifold`] (§6), [`record`] and
-//! [`signal`] and [`envelope_stream`] (§7), [`classify`] and [`map`] (§8), [`enma`] (§9); [`superslow`]: the super-slow
+//! [`signal`] and [`envelope_stream`] (§7), [`classify`], [`map`] and [`study`] (§8) on the one batch [`runner`], [`enma`] (§9); [`superslow`]: the super-slow
 //! manifold by harmonic balance (issue 17, layer (a)).
 #![warn(missing_docs)]
 
@@ -22,12 +22,14 @@ pub mod map;
 pub mod output;
 pub mod params;
 pub mod record;
+pub mod runner;
 pub mod signal;
 pub mod envelope_stream;
 pub mod simulation;
 pub mod slider;
 pub mod solver;
 pub mod stepper;
+pub mod study;
 pub mod superslow;
 
 pub use beam::Beam;

@@ -24,11 +24,9 @@ use std::collections::HashSet;
 use std::fs::{File, OpenOptions};
 use std::io::{BufRead, BufReader, Write};
 use std::path::{Path, PathBuf};
-use std::sync::Mutex;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::AtomicBool;
 use std::time::Instant;
 
-use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::classify::{Behaviour, Classification, Criteria, classify};
@@ -37,6 +35,7 @@ use crate::error::{Error, Result};
 use crate::lock::ResultsLock;
 use crate::params::Params;
 use crate::record::{Channel, Recorder};
+use crate::runner::{catch_panic, run_batch};
 use crate::simulation::{CancelFlag, Checkpoint, Excitation, Model, RunOptions, SliderModel, State, Status};
 use crate::stepper::{Counters, StepperMemory};
 
@@ -222,6 +221,9 @@ pub struct Settings {
 struct Header {
     beamslider_map: u32,
     settings: Settings,
+    /// A study's configuration (study results files only, [`crate::study::StudyResults`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    study: Option<serde_json::Value>,
 }
 
 impl MapConfig {
@@ -313,48 +315,6 @@ impl MapConfig {
     }
 }
 
-/// Solver and contact counters of one run (as [`Counters`]).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
-pub struct RowCounters {
-    /// Time steps taken.
-    pub steps: u64,
-    /// Steps with at least one closed contact.
-    pub contact_steps: u64,
-    /// Steps by number of closed contacts (0..=4).
-    pub closed_histogram: [u64; 5],
-    /// Gauss–Seidel sweeps in total.
-    pub solver_iterations: u64,
-    /// Largest number of sweeps in one step.
-    pub max_iterations: u32,
-    /// Steps that hit the iteration cap.
-    pub cap_hits: u64,
-    /// Fast solver: steps where the previous pattern fitted at once.
-    pub first_guess_hits: u64,
-    /// Fast solver: linear solves.
-    pub linear_solves: u64,
-    /// Fast solver: enumerations of all patterns.
-    pub enumerations: u64,
-    /// Fast solver: Gauss–Seidel fallbacks.
-    pub fallbacks: u64,
-}
-
-impl From<&Counters> for RowCounters {
-    fn from(c: &Counters) -> Self {
-        RowCounters {
-            steps: c.steps,
-            contact_steps: c.contact_steps,
-            closed_histogram: c.closed_histogram,
-            solver_iterations: c.solver_iterations,
-            max_iterations: c.max_iterations,
-            cap_hits: c.cap_hits,
-            first_guess_hits: c.first_guess_hits,
-            linear_solves: c.linear_solves,
-            enumerations: c.enumerations,
-            fallbacks: c.fallbacks,
-        }
-    }
-}
-
 /// One line of the results file: the inputs, the run's status, the behaviour with its features,
 /// the counters and the wall time. NaN features (no turning point) are written as `null`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -412,13 +372,17 @@ pub struct MapRow {
     /// Phase reached at the end of the run (see [`Classification::phase`]).
     #[serde(default)]
     pub phase: String,
-    /// Solver counters.
-    pub counters: RowCounters,
+    /// Solver counters (without `max_residual`).
+    pub counters: Counters,
     /// Wall time of the point [s] (the only field that differs between identical runs).
     pub wall_time_s: f64,
     /// End state of a completed run, to continue it (None for failed runs and study rows).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub end: Option<EndState>,
+    /// Further keys of the row, kept as read and written after the others (a study row's
+    /// `sample`, `point` and `params`, [`crate::study::StudyResults`]).
+    #[serde(flatten, default, skip_serializing_if = "serde_json::Map::is_empty")]
+    pub extra: serde_json::Map<String, serde_json::Value>,
 }
 
 /// The end state of a completed run: everything needed to continue it bitwise (see
@@ -438,7 +402,7 @@ pub struct EndState {
     /// Steps since the clock's last re-synchronisation.
     pub clock_count: u32,
     /// Counters (max_residual is in `x`).
-    pub counters: RowCounters,
+    pub counters: Counters,
     /// Super-slow signals so far.
     pub signals: EnvelopeStream,
 }
@@ -455,7 +419,7 @@ impl EndState {
         x.extend(m.last_p.iter().flatten());
         x.extend_from_slice(&m.clock);
         x.push(m.counters.max_residual);
-        EndState { step: cp.step, x, modes: m.modes, clock_count: m.clock_count, counters: (&m.counters).into(), signals }
+        EndState { step: cp.step, x, modes: m.modes, clock_count: m.clock_count, counters: m.counters, signals }
     }
 
     /// The checkpoint and the signals, checked against the model (number of modes) and the
@@ -480,20 +444,7 @@ impl EndState {
         let last = take(8);
         let clock = take(3);
         let pair = |v: &[f64], i: usize| [v[2 * i], v[2 * i + 1]];
-        let c = &self.counters;
-        let counters = Counters {
-            steps: c.steps,
-            contact_steps: c.contact_steps,
-            closed_histogram: c.closed_histogram,
-            solver_iterations: c.solver_iterations,
-            max_iterations: c.max_iterations,
-            cap_hits: c.cap_hits,
-            first_guess_hits: c.first_guess_hits,
-            linear_solves: c.linear_solves,
-            enumerations: c.enumerations,
-            fallbacks: c.fallbacks,
-            max_residual: x[x.len() - 1],
-        };
+        let counters = Counters { max_residual: x[x.len() - 1], ..self.counters };
         let cp = Checkpoint {
             t_origin_s: x[0],
             step: self.step,
@@ -548,9 +499,10 @@ impl MapRow {
             jump_down_t_s: c.jump_down_t_s.clone(),
             steady: c.steady,
             phase: c.phase.clone(),
-            counters: counters.into(),
+            counters: Counters { max_residual: 0.0, ..*counters },
             wall_time_s: wall,
             end,
+            extra: serde_json::Map::new(),
         }
     }
 
@@ -702,7 +654,7 @@ fn run_point_guarded(model: &Model, cfg: &MapConfig, job: &Job, cancel: &AtomicB
     let p = match job {
         Job::Fresh(p) | Job::Continue(p, _) => p,
     };
-    let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| match job {
+    let r = catch_panic(|| match job {
         Job::Fresh(p) => run_point(model, cfg, p, cancel),
         Job::Continue(p, row) => continue_point(model, cfg, row, cancel).map(|r| {
             r.map(|mut r| {
@@ -710,18 +662,11 @@ fn run_point_guarded(model: &Model, cfg: &MapConfig, job: &Job, cancel: &AtomicB
                 r
             })
         }),
-    }));
+    });
     let message = match r {
         Ok(Ok(row)) => return row,
         Ok(Err(e)) => e.to_string(),
-        Err(panic) => {
-            let what = panic
-                .downcast_ref::<&str>()
-                .map(|s| s.to_string())
-                .or_else(|| panic.downcast_ref::<String>().cloned())
-                .unwrap_or_else(|| "unknown panic".into());
-            format!("internal error: {what}")
-        }
+        Err(what) => format!("internal error: {what}"),
     };
     let c = no_classification(p, message);
     let mut row = MapRow::new(p, f64::NAN, &Status::Completed, &c, &Counters::default(), t0.elapsed().as_secs_f64(), None);
@@ -744,10 +689,21 @@ pub struct ResultsFile {
     pub truncated: bool,
     /// Format version of the header (0 for an empty file).
     pub version: u32,
+    /// The study configuration of the header (a study results file), as JSON.
+    pub study: Option<serde_json::Value>,
 }
 
-fn io_err(path: &Path, source: std::io::Error) -> Error {
+pub(crate) fn io_err(path: &Path, source: std::io::Error) -> Error {
     Error::Io { path: path.display().to_string(), source }
+}
+
+impl ResultsFile {
+    /// The header line as read (version, settings and, for a study, its configuration) as JSON
+    /// text; None for a file without a header.
+    pub fn header_json(&self) -> Option<String> {
+        let s = self.settings.as_ref()?;
+        Some(serde_json::to_string(&Header { beamslider_map: self.version, settings: s.clone(), study: self.study.clone() }).expect("header serialises"))
+    }
 }
 
 /// Read a results file. Only lines ending in a newline count; an incomplete last line (a run
@@ -789,6 +745,7 @@ pub fn read_results(path: &Path) -> Result<ResultsFile> {
                     }
                     out.version = h.beamslider_map;
                     out.settings = Some(h.settings);
+                    out.study = h.study;
                     true
                 }
                 Err(_) => false,
@@ -878,19 +835,28 @@ pub fn preflight(cfg: &MapConfig, opts: &MapRunOptions) -> Result<()> {
         return Err(Error::invalid("extend_to", cfg.duration_s, "needs the results file of the map to extend (out)"));
     }
     if let Some(path) = &opts.out {
-        let exists = path.exists() && std::fs::metadata(path).map(|m| m.len() > 0).unwrap_or(false);
-        if exists && !opts.resume && !opts.extend {
-            return Err(Error::invalid("out", path.display(), "the results file exists: resume it, or choose another output"));
-        }
-        if opts.extend && !exists {
-            return Err(Error::invalid("extend_to", path.display(), "no results file to extend"));
-        }
-        if exists {
-            let old = read_results(path)?;
-            check_settings(cfg, opts, path, &old)?;
-        }
+        existing_results(cfg, opts, path)?;
     }
     Ok(())
+}
+
+/// The results file `path` of the map to run, read and checked (None when absent or empty): an
+/// existing file needs `resume` or `extend` and the same settings ([`check_settings`]); `extend`
+/// needs one.
+fn existing_results(cfg: &MapConfig, opts: &MapRunOptions, path: &Path) -> Result<Option<ResultsFile>> {
+    let exists = path.exists() && std::fs::metadata(path).map(|m| m.len() > 0).unwrap_or(false);
+    if exists && !opts.resume && !opts.extend {
+        return Err(Error::invalid("out", path.display(), "the results file exists: resume it, or choose another output"));
+    }
+    if opts.extend && !exists {
+        return Err(Error::invalid("extend_to", path.display(), "no results file to extend"));
+    }
+    if !exists {
+        return Ok(None);
+    }
+    let old = read_results(path)?;
+    check_settings(cfg, opts, path, &old)?;
+    Ok(Some(old))
 }
 
 /// The settings of an existing results file against the map to run (resume: equal; extend:
@@ -947,6 +913,13 @@ pub struct MapResults {
     pub extended: usize,
 }
 
+/// Open a results file for appending (O_APPEND: every row lands at the end in one write), after
+/// cutting it to `good_len` (a torn last line from a killed writer; we hold the lock).
+pub(crate) fn open_append(path: &Path, good_len: u64) -> Result<File> {
+    OpenOptions::new().write(true).open(path).and_then(|f| f.set_len(good_len)).map_err(|e| io_err(path, e))?;
+    OpenOptions::new().append(true).open(path).map_err(|e| io_err(path, e))
+}
+
 impl MapResults {
     /// Check the map (as [`preflight`]), take the results file's lock, cut off a torn last line,
     /// write the header of a new file and plan the jobs.
@@ -955,58 +928,49 @@ impl MapResults {
         let points = cfg.points()?;
         let settings = cfg.settings();
         Model::new(cfg.effective_params())?;
+        if opts.extend && opts.out.is_none() {
+            return Err(Error::invalid("extend_to", cfg.duration_s, "needs the results file of the map to extend (out)"));
+        }
         let mut existing: Vec<MapRow> = Vec::new();
         let file = match &opts.out {
-            None => {
-                if opts.extend {
-                    return Err(Error::invalid("extend_to", cfg.duration_s, "needs the results file of the map to extend (out)"));
-                }
-                None
-            }
+            None => None,
             Some(path) => {
                 if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
                     std::fs::create_dir_all(dir).map_err(|e| io_err(dir, e))?;
                 }
                 let lock = ResultsLock::acquire(path)?;
-                let exists = path.exists() && std::fs::metadata(path).map(|m| m.len() > 0).unwrap_or(false);
-                if exists && !opts.resume && !opts.extend {
-                    return Err(Error::invalid("out", path.display(), "the results file exists: resume it, or choose another output"));
-                }
-                if opts.extend && !exists {
-                    return Err(Error::invalid("extend_to", path.display(), "no results file to extend"));
-                }
-                if exists {
-                    let old = read_results(path)?;
-                    check_settings(cfg, opts, path, &old)?;
-                    if old.settings.as_ref().is_some_and(|s| *s != settings) {
-                        // Extension: the header takes the new duration. Write the new file beside
-                        // the old one and swap them, so that a kill loses nothing.
-                        let tmp = path.with_extension("jsonl.extend-tmp");
-                        let mut text = header_line(&settings);
+                let old = existing_results(cfg, opts, path)?;
+                let exists = old.is_some();
+                if let Some(old) = old
+                    && old.settings.as_ref().is_some_and(|s| *s != settings)
+                {
+                    // Extension: the header takes the new duration. Write the new file beside the
+                    // old one and swap them, so that a kill loses nothing.
+                    let tmp = path.with_extension("jsonl.extend-tmp");
+                    let mut text = header_line(&settings);
+                    text.push('\n');
+                    for r in &latest(old.rows) {
+                        text.push_str(&r.to_json());
                         text.push('\n');
-                        for r in &latest(old.rows.clone()) {
-                            text.push_str(&r.to_json());
-                            text.push('\n');
-                        }
-                        std::fs::write(&tmp, text).map_err(|e| io_err(&tmp, e))?;
-                        std::fs::rename(&tmp, path).map_err(|e| io_err(path, e))?;
                     }
+                    std::fs::write(&tmp, text).map_err(|e| io_err(&tmp, e))?;
+                    std::fs::rename(&tmp, path).map_err(|e| io_err(path, e))?;
+                }
+                let f = if exists {
                     let old = read_results(path)?;
-                    // A torn last line (a writer killed mid-row) is cut off; we hold the lock.
-                    OpenOptions::new().write(true).open(path).and_then(|f| f.set_len(old.good_len)).map_err(|e| io_err(path, e))?;
-                    let mut f = OpenOptions::new().append(true).open(path).map_err(|e| io_err(path, e))?;
+                    let mut f = open_append(path, old.good_len)?;
                     if old.settings.is_none() {
                         write_line(&mut f, path, &header_line(&settings))?;
                     }
                     existing = latest(old.rows);
-                    Some((f, path.clone(), lock))
+                    f
                 } else {
                     let mut f = OpenOptions::new().create(true).truncate(true).write(true).open(path).map_err(|e| io_err(path, e))?;
                     write_line(&mut f, path, &header_line(&settings))?;
                     drop(f);
-                    let f = OpenOptions::new().append(true).open(path).map_err(|e| io_err(path, e))?;
-                    Some((f, path.clone(), lock))
-                }
+                    OpenOptions::new().append(true).open(path).map_err(|e| io_err(path, e))?
+                };
+                Some((f, path.clone(), lock))
             }
         };
         // Points already done (by inputs, not by index: the grid may have changed).
@@ -1050,38 +1014,12 @@ impl MapResults {
     }
 }
 
-/// Run `jobs` in parallel (rayon, `threads` workers or one per core), handing each finished row
-/// to `on_row`; an error of `on_row` cancels the rest and is returned.
-pub fn run_jobs(cfg: &MapConfig, jobs: &[Job], threads: Option<usize>, cancel: &AtomicBool, on_row: &(dyn Fn(MapRow) -> Result<()> + Sync)) -> Result<()> {
+/// Run `jobs` in parallel (the core's batch runner, [`run_batch`]: `threads` workers or one per
+/// core), handing each finished row to `on_row`; an error of `on_row` cancels the rest.
+pub fn run_jobs(cfg: &MapConfig, jobs: &[Job], threads: Option<usize>, cancel: &AtomicBool, mut on_row: impl FnMut(MapRow) -> Result<()> + Send) -> Result<()> {
     let model = Model::new(cfg.effective_params())?;
-    let error: Mutex<Option<Error>> = Mutex::new(None);
-    let work = || {
-        jobs.par_iter().with_max_len(1).for_each(|job| {
-            if cancel.load(Ordering::Relaxed) {
-                return;
-            }
-            if let Some(row) = run_point_guarded(&model, cfg, job, cancel)
-                && let Err(e) = on_row(row)
-            {
-                error.lock().unwrap_or_else(|e| e.into_inner()).get_or_insert(e);
-                cancel.store(true, Ordering::Relaxed);
-            }
-        })
-    };
-    match threads {
-        Some(n) => {
-            let pool = rayon::ThreadPoolBuilder::new()
-                .num_threads(n.max(1))
-                .build()
-                .map_err(|e| Error::Numerical(format!("cannot start {n} threads: {e}")))?;
-            pool.install(work);
-        }
-        None => work(),
-    }
-    match error.into_inner().unwrap_or_else(|e| e.into_inner()) {
-        Some(e) => Err(e),
-        None => Ok(()),
-    }
+    run_batch(jobs, threads, cancel, |job| Ok(run_point_guarded(&model, cfg, job, cancel)), |row: &MapRow| on_row(row.clone()))?;
+    Ok(())
 }
 
 /// Run the grid of `cfg` in parallel, appending each finished point to the results file.
@@ -1090,24 +1028,27 @@ pub fn run_map(cfg: &MapConfig, opts: &MapRunOptions, cancel: &AtomicBool, progr
     let mut results = MapResults::open(cfg, opts)?;
     let jobs = std::mem::take(&mut results.jobs);
     let total = results.total;
-    let sink = Mutex::new(results);
-    run_jobs(cfg, &jobs, opts.threads, cancel, &|row| {
-        let mut g = sink.lock().unwrap_or_else(|e| e.into_inner());
-        g.append(row)?;
-        if let Some(last) = g.rows.last() {
-            progress(g.rows.len(), total, last);
+    run_jobs(cfg, &jobs, opts.threads, cancel, |row| {
+        results.append(row)?;
+        if let Some(last) = results.rows.last() {
+            progress(results.rows.len(), total, last);
         }
         Ok(())
     })?;
-    Ok(sink.into_inner().unwrap_or_else(|e| e.into_inner()).finish())
+    Ok(results.finish())
+}
+
+/// The header line of a results file (without the newline); `study`: a study's configuration.
+pub(crate) fn header_line_with(s: &Settings, study: Option<&serde_json::Value>) -> String {
+    serde_json::to_string(&Header { beamslider_map: FORMAT_VERSION, settings: s.clone(), study: study.cloned() }).expect("header serialises")
 }
 
 fn header_line(s: &Settings) -> String {
-    serde_json::to_string(&Header { beamslider_map: FORMAT_VERSION, settings: s.clone() }).expect("header serialises")
+    header_line_with(s, None)
 }
 
 /// Append one line and flush it to the operating system.
-fn write_line(f: &mut File, path: &Path, line: &str) -> Result<()> {
+pub(crate) fn write_line(f: &mut File, path: &Path, line: &str) -> Result<()> {
     let mut buf = String::with_capacity(line.len() + 1);
     buf.push_str(line);
     buf.push('\n');

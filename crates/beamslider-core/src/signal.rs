@@ -1,6 +1,7 @@
 //! Post-processing of docs/model.md §7: analytic-signal envelope (Hilbert transform via FFT) and
 //! the centred moving average.
 
+use crate::error::{Error, Result};
 use rustfft::{FftPlanner, num_complex::Complex};
 
 /// |analytic signal| of x: FFT, zero the negative frequencies, double the positive ones, inverse
@@ -60,6 +61,22 @@ pub fn moving_average(x: &[f64], window: usize) -> Vec<f64> {
 pub fn envelope(x: &[f64], dt_s: f64, window_s: f64) -> Vec<f64> {
     let k = (window_s / dt_s).round().max(1.0) as usize;
     moving_average(&hilbert_envelope(x), k)
+}
+
+/// [`envelope`] with its inputs checked: `dt_s` and `window_s` finite and > 0.
+pub fn envelope_checked(x: &[f64], dt_s: f64, window_s: f64) -> Result<Vec<f64>> {
+    positive("dt_s", dt_s, "")?;
+    positive("window", window_s, " (seconds)")?;
+    Ok(envelope(x, dt_s, window_s))
+}
+
+/// `value` finite and > 0, or an error naming `field` (`unit` appended to the rule).
+pub fn positive(field: &str, value: f64, unit: &str) -> Result<()> {
+    if value.is_finite() && value > 0.0 {
+        Ok(())
+    } else {
+        Err(Error::invalid(field, value, &format!("must be finite and > 0{unit}")))
+    }
 }
 
 #[cfg(test)]

@@ -218,29 +218,26 @@ impl Model {
                 ),
             ));
         }
-        let (w0, _, _) = excitation.at(0.0);
-        let n = self.beam.n;
-        Ok(State {
-            t_s: 0.0,
-            q: vec![0.0; n],
-            u: vec![0.0; n],
-            slider_q: [s0 * p.length_m, -p.com_offset_m + w0, 0.0],
-            slider_u: [0.0; 3],
-        })
+        Ok(self.at_rest(s0 * p.length_m, excitation))
     }
 
     /// PCS / manifold initial state: all zero except z_C = −d + w₀(0).
     pub fn initial_state_pcs(&self, excitation: &Excitation) -> Result<State> {
         excitation.validate()?;
+        Ok(self.at_rest(0.0, excitation))
+    }
+
+    /// Beam and slider at rest at t = 0: q = u = 0, x_C = `x_c_m`, z_C = −d + w₀(0), β = 0.
+    fn at_rest(&self, x_c_m: f64, excitation: &Excitation) -> State {
         let (w0, _, _) = excitation.at(0.0);
         let n = self.beam.n;
-        Ok(State {
+        State {
             t_s: 0.0,
             q: vec![0.0; n],
             u: vec![0.0; n],
-            slider_q: [0.0, -self.params.com_offset_m + w0, 0.0],
+            slider_q: [x_c_m, -self.params.com_offset_m + w0, 0.0],
             slider_u: [0.0; 3],
-        })
+        }
     }
 
     /// The initial state of a run of `model` (docs/model.md §5–6): [`Self::initial_state`] at s₀ for
@@ -355,7 +352,7 @@ impl Model {
         macro_rules! go {
             ($($n:literal)*) => {
                 match n {
-                    $($n => run_n::<$n>(self, start, resume, opts, rec, monitor),)*
+                    $($n => run_n::<$n>(Run { model: self, start, resume, opts }, rec, monitor),)*
                     _ => Err(Error::invalid("n_modes", n, "must lie in 1..=20")),
                 }
             };
@@ -440,6 +437,15 @@ fn sane<const N: usize>(model: &Model, slider: &Slider, s: &StateN<N>, x_kin: f6
     w.is_finite() && w.abs() < 0.25 * l && (centre - w0 - w).abs() < 2.0 * opening && s.qs[2].abs() < 0.5
 }
 
+/// The inputs of one run, handed from [`Model::dispatch`] to the time loop specialised to N modes.
+#[derive(Clone, Copy)]
+struct Run<'a> {
+    model: &'a Model,
+    start: &'a State,
+    resume: Option<&'a Checkpoint>,
+    opts: &'a RunOptions,
+}
+
 static SIMD: AtomicBool = AtomicBool::new(true);
 
 /// Use the AVX2 + FMA build of the time loop where the CPU has it (default: on). Both builds do
@@ -449,14 +455,7 @@ pub fn set_simd(enabled: bool) {
     SIMD.store(enabled, Ordering::Relaxed);
 }
 
-fn run_n<const N: usize>(
-    model: &Model,
-    start: &State,
-    resume: Option<&Checkpoint>,
-    opts: &RunOptions,
-    rec: &mut dyn Recorder,
-    monitor: &mut dyn Monitor,
-) -> Result<(RunSummary, Checkpoint)> {
+fn run_n<const N: usize>(run: Run<'_>, rec: &mut dyn Recorder, monitor: &mut dyn Monitor) -> Result<(RunSummary, Checkpoint)> {
     #[cfg(target_arch = "x86_64")]
     {
         if SIMD.load(Ordering::Relaxed)
@@ -464,34 +463,21 @@ fn run_n<const N: usize>(
             && std::arch::is_x86_feature_detected!("fma")
         {
             // SAFETY: the CPU supports AVX2 and FMA, checked just above.
-            return unsafe { run_n_avx2::<N>(model, start, resume, opts, rec, monitor) };
+            return unsafe { run_n_avx2::<N>(run, rec, monitor) };
         }
     }
-    run_n_generic::<N>(model, start, resume, opts, rec, monitor)
+    run_n_generic::<N>(run, rec, monitor)
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
-fn run_n_avx2<const N: usize>(
-    model: &Model,
-    start: &State,
-    resume: Option<&Checkpoint>,
-    opts: &RunOptions,
-    rec: &mut dyn Recorder,
-    monitor: &mut dyn Monitor,
-) -> Result<(RunSummary, Checkpoint)> {
-    run_n_generic::<N>(model, start, resume, opts, rec, monitor)
+fn run_n_avx2<const N: usize>(run: Run<'_>, rec: &mut dyn Recorder, monitor: &mut dyn Monitor) -> Result<(RunSummary, Checkpoint)> {
+    run_n_generic::<N>(run, rec, monitor)
 }
 
 #[inline(always)]
-fn run_n_generic<const N: usize>(
-    model: &Model,
-    start: &State,
-    resume: Option<&Checkpoint>,
-    opts: &RunOptions,
-    rec: &mut dyn Recorder,
-    monitor: &mut dyn Monitor,
-) -> Result<(RunSummary, Checkpoint)> {
+fn run_n_generic<const N: usize>(run: Run<'_>, rec: &mut dyn Recorder, monitor: &mut dyn Monitor) -> Result<(RunSummary, Checkpoint)> {
+    let Run { model, start, resume, opts } = run;
     let p = &model.params;
     let dt = p.dt_s;
     let l = p.length_m;

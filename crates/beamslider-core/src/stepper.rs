@@ -1,6 +1,8 @@
 //! Moreau's midpoint time-stepping scheme of docs/model.md §5 for the measure differential inclusion
 //! M du = h(t, q, u) dt + W dP, specialised at compile time to the number of modes N.
 
+use serde::{Deserialize, Serialize};
+
 use crate::arith::{dot, fma};
 use crate::beam::Beam;
 use crate::contact::{Jacobians, finish, may_close, probe_checked};
@@ -9,8 +11,9 @@ use crate::params::{ContactSolver, Params};
 use crate::slider::{DIM, MAX_CLOSED, N_CONTACTS, Slider, ZETA_Z};
 use crate::solver::{self, ContactMode, LocalProblem};
 
-/// Counters of a run, reported with every result.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
+/// Counters of a run, reported with every result (and, without `max_residual`, in every row of a
+/// map or study results file).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
 pub struct Counters {
     /// Time steps taken.
     pub steps: u64,
@@ -33,7 +36,9 @@ pub struct Counters {
     /// Fast solver: steps where no pattern fitted and Gauss–Seidel was used.
     pub fallbacks: u64,
     /// Largest natural-map residual of the local contact laws over the run (only computed
-    /// when auditing is on; see [`crate::solver::LocalProblem::residual`]).
+    /// when auditing is on; see [`crate::solver::LocalProblem::residual`]). Not written to results
+    /// rows (maps do not audit; a saved end state keeps it with its state).
+    #[serde(skip)]
     pub max_residual: f64,
 }
 

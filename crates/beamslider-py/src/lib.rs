@@ -8,14 +8,14 @@
 //! `ValueError`, I/O → `OSError`, numerical failure → `beamslider.SimulationError`, interrupted →
 //! `KeyboardInterrupt`. Panics are caught and reported as `SimulationError`.
 
-use std::panic::{AssertUnwindSafe, catch_unwind};
+use std::sync::atomic::AtomicBool;
 
 mod enma;
 
 use beamslider_core::{
     Criteria, MapConfig, MapRow, MapRunOptions, SuperSlow,
     Channel, ColumnRecorder, Error, Excitation, FileRecorder, ManifoldOptions, Model, Monitor, Params, Recorder,
-    RunOptions, SliderModel, Status, signal,
+    RunOptions, SliderModel, Status, runner, signal,
 };
 use numpy::{IntoPyArray, PyArray1, PyReadonlyArray1};
 use pyo3::exceptions::{PyBlockingIOError, PyException, PyKeyboardInterrupt, PyOSError, PyValueError};
@@ -52,17 +52,45 @@ fn to_py(e: Error) -> PyErr {
 
 /// Run `f`, turning a panic into an error (a panic must never cross into Python).
 fn guarded<T>(f: impl FnOnce() -> Result<T, Error>) -> Result<T, PyErr> {
-    match catch_unwind(AssertUnwindSafe(f)) {
+    match runner::catch_panic(f) {
         Ok(r) => r.map_err(to_py),
-        Err(p) => {
-            let what = p
-                .downcast_ref::<&str>()
-                .map(|s| s.to_string())
-                .or_else(|| p.downcast_ref::<String>().cloned())
-                .unwrap_or_else(|| "unknown panic".into());
-            Err(SimulationError::new_err(format!("internal error in the core: {what}")))
-        }
+        Err(what) => Err(SimulationError::new_err(format!("internal error in the core: {what}"))),
     }
+}
+
+/// `threads` of a batch: None (one per core) or >= 1.
+fn check_threads(threads: Option<usize>) -> PyResult<()> {
+    if threads == Some(0) {
+        return Err(PyValueError::new_err("invalid parameter `threads` = 0: must be >= 1"));
+    }
+    Ok(())
+}
+
+/// Run `work` with the interpreter released on the core's watched worker thread
+/// ([`runner::watched`]); every `period_ms` the calling thread re-attaches and calls `poll(py)`
+/// (pending signal handlers such as Ctrl-C, progress callbacks). An exception from `poll` sets
+/// `cancel` and is raised once the work has stopped.
+fn detached<T: Send>(
+    py: Python<'_>,
+    cancel: &AtomicBool,
+    period_ms: u64,
+    work: impl FnOnce() -> Result<T, Error> + Send,
+    poll: impl Fn(Python<'_>) -> PyResult<()> + Sync,
+) -> PyResult<T> {
+    let mut err: Option<PyErr> = None;
+    let outcome = py.detach(|| {
+        runner::watched(cancel, std::time::Duration::from_millis(period_ms), work, || match Python::attach(|py| poll(py)) {
+            Ok(()) => true,
+            Err(e) => {
+                err = Some(e);
+                false
+            }
+        })
+    });
+    if let Some(e) = err {
+        return Err(e);
+    }
+    outcome.map_err(to_py)
 }
 
 fn parse_params(toml_text: &str) -> PyResult<Params> {
@@ -357,16 +385,8 @@ fn envelope<'py>(
     dt_s: f64,
     window_s: f64,
 ) -> PyResult<Bound<'py, PyArray1<f64>>> {
-    if !(dt_s.is_finite() && dt_s > 0.0) {
-        return Err(PyValueError::new_err(format!("invalid parameter `dt_s` = {dt_s}: must be finite and > 0")));
-    }
-    if !(window_s.is_finite() && window_s > 0.0) {
-        return Err(PyValueError::new_err(format!(
-            "invalid parameter `window` = {window_s}: must be finite and > 0 (seconds)"
-        )));
-    }
     let x = x.as_slice()?.to_vec();
-    let e = py.detach(|| signal::envelope(&x, dt_s, window_s));
+    let e = py.detach(|| guarded(|| signal::envelope_checked(&x, dt_s, window_s)))?;
     Ok(e.into_pyarray(py))
 }
 
@@ -383,25 +403,8 @@ fn super_slow_signals<'py>(
     thickness_m: f64,
     window_s: f64,
 ) -> PyResult<(f64, f64, Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<f64>>)> {
-    if !(window_s.is_finite() && window_s > 0.0) {
-        return Err(PyValueError::new_err(format!("invalid parameter `window` = {window_s}: must be finite and > 0 (seconds)")));
-    }
-    if !(thickness_m.is_finite() && thickness_m > 0.0) {
-        return Err(PyValueError::new_err(format!("invalid parameter `thickness_m` = {thickness_m}: must be finite and > 0")));
-    }
     let (w, s) = (w.as_slice()?.to_vec(), s.as_slice()?.to_vec());
-    if w.len() != s.len() {
-        return Err(PyValueError::new_err("invalid parameter `s`: w and s must have the same length"));
-    }
-    let x = py.detach(|| {
-        guarded(|| {
-            let mut st = beamslider_core::envelope_stream::EnvelopeStream::new(dt_s)?;
-            for (a, b) in w.iter().zip(&s) {
-                st.push(*a, *b);
-            }
-            Ok(st.super_slow(thickness_m, window_s))
-        })
-    })?;
+    let x = py.detach(|| guarded(|| beamslider_core::envelope_stream::EnvelopeStream::of_series(&w, &s, dt_s, thickness_m, window_s)))?;
     Ok((x.t0_s, x.dt_s, x.s.into_pyarray(py), x.amplitude_h.into_pyarray(py)))
 }
 
@@ -432,6 +435,13 @@ fn classify<'py>(
 #[pyfunction]
 fn default_map_config() -> String {
     MapConfig::default().to_toml_string()
+}
+
+/// The values of an inclusive range START:STOP:STEP (core `map::Axis`: STOP included when within
+/// STEP/1000 of the grid, values rounded to 1e-9, at most a million); errors name `field`.
+#[pyfunction]
+fn range_values(field: &str, start: f64, stop: f64, step: f64) -> PyResult<Vec<f64>> {
+    guarded(|| beamslider_core::Axis::Range { start, stop, step }.values(field))
 }
 
 /// Validate map configuration TOML; returns (canonical TOML, f_ex list, a_ex list, s0 list).
@@ -467,6 +477,8 @@ fn read_map_results(py: Python<'_>, path: std::path::PathBuf) -> PyResult<(Optio
 #[pymodule]
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("SimulationError", m.py().get_type::<SimulationError>())?;
+    m.add("RESULTS_FORMAT_VERSION", beamslider_core::map::FORMAT_VERSION)?;
+    m.add("MAX_AXIS_VALUES", beamslider_core::map::MAX_POINTS)?;
     m.add_function(wrap_pyfunction!(default_params, m)?)?;
     m.add_function(wrap_pyfunction!(params_from_toml, m)?)?;
     m.add_function(wrap_pyfunction!(read_params_file, m)?)?;
@@ -482,6 +494,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(super_slow_signals, m)?)?;
     m.add_function(wrap_pyfunction!(default_map_config, m)?)?;
     m.add_function(wrap_pyfunction!(map_config, m)?)?;
+    m.add_function(wrap_pyfunction!(range_values, m)?)?;
     m.add_function(wrap_pyfunction!(read_map_results, m)?)?;
     maprun::register(m)?;
     m.add_function(wrap_pyfunction!(recorded_rows, m)?)?;

@@ -8,8 +8,8 @@ use std::path::PathBuf;
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
-use beamslider_core::map::{Job, MapResults, run_job, run_jobs};
-use beamslider_core::{Error, MapConfig, MapRow, MapRunOptions, Model, ResultsLock};
+use beamslider_core::map::{Job, MapResults, run_jobs};
+use beamslider_core::{Error, MapConfig, MapRow, MapRunOptions, ResultsLock};
 use pyo3::exceptions::{PyKeyboardInterrupt, PyValueError};
 use pyo3::prelude::*;
 
@@ -110,9 +110,7 @@ impl MapRun {
     /// points stay in the file) and raises KeyboardInterrupt.
     #[pyo3(signature = (*, threads=None, progress=None))]
     fn run_local(&mut self, py: Python<'_>, threads: Option<usize>, progress: Option<Py<PyAny>>) -> PyResult<()> {
-        if threads == Some(0) {
-            return Err(PyValueError::new_err("invalid parameter `threads` = 0: must be >= 1"));
-        }
+        crate::check_threads(threads)?;
         let jobs = std::mem::take(&mut self.jobs);
         let cfg = self.cfg.clone();
         let inner = self.inner()?;
@@ -182,8 +180,8 @@ impl MapRun {
 }
 
 /// A Dask task of a map: run `jobs` (see `MapRun.jobs`) of the map `config_toml` on `threads`
-/// rayon threads (default 1) with the interpreter released; returns the rows as JSON texts in
-/// job order. Each row is bitwise the row the local runner writes (but `wall_time_s`).
+/// rayon threads (default 1) with the interpreter released; returns the rows as JSON texts sorted
+/// by grid index. Each row is bitwise the row the local runner writes (but `wall_time_s`).
 #[pyfunction]
 #[pyo3(signature = (config_toml, jobs, *, threads=1))]
 pub fn run_map_chunk(py: Python<'_>, config_toml: &str, jobs: Vec<JobTuple>, threads: usize) -> PyResult<Vec<String>> {
@@ -205,14 +203,13 @@ pub fn run_map_chunk(py: Python<'_>, config_toml: &str, jobs: Vec<JobTuple>, thr
                     })
                 })
                 .collect::<Result<_, Error>>()?;
-            let model = Model::new(cfg.effective_params())?;
-            let pool = rayon::ThreadPoolBuilder::new()
-                .num_threads(threads)
-                .build()
-                .map_err(|e| Error::Numerical(format!("cannot start {threads} threads: {e}")))?;
-            use rayon::prelude::*;
-            let rows: Vec<Option<MapRow>> = pool.install(|| jobs.par_iter().with_max_len(1).map(|j| run_job(&model, &cfg, j, &cancel)).collect());
-            Ok(rows.into_iter().flatten().map(|r| row_json(&r)).collect())
+            let mut rows: Vec<MapRow> = Vec::with_capacity(jobs.len());
+            run_jobs(&cfg, &jobs, Some(threads), &cancel, |row| {
+                rows.push(row);
+                Ok(())
+            })?;
+            rows.sort_by_key(|r| r.index);
+            Ok(rows.iter().map(row_json).collect())
         })
     })
 }
@@ -220,7 +217,7 @@ pub fn run_map_chunk(py: Python<'_>, config_toml: &str, jobs: Vec<JobTuple>, thr
 /// `ResultsLock(path)`: the one-writer lock of a results file (`<path>.lock`), taken at once or
 /// `BlockingIOError` naming the folder and the holder's PID. `release()` or the end of a `with`
 /// block frees it (as does the end of the process).
-#[pyclass(module = "beamslider._core")]
+#[pyclass(module = "beamslider._core", name = "ResultsLock")]
 pub struct PyResultsLock {
     lock: Option<ResultsLock>,
 }
@@ -250,7 +247,7 @@ impl PyResultsLock {
 /// Register the map functions and classes.
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<MapRun>()?;
-    m.add("ResultsLock", m.py().get_type::<PyResultsLock>())?;
+    m.add_class::<PyResultsLock>()?;
     m.add_function(wrap_pyfunction!(run_map_chunk, m)?)?;
     Ok(())
 }

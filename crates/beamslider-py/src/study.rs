@@ -1,22 +1,21 @@
-//! Uncertainty studies (binding side): run a *chunk* of study points — each its own parameter set,
-//! operating point (f_ex, a_ex, s₀) and duration — in parallel with rayon, the interpreter
-//! released, and return the rows in the operating-map row format (`beamslider_core::map::MapRow`,
-//! docs/model.md §8). Each point is the core's `map::run_point` (a free-slider run from rest,
-//! classified by `classify`), so a study row is bitwise the map row of the same inputs.
+//! Uncertainty studies (binding side): converts a chunk of study points to the core's
+//! [`beamslider_core::study::run_points`] (the one batch runner; rows in the operating-map row
+//! format, docs/model.md §8) and the rows back to JSON text. The interpreter is released while
+//! the chunk runs; finished rows are handed to `on_rows` from the calling thread.
 //!
-//! The sampling, the results file and the distribution over a Dask cluster live in
-//! `python/beamslider/study.py`; a Dask task calls [`run_study_chunk`] on a worker.
+//! The sampling, the statistics and the distribution over a Dask cluster live in
+//! `python/beamslider/study/`; a Dask task calls [`run_study_chunk`] on a worker.
 
 use std::collections::HashMap;
 use std::sync::Mutex;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::AtomicBool;
 
-use beamslider_core::{Error, MapConfig, MapPoint, MapRow, Model, Params, map};
+use beamslider_core::study::{RowInfo, StudyPoint, StudyResults, run_points};
+use beamslider_core::{MapConfig, MapRow};
 use pyo3::exceptions::{PyKeyboardInterrupt, PyValueError};
 use pyo3::prelude::*;
-use rayon::prelude::*;
 
-use crate::{SimulationError, guarded};
+use crate::{SimulationError, detached, guarded};
 
 /// One point of a chunk: (index, parameter TOML, f_ex [Hz], a_ex [m/s²], s₀, duration [s]).
 type ChunkPoint = (usize, String, f64, f64, f64, f64);
@@ -29,10 +28,10 @@ fn map_settings_json(config_toml: &str) -> PyResult<String> {
     serde_json::to_string(&cfg.settings()).map_err(|e| SimulationError::new_err(format!("internal error: {e}")))
 }
 
-/// Run a chunk of study points in parallel (rayon; `threads` workers, default one per core) with
-/// the interpreter released. `config_toml` is a map configuration (record_every, dt_s, criteria;
-/// its grid and parameters are not used); each point brings its own full parameter TOML, operating
-/// point and duration. Points with the same parameter text share one `Model`.
+/// Run a chunk of study points in parallel (`threads` workers, default one per core) with the
+/// interpreter released. `config_toml` is a map configuration (record_every, dt_s, criteria; its
+/// grid and parameters are not used); each point brings its own full parameter TOML, operating
+/// point and duration.
 ///
 /// Returns the rows as JSON texts (the map row format, `index` = the point's index), sorted by
 /// index. `on_rows(list_of_json)` is called from the calling thread with the rows finished since
@@ -47,15 +46,11 @@ fn run_study_chunk(
     threads: Option<usize>,
     on_rows: Option<Py<PyAny>>,
 ) -> PyResult<Vec<String>> {
-    if threads == Some(0) {
-        return Err(PyValueError::new_err("invalid parameter `threads` = 0: must be >= 1"));
-    }
     let cfg = guarded(|| MapConfig::from_toml_str(config_toml))?;
-    for (i, p) in points.iter().enumerate() {
-        if !(p.5.is_finite() && p.5 > 0.0) {
-            return Err(PyValueError::new_err(format!("invalid parameter `duration_s` = {} (point {i}): must be finite and > 0", p.5)));
-        }
-    }
+    let points: Vec<StudyPoint> = points
+        .into_iter()
+        .map(|(index, params_toml, f_ex_hz, a_ex_m_s2, s0, duration_s)| StudyPoint { index, params_toml, f_ex_hz, a_ex_m_s2, s0, duration_s })
+        .collect();
     let cancel = AtomicBool::new(false);
     let fresh: Mutex<Vec<String>> = Mutex::new(Vec::new());
     let drain = |py: Python<'_>| -> PyResult<()> {
@@ -66,101 +61,88 @@ fn run_study_chunk(
             _ => Ok(()),
         }
     };
-    let (outcome, err) = py.detach(|| {
-        std::thread::scope(|sc| {
-            let worker = sc.spawn(|| guarded(|| run_chunk(&cfg, &points, threads, &cancel, &fresh)));
-            let mut err: Option<PyErr> = None;
-            while !worker.is_finished() {
-                std::thread::sleep(std::time::Duration::from_millis(50));
-                if err.is_none()
-                    && let Err(e) = Python::attach(|py| drain(py))
-                {
-                    cancel.store(true, Ordering::Relaxed);
-                    err = Some(e);
-                }
-            }
-            let outcome = worker.join().unwrap_or_else(|_| Err(SimulationError::new_err("internal error: study worker panicked")));
-            (outcome, err)
-        })
-    });
-    if let Some(e) = err {
-        return Err(e);
-    }
-    let rows = outcome?;
+    let push = |row: &MapRow| {
+        fresh.lock().unwrap_or_else(|e| e.into_inner()).push(row.to_json());
+        Ok(())
+    };
+    let rows = detached(py, &cancel, 50, || run_points(&cfg, &points, threads, &cancel, push), drain)?;
     drain(py)?;
     match rows {
-        Some(rows) => Ok(rows),
+        Some(rows) => Ok(rows.iter().map(MapRow::to_json).collect()),
         None => Err(PyKeyboardInterrupt::new_err("study chunk interrupted")),
     }
 }
 
-/// The chunk in the core: `None` when cancelled before all points were done.
-fn run_chunk(cfg: &MapConfig, points: &[ChunkPoint], threads: Option<usize>, cancel: &AtomicBool, fresh: &Mutex<Vec<String>>) -> Result<Option<Vec<String>>, Error> {
-    // One model per distinct parameter text (the configuration's dt_s override applies).
-    let mut texts: Vec<&str> = points.iter().map(|p| p.1.as_str()).collect();
-    texts.sort_unstable();
-    texts.dedup();
-    let work = || -> Result<Option<Vec<String>>, Error> {
-        let models: Vec<Model> = texts
-            .par_iter()
-            .map(|t| {
-                let mut p = Params::from_toml_str(t)?;
-                if let Some(dt) = cfg.dt_s {
-                    p.dt_s = dt;
-                }
-                Model::new(p)
-            })
-            .collect::<Result<_, Error>>()?;
-        let by_text: HashMap<&str, &Model> = texts.iter().copied().zip(models.iter()).collect();
-        let rows: Mutex<Vec<(usize, String)>> = Mutex::new(Vec::with_capacity(points.len()));
-        let error: Mutex<Option<Error>> = Mutex::new(None);
-        points.par_iter().with_max_len(1).for_each(|pt| {
-            if cancel.load(Ordering::Relaxed) {
-                return;
-            }
-            let (index, text, f_ex_hz, a_ex_m_s2, s0, duration_s) = pt;
-            let model = by_text[text.as_str()];
-            let mut c = cfg.clone();
-            c.duration_s = *duration_s;
-            let p = MapPoint { index: *index, f_ex_hz: *f_ex_hz, a_ex_m_s2: *a_ex_m_s2, s0: *s0 };
-            match map::run_point(model, &c, &p, cancel) {
-                Ok(Some(mut row)) => {
-                    // A study keeps the classification, not the end state (not extended).
-                    row.end = None;
-                    let json = MapRow::to_json(&row);
-                    fresh.lock().unwrap_or_else(|e| e.into_inner()).push(json.clone());
-                    rows.lock().unwrap_or_else(|e| e.into_inner()).push((*index, json));
-                }
-                Ok(None) => {}
-                Err(e) => {
-                    error.lock().unwrap_or_else(|e| e.into_inner()).get_or_insert(e);
-                    cancel.store(true, Ordering::Relaxed);
-                }
-            }
-        });
-        if let Some(e) = error.into_inner().unwrap_or_else(|e| e.into_inner()) {
-            return Err(e);
+/// One point's row keys: (index, f_ex [Hz], a_ex [m/s²], s₀, sample, point, parameter values as JSON).
+type PointInfo = (usize, f64, f64, f64, usize, usize, String);
+
+fn json(text: &str, what: &str) -> PyResult<serde_json::Value> {
+    serde_json::from_str(text).map_err(|e| PyValueError::new_err(format!("invalid parameter `{what}`: not JSON ({e})")))
+}
+
+/// The results of a study (core `study::StudyResults`): the file `path` (None: in memory only),
+/// opened for the map configuration `config_toml`, the study configuration `study_json` (header)
+/// and the points `points`; `resume` keeps the rows of an existing file of the same study.
+#[pyclass(name = "StudyResults", module = "beamslider._core")]
+struct PyStudyResults(StudyResults);
+
+#[pymethods]
+impl PyStudyResults {
+    #[new]
+    #[pyo3(signature = (path, config_toml, study_json, points, *, resume=false))]
+    fn new(path: Option<std::path::PathBuf>, config_toml: &str, study_json: &str, points: Vec<PointInfo>, resume: bool) -> PyResult<Self> {
+        let cfg = guarded(|| MapConfig::from_toml_str(config_toml))?;
+        let study = json(study_json, "study_json")?;
+        let mut info = HashMap::with_capacity(points.len());
+        for (index, f_ex_hz, a_ex_m_s2, s0, sample, point, params) in points {
+            info.insert(index, RowInfo { f_ex_hz, a_ex_m_s2, s0, sample, point, params: json(&params, "points")? });
         }
-        let mut rows = rows.into_inner().unwrap_or_else(|e| e.into_inner());
-        if rows.len() < points.len() {
-            return Ok(None);
-        }
-        rows.sort_by_key(|r| r.0);
-        Ok(Some(rows.into_iter().map(|r| r.1).collect()))
-    };
-    match threads {
-        Some(n) => rayon::ThreadPoolBuilder::new()
-            .num_threads(n.max(1))
-            .build()
-            .map_err(|e| Error::Numerical(format!("cannot start {n} threads: {e}")))?
-            .install(work),
-        None => work(),
+        Ok(PyStudyResults(guarded(|| StudyResults::open(path.as_deref(), &cfg, study, info, resume))?))
     }
+
+    /// Add rows (JSON texts of map rows): each gets its study keys and is appended at once.
+    fn add(&mut self, rows: Vec<String>) -> PyResult<()> {
+        for text in rows {
+            let row: MapRow = serde_json::from_str(&text).map_err(|e| PyValueError::new_err(format!("invalid parameter `rows`: not a map row ({e})")))?;
+            guarded(|| self.0.add(row))?;
+        }
+        Ok(())
+    }
+
+    /// Whether point `index` has its row.
+    fn __contains__(&self, index: usize) -> bool {
+        self.0.contains(index)
+    }
+
+    fn __len__(&self) -> usize {
+        self.0.len()
+    }
+
+    /// The rows as JSON texts, sorted by index.
+    fn rows(&self) -> Vec<String> {
+        self.0.rows().map(MapRow::to_json).collect()
+    }
+
+    /// Close the file.
+    fn close(&mut self) {
+        self.0.close();
+    }
+}
+
+/// Read a results file (map or study): (header as JSON text or None, rows as JSON texts with
+/// all their keys, byte length of the complete part, whether the last line was truncated).
+#[pyfunction]
+fn read_results_file(py: Python<'_>, path: std::path::PathBuf) -> PyResult<(Option<String>, Vec<String>, u64, bool)> {
+    let r = py.detach(|| guarded(|| beamslider_core::map::read_results(&path)))?;
+    let header = r.header_json();
+    Ok((header, r.rows.iter().map(MapRow::to_json).collect(), r.good_len, r.truncated))
 }
 
 /// Register the study functions in the `_core` module.
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(map_settings_json, m)?)?;
     m.add_function(wrap_pyfunction!(run_study_chunk, m)?)?;
+    m.add_function(wrap_pyfunction!(read_results_file, m)?)?;
+    m.add_class::<PyStudyResults>()?;
     Ok(())
 }

@@ -10,20 +10,15 @@ from typing import Any, Dict, List, Optional, Tuple, Union
 
 import numpy as np
 
-from .. import _core
-from ..maps import _toml_number
+from .. import _core, _toml
+from ..maps import map_config_dict
 from ..params import Parameters
-
-try:  # Python >= 3.11
-    import tomllib as _toml
-except ImportError:  # pragma: no cover
-    import tomli as _toml  # type: ignore[no-redef]
 
 RESULTS_FILE = "study.jsonl"
 """Name of the results file inside a study's output folder."""
 
-FORMAT_VERSION = 1
-"""The map results-file version the study files follow."""
+FORMAT_VERSION: int = _core.RESULTS_FORMAT_VERSION
+"""The map results-file version the study files follow (the core's, docs/model.md §8)."""
 
 METHODS = ("lhs", "sobol", "saltelli", "grid")
 """Sampling methods."""
@@ -268,22 +263,13 @@ class StudyConfig:
 
     def to_toml_text(self) -> str:
         """TOML text of the study (readable by :meth:`from_toml_text`)."""
-        import tomli_w
-
-        return tomli_w.dumps(self.to_dict())
+        return _toml.dumps(self.to_dict())
 
     def map_toml(self) -> str:
         """The map configuration the core runs each point with (grid = the operating points)."""
-        lines = [f"duration_s = {_toml_number(float(self.duration_s))}", f"record_every = {int(self.record_every)}"]
-        if self.dt_s is not None:
-            lines.append(f"dt_s = {_toml_number(float(self.dt_s))}")
-        lines += ["", "[grid]"]
-        for key in ("f_ex_hz", "a_ex_m_s2", "s0"):
-            lines.append(f"{key} = [{', '.join(_toml_number(v) for v in getattr(self, key))}]")
-        lines += ["", "[params]", self.params.toml_text().strip()]
-        if self.criteria:
-            lines += ["", "[criteria]"] + [f"{k} = {_toml_number(v)}" for k, v in self.criteria.items()]
-        text = "\n".join(lines) + "\n"
+        text = _toml.dumps(map_config_dict(self.params, f_ex=self.f_ex_hz, a_ex=self.a_ex_m_s2, s0=self.s0,
+                                             t_end=self.duration_s, record_every=self.record_every, dt_s=self.dt_s,
+                                             criteria=self.criteria))
         _core.map_config(text)  # validates
         return text
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import os
 from pathlib import Path
 from typing import Any, Callable, List, Optional, Tuple, Union
@@ -10,7 +11,7 @@ import numpy as np
 
 from .. import _core
 from .config import RESULTS_FILE, StudyConfig, read_config
-from .results import _Memory, _Writer
+from .results import open_results
 from .sampling import StudyPoint, study_points
 from .statistics import StudyResult, aggregate
 
@@ -27,7 +28,7 @@ def _chunks(todo: List[StudyPoint], size: int) -> List[List[StudyPoint]]:
     return [todo[i:i + size] for i in range(0, len(todo), size)]
 
 
-def _run_dask(client: Any, map_toml: str, todo: List[StudyPoint], writer: _Writer, *, chunk_size: int,
+def _run_dask(client: Any, map_toml: str, todo: List[StudyPoint], writer: Any, *, chunk_size: int,
               task_threads: Optional[int], max_retries: int, on_chunk: Optional[Callable[[int, int], None]],
               tick: Callable[[], None]) -> None:
     from .._dask import run_chunks
@@ -54,8 +55,9 @@ def run_study(config: Union[StudyConfig, str, "os.PathLike[str]"], *, out: Optio
 
     Local (``scheduler=None``): all points in one call of the Rust core on ``threads`` threads
     (default one per core). Dask (``scheduler`` = a scheduler address such as
-    ``"tcp://10.0.0.5:8786"`` or a ``distributed.Client``): chunks of ``chunk_size`` points (default
-    the configuration's) as tasks, each on ``task_threads`` rayon threads (default 1: Dask already
+    ``"tcp://10.0.0.5:8786"`` or a ``distributed.Client``, or ``scheduler_file`` written by ``dask
+    scheduler --scheduler-file``; contacted before any file is written): chunks of ``chunk_size``
+    points (default the configuration's) as tasks (the shared runner ``beamslider._dask``), each on ``task_threads`` rayon threads (default 1: Dask already
     runs one task per worker thread); a chunk whose worker died is re-run (up to ``max_retries``
     times on top of Dask's own retries). ``on_chunk(done, total)`` is called after each finished
     chunk (Dask). Ctrl-C stops the study keeping the finished points (``KeyboardInterrupt``).
@@ -94,16 +96,16 @@ def _run_study(config: StudyConfig, map_toml: str, points: List[StudyPoint], by_
     if out is not None:
         folder = Path(out)
         folder.mkdir(parents=True, exist_ok=True)
-        writer: _Writer = _Writer(folder / RESULTS_FILE, config, by_index, resume)
+        writer = open_results(config, points, folder / RESULTS_FILE, resume)
         (folder / "study.toml").write_text(config.to_toml_text(), encoding="utf-8")
     else:
-        writer = _Memory(by_index)
-    todo = [p for p in points if p.index not in writer.rows]
+        writer = open_results(config, points, None, False)
+    todo = [p for p in points if p.index not in writer]
     try:
         with _progress_bar(progress, len(points), "study", "pts") as cb:
             def tick() -> None:
                 if cb is not None:
-                    cb(len(writer.rows), len(points))
+                    cb(len(writer), len(points))
 
             tick()
             if todo and client is None:
@@ -118,7 +120,6 @@ def _run_study(config: StudyConfig, map_toml: str, points: List[StudyPoint], by_
                           max_retries=max_retries, on_chunk=on_chunk, tick=tick)
     finally:
         writer.close()
-    missing = [i for i in by_index if i not in writer.rows]
-    if missing:  # pragma: no cover - every path above either completes or raises
-        raise RuntimeError(f"{len(missing)} points of the study are missing")
-    return aggregate(config, [writer.rows[i] for i in sorted(writer.rows)])
+    if len(writer) != len(points):  # pragma: no cover - every path above either completes or raises
+        raise RuntimeError(f"{len(points) - len(writer)} points of the study are missing")
+    return aggregate(config, [json.loads(r) for r in writer.rows()])

@@ -6,15 +6,15 @@ from __future__ import annotations
 import argparse
 import math
 import time
-from pathlib import Path
 from typing import Any, Dict
 
-from . import enma
-from .params import Parameters
+from .. import enma
+from ..params import Parameters
+from ._common import UserError, add_common, axis_values, out_dir, positive, write_json
 
 
-def add_parser(sub: Any, common: Any, positive: Any) -> None:
-    """Register the subcommand (``common`` adds --out/--params/..., ``positive`` is a type)."""
+def add_parser(sub: Any) -> None:
+    """Register the subcommand."""
     sp = sub.add_parser(
         "enma", help="ENMA data -> backbone fit -> updated clamping k_r, k_t (paper section 3)",
         description="Fit the single-mode backbone w~^2 = w^2 + 3/4 b* a~^2 to ENMA data and update the "
@@ -31,13 +31,11 @@ def add_parser(sub: Any, common: Any, positive: Any) -> None:
     sp.add_argument("--repeats", type=positive(int), default=1, metavar="N",
                     help="independently noisy repetitions of the virtual up-and-down run (default 1)")
     sp.add_argument("--seed", type=int, default=0, help="noise seed (0)")
-    common(sp, window=False)
+    add_common(sp, window=False)
     sp.set_defaults(func=cmd_enma)
 
 
 def cmd_enma(args: argparse.Namespace) -> int:
-    from .cli import UserError, _axis_text, _out, write_json
-
     baseline = (Parameters.from_toml(args.params) if args.params
                 else Parameters(k_r_nm_per_rad=math.inf, k_t_n_per_m=math.inf))
     t0 = time.perf_counter()
@@ -48,12 +46,12 @@ def cmd_enma(args: argparse.Namespace) -> int:
         truth = None
     else:
         truth = Parameters.from_toml(args.truth) if args.truth else Parameters()
-        levels = _axis_text("--levels", args.levels) if args.levels else list(enma.DEFAULT_LEVELS_M_S2)
+        levels = axis_values("--levels", args.levels) if args.levels else list(enma.DEFAULT_LEVELS_M_S2)
         data = enma.virtual(truth, levels_m_s2=levels, progress=args.progress)
         if args.noise_frequency or args.repeats > 1:
             data = enma.with_noise(data, frequency_rel=args.noise_frequency, seed=args.seed, repeats=args.repeats)
     t_data = time.perf_counter() - t0
-    out = _out(args)
+    out = out_dir(args)
     fit = enma.fit_backbone(data)
     upd = enma.update_clamping(baseline, fit, full_output=True)
     assert isinstance(upd, enma.ClampingUpdate)

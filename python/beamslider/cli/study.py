@@ -1,27 +1,18 @@
-"""The ``beamslider study`` subcommand and the files it writes."""
+"""``beamslider study``: an uncertainty study (local or Dask) written as results rows, summary and
+figures (:mod:`beamslider.study`)."""
 
 from __future__ import annotations
 
-import json
 import time
 from pathlib import Path
-from typing import Any, Callable, List, Union
+from typing import Any
+
+from ..study import EXAMPLE_CONFIG, RESULTS_FILE, read_config, run_study, write_outputs
+from ._common import add_common
 
 
-from .config import RESULTS_FILE, StudyConfig, Uncertain, read_config
-from .plots import plot_behaviour_probability, plot_sensitivity
-from .run import run_study
-from .statistics import StudyResult
-
-
-EXAMPLE_CONFIG = StudyConfig(
-    uncertain=[Uncertain("friction_coefficient", "uniform", low=0.22, high=0.31),
-               Uncertain("natural_frequency_factor", "uniform", low=0.95, high=1.05)],
-    method="lhs", samples=16, seed=1)
-
-
-def add_cli(sub: Any, common: Callable[..., None]) -> None:
-    """Register ``beamslider study`` on the CLI's subparsers (``common`` adds --out/--no-progress)."""
+def add_parser(sub: Any) -> None:
+    """Register ``beamslider study``."""
     sp = sub.add_parser("study", help="uncertainty study: behaviour probabilities and sensitivities (local or Dask)",
                         description="Sample the uncertain parameters of a study configuration (TOML), run the free "
                                     "slider at every sample and operating point (locally with one thread per core, or "
@@ -38,7 +29,7 @@ def add_cli(sub: Any, common: Callable[..., None]) -> None:
     sp.add_argument("--task-threads", type=int, default=1, metavar="N", help="rayon threads per Dask task (1)")
     sp.add_argument("--resume", action="store_true", help="continue the study in --out, skipping finished runs")
     sp.add_argument("--print-config", action="store_true", help="print an example configuration (TOML) and exit")
-    common(sp, model_options=False, window=False)
+    add_common(sp, model_options=False, window=False)
     sp.set_defaults(func=cmd_study)
 
 
@@ -68,22 +59,7 @@ def cmd_study(args: Any) -> int:
     return 0
 
 
-def write_outputs(result: StudyResult, out: Union[str, Path]) -> List[Path]:
-    """Write summary.json, summary.txt, behaviour_probability.png (per s0) and sensitivity.png (per
-    operating point) into ``out``; returns the paths."""
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    paths = [out / "summary.json", out / "summary.txt"]
-    paths[0].write_text(json.dumps(result.summary_dict(), indent=1) + "\n", encoding="utf-8")
-    paths[1].write_text(result.text(), encoding="utf-8")
-    s0s = sorted({p.s0 for p in result.points})
-    for s0 in s0s:
-        p = out / ("behaviour_probability.png" if len(s0s) == 1 else f"behaviour_probability_s0_{s0:g}.png")
-        plot_behaviour_probability(result, s0=s0, path=p)
-        paths.append(p)
-    n = len(result.points)
-    for j in range(n if n <= 12 else 0):
-        p = out / ("sensitivity.png" if n == 1 else f"sensitivity_{j}.png")
-        plot_sensitivity(result, point=j, path=p)
-        paths.append(p)
-    return paths
+def add_cli(sub: Any, common: Any = None) -> None:
+    """Register ``beamslider study`` on a CLI's subparsers (the former ``beamslider.study.add_cli``;
+    ``common`` is ignored: the options are the package's)."""
+    add_parser(sub)

@@ -6,13 +6,14 @@ from __future__ import annotations
 import argparse
 import math
 import time
-from pathlib import Path
 from typing import Any, List, Tuple
 
-from .params import Parameters
+from ..params import Parameters
+from ._common import UserError, add_common, out_dir, positive
 
 
-def add_parsers(sub: Any, common: Any, positive: Any) -> None:
+def add_parser(sub: Any) -> None:
+    """Register ``beamslider discover`` and ``beamslider synthesize``."""
     sp = sub.add_parser(
         "discover", help="find and name the effect the model misses, add it, show the gap shrink",
         description="Compare measured data with the --params baseline (default: the prototype), name the missing "
@@ -25,7 +26,7 @@ def add_parsers(sub: Any, common: Any, positive: Any) -> None:
     sp.add_argument("--effects", metavar="LIST", help="comma list of candidate effects (default: all of the level)")
     sp.add_argument("--max-effects", type=positive(int), default=2, metavar="K", help="largest set fitted (2)")
     sp.add_argument("--seed", type=int, default=0, help="noise seed of the paper's synthetic case (0)")
-    common(sp, window=False)
+    add_common(sp, window=False)
     sp.set_defaults(func=cmd_discover)
 
     sp = sub.add_parser(
@@ -39,13 +40,11 @@ def add_parsers(sub: Any, common: Any, positive: Any) -> None:
                     help="slider: operating points f_ex,a_ex,s0 separated by ';' (110,10,0.3;124,6,0.3)")
     sp.add_argument("--duration", type=positive(float), default=15.0, metavar="S", help="slider: run length [s] (15)")
     sp.add_argument("--repeats", type=positive(int), default=2, metavar="N", help="enma: noisy repetitions (2)")
-    common(sp, model_options=False, window=False)
+    add_common(sp, model_options=False, window=False)
     sp.set_defaults(func=cmd_synthesize)
 
 
 def _points(text: str) -> List[Tuple[float, float, float]]:
-    from .cli import UserError
-
     out = []
     for part in text.split(";"):
         if not part.strip():
@@ -61,10 +60,9 @@ def _points(text: str) -> List[Tuple[float, float, float]]:
 
 
 def cmd_discover(args: argparse.Namespace) -> int:
-    from . import discover as dc
-    from . import enma
-    from .cli import UserError, _out
-    from .measurement import read_measurement
+    from .. import discover as dc
+    from .. import enma
+    from ..measurement import read_measurement
 
     if args.enma and args.measured:
         raise UserError("give --enma (beam level) or --measured (slider level), not both")
@@ -82,7 +80,7 @@ def cmd_discover(args: argparse.Namespace) -> int:
                     else Parameters(k_r_nm_per_rad=math.inf, k_t_n_per_m=math.inf))
         data = dc.synthesize_enma(Parameters(), seed=args.seed)
         d = dc.discover(enma_data=data, baseline=baseline, effects=effects, max_effects=args.max_effects)
-    out = _out(args)
+    out = out_dir(args)
     written = dc.write_report(d, out)
     print((out / "report.md").read_text(encoding="utf-8").split("\n| feature")[0].rstrip())
     print(f"total {time.perf_counter() - t0:.1f} s")
@@ -92,11 +90,10 @@ def cmd_discover(args: argparse.Namespace) -> int:
 
 
 def cmd_synthesize(args: argparse.Namespace) -> int:
-    from . import discover as dc
-    from .cli import _out
+    from .. import discover as dc
 
     truth = Parameters.from_toml(args.truth) if args.truth else Parameters()
-    out = _out(args)
+    out = out_dir(args)
     if args.kind == "enma":
         data = dc.synthesize_enma(truth, seed=args.seed, repeats=args.repeats)
         data.write(out / "enma_data.csv")

@@ -9,11 +9,12 @@ import time
 from typing import Any
 
 
-from .superslow import hb_manifold
+from ..superslow import hb_manifold
+from ._common import add_common, add_force, figure, fmt, out_dir, params_from_args, plan_outputs, positive, write_json
 
 
-def add_parser(sub: Any, common: Any, positive: Any) -> None:
-    """Register the subcommand (``common`` adds --out/--params/..., ``positive`` is a type)."""
+def add_parser(sub: Any) -> None:
+    """Register the subcommand."""
     sp = sub.add_parser(
         "hb-manifold", help="super-slow manifold by harmonic balance (milliseconds; slider rigidly attached)",
         description="Compute the super-slow manifold by N-mode single-term harmonic balance with the slider "
@@ -23,24 +24,20 @@ def add_parser(sub: Any, common: Any, positive: Any) -> None:
     sp.add_argument("--a-ex", type=positive(float), default=14.0, metavar="M_S2", help="base acceleration amplitude (14)")
     sp.add_argument("--n-modes", type=positive(int), default=5, metavar="N", help="retained beam modes (5)")
     sp.add_argument("--d-eff", type=float, metavar="D", help="equivalent damping ratio of all modes (default: params)")
-    common(sp, window=False)
-    from .cli import _force_option
-
-    _force_option(sp)
+    add_common(sp, window=False)
+    add_force(sp)
     sp.set_defaults(func=cmd_hb_manifold)
 
 
 def cmd_hb_manifold(args: argparse.Namespace) -> int:
-    from .cli import _figure, _fmt, _out, _params, _plan_outputs, write_json
-
-    p = _params(args)
-    stem = f"hb_manifold_{_fmt(args.f_ex)}Hz_{_fmt(args.a_ex)}ms2_N{args.n_modes}" + (
-        f"_Deff{_fmt(args.d_eff)}" if args.d_eff is not None else "")
-    _plan_outputs(args, [f"{stem}.{ext}" for ext in ("csv", "json", "png")])
+    p = params_from_args(args)
+    stem = f"hb_manifold_{fmt(args.f_ex)}Hz_{fmt(args.a_ex)}ms2_N{args.n_modes}" + (
+        f"_Deff{fmt(args.d_eff)}" if args.d_eff is not None else "")
+    plan_outputs(args, [f"{stem}.{ext}" for ext in ("csv", "json", "png")])
     t0 = time.perf_counter()
     m = hb_manifold(p, f_ex=args.f_ex, a_ex=args.a_ex, n_modes=args.n_modes, d_eff=args.d_eff)
     wall = time.perf_counter() - t0
-    out = _out(args)
+    out = out_dir(args)
     with open(out / f"{stem}.csv", "w", newline="", encoding="utf-8") as f:
         w = csv.writer(f)
         w.writerow(["branch", "s", "amplitude_h", "phase_rad", "stable"])
@@ -54,7 +51,7 @@ def cmd_hb_manifold(args: argparse.Namespace) -> int:
         "folds_amplitude_h": m.folds_amplitude.tolist(), "steps": m.steps, "warnings": m.warnings,
         "wall_time_s": wall, "params_toml": p.toml_text(),
     })
-    drew = _figure(_draw, m, out / f"{stem}.png")
+    drew = figure(_draw, m, out / f"{stem}.png")
     s_up = "none" if m.s_up is None else f"{m.s_up:.4f}"
     s_dn = "none" if m.s_dn is None else f"{m.s_dn:.4f}"
     print(f"HB N={m.n_modes} {m.f_ex:g} Hz, {m.a_ex:g} m/s²: s_up = {s_up}, s_dn = {s_dn} ({1e3 * wall:.1f} ms)")
@@ -65,7 +62,7 @@ def cmd_hb_manifold(args: argparse.Namespace) -> int:
 
 def _draw(m: Any, path: Any) -> None:
     """The manifold figure (needs the ``plot`` extra)."""
-    from ._mpl import require_matplotlib
+    from .._mpl import require_matplotlib
 
     require_matplotlib("the hb-manifold figure")
     import matplotlib

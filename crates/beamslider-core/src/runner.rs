@@ -1,0 +1,135 @@
+//! The one runner for batches of independent runs (operating maps, uncertainty studies, and any
+//! later batch such as design runs or predictor validations; MODEL.md §8).
+//!
+//! A batch is a list of jobs, each computed independently from its own inputs, so its results do
+//! not depend on the number of threads or on the order in which jobs finish (bitwise). The runner
+//! owns what every batch needs and nothing of the physics:
+//! - **parallelism**: rayon, one job at a time per worker (`with_max_len(1)`), on a pool of
+//!   `threads` workers (default: rayon's global pool, one per core);
+//! - **cancellation**: a shared flag; jobs not yet started are skipped, a job in flight sees the
+//!   flag through its own run (e.g. [`crate::CancelFlag`]) and returns `Ok(None)`;
+//! - **results**: each finished result is handed to `on_done` (append to a results file, count
+//!   progress) under one lock, in completion order, then kept; the caller sorts;
+//! - **errors**: an error or a panic of a job (panic → [`Error::Numerical`], never across the
+//!   caller's boundary) or of `on_done` stops the batch: the flag is set and the first error is
+//!   returned. A batch that wants a failed job to be a result row (maps) converts the error in
+//!   its job function instead.
+//!
+//! [`watched`] runs a whole batch on a worker thread while the calling thread polls (Ctrl-C,
+//! progress bars): the one watcher loop of every front end.
+
+use std::any::Any;
+use std::sync::Mutex;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Duration;
+
+use rayon::prelude::*;
+
+use crate::error::{Error, Result};
+
+/// Outcome of [`run_batch`].
+#[derive(Debug, Clone)]
+pub struct BatchOutcome<R> {
+    /// The results of the finished jobs, in completion order.
+    pub results: Vec<R>,
+    /// Whether the batch was cancelled before all jobs had a result.
+    pub cancelled: bool,
+}
+
+/// The text of a panic payload (`&str` or `String`; "unknown panic" otherwise).
+pub fn panic_message(payload: &(dyn Any + Send)) -> String {
+    payload
+        .downcast_ref::<&str>()
+        .map(|s| s.to_string())
+        .or_else(|| payload.downcast_ref::<String>().cloned())
+        .unwrap_or_else(|| "unknown panic".into())
+}
+
+/// Run `f`; a panic becomes `Err(its message)`.
+pub fn catch_panic<T>(f: impl FnOnce() -> T) -> std::result::Result<T, String> {
+    std::panic::catch_unwind(std::panic::AssertUnwindSafe(f)).map_err(|p| panic_message(p.as_ref()))
+}
+
+/// The error of a panic in a job: "internal error: <message>".
+fn internal(what: String) -> Error {
+    Error::Numerical(format!("internal error: {what}"))
+}
+
+/// Run `work` on `threads` rayon workers (None: the global pool, one per core).
+pub fn with_threads<T: Send>(threads: Option<usize>, work: impl FnOnce() -> T + Send) -> Result<T> {
+    match threads {
+        Some(n) => Ok(rayon::ThreadPoolBuilder::new()
+            .num_threads(n.max(1))
+            .build()
+            .map_err(|e| Error::Numerical(format!("cannot start {n} threads: {e}")))?
+            .install(work)),
+        None => Ok(work()),
+    }
+}
+
+/// Run every job of `jobs` in parallel (module header). `run(job)` computes one job: `Ok(None)`
+/// when it saw the cancellation flag. `on_done(&result)` is called under one lock for every
+/// finished result before it is kept (an error stops the batch).
+pub fn run_batch<J, R>(
+    jobs: &[J],
+    threads: Option<usize>,
+    cancel: &AtomicBool,
+    run: impl Fn(&J) -> Result<Option<R>> + Sync,
+    on_done: impl FnMut(&R) -> Result<()> + Send,
+) -> Result<BatchOutcome<R>>
+where
+    J: Sync,
+    R: Send,
+{
+    struct Sink<R, F> {
+        results: Vec<R>,
+        on_done: F,
+        error: Option<Error>,
+    }
+    let sink = Mutex::new(Sink { results: Vec::with_capacity(jobs.len()), on_done, error: None });
+    let fail = |g: &mut Sink<R, _>, e: Error| {
+        g.error.get_or_insert(e);
+        cancel.store(true, Ordering::Relaxed);
+    };
+    with_threads(threads, || {
+        jobs.par_iter().with_max_len(1).for_each(|job| {
+            if cancel.load(Ordering::Relaxed) {
+                return;
+            }
+            let r = catch_panic(|| run(job)).unwrap_or_else(|what| Err(internal(what)));
+            let mut g = sink.lock().unwrap_or_else(|e| e.into_inner());
+            match r {
+                Ok(Some(res)) => match (g.on_done)(&res) {
+                    Ok(()) => g.results.push(res),
+                    Err(e) => fail(&mut g, e),
+                },
+                Ok(None) => {}
+                Err(e) => fail(&mut g, e),
+            }
+        })
+    })?;
+    let sink = sink.into_inner().unwrap_or_else(|e| e.into_inner());
+    if let Some(e) = sink.error {
+        return Err(e);
+    }
+    Ok(BatchOutcome { cancelled: sink.results.len() < jobs.len(), results: sink.results })
+}
+
+/// Run `work` on a scoped worker thread while the calling thread calls `poll()` every `period`
+/// (signals, progress). When `poll` returns false the flag `cancel` is set (the work is expected
+/// to stop soon) and polling stops; the work is always joined. A panic of the work becomes
+/// [`Error::Numerical`].
+pub fn watched<T: Send>(cancel: &AtomicBool, period: Duration, work: impl FnOnce() -> Result<T> + Send, mut poll: impl FnMut() -> bool) -> Result<T> {
+    std::thread::scope(|sc| {
+        let worker = sc.spawn(|| catch_panic(work).unwrap_or_else(|what| Err(internal(what))));
+        let mut polling = true;
+        while !worker.is_finished() {
+            std::thread::sleep(period);
+            if polling && !poll() {
+                cancel.store(true, Ordering::Relaxed);
+                polling = false;
+            }
+        }
+        worker.join().unwrap_or_else(|p| Err(internal(panic_message(p.as_ref()))))
+    })
+}

@@ -1,0 +1,86 @@
+"""The ``beamslider`` command: simulate, manifold, compare, map, plot, enma, hb-manifold, discover,
+synthesize, study.
+
+Each subcommand writes CSV/JSON results and PNG figures into an output folder (``--out``,
+default ``./beamslider-out``). ``simulate``, ``manifold``, ``compare`` and ``plot`` never replace an
+existing file without ``--force``, and a refused run creates nothing (not even the folder).
+Figures need matplotlib (``pip install "beamslider[plot]"``); without it these commands write
+their data and skip the figure with a one-line note (``beamslider plot`` is an error). ``beamslider
+simulate`` without options runs the paper's signature-move case (124 Hz, 14 m/s², s₀ = 0.3) for
+60 s with the PCS manifold overlaid. User errors give a one-line message and a non-zero exit
+status, never a traceback.
+
+Layout (imports run one way only: this file → subcommand modules → shared helpers):
+
+- one module per subcommand, each with ``add_parser(sub)`` and its ``cmd_*`` function:
+  :mod:`.simulate`, :mod:`.manifold`, :mod:`.compare`, :mod:`.plot`, :mod:`.map`, :mod:`.enma`,
+  :mod:`.hb_manifold`, :mod:`.discover` (``discover`` and ``synthesize``), :mod:`.study`;
+- shared helpers: :mod:`._common` (errors, exit codes, common options, output planning, ranges),
+  :mod:`._files` (stems and the CSV/JSON files of a run), :mod:`._manifold` (the manifold options).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import warnings
+from typing import Optional, Sequence
+
+from .. import _core
+from .._mpl import PlotDependencyError
+from . import compare, discover, enma, hb_manifold, manifold, map, plot, simulate, study
+from ._common import (DEFAULT_OUT, EXIT_ERROR, EXIT_FAULT, EXIT_INTERRUPTED, MAX_GRID, UserError, one_line,
+                      write_json)
+from ._files import (DEFAULT_MANIFOLD_RECORD, MANIFOLD_HEADER, manifold_file_stem, manifold_stem,
+                     read_manifold_csv, read_simulation_csv, run_stem, simulation_stem, simulation_summary,
+                     write_manifold_csv, write_simulation_csv)
+
+SUBCOMMANDS = (simulate, manifold, compare, map, plot, enma, hb_manifold, discover, study)
+"""The subcommand modules in the order ``beamslider --help`` lists them."""
+
+__all__ = [
+    "DEFAULT_MANIFOLD_RECORD", "DEFAULT_OUT", "EXIT_ERROR", "EXIT_FAULT", "EXIT_INTERRUPTED", "MANIFOLD_HEADER",
+    "MAX_GRID", "UserError", "build_parser", "main", "manifold_file_stem", "manifold_stem", "one_line",
+    "read_manifold_csv", "read_simulation_csv", "run_stem", "simulation_stem", "simulation_summary", "write_json",
+    "write_manifold_csv", "write_simulation_csv",
+]
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser of the ``beamslider`` command (every subcommand registered)."""
+    ap = argparse.ArgumentParser(
+        prog="beamslider",
+        description="Self-adaptive beam-slider system (Müller, Beck & Krack, MSSP 2023): simulations, "
+                    "super-slow manifolds and comparison with measurements.",
+    )
+    ap.add_argument("--version", action="version", version="beamslider 0.1.0")
+    sub = ap.add_subparsers(dest="command", metavar="COMMAND")
+    sub.required = True
+    for module in SUBCOMMANDS:
+        module.add_parser(sub)
+    return ap
+
+
+def main(argv: Optional[Sequence[str]] = None) -> int:
+    """Entry point of the ``beamslider`` console script."""
+    args = build_parser().parse_args(argv)
+    warnings.simplefilter("ignore", RuntimeWarning)  # run faults are reported by the commands
+    try:
+        return args.func(args)
+    except KeyboardInterrupt:
+        print("beamslider: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    except (UserError, ValueError, OverflowError, _core.SimulationError) as e:
+        print(f"beamslider: error: {one_line(e)}", file=sys.stderr)
+        return EXIT_ERROR
+    except PlotDependencyError as e:
+        print(f"beamslider: error: {e}", file=sys.stderr)
+        return EXIT_ERROR
+    except OSError as e:
+        where = f"{e.filename}: " if getattr(e, "filename", None) else ""
+        print(f"beamslider: error: {where}{e.strerror or e}", file=sys.stderr)
+        return EXIT_ERROR
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

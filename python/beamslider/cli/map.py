@@ -1,0 +1,106 @@
+"""``beamslider map``: an operating map (docs/model.md §8) over a grid of f_ex, a_ex and s0, in parallel,
+resumable and extensible in time."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+from .. import _toml
+from ._common import EXIT_FAULT, UserError, add_common, axis_values, figure, out_dir, params_from_args, positive
+
+
+def add_parser(sub: Any) -> None:
+    """Register ``beamslider map``."""
+    sp = sub.add_parser("map", help="operating map: behaviour over a grid of f_ex, a_ex (and s0), in parallel",
+                        description="Classify the behaviour of the free slider (docs/model.md §8) at every point of a grid "
+                                    "(default: the paper's map, f_ex 100:130:2 Hz, a_ex 4:16:2 m/s², s0 0.3, 120 s). "
+                                    "Each finished point is appended to DIR/map.jsonl at once; --resume skips the points "
+                                    "already there (also of a map started by beamslider-batch map). Writes map.toml, "
+                                    "map.txt (letter table) and map.png (the categorical map, like the paper's Fig. 11; one panel per s0, "
+                                    "points whose behaviour changes with s0 outlined).")
+    sp.add_argument("--config", metavar="TOML", help="map configuration as read by beamslider-batch map --config")
+    sp.add_argument("--f-ex", metavar="GRID", help="frequencies: START:STOP:STEP or a comma list (100:130:2)")
+    sp.add_argument("--a-ex", metavar="GRID", help="levels: START:STOP:STEP or a comma list (4:16:2)")
+    sp.add_argument("--s0", metavar="GRID", help="initial slider positions (0.3)")
+    sp.add_argument("--t-end", type=positive(float), metavar="S", help="simulated time per point [s] (120)")
+    sp.add_argument("--threads", "-j", type=positive(int), metavar="N", help="worker threads (default: one per core)")
+    sp.add_argument("--resume", action="store_true", help="continue the map in --out, skipping finished points")
+    sp.add_argument("--extend-to", type=positive(float), metavar="T",
+                    help="extend the map in --out to T seconds: continue its not-settled points from their saved end "
+                         "states (bitwise the T-second runs), keep the settled ones; prints the number re-run")
+    sp.add_argument("--print-config", action="store_true", help="print the map configuration (TOML) and exit")
+    sp.add_argument("--scheduler", metavar="ADDRESS",
+                    help="run the points on a Dask cluster: scheduler address, e.g. tcp://host:8786 (docs/cluster.md)")
+    sp.add_argument("--scheduler-file", metavar="FILE", help="run on the Dask cluster of this scheduler file "
+                    "(dask scheduler --scheduler-file FILE)")
+    sp.add_argument("--chunk-size", type=positive(int), default=8, metavar="N", help="points per Dask task (8)")
+    add_common(sp, window=False)
+    sp.set_defaults(func=cmd_map)
+
+
+def cmd_map(args: argparse.Namespace) -> int:
+    from ..maps import RESULTS_FILE, failures, map_config_toml, plot_operating_map, run_map_config, text_table
+
+    extend = args.extend_to is not None
+    if extend and args.resume:
+        raise UserError("--extend-to finishes an interrupted extension by itself: leave out --resume")
+    if extend and not args.config and all(v is None for v in (args.f_ex, args.a_ex, args.s0, args.t_end, args.params, args.dt)):
+        saved = out_dir(args) / "map.toml"
+        if not saved.exists():
+            raise UserError(f"--extend-to: no map to extend in {saved.parent} (map.toml missing)")
+        args.config = str(saved)
+    if args.config:
+        try:
+            config = Path(args.config).read_text(encoding="utf-8")
+        except FileNotFoundError:
+            raise UserError(f"{args.config}: no such file") from None
+        if any(v is not None for v in (args.f_ex, args.a_ex, args.s0, args.t_end, args.params, args.dt)):
+            raise UserError("--config replaces --f-ex/--a-ex/--s0/--t-end/--params/--dt: put them in the TOML file")
+    else:
+        p = params_from_args(args)
+        config = map_config_toml(
+            p, f_ex=axis_values("--f-ex", "100:130:2" if args.f_ex is None else args.f_ex),
+            a_ex=axis_values("--a-ex", "4:16:2" if args.a_ex is None else args.a_ex),
+            s0=axis_values("--s0", "0.3" if args.s0 is None else args.s0),
+            t_end=args.t_end if args.t_end is not None else 120.0)
+    if extend:
+        try:
+            tables = _toml.loads(config)
+        except _toml.TOMLDecodeError as e:
+            raise UserError(f"{args.config}: {e}") from None
+        old = float(tables.get("duration_s", 120.0))
+        if not (args.extend_to > old):
+            raise UserError(f"--extend-to {args.extend_to:g}: must exceed the map's t_end ({old:g} s)")
+        config = _toml.dumps({**tables, "duration_s": float(args.extend_to)})
+    if args.print_config:
+        print(config, end="")
+        return 0
+    out = Path(args.out)  # created by the map itself, after the scheduler (if any) answered
+    if args.scheduler and args.scheduler_file:
+        raise UserError("give --scheduler or --scheduler-file, not both")
+    t0 = time.perf_counter()
+    table = run_map_config(config, out=out, resume=args.resume, threads=args.threads, progress=args.progress,
+                           extend=extend, scheduler=args.scheduler, scheduler_file=args.scheduler_file,
+                           chunk_size=args.chunk_size)
+    wall = time.perf_counter() - t0
+    txt = text_table(table)
+    (out / "map.txt").write_text(txt, encoding="utf-8")
+    s0s = sorted(set(table["s0"].tolist()))
+    pngs = [out / "map.png"]
+    if not figure(plot_operating_map, table, path=pngs[0], mark_changes=len(s0s) > 1):
+        pngs = []
+    print(txt, end="")
+    print(f"{len(table['index'])} points in {wall:.1f} s")
+    for path in [out / RESULTS_FILE, out / "map.toml", out / "map.txt", *pngs]:
+        print(f"wrote {path}")
+    failed = failures(table)
+    if failed:
+        print(f"beamslider: {len(failed)} of {len(table['index'])} points failed (the others are done):", file=sys.stderr)
+        for line in failed:
+            print(f"  {line}", file=sys.stderr)
+        return EXIT_FAULT
+    return 0

@@ -1,0 +1,143 @@
+"""Features of measured data and of the model at the same conditions (beam level: ENMA; slider level:
+free-slider runs), with uncertainties."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Dict, Tuple
+
+import numpy as np
+
+from .. import enma
+from ..enma import EnmaData
+
+
+@dataclass
+class Feature:
+    """A physically meaningful number with its standard uncertainty."""
+
+    name: str
+    value: float
+    stderr: float
+    unit: str = ""
+    description: str = ""
+
+
+#: Resolution floors of the feature uncertainties (relative for f0/b*/amplitudes, else absolute):
+#: what a noise-free data set can still resolve given the estimators and the time step.
+FLOORS = dict(f0_hz=("rel", 1e-4), b_star=("rel", 2e-3), damping_0=("abs", 1e-6), damping_2=("abs", 2e-6),
+              shape_L6=("abs", 2e-4), shape_L3=("abs", 2e-4),
+              speed_early=("abs", 2e-4), speed_late=("abs", 2e-4), s_turning=("abs", 2e-3),
+              s_final=("abs", 2e-3), amplitude_final_h=("rel", 0.02))
+
+DESCRIPTIONS = dict(
+    f0_hz=("Hz", "linear natural frequency of mode 1 (backbone fit at a~ = 0)"),
+    b_star=("1/s^2", "hardening coefficient b* of the backbone w~^2 = w^2 + 3/4 b* a~^2"),
+    damping_0=("-", "damping ratio at zero amplitude (D~ w~/w = D0 + D2 a~^2)"),
+    damping_2=("-", "amplitude growth D2 of the damping ratio"),
+    shape_L6=("-", "deflection shape at x = L/6 and 5L/6 relative to L/2 (low amplitude)"),
+    shape_L3=("-", "deflection shape at x = L/3 and 2L/3 relative to L/2 (low amplitude)"),
+    speed_early=("1/s", "slider speed ds/dt over the first seconds (0.5 ... 5 s)"),
+    speed_late=("1/s", "slider speed ds/dt over the last third of the run"),
+    s_turning=("-", "turning point: extreme s before the slider reverses (signature move)"),
+    s_final=("-", "final slider position (mean over the last second)"),
+    amplitude_final_h=("-", "final beam amplitude at 4L/7 over h (envelope, last second)"),
+)
+
+
+def _floor(name: str, value: float, stderr: float) -> float:
+    base = name.split("@")[0]
+    kind, v = FLOORS.get(base, ("abs", 0.0))
+    fl = v * abs(value) if kind == "rel" else v
+    return float(max(stderr if math.isfinite(stderr) else 0.0, fl))
+
+
+def _feature(name: str, value: float, stderr: float) -> Feature:
+    unit, desc = DESCRIPTIONS.get(name.split("@")[0], ("", ""))
+    return Feature(name, float(value), _floor(name, value, stderr), unit, desc)
+
+
+def _linear_fit(x: np.ndarray, y: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
+    """Least squares y ≈ c0 + c1 x; coefficients and standard errors (residual scatter)."""
+    A = np.column_stack([np.ones_like(x), x])
+    c, *_ = np.linalg.lstsq(A, y, rcond=None)
+    dof = max(len(x) - 2, 1)
+    r = y - A @ c
+    cov = float(r @ r) / dof * np.linalg.pinv(A.T @ A)
+    return c, np.sqrt(np.maximum(np.diag(cov), 0.0))
+
+
+def enma_features(data: EnmaData, *, low_amplitude_h: float = 0.3) -> Dict[str, Feature]:
+    """Beam-level features of ENMA data (measured or virtual), with standard errors from the
+    scatter of the points (noise and repeated runs), floored by :data:`FLOORS`."""
+    fit = enma.fit_backbone(data)
+    w0 = math.sqrt(fit.omega2)
+    out = {
+        "f0_hz": _feature("f0_hz", fit.linear_frequency_hz, fit.linear_frequency_stderr_hz),
+        "b_star": _feature("b_star", fit.b_star, fit.b_star_stderr),
+    }
+    d = np.asarray(data.damping_ratio, dtype=float)
+    ok = np.isfinite(d)
+    if ok.sum() >= 3 and np.ptp(data.amplitude_h[ok]) > 0:
+        # D~(a~) w~/w = D0 + D2 a~^2: the estimate refers to the phase-resonant frequency.
+        y = d[ok] * (2 * math.pi * data.frequency_hz[ok]) / w0
+        c, se = _linear_fit(data.amplitude_h[ok] ** 2, y)
+        out["damping_0"] = _feature("damping_0", c[0], se[0])
+        out["damping_2"] = _feature("damping_2", c[1], se[1])
+    sh = np.asarray(data.shape, dtype=float)
+    good = np.all(np.isfinite(sh), axis=1)
+    if good.any():
+        idx = np.flatnonzero(good)
+        low = idx[data.amplitude_h[idx] <= low_amplitude_h]
+        if len(low) < 3:
+            low = idx[np.argsort(data.amplitude_h[idx])[:3]]
+        for name, (i, j) in (("shape_L6", (0, 4)), ("shape_L3", (1, 3))):
+            v = 0.5 * (sh[low, i] + sh[low, j])
+            se = float(np.std(v, ddof=1) / math.sqrt(len(v))) if len(v) > 1 else 0.0
+            out[name] = _feature(name, float(np.mean(v)), se)
+    return out
+
+
+def _ls_slope(t: np.ndarray, s: np.ndarray) -> Tuple[float, float]:
+    if len(t) < 3:
+        return math.nan, math.nan
+    c, se = _linear_fit(t - t.mean(), s)
+    return float(c[1]), float(se[1])
+
+
+def slider_features(t: np.ndarray, s: np.ndarray, amplitude_h: np.ndarray, *, tag: str = "",
+                    noise_s: float = 0.0) -> Tuple[Dict[str, Feature], str]:
+    """Slider-level features of one run (s(t) and the envelope of w(4L/7)/h), named
+    ``<feature>@<tag>``, and the behaviour type (docs/model.md §8). ``noise_s`` is the standard
+    deviation of the measured s (enters the uncertainties)."""
+    from .maps import classify
+
+    t = np.asarray(t, dtype=float)
+    s = np.asarray(s, dtype=float)
+    a = np.asarray(amplitude_h, dtype=float)
+    t_end = float(t[-1])
+    out: Dict[str, Feature] = {}
+
+    def add(name: str, value: float, se: float) -> None:
+        if math.isfinite(value):
+            out[f"{name}@{tag}"] = _feature(f"{name}@{tag}", value, se)
+
+    early = (t >= 0.5) & (t <= min(5.0, t_end))
+    add("speed_early", *_ls_slope(t[early], s[early]))
+    late = t >= t_end * 2 / 3
+    add("speed_late", *_ls_slope(t[late], s[late]))
+    last = t >= t_end - 1.0
+    n_last = max(int(last.sum()), 1)
+    add("s_final", float(np.mean(s[last])), noise_s / math.sqrt(n_last))
+    add("amplitude_final_h", float(np.mean(a[last])), float(np.std(a[last])))
+    # Turning point: the slider first moves away from the centre, then back by more than 0.01.
+    s0 = s[0]
+    away = -1.0 if s0 < 0.5 else 1.0
+    ext = int(np.argmax(away * (s - s0)))
+    if away * (s[ext] - s0) > 0.005 and away * (s[ext] - s[-1]) > 0.01:
+        add("s_turning", float(s[ext]), noise_s)
+    behaviour = classify(t, s, a).behaviour
+    return out, behaviour
+
+

@@ -1,0 +1,128 @@
+"""The model side of the features: the beam-level surrogate (single-mode relations of the core's
+first mode with preload, docs/model.md §9), virtual ENMA, and free-slider runs at measured operating points."""
+
+from __future__ import annotations
+
+import math
+import os
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
+from typing import Dict, List, Sequence, Tuple
+
+import numpy as np
+
+from .. import _core, enma
+from ..enma import EnmaData
+from ..measurement import Measurement
+from ..params import Parameters
+from .features import Feature, _feature, enma_features, slider_features
+
+
+_X5 = [1 / 6, 1 / 3, 1 / 2, 2 / 3, 5 / 6]
+
+
+def beam_surrogate(params: Parameters) -> Dict[str, float]:
+    """Beam-level features of a model from the single-mode relations (docs/model.md §9) of its first
+    mode with preload (the core's ``Beam::first_mode``: eigenpair of diag(ω²) + H₀K,
+    b* = (k_ax/2)(vᵀKv)² h²/ψ(L/2)², shape ψ = Σ vₙφₙ)."""
+    b = _core.beam_properties(params.toml_text(), _X5)
+    psi = np.asarray(b["mode1_vector"]) @ np.asarray(b["phi"])
+    return dict(f0_hz=b["omega1_preload_rad_s"] / (2 * math.pi), b_star=b["b_star_preload_per_s2"],
+                damping_0=params.damping_ratio, damping_2=params.damping_ratio_quadratic,
+                shape_L6=0.5 * (psi[0] + psi[4]) / psi[2], shape_L3=0.5 * (psi[1] + psi[3]) / psi[2])
+
+
+def _levels_for(data: EnmaData, params: Parameters) -> List[float]:
+    lv = np.asarray(data.level_m_s2, dtype=float)
+    if np.all(np.isfinite(lv)) and len(lv):
+        return sorted(set(float(x) for x in lv))
+    # Unknown levels: a~ ≈ γ₁ φ₁(L/2) a / (2 D ω₁²) / h at phase resonance.
+    b = _core.beam_properties(params.toml_text())
+    gain = b["gamma"][0] * b["phi_mid"] / (2 * max(params.damping_ratio, 1e-5) * b["omega_rad_s"][0] ** 2)
+    gain /= params.thickness_m
+    amps = np.quantile(data.amplitude_h, np.linspace(0, 1, 12))
+    return sorted(set(round(float(a / abs(gain)), 6) for a in amps if a > 0))
+
+
+def simulated_enma_features(params: Parameters, levels_m_s2: Sequence[float]) -> Tuple[Dict[str, Feature], EnmaData]:
+    """Features of a virtual ENMA (up run) of the model at the given levels."""
+    data = enma.virtual(params, levels_m_s2=list(levels_m_s2), up_and_down=False)
+    return enma_features(data), data
+
+
+# --- slider level ---------------------------------------------------------------------------------
+
+
+@dataclass
+class OperatingPoint:
+    """A measured free-slider run's conditions."""
+
+    f_ex: float
+    a_ex: float
+    s0: float
+    duration_s: float
+
+    @property
+    def tag(self) -> str:
+        return f"{self.f_ex:g}Hz_{self.a_ex:g}ms2_s0{self.s0:g}"
+
+
+def _noise_of(s: np.ndarray) -> float:
+    """Standard deviation of white measurement noise on s (from second differences)."""
+    if len(s) < 10:
+        return 0.0
+    return float(np.std(np.diff(s, 2)) / math.sqrt(6))
+
+
+def measured_slider_features(runs: Sequence[Measurement]) -> Tuple[Dict[str, Feature], Dict[str, str], List[OperatingPoint]]:
+    """Features of measured runs (several runs at one operating point: mean and scatter)."""
+    groups: Dict[Tuple[float, float, float], List[Measurement]] = {}
+    for m in runs:
+        if m.f_ex is None or m.a_ex is None or m.s0 is None:
+            raise ValueError(f"{m.path}: the operating point (f_ex, a_ex, s0) is not in the file name")
+        groups.setdefault((m.f_ex, m.a_ex, m.s0), []).append(m)
+    feats: Dict[str, Feature] = {}
+    behaviours: Dict[str, str] = {}
+    ops = []
+    for (f, a, s0), ms in groups.items():
+        op = OperatingPoint(f, a, s0, float(min(m.t[-1] for m in ms)))
+        ops.append(op)
+        per = []
+        for m in ms:
+            h = 1e-3
+            amp = m.envelope(1.0) / h
+            keep = m.t <= op.duration_s + 1e-9
+            fe, beh = slider_features(m.t[keep], m.s[keep], amp[keep], tag=op.tag, noise_s=_noise_of(m.s))
+            per.append(fe)
+            behaviours[op.tag] = beh
+        for name in per[0]:
+            vals = np.array([p[name].value for p in per if name in p])
+            ses = np.array([p[name].stderr for p in per if name in p])
+            scatter = float(np.std(vals, ddof=1) / math.sqrt(len(vals))) if len(vals) > 1 else 0.0
+            feats[name] = _feature(name, float(np.mean(vals)), math.hypot(float(np.mean(ses)), scatter))
+    return feats, behaviours, ops
+
+
+def _simulate_ops(params: Parameters, ops: Sequence[OperatingPoint], *, s0_shift: float = 0.0):
+    from .simulate import simulate
+
+    def one(op: OperatingPoint):
+        return simulate(params, f_ex=op.f_ex, a_ex=op.a_ex, s0=op.s0 + s0_shift, t_end=op.duration_s, record_every=5)
+
+    with ThreadPoolExecutor(max_workers=max(1, min(len(ops), os.cpu_count() or 1))) as ex:
+        return list(ex.map(one, ops))
+
+
+def model_slider_features(params: Parameters, ops: Sequence[OperatingPoint], *, s0_shift: float = 0.0
+                          ) -> Tuple[Dict[str, Feature], Dict[str, str]]:
+    """Features of free-slider runs of the model at the operating points (same code as measured)."""
+    feats: Dict[str, Feature] = {}
+    behaviours: Dict[str, str] = {}
+    for op, r in zip(ops, _simulate_ops(params, ops, s0_shift=s0_shift)):
+        amp = r.envelope(1.0) / params.thickness_m
+        fe, beh = slider_features(r.t, r.s, amp, tag=op.tag)
+        feats.update(fe)
+        behaviours[op.tag] = beh
+    return feats, behaviours
+
+

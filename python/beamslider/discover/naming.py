@@ -1,0 +1,362 @@
+"""Naming the missing effect: weighted least-squares fits of every candidate and pair, χ² criterion
+and forward selection by likelihood-ratio tests (see the package docstring)."""
+
+from __future__ import annotations
+
+import dataclasses
+import itertools
+import math
+from dataclasses import dataclass, field
+from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple
+
+import numpy as np
+
+from .. import _core
+from .._json import json_safe as _json_safe
+from ..enma import EnmaData
+from ..measurement import Measurement
+from ..params import Parameters, resolve
+from .effects import EFFECTS, Effect, _apply, _with
+from .features import Feature, enma_features
+from .models import _levels_for, beam_surrogate, measured_slider_features, model_slider_features, simulated_enma_features
+
+
+SIGNIFICANCE = 0.01
+"""Significance level of the naming tests (χ² quantiles, likelihood-ratio thresholds)."""
+
+
+@dataclass
+class CandidateFit:
+    """One candidate set fitted to the measured features."""
+
+    effects: Tuple[str, ...]
+    values: Dict[str, float]
+    stderrs: Dict[str, float]
+    chi2: float
+    dof: int
+    adequate: bool
+    bic: float
+
+
+@dataclass
+class Discovery:
+    """Outcome of :func:`discover` (see :func:`write_report`)."""
+
+    level: str
+    named_effects: List[str]
+    parameters: Dict[str, Dict[str, Any]]
+    features: Dict[str, Dict[str, Any]]
+    gap_before: float
+    gap_after: float
+    chi2_before: float
+    candidates: List[CandidateFit]
+    criterion: str
+    baseline: Parameters
+    updated: Parameters
+    behaviours: Dict[str, Dict[str, str]] = field(default_factory=dict)
+    alternatives: List[Tuple[str, ...]] = field(default_factory=list)
+    data: Any = None
+    runtime_s: float = 0.0
+
+    def to_json(self) -> Dict[str, Any]:
+        return _json_safe(dict(
+            level=self.level, named_effects=self.named_effects, parameters=self.parameters,
+            gap_before=self.gap_before, gap_after=self.gap_after, gap_measure=GAP_MEASURE,
+            chi2_before=self.chi2_before, criterion=self.criterion, features=self.features,
+            behaviours=self.behaviours, alternatives=[list(a) for a in self.alternatives],
+            candidates=[dict(effects=list(c.effects), values=c.values, stderrs=c.stderrs, chi2=c.chi2, dof=c.dof,
+                             adequate=c.adequate, bic=c.bic) for c in self.candidates],
+            baseline=self.baseline.to_dict(), updated=self.updated.to_dict(), runtime_s=self.runtime_s))
+
+
+GAP_MEASURE = "RMS over the features of (model - measured) / measurement uncertainty"
+
+
+def _chi2_quantile(dof: int) -> float:
+    from scipy.stats import chi2
+
+    return float(chi2.ppf(1 - SIGNIFICANCE, max(dof, 1)))
+
+
+def _gap(model: Dict[str, float], meas: Dict[str, Feature]) -> Tuple[float, float]:
+    z = [(model[k] - f.value) / f.stderr for k, f in meas.items() if k in model and math.isfinite(model[k])]
+    z = np.asarray(z)
+    return float(np.sqrt(np.mean(z ** 2))) if len(z) else 0.0, float(np.sum(z ** 2))
+
+
+def _fit_candidate(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str, Feature],
+                   model_fn: Callable[[Parameters], Dict[str, float]], *, diff_step: Optional[float],
+                   max_nfev: int) -> CandidateFit:
+    from scipy.optimize import least_squares
+
+    names = [k for k in meas]
+    sig = np.array([meas[k].stderr for k in names])
+    y = np.array([meas[k].value for k in names])
+    penalty = 1e3
+
+    def resid(u: np.ndarray) -> np.ndarray:
+        try:
+            m = model_fn(_apply(baseline, effects, u))
+        except (ValueError, _core.SimulationError):
+            return np.full(len(names), penalty)
+        r = np.array([(m.get(k, math.nan) - yk) / sk for k, yk, sk in zip(names, y, sig)])
+        return np.where(np.isfinite(r), r, penalty)
+
+    lo = np.array([e.lower for e in effects])
+    hi = np.array([e.upper for e in effects])
+    starts = [np.clip([e.variable(getattr(baseline, e.field), baseline) for e in effects], lo, hi)]
+    starts.append(lo + 0.1 * (hi - lo))
+    best = None
+    for x0 in starts:
+        kw = dict(bounds=(lo, hi), x_scale=np.maximum(hi - lo, 1e-12) * 0.05, max_nfev=max_nfev)
+        if diff_step is not None:
+            kw["diff_step"] = diff_step
+        r = least_squares(resid, x0, **kw)
+        if best is None or r.cost < best.cost:
+            best = r
+    assert best is not None
+    chi2 = float(2 * best.cost)
+    n, k = len(names), len(effects)
+    J = best.jac
+    try:
+        cov_u = np.linalg.pinv(J.T @ J)
+        se_u = np.sqrt(np.maximum(np.diag(cov_u), 0.0))
+    except np.linalg.LinAlgError:
+        se_u = np.full(k, math.inf)
+    values, stderrs = {}, {}
+    for e, u, su in zip(effects, best.x, se_u):
+        v = e.value(u, baseline)
+        values[e.name] = v
+        if e.kind == "compliance":
+            stderrs[e.name] = abs(e.scale(baseline) / u ** 2) * su if u > 0 else math.inf
+        else:
+            stderrs[e.name] = abs(e.scale(baseline)) * su
+    dof = n - k
+    return CandidateFit(tuple(e.name for e in effects), values, stderrs, chi2, dof,
+                        chi2 <= _chi2_quantile(dof), chi2 + k * math.log(max(n, 2)))
+
+
+def _profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str, Feature],
+                 model_fn: Callable[[Parameters], Dict[str, float]], *, grid_n: int = 9, refine: int = 5,
+                 progress: Optional[Callable[[], None]] = None) -> CandidateFit:
+    """Fit for expensive, not smooth objectives (slider level): per effect a grid scan of χ² over
+    its search range, golden-section refinement in the best bracket, one coordinate pass per
+    effect; the standard error from the curvature of the χ² profile (χ² = χ²_min + (u − û)²/σ²)."""
+    names = list(meas)
+    sig = np.array([meas[k].stderr for k in names])
+    y = np.array([meas[k].value for k in names])
+    cache: Dict[Tuple[float, ...], float] = {}
+
+    def chi2(u: np.ndarray) -> float:
+        key = tuple(round(float(v), 12) for v in u)
+        if key not in cache:
+            try:
+                m = model_fn(_apply(baseline, effects, u))
+                r = np.array([(m.get(k, yk + 5 * sk) - yk) / sk for k, yk, sk in zip(names, y, sig)])
+                cache[key] = float(r @ r) if np.all(np.isfinite(r)) else math.inf
+            except (ValueError, _core.SimulationError):
+                cache[key] = math.inf
+            if progress is not None:
+                progress()
+        return cache[key]
+
+    u = np.array([np.clip(e.variable(getattr(baseline, e.field), baseline), e.lower, e.upper) for e in effects])
+    samples: List[List[Tuple[float, float]]] = [[] for _ in effects]
+    for i, e in enumerate(effects):
+        lo, hi = e.search if math.isfinite(e.search[0]) else (e.lower, e.upper)
+        grid = np.linspace(lo, hi, grid_n)
+        vals = []
+        for g in grid:
+            uu = u.copy()
+            uu[i] = g
+            vals.append(chi2(uu))
+        j = int(np.argmin(vals))
+        a, b = grid[max(j - 1, 0)], grid[min(j + 1, grid_n - 1)]
+        pts = list(zip(grid, vals))
+        gr = (math.sqrt(5) - 1) / 2
+        c, d = b - gr * (b - a), a + gr * (b - a)
+        fc, fd = chi2(np.where(np.arange(len(u)) == i, c, u)), chi2(np.where(np.arange(len(u)) == i, d, u))
+        pts += [(c, fc), (d, fd)]
+        for _ in range(max(refine - 2, 0)):
+            if fc < fd:
+                b, d, fd = d, c, fc
+                c = b - gr * (b - a)
+                fc = chi2(np.where(np.arange(len(u)) == i, c, u))
+                pts.append((c, fc))
+            else:
+                a, c, fc = c, d, fd
+                d = a + gr * (b - a)
+                fd = chi2(np.where(np.arange(len(u)) == i, d, u))
+                pts.append((d, fd))
+        x_best, f_best = min(pts, key=lambda p: p[1])
+        u[i] = x_best
+        samples[i] = pts
+    best_chi2 = chi2(u)
+    values, stderrs = {}, {}
+    for i, e in enumerate(effects):
+        pts = sorted(samples[i])
+        xs = np.array([p[0] for p in pts])
+        fs = np.array([p[1] for p in pts])
+        ok = np.isfinite(fs)
+        step = (np.ptp(xs[ok]) / max(grid_n - 1, 1)) if ok.sum() > 2 else 1.0
+        near = ok & (np.abs(xs - u[i]) <= 1.5 * step)
+        su = math.inf
+        if near.sum() >= 3:
+            curv = np.polyfit(xs[near] - u[i], fs[near], 2)[0]
+            if curv > 0:
+                su = 1 / math.sqrt(curv)
+        values[e.name] = e.value(u[i], baseline)
+        stderrs[e.name] = abs(e.scale(baseline)) * su if e.kind != "compliance" else math.inf
+    n, k = len(names), len(effects)
+    return CandidateFit(tuple(e.name for e in effects), values, stderrs, best_chi2, n - k,
+                        best_chi2 <= _chi2_quantile(n - k), best_chi2 + k * math.log(max(n, 2)))
+
+
+def _lrt_threshold(df: int, m: int) -> float:
+    """Likelihood-ratio threshold for adding ``df`` effects chosen as the best of ``m`` candidate
+    sets: the (1 − α/m) quantile of χ²(df) (Bonferroni for picking the best of m)."""
+    from scipy.stats import chi2
+
+    return float(chi2.isf(SIGNIFICANCE / max(m, 1), max(df, 1)))
+
+
+def _select(fits: List[CandidateFit], chi2_0: float, n: int) -> Tuple[Optional[CandidateFit], List[Tuple[str, ...]]]:
+    """Nothing if the baseline is adequate; else forward selection by likelihood-ratio tests: the
+    best single effect must beat the baseline, and the best larger set containing the current
+    choice must beat it, by more than :func:`_lrt_threshold` (99 %, corrected for the number of
+    sets the best was picked from)."""
+    if chi2_0 <= _chi2_quantile(n) or not fits:
+        return None, []
+    by_size: Dict[int, List[CandidateFit]] = {}
+    for f in fits:
+        by_size.setdefault(len(f.effects), []).append(f)
+    best: Optional[CandidateFit] = None
+    best_chi2, best_k = chi2_0, 0
+    for k in sorted(by_size):
+        pool = [c for c in by_size[k] if best is None or set(best.effects) <= set(c.effects)]
+        if not pool:
+            continue
+        top = min(pool, key=lambda c: c.chi2)
+        if best_chi2 - top.chi2 > _lrt_threshold(k - best_k, len(pool)):
+            best, best_chi2, best_k = top, top.chi2, k
+        else:
+            break
+    if best is None:
+        return None, []
+    alts = [c.effects for c in by_size[len(best.effects)] if c.effects != best.effects and c.chi2 - best.chi2 < 2.0]
+    return best, alts
+
+
+def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequence[Measurement]] = None,
+             baseline: Optional[Parameters] = None, effects: Optional[Sequence[str]] = None,
+             max_effects: int = 2, progress: bool = False) -> Discovery:
+    """Find the effects the ``baseline`` model misses, from beam-level ENMA data (``enma_data``)
+    or slider-level free-slider runs (``measured``, files of the published format), name them,
+    add them and measure the gap before and after (module docs: criterion)."""
+    import time
+
+    t0 = time.perf_counter()
+    base = resolve(baseline)
+    if (enma_data is None) == (measured is None):
+        raise ValueError("give either enma_data (beam level) or measured runs (slider level)")
+    level = "beam" if enma_data is not None else "slider"
+    names = list(effects) if effects is not None else [n for n, e in EFFECTS.items() if e.level == level]
+    unknown = [n for n in names if n not in EFFECTS]
+    if unknown:
+        raise ValueError(f"unknown effect {unknown[0]!r}: known are {', '.join(EFFECTS)}")
+    cand_effects = [EFFECTS[n] for n in names if EFFECTS[n].level == level]
+    if not cand_effects:
+        raise ValueError(f"none of the effects {names} acts at the {level} level")
+    behaviours: Dict[str, Dict[str, str]] = {}
+    if level == "beam":
+        assert enma_data is not None
+        meas = enma_features(enma_data)
+        levels = _levels_for(enma_data, base)
+        sim_base, _ = simulated_enma_features(base, levels)
+        sur_base = beam_surrogate(base)
+        bias = {k: sim_base[k].value - sur_base[k] for k in sim_base if k in sur_base}
+
+        def model_fn(p: Parameters) -> Dict[str, float]:
+            s = beam_surrogate(p)
+            return {k: v + bias.get(k, 0.0) for k, v in s.items()}
+
+        before = {k: f.value for k, f in sim_base.items()}
+        diff_step, max_nfev = None, 200
+    else:
+        assert measured is not None
+        meas, beh_meas, ops = measured_slider_features(measured)
+        base_feats, beh_base = model_slider_features(base, ops)
+        # Run-to-run variability of the model (repeated runs from s0 ± 0.002) joins the uncertainty.
+        reps = [model_slider_features(base, ops, s0_shift=d)[0] for d in (-0.002, 0.002)]
+        for k, f in list(meas.items()):
+            vals = [base_feats[k].value] + [r[k].value for r in reps if k in r] if k in base_feats else []
+            spread = float(np.std(vals, ddof=1)) if len(vals) > 1 else 0.0
+            meas[k] = dataclasses.replace(f, stderr=math.hypot(f.stderr, spread))
+        before = {k: f.value for k, f in base_feats.items()}
+        behaviours = {"measured": beh_meas, "baseline": beh_base}
+
+        def model_fn(p: Parameters) -> Dict[str, float]:
+            return {k: f.value for k, f in model_slider_features(p, ops)[0].items()}
+
+        diff_step, max_nfev = None, 0
+    # Features the baseline cannot compute (e.g. no turning point) count as a disagreement of 5σ.
+    for k in meas:
+        if k not in before:
+            before[k] = meas[k].value + 5 * meas[k].stderr
+    gap_before, chi2_0 = _gap(before, meas)
+    n = len(meas)
+    fits: List[CandidateFit] = []
+    if chi2_0 > _chi2_quantile(n):
+        for k in range(1, max_effects + 1):
+            for combo in itertools.combinations(cand_effects, k):
+                if level == "beam":
+                    fits.append(_fit_candidate(combo, base, meas, model_fn, diff_step=diff_step, max_nfev=max_nfev))
+                else:
+                    fits.append(_profile_fit(combo, base, meas, model_fn))
+    best, alts = _select(fits, chi2_0, n)
+    if best is not None and level == "beam":
+        # One refinement: re-centre the surrogate's bias correction at the chosen model and refit.
+        chosen = _with(base, **{EFFECTS[e].field: best.values[e] for e in best.effects})
+        sim_c, _ = simulated_enma_features(chosen, levels)
+        sur_c = beam_surrogate(chosen)
+        bias = {k: sim_c[k].value - sur_c[k] for k in sim_c if k in sur_c}
+        fits = [_fit_candidate([EFFECTS[e] for e in f.effects], base, meas, model_fn, diff_step=diff_step,
+                               max_nfev=max_nfev) for f in fits]
+        best, alts = _select(fits, chi2_0, n)
+    if best is None:
+        updated = base
+        named: List[str] = []
+        params_out: Dict[str, Dict[str, Any]] = {}
+    else:
+        named = list(best.effects)
+        updated = _with(base, **{EFFECTS[e].field: best.values[e] for e in named})
+        params_out = {e: dict(field=EFFECTS[e].field, value=best.values[e], stderr=best.stderrs[e],
+                              unit=EFFECTS[e].unit, baseline=getattr(base, EFFECTS[e].field)) for e in named}
+    # "After": full simulation of the updated model (not the surrogate).
+    if level == "beam":
+        after_f = before if best is None else {k: f.value for k, f in simulated_enma_features(updated, levels)[0].items()}
+    else:
+        after_f, beh_upd = (before, behaviours["baseline"]) if best is None else (
+            lambda r: ({k: f.value for k, f in r[0].items()}, r[1]))(model_slider_features(updated, ops))
+        behaviours["updated"] = beh_upd
+    for k in meas:
+        if k not in after_f:
+            after_f[k] = meas[k].value + 5 * meas[k].stderr
+    gap_after, _ = _gap(after_f, meas)
+    features = {k: dict(measured=f.value, uncertainty=f.stderr, baseline=before[k], updated=after_f[k],
+                        unit=f.unit, description=f.description,
+                        z_before=(before[k] - f.value) / f.stderr, z_after=(after_f[k] - f.value) / f.stderr,
+                        exceeds_uncertainty=bool(abs(before[k] - f.value) > 2 * f.stderr))
+                for k, f in meas.items()}
+    criterion = (f"weighted least squares with the feature uncertainties; nothing named if chi2(baseline) <= "
+                 f"chi2_{1 - SIGNIFICANCE:.2f}(n={n}) = {_chi2_quantile(n):.2f}; otherwise forward selection by "
+                 f"likelihood-ratio tests at 99 %, Bonferroni-corrected for picking the best of m sets: the best "
+                 f"single effect is named if it lowers chi2 by more than chi2_(1-0.01/m)(1) (m = "
+                 f"{len(cand_effects)}: {_lrt_threshold(1, len(cand_effects)):.2f}), the best pair containing it "
+                 f"replaces it only if it lowers chi2 by that again (m = {max(len(cand_effects) - 1, 1)}: "
+                 f"{_lrt_threshold(1, max(len(cand_effects) - 1, 1)):.2f}); 'adequate' marks chi2 <= chi2_0.99(n-k)")
+    return Discovery(level, named, params_out, features, gap_before, gap_after, chi2_0, fits, criterion, base,
+                     updated, behaviours, alts, enma_data if level == "beam" else list(measured or []),
+                     time.perf_counter() - t0)
+
+

@@ -1,0 +1,126 @@
+"""The report of a discovery: updated TOML, ``report.json``, ``report.md`` and figures."""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from pathlib import Path
+from typing import Any, List, Sequence, Union
+
+import numpy as np
+
+from .. import enma
+from ..enma import EnmaData
+from .effects import EFFECTS
+from .models import OperatingPoint, _simulate_ops
+from .naming import Discovery, GAP_MEASURE
+
+PathLike = Union[str, "os.PathLike[str]"]
+
+
+def write_report(d: Discovery, out_dir: PathLike) -> List[Path]:
+    """Write ``updated.toml``, ``report.json``, ``report.md`` and the figures into ``out_dir``."""
+    from ._mpl import require_matplotlib
+
+    require_matplotlib("the discover report's figures")
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    written = []
+    d.updated.to_toml(out / "updated.toml")
+    written.append(out / "updated.toml")
+    with open(out / "report.json", "w", encoding="utf-8") as f:
+        json.dump(d.to_json(), f, indent=2)
+        f.write("\n")
+    written.append(out / "report.json")
+    # Figure 1: disagreement per feature before and after, in units of the uncertainty.
+    names = list(d.features)
+    zb = [d.features[k]["z_before"] for k in names]
+    za = [d.features[k]["z_after"] for k in names]
+    fig, ax = plt.subplots(figsize=(max(6.0, 0.9 * len(names) + 2), 4.2), constrained_layout=True)
+    x = np.arange(len(names))
+    ax.bar(x - 0.2, zb, 0.4, label=f"baseline (gap {d.gap_before:.3g})")
+    ax.bar(x + 0.2, za, 0.4, label=f"updated (gap {d.gap_after:.3g})")
+    ax.set_yscale("symlog", linthresh=2.0)
+    ax.axhspan(-2, 2, color="0.85", zorder=0, label="±2 uncertainties")
+    ax.set_xticks(x, names, rotation=30, ha="right", fontsize=8)
+    ax.set_ylabel("(model − measured) / uncertainty (symlog)")
+    ax.set_title("named: " + (", ".join(d.named_effects) or "nothing (model agrees within uncertainty)"))
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3, axis="y")
+    fig.savefig(out / "gap.png", dpi=120)
+    plt.close(fig)
+    written.append(out / "gap.png")
+    figs = ["gap.png"]
+    if d.level == "beam" and isinstance(d.data, EnmaData):
+        enma.plot_enma(d.data, enma.fit_backbone(d.data), models={"baseline": d.baseline, "updated": d.updated},
+                       path=out / "backbone.png")
+        written.append(out / "backbone.png")
+        figs.append("backbone.png")
+    elif d.level == "slider" and d.data:
+        ms = d.data
+        ops = [OperatingPoint(m.f_ex, m.a_ex, m.s0, float(m.t[-1])) for m in ms]
+        base_runs = _simulate_ops(d.baseline, ops)
+        upd_runs = _simulate_ops(d.updated, ops)
+        fig, axs = plt.subplots(1, len(ms), figsize=(5.5 * len(ms), 4), constrained_layout=True, squeeze=False)
+        for ax, m, rb, ru, op in zip(axs[0], ms, base_runs, upd_runs, ops):
+            ax.plot(m.t, m.s, color="0.4", lw=0.8, label="measured")
+            ax.plot(rb.t, rb.s, "--", lw=1.3, label="baseline")
+            ax.plot(ru.t, ru.s, "-", lw=1.3, label="updated")
+            ax.set_title(op.tag.replace("_", " "))
+            ax.set_xlabel("t [s]")
+            ax.set_ylabel("s = x_C / L [-]")
+            ax.grid(alpha=0.3)
+            ax.legend(fontsize=8)
+        fig.savefig(out / "slider.png", dpi=120)
+        plt.close(fig)
+        written.append(out / "slider.png")
+        figs.append("slider.png")
+    md = _markdown(d, figs)
+    (out / "report.md").write_text(md, encoding="utf-8")
+    written.append(out / "report.md")
+    return written
+
+
+def _fmt(v: Any) -> str:
+    if isinstance(v, float):
+        return "inf" if math.isinf(v) else f"{v:.5g}"
+    return str(v)
+
+
+def _markdown(d: Discovery, figs: Sequence[str]) -> str:
+    lines = [f"# Discrepancy report ({d.level} level)", ""]
+    if d.named_effects:
+        lines.append("**Named effect(s): " + ", ".join(f"`{e}`" for e in d.named_effects) + "**")
+    else:
+        lines.append("**Named: nothing** — the baseline agrees with the data within the measurement uncertainty.")
+    lines += ["", f"Gap ({GAP_MEASURE}): before {d.gap_before:.3g}, after {d.gap_after:.3g} "
+              f"(chi2 of the baseline {d.chi2_before:.3g} over {len(d.features)} features).", ""]
+    if d.parameters:
+        lines += ["| effect | parameter | fitted | ± std. error | baseline |", "|---|---|---|---|---|"]
+        for e, p in d.parameters.items():
+            lines.append(f"| {e} | {p['field']} [{p['unit']}] | {_fmt(p['value'])} | {_fmt(p['stderr'])} | "
+                         f"{_fmt(p['baseline'])} |")
+        lines.append("")
+    if d.alternatives:
+        lines += ["Equally good alternatives: " + "; ".join(", ".join(a) for a in d.alternatives), ""]
+    lines += ["| feature | measured | ± | baseline | updated | z before | z after |", "|---|---|---|---|---|---|---|"]
+    for k, f in d.features.items():
+        lines.append(f"| {k} | {_fmt(f['measured'])} | {_fmt(f['uncertainty'])} | {_fmt(f['baseline'])} | "
+                     f"{_fmt(f['updated'])} | {f['z_before']:+.2f} | {f['z_after']:+.2f} |")
+    if d.behaviours:
+        lines += ["", "Behaviour types: " + "; ".join(f"{k}: {v}" for k, v in d.behaviours.items())]
+    lines += ["", "Candidates (chi2, dof, adequate at 99 %):", ""]
+    for c in sorted(d.candidates, key=lambda c: (len(c.effects), c.chi2)):
+        vals = ", ".join(f"{EFFECTS[e].field} = {_fmt(c.values[e])}" for e in c.effects)
+        lines.append(f"- {' + '.join(c.effects)}: chi2 = {c.chi2:.3g}, dof {c.dof}, "
+                     f"{'adequate' if c.adequate else 'not adequate'} ({vals})")
+    lines += ["", f"Criterion: {d.criterion}.", "", f"Run time: {d.runtime_s:.1f} s.", ""]
+    for fname in figs:
+        lines.append(f"![{fname}]({fname})")
+    return "\n".join(lines) + "\n"

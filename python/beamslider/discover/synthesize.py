@@ -1,0 +1,62 @@
+"""Hidden-effect test data from a truth model, with noise and a seed: a virtual ENMA CSV or free-slider
+runs in the published measured format."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import List, Optional, Sequence, Tuple, Union
+
+import numpy as np
+
+from .. import _core, enma
+from ..enma import EnmaData
+from ..measurement import write_measurement
+from ..params import Parameters, resolve
+from .models import OperatingPoint, _simulate_ops
+
+PathLike = Union[str, "os.PathLike[str]"]
+
+
+def synthesize_enma(truth: Optional[Parameters] = None, *, levels_m_s2: Sequence[float] = enma.DEFAULT_LEVELS_M_S2,
+                    frequency_rel: float = 0.002, damping_rel: float = 0.02, shape_abs: float = 0.002,
+                    repeats: int = 2, seed: int = 0) -> EnmaData:
+    """Hidden-effect ENMA data: a virtual ENMA (up and down) of ``truth`` with Gaussian noise
+    (relative on frequency and damping, absolute on the normalised shape) and ``repeats``
+    independently noisy repetitions, reproducible by ``seed``."""
+    data = enma.virtual(resolve(truth), levels_m_s2=levels_m_s2)
+    noisy = enma.with_noise(data, frequency_rel=frequency_rel, damping_rel=damping_rel, seed=seed, repeats=repeats)
+    if shape_abs > 0:
+        rng = np.random.default_rng(seed + 7919)
+        sh = noisy.shape + shape_abs * rng.standard_normal(noisy.shape.shape)
+        sh[:, 2] = 1.0  # the shape is normalised at L/2
+        noisy.shape = sh
+    noisy.source = f"synthetic ENMA (seed {seed})"
+    return noisy
+
+
+def synthesize_slider_runs(truth: Optional[Parameters] = None, *, operating_points: Sequence[Tuple[float, float, float]],
+                           duration_s: float, out_dir: PathLike, noise_s: float = 0.001,
+                           noise_velocity_m_s: float = 0.002, seed: int = 0) -> List[Path]:
+    """Hidden-effect free-slider runs of ``truth`` written in the published measured format
+    (time, beam velocity at 4L/7, s at 1e-4 s; file names carry the operating point), with white
+    noise on s and the velocity, reproducible by ``seed``. Returns the file paths."""
+    p = resolve(truth)
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    ops = [OperatingPoint(f, a, s0, duration_s) for f, a, s0 in operating_points]
+    rng = np.random.default_rng(seed)
+    paths = []
+    for op, r in zip(ops, _simulate_ops(p, ops)):
+        if not r.completed:
+            raise _core.SimulationError(f"truth run at {op.tag} stopped: {r.message}")
+        t = r.t
+        vel = np.gradient(r.w, t) + noise_velocity_m_s * rng.standard_normal(len(t))
+        s = r.s + noise_s * rng.standard_normal(len(t))
+        s0_txt = f"{op.s0:g}".replace("0.", "0")
+        path = out / f"Time_VelBeam_RelSliderPos__fex{op.f_ex:g}_ExcLevel{op.a_ex:g}_RelSliderPosStart{s0_txt}.txt"
+        write_measurement(path, t, vel, s)
+        paths.append(path)
+    return paths
+
+
