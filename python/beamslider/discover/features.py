@@ -111,7 +111,7 @@ def slider_features(t: np.ndarray, s: np.ndarray, amplitude_h: np.ndarray, *, ta
     """Slider-level features of one run (s(t) and the envelope of w(4L/7)/h), named
     ``<feature>@<tag>``, and the behaviour type (docs/model.md §8). ``noise_s`` is the standard
     deviation of the measured s (enters the uncertainties)."""
-    from .maps import classify
+    from ..maps import classify
 
     t = np.asarray(t, dtype=float)
     s = np.asarray(s, dtype=float)

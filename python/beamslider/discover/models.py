@@ -104,7 +104,7 @@ def measured_slider_features(runs: Sequence[Measurement]) -> Tuple[Dict[str, Fea
 
 
 def _simulate_ops(params: Parameters, ops: Sequence[OperatingPoint], *, s0_shift: float = 0.0):
-    from .simulate import simulate
+    from ..simulate import simulate
 
     def one(op: OperatingPoint):
         return simulate(params, f_ex=op.f_ex, a_ex=op.a_ex, s0=op.s0 + s0_shift, t_end=op.duration_s, record_every=5)

@@ -21,7 +21,7 @@ PathLike = Union[str, "os.PathLike[str]"]
 
 def write_report(d: Discovery, out_dir: PathLike) -> List[Path]:
     """Write ``updated.toml``, ``report.json``, ``report.md`` and the figures into ``out_dir``."""
-    from ._mpl import require_matplotlib
+    from .._mpl import require_matplotlib
 
     require_matplotlib("the discover report's figures")
     import matplotlib
