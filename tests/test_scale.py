@@ -55,7 +55,7 @@ except ValueError as e:
         assert word in msg, msg
     # 5e9 rows of 6 float64: 240 GB
     assert "240 GB" in msg, msg
-    assert float(msg.split("seconds:")[1]) < 5.0  # refused before the run, not after an allocation attempt
+    assert "memory allocation" not in r.stderr  # refused by the estimate, not by a failed allocation
 
 
 def test_streamed_run_keeps_memory_bounded_under_an_address_space_limit(tmp_path):
