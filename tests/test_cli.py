@@ -45,19 +45,19 @@ def test_simulate_writes_csv_json_png(tmp_path):
     assert is_png(out / f"{stem}.png")
     meta = json.loads((out / f"{stem}.json").read_text())
     assert meta["status"] == "completed" and meta["f_ex_hz"] == 124 and meta["counters"]["steps"] == 15000
-    header = (out / f"{stem}.csv").read_text().splitlines()[0]
-    assert header == "t_s,w_4L7_m,s,xC_m,zC_m,beta_rad"
-    data = np.loadtxt(out / f"{stem}.csv", delimiter=",", skiprows=1)
-    assert data.shape == (1501, 6)
+    with np.load(out / f"{stem}.npz") as z:  # the default trajectory format (--format csv for CSV)
+        assert sorted(z.files) == sorted(["t_s", "w_4L7_m", "s", "xC_m", "zC_m", "beta_rad"])
+        assert all(z[k].shape == (1501,) for k in z.files)
+    assert meta["complete"] is True and meta["data"] == f"{stem}.npz"
     assert (out / f"{FAST_MANIFOLD_STEM}.csv").read_text().startswith("branch,s,amplitude_m")
     assert "wrote" in p.stdout
 
 
 def test_simulate_options_and_progress(tmp_path):
     p = _ok(run_cli("simulate", "--f-ex", "104", "--a-ex", "6", "--s0", "0.25", "--t-end", "0.2", "--model", "pcs",
-                    "--no-manifold", "--solver", "reference", "--out", "o", cwd=tmp_path))
+                    "--no-manifold", "--solver", "reference", "--out", "o", "--progress", cwd=tmp_path))
     assert is_png(tmp_path / "o" / "pcs_104Hz_6ms2_s_0p25.png")
-    assert "100%" in p.stderr  # progress bar
+    assert "100%" in p.stderr  # progress bar (asked for: stderr is not a terminal here)
 
 
 def test_manifold_and_plot_round_trip(tmp_path):

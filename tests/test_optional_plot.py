@@ -49,7 +49,7 @@ def test_cli_skips_the_figure_with_a_note(tmp_path):
     r = _run(code, "simulate", "--t-end", "0.5", "--no-manifold", "--no-progress", "--out", str(tmp_path / "o"))
     assert r.returncode == 0, r.stderr
     assert "figure skipped" in r.stderr and 'beamslider[plot]' in r.stderr
-    assert sorted(p.suffix for p in (tmp_path / "o").iterdir()) == [".csv", ".json"]
+    assert sorted(p.suffix for p in (tmp_path / "o").iterdir()) == [".json", ".npz"]
     r = _run(code, "plot", str(tmp_path / "o" / "fs_124Hz_14ms2_s0_0p3.json"), "--out", str(tmp_path / "p"))
     assert r.returncode == 1
     assert r.stderr.count("\n") == 1 and 'beamslider[plot]' in r.stderr and "Traceback" not in r.stderr

@@ -42,7 +42,7 @@ def test_other_periods_do_not_touch_the_main_jobs_manifold(tmp_path):
 def test_refuses_to_overwrite_without_force(tmp_path):
     args = ["simulate", "--t-end", "0.2", "--no-manifold", "--no-progress", "--out", "o"]
     assert run_cli(*args, cwd=tmp_path).returncode == 0
-    csv = tmp_path / "o" / "fs_124Hz_14ms2_s0_0p3.csv"
+    csv = tmp_path / "o" / "fs_124Hz_14ms2_s0_0p3.npz"
     before = csv.read_bytes()
     r = run_cli(*args[:2], "0.3", *args[3:], cwd=tmp_path)
     assert r.returncode == 1 and "Traceback" not in r.stderr

@@ -133,7 +133,9 @@ def test_local_study_rows_are_map_rows_and_resume_after_a_truncated_write(tmp_pa
                               "friction_coefficient": one["params"]["friction_coefficient"],
                               **detune(Parameters(), one["params"]["natural_frequency_factor"])})
     from beamslider.maps import map_config_toml
-    mrow = json.loads(_core.run_map(map_config_toml(p, f_ex=one["f_ex_hz"], a_ex=14.0, t_end=0.3))[0][0])
+    run = _core.MapRun(map_config_toml(p, f_ex=one["f_ex_hz"], a_ex=14.0, t_end=0.3))
+    run.run_local()
+    mrow = json.loads(run.finish()[0][0])
     # (a study row keeps no end state: it is not extended in time)
     assert all(mrow[k] == one[k] for k in mrow if k not in ("index", "wall_time_s", "end"))
 

@@ -21,12 +21,16 @@ from ._core import SimulationError
 from .measurement import Measurement, MeasurementFormatError, parse_operating_point, read_measurement
 from .params import Parameters
 from .maps import Classification, classify, classify_result, operating_map, plot_operating_map, read_map
-from .simulate import ManifoldResult, SimulationResult, envelope, manifold_grid, simulate, super_slow_manifold
+from .simulate import (ManifoldResult, SimulationResult, available_memory, envelope, manifold_grid, read_trajectory,
+                       recorded_size, simulate, super_slow_manifold)
 from .superslow import HbManifold, hb_manifold
 
 __version__ = "0.1.0"
 
 __all__ = [
+    "available_memory",
+    "read_trajectory",
+    "recorded_size",
     "Classification",
     "HbManifold",
     "ManifoldResult",

@@ -35,6 +35,9 @@ LABELS = {"inactivity": "inactivity", "trivial_adaption": "trivial adaption", "s
           "relaxation_oscillation": "relaxation oscillation", "self_damping": "self-damping",
           "not_settled": "not settled", "undetermined": "undetermined"}
 
+MIN_CLASSIFY_S = 1.0
+"""Shortest signal :func:`classify` accepts [s] (the 1-s moving average of the amplitude)."""
+
 _SCALARS = ("index", "f_ex_hz", "a_ex_m_s2", "s0", "t_end_s", "s_final", "amplitude_final_h", "amplitude_initial_h",
             "amplitude_max_h", "s_min", "s_max", "net_travel", "travel_to_centre", "turn_s", "turn_t_s",
             "wall_time_s")
@@ -97,9 +100,16 @@ def classify(t: Any, s: Any, amplitude_h: Any, *, criteria: Optional[Dict[str, f
     a = np.ascontiguousarray(amplitude_h, dtype=float)
     if not (t.ndim == s.ndim == a.ndim == 1 and len(t) == len(s) == len(a)):
         raise ValueError("t, s and amplitude_h must be 1-D arrays of the same length")
-    if len(t) < 2:
-        raise ValueError("need at least two samples")
-    dt = float(t[1] - t[0])
+    if len(t) < 3:
+        raise ValueError(f"invalid parameter `t`: {len(t)} samples; need at least three (and at least "
+                         f"{MIN_CLASSIFY_S:g} s of signal)")
+    steps = np.diff(t)
+    dt = float(np.median(steps))
+    if not (np.all(np.isfinite(t)) and dt > 0 and np.all(np.abs(steps - dt) <= 1e-6 * max(dt, abs(float(t[-1]))))):
+        raise ValueError("invalid parameter `t`: the samples must be uniformly spaced and increasing")
+    if t[-1] - t[0] < MIN_CLASSIFY_S:
+        raise ValueError(f"invalid parameter `t`: the signals span {t[-1] - t[0]:g} s; the classification needs at least "
+                         f"{MIN_CLASSIFY_S:g} s (the amplitude's moving-average window)")
     c = json.loads(_core.classify(s, a, dt, t0_s=float(t[0]), criteria_toml=_criteria_toml(criteria)))
     behaviour, reason = c.pop("behaviour"), c.pop("reason")
     for k in ("turn_s", "turn_t_s"):
@@ -195,32 +205,74 @@ def read_map(path: Union[str, Path]) -> Dict[str, np.ndarray]:
     return rows_to_table(list(latest.values()))
 
 
+def _map_chunk(config_toml: str, jobs: List[tuple], threads: int) -> List[str]:
+    """A Dask task of a map: one chunk of jobs through the Rust core (rayon, interpreter released)."""
+    from beamslider import _core as core
+
+    return core.run_map_chunk(config_toml, jobs, threads=threads)
+
+
 def run_map_config(config_toml: str, *, out: Optional[Union[str, Path]] = None, resume: bool = False,
-                   threads: Optional[int] = None, progress: bool = False, extend: bool = False,
-                   report: bool = True) -> Dict[str, np.ndarray]:
+                   threads: Optional[int] = None, progress: Optional[bool] = False, extend: bool = False,
+                   report: bool = True, scheduler: Any = None, scheduler_file: Optional[str] = None,
+                   chunk_size: int = 8, task_threads: int = 1, max_retries: int = 3) -> Dict[str, np.ndarray]:
     """Run a map from configuration TOML text (see :func:`map_config_toml`); ``out`` is the output
     folder (results appended to ``out/map.jsonl`` point by point, the configuration written to
     ``out/map.toml``). ``extend``: the map in ``out`` was run for a shorter duration; continue its
     not-settled points from their saved end states to the configuration's duration (the count
-    is printed when ``report``)."""
+    is printed when ``report``). ``scheduler`` / ``scheduler_file``: run the points on a Dask
+    cluster in chunks of ``chunk_size`` (see :func:`operating_map`)."""
     canonical, f, a, s = _core.map_config(config_toml)
     total = len(f) * len(a) * len(s)
-    if threads is not None and (not isinstance(threads, (int, np.integer)) or isinstance(threads, bool) or threads < 1):
-        raise ValueError(f"invalid parameter `threads` = {threads!r}: must be an integer >= 1")
+    if threads is not None and (not isinstance(threads, (int, np.integer)) or isinstance(threads, bool) or threads < 1
+                                or threads > 65536):
+        raise ValueError(f"invalid parameter `threads` = {threads!r}: must be an integer in 1..=65536")
+    for name, v in (("chunk_size", chunk_size), ("task_threads", task_threads)):
+        if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or not 1 <= v <= 1_000_000:
+            raise ValueError(f"invalid parameter `{name}` = {v!r}: must be an integer >= 1")
     results = None
     if extend and out is None:
         raise ValueError("invalid parameter `extend_to`: needs `out`, the folder of the map to extend")
-    if out is not None:
-        folder = Path(out)
-        results = folder / RESULTS_FILE
-        # Everything the run would refuse is refused before map.toml is (over)written.
-        _core.check_map(config_toml, out=results, resume=resume, extend=extend)
-        folder.mkdir(parents=True, exist_ok=True)
-        (folder / "map.toml").write_text(canonical, encoding="utf-8")
-    with _progress_bar(progress, total, "map", "pts") as bar:
-        rows, extended = _core.run_map(config_toml, out=results, resume=resume,
-                                       threads=None if threads is None else int(threads), progress=bar,
-                                       extend=extend)
+    client, own = None, False
+    if scheduler is not None or scheduler_file is not None:
+        from ._dask import connect
+
+        client, own = connect(scheduler, scheduler_file)  # before any file is written
+    try:
+        if out is not None:
+            folder = Path(out)
+            results = folder / RESULTS_FILE
+            # Everything the run would refuse is refused before map.toml is (over)written.
+            _core.check_map(config_toml, out=results, resume=resume, extend=extend)
+            folder.mkdir(parents=True, exist_ok=True)
+        # Takes the results file's lock (a second writer fails here), writes the header.
+        run = _core.MapRun(config_toml, out=results, resume=resume, extend=extend)
+        try:
+            if out is not None:
+                (Path(out) / "map.toml").write_text(canonical, encoding="utf-8")
+            with _progress_bar(progress, total, "map", "pts") as bar:
+                if client is None:
+                    run.run_local(threads=None if threads is None else int(threads), progress=bar)
+                else:
+                    from ._dask import run_chunks
+
+                    jobs = run.jobs()
+                    chunks = [(config_toml, jobs[i:i + chunk_size], int(task_threads))
+                              for i in range(0, len(jobs), chunk_size)]
+
+                    def on_rows(rows: List[str]) -> None:
+                        run.append(rows)
+                        if bar is not None:
+                            bar(run.done, total)
+
+                    run_chunks(client, _map_chunk, chunks, tag="map" + canonical, on_rows=on_rows,
+                               max_retries=max_retries)
+            rows, extended = run.finish()
+        finally:
+            run.close()
+    finally:
+        if own:
+            client.close()
     table = rows_to_table([json.loads(r) for r in rows])
     if report and (extend or extended):
         t_end = float(_toml.loads(canonical)["duration_s"])
@@ -232,7 +284,8 @@ def run_map_config(config_toml: str, *, out: Optional[Union[str, Path]] = None, 
 def operating_map(params: Optional[Parameters] = None, *, f_ex: Any, a_ex: Any, s0: Any = 0.3,
                   t_end: float = 120.0, threads: Optional[int] = None, out: Optional[Union[str, Path]] = None,
                   resume: bool = False, record_every: int = 20, criteria: Optional[Dict[str, float]] = None,
-                  progress: bool = False, extend_to: Optional[float] = None,
+                  progress: Optional[bool] = False, extend_to: Optional[float] = None, scheduler: Any = None,
+                  scheduler_file: Optional[str] = None, chunk_size: int = 8,
                   predictor: Optional[Any] = None) -> Dict[str, np.ndarray]:
     """Operating map (docs/model.md §8): the behaviour of the free slider at every (f_ex, a_ex, s0) of the
     grid, each point a ``t_end``-second run from rest classified by the core, in parallel on
@@ -248,6 +301,15 @@ def operating_map(params: Optional[Parameters] = None, *, f_ex: Any, a_ex: Any, 
     results file — each continued row is bitwise the row of a ``extend_to``-second run from rest,
     but for the wall time — and the settled points keep their rows; the number of re-run points
     is printed. An interrupted extension is finished by the same call.
+
+    ``scheduler`` (an address such as ``"tcp://10.0.0.5:8786"`` or a ``distributed.Client``) or
+    ``scheduler_file`` (written by ``dask scheduler --scheduler-file``): run the points on a Dask
+    cluster, ``chunk_size`` points per task; the scheduler is contacted before any file is
+    written, the results file, its lock and ``resume`` are the same, and every row is bitwise
+    the row of the local map (but ``wall_time_s``). A chunk lost with its worker is re-run.
+
+    Only one process may write a map folder at a time: a second one fails at once
+    (``BlockingIOError`` naming the folder and the holder's PID).
 
     ``predictor``: a fitted drift law (:func:`beamslider.superslow.fit_drift_law`): the map is
     predicted by the reduced super-slow model instead of FS runs (milliseconds per point; one s0;
@@ -283,10 +345,12 @@ def operating_map(params: Optional[Parameters] = None, *, f_ex: Any, a_ex: Any, 
             raise ValueError(f"invalid parameter `t_end` = {t_end!r}: the map in {out} was run for {done} s")
         cfg = map_config_toml(params, f_ex=f_ex, a_ex=a_ex, s0=s0, t_end=te, record_every=record_every,
                               criteria=criteria)
-        return run_map_config(cfg, out=out, threads=threads, progress=progress, extend=True)
+        return run_map_config(cfg, out=out, threads=threads, progress=progress, extend=True, scheduler=scheduler,
+                              scheduler_file=scheduler_file, chunk_size=chunk_size)
     cfg = map_config_toml(params, f_ex=f_ex, a_ex=a_ex, s0=s0, t_end=t_end, record_every=record_every,
                           criteria=criteria)
-    return run_map_config(cfg, out=out, resume=resume, threads=threads, progress=progress)
+    return run_map_config(cfg, out=out, resume=resume, threads=threads, progress=progress, scheduler=scheduler,
+                          scheduler_file=scheduler_file, chunk_size=chunk_size)
 
 
 def failures(table: Dict[str, np.ndarray]) -> List[str]:

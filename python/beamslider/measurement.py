@@ -160,6 +160,13 @@ def read_measurement(path: Union[str, "os.PathLike[str]"]) -> Measurement:
             f"{path}:{rows[i][1]}: time step {steps[i - 1]:g} s differs from the sampling interval {dt:g} s "
             "(missing or extra samples)"
         )
+    # s is the slider position relative to the beam length: outside [0, 1] it is not on the beam.
+    off = np.flatnonzero((s < 0.0) | (s > 1.0))
+    if off.size:
+        i = int(off[0])
+        raise MeasurementFormatError(
+            f"{path}:{rows[i][1]}: slider position s = {s[i]:g} outside [0, 1] (s is x/L, relative to the beam length)"
+        )
     f_ex, a_ex, s0 = parse_operating_point(path.name[:-3] if path.name.lower().endswith(".gz") else path.name)
     with np.errstate(over="ignore", invalid="ignore"):
         w = integrate_velocity(v, dt)

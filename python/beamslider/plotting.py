@@ -34,6 +34,44 @@ def _thin(n: int, limit: int) -> slice:
     return slice(None, None, max(1, n // limit))
 
 
+PIXEL_COLUMNS = 2000
+"""Columns a time panel is decimated to (more than the pixels of the figure's panels at 120 dpi)."""
+
+
+def decimate_minmax(t: np.ndarray, y: np.ndarray, columns: int = PIXEL_COLUMNS):
+    """What a screen can show of a long trace: the samples split into ``columns`` equal runs, and
+    of each run its minimum and its maximum (in time order), so that the envelope of the drawn
+    line is the envelope of the data. Short traces (< 4·columns samples) are returned as they are.
+    Works through memory-mapped arrays without copying them whole."""
+    n = len(t)
+    if n < 4 * columns:
+        return np.asarray(t), np.asarray(y)
+    per = n // columns
+    m = per * columns
+    ts, ys = [], []
+    block = max(1, (1 << 22) // per)  # rows of the (columns, per) view at a time: bounded temporaries
+    for a in range(0, columns, block):
+        b = min(columns, a + block)
+        yy = np.asarray(y[a * per:b * per]).reshape(b - a, per)
+        i_min = yy.argmin(axis=1)
+        i_max = yy.argmax(axis=1)
+        lo = np.minimum(i_min, i_max)
+        hi = np.maximum(i_min, i_max)
+        rows = np.arange(b - a)
+        base = a * per + rows * per
+        idx = np.empty(2 * (b - a), dtype=np.int64)
+        idx[0::2] = base + lo
+        idx[1::2] = base + hi
+        ts.append(np.asarray(t[idx]))
+        ys.append(np.stack([yy[rows, lo], yy[rows, hi]], axis=1).ravel())
+    if m < n:  # the remainder: its extremes too
+        r = np.asarray(y[m:])
+        k = np.array(sorted({int(r.argmin()), int(r.argmax())})) + m
+        ts.append(np.asarray(t[k]))
+        ys.append(np.asarray(y[k]))
+    return np.concatenate(ts), np.concatenate(ys)
+
+
 def plot_operating_point(
     result: Optional[SimulationResult] = None,
     *,
@@ -72,13 +110,14 @@ def plot_operating_point(
         series.append(("measurement", MEASURED_COLOR, measurement.t, measurement.w, measurement.s,
                        measurement.envelope(window) if len(measurement.t) > 2 else None))
     if result is not None:
-        env = result.envelope(window) if len(result.t) > 2 else None
+        env = result.display_envelope(window) if len(result.t) > 2 else None
         series.append(("model", MODEL_COLOR, result.t, result.w, result.s, env))
 
     for label, color, t, w, s, env in series:
-        k = _thin(len(t), 400_000)
-        ax_w.plot(t[k], w[k] / thickness, color=color, lw=0.4, alpha=0.8, label=label, rasterized=True)
-        ax_s.plot(t[k], s[k], color=color, lw=1.2, label=label)
+        tw, ww = decimate_minmax(t, w)
+        ax_w.plot(tw, ww / thickness, color=color, lw=0.4, alpha=0.8, label=label, rasterized=True)
+        ts, ss = decimate_minmax(t, s)
+        ax_s.plot(ts, ss, color=color, lw=1.2, label=label)
         if env is not None:
             k = _thin(len(t), 20_000)
             ax_a.plot(s[k], env[k] / thickness, color=color, lw=1.2, label=f"{label} (envelope)")

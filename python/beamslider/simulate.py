@@ -5,9 +5,14 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import json
+import os
+import sys
 import warnings
+import zipfile
 from dataclasses import dataclass, field
-from typing import Any, Callable, Dict, Iterator, Optional, Sequence
+from pathlib import Path
+from typing import Any, Callable, Dict, Iterator, Optional, Sequence, Union
 
 import numpy as np
 
@@ -15,6 +20,20 @@ from . import _core
 from .params import Parameters, resolve
 
 MODELS = ("fs", "pcs", "beam")
+
+COLUMNS = ("t_s", "w_4L7_m", "s", "xC_m", "zC_m", "beta_rad")
+"""Recorded channels of :func:`simulate`, under the core's names (CSV header, ``.npz`` members)."""
+
+_FIELDS = ("t", "w", "s", "x_c", "z_c", "beta")
+
+MEMORY_FRACTION = 0.5
+"""Default ``max_memory`` of :func:`simulate`: this fraction of the available memory."""
+
+EXACT_ENVELOPE_SAMPLES = 2**21
+"""Runs up to this many samples get the exact (whole-run FFT) envelope in figures and summaries."""
+
+MAX_INT = 2**63 - 1
+"""Largest integer argument the core takes (counts such as ``record_every``)."""
 
 
 @dataclass
@@ -51,6 +70,19 @@ class SimulationResult:
     """Initial relative slider position s0 [-] as requested (used by the FS model only)."""
     model: str
     """"fs", "pcs" or "beam"."""
+    path: Optional[Path] = None
+    """The trajectory file of a streamed run (``simulate(..., out=...)``), else None."""
+
+    def __getattr__(self, name: str) -> Any:
+        # The columns of a streamed CSV run are read on first use (see read_trajectory).
+        lazy = self.__dict__.get("_lazy_path")
+        if name in _FIELDS and lazy is not None:
+            cols = read_trajectory(lazy)
+            for f, c in zip(_FIELDS, COLUMNS):
+                self.__dict__[f] = cols[c]
+            del self.__dict__["_lazy_path"]
+            return self.__dict__[name]
+        raise AttributeError(name)
 
     @property
     def completed(self) -> bool:
@@ -64,8 +96,22 @@ class SimulationResult:
 
     def envelope(self, window: float = 1.0) -> np.ndarray:
         """Super-slow amplitude of w(4L/7) [m]: |Hilbert| then a ``window``-second moving average
-        (docs/model.md §7)."""
-        return envelope(self.t, self.w, window=window)
+        (docs/model.md §7). Computed once per window and kept."""
+        cache = self.__dict__.setdefault("_envelopes", {})
+        if window not in cache:
+            cache[window] = envelope(self.t, self.w, window=window)
+        return cache[window]
+
+    def display_envelope(self, window: float = 1.0) -> np.ndarray:
+        """The envelope for figures and summaries: :meth:`envelope` up to ``EXACT_ENVELOPE_SAMPLES``
+        samples; for longer runs the analytic signal is computed in overlapping FFT blocks
+        (:func:`blocked_envelope`, O(n log block) instead of one FFT of the whole run)."""
+        if len(self.t) <= EXACT_ENVELOPE_SAMPLES:
+            return self.envelope(window)
+        cache = self.__dict__.setdefault("_envelopes_blocked", {})
+        if window not in cache:
+            cache[window] = blocked_envelope(self.t, self.w, window=window)
+        return cache[window]
 
     def columns(self) -> Dict[str, np.ndarray]:
         """The recorded columns under the core's channel names (as in its CSV files)."""
@@ -106,8 +152,11 @@ class ManifoldResult:
 
 
 @contextlib.contextmanager
-def _progress_bar(enabled: bool, total: float, desc: str, unit: str) -> Iterator[Optional[Callable[[float, float], None]]]:
-    """A tqdm bar driven by the core's monitor callback ``(done, total)``; None when disabled."""
+def _progress_bar(enabled: Optional[bool], total: float, desc: str, unit: str) -> Iterator[Optional[Callable[[float, float], None]]]:
+    """A tqdm bar driven by the core's monitor callback ``(done, total)``; None when disabled.
+    ``enabled=None``: on only when standard error is a terminal (no carriage-return frames in logs)."""
+    if enabled is None:
+        enabled = _stderr_is_terminal()
     if not enabled:
         yield None
         return
@@ -131,6 +180,56 @@ def _progress_bar(enabled: bool, total: float, desc: str, unit: str) -> Iterator
         bar.close()
 
 
+def _stderr_is_terminal() -> bool:
+    try:
+        return sys.stderr is not None and sys.stderr.isatty()
+    except (AttributeError, ValueError):
+        return False
+
+
+def available_memory() -> int:
+    """Bytes this process can still allocate: the available physical memory (``MemAvailable``),
+    capped by the address-space limit (``RLIMIT_AS``) less the address space in use."""
+    avail = None
+    try:
+        with open("/proc/meminfo", encoding="ascii") as f:
+            for line in f:
+                if line.startswith("MemAvailable:"):
+                    avail = int(line.split()[1]) * 1024
+                    break
+    except OSError:
+        pass
+    if avail is None:
+        try:
+            avail = os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+        except (ValueError, OSError, AttributeError):  # pragma: no cover - not Unix
+            avail = 8 * 2**30
+    try:
+        import resource
+
+        soft, _hard = resource.getrlimit(resource.RLIMIT_AS)
+        if soft != resource.RLIM_INFINITY:
+            used = 0
+            with open("/proc/self/status", encoding="ascii") as f:
+                for line in f:
+                    if line.startswith("VmSize:"):
+                        used = int(line.split()[1]) * 1024
+            avail = min(avail, max(0, soft - used))
+    except (ImportError, OSError, ValueError):  # pragma: no cover - not Linux
+        pass
+    return int(avail)
+
+
+def _gb(n: float) -> str:
+    return f"{n / 1e9:.3g} GB" if n >= 1e8 else f"{n / 1e6:.3g} MB"
+
+
+def recorded_size(t_end: float, *, dt: float, record_every: int, channels: int = len(COLUMNS)) -> int:
+    """Bytes of the arrays a run records: (1 + round(t_end/dt) // record_every) rows of
+    ``channels`` float64 values."""
+    return int(_core.recorded_rows(float(t_end), float(dt), int(record_every))) * channels * 8
+
+
 def simulate(
     params: Optional[Parameters] = None,
     *,
@@ -142,7 +241,11 @@ def simulate(
     s_pcs: Optional[float] = None,
     dt: Optional[float] = None,
     record_every: int = 10,
-    progress: bool = False,
+    progress: Optional[bool] = False,
+    out: Union[str, "os.PathLike[str]", None] = None,
+    overwrite: bool = False,
+    max_memory: Optional[float] = None,
+    _check_only: bool = False,
 ) -> SimulationResult:
     """Integrate the beam–slider system with Moreau's midpoint scheme (docs/model.md §5–6).
 
@@ -157,7 +260,17 @@ def simulate(
         s_pcs: slider position of the PCS model [-].
         dt: time step [s]; overrides ``params.dt_s``.
         record_every: keep every k-th step (the start state is the first sample).
-        progress: show a tqdm progress bar.
+        progress: show a tqdm progress bar (None: only when standard error is a terminal).
+        out: stream the trajectory to this file as it is computed, at constant memory:
+            ``"run.npz"`` (NumPy, one float64 ``<column>.npy`` per channel, stored uncompressed)
+            or ``"run.csv"`` (shortest round-trip numbers). The file is written under a temporary
+            name and renamed when the run ends; an interrupted run leaves nothing under ``out``.
+            The result's columns are then read lazily: memory-mapped from the ``.npz``, loaded
+            on first use from a CSV (see :func:`read_trajectory`).
+        overwrite: replace an existing ``out`` (default: refuse).
+        max_memory: bytes the recorded arrays of an in-memory run may take (default: half of
+            :func:`available_memory`); a larger run is refused before it starts with a
+            ``ValueError`` giving the size. Not used with ``out``.
 
     The interpreter is released while the core runs; Ctrl-C raises ``KeyboardInterrupt``
     within a few milliseconds. A run that stops on a fault (slider left the beam, divergence)
@@ -176,8 +289,22 @@ def simulate(
     t_end = _number("t_end", t_end)
     if not (np.isfinite(t_end) and t_end >= 0):
         raise ValueError(f"invalid parameter `t_end` = {t_end!r}: the duration (duration_s) must be finite and >= 0 s")
+    steps = int(_core.recorded_rows(t_end, p.dt_s, 1)) - 1
+    if steps < 1:
+        raise ValueError(f"invalid parameter `t_end` = {t_end!r}: must be at least one time step (dt = {p.dt_s:g} s); "
+                         "a run of zero length records only the start state")
+    if record_every > steps:
+        raise ValueError(f"invalid parameter `record_every` = {record_every}: larger than the run's {steps} time steps "
+                         f"(t_end / dt): it would record only the start state")
+    if _check_only:
+        _core.simulate(p.toml_text(), f_ex_hz=float(f_ex), a_ex_m_s2=float(a_ex), s0=float(s0), t_end_s=0.0,
+                       model=model, s_pcs=s_pcs_value, record_every=1)
+        return None  # type: ignore[return-value]
+    target = _check_out(out, overwrite)
+    if target is None:
+        _check_memory(t_end, p.dt_s, record_every, max_memory)
     with _progress_bar(progress, t_end, f"{model.upper()} {f_ex:g} Hz {a_ex:g} m/s²", "s") as cb:
-        out = _core.simulate(
+        res = _core.simulate(
             p.toml_text(),
             f_ex_hz=float(f_ex),
             a_ex_m_s2=float(a_ex),
@@ -187,24 +314,29 @@ def simulate(
             s_pcs=s_pcs_value,
             record_every=record_every,
             progress=cb,
+            out=None if target is None else str(target),
         )
+    empty = np.empty(0)
     result = SimulationResult(
-        t=out["t_s"],
-        w=out["w_4L7_m"],
-        s=out["s"],
-        x_c=out["xC_m"],
-        z_c=out["zC_m"],
-        beta=out["beta_rad"],
-        status=out["status"],
-        message=out["message"],
-        counters=dict(out["counters"]),
-        final_state=dict(out["final_state"]),
+        t=res.get("t_s", empty),
+        w=res.get("w_4L7_m", empty),
+        s=res.get("s", empty),
+        x_c=res.get("xC_m", empty),
+        z_c=res.get("zC_m", empty),
+        beta=res.get("beta_rad", empty),
+        status=res["status"],
+        message=res["message"],
+        counters=dict(res["counters"]),
+        final_state=dict(res["final_state"]),
         params=p,
         f_ex=float(f_ex),
         a_ex=float(a_ex),
         s0=float(s0),
         model=model,
+        path=target,
     )
+    if target is not None:
+        _attach(result, target)
     if result.counters.get("cap_hits", 0):
         warnings.warn(
             f"the contact solver hit its iteration cap in {result.counters['cap_hits']} steps "
@@ -215,6 +347,106 @@ def simulate(
     if not result.completed:
         warnings.warn(result.message, RuntimeWarning, stacklevel=2)
     return result
+
+
+def _check_out(out: Any, overwrite: bool) -> Optional[Path]:
+    if out is None:
+        return None
+    if not isinstance(out, (str, os.PathLike)):
+        raise ValueError(f"invalid parameter `out` = {out!r}: give a file name ending in .npz or .csv")
+    target = Path(out)
+    if target.suffix.lower() not in (".npz", ".csv"):
+        raise ValueError(f"invalid parameter `out` = {str(out)!r}: the file name must end in .npz or .csv "
+                         "(parquet is not supported)")
+    if target.exists() and not overwrite:
+        raise ValueError(f"invalid parameter `out` = {str(out)!r}: the file exists (pass overwrite=True to replace it)")
+    if not target.parent.is_dir():
+        raise ValueError(f"invalid parameter `out` = {str(out)!r}: the folder {target.parent} does not exist")
+    return target
+
+
+def _check_memory(t_end: float, dt: float, record_every: int, max_memory: Optional[float]) -> None:
+    """Refuse, before the run, an in-memory recording larger than ``max_memory``."""
+    need = recorded_size(t_end, dt=dt, record_every=record_every)
+    if max_memory is None:
+        limit, what = MEMORY_FRACTION * available_memory(), f"half of the available memory ({_gb(available_memory())})"
+    else:
+        limit = _number("max_memory", max_memory)
+        if not limit > 0:
+            raise ValueError(f"invalid parameter `max_memory` = {max_memory!r}: must be > 0 (bytes)")
+        what = f"max_memory = {_gb(limit)}"
+    if need > limit:
+        rows = need // (8 * len(COLUMNS))
+        raise ValueError(
+            f"invalid parameter `t_end` = {t_end:g}: with record_every = {record_every} ({rows} rows of "
+            f"{len(COLUMNS)} channels: {', '.join(COLUMNS)}) the recorded arrays would take {_gb(need)}, more than "
+            f"{what}; stream the run to a file with out=\"run.npz\" (constant memory), raise record_every or "
+            "shorten t_end")
+
+
+def _attach(result: SimulationResult, path: Path) -> None:
+    """Columns of a streamed run: memory-mapped (.npz) or read on first use (CSV)."""
+    if path.suffix.lower() == ".npz":
+        cols = read_trajectory(path)
+        for f, c in zip(_FIELDS, COLUMNS):
+            setattr(result, f, cols[c])
+    else:
+        for f in _FIELDS:
+            del result.__dict__[f]
+        result.__dict__["_lazy_path"] = path
+
+
+def read_trajectory(path: Union[str, "os.PathLike[str]"]) -> Dict[str, np.ndarray]:
+    """The columns of a trajectory file written by :func:`simulate` (``out=``) or the CLI, by
+    channel name (``t_s``, ``w_4L7_m``, ...). An ``.npz`` is memory-mapped (nothing is read until
+    used; the members are stored uncompressed); a CSV is read into memory."""
+    path = Path(path)
+    if path.suffix.lower() == ".npz":
+        return _npz_memmap(path)
+    try:
+        with open(path, "r", encoding="utf-8") as f:
+            header = f.readline().strip().split(",")
+    except UnicodeDecodeError:
+        raise ValueError(f"{path}: not a text CSV file (not UTF-8)") from None
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        try:
+            data = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2, encoding="utf-8")
+        except (ValueError, UnicodeDecodeError) as e:
+            raise ValueError(f"{path}: {e}") from None
+    if data.size and data.shape[1] != len(header):
+        raise ValueError(f"{path}: rows of {data.shape[1]} values under a header of {len(header)} columns")
+    return {n: (data[:, i] if data.size else np.empty(0)) for i, n in enumerate(header)}
+
+
+def _npz_memmap(path: Path) -> Dict[str, np.ndarray]:
+    out: Dict[str, np.ndarray] = {}
+    try:
+        zf = zipfile.ZipFile(path)
+    except (zipfile.BadZipFile, OSError) as e:
+        raise ValueError(f"{path}: not a readable .npz file ({e})") from None
+    with zf, open(path, "rb") as raw:
+        for info in zf.infolist():
+            if not info.filename.endswith(".npy"):
+                continue
+            name = info.filename[:-4]
+            if info.compress_type != zipfile.ZIP_STORED:
+                with zf.open(info) as m:
+                    out[name] = np.lib.format.read_array(m)
+                continue
+            raw.seek(info.header_offset)
+            local = raw.read(30)
+            start = info.header_offset + 30 + int.from_bytes(local[26:28], "little") + int.from_bytes(local[28:30], "little")
+            raw.seek(start)
+            version = np.lib.format.read_magic(raw)
+            read_header = np.lib.format.read_array_header_1_0 if version == (1, 0) else np.lib.format.read_array_header_2_0
+            shape, fortran, dtype = read_header(raw)
+            if fortran or dtype.hasobject:
+                raise ValueError(f"{path}: member {info.filename} is not a plain array")
+            n = int(np.prod(shape))
+            out[name] = (np.memmap(path, dtype=dtype, mode="r", offset=raw.tell(), shape=shape) if n
+                         else np.empty(shape, dtype=dtype))
+    return out
 
 
 def _number(name: str, value: Any) -> float:
@@ -236,6 +468,8 @@ def _positive_int(name: str, value: Any) -> int:
         raise ValueError(f"invalid parameter `{name}` = {value!r}: must be an integer >= 1") from None
     if v != value or v < 1:
         raise ValueError(f"invalid parameter `{name}` = {value!r}: must be an integer >= 1")
+    if v > MAX_INT:
+        raise ValueError(f"invalid parameter `{name}` = {value!r}: must be an integer in 1..={MAX_INT}")
     return v
 
 
@@ -318,8 +552,52 @@ def envelope(t: Any, w: Any, window: float = 1.0) -> np.ndarray:
         raise ValueError(f"t and w must be 1-D arrays of the same length (got {t.shape} and {w.shape})")
     if t.size < 2:
         raise ValueError("need at least two samples")
+    for name, arr in (("t", t), ("w", w)):
+        bad = np.flatnonzero(~np.isfinite(arr))
+        if bad.size:
+            raise ValueError(f"invalid parameter `{name}`: {bad.size} non-finite value(s) (NaN or inf), the first at "
+                             f"index {bad[0]}; the envelope of a signal with gaps is undefined")
     steps = np.diff(t)
     dt = float(np.median(steps))
     if not dt > 0 or np.any(np.abs(steps - dt) > 0.01 * dt):
         raise ValueError("t must be uniformly spaced and increasing")
     return _core.envelope(w, dt, float(window))
+
+
+def blocked_envelope(t: Any, w: Any, window: float = 1.0, *, block: int = 2**19, margin: int = 2**16) -> np.ndarray:
+    """|analytic signal| of a long signal by FFTs of overlapping blocks of ``block`` samples, each
+    block keeping its middle (``margin`` samples dropped at either inner edge), then the
+    ``window``-second moving average (docs/model.md §7). The Hilbert kernel decays as 1/t, so
+    the kept samples differ from the whole-run FFT envelope by far less than the line width of
+    a figure (measured in tests/test_scale.py); the cost is O(n log block) and the memory one
+    block. Used for figures and summaries of runs longer than ``EXACT_ENVELOPE_SAMPLES``."""
+    t = np.asarray(t)
+    n = len(w)
+    if n < 2:
+        raise ValueError("need at least two samples")
+    dt = float(t[1] - t[0])
+    if n <= block:
+        return envelope(t, w, window=window)
+    amp = np.empty(n)
+    step = block - 2 * margin
+    a = 0
+    while True:
+        b = min(n, a + block)
+        x = np.asarray(w[a:b], dtype=float)
+        spec = np.fft.fft(x)
+        m = len(x)
+        h = np.zeros(m)
+        h[0] = 1.0
+        if m % 2 == 0:
+            h[m // 2] = 1.0
+            h[1:m // 2] = 2.0
+        else:
+            h[1:(m + 1) // 2] = 2.0
+        z = np.abs(np.fft.ifft(spec * h))
+        lo = 0 if a == 0 else margin
+        hi = m if b == n else m - margin
+        amp[a + lo:a + hi] = z[lo:hi]
+        if b == n:
+            break
+        a += step
+    return np.asarray(_core.moving_average(amp, max(1, int(round(float(window) / dt)))))

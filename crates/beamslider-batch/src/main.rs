@@ -75,7 +75,9 @@ enum Command {
         /// Channels (comma-separated): t, w, w@X (X in m), s, xc, zc, beta, q, u, uslider, p.
         #[arg(long, default_value = "t,w,s,zc,beta", value_delimiter = ',')]
         channels: Vec<String>,
-        /// Output CSV file ('-' = standard output).
+        /// Output file: <name>.npz (NumPy, one float64 array per column) or CSV (shortest
+        /// round-trip numbers); written under a temporary name and renamed when complete.
+        /// '-' = CSV on standard output.
         #[arg(long, short = 'o', value_name = "FILE")]
         out: PathBuf,
     },
@@ -220,12 +222,22 @@ fn run(cli: Cli) -> Result<ExitCode> {
             let channels = channels.iter().map(|c| Channel::parse(c)).collect::<beamslider_core::Result<Vec<_>>>()?;
             let opts = RunOptions { excitation: exc, model: kind, duration_s: duration, record_every, channels, audit_contacts: false };
             m.check_run(&start, &opts)?; // before the output file is created: bad input overwrites nothing
-            let mut rec = CsvRecorder::new(open_out(&out)?, &out.display().to_string());
             let mut bar = Bar::new(common.quiet, duration.ceil() as u64, "s simulated");
             let t0 = std::time::Instant::now();
-            let sum = m.run(&start, &opts, &mut rec, &mut bar)?;
+            let sum = if out.as_os_str() == "-" {
+                let mut rec = CsvRecorder::new(open_out(&out)?, "standard output");
+                let sum = m.run(&start, &opts, &mut rec, &mut bar)?;
+                rec.finish()?;
+                sum
+            } else {
+                // Written under a temporary name and renamed when complete (.npz or CSV).
+                let format = if out.extension().is_some_and(|e| e.eq_ignore_ascii_case("npz")) { Format::Npz } else { Format::Csv };
+                let mut rec = FileRecorder::create_as(&out, format)?;
+                let sum = m.run(&start, &opts, &mut rec, &mut bar)?;
+                rec.commit()?;
+                sum
+            };
             bar.0.finish_and_clear();
-            rec.finish()?;
             let c = sum.counters;
             eprintln!(
                 "{}: {} steps in {:.2} s ({:.0} ns/step); contact in {:.1} % of steps, closed contacts per step {:?}; solver: {} GS sweeps, {} cap hits, {} enumerations, {} fallbacks",

@@ -35,6 +35,16 @@ pub enum Error {
     /// A numerical procedure failed (e.g. no eigenvalue found).
     #[error("numerical failure: {0}")]
     Numerical(String),
+    /// Another process holds the results file (one writer per results file).
+    #[error("{folder}: {file} is being written by another process{}: wait for it or stop it, or use another folder", .pid.map(|p| format!(" (PID {p})")).unwrap_or_default())]
+    Busy {
+        /// The folder of the results file.
+        folder: String,
+        /// The results file's name.
+        file: String,
+        /// Process id of the holder, when it could be read.
+        pid: Option<u32>,
+    },
     /// The run was interrupted by the caller (cancellation flag).
     #[error("interrupted at t = {t_s} s")]
     Interrupted {

@@ -19,7 +19,9 @@ pub mod enma;
 pub mod error;
 pub mod excitation;
 pub mod manifold;
+pub mod lock;
 pub mod map;
+pub mod output;
 pub mod params;
 pub mod record;
 pub mod runner;
@@ -38,7 +40,9 @@ pub use enma::{EnmaOptions, EnmaPoint, EnmaResult, virtual_enma};
 pub use manifold::{Branch, Manifold, ManifoldOptions, super_slow_manifold};
 pub use error::{Error, Result};
 pub use params::{ContactSolver, Params};
-pub use record::{Channel, CsvRecorder, MemoryRecorder, NullRecorder, Recorder};
+pub use lock::ResultsLock;
+pub use output::{FileRecorder, Format, recorded_bytes, recorded_rows};
+pub use record::{ColumnRecorder, Channel, CsvRecorder, MemoryRecorder, NullRecorder, Recorder};
 pub use simulation::{
     CancelFlag, Checkpoint, Excitation, Model, Monitor, RunOptions, RunSummary, SliderModel, State,
     Status, set_simd,

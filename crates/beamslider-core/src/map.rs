@@ -22,7 +22,7 @@
 
 use std::collections::HashSet;
 use std::fs::{File, OpenOptions};
-use std::io::{BufRead, BufReader, Seek, SeekFrom, Write};
+use std::io::{BufRead, BufReader, Write};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
 use std::time::Instant;
@@ -32,6 +32,7 @@ use serde::{Deserialize, Serialize};
 use crate::classify::{Behaviour, Classification, Criteria, classify};
 use crate::envelope_stream::{EnvelopeStream, hexf};
 use crate::error::{Error, Result};
+use crate::lock::ResultsLock;
 use crate::params::Params;
 use crate::record::{Channel, Recorder};
 use crate::runner::{catch_panic, run_batch};
@@ -625,13 +626,29 @@ pub const STATUS_ERROR: &str = "error";
 
 /// What to compute for one grid point: a run from rest, or the continuation of a not-settled
 /// row from its end state.
-enum Job {
+#[derive(Debug, Clone)]
+pub enum Job {
+    /// A run from rest.
     Fresh(MapPoint),
+    /// The continuation of a not-settled row (the grid point, the row with its end state).
     Continue(MapPoint, Box<MapRow>),
 }
 
+impl Job {
+    /// The grid point of the job.
+    pub fn point(&self) -> &MapPoint {
+        match self {
+            Job::Fresh(p) | Job::Continue(p, _) => p,
+        }
+    }
+}
+
 /// Run one job; an error or a panic of the run becomes a row with status `error` and the
-/// message as reason, so that one failing point does not stop the map.
+/// message as reason, so that one failing point does not stop the map. `None` when cancelled.
+pub fn run_job(model: &Model, cfg: &MapConfig, job: &Job, cancel: &AtomicBool) -> Option<MapRow> {
+    run_point_guarded(model, cfg, job, cancel)
+}
+
 fn run_point_guarded(model: &Model, cfg: &MapConfig, job: &Job, cancel: &AtomicBool) -> Option<MapRow> {
     let t0 = Instant::now();
     let p = match job {
@@ -876,89 +893,149 @@ fn check_settings(cfg: &MapConfig, opts: &MapRunOptions, path: &Path, old: &Resu
     Ok(())
 }
 
+/// The results of a map being run: the rows kept from an existing results file, the jobs still
+/// to do, and — with a results file — the file, locked for this process ([`ResultsLock`]: a
+/// second writer fails at once naming the holder) and opened for appending (O_APPEND, one write
+/// per row). Shared by the local runner ([`run_map`]) and front ends that run the jobs
+/// elsewhere (a Dask cluster) and append the rows here.
+#[derive(Debug)]
+pub struct MapResults {
+    file: Option<(File, PathBuf, ResultsLock)>,
+    /// Rows of the grid so far: kept from the file, then appended.
+    pub rows: Vec<MapRow>,
+    /// Points still to compute (continuations first, then runs from rest).
+    pub jobs: Vec<Job>,
+    /// Points in the grid.
+    pub total: usize,
+    /// Points kept from the results file.
+    pub resumed: usize,
+    /// Not-settled points to be continued from their end states.
+    pub extended: usize,
+}
+
+/// Open a results file for appending (O_APPEND: every row lands at the end in one write), after
+/// cutting it to `good_len` (a torn last line from a killed writer; we hold the lock).
+pub(crate) fn open_append(path: &Path, good_len: u64) -> Result<File> {
+    OpenOptions::new().write(true).open(path).and_then(|f| f.set_len(good_len)).map_err(|e| io_err(path, e))?;
+    OpenOptions::new().append(true).open(path).map_err(|e| io_err(path, e))
+}
+
+impl MapResults {
+    /// Check the map (as [`preflight`]), take the results file's lock, cut off a torn last line,
+    /// write the header of a new file and plan the jobs.
+    pub fn open(cfg: &MapConfig, opts: &MapRunOptions) -> Result<MapResults> {
+        cfg.validate()?;
+        let points = cfg.points()?;
+        let settings = cfg.settings();
+        Model::new(cfg.effective_params())?;
+        if opts.extend && opts.out.is_none() {
+            return Err(Error::invalid("extend_to", cfg.duration_s, "needs the results file of the map to extend (out)"));
+        }
+        let mut existing: Vec<MapRow> = Vec::new();
+        let file = match &opts.out {
+            None => None,
+            Some(path) => {
+                if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+                    std::fs::create_dir_all(dir).map_err(|e| io_err(dir, e))?;
+                }
+                let lock = ResultsLock::acquire(path)?;
+                let old = existing_results(cfg, opts, path)?;
+                let exists = old.is_some();
+                if let Some(old) = old
+                    && old.settings.as_ref().is_some_and(|s| *s != settings)
+                {
+                    // Extension: the header takes the new duration. Write the new file beside the
+                    // old one and swap them, so that a kill loses nothing.
+                    let tmp = path.with_extension("jsonl.extend-tmp");
+                    let mut text = header_line(&settings);
+                    text.push('\n');
+                    for r in &latest(old.rows) {
+                        text.push_str(&r.to_json());
+                        text.push('\n');
+                    }
+                    std::fs::write(&tmp, text).map_err(|e| io_err(&tmp, e))?;
+                    std::fs::rename(&tmp, path).map_err(|e| io_err(path, e))?;
+                }
+                let f = if exists {
+                    let old = read_results(path)?;
+                    let mut f = open_append(path, old.good_len)?;
+                    if old.settings.is_none() {
+                        write_line(&mut f, path, &header_line(&settings))?;
+                    }
+                    existing = latest(old.rows);
+                    f
+                } else {
+                    let mut f = OpenOptions::new().create(true).truncate(true).write(true).open(path).map_err(|e| io_err(path, e))?;
+                    write_line(&mut f, path, &header_line(&settings))?;
+                    drop(f);
+                    OpenOptions::new().append(true).open(path).map_err(|e| io_err(path, e))?
+                };
+                Some((f, path.clone(), lock))
+            }
+        };
+        // Points already done (by inputs, not by index: the grid may have changed).
+        let done_keys: HashSet<_> = existing.iter().map(MapRow::key).collect();
+        let mut kept: Vec<MapRow> = Vec::new();
+        let mut seen = HashSet::new();
+        for p in &points {
+            if done_keys.contains(&p.key())
+                && seen.insert(p.key())
+                && let Some(r) = existing.iter().find(|r| r.key() == p.key())
+            {
+                let mut r = r.clone();
+                r.index = p.index;
+                kept.push(r);
+            }
+        }
+        // Not-settled rows that end before the map's duration continue from their end states.
+        let (cont, kept): (Vec<MapRow>, Vec<MapRow>) = kept.into_iter().partition(|r| r.continuable(cfg.duration_s));
+        let extended = cont.len();
+        let mut jobs: Vec<Job> = cont.into_iter().map(|r| Job::Continue(r.point(), Box::new(r))).collect();
+        jobs.extend(points.iter().filter(|p| !done_keys.contains(&p.key())).map(|p| Job::Fresh(*p)));
+        let resumed = kept.len();
+        Ok(MapResults { file, rows: kept, jobs, total: points.len(), resumed, extended })
+    }
+
+    /// Append a finished row: one line, one write to the file opened with O_APPEND.
+    pub fn append(&mut self, row: MapRow) -> Result<()> {
+        if let Some((f, path, _)) = &mut self.file {
+            write_line(f, path, &row.to_json())?;
+        }
+        self.rows.push(row);
+        Ok(())
+    }
+
+    /// The outcome: all rows sorted by grid index (releases the lock).
+    pub fn finish(self) -> MapOutcome {
+        let mut rows = self.rows;
+        rows.sort_by_key(|r| r.index);
+        let computed = rows.len() - self.resumed;
+        MapOutcome { cancelled: rows.len() < self.total, rows, resumed: self.resumed, computed, extended: self.extended }
+    }
+}
+
+/// Run `jobs` in parallel (the core's batch runner, [`run_batch`]: `threads` workers or one per
+/// core), handing each finished row to `on_row`; an error of `on_row` cancels the rest.
+pub fn run_jobs(cfg: &MapConfig, jobs: &[Job], threads: Option<usize>, cancel: &AtomicBool, mut on_row: impl FnMut(MapRow) -> Result<()> + Send) -> Result<()> {
+    let model = Model::new(cfg.effective_params())?;
+    run_batch(jobs, threads, cancel, |job| Ok(run_point_guarded(&model, cfg, job, cancel)), |row: &MapRow| on_row(row.clone()))?;
+    Ok(())
+}
+
 /// Run the grid of `cfg` in parallel, appending each finished point to the results file.
 /// Setting `cancel` stops the map: points in flight are abandoned, finished ones are kept.
 pub fn run_map(cfg: &MapConfig, opts: &MapRunOptions, cancel: &AtomicBool, progress: Progress<'_>) -> Result<MapOutcome> {
-    cfg.validate()?;
-    let points = cfg.points()?;
-    let settings = cfg.settings();
-    let model = Model::new(cfg.effective_params())?;
-    let mut existing: Vec<MapRow> = Vec::new();
-    let file = match &opts.out {
-        None => None,
-        Some(path) => {
-            if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-                std::fs::create_dir_all(dir).map_err(|e| io_err(dir, e))?;
-            }
-            let old = existing_results(cfg, opts, path)?;
-            let exists = old.is_some();
-            if let Some(old) = old
-                && old.settings.as_ref().is_some_and(|s| *s != settings)
-            {
-                // Extension: the header takes the new duration. Write the new file beside the
-                // old one and swap them, so that a kill loses nothing.
-                let tmp = path.with_extension("jsonl.extend-tmp");
-                let mut text = header_line(&settings);
-                text.push('\n');
-                for r in &latest(old.rows) {
-                    text.push_str(&r.to_json());
-                    text.push('\n');
-                }
-                std::fs::write(&tmp, text).map_err(|e| io_err(&tmp, e))?;
-                std::fs::rename(&tmp, path).map_err(|e| io_err(path, e))?;
-            }
-            let mut f = OpenOptions::new().create(true).read(true).write(true).truncate(false).open(path).map_err(|e| io_err(path, e))?;
-            if exists {
-                let old = read_results(path)?;
-                f.set_len(old.good_len).map_err(|e| io_err(path, e))?;
-                f.seek(SeekFrom::End(0)).map_err(|e| io_err(path, e))?;
-                if old.settings.is_none() {
-                    write_line(&mut f, path, &header_line(&settings))?;
-                }
-                existing = latest(old.rows);
-            } else {
-                f.set_len(0).map_err(|e| io_err(path, e))?;
-                write_line(&mut f, path, &header_line(&settings))?;
-            }
-            Some((f, path.clone()))
+    let mut results = MapResults::open(cfg, opts)?;
+    let jobs = std::mem::take(&mut results.jobs);
+    let total = results.total;
+    run_jobs(cfg, &jobs, opts.threads, cancel, |row| {
+        results.append(row)?;
+        if let Some(last) = results.rows.last() {
+            progress(results.rows.len(), total, last);
         }
-    };
-    // Points already done (by inputs, not by index: the grid may have changed).
-    let done_keys: HashSet<_> = existing.iter().map(MapRow::key).collect();
-    let mut kept: Vec<MapRow> = Vec::new();
-    let mut seen = HashSet::new();
-    for p in &points {
-        if done_keys.contains(&p.key())
-            && seen.insert(p.key())
-            && let Some(r) = existing.iter().find(|r| r.key() == p.key())
-        {
-            let mut r = r.clone();
-            r.index = p.index;
-            kept.push(r);
-        }
-    }
-    // Not-settled rows that end before the map's duration continue from their end states.
-    let (cont, kept): (Vec<MapRow>, Vec<MapRow>) = kept.into_iter().partition(|r| r.continuable(cfg.duration_s));
-    let extended = cont.len();
-    let mut todo: Vec<Job> = cont.into_iter().map(|r| Job::Continue(r.point(), Box::new(r))).collect();
-    todo.extend(points.iter().filter(|p| !done_keys.contains(&p.key())).map(|p| Job::Fresh(*p)));
-    let total = points.len();
-    let resumed = kept.len();
-    let mut file = file;
-    let mut done = resumed;
-    let batch = run_batch(&todo, opts.threads, cancel, |job| Ok(run_point_guarded(&model, cfg, job, cancel)), |row: &MapRow| {
-        if let Some((f, path)) = &mut file {
-            write_line(f, path, &row.to_json())?;
-        }
-        done += 1;
-        progress(done, total, row);
         Ok(())
     })?;
-    let mut rows = kept;
-    rows.extend(batch.results);
-    rows.sort_by_key(|r| r.index);
-    let computed = rows.len() - resumed;
-    Ok(MapOutcome { cancelled: rows.len() < total, rows, resumed, computed, extended })
+    Ok(results.finish())
 }
 
 /// The header line of a results file (without the newline); `study`: a study's configuration.

@@ -134,6 +134,59 @@ impl Recorder for MemoryRecorder {
     }
 }
 
+/// Keeps the rows in memory column by column, each column allocated once for the expected number
+/// of rows (no doubling on growth, and the columns can be handed out without a copy). An
+/// allocation that fails is an error, not an abort.
+#[derive(Debug, Clone, Default)]
+pub struct ColumnRecorder {
+    /// Column names.
+    pub names: Vec<String>,
+    /// One vector per column.
+    pub columns: Vec<Vec<f64>>,
+    expected_rows: usize,
+}
+
+impl ColumnRecorder {
+    /// Empty recorder that reserves `expected_rows` per column when the run begins.
+    pub fn with_rows(expected_rows: usize) -> Self {
+        ColumnRecorder { names: Vec::new(), columns: Vec::new(), expected_rows }
+    }
+
+    /// One column by name.
+    pub fn column(&self, name: &str) -> Option<&Vec<f64>> {
+        let c = self.names.iter().position(|n| n == name)?;
+        self.columns.get(c)
+    }
+}
+
+impl Recorder for ColumnRecorder {
+    fn begin(&mut self, names: &[String]) -> Result<()> {
+        self.names = names.to_vec();
+        self.columns = Vec::with_capacity(names.len());
+        for _ in names {
+            let mut v: Vec<f64> = Vec::new();
+            v.try_reserve_exact(self.expected_rows).map_err(|_| {
+                Error::invalid(
+                    "t_end",
+                    format!("{} rows", self.expected_rows),
+                    &format!(
+                        "the recorded arrays ({:.3} GB) do not fit in memory: raise record_every, shorten t_end, or stream to a file (out=)",
+                        self.expected_rows as f64 * names.len() as f64 * 8e-9
+                    ),
+                )
+            })?;
+            self.columns.push(v);
+        }
+        Ok(())
+    }
+    fn push(&mut self, row: &[f64]) -> Result<()> {
+        for (c, v) in self.columns.iter_mut().zip(row) {
+            c.push(*v);
+        }
+        Ok(())
+    }
+}
+
 /// Writes rows as CSV (header line, then shortest round-trip numbers).
 pub struct CsvRecorder<W: Write> {
     out: W,

@@ -11,13 +11,13 @@
 
 use std::collections::{BTreeMap, HashMap};
 use std::fs::{File, OpenOptions};
-use std::io::{Seek, SeekFrom};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
 
 use rayon::prelude::*;
 
 use crate::error::{Error, Result};
+use crate::lock::ResultsLock;
 use crate::map::{self, MapConfig, MapPoint, MapRow};
 use crate::params::Params;
 use crate::runner::{run_batch, with_threads};
@@ -120,7 +120,7 @@ pub struct RowInfo {
 /// written by the same study.
 #[derive(Debug)]
 pub struct StudyResults {
-    file: Option<(File, PathBuf)>,
+    file: Option<(File, PathBuf, ResultsLock)>,
     info: HashMap<usize, RowInfo>,
     rows: BTreeMap<usize, MapRow>,
 }
@@ -144,13 +144,17 @@ impl StudyResults {
         if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
             std::fs::create_dir_all(dir).map_err(|e| map::io_err(dir, e))?;
         }
-        let mut f = OpenOptions::new().create(true).read(true).write(true).truncate(false).open(path).map_err(|e| map::io_err(path, e))?;
+        // One writer per results file: a second one fails here, naming the holder's PID.
+        let lock = ResultsLock::acquire(path)?;
         let mut old = if exists { map::read_results(path)? } else { map::ResultsFile::default() };
         if old.settings.is_some() && (old.version != map::FORMAT_VERSION || old.settings != Some(cfg.settings()) || old.study.as_ref() != Some(&study)) {
             return Err(Error::invalid("resume", path.display(), "the results file was written by another study configuration"));
         }
-        f.set_len(old.good_len).map_err(|e| map::io_err(path, e))?;
-        f.seek(SeekFrom::End(0)).map_err(|e| map::io_err(path, e))?;
+        if !exists {
+            OpenOptions::new().create(true).truncate(true).write(true).open(path).map_err(|e| map::io_err(path, e))?;
+        }
+        // O_APPEND: each row lands at the end in one write.
+        let mut f = map::open_append(path, old.good_len)?;
         if old.settings.is_none() {
             map::write_line(&mut f, path, &header)?;
         }
@@ -163,7 +167,7 @@ impl StudyResults {
             }
             out.rows.insert(row.index, row);
         }
-        out.file = Some((f, path.to_path_buf()));
+        out.file = Some((f, path.to_path_buf(), lock));
         Ok(out)
     }
 
@@ -177,7 +181,7 @@ impl StudyResults {
         row.extra.insert("sample".into(), info.sample.into());
         row.extra.insert("point".into(), info.point.into());
         row.extra.insert("params".into(), info.params.clone());
-        if let Some((f, path)) = &mut self.file {
+        if let Some((f, path, _)) = &mut self.file {
             map::write_line(f, path, &row.to_json())?;
         }
         self.rows.insert(row.index, row);

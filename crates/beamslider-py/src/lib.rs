@@ -14,14 +14,15 @@ mod enma;
 
 use beamslider_core::{
     Criteria, MapConfig, MapRow, MapRunOptions, SuperSlow,
-    Channel, Error, Excitation, ManifoldOptions, MemoryRecorder, Model, Monitor, Params,
+    Channel, ColumnRecorder, Error, Excitation, FileRecorder, ManifoldOptions, Model, Monitor, Params, Recorder,
     RunOptions, SliderModel, Status, runner, signal,
 };
 use numpy::{IntoPyArray, PyArray1, PyReadonlyArray1};
-use pyo3::exceptions::{PyException, PyKeyboardInterrupt, PyOSError, PyValueError};
+use pyo3::exceptions::{PyBlockingIOError, PyException, PyKeyboardInterrupt, PyOSError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
+mod maprun;
 mod study;
 mod superslow;
 
@@ -42,6 +43,7 @@ fn to_py(e: Error) -> PyErr {
             Some(code) => PyOSError::new_err((code, msg)),
             None => PyOSError::new_err(msg),
         },
+        Error::Busy { .. } => PyBlockingIOError::new_err(msg),
         Error::Interrupted { .. } => PyKeyboardInterrupt::new_err(msg),
         Error::Numerical(_) => SimulationError::new_err(msg),
         _ => SimulationError::new_err(msg),
@@ -182,11 +184,19 @@ impl Monitor for PyMonitor {
 /// Names of the recorded columns, in the order of `RECORDED`.
 const RECORDED: [&str; 6] = ["t_s", "w_4L7_m", "s", "xC_m", "zC_m", "beta_rad"];
 
+/// Rows a run records: the start state and every `record_every`-th of round(t_end/dt) steps.
+#[pyfunction]
+fn recorded_rows(t_end_s: f64, dt_s: f64, record_every: usize) -> u64 {
+    beamslider_core::recorded_rows(t_end_s, dt_s, record_every)
+}
+
 /// Integrate the FS / PCS / beam-only model (docs/model.md §5–6) and return a dict with the recorded
 /// columns (numpy arrays keyed by `t_s`, `w_4L7_m`, `s`, `xC_m`, `zC_m`, `beta_rad`), `status`,
-/// `message`, `counters` (dict) and `final_state` (dict).
+/// `message`, `counters` (dict), `final_state` (dict) and `rows`. With `out` (a `.npz` or `.csv`
+/// path) the rows are streamed into that file instead (written under a temporary name, renamed
+/// when the run ends; an interrupted run leaves nothing) and no columns are returned.
 #[pyfunction]
-#[pyo3(signature = (params_toml, *, f_ex_hz, a_ex_m_s2, s0, t_end_s, model, s_pcs=None, record_every=10, progress=None))]
+#[pyo3(signature = (params_toml, *, f_ex_hz, a_ex_m_s2, s0, t_end_s, model, s_pcs=None, record_every=10, progress=None, out=None))]
 #[allow(clippy::too_many_arguments)]
 fn simulate<'py>(
     py: Python<'py>,
@@ -199,6 +209,7 @@ fn simulate<'py>(
     s_pcs: Option<f64>,
     record_every: usize,
     progress: Option<Py<PyAny>>,
+    out: Option<std::path::PathBuf>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let params = parse_params(params_toml)?;
     let slider_model = match model {
@@ -232,19 +243,35 @@ fn simulate<'py>(
                 ],
                 audit_contacts: false,
             };
-            let mut rec = MemoryRecorder::new();
-            let summary = m.run(&start, &opts, &mut rec, &mut monitor)?;
-            let columns: Vec<Vec<f64>> = RECORDED
-                .iter()
-                .map(|name| rec.column(name).unwrap_or_default())
-                .collect();
-            Ok((summary, columns))
+            m.check_run(&start, &opts)?;
+            match &out {
+                Some(path) => {
+                    let mut rec = FileRecorder::create(path)?;
+                    let summary = m.run(&start, &opts, &mut rec, &mut monitor)?;
+                    if let Status::Interrupted { .. } = summary.status {
+                        return Ok((summary, Vec::new(), 0)); // the recorder removes its files
+                    }
+                    let rows = rec.commit()?;
+                    Ok((summary, Vec::new(), rows))
+                }
+                None => {
+                    let rows = beamslider_core::recorded_rows(opts.duration_s, m.params.dt_s, record_every);
+                    let rows = usize::try_from(rows).map_err(|_| Error::invalid("t_end", t_end_s, "too many rows to record in memory"))?;
+                    let mut rec = ColumnRecorder::with_rows(rows);
+                    let summary = m.run(&start, &opts, &mut rec as &mut dyn Recorder, &mut monitor)?;
+                    let n = rec.columns.first().map_or(0, Vec::len) as u64;
+                    let mut columns = std::mem::take(&mut rec.columns);
+                    // RECORDED is the channel order above.
+                    columns.truncate(RECORDED.len());
+                    Ok((summary, columns, n))
+                }
+            }
         })
     });
     if let Some(e) = monitor.error.take() {
         return Err(e);
     }
-    let (summary, columns) = outcome?;
+    let (summary, columns, rows) = outcome?;
     if let Status::Interrupted { t_s } = summary.status {
         return Err(PyKeyboardInterrupt::new_err(format!("interrupted at t = {t_s} s")));
     }
@@ -252,6 +279,7 @@ fn simulate<'py>(
     for (name, col) in RECORDED.iter().zip(columns) {
         d.set_item(*name, col.into_pyarray(py))?;
     }
+    d.set_item("rows", rows)?;
     d.set_item("status", summary.status.name())?;
     d.set_item("message", summary.status.message())?;
     d.set_item("counters", counters_dict(py, &summary.counters)?)?;
@@ -445,51 +473,6 @@ fn read_map_results(py: Python<'_>, path: std::path::PathBuf) -> PyResult<(Optio
     Ok((settings, r.rows.iter().map(MapRow::to_json).collect(), r.truncated))
 }
 
-/// Run an operating map (docs/model.md §8) in parallel: `config_toml` as read by `beamslider-batch map`,
-/// `out` the results file (JSON lines, appended point by point), `resume` to skip its points,
-/// `extend` to continue its not-settled points from their end states to the config's duration.
-/// Returns (the rows of the grid as JSON texts sorted by grid index, the number of not-settled
-/// points continued from their end states). `progress(done, total)` is
-/// called from the calling thread; Ctrl-C cancels the map (finished points stay in the file) and
-/// raises KeyboardInterrupt.
-#[pyfunction]
-#[pyo3(signature = (config_toml, *, out=None, resume=false, threads=None, progress=None, extend=false))]
-fn run_map(
-    py: Python<'_>,
-    config_toml: &str,
-    out: Option<std::path::PathBuf>,
-    resume: bool,
-    threads: Option<usize>,
-    progress: Option<Py<PyAny>>,
-    extend: bool,
-) -> PyResult<(Vec<String>, usize)> {
-    use std::sync::atomic::{AtomicUsize, Ordering};
-    check_threads(threads)?;
-    let cfg = guarded(|| MapConfig::from_toml_str(config_toml))?;
-    let opts = MapRunOptions { out, resume, threads, extend };
-    let cancel = AtomicBool::new(false);
-    let done = AtomicUsize::new(0);
-    let total = AtomicUsize::new(0);
-    let poll = |py: Python<'_>| -> PyResult<()> {
-        py.check_signals()?;
-        let (d, t) = (done.load(Ordering::Relaxed), total.load(Ordering::Relaxed));
-        match &progress {
-            Some(cb) if t > 0 => cb.call1(py, (d, t)).map(|_| ()),
-            _ => Ok(()),
-        }
-    };
-    let count = |d: usize, t: usize, _row: &MapRow| {
-        done.store(d, Ordering::Relaxed);
-        total.store(t, Ordering::Relaxed);
-    };
-    let outcome = detached(py, &cancel, 100, || beamslider_core::run_map(&cfg, &opts, &cancel, &count), poll)?;
-    poll(py)?;
-    if outcome.cancelled {
-        return Err(PyKeyboardInterrupt::new_err("map interrupted"));
-    }
-    Ok((outcome.rows.iter().map(MapRow::to_json).collect(), outcome.extended))
-}
-
 /// The compiled core of beamslider (private: import `beamslider` instead).
 #[pymodule]
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
@@ -513,7 +496,8 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(map_config, m)?)?;
     m.add_function(wrap_pyfunction!(range_values, m)?)?;
     m.add_function(wrap_pyfunction!(read_map_results, m)?)?;
-    m.add_function(wrap_pyfunction!(run_map, m)?)?;
+    maprun::register(m)?;
+    m.add_function(wrap_pyfunction!(recorded_rows, m)?)?;
     m.add_function(wrap_pyfunction!(enma::virtual_enma, m)?)?;
     m.add_function(wrap_pyfunction!(enma::beam_properties, m)?)?;
     study::register(m)?;

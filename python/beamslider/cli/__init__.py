@@ -70,7 +70,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     except KeyboardInterrupt:
         print("beamslider: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
-    except (UserError, ValueError, _core.SimulationError) as e:
+    except (UserError, ValueError, OverflowError, _core.SimulationError) as e:
         print(f"beamslider: error: {one_line(e)}", file=sys.stderr)
         return EXIT_ERROR
     except PlotDependencyError as e:

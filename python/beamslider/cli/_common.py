@@ -58,11 +58,22 @@ def write_json(path: Path, data: Dict[str, Any]) -> None:
         f.write("\n")
 
 
+def write_json_atomic(path: Path, data: Dict[str, Any]) -> None:
+    """JSON written under a temporary name and renamed: never a half-written summary."""
+    tmp = path.with_name(f".{path.name}.partial-{os.getpid()}")
+    write_json(tmp, data)
+    os.replace(tmp, path)
+
+
 # --- options ----------------------------------------------------------------------------------
 
 
+MAX_INT = 2**63 - 1
+"""Largest integer option value (counts such as --record-every, --threads)."""
+
+
 def positive(kind):
-    """An argparse type: ``kind(text)`` that must be > 0."""
+    """An argparse type: ``kind(text)`` that must be > 0 (finite; integers at most ``MAX_INT``)."""
     def parse(text: str):
         try:
             v = kind(text)
@@ -70,17 +81,25 @@ def positive(kind):
             raise argparse.ArgumentTypeError(f"{text!r} is not a valid {kind.__name__}") from None
         if not v > 0:
             raise argparse.ArgumentTypeError(f"{text!r} must be > 0")
+        if kind is int and v > MAX_INT:
+            raise argparse.ArgumentTypeError(f"{text!r} is too large (at most {MAX_INT})")
+        if kind is float and v == float("inf"):
+            raise argparse.ArgumentTypeError(f"{text!r} must be finite")
         return v
     return parse
 
 
-def add_common(sp: argparse.ArgumentParser, *, model_options: bool = True) -> None:
-    """--out, --no-progress, --window and (``model_options``) --params, --dt, --solver."""
+def add_common(sp: argparse.ArgumentParser, *, model_options: bool = True, window: bool = True) -> None:
+    """--out, --progress/--no-progress, --window (``window``: only where an envelope is drawn)
+    and (``model_options``) --params, --dt, --solver."""
     sp.add_argument("--out", default=DEFAULT_OUT, metavar="DIR",
                     help=f"output folder for CSV/JSON/PNG (default ./{DEFAULT_OUT})")
+    sp.add_argument("--progress", dest="progress", action="store_true", default=None,
+                    help="progress bars even when standard error is not a terminal (default: only on a terminal)")
     sp.add_argument("--no-progress", dest="progress", action="store_false", help="no progress bars")
-    sp.add_argument("--window", type=positive(float), default=1.0, metavar="S",
-                    help="moving-average window of the envelope [s] (default 1)")
+    if window:  # maps and studies classify with the core's fixed 1-s window: no option there
+        sp.add_argument("--window", type=positive(float), default=1.0, metavar="S",
+                        help="moving-average window of the envelope [s] (default 1)")
     if model_options:
         sp.add_argument("--params", metavar="TOML", help="parameter file (TOML keys of beamslider.Parameters, listed in docs/model.md §1)")
         sp.add_argument("--dt", type=positive(float), metavar="S", help="time step [s] (default 2e-5)")

@@ -61,23 +61,40 @@ def manifold_stem(m: ManifoldResult, s: Optional[Sequence[float]] = None) -> str
 
 
 def write_simulation_csv(path: Path, result: SimulationResult) -> None:
-    """Recorded columns under the core's channel names."""
+    """Recorded columns under the core's channel names (round-trip precision)."""
     cols = result.columns()
     data = np.column_stack(list(cols.values()))
-    np.savetxt(path, data, delimiter=",", header=",".join(cols), comments="", fmt="%.10e")
+    np.savetxt(path, data, delimiter=",", header=",".join(cols), comments="", fmt="%.17g")
 
 
 def read_simulation_csv(path: Path) -> Dict[str, np.ndarray]:
-    with open(path, "r", encoding="utf-8") as f:
-        header = f.readline().strip().split(",")
+    """The columns of a trajectory file (.npz memory-mapped, or CSV); a UserError naming the file
+    when it is not one."""
     need = ["t_s", "w_4L7_m", "s", "xC_m", "zC_m", "beta_rad"]
+    if not path.exists():
+        raise UserError(f"{path}: no such file")
+    if path.suffix == ".npz":
+        from ..simulate import read_trajectory
+
+        try:
+            cols = read_trajectory(path)
+        except ValueError as e:
+            raise UserError(one_line(e)) from None
+        if any(n not in cols for n in need) or len(cols["t_s"]) < 2:
+            raise UserError(f"{path}: not a beamslider trajectory with two or more rows")
+        return cols
+    try:
+        with open(path, "r", encoding="utf-8") as f:
+            header = f.readline().strip().split(",")
+    except UnicodeDecodeError:
+        raise UserError(f"{path}: not a text CSV file (not UTF-8)") from None
     missing = [n for n in need if n not in header]
     if missing:
         raise UserError(f"{path}: not a beamslider simulation CSV (missing columns {', '.join(missing)})")
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # an empty file is reported below
-            data = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
+            data = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2, encoding="utf-8")
     except ValueError as e:
         raise UserError(f"{path}: {one_line(e)}") from None
     if data.shape[0] < 2 or data.shape[1] != len(header):
@@ -125,7 +142,7 @@ def read_manifold_csv(path: Path, *, f_ex: float, a_ex: float, params: Parameter
 
 def simulation_summary(result: SimulationResult, *, t_end: float, record_every: int, wall_s: float,
                        window: float) -> Dict[str, Any]:
-    env = result.envelope(window) if len(result.t) > 2 else np.array([np.nan])
+    env = result.display_envelope(window) if len(result.t) > 2 else np.array([np.nan])
     return {
         "kind": "simulation",
         "model": result.model,

@@ -9,8 +9,8 @@ from pathlib import Path
 from typing import Any
 
 from ..simulate import simulate
-from ._common import UserError, figure, out_dir, params_from_args, plan_outputs, positive, report, write_json
-from ._files import measurement, simulation_summary, write_simulation_csv
+from ._common import UserError, figure, out_dir, params_from_args, plan_outputs, positive, report, write_json_atomic
+from ._files import measurement, simulation_summary
 from ._manifold import add_run_options, check_manifold_args, manifold_name, run_manifold
 
 
@@ -47,16 +47,16 @@ def cmd_compare(args: argparse.Namespace) -> int:
     name = Path(args.measurement).name
     stem = "compare_" + (name[:-3] if name.lower().endswith(".gz") else Path(name).stem).rsplit(".txt", 1)[0]
     man_name = f"{manifold_name(args, f_ex, a_ex)}.csv" if args.manifold else None
-    simulate(p, f_ex=f_ex, a_ex=a_ex, s0=s0, t_end=0.0, record_every=args.record_every)  # names bad input first
+    simulate(p, f_ex=f_ex, a_ex=a_ex, s0=s0, t_end=t_end, record_every=args.record_every, _check_only=True)  # names bad input first
     if args.manifold:
         check_manifold_args(args)
     out = plan_outputs(args, [f"{stem}_model.csv", f"{stem}.json", f"{stem}.png"] + ([man_name] if man_name else []))
     t0 = time.perf_counter()
+    written = [out_dir(args) / f"{stem}_model.csv", out / f"{stem}.json", out / f"{stem}.png"]
+    # Streamed from the core (temporary name, renamed when complete).
     result = simulate(p, f_ex=f_ex, a_ex=a_ex, s0=s0, t_end=t_end, record_every=args.record_every,
-                      progress=args.progress)
+                      progress=args.progress, out=written[0], overwrite=True)
     wall = time.perf_counter() - t0
-    written = [out / f"{stem}_model.csv", out / f"{stem}.json", out / f"{stem}.png"]
-    write_simulation_csv(out_dir(args) / f"{stem}_model.csv", result)
     summary = simulation_summary(result, t_end=t_end, record_every=args.record_every, wall_s=wall,
                                  window=args.window)
     menv = meas.envelope(args.window)
@@ -66,13 +66,14 @@ def cmd_compare(args: argparse.Namespace) -> int:
         "measured_final_s": float(meas.s[-1]),
         "measured_final_amplitude_m": float(menv[-1]),
         "measured_final_amplitude_over_h": float(menv[-1] / p.thickness_m),
+        "data": written[0].name, "format": "csv", "complete": True,
     })
     manifold = None
     if args.manifold:
         manifold = run_manifold(args, p, f_ex, a_ex)
         summary["manifold_csv"] = man_name
         written.insert(2, out / man_name)
-    write_json(written[1], summary)
+    write_json_atomic(written[1], summary)
     if not figure(plot_operating_point, result, manifold=manifold, measurement=meas, window=args.window,
                    path=written[-1]):
         written.pop()

@@ -26,7 +26,7 @@ def add_parser(sub: Any) -> None:
     sp.add_argument("--effects", metavar="LIST", help="comma list of candidate effects (default: all of the level)")
     sp.add_argument("--max-effects", type=positive(int), default=2, metavar="K", help="largest set fitted (2)")
     sp.add_argument("--seed", type=int, default=0, help="noise seed of the paper's synthetic case (0)")
-    add_common(sp)
+    add_common(sp, window=False)
     sp.set_defaults(func=cmd_discover)
 
     sp = sub.add_parser(
@@ -40,7 +40,7 @@ def add_parser(sub: Any) -> None:
                     help="slider: operating points f_ex,a_ex,s0 separated by ';' (110,10,0.3;124,6,0.3)")
     sp.add_argument("--duration", type=positive(float), default=15.0, metavar="S", help="slider: run length [s] (15)")
     sp.add_argument("--repeats", type=positive(int), default=2, metavar="N", help="enma: noisy repetitions (2)")
-    add_common(sp, model_options=False)
+    add_common(sp, model_options=False, window=False)
     sp.set_defaults(func=cmd_synthesize)
 
 

@@ -31,7 +31,7 @@ def add_parser(sub: Any) -> None:
     sp.add_argument("--repeats", type=positive(int), default=1, metavar="N",
                     help="independently noisy repetitions of the virtual up-and-down run (default 1)")
     sp.add_argument("--seed", type=int, default=0, help="noise seed (0)")
-    add_common(sp)
+    add_common(sp, window=False)
     sp.set_defaults(func=cmd_enma)
 
 

@@ -25,7 +25,7 @@ def add_parser(sub: Any) -> None:
     sp.add_argument("--a-ex", type=positive(float), default=14.0, metavar="M_S2", help="base acceleration amplitude (14)")
     sp.add_argument("--n-modes", type=positive(int), default=5, metavar="N", help="retained beam modes (5)")
     sp.add_argument("--d-eff", type=float, metavar="D", help="equivalent damping ratio of all modes (default: params)")
-    add_common(sp)
+    add_common(sp, window=False)
     add_force(sp)
     sp.set_defaults(func=cmd_hb_manifold)
     add_parser_b(sub, common, positive)

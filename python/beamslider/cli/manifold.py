@@ -29,7 +29,7 @@ def cmd_manifold(args: argparse.Namespace) -> int:
 
     p = params_from_args(args)
     stem = manifold_name(args, args.f_ex, args.a_ex)
-    simulate(p, f_ex=args.f_ex, a_ex=args.a_ex, t_end=0.0, model="beam")  # names bad input first
+    simulate(p, f_ex=args.f_ex, a_ex=args.a_ex, t_end=1.0, model="beam", _check_only=True)  # names bad input first
     check_manifold_args(args)
     out = plan_outputs(args, [f"{stem}.{ext}" for ext in ("csv", "json", "png")])
     t0 = time.perf_counter()

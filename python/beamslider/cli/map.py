@@ -33,7 +33,12 @@ def add_parser(sub: Any) -> None:
                     help="extend the map in --out to T seconds: continue its not-settled points from their saved end "
                          "states (bitwise the T-second runs), keep the settled ones; prints the number re-run")
     sp.add_argument("--print-config", action="store_true", help="print the map configuration (TOML) and exit")
-    add_common(sp)
+    sp.add_argument("--scheduler", metavar="ADDRESS",
+                    help="run the points on a Dask cluster: scheduler address, e.g. tcp://host:8786 (docs/cluster.md)")
+    sp.add_argument("--scheduler-file", metavar="FILE", help="run on the Dask cluster of this scheduler file "
+                    "(dask scheduler --scheduler-file FILE)")
+    sp.add_argument("--chunk-size", type=positive(int), default=8, metavar="N", help="points per Dask task (8)")
+    add_common(sp, window=False)
     sp.set_defaults(func=cmd_map)
 
 
@@ -74,10 +79,13 @@ def cmd_map(args: argparse.Namespace) -> int:
     if args.print_config:
         print(config, end="")
         return 0
-    out = out_dir(args)
+    out = Path(args.out)  # created by the map itself, after the scheduler (if any) answered
+    if args.scheduler and args.scheduler_file:
+        raise UserError("give --scheduler or --scheduler-file, not both")
     t0 = time.perf_counter()
     table = run_map_config(config, out=out, resume=args.resume, threads=args.threads, progress=args.progress,
-                           extend=extend)
+                           extend=extend, scheduler=args.scheduler, scheduler_file=args.scheduler_file,
+                           chunk_size=args.chunk_size)
     wall = time.perf_counter() - t0
     txt = text_table(table)
     (out / "map.txt").write_text(txt, encoding="utf-8")

@@ -49,8 +49,17 @@ def cmd_plot(args: argparse.Namespace) -> int:
             plot_manifold(manifold, path=target)
             print(f"wrote {target}")
             return 0
-        if meta.get("kind") == "compare":
+        if meta.get("complete") is False:
+            raise UserError(f"{json_path}: the run that writes {meta.get('data', 'this result')} did not finish "
+                            "(incomplete result): run it again")
+        if isinstance(meta.get("data"), str):
+            csv_path = path.with_name(meta["data"])
+        elif meta.get("kind") == "compare":
             csv_path = path.with_name(f"{path.stem}_model.csv")
+        elif path.suffix == ".npz":
+            csv_path = path
+        if csv_path.suffix == ".npz" and not meta:
+            raise UserError(f"{path}: no summary {json_path.name} beside it: cannot tell whether the run finished")
         p = Parameters.from_toml_text(meta["params_toml"]) if "params_toml" in meta else Parameters()
         cols = read_simulation_csv(csv_path)
         result = SimulationResult(

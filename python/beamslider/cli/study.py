@@ -22,12 +22,14 @@ def add_parser(sub: Any) -> None:
                                     "summary.json, summary.txt, behaviour_probability.png and sensitivity*.png.")
     sp.add_argument("--config", metavar="TOML", help="study configuration (see --print-config)")
     sp.add_argument("--scheduler", metavar="ADDRESS", help="Dask scheduler address, e.g. tcp://host:8786 (default: local)")
+    sp.add_argument("--scheduler-file", metavar="FILE",
+                    help="Dask scheduler file (dask scheduler --scheduler-file FILE) instead of --scheduler")
     sp.add_argument("--threads", "-j", type=int, metavar="N", help="local worker threads (default: one per core)")
     sp.add_argument("--chunk-size", type=int, metavar="N", help="points per Dask task (default: the configuration's)")
     sp.add_argument("--task-threads", type=int, default=1, metavar="N", help="rayon threads per Dask task (1)")
     sp.add_argument("--resume", action="store_true", help="continue the study in --out, skipping finished runs")
     sp.add_argument("--print-config", action="store_true", help="print an example configuration (TOML) and exit")
-    add_common(sp, model_options=False)
+    add_common(sp, model_options=False, window=False)
     sp.set_defaults(func=cmd_study)
 
 
@@ -43,7 +45,10 @@ def cmd_study(args: Any) -> int:
     config = read_config(args.config)
     out = Path(args.out)
     t0 = time.perf_counter()
-    res = run_study(config, out=out, resume=args.resume, scheduler=args.scheduler, threads=args.threads,
+    if args.scheduler and args.scheduler_file:
+        raise ValueError("give --scheduler or --scheduler-file, not both")
+    res = run_study(config, out=out, resume=args.resume, scheduler=args.scheduler, scheduler_file=args.scheduler_file,
+                    threads=args.threads,
                     chunk_size=args.chunk_size, task_threads=args.task_threads, progress=args.progress)
     wall = time.perf_counter() - t0
     written = write_outputs(res, out)

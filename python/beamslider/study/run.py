@@ -2,10 +2,8 @@
 
 from __future__ import annotations
 
-import hashlib
 import json
 import os
-import time
 from pathlib import Path
 from typing import Any, Callable, List, Optional, Tuple, Union
 
@@ -30,53 +28,23 @@ def _chunks(todo: List[StudyPoint], size: int) -> List[List[StudyPoint]]:
     return [todo[i:i + size] for i in range(0, len(todo), size)]
 
 
-def _run_dask(scheduler: Any, map_toml: str, todo: List[StudyPoint], writer: Any, *, chunk_size: int,
+def _run_dask(client: Any, map_toml: str, todo: List[StudyPoint], writer: Any, *, chunk_size: int,
               task_threads: Optional[int], max_retries: int, on_chunk: Optional[Callable[[int, int], None]],
               tick: Callable[[], None]) -> None:
-    try:
-        from distributed import Client, as_completed
-    except ImportError:  # pragma: no cover
-        raise ImportError("running a study on a cluster needs dask.distributed: pip install 'beamslider[study]'") from None
-    own = not isinstance(scheduler, Client)
-    client = Client(scheduler) if own else scheduler
-    tag = hashlib.sha1(map_toml.encode()).hexdigest()[:10]
-    chunks = _chunks(todo, chunk_size)
-    try:
-        futures = {}
-        for k, ch in enumerate(chunks):
-            fut = client.submit(_run_chunk, map_toml, [p.chunk_tuple() for p in ch], task_threads,
-                                key=f"beamslider-study-{tag}-{ch[0].index}-{ch[-1].index}-{time.time_ns()}", pure=False)
-            futures[fut] = (k, 0)
-        ac = as_completed(list(futures))
-        done = 0
-        for fut in ac:
-            k, tries = futures.pop(fut)
-            try:
-                rows = fut.result()
-            except Exception as e:  # a lost worker (KilledWorker, CommClosedError, ...) or a bad point
-                if isinstance(e, (ValueError, KeyboardInterrupt)) or tries >= max_retries:
-                    raise
-                ch = chunks[k]
-                new = client.submit(_run_chunk, map_toml, [p.chunk_tuple() for p in ch], task_threads,
-                                    key=f"beamslider-study-{tag}-{ch[0].index}-{ch[-1].index}-r{tries + 1}-{time.time_ns()}",
-                                    pure=False)
-                futures[new] = (k, tries + 1)
-                ac.add(new)
-                continue
-            writer.add(rows)
-            done += 1
-            tick()
-            if on_chunk is not None:
-                on_chunk(done, len(chunks))
-    finally:
-        for fut in list(futures):
-            fut.cancel()
-        if own:
-            client.close()
+    from .._dask import run_chunks
+
+    def on_rows(rows: List[str]) -> None:
+        writer.add(rows)
+        tick()
+
+    chunks = [(map_toml, [p.chunk_tuple() for p in ch], task_threads) for ch in _chunks(todo, chunk_size)]
+    run_chunks(client, _run_chunk, chunks, tag="study" + map_toml, on_rows=on_rows, max_retries=max_retries,
+               on_chunk=on_chunk)
 
 
 def run_study(config: Union[StudyConfig, str, "os.PathLike[str]"], *, out: Optional[Union[str, Path]] = None,
-              resume: bool = False, scheduler: Any = None, threads: Optional[int] = None,
+              resume: bool = False, scheduler: Any = None, scheduler_file: Optional[str] = None,
+              threads: Optional[int] = None,
               chunk_size: Optional[int] = None, task_threads: Optional[int] = 1, max_retries: int = 3,
               progress: bool = False, on_chunk: Optional[Callable[[int, int], None]] = None) -> "StudyResult":
     """Run a study and aggregate it.
@@ -87,8 +55,9 @@ def run_study(config: Union[StudyConfig, str, "os.PathLike[str]"], *, out: Optio
 
     Local (``scheduler=None``): all points in one call of the Rust core on ``threads`` threads
     (default one per core). Dask (``scheduler`` = a scheduler address such as
-    ``"tcp://10.0.0.5:8786"`` or a ``distributed.Client``): chunks of ``chunk_size`` points (default
-    the configuration's) as tasks, each on ``task_threads`` rayon threads (default 1: Dask already
+    ``"tcp://10.0.0.5:8786"`` or a ``distributed.Client``, or ``scheduler_file`` written by ``dask
+    scheduler --scheduler-file``; contacted before any file is written): chunks of ``chunk_size``
+    points (default the configuration's) as tasks (the shared runner ``beamslider._dask``), each on ``task_threads`` rayon threads (default 1: Dask already
     runs one task per worker thread); a chunk whose worker died is re-run (up to ``max_retries``
     times on top of Dask's own retries). ``on_chunk(done, total)`` is called after each finished
     chunk (Dask). Ctrl-C stops the study keeping the finished points (``KeyboardInterrupt``).
@@ -104,6 +73,26 @@ def run_study(config: Union[StudyConfig, str, "os.PathLike[str]"], *, out: Optio
         raise ValueError(f"invalid parameter `chunk_size` = {size!r}: must be an integer >= 1")
     map_toml = config.map_toml()
     points = study_points(config)
+    by_index = {p.index: p for p in points}
+    client, own = None, False
+    if scheduler is not None or scheduler_file is not None:
+        from .._dask import connect
+
+        client, own = connect(scheduler, scheduler_file)
+    try:
+        return _run_study(config, map_toml, points, by_index, out=out, resume=resume, client=client, threads=threads,
+                          size=int(size), task_threads=task_threads, max_retries=max_retries, progress=progress,
+                          on_chunk=on_chunk)
+    finally:
+        if own:
+            client.close()
+
+
+def _run_study(config: StudyConfig, map_toml: str, points: List[StudyPoint], by_index: dict, *, out: Any,
+               resume: bool, client: Any, threads: Optional[int], size: int, task_threads: Optional[int],
+               max_retries: int, progress: Any, on_chunk: Any) -> "StudyResult":
+    from ..simulate import _progress_bar
+
     if out is not None:
         folder = Path(out)
         folder.mkdir(parents=True, exist_ok=True)
@@ -119,7 +108,7 @@ def run_study(config: Union[StudyConfig, str, "os.PathLike[str]"], *, out: Optio
                     cb(len(writer), len(points))
 
             tick()
-            if todo and scheduler is None:
+            if todo and client is None:
                 def on_rows(batch: List[str]) -> None:
                     writer.add(batch)
                     tick()
@@ -127,7 +116,7 @@ def run_study(config: Union[StudyConfig, str, "os.PathLike[str]"], *, out: Optio
                 writer.add(_core.run_study_chunk(map_toml, [p.chunk_tuple() for p in todo], threads=threads,
                                                  on_rows=on_rows))
             elif todo:
-                _run_dask(scheduler, map_toml, todo, writer, chunk_size=int(size), task_threads=task_threads,
+                _run_dask(client, map_toml, todo, writer, chunk_size=size, task_threads=task_threads,
                           max_retries=max_retries, on_chunk=on_chunk, tick=tick)
     finally:
         writer.close()

@@ -1,0 +1,392 @@
+"""Issue 18: bounded memory and streamed outputs, one writer per results file, maps on Dask, bad inputs."""
+
+from __future__ import annotations
+
+import gzip
+import json
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import beamslider
+from beamslider import _core
+from beamslider.maps import RESULTS_FILE, read_map
+from beamslider.plotting import decimate_minmax
+
+CLI = [sys.executable, "-m", "beamslider"]
+ENV = {**os.environ, "PYTHONUNBUFFERED": "1"}
+
+
+def _run_py(code: str, timeout: float = 300) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-c", textwrap.dedent(code)], capture_output=True, text=True,
+                          timeout=timeout, env=ENV)
+
+
+# --- 1. bounded memory ------------------------------------------------------------------------
+
+LIMIT = """
+import resource
+resource.setrlimit(resource.RLIMIT_AS, (int(2.5e9), int(2.5e9)))
+import beamslider
+"""
+
+
+def test_too_large_run_is_refused_before_it_starts_under_an_address_space_limit():
+    r = _run_py(LIMIT + """
+import time
+t0 = time.perf_counter()
+try:
+    beamslider.simulate(f_ex=124, a_ex=14, t_end=1e5, record_every=1)
+except ValueError as e:
+    print("ValueError:", e)
+    print("seconds:", time.perf_counter() - t0)
+""")
+    assert r.returncode == 0, r.stderr
+    msg = r.stdout
+    assert "ValueError:" in msg
+    for word in ("t_end", "record_every", "channels", "GB", "out="):
+        assert word in msg, msg
+    # 5e9 rows of 6 float64: 240 GB
+    assert "240 GB" in msg, msg
+    assert "memory allocation" not in r.stderr  # refused by the estimate, not by a failed allocation
+
+
+def test_streamed_run_keeps_memory_bounded_under_an_address_space_limit(tmp_path):
+    out = tmp_path / "run.npz"
+    r = _run_py(LIMIT + f"""
+import resource
+beamslider.simulate(f_ex=124, a_ex=14, t_end=0.05, record_every=1, out={str(tmp_path / 'warm.npz')!r})
+before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+res = beamslider.simulate(f_ex=124, a_ex=14, t_end=40.0, record_every=1, out={str(out)!r}, max_memory=1e6)
+after = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+print(json.dumps({{"before_kib": before, "after_kib": after, "rows": len(res.t), "t_last": float(res.t[-1]),
+                   "memmap": type(res.t).__name__}}))
+""".replace("import resource\nbeamslider", "import resource, json\nbeamslider"))
+    assert r.returncode == 0, r.stderr
+    d = json.loads(r.stdout.strip().splitlines()[-1])
+    rows = 1 + round(40.0 / 2e-5)
+    assert d["rows"] == rows and d["t_last"] == pytest.approx(40.0)
+    assert d["memmap"] == "memmap"
+    data_mb = rows * 6 * 8 / 1e6  # 96 MB of recorded arrays
+    growth_mb = (d["after_kib"] - d["before_kib"]) / 1024
+    print(f"streamed 40 s at record_every=1: {data_mb:.0f} MB written, peak RSS grew by {growth_mb:.1f} MB")
+    assert growth_mb < data_mb / 4, (growth_mb, data_mb)
+    assert out.stat().st_size > rows * 6 * 8
+
+
+def test_streamed_files_equal_the_in_memory_run_bitwise(tmp_path):
+    args = dict(f_ex=124, a_ex=14, s0=0.3, t_end=0.2, record_every=3)
+    mem = beamslider.simulate(**args)
+    for name in ("a.npz", "a.csv"):
+        res = beamslider.simulate(**args, out=tmp_path / name)
+        assert res.path == tmp_path / name
+        for f in ("t", "w", "s", "x_c", "z_c", "beta"):
+            np.testing.assert_array_equal(getattr(res, f), getattr(mem, f), err_msg=f"{name} {f}")
+        assert res.status == mem.status and res.counters == mem.counters
+    # np.load reads the .npz too (one array per channel)
+    with np.load(tmp_path / "a.npz") as z:
+        np.testing.assert_array_equal(z["w_4L7_m"], mem.w)
+    with pytest.raises(ValueError, match="`out`.*exists"):
+        beamslider.simulate(**args, out=tmp_path / "a.npz")
+    with pytest.raises(ValueError, match="`out`.*npz or .csv"):
+        beamslider.simulate(**args, out=tmp_path / "a.parquet")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.csv", "a.npz"]  # no temporary files left
+
+
+def test_csv_numbers_round_trip(tmp_path):
+    res = beamslider.simulate(f_ex=124, a_ex=14, t_end=0.01, record_every=1, out=tmp_path / "r.csv")
+    mem = beamslider.simulate(f_ex=124, a_ex=14, t_end=0.01, record_every=1)
+    lines = (tmp_path / "r.csv").read_text().splitlines()
+    assert lines[0] == "t_s,w_4L7_m,s,xC_m,zC_m,beta_rad"
+    w = np.array([float(ln.split(",")[1]) for ln in lines[1:]])
+    np.testing.assert_array_equal(w, mem.w)
+    assert len(res.t) == len(mem.t)
+
+
+# --- 2. atomic output, interruption, plot refuses incomplete ----------------------------------
+
+
+def test_sigint_during_streamed_write_leaves_no_file_under_the_final_name(tmp_path):
+    out = tmp_path / "run.npz"
+    p = subprocess.Popen([sys.executable, "-c", textwrap.dedent(f"""
+        import beamslider
+        print("start", flush=True)
+        beamslider.simulate(f_ex=124, a_ex=14, t_end=600, record_every=1, out={str(out)!r})
+        """)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=ENV)
+    assert p.stdout.readline().strip() == "start"
+    time.sleep(1.5)
+    assert any(f.name.startswith(".run.npz.partial") for f in tmp_path.iterdir())  # it is writing
+    p.send_signal(signal.SIGINT)
+    _out, err = p.communicate(timeout=60)
+    assert p.returncode != 0 and "KeyboardInterrupt" in err
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_cli_interrupted_simulate_leaves_an_incomplete_sidecar_that_plot_refuses(tmp_path):
+    out = tmp_path / "o"
+    p = subprocess.Popen(CLI + ["simulate", "--t-end", "600", "--record-every", "1", "--no-manifold", "--out", str(out)],
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=ENV)
+    stem = "fs_124Hz_14ms2_s0_0p3"
+    for _ in range(300):
+        if (out / f"{stem}.json").exists():
+            break
+        time.sleep(0.05)
+    time.sleep(1.0)
+    p.send_signal(signal.SIGINT)
+    _o, err = p.communicate(timeout=60)
+    assert p.returncode == 130, err
+    assert not (out / f"{stem}.npz").exists()
+    assert not [f for f in out.iterdir() if "partial" in f.name]
+    meta = json.loads((out / f"{stem}.json").read_text())
+    assert meta["complete"] is False
+    r = subprocess.run(CLI + ["plot", str(out / f"{stem}.json"), "--out", str(tmp_path / "p")], capture_output=True,
+                       text=True, env=ENV)
+    assert r.returncode == 1 and "did not finish" in r.stderr and "Traceback" not in r.stderr
+
+
+def test_cli_simulate_streams_npz_by_default_and_csv_on_request(tmp_path):
+    stem = "fs_124Hz_14ms2_s0_0p3"
+    for fmt in ("npz", "csv"):
+        out = tmp_path / fmt
+        r = subprocess.run(CLI + ["simulate", "--t-end", "0.3", "--no-manifold", "--out", str(out)]
+                           + (["--format", "csv"] if fmt == "csv" else []), capture_output=True, text=True, env=ENV)
+        assert r.returncode == 0, r.stderr
+        meta = json.loads((out / f"{stem}.json").read_text())
+        assert meta["complete"] is True and meta["data"] == f"{stem}.{fmt}"
+        cols = beamslider.read_trajectory(out / f"{stem}.{fmt}")
+        mem = beamslider.simulate(f_ex=124, a_ex=14, s0=0.3, t_end=0.3)
+        np.testing.assert_array_equal(cols["w_4L7_m"], mem.w)
+        r = subprocess.run(CLI + ["plot", str(out / f"{stem}.json"), "--out", str(out / "re")], capture_output=True,
+                           text=True, env=ENV)
+        assert r.returncode == 0, r.stderr
+
+
+def test_minmax_decimation_keeps_every_columns_extremes():
+    rng = np.random.default_rng(1)
+    n = 1_000_003
+    t = np.arange(n) * 1e-4
+    y = np.cumsum(rng.standard_normal(n))
+    y[123_457] = 1e3  # a single spike must survive
+    td, yd = decimate_minmax(t, y, columns=1000)
+    assert len(td) <= 2 * 1000 + 2
+    assert np.all(np.diff(td) >= 0)
+    assert yd.max() == 1e3 and yd.min() == y.min()
+    per = n // 1000
+    for c in (0, 500, 999):
+        seg = y[c * per:(c + 1) * per]
+        assert seg.min() in yd and seg.max() in yd
+    # every drawn point is a sample of the trace
+    idx = np.searchsorted(t, td)
+    np.testing.assert_array_equal(y[idx], yd)
+
+
+# --- 3. one writer per results file -----------------------------------------------------------
+
+
+def _map_cmd(out: Path, resume: bool = True):
+    return CLI + ["map", "--f-ex", "118:124:2", "--a-ex", "6,10", "--t-end", "6", "--threads", "1", "--out", str(out)] \
+        + (["--resume"] if resume else [])
+
+
+def test_two_map_resume_processes_one_refuses_and_the_file_stays_whole(tmp_path):
+    out = tmp_path / "m"
+    procs = [subprocess.Popen(_map_cmd(out), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=ENV)
+             for _ in range(2)]
+    res = [(p.wait(timeout=600), p.stdout.read(), p.stderr.read()) for p in procs]
+    codes = sorted(r[0] for r in res)
+    assert codes == [0, 1], res
+    refused = next(r for r in res if r[0] == 1)
+    winner = next(p for p, r in zip(procs, res) if r[0] == 0)
+    assert str(out) in refused[2] and f"PID {winner.pid}" in refused[2] and "Traceback" not in refused[2]
+    lines = (out / RESULTS_FILE).read_text().splitlines()
+    assert len(lines) == 1 + 8  # header + 8 rows, none fused
+    for ln in lines:
+        json.loads(ln)
+    # a final resume computes nothing and equals an uninterrupted map (but the wall time)
+    r = subprocess.run(_map_cmd(out), capture_output=True, text=True, env=ENV)
+    assert r.returncode == 0, r.stderr
+    r = subprocess.run(_map_cmd(tmp_path / "ref", resume=False), capture_output=True, text=True, env=ENV)
+    assert r.returncode == 0, r.stderr
+    a, b = read_map(out), read_map(tmp_path / "ref")
+    for k in a:
+        if k != "wall_time_s":
+            np.testing.assert_array_equal(a[k], b[k], err_msg=k)
+
+
+def test_second_writer_of_a_results_file_fails_at_once_naming_folder_and_pid(tmp_path):
+    path = tmp_path / "study.jsonl"
+    first = _core.ResultsLock(path)
+    t0 = time.perf_counter()
+    with pytest.raises(BlockingIOError) as e:
+        _core.ResultsLock(path)
+    assert time.perf_counter() - t0 < 2.0
+    assert str(tmp_path) in str(e.value) and f"PID {os.getpid()}" in str(e.value)
+    first.release()
+    with _core.ResultsLock(path):
+        pass
+
+
+def test_study_results_file_takes_the_lock(tmp_path):
+    from beamslider.study import StudyConfig, Uncertain
+    from beamslider.study.results import open_results
+    from beamslider.study.sampling import study_points
+
+    cfg = StudyConfig(uncertain=[Uncertain("friction_coefficient", "uniform", low=0.22, high=0.31)],
+                      f_ex_hz=[120.0], a_ex_m_s2=[10.0], method="lhs", samples=2, seed=1, duration_s=1.0)
+    pts = study_points(cfg)
+    w = open_results(cfg, pts, tmp_path / "study.jsonl", False)
+    with pytest.raises(BlockingIOError, match=f"PID {os.getpid()}"):
+        open_results(cfg, pts, tmp_path / "study.jsonl", True)
+    w.close()
+    open_results(cfg, pts, tmp_path / "study.jsonl", True).close()
+
+
+def test_reader_ignores_a_torn_last_row(tmp_path):
+    beamslider.operating_map(f_ex=[120.0, 122.0], a_ex=10.0, t_end=2.0, out=tmp_path)
+    path = tmp_path / RESULTS_FILE
+    text = path.read_text()
+    path.write_text(text + text.splitlines()[1][:40])  # a writer killed mid-row
+    assert len(read_map(tmp_path)["index"]) == 2
+
+
+# --- 4. bad inputs ----------------------------------------------------------------------------
+
+
+def test_envelope_with_a_nan_names_the_argument():
+    t = np.arange(1000) * 1e-3
+    w = np.sin(2 * np.pi * 50 * t)
+    w[500] = np.nan
+    with pytest.raises(ValueError, match=r"`w`.*NaN.*index 500"):
+        beamslider.envelope(t, w)
+
+
+def test_classify_rejects_non_uniform_time():
+    t = np.linspace(0, 10, 51)
+    t[10] += 0.05
+    with pytest.raises(ValueError, match="`t`.*uniformly"):
+        beamslider.classify(t, np.full(51, 0.3), np.full(51, 0.1))
+
+
+def test_classify_rejects_two_samples():
+    with pytest.raises(ValueError, match="`t`.*at least three"):
+        beamslider.classify([0.0, 0.2], [0.3, 0.3], [0.1, 0.1])
+
+
+def test_record_every_larger_than_the_steps_is_an_error():
+    with pytest.raises(ValueError, match="`record_every` = 1000: larger than the run's 500 time steps"):
+        beamslider.simulate(f_ex=124, a_ex=14, t_end=0.01, record_every=1000)
+
+
+def test_zero_duration_is_an_error():
+    with pytest.raises(ValueError, match="`t_end` = 0"):
+        beamslider.simulate(f_ex=124, a_ex=14, t_end=0)
+
+
+def test_huge_integers_name_the_argument():
+    with pytest.raises(ValueError, match="`record_every`"):
+        beamslider.simulate(f_ex=124, a_ex=14, t_end=0.01, record_every=2**64)
+    with pytest.raises(ValueError, match="`threads`"):
+        beamslider.operating_map(f_ex=120.0, a_ex=10.0, t_end=1.0, threads=2**64)
+    for argv in (["simulate", "--record-every", str(2**64)], ["map", "--threads", str(2**64)]):
+        r = subprocess.run(CLI + argv, capture_output=True, text=True, env=ENV)
+        assert r.returncode == 2 and "too large" in r.stderr and "Traceback" not in r.stderr, r.stderr
+
+
+def test_measured_slider_position_outside_the_beam_is_rejected(tmp_path):
+    path = tmp_path / "Time_VelBeam_RelSliderPos__fex124_ExcLevel14_RelSliderPosStart03.txt"
+    t = np.arange(200) * 1e-3
+    s = np.full(200, 0.3)
+    s[50] = 5.0
+    np.savetxt(path, np.column_stack([t, np.sin(t), s]))
+    with pytest.raises(beamslider.MeasurementFormatError, match=r"s = 5 outside \[0, 1\]") as e:
+        beamslider.read_measurement(path)
+    assert path.name in str(e.value)
+
+
+@pytest.mark.parametrize("cmd", [["map"], ["study", "--config", "x.toml"]])
+def test_map_and_study_reject_window(cmd):
+    r = subprocess.run(CLI + cmd + ["--window", "2"], capture_output=True, text=True, env=ENV)
+    assert r.returncode == 2 and "--window" in r.stderr and "Traceback" not in r.stderr
+
+
+def test_plot_of_a_non_utf8_file_names_the_file(tmp_path):
+    bad = tmp_path / "bad.csv"
+    bad.write_bytes(b"t_s,w_4L7_m\n\xff\xfe\x00garbage\n")
+    r = subprocess.run(CLI + ["plot", str(bad), "--out", str(tmp_path / "o")], capture_output=True, text=True, env=ENV)
+    assert r.returncode == 1 and str(bad) in r.stderr and "Traceback" not in r.stderr, r.stderr
+
+
+def test_progress_bars_are_off_when_stderr_is_not_a_terminal(tmp_path):
+    base = CLI + ["simulate", "--t-end", "0.2", "--no-manifold"]
+    r = subprocess.run(base + ["--out", str(tmp_path / "a")], capture_output=True, env=ENV)
+    assert r.returncode == 0 and b"\r" not in r.stderr and b"%|" not in r.stderr, r.stderr
+    r = subprocess.run(base + ["--out", str(tmp_path / "b"), "--progress"], capture_output=True, env=ENV)
+    assert r.returncode == 0 and b"\r" in r.stderr and b"100%|" in r.stderr, r.stderr
+
+
+# --- 5. maps on Dask --------------------------------------------------------------------------
+
+
+def test_map_on_a_local_cluster_equals_the_local_map_row_for_row(tmp_path):
+    distributed = pytest.importorskip("distributed")
+    grid = dict(f_ex=[118.0, 120.0, 122.0], a_ex=[6.0, 10.0], t_end=3.0)
+    local = beamslider.operating_map(**grid, out=tmp_path / "local")
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as c, \
+            distributed.Client(c) as client:
+        remote = beamslider.operating_map(**grid, out=tmp_path / "dask", scheduler=client, chunk_size=2)
+    rows = {}
+    for name in ("local", "dask"):
+        lines = (tmp_path / name / RESULTS_FILE).read_text().splitlines()
+        assert json.loads(lines[0]) == json.loads((tmp_path / "local" / RESULTS_FILE).read_text().splitlines()[0])
+        rows[name] = {}
+        for ln in lines[1:]:
+            r = json.loads(ln)
+            r.pop("wall_time_s")
+            rows[name][r["index"]] = r
+    assert rows["local"] == rows["dask"]  # bitwise (JSON numbers round-trip), end states included
+    for k in local:
+        if k != "wall_time_s":
+            np.testing.assert_array_equal(local[k], remote[k], err_msg=k)
+
+
+def test_unreachable_scheduler_writes_nothing(tmp_path, monkeypatch):
+    pytest.importorskip("distributed")
+    import beamslider._dask
+
+    monkeypatch.setattr(beamslider._dask, "CONNECT_TIMEOUT_S", 1.0)
+    with pytest.raises(ValueError, match="cannot reach the scheduler at tcp://127.0.0.1:9"):
+        beamslider.operating_map(f_ex=120.0, a_ex=10.0, t_end=1.0, out=tmp_path / "m", scheduler="tcp://127.0.0.1:9")
+    assert not (tmp_path / "m").exists()
+    from beamslider.study import StudyConfig, Uncertain, run_study
+
+    cfg = StudyConfig(uncertain=[Uncertain("friction_coefficient", "uniform", low=0.22, high=0.31)],
+                      f_ex_hz=[120.0], a_ex_m_s2=[10.0], method="lhs", samples=2, seed=1, duration_s=1.0)
+    with pytest.raises(ValueError, match="cannot reach"):
+        run_study(cfg, out=tmp_path / "s", scheduler="tcp://127.0.0.1:9")
+    assert not (tmp_path / "s").exists()
+    with pytest.raises(ValueError, match="scheduler_file"):
+        run_study(cfg, out=tmp_path / "s", scheduler_file=str(tmp_path / "missing.json"))
+    assert not (tmp_path / "s").exists()
+
+
+def test_blocked_envelope_matches_the_whole_run_fft():
+    from beamslider.simulate import blocked_envelope
+
+    rng = np.random.default_rng(3)
+    n = 2_500_001  # prime-ish length, 50 s at 2e-5 s
+    t = np.arange(n) * 2e-5
+    slow = 1 + 0.5 * np.sin(2 * np.pi * 0.05 * t) + 0.2 * np.tanh((t - 20) / 0.5)
+    w = 1e-3 * slow * np.sin(2 * np.pi * 124 * t + 0.3 * np.sin(2 * np.pi * 0.1 * t)) \
+        + 2e-5 * np.sin(2 * np.pi * 780 * t) + 1e-6 * rng.standard_normal(n)
+    exact = beamslider.envelope(t, w, window=1.0)
+    fast = blocked_envelope(t, w, window=1.0)
+    rel = np.abs(fast - exact) / exact.max()
+    print(f"blocked envelope: max deviation {rel.max():.2e} of the peak")
+    assert rel.max() < 1e-3
