@@ -107,3 +107,61 @@ def test_cli_discover_and_synthesize(tmp_path):
 def _write(path, text):
     path.write_text(text)
     return path
+
+
+# --- issue 20: the naming rule can say "unexplained" ---------------------------------------------
+
+BEAM_WITHOUT_PRELOAD = ["rotational_clamping_compliance", "axial_clamping_compliance", "amplitude_dependent_damping"]
+
+
+def test_out_of_library_beam_effect_is_unexplained(tmp_path):
+    """A hidden preload with the preload removed from the candidates: the compliances could move
+    f0 but not the rest; nothing is named, the moved features are listed."""
+    data = dc.synthesize_enma(bs.Parameters(axial_preload_n=20.0), seed=3)
+    d = dc.discover(enma_data=data, baseline=bs.Parameters(), effects=BEAM_WITHOUT_PRELOAD)
+    assert d.verdict == "unexplained", dc.verdict_line(d)
+    assert d.named_effects == [] and d.parameters == {} and d.updated == d.baseline
+    assert d.gap_after == d.gap_before
+    off = [f["feature"] for f in d.features_off]
+    assert "f0_hz" in off
+    assert d.rejected and all(r["reasons"] for r in d.rejected)
+    dc.write_report(d, tmp_path)
+    rep = json.loads((tmp_path / "report.json").read_text())
+    assert rep["verdict"] == "unexplained" and rep["rejected"][0]["reasons"] and rep["features_off"]
+    assert "Unexplained discrepancy" in (tmp_path / "report.md").read_text()
+
+
+def test_in_library_beam_effect_is_named_with_its_relevance():
+    data = dc.synthesize_enma(bs.Parameters(axial_preload_n=20.0), seed=3)
+    d = dc.discover(enma_data=data, baseline=bs.Parameters())
+    assert d.verdict == "named" and d.named_effects == ["axial_preload"], dc.verdict_line(d)
+    assert d.gap_after <= 0.3 * d.gap_before
+    assert "relevant from" in d.parameters["axial_preload"]["relevance"]
+
+
+def test_negligible_true_change_is_none():
+    """A preload of 1 N (below the 2.5-N relevance threshold) is detectable in f0 but no finding."""
+    data = dc.synthesize_enma(bs.Parameters(axial_preload_n=1.0), seed=6)
+    d = dc.discover(enma_data=data, baseline=bs.Parameters())
+    assert d.verdict == "none", dc.verdict_line(d)
+    assert d.named_effects == [] and d.updated == d.baseline
+
+
+def test_relevance_thresholds_are_declared():
+    for e in dc.EFFECTS.values():
+        assert e.relevance > 0 and e.relevance_reason, e.name
+    e = dc.EFFECTS["clearance"]
+    p = bs.Parameters()
+    assert not e.relevant(1.0501, p)[0] and e.relevant(1.056, p)[0]
+    e = dc.EFFECTS["rotational_clamping_compliance"]
+    assert not e.relevant(125.0 * 1.02, p)[0] and e.relevant(125.0 * 0.9, p)[0]
+    with pytest.raises(ValueError, match="gap_ratio"):
+        dc.discover(enma_data=dc.synthesize_enma(bs.Parameters(), seed=1), gap_ratio=0.0)
+
+
+def test_detuning_effect_scales_the_natural_frequency():
+    p = bs.Parameters()
+    q = dc._realise(p, {"natural_frequency_detuning": 0.98})
+    f0, f1 = dc.beam_surrogate(p), dc.beam_surrogate(q)
+    assert f1["f0_hz"] / f0["f0_hz"] == pytest.approx(0.98, rel=1e-6)
+    assert f1["b_star"] == pytest.approx(f0["b_star"], rel=1e-6)

@@ -216,6 +216,34 @@ class Effect:
     moves: Tuple[str, ...]
     search: Tuple[float, float] = (math.nan, math.nan)
     """Range of u scanned by the profile fit of slider-level effects (default: the bounds)."""
+    relevance: float = 0.0
+    """Least physically relevant change of the parameter: absolute (``relevance_kind = "abs"``),
+    relative to the baseline value (``"rel"``), or for compliances relative to the baseline
+    compliance u with the absolute floor :attr:`relevance_floor` on u (``"compliance"``)."""
+    relevance_kind: str = "abs"
+    relevance_floor: float = 0.0
+    relevance_reason: str = ""
+    """Why this threshold (docs/discover.md)."""
+    realise: Optional[Callable[[Parameters, float], Dict[str, float]]] = None
+    """For a virtual parameter (not a field of :class:`Parameters`, e.g. the natural-frequency
+    factor): the field values that realise the value; its baseline value is 1."""
+
+    def baseline_value(self, p: Parameters) -> float:
+        """The parameter's value in ``p`` (1 for a virtual factor)."""
+        return 1.0 if self.realise is not None else float(getattr(p, self.field))
+
+    def relevant(self, value: float, p: Parameters) -> Tuple[bool, str]:
+        """Whether ``value`` differs from the baseline ``p`` by a physically relevant amount, and
+        the change in words."""
+        b = self.baseline_value(p)
+        if self.relevance_kind == "compliance":
+            ub, uv = self.variable(b, p), self.variable(value, p)
+            thr = max(self.relevance * ub, self.relevance_floor)
+            return abs(uv - ub) >= thr, f"compliance {ub:.4g} -> {uv:.4g} (relevant from a change of {thr:.3g})"
+        if self.relevance_kind == "rel":
+            thr = self.relevance * abs(b)
+            return abs(value - b) >= thr, f"{b:.5g} -> {value:.5g} ({(value - b) / b:+.2%}, relevant from ±{self.relevance:.1%})"
+        return abs(value - b) >= self.relevance, f"{b:.5g} -> {value:.5g} (change {value - b:+.3g}, relevant from ±{self.relevance:g})"
 
     def value(self, u: float, p: Parameters) -> float:
         if self.kind == "compliance":
@@ -232,28 +260,78 @@ EFFECTS: Dict[str, Effect] = {e.name: e for e in (
     Effect("rotational_clamping_compliance",
            "finite rotational stiffness k_r of the clamping (each end): lowers the linear frequency, widens the "
            "mode shape towards the clamps and changes b* through the shape", "k_r_nm_per_rad", "N m/rad",
-           "compliance", 0.0, 2.0, _ei_over_l, "beam", ("f0_hz", "b_star", "shape_L6", "shape_L3")),
+           "compliance", 0.0, 2.0, _ei_over_l, "beam", ("f0_hz", "b_star", "shape_L6", "shape_L3"),
+           relevance=0.05, relevance_kind="compliance", relevance_floor=7e-4,
+           relevance_reason="5 % of the baseline compliance EI/(L k_r), at least 7e-4 (5 % of the prototype's "
+                            "0.014): lowers f0 by 0.24 %"),
     Effect("axial_clamping_compliance",
            "finite axial stiffness k_t of the frame in series with the beam: lowers the stretching hardening b* "
-           "only", "k_t_n_per_m", "N/m", "compliance", 0.0, 20.0, _ea_over_l, "beam", ("b_star",)),
+           "only", "k_t_n_per_m", "N/m", "compliance", 0.0, 20.0, _ea_over_l, "beam", ("b_star",),
+           relevance=0.05, relevance_kind="compliance", relevance_floor=0.05,
+           relevance_reason="5 % of the baseline compliance EA/(L k_t), at least 0.05 (5 % of the prototype's 1.09): "
+                            "changes b* by 2.5 %"),
     Effect("axial_preload",
            "static axial force H0 in the beam (tension positive, e.g. from thermal strain or assembly): adds "
            "H0 K q to the modal forces, shifts the linear frequency, moves the shape towards the string (tension) "
            "or buckling (compression) shape", "axial_preload_n", "N", "linear", -30.0, 200.0,
-           lambda p: _ei_over_l(p) / p.length_m, "beam", ("f0_hz", "shape_L6", "shape_L3")),
+           lambda p: _ei_over_l(p) / p.length_m, "beam", ("f0_hz", "shape_L6", "shape_L3"),
+           relevance=2.5, relevance_reason="2.5 N shifts f0 by 0.26 %, as much as a 5 % change of k_r"),
     Effect("amplitude_dependent_damping",
            "damping that grows with amplitude (micro-slip in the clamping): D(t) = D + 4 D2 (w(L/2)/h)^2, "
            "D~(a~) = D + D2 a~^2", "damping_ratio_quadratic", "-", "linear", 0.0, 100.0, lambda p: 1e-4,
-           "beam", ("damping_2",)),
+           "beam", ("damping_2",), relevance=5e-5,
+           relevance_reason="D2 = 5e-5 raises the damping ratio at an amplitude of one thickness by 5 % of "
+                            "D = 0.001"),
     Effect("friction_coefficient",
            "Coulomb friction coefficient mu between slider and beam: sets how fast and where the slider moves",
            "friction_coefficient", "-", "linear", 0.0, 1.0, lambda p: 1.0, "slider",
-           ("speed_early", "speed_late", "s_turning", "s_final", "amplitude_final_h"), (0.1, 0.5)),
+           ("speed_early", "speed_late", "s_turning", "s_final", "amplitude_final_h"), (0.1, 0.5),
+           relevance=0.01, relevance_reason="0.01 = 5 % of the prototype's mu = 0.2, below what a friction "
+                                            "measurement resolves"),
     Effect("clearance",
            "relative inner height R/h of the slider opening (clearance R - h): changes impacts and the "
            "transport of the slider", "gap_ratio", "-", "linear", 1.005, 1.4, lambda p: 1.0, "slider",
-           ("speed_early", "speed_late", "s_turning", "s_final", "amplitude_final_h"), (1.01, 1.15)),
+           ("speed_early", "speed_late", "s_turning", "s_final", "amplitude_final_h"), (1.01, 1.15),
+           relevance=0.005, relevance_reason="R/h by 0.005 = 10 % of the prototype's clearance R - h = 0.05 h "
+                                             "(5 um), the machining tolerance"),
+    Effect("natural_frequency_detuning",
+           "linear natural frequencies of the beam scaled by a factor c at constant mode shapes and b* "
+           "(E -> c^2 E, k_r -> c^2 k_r, k_t keeping the axial stiffness; as the studies' natural_frequency_factor): "
+           "the paper's second named uncertainty", "natural_frequency_factor", "-", "linear", 0.9, 1.1,
+           lambda p: 1.0, "slider", ("speed_early", "speed_late", "s_turning", "s_final", "amplitude_final_h"),
+           (0.95, 1.05), relevance=0.005, relevance_reason="0.5 % of f0 (1.3 Hz of 260 Hz; the resonance of the "
+                                                           "beam with slider moves by about the map's 2-Hz step "
+                                                           "for 1 %)",
+           realise=lambda p, c: _detune(p, c)),
+    Effect("slider_mass",
+           "slider mass m (manufacturing tolerance): shifts the resonance of the beam with slider and the "
+           "slider's inertia in the impacts", "slider_mass_kg", "kg", "linear", 0.8, 1.2, lambda p: p.slider_mass_kg,
+           "slider", ("speed_early", "speed_late", "s_turning", "s_final", "amplitude_final_h"), (0.9, 1.1),
+           relevance=0.02, relevance_kind="rel", relevance_reason="2 % (0.9 g of 46 g), above the weighing "
+                                                                  "and machining tolerance"),
+    Effect("slider_inertia",
+           "rotary inertia J of the slider about its centre of mass: sets its rocking between the contacts",
+           "slider_inertia_kg_m2", "kg m^2", "linear", 0.5, 2.0, lambda p: p.slider_inertia_kg_m2, "slider",
+           ("speed_early", "speed_late", "s_turning", "s_final", "amplitude_final_h"), (0.7, 1.4),
+           relevance=0.05, relevance_kind="rel", relevance_reason="5 %: J is computed from the CAD geometry, "
+                                                                  "not measured"),
+    Effect("com_offset",
+           "offset d of the slider's centre of mass from the beam's axis: couples its rotation to the impacts",
+           "com_offset_m", "m", "linear", 0.0, 10.0, lambda p: 1e-3, "slider",
+           ("speed_early", "speed_late", "s_turning", "s_final", "amplitude_final_h"), (2.0, 6.5),
+           relevance=2e-4, relevance_reason="0.2 mm = 5 % of the prototype's d = 4.1 mm"),
+    Effect("restitution",
+           "coefficient of restitution of the slider-beam impacts (MODEL.md eps_N = eps_T)", "restitution", "-",
+           "linear", 0.0, 1.0, lambda p: 1.0, "slider",
+           ("speed_early", "speed_late", "s_turning", "s_final", "amplitude_final_h"), (0.2, 0.8),
+           relevance=0.05, relevance_reason="0.05: impact tests of steel on steel scatter by about that"),
 )}
+
+
+def _detune(p: Parameters, c: float) -> Dict[str, float]:
+    from .study.sampling import detune
+
+    return detune(p, c)
 
 
 def _with(p: Parameters, **changes: Any) -> Parameters:
@@ -261,7 +339,19 @@ def _with(p: Parameters, **changes: Any) -> Parameters:
 
 
 def _apply(p: Parameters, effects: Sequence[Effect], u: Sequence[float]) -> Parameters:
-    return _with(p, **{e.field: e.value(float(x), p) for e, x in zip(effects, u)})
+    return _realise(p, {e.name: e.value(float(x), p) for e, x in zip(effects, u)})
+
+
+def _realise(p: Parameters, values: Dict[str, float]) -> Parameters:
+    """``p`` with the effects' parameters set to ``values`` (by effect name); virtual parameters
+    (a natural-frequency factor) are realised last, relative to the other changes."""
+    real = {EFFECTS[n].field: v for n, v in values.items() if EFFECTS[n].realise is None}
+    q = _with(p, **real) if real else p
+    for n, v in values.items():
+        e = EFFECTS[n]
+        if e.realise is not None:
+            q = _with(q, **e.realise(q, float(v)))
+    return q
 
 
 # --- beam level: surrogate and simulation ---------------------------------------------------------
@@ -409,10 +499,19 @@ class Discovery:
     alternatives: List[Tuple[str, ...]] = field(default_factory=list)
     data: Any = None
     runtime_s: float = 0.0
+    verdict: str = "none"
+    """``named`` (an effect set passed the naming rule), ``unexplained`` (the baseline does not fit
+    and no candidate set passes), ``none`` (the baseline fits the data)."""
+    rejected: List[Dict[str, Any]] = field(default_factory=list)
+    """Fitted candidate sets not named, each with the reasons."""
+    features_off: List[Dict[str, Any]] = field(default_factory=list)
+    """Features still off after the update (|z| > 2), largest first."""
+    gap_ratio: float = 0.3
 
     def to_json(self) -> Dict[str, Any]:
         return _json_safe(dict(
-            level=self.level, named_effects=self.named_effects, parameters=self.parameters,
+            verdict=self.verdict, level=self.level, named_effects=self.named_effects, parameters=self.parameters,
+            rejected=self.rejected, features_off=self.features_off, gap_ratio=self.gap_ratio,
             gap_before=self.gap_before, gap_after=self.gap_after, gap_measure=GAP_MEASURE,
             chi2_before=self.chi2_before, criterion=self.criterion, features=self.features,
             behaviours=self.behaviours, alternatives=[list(a) for a in self.alternatives],
@@ -456,7 +555,7 @@ def _fit_candidate(effects: Sequence[Effect], baseline: Parameters, meas: Dict[s
 
     lo = np.array([e.lower for e in effects])
     hi = np.array([e.upper for e in effects])
-    starts = [np.clip([e.variable(getattr(baseline, e.field), baseline) for e in effects], lo, hi)]
+    starts = [np.clip([e.variable(e.baseline_value(baseline), baseline) for e in effects], lo, hi)]
     starts.append(lo + 0.1 * (hi - lo))
     best = None
     for x0 in starts:
@@ -512,7 +611,7 @@ def _profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str
                 progress()
         return cache[key]
 
-    u = np.array([np.clip(e.variable(getattr(baseline, e.field), baseline), e.lower, e.upper) for e in effects])
+    u = np.array([np.clip(e.variable(e.baseline_value(baseline), baseline), e.lower, e.upper) for e in effects])
     samples: List[List[Tuple[float, float]]] = [[] for _ in effects]
     for i, e in enumerate(effects):
         lo, hi = e.search if math.isfinite(e.search[0]) else (e.lower, e.upper)
@@ -599,16 +698,62 @@ def _select(fits: List[CandidateFit], chi2_0: float, n: int) -> Tuple[Optional[C
     return best, alts
 
 
+def _fit_sets(cand_effects: Sequence[Effect], max_effects: int, level: str, base: Parameters,
+              meas: Dict[str, Feature], model_fn: Callable[[Parameters], Dict[str, float]],
+              diff_step: Optional[float], max_nfev: int) -> List[CandidateFit]:
+    """Fit every single candidate and the sets of up to ``max_effects``: at the beam level (cheap
+    surrogate) all of them, at the slider level (full simulations) only the sets that extend one
+    of the two best singles."""
+    def fit(combo: Sequence[Effect]) -> CandidateFit:
+        if level == "beam":
+            return _fit_candidate(combo, base, meas, model_fn, diff_step=diff_step, max_nfev=max_nfev)
+        return _profile_fit(combo, base, meas, model_fn)
+
+    fits = [fit((e,)) for e in cand_effects]
+    if max_effects < 2:
+        return fits
+    top = {f.effects[0] for f in sorted(fits, key=lambda f: f.chi2)[:2]}
+    for k in range(2, max_effects + 1):
+        for combo in itertools.combinations(cand_effects, k):
+            if level == "beam" or top & {e.name for e in combo}:
+                fits.append(fit(combo))
+    return fits
+
+
+def _judge(fits: Sequence[CandidateFit], base: Parameters, n: int, gap_before: float,
+           gap_ratio: float) -> Dict[Tuple[str, ...], List[str]]:
+    """The naming rule per fitted set: the reasons it may not be named (empty: it may). Not
+    adequate (chi2 > chi2_0.99(n - k)); a parameter moved by less than its relevance threshold;
+    a small share of the gap (fitted gap sqrt(chi2/n) > gap_ratio x gap before)."""
+    out: Dict[Tuple[str, ...], List[str]] = {}
+    for f in fits:
+        reasons = []
+        if not f.adequate:
+            reasons.append(f"not adequate: chi2 = {f.chi2:.3g} > chi2_0.99({f.dof}) = {_chi2_quantile(f.dof):.3g}")
+        for e in f.effects:
+            ok, how = EFFECTS[e].relevant(f.values[e], base)
+            if not ok:
+                reasons.append(f"negligible change of {EFFECTS[e].field}: {how}")
+        g = math.sqrt(max(f.chi2, 0.0) / max(n, 1))
+        if g > gap_ratio * gap_before:
+            reasons.append(f"small share of the gap: {gap_before:.3g} -> {g:.3g} (more than {gap_ratio:g} x)")
+        out[f.effects] = reasons
+    return out
+
+
 def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequence[Measurement]] = None,
              baseline: Optional[Parameters] = None, effects: Optional[Sequence[str]] = None,
-             max_effects: int = 2, progress: bool = False) -> Discovery:
+             max_effects: int = 2, progress: bool = False, gap_ratio: float = 0.3) -> Discovery:
     """Find the effects the ``baseline`` model misses, from beam-level ENMA data (``enma_data``)
     or slider-level free-slider runs (``measured``, files of the published format), name them,
-    add them and measure the gap before and after (module docs: criterion)."""
+    add them and measure the gap before and after (module docs: criterion). ``gap_ratio``: a named
+    set must leave at most this share of the gap (0.3); otherwise the verdict is "unexplained"."""
     import time
 
     t0 = time.perf_counter()
     base = resolve(baseline)
+    if not (isinstance(gap_ratio, (int, float)) and 0 < gap_ratio <= 1):
+        raise ValueError(f"invalid gap_ratio = {gap_ratio!r}: must be in (0, 1]")
     if (enma_data is None) == (measured is None):
         raise ValueError("give either enma_data (beam level) or measured runs (slider level)")
     level = "beam" if enma_data is not None else "slider"
@@ -659,38 +804,60 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
     n = len(meas)
     fits: List[CandidateFit] = []
     if chi2_0 > _chi2_quantile(n):
-        for k in range(1, max_effects + 1):
-            for combo in itertools.combinations(cand_effects, k):
-                if level == "beam":
-                    fits.append(_fit_candidate(combo, base, meas, model_fn, diff_step=diff_step, max_nfev=max_nfev))
-                else:
-                    fits.append(_profile_fit(combo, base, meas, model_fn))
+        fits = _fit_sets(cand_effects, max_effects, level, base, meas, model_fn, diff_step, max_nfev)
+    # The set the likelihood-ratio selection would pick without the naming rule.
     best, alts = _select(fits, chi2_0, n)
     if best is not None and level == "beam":
-        # One refinement: re-centre the surrogate's bias correction at the chosen model and refit.
-        chosen = _with(base, **{EFFECTS[e].field: best.values[e] for e in best.effects})
+        # One refinement: re-centre the surrogate's bias correction at that model and refit (the
+        # surrogate's own errors would otherwise count against adequacy).
+        chosen = _realise(base, {e: best.values[e] for e in best.effects})
         sim_c, _ = simulated_enma_features(chosen, levels)
         sur_c = beam_surrogate(chosen)
         bias = {k: sim_c[k].value - sur_c[k] for k in sim_c if k in sur_c}
         fits = [_fit_candidate([EFFECTS[e] for e in f.effects], base, meas, model_fn, diff_step=diff_step,
                                max_nfev=max_nfev) for f in fits]
-        best, alts = _select(fits, chi2_0, n)
+    verdicts = _judge(fits, base, n, gap_before, gap_ratio)
+    best, alts = _select([f for f in fits if not verdicts[f.effects]], chi2_0, n)
+
+    def after_of(p: Parameters) -> Tuple[Dict[str, float], Dict[str, str]]:
+        # "After": full simulation of the updated model (not the surrogate).
+        if level == "beam":
+            return {k: f.value for k, f in simulated_enma_features(p, levels)[0].items()}, {}
+        r = model_slider_features(p, ops)
+        return {k: f.value for k, f in r[0].items()}, r[1]
+
+    def gap_of(f: Dict[str, float]) -> float:
+        f = dict(f)
+        for k in meas:
+            if k not in f:
+                f[k] = meas[k].value + 5 * meas[k].stderr
+        return _gap(f, meas)[0]
+
+    after_f: Dict[str, float] = dict(before)
+    beh_upd = behaviours.get("baseline", {})
+    updated = base
+    if best is not None:
+        cand = _realise(base, {e: best.values[e] for e in best.effects})
+        f_c, b_c = after_of(cand)
+        g_c = gap_of(f_c)
+        if g_c <= gap_ratio * gap_before:
+            updated, after_f, beh_upd = cand, f_c, b_c
+        else:
+            # The fit's gap was small enough, the full simulation's is not: not named.
+            verdicts[best.effects] = verdicts[best.effects] + [
+                f"small share of the gap in the full simulation of the updated model: gap {g_c:.3g} > "
+                f"{gap_ratio:g} x {gap_before:.3g}"]
+            best, alts = None, []
+    if level == "slider":
+        behaviours["updated"] = beh_upd
     if best is None:
-        updated = base
         named: List[str] = []
         params_out: Dict[str, Dict[str, Any]] = {}
     else:
         named = list(best.effects)
-        updated = _with(base, **{EFFECTS[e].field: best.values[e] for e in named})
         params_out = {e: dict(field=EFFECTS[e].field, value=best.values[e], stderr=best.stderrs[e],
-                              unit=EFFECTS[e].unit, baseline=getattr(base, EFFECTS[e].field)) for e in named}
-    # "After": full simulation of the updated model (not the surrogate).
-    if level == "beam":
-        after_f = before if best is None else {k: f.value for k, f in simulated_enma_features(updated, levels)[0].items()}
-    else:
-        after_f, beh_upd = (before, behaviours["baseline"]) if best is None else (
-            lambda r: ({k: f.value for k, f in r[0].items()}, r[1]))(model_slider_features(updated, ops))
-        behaviours["updated"] = beh_upd
+                              unit=EFFECTS[e].unit, baseline=EFFECTS[e].baseline_value(base),
+                              relevance=EFFECTS[e].relevant(best.values[e], base)[1]) for e in named}
     for k in meas:
         if k not in after_f:
             after_f[k] = meas[k].value + 5 * meas[k].stderr
@@ -700,16 +867,32 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
                         z_before=(before[k] - f.value) / f.stderr, z_after=(after_f[k] - f.value) / f.stderr,
                         exceeds_uncertainty=bool(abs(before[k] - f.value) > 2 * f.stderr))
                 for k, f in meas.items()}
-    criterion = (f"weighted least squares with the feature uncertainties; nothing named if chi2(baseline) <= "
-                 f"chi2_{1 - SIGNIFICANCE:.2f}(n={n}) = {_chi2_quantile(n):.2f}; otherwise forward selection by "
-                 f"likelihood-ratio tests at 99 %, Bonferroni-corrected for picking the best of m sets: the best "
-                 f"single effect is named if it lowers chi2 by more than chi2_(1-0.01/m)(1) (m = "
-                 f"{len(cand_effects)}: {_lrt_threshold(1, len(cand_effects)):.2f}), the best pair containing it "
-                 f"replaces it only if it lowers chi2 by that again (m = {max(len(cand_effects) - 1, 1)}: "
-                 f"{_lrt_threshold(1, max(len(cand_effects) - 1, 1)):.2f}); 'adequate' marks chi2 <= chi2_0.99(n-k)")
+    negligible = [f for f in fits if verdicts[f.effects]
+                  and all(r.startswith("negligible change") for r in verdicts[f.effects])]
+    if chi2_0 <= _chi2_quantile(n):
+        verdict = "none"
+    elif best is not None:
+        verdict = "named"
+    elif negligible:
+        # Adequate and closing the gap, but only by a physically negligible change: nothing to name.
+        verdict = "none"
+    else:
+        verdict = "unexplained"
+    rejected = [dict(effects=list(f.effects), values=f.values, stderrs=f.stderrs, chi2=f.chi2, dof=f.dof,
+                     reasons=verdicts[f.effects] or ["passes the naming rule, but a simpler or better set was named"])
+                for f in sorted(fits, key=lambda f: f.chi2) if best is None or f.effects != best.effects]
+    off = sorted(((k, v["z_after"]) for k, v in features.items() if abs(v["z_after"]) > 2), key=lambda x: -abs(x[1]))
+    criterion = (f"an effect set is named only if (1) the baseline does not fit, chi2 = {chi2_0:.3g} > chi2_0.99(n={n}) = "
+                 f"{_chi2_quantile(n):.2f}; (2) the updated model is adequate, chi2 <= chi2_0.99(n-k); (3) each "
+                 f"parameter moved by at least its relevance threshold (EFFECTS[...].relevance); (4) the gap after "
+                 f"<= {gap_ratio:g} x gap before (fit and full simulation); among the sets that pass, forward "
+                 f"selection by likelihood-ratio tests at 99 %, Bonferroni-corrected for picking the best of m "
+                 f"sets (m = {len(cand_effects)}: {_lrt_threshold(1, len(cand_effects)):.2f}); otherwise the "
+                 f"verdict is 'unexplained' and nothing is added")
     return Discovery(level, named, params_out, features, gap_before, gap_after, chi2_0, fits, criterion, base,
                      updated, behaviours, alts, enma_data if level == "beam" else list(measured or []),
-                     time.perf_counter() - t0)
+                     time.perf_counter() - t0, verdict=verdict, rejected=rejected,
+                     features_off=[dict(feature=k, z=z) for k, z in off], gap_ratio=gap_ratio)
 
 
 # --- synthesiser ----------------------------------------------------------------------------------
@@ -828,6 +1011,25 @@ def write_report(d: Discovery, out_dir: PathLike) -> List[Path]:
     return written
 
 
+def verdict_line(d: Discovery) -> str:
+    """The verdict in one line (the CLI prints it)."""
+    if d.verdict == "named":
+        what = ", ".join(f"{e} ({d.parameters[e]['field']} = {_fmt(d.parameters[e]['value'])} ± "
+                         f"{_fmt(d.parameters[e]['stderr'])}, baseline {_fmt(d.parameters[e]['baseline'])})"
+                         for e in d.named_effects)
+        return f"named {what}; gap {d.gap_before:.3g} -> {d.gap_after:.3g}"
+    if d.verdict == "unexplained":
+        off = ", ".join(f"{f['feature']} z = {f['z']:+.1f}" for f in d.features_off[:3])
+        best = d.rejected[0] if d.rejected else None
+        why = (f"; best candidate {' + '.join(best['effects'])} rejected: {best['reasons'][0]}" if best else "")
+        return f"unexplained discrepancy (gap {d.gap_before:.3g}; off: {off or 'no single feature beyond 2 sigma'}){why}"
+    neg = [r for r in d.rejected if r["reasons"] and all(x.startswith("negligible change") for x in r["reasons"])]
+    if neg:
+        return (f"none (gap {d.gap_before:.3g} closed by a negligible change: {' + '.join(neg[0]['effects'])}, "
+                f"{neg[0]['reasons'][0]})")
+    return f"none (the baseline fits: gap {d.gap_before:.3g})"
+
+
 def _fmt(v: Any) -> str:
     if isinstance(v, float):
         return "inf" if math.isinf(v) else f"{v:.5g}"
@@ -835,9 +1037,12 @@ def _fmt(v: Any) -> str:
 
 
 def _markdown(d: Discovery, figs: Sequence[str]) -> str:
-    lines = [f"# Discrepancy report ({d.level} level)", ""]
+    lines = [f"# Discrepancy report ({d.level} level)", "", f"**Verdict: {verdict_line(d)}**", ""]
     if d.named_effects:
         lines.append("**Named effect(s): " + ", ".join(f"`{e}`" for e in d.named_effects) + "**")
+    elif d.verdict == "unexplained":
+        lines.append("**Unexplained discrepancy** — the baseline does not fit the data and no candidate effect "
+                     "passes the naming rule; nothing was added to the model.")
     else:
         lines.append("**Named: nothing** — the baseline agrees with the data within the measurement uncertainty.")
     lines += ["", f"Gap ({GAP_MEASURE}): before {d.gap_before:.3g}, after {d.gap_after:.3g} "
@@ -850,6 +1055,15 @@ def _markdown(d: Discovery, figs: Sequence[str]) -> str:
         lines.append("")
     if d.alternatives:
         lines += ["Equally good alternatives: " + "; ".join(", ".join(a) for a in d.alternatives), ""]
+    if d.features_off:
+        lines += ["Features still off (|z| > 2 after): " + ", ".join(f"{f['feature']} (z = {f['z']:+.1f})"
+                                                                   for f in d.features_off), ""]
+    if d.rejected:
+        lines += ["Not named (best first):", ""]
+        for r in d.rejected[:8]:
+            vals = ", ".join(f"{EFFECTS[e].field} = {_fmt(r['values'][e])}" for e in r["effects"])
+            lines.append(f"- {' + '.join(r['effects'])} ({vals}; chi2 = {r['chi2']:.3g}): " + "; ".join(r["reasons"]))
+        lines.append("")
     lines += ["| feature | measured | ± | baseline | updated | z before | z after |", "|---|---|---|---|---|---|---|"]
     for k, f in d.features.items():
         lines.append(f"| {k} | {_fmt(f['measured'])} | {_fmt(f['uncertainty'])} | {_fmt(f['baseline'])} | "
