@@ -292,16 +292,16 @@ EFFECTS: Dict[str, Effect] = {e.name: e for e in (
            "relative inner height R/h of the slider opening (clearance R - h): changes impacts and the "
            "transport of the slider", "gap_ratio", "-", "linear", 1.005, 1.4, lambda p: 1.0, "slider",
            ("speed_early", "speed_late", "s_turning", "s_final", "amplitude_final_h"), (1.01, 1.15),
-           relevance=0.005, relevance_reason="R/h by 0.005 = 10 % of the prototype's clearance R - h = 0.05 h "
-                                             "(5 um), the machining tolerance"),
+           relevance=0.005, relevance_reason="R/h by 0.005 = 5 um of opening, 10 % of the prototype's "
+                                             "clearance R - h = 50 um: the machining tolerance"),
     Effect("natural_frequency_detuning",
            "linear natural frequencies of the beam scaled by a factor c at constant mode shapes and b* "
            "(E -> c^2 E, k_r -> c^2 k_r, k_t keeping the axial stiffness; as the studies' natural_frequency_factor): "
            "the paper's second named uncertainty", "natural_frequency_factor", "-", "linear", 0.9, 1.1,
            lambda p: 1.0, "slider", ("speed_early", "speed_late", "s_turning", "s_final", "amplitude_final_h"),
-           (0.95, 1.05), relevance=0.005, relevance_reason="0.5 % of f0 (1.3 Hz of 260 Hz; the resonance of the "
-                                                           "beam with slider moves by about the map's 2-Hz step "
-                                                           "for 1 %)",
+           (0.95, 1.05), relevance=0.005, relevance_reason="0.5 % of the natural frequencies: 1.3 Hz of f0 = 260 Hz, "
+                                                           "0.6 Hz of the beam-with-slider resonance near 120 Hz "
+                                                           "(a third of the map's 2-Hz step)",
            realise=lambda p, c: _detune(p, c)),
     Effect("slider_mass",
            "slider mass m (manufacturing tolerance): shifts the resonance of the beam with slider and the "
