@@ -306,7 +306,7 @@ EFFECTS: Dict[str, Effect] = {e.name: e for e in (
     Effect("slider_mass",
            "slider mass m (manufacturing tolerance): shifts the resonance of the beam with slider and the "
            "slider's inertia in the impacts", "slider_mass_kg", "kg", "linear", 0.8, 1.2, lambda p: p.slider_mass_kg,
-           "slider", ("speed_early", "speed_late", "s_turning", "s_final", "amplitude_final_h"), (0.9, 1.1),
+           "slider", ("speed_early", "speed_late", "s_turning", "s_final", "amplitude_final_h"), (0.8, 1.2),
            relevance=0.02, relevance_kind="rel", relevance_reason="2 % (0.9 g of 46 g), above the weighing "
                                                                   "and machining tolerance"),
     Effect("slider_inertia",
