@@ -193,3 +193,20 @@ def test_detuning_is_named_among_all_slider_candidates(tmp_path):
     assert d.named_effects == ["natural_frequency_detuning"], dc.verdict_line(d)
     p = d.parameters["natural_frequency_detuning"]
     assert abs(p["value"] - 0.98) <= 3 * p["stderr"] + 0.002
+
+
+def test_separability_rows_and_recommendation():
+    """Short runs: friction moves the early slider speed; each pair gets a cosine and, when not
+    separable, a recommended point from the grid."""
+    grid = [(110.0, 10.0, 0.3), (124.0, 14.0, 0.3)]
+    sens = dc.slider_sensitivities(["friction_coefficient"], None, [dc.OperatingPoint(124.0, 14.0, 0.3, 4.0)])
+    assert abs(sens["friction_coefficient"]["speed_early@124Hz_14ms2_s00.3"]) > 2
+    rows = dc.separability(["friction_coefficient", "clearance", "slider_mass"], operating_points=[(124.0, 14.0, 0.3)],
+                           duration_s=4.0, grid=grid)
+    assert [r["pair"] for r in rows] == [["friction_coefficient", "clearance"], ["friction_coefficient", "slider_mass"],
+                                         ["clearance", "slider_mass"]]
+    for r in rows:
+        assert -1.0 - 1e-12 <= r["cos"] <= 1.0 + 1e-12 and min(r["norm"]) >= 0
+        if not r["separable"]:
+            rec = r["recommended"]
+            assert (rec["f_ex"], rec["a_ex"], rec["s0"]) in grid and rec["separation"] >= 0
