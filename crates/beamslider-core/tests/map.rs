@@ -173,7 +173,9 @@ fn grids_that_are_typing_errors_are_refused() {
 fn extended_map_rows_are_bitwise_those_of_the_longer_map() {
     let cancel = AtomicBool::new(false);
     let dir = tmp("extend");
-    let grid = "[grid]\nf_ex_hz = [100.0, 120.0, 124.0]\na_ex_m_s2 = [4.0, 14.0]\ns0 = [0.3, 0.7]\n";
+    // Windows of 1 s: with the default ones (15 s, drift over 30 s) no 3-s run is settled.
+    let grid = "[grid]\nf_ex_hz = [100.0, 120.0, 124.0]\na_ex_m_s2 = [4.0, 14.0]\ns0 = [0.3, 0.7]\n\
+                [criteria]\nsteady_window_s = 1.0\nsteady_drift_window_s = 1.0\n";
     let cfg = |d: f64| MapConfig::from_toml_str(&format!("duration_s = {d}\n{grid}")).unwrap();
     let long = run_map(&cfg(6.0), &MapRunOptions { out: None, resume: false, threads: Some(2), extend: false }, &cancel, &none).unwrap();
     let path = dir.join("map.jsonl");
