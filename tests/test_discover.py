@@ -97,7 +97,16 @@ def test_cli_discover_and_synthesize(tmp_path):
                 "--out", str(tmp_path / "d"), cwd=tmp_path, timeout=300)
     assert r.returncode == 0, r.stderr
     rep = json.loads((tmp_path / "d" / "report.json").read_text())
-    assert rep["named_effects"] == ["rotational_clamping_compliance"]
+    assert rep["named_effects"] == ["rotational_clamping_compliance"] and rep["verdict"] == "named"
+    verdict = [line for line in r.stdout.splitlines() if line.startswith("verdict: ")]
+    assert len(verdict) == 1 and verdict[0].startswith("verdict: named rotational_clamping_compliance"), r.stdout
+    # Out of library (the compliance removed from the candidates): "unexplained", still exit 0.
+    r = run_cli("discover", "--enma", str(tmp_path / "syn" / "enma_data.csv"), "--params", str(base),
+                "--effects", "axial_clamping_compliance,amplitude_dependent_damping", "--out", str(tmp_path / "u"),
+                cwd=tmp_path, timeout=300)
+    assert r.returncode == 0, r.stderr
+    assert "verdict: unexplained discrepancy" in r.stdout, r.stdout
+    assert json.loads((tmp_path / "u" / "report.json").read_text())["verdict"] == "unexplained"
     r = run_cli("discover", "--enma", str(tmp_path / "none.csv"), "--out", str(tmp_path / "e"), cwd=tmp_path)
     assert r.returncode == 1 and "Traceback" not in r.stderr
     r = run_cli("discover", "--enma", str(tmp_path / "syn" / "enma_data.csv"), "--effects", "magic",
