@@ -25,6 +25,8 @@ def add_parser(sub: Any) -> None:
     sp.add_argument("--measured", metavar="FILE", nargs="+", help="measured free-slider runs (slider level)")
     sp.add_argument("--effects", metavar="LIST", help="comma list of candidate effects (default: all of the level)")
     sp.add_argument("--max-effects", type=positive(int), default=2, metavar="K", help="largest set fitted (2)")
+    sp.add_argument("--gap-ratio", type=float, default=0.3, metavar="R",
+                    help="a named effect must leave at most this share of the gap (0.3), else 'unexplained'")
     sp.add_argument("--seed", type=int, default=0, help="noise seed of the paper's synthetic case (0)")
     add_common(sp, window=False)
     sp.set_defaults(func=cmd_discover)
@@ -67,22 +69,28 @@ def cmd_discover(args: argparse.Namespace) -> int:
     if args.enma and args.measured:
         raise UserError("give --enma (beam level) or --measured (slider level), not both")
     effects = [e.strip() for e in args.effects.split(",") if e.strip()] if args.effects else None
+    if not (0 < args.gap_ratio <= 1):
+        raise UserError(f"--gap-ratio {args.gap_ratio}: must be in (0, 1]")
     t0 = time.perf_counter()
     if args.enma:
         baseline = Parameters.from_toml(args.params) if args.params else Parameters()
-        d = dc.discover(enma_data=enma.read(args.enma), baseline=baseline, effects=effects, max_effects=args.max_effects)
+        d = dc.discover(enma_data=enma.read(args.enma), baseline=baseline, effects=effects, max_effects=args.max_effects,
+                        gap_ratio=args.gap_ratio)
     elif args.measured:
         baseline = Parameters.from_toml(args.params) if args.params else Parameters()
         runs = [read_measurement(p) for p in args.measured]
-        d = dc.discover(measured=runs, baseline=baseline, effects=effects, max_effects=args.max_effects)
+        d = dc.discover(measured=runs, baseline=baseline, effects=effects, max_effects=args.max_effects,
+                        gap_ratio=args.gap_ratio)
     else:
         baseline = (Parameters.from_toml(args.params) if args.params
                     else Parameters(k_r_nm_per_rad=math.inf, k_t_n_per_m=math.inf))
         data = dc.synthesize_enma(Parameters(), seed=args.seed)
-        d = dc.discover(enma_data=data, baseline=baseline, effects=effects, max_effects=args.max_effects)
+        d = dc.discover(enma_data=data, baseline=baseline, effects=effects, max_effects=args.max_effects,
+                        gap_ratio=args.gap_ratio)
     out = out_dir(args)
     written = dc.write_report(d, out)
     print((out / "report.md").read_text(encoding="utf-8").split("\n| feature")[0].rstrip())
+    print(f"verdict: {dc.verdict_line(d)}")
     print(f"total {time.perf_counter() - t0:.1f} s")
     for p in written:
         print(f"wrote {p}")

@@ -28,22 +28,23 @@ virtual ENMA of the baseline (the estimator's own small biases — time step, fi
 estimate, amplitude dependence of the shape — cancel); slider-level fits run the free-slider model.
 
 The package is split by step: :mod:`.features` (1), :mod:`.effects` (2), :mod:`.models` (the model
-side of the features), :mod:`.naming` (3), :mod:`.report` (4) and :mod:`.synthesize` (5); every
+side of the features), :mod:`.naming` (3), :mod:`.report` (4), :mod:`.synthesize` (5) and :mod:`.separability` (identifiability); every
 public name is re-exported here.
 """
 
 from __future__ import annotations
 
 from .features import DESCRIPTIONS, enma_features, Feature, FLOORS, slider_features
-from .effects import Effect, EFFECTS
+from .effects import _realise, Effect, EFFECTS  # noqa: F401 (_realise: used by tests and scripts)
 from .models import beam_surrogate, measured_slider_features, model_slider_features, OperatingPoint, simulated_enma_features
 from .naming import CandidateFit, discover, Discovery, GAP_MEASURE, SIGNIFICANCE
 from .synthesize import synthesize_enma, synthesize_slider_runs
-from .report import write_report
+from .report import _fmt, verdict_line, write_report  # noqa: F401
+from .separability import separability, slider_sensitivities
 
 __all__ = [
     "beam_surrogate", "CandidateFit", "DESCRIPTIONS", "discover", "Discovery", "Effect", "EFFECTS",
     "enma_features", "Feature", "FLOORS", "GAP_MEASURE", "measured_slider_features", "model_slider_features",
     "OperatingPoint", "SIGNIFICANCE", "simulated_enma_features", "slider_features", "synthesize_enma",
-    "synthesize_slider_runs", "write_report",
+    "synthesize_slider_runs", "write_report", "verdict_line", "separability", "slider_sensitivities",
 ]

@@ -141,3 +141,4 @@ def slider_features(t: np.ndarray, s: np.ndarray, amplitude_h: np.ndarray, *, ta
     return out, behaviour
 
 
+# --- candidate effects ----------------------------------------------------------------------------

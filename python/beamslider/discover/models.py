@@ -126,3 +126,4 @@ def model_slider_features(params: Parameters, ops: Sequence[OperatingPoint], *, 
     return feats, behaviours
 
 
+# --- naming ---------------------------------------------------------------------------------------

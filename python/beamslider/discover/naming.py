@@ -16,14 +16,15 @@ from .._json import json_safe as _json_safe
 from ..enma import EnmaData
 from ..measurement import Measurement
 from ..params import Parameters, resolve
-from .effects import EFFECTS, Effect, _apply, _with
+from .effects import EFFECTS, Effect, _apply, _realise
 from .features import Feature, enma_features
 from .models import _levels_for, beam_surrogate, measured_slider_features, model_slider_features, simulated_enma_features
 
 
 SIGNIFICANCE = 0.01
-"""Significance level of the naming tests (χ² quantiles, likelihood-ratio thresholds)."""
 
+
+# --- features -------------------------------------------------------------------------------------
 
 @dataclass
 class CandidateFit:
@@ -57,10 +58,19 @@ class Discovery:
     alternatives: List[Tuple[str, ...]] = field(default_factory=list)
     data: Any = None
     runtime_s: float = 0.0
+    verdict: str = "none"
+    """``named`` (an effect set passed the naming rule), ``unexplained`` (the baseline does not fit
+    and no candidate set passes), ``none`` (the baseline fits the data)."""
+    rejected: List[Dict[str, Any]] = field(default_factory=list)
+    """Fitted candidate sets not named, each with the reasons."""
+    features_off: List[Dict[str, Any]] = field(default_factory=list)
+    """Features still off after the update (|z| > 2), largest first."""
+    gap_ratio: float = 0.3
 
     def to_json(self) -> Dict[str, Any]:
         return _json_safe(dict(
-            level=self.level, named_effects=self.named_effects, parameters=self.parameters,
+            verdict=self.verdict, level=self.level, named_effects=self.named_effects, parameters=self.parameters,
+            rejected=self.rejected, features_off=self.features_off, gap_ratio=self.gap_ratio,
             gap_before=self.gap_before, gap_after=self.gap_after, gap_measure=GAP_MEASURE,
             chi2_before=self.chi2_before, criterion=self.criterion, features=self.features,
             behaviours=self.behaviours, alternatives=[list(a) for a in self.alternatives],
@@ -104,7 +114,7 @@ def _fit_candidate(effects: Sequence[Effect], baseline: Parameters, meas: Dict[s
 
     lo = np.array([e.lower for e in effects])
     hi = np.array([e.upper for e in effects])
-    starts = [np.clip([e.variable(getattr(baseline, e.field), baseline) for e in effects], lo, hi)]
+    starts = [np.clip([e.variable(e.baseline_value(baseline), baseline) for e in effects], lo, hi)]
     starts.append(lo + 0.1 * (hi - lo))
     best = None
     for x0 in starts:
@@ -160,7 +170,7 @@ def _profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str
                 progress()
         return cache[key]
 
-    u = np.array([np.clip(e.variable(getattr(baseline, e.field), baseline), e.lower, e.upper) for e in effects])
+    u = np.array([np.clip(e.variable(e.baseline_value(baseline), baseline), e.lower, e.upper) for e in effects])
     samples: List[List[Tuple[float, float]]] = [[] for _ in effects]
     for i, e in enumerate(effects):
         lo, hi = e.search if math.isfinite(e.search[0]) else (e.lower, e.upper)
@@ -247,16 +257,62 @@ def _select(fits: List[CandidateFit], chi2_0: float, n: int) -> Tuple[Optional[C
     return best, alts
 
 
+def _fit_sets(cand_effects: Sequence[Effect], max_effects: int, level: str, base: Parameters,
+              meas: Dict[str, Feature], model_fn: Callable[[Parameters], Dict[str, float]],
+              diff_step: Optional[float], max_nfev: int) -> List[CandidateFit]:
+    """Fit every single candidate and the sets of up to ``max_effects``: at the beam level (cheap
+    surrogate) all of them, at the slider level (full simulations) only the sets that extend one
+    of the two best singles."""
+    def fit(combo: Sequence[Effect]) -> CandidateFit:
+        if level == "beam":
+            return _fit_candidate(combo, base, meas, model_fn, diff_step=diff_step, max_nfev=max_nfev)
+        return _profile_fit(combo, base, meas, model_fn)
+
+    fits = [fit((e,)) for e in cand_effects]
+    if max_effects < 2:
+        return fits
+    top = {f.effects[0] for f in sorted(fits, key=lambda f: f.chi2)[:2]}
+    for k in range(2, max_effects + 1):
+        for combo in itertools.combinations(cand_effects, k):
+            if level == "beam" or top & {e.name for e in combo}:
+                fits.append(fit(combo))
+    return fits
+
+
+def _judge(fits: Sequence[CandidateFit], base: Parameters, n: int, gap_before: float,
+           gap_ratio: float) -> Dict[Tuple[str, ...], List[str]]:
+    """The naming rule per fitted set: the reasons it may not be named (empty: it may). Not
+    adequate (chi2 > chi2_0.99(n - k)); a parameter moved by less than its relevance threshold;
+    a small share of the gap (fitted gap sqrt(chi2/n) > gap_ratio x gap before)."""
+    out: Dict[Tuple[str, ...], List[str]] = {}
+    for f in fits:
+        reasons = []
+        if not f.adequate:
+            reasons.append(f"not adequate: chi2 = {f.chi2:.3g} > chi2_0.99({f.dof}) = {_chi2_quantile(f.dof):.3g}")
+        for e in f.effects:
+            ok, how = EFFECTS[e].relevant(f.values[e], base)
+            if not ok:
+                reasons.append(f"negligible change of {EFFECTS[e].field}: {how}")
+        g = math.sqrt(max(f.chi2, 0.0) / max(n, 1))
+        if g > gap_ratio * gap_before:
+            reasons.append(f"small share of the gap: {gap_before:.3g} -> {g:.3g} (more than {gap_ratio:g} x)")
+        out[f.effects] = reasons
+    return out
+
+
 def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequence[Measurement]] = None,
              baseline: Optional[Parameters] = None, effects: Optional[Sequence[str]] = None,
-             max_effects: int = 2, progress: bool = False) -> Discovery:
+             max_effects: int = 2, progress: bool = False, gap_ratio: float = 0.3) -> Discovery:
     """Find the effects the ``baseline`` model misses, from beam-level ENMA data (``enma_data``)
     or slider-level free-slider runs (``measured``, files of the published format), name them,
-    add them and measure the gap before and after (module docs: criterion)."""
+    add them and measure the gap before and after (module docs: criterion). ``gap_ratio``: a named
+    set must leave at most this share of the gap (0.3); otherwise the verdict is "unexplained"."""
     import time
 
     t0 = time.perf_counter()
     base = resolve(baseline)
+    if not (isinstance(gap_ratio, (int, float)) and 0 < gap_ratio <= 1):
+        raise ValueError(f"invalid gap_ratio = {gap_ratio!r}: must be in (0, 1]")
     if (enma_data is None) == (measured is None):
         raise ValueError("give either enma_data (beam level) or measured runs (slider level)")
     level = "beam" if enma_data is not None else "slider"
@@ -307,38 +363,60 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
     n = len(meas)
     fits: List[CandidateFit] = []
     if chi2_0 > _chi2_quantile(n):
-        for k in range(1, max_effects + 1):
-            for combo in itertools.combinations(cand_effects, k):
-                if level == "beam":
-                    fits.append(_fit_candidate(combo, base, meas, model_fn, diff_step=diff_step, max_nfev=max_nfev))
-                else:
-                    fits.append(_profile_fit(combo, base, meas, model_fn))
+        fits = _fit_sets(cand_effects, max_effects, level, base, meas, model_fn, diff_step, max_nfev)
+    # The set the likelihood-ratio selection would pick without the naming rule.
     best, alts = _select(fits, chi2_0, n)
     if best is not None and level == "beam":
-        # One refinement: re-centre the surrogate's bias correction at the chosen model and refit.
-        chosen = _with(base, **{EFFECTS[e].field: best.values[e] for e in best.effects})
+        # One refinement: re-centre the surrogate's bias correction at that model and refit (the
+        # surrogate's own errors would otherwise count against adequacy).
+        chosen = _realise(base, {e: best.values[e] for e in best.effects})
         sim_c, _ = simulated_enma_features(chosen, levels)
         sur_c = beam_surrogate(chosen)
         bias = {k: sim_c[k].value - sur_c[k] for k in sim_c if k in sur_c}
         fits = [_fit_candidate([EFFECTS[e] for e in f.effects], base, meas, model_fn, diff_step=diff_step,
                                max_nfev=max_nfev) for f in fits]
-        best, alts = _select(fits, chi2_0, n)
+    verdicts = _judge(fits, base, n, gap_before, gap_ratio)
+    best, alts = _select([f for f in fits if not verdicts[f.effects]], chi2_0, n)
+
+    def after_of(p: Parameters) -> Tuple[Dict[str, float], Dict[str, str]]:
+        # "After": full simulation of the updated model (not the surrogate).
+        if level == "beam":
+            return {k: f.value for k, f in simulated_enma_features(p, levels)[0].items()}, {}
+        r = model_slider_features(p, ops)
+        return {k: f.value for k, f in r[0].items()}, r[1]
+
+    def gap_of(f: Dict[str, float]) -> float:
+        f = dict(f)
+        for k in meas:
+            if k not in f:
+                f[k] = meas[k].value + 5 * meas[k].stderr
+        return _gap(f, meas)[0]
+
+    after_f: Dict[str, float] = dict(before)
+    beh_upd = behaviours.get("baseline", {})
+    updated = base
+    if best is not None:
+        cand = _realise(base, {e: best.values[e] for e in best.effects})
+        f_c, b_c = after_of(cand)
+        g_c = gap_of(f_c)
+        if g_c <= gap_ratio * gap_before:
+            updated, after_f, beh_upd = cand, f_c, b_c
+        else:
+            # The fit's gap was small enough, the full simulation's is not: not named.
+            verdicts[best.effects] = verdicts[best.effects] + [
+                f"small share of the gap in the full simulation of the updated model: gap {g_c:.3g} > "
+                f"{gap_ratio:g} x {gap_before:.3g}"]
+            best, alts = None, []
+    if level == "slider":
+        behaviours["updated"] = beh_upd
     if best is None:
-        updated = base
         named: List[str] = []
         params_out: Dict[str, Dict[str, Any]] = {}
     else:
         named = list(best.effects)
-        updated = _with(base, **{EFFECTS[e].field: best.values[e] for e in named})
         params_out = {e: dict(field=EFFECTS[e].field, value=best.values[e], stderr=best.stderrs[e],
-                              unit=EFFECTS[e].unit, baseline=getattr(base, EFFECTS[e].field)) for e in named}
-    # "After": full simulation of the updated model (not the surrogate).
-    if level == "beam":
-        after_f = before if best is None else {k: f.value for k, f in simulated_enma_features(updated, levels)[0].items()}
-    else:
-        after_f, beh_upd = (before, behaviours["baseline"]) if best is None else (
-            lambda r: ({k: f.value for k, f in r[0].items()}, r[1]))(model_slider_features(updated, ops))
-        behaviours["updated"] = beh_upd
+                              unit=EFFECTS[e].unit, baseline=EFFECTS[e].baseline_value(base),
+                              relevance=EFFECTS[e].relevant(best.values[e], base)[1]) for e in named}
     for k in meas:
         if k not in after_f:
             after_f[k] = meas[k].value + 5 * meas[k].stderr
@@ -348,15 +426,32 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
                         z_before=(before[k] - f.value) / f.stderr, z_after=(after_f[k] - f.value) / f.stderr,
                         exceeds_uncertainty=bool(abs(before[k] - f.value) > 2 * f.stderr))
                 for k, f in meas.items()}
-    criterion = (f"weighted least squares with the feature uncertainties; nothing named if chi2(baseline) <= "
-                 f"chi2_{1 - SIGNIFICANCE:.2f}(n={n}) = {_chi2_quantile(n):.2f}; otherwise forward selection by "
-                 f"likelihood-ratio tests at 99 %, Bonferroni-corrected for picking the best of m sets: the best "
-                 f"single effect is named if it lowers chi2 by more than chi2_(1-0.01/m)(1) (m = "
-                 f"{len(cand_effects)}: {_lrt_threshold(1, len(cand_effects)):.2f}), the best pair containing it "
-                 f"replaces it only if it lowers chi2 by that again (m = {max(len(cand_effects) - 1, 1)}: "
-                 f"{_lrt_threshold(1, max(len(cand_effects) - 1, 1)):.2f}); 'adequate' marks chi2 <= chi2_0.99(n-k)")
+    negligible = [f for f in fits if verdicts[f.effects]
+                  and all(r.startswith("negligible change") for r in verdicts[f.effects])]
+    if chi2_0 <= _chi2_quantile(n):
+        verdict = "none"
+    elif best is not None:
+        verdict = "named"
+    elif negligible:
+        # Adequate and closing the gap, but only by a physically negligible change: nothing to name.
+        verdict = "none"
+    else:
+        verdict = "unexplained"
+    rejected = [dict(effects=list(f.effects), values=f.values, stderrs=f.stderrs, chi2=f.chi2, dof=f.dof,
+                     reasons=verdicts[f.effects] or ["passes the naming rule, but a simpler or better set was named"])
+                for f in sorted(fits, key=lambda f: f.chi2) if best is None or f.effects != best.effects]
+    off = sorted(((k, v["z_after"]) for k, v in features.items() if abs(v["z_after"]) > 2), key=lambda x: -abs(x[1]))
+    criterion = (f"an effect set is named only if (1) the baseline does not fit, chi2 = {chi2_0:.3g} > chi2_0.99(n={n}) = "
+                 f"{_chi2_quantile(n):.2f}; (2) the updated model is adequate, chi2 <= chi2_0.99(n-k); (3) each "
+                 f"parameter moved by at least its relevance threshold (EFFECTS[...].relevance); (4) the gap after "
+                 f"<= {gap_ratio:g} x gap before (fit and full simulation); among the sets that pass, forward "
+                 f"selection by likelihood-ratio tests at 99 %, Bonferroni-corrected for picking the best of m "
+                 f"sets (m = {len(cand_effects)}: {_lrt_threshold(1, len(cand_effects)):.2f}); otherwise the "
+                 f"verdict is 'unexplained' and nothing is added")
     return Discovery(level, named, params_out, features, gap_before, gap_after, chi2_0, fits, criterion, base,
                      updated, behaviours, alts, enma_data if level == "beam" else list(measured or []),
-                     time.perf_counter() - t0)
+                     time.perf_counter() - t0, verdict=verdict, rejected=rejected,
+                     features_off=[dict(feature=k, z=z) for k, z in off], gap_ratio=gap_ratio)
 
 
+# --- synthesiser ----------------------------------------------------------------------------------

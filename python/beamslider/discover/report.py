@@ -87,6 +87,25 @@ def write_report(d: Discovery, out_dir: PathLike) -> List[Path]:
     return written
 
 
+def verdict_line(d: Discovery) -> str:
+    """The verdict in one line (the CLI prints it)."""
+    if d.verdict == "named":
+        what = ", ".join(f"{e} ({d.parameters[e]['field']} = {_fmt(d.parameters[e]['value'])} ± "
+                         f"{_fmt(d.parameters[e]['stderr'])}, baseline {_fmt(d.parameters[e]['baseline'])})"
+                         for e in d.named_effects)
+        return f"named {what}; gap {d.gap_before:.3g} -> {d.gap_after:.3g}"
+    if d.verdict == "unexplained":
+        off = ", ".join(f"{f['feature']} z = {f['z']:+.1f}" for f in d.features_off[:3])
+        best = d.rejected[0] if d.rejected else None
+        why = (f"; best candidate {' + '.join(best['effects'])} rejected: {best['reasons'][0]}" if best else "")
+        return f"unexplained discrepancy (gap {d.gap_before:.3g}; off: {off or 'no single feature beyond 2 sigma'}){why}"
+    neg = [r for r in d.rejected if r["reasons"] and all(x.startswith("negligible change") for x in r["reasons"])]
+    if neg:
+        return (f"none (gap {d.gap_before:.3g} closed by a negligible change: {' + '.join(neg[0]['effects'])}, "
+                f"{neg[0]['reasons'][0]})")
+    return f"none (the baseline fits: gap {d.gap_before:.3g})"
+
+
 def _fmt(v: Any) -> str:
     if isinstance(v, float):
         return "inf" if math.isinf(v) else f"{v:.5g}"
@@ -94,9 +113,12 @@ def _fmt(v: Any) -> str:
 
 
 def _markdown(d: Discovery, figs: Sequence[str]) -> str:
-    lines = [f"# Discrepancy report ({d.level} level)", ""]
+    lines = [f"# Discrepancy report ({d.level} level)", "", f"**Verdict: {verdict_line(d)}**", ""]
     if d.named_effects:
         lines.append("**Named effect(s): " + ", ".join(f"`{e}`" for e in d.named_effects) + "**")
+    elif d.verdict == "unexplained":
+        lines.append("**Unexplained discrepancy** — the baseline does not fit the data and no candidate effect "
+                     "passes the naming rule; nothing was added to the model.")
     else:
         lines.append("**Named: nothing** — the baseline agrees with the data within the measurement uncertainty.")
     lines += ["", f"Gap ({GAP_MEASURE}): before {d.gap_before:.3g}, after {d.gap_after:.3g} "
@@ -109,6 +131,15 @@ def _markdown(d: Discovery, figs: Sequence[str]) -> str:
         lines.append("")
     if d.alternatives:
         lines += ["Equally good alternatives: " + "; ".join(", ".join(a) for a in d.alternatives), ""]
+    if d.features_off:
+        lines += ["Features still off (|z| > 2 after): " + ", ".join(f"{f['feature']} (z = {f['z']:+.1f})"
+                                                                   for f in d.features_off), ""]
+    if d.rejected:
+        lines += ["Not named (best first):", ""]
+        for r in d.rejected[:8]:
+            vals = ", ".join(f"{EFFECTS[e].field} = {_fmt(r['values'][e])}" for e in r["effects"])
+            lines.append(f"- {' + '.join(r['effects'])} ({vals}; chi2 = {r['chi2']:.3g}): " + "; ".join(r["reasons"]))
+        lines.append("")
     lines += ["| feature | measured | ± | baseline | updated | z before | z after |", "|---|---|---|---|---|---|---|"]
     for k, f in d.features.items():
         lines.append(f"| {k} | {_fmt(f['measured'])} | {_fmt(f['uncertainty'])} | {_fmt(f['baseline'])} | "
@@ -124,3 +155,6 @@ def _markdown(d: Discovery, figs: Sequence[str]) -> str:
     for fname in figs:
         lines.append(f"![{fname}]({fname})")
     return "\n".join(lines) + "\n"
+
+
+# --- identifiability and the next measurement ------------------------------------------------------

@@ -60,3 +60,4 @@ def synthesize_slider_runs(truth: Optional[Parameters] = None, *, operating_poin
     return paths
 
 
+# --- report ---------------------------------------------------------------------------------------

@@ -1,0 +1,92 @@
+"""Identifiability of slider-level candidates (issue 20 §4): linearised signatures of each effect
+in units of the feature uncertainties, their correlations, and for an inseparable pair the
+operating point whose predicted features differ most."""
+
+from __future__ import annotations
+
+import itertools
+import math
+from typing import Any, Dict, List, Optional, Sequence, Tuple
+
+import numpy as np
+
+from ..params import Parameters, resolve
+from .effects import EFFECTS, Effect, _realise
+from .models import OperatingPoint, model_slider_features
+
+
+def _bumped(e: Effect, p: Parameters, steps: float) -> float:
+    """The parameter of ``e`` moved from its value in ``p`` by ``steps`` relevance thresholds."""
+    b = e.baseline_value(p)
+    if e.relevance_kind == "compliance":
+        u = e.variable(b, p)
+        return e.value(u + steps * max(e.relevance * u, e.relevance_floor), p)
+    if e.relevance_kind == "rel":
+        return b * (1 + steps * e.relevance)
+    return b + steps * e.relevance
+
+
+def slider_sensitivities(effects: Sequence[str], baseline: Optional[Parameters], ops: Sequence[OperatingPoint], *,
+                         steps: float = 5.0) -> Dict[str, Dict[str, float]]:
+    """Change of each slider feature at ``ops``, in units of its uncertainty — the resolution floor
+    (:data:`FLOORS`) combined with the model's run-to-run spread (runs from s0 ± 0.002, as in
+    :func:`discover`) — when each effect moves by ``steps`` relevance thresholds from the
+    baseline (one FS run per effect and point)."""
+    base = resolve(baseline)
+    f0 = model_slider_features(base, ops)[0]
+    reps = [model_slider_features(base, ops, s0_shift=d)[0] for d in (-0.002, 0.002)]
+    sig = {}
+    for k, f in f0.items():
+        vals = [f.value] + [r[k].value for r in reps if k in r]
+        sig[k] = math.hypot(f.stderr, float(np.std(vals, ddof=1)) if len(vals) > 1 else 0.0)
+    out: Dict[str, Dict[str, float]] = {}
+    for name in effects:
+        e = EFFECTS[name]
+        f = model_slider_features(_realise(base, {name: _bumped(e, base, steps)}), ops)[0]
+        out[name] = {k: (f[k].value - f0[k].value) / sig[k] for k in f0 if k in f}
+    return out
+
+
+def separability(effects: Optional[Sequence[str]] = None, *, baseline: Optional[Parameters] = None,
+                 operating_points: Sequence[Tuple[float, float, float]], duration_s: float,
+                 grid: Sequence[Tuple[float, float, float]] = (), max_cos: float = 0.95,
+                 steps: float = 5.0) -> List[Dict[str, Any]]:
+    """Which pairs of slider-level candidates the data at ``operating_points`` can tell apart.
+
+    Each effect's signature is its sensitivity vector (:func:`slider_sensitivities`, features in
+    units of their resolution floors). A pair is *separable* if the angle between the signatures
+    is clear (|cos| ≤ ``max_cos``) and both move the features (norm ≥ 2); otherwise, for each
+    point of ``grid`` (f_ex, a_ex, s0) the separation min(|z₁|, |z₂|)·sin θ is computed there and
+    the best point recommended ("to tell A from B, measure …"). Returns one row per pair."""
+    names = list(effects) if effects is not None else [n for n, e in EFFECTS.items() if e.level == "slider"]
+    ops = [OperatingPoint(f, a, s0, duration_s) for f, a, s0 in operating_points]
+    sens = slider_sensitivities(names, baseline, ops, steps=steps)
+
+    def cos_norms(z1: Dict[str, float], z2: Dict[str, float]) -> Tuple[float, float, float]:
+        keys = [k for k in z1 if k in z2]
+        a = np.array([z1[k] for k in keys])
+        b = np.array([z2[k] for k in keys])
+        na, nb = float(np.linalg.norm(a)), float(np.linalg.norm(b))
+        c = float(a @ b / (na * nb)) if na > 0 and nb > 0 else 1.0
+        return c, na, nb
+
+    grid_sens = {}
+    rows = []
+    for n1, n2 in itertools.combinations(names, 2):
+        c, na, nb = cos_norms(sens[n1], sens[n2])
+        row: Dict[str, Any] = dict(pair=[n1, n2], cos=c, norm=[na, nb],
+                                   separable=bool(abs(c) <= max_cos and min(na, nb) >= 2.0))
+        if not row["separable"] and grid:
+            best = None
+            for g in grid:
+                if g not in grid_sens:
+                    grid_sens[g] = slider_sensitivities(names, baseline, [OperatingPoint(*g, duration_s)], steps=steps)
+                cg, ga, gb = cos_norms(grid_sens[g][n1], grid_sens[g][n2])
+                sep = min(ga, gb) * math.sqrt(max(1 - cg * cg, 0.0))
+                if best is None or sep > best[1]:
+                    best = (g, sep, cg)
+            if best is not None:
+                row["recommended"] = dict(f_ex=best[0][0], a_ex=best[0][1], s0=best[0][2], separation=best[1],
+                                          cos=best[2])
+        rows.append(row)
+    return rows
