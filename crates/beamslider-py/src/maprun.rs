@@ -125,36 +125,20 @@ impl MapRun {
                 None => Ok(()),
             }
         };
-        let (outcome, err) = py.detach(|| {
-            std::thread::scope(|sc| {
-                let worker = sc.spawn(|| {
-                    guarded(|| {
-                        run_jobs(&cfg, &jobs, threads, &cancel, &|row| {
-                            let mut g = sink.lock().unwrap_or_else(|e| e.into_inner());
-                            g.append(row)?;
-                            done.store(g.rows.len(), Ordering::Relaxed);
-                            Ok(())
-                        })
-                    })
-                });
-                let mut err: Option<PyErr> = None;
-                while !worker.is_finished() {
-                    std::thread::sleep(std::time::Duration::from_millis(100));
-                    if err.is_none()
-                        && let Err(e) = Python::attach(|py| poll(py))
-                    {
-                        cancel.store(true, Ordering::Relaxed);
-                        err = Some(e);
-                    }
-                }
-                let outcome = worker.join().unwrap_or_else(|_| Err(SimulationError::new_err("internal error: map worker panicked")));
-                (outcome, err)
-            })
-        });
-        if let Some(e) = err {
-            return Err(e);
-        }
-        outcome?;
+        crate::detached(
+            py,
+            &cancel,
+            100,
+            || {
+                run_jobs(&cfg, &jobs, threads, &cancel, &|row| {
+                    let mut g = sink.lock().unwrap_or_else(|e| e.into_inner());
+                    g.append(row)?;
+                    done.store(g.rows.len(), Ordering::Relaxed);
+                    Ok(())
+                })
+            },
+            &poll,
+        )?;
         poll(py)?;
         if cancel.load(Ordering::Relaxed) {
             return Err(PyKeyboardInterrupt::new_err("map interrupted"));

@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import argparse
 import csv
-import sys
 import time
 from typing import Any
 
@@ -28,7 +27,6 @@ def add_parser(sub: Any) -> None:
     add_common(sp, window=False)
     add_force(sp)
     sp.set_defaults(func=cmd_hb_manifold)
-    add_parser_b(sub, common, positive)
 
 
 def cmd_hb_manifold(args: argparse.Namespace) -> int:
@@ -85,137 +83,6 @@ def _draw(m: Any, path: Any) -> None:
                  + (f", D_eff = {m.d_eff:g}" if m.d_eff is not None else ""))
     ax.legend()
     ax.grid(alpha=0.3)
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-
-
-# --- layer (b): drift tables and the predictor (issue 17 §3) -------------------------------------
-
-
-def add_parser_b(sub: Any, common: Any, positive: Any) -> None:
-    """Register ``drift-table`` and ``predict``."""
-    from .cli import _force_option
-
-    sp = sub.add_parser(
-        "drift-table", help="drift velocity V(s, branch) from PCS sweeps (layer b1; minutes)",
-        description="Measure the super-slow drift velocity V(s, branch) of the slider's centre of mass in "
-                    "pseudo-constrained runs on both branches (down-sweep from the centre for the low branch, "
-                    "up-sweep from the clamping for the high branch) and write drift_<f>Hz_<a>ms2.jsonl "
-                    "(rows appended as produced; --resume continues a killed run).")
-    sp.add_argument("--f-ex", type=positive(float), default=124.0, metavar="HZ", help="excitation frequency (124)")
-    sp.add_argument("--a-ex", type=positive(float), default=14.0, metavar="M_S2", help="base acceleration amplitude (14)")
-    sp.add_argument("--ds", type=positive(float), default=0.02, metavar="DS", help="s step of the sweeps (0.02)")
-    sp.add_argument("--window-s", type=positive(float), default=1.0, metavar="S", help="record window per s (1)")
-    sp.add_argument("--settle-periods", type=positive(int), default=40, metavar="K", help="settling periods per s (40)")
-    sp.add_argument("--resume", action="store_true", help="continue an existing table made with the same settings")
-    common(sp)
-    _force_option(sp)
-    sp.set_defaults(func=cmd_drift_table)
-
-    sp = sub.add_parser(
-        "predict", help="reduced super-slow predictor: behaviour and final s of one operating point (milliseconds)",
-        description="Predict one operating point with the reduced model of issue 17: HB manifold (layer a), a drift "
-                    "law (a PCS drift table of this point, or a fitted law) and the slow flow with jump events, "
-                    "classified by the operating-map classifier. Writes predict_<f>Hz_<a>ms2_s0_<s0>.csv/.json/.png.")
-    sp.add_argument("--f-ex", type=positive(float), default=124.0, metavar="HZ", help="excitation frequency (124)")
-    sp.add_argument("--a-ex", type=positive(float), default=14.0, metavar="M_S2", help="base acceleration amplitude (14)")
-    sp.add_argument("--s0", type=positive(float), default=0.3, metavar="S0", help="initial slider position (0.3)")
-    sp.add_argument("--t-end", type=positive(float), default=120.0, metavar="S", help="duration (120)")
-    g = sp.add_mutually_exclusive_group(required=True)
-    g.add_argument("--drift", metavar="JSONL", help="drift table of this operating point (beamslider drift-table)")
-    g.add_argument("--law", metavar="JSON", help="fitted drift law (beamslider.superslow.fit_drift_law(...).save)")
-    sp.add_argument("--s-dn", choices=["hb", "table", "law", "none"], default="hb",
-                    help="jump-down position: from the HB manifold (default), from the PCS table (--drift), "
-                         "learnt by the law (--law), or none")
-    sp.add_argument("--d-eff", type=float, metavar="D", help="equivalent damping ratio of the HB manifold")
-    common(sp)
-    _force_option(sp)
-    sp.set_defaults(func=cmd_predict)
-
-
-def cmd_drift_table(args: argparse.Namespace) -> int:
-    from pathlib import Path
-
-    from .cli import UserError, _fmt, _out, _params, _plan_outputs
-    from .slowflow import drift_table
-
-    p = _params(args)
-    name = f"drift_{_fmt(args.f_ex)}Hz_{_fmt(args.a_ex)}ms2.jsonl"
-    if not args.resume:
-        _plan_outputs(args, [name])
-    path = _out(args) / name
-    if args.force and not args.resume and path.exists():
-        path.unlink()
-    if args.resume and not path.exists():
-        raise UserError(f"{path} does not exist: nothing to resume (drop --resume)")
-    t0 = time.perf_counter()
-    t = drift_table(p, f_ex=args.f_ex, a_ex=args.a_ex, ds=args.ds, window_s=args.window_s,
-                    settle_periods=args.settle_periods, out=Path(path), resume=args.resume, progress=args.progress)
-    wall = time.perf_counter() - t0
-    s_up, s_dn = t.s_jumps()
-    fmt = lambda v: "none" if v is None else f"{v:.4f}"  # noqa: E731
-    print(f"drift table {args.f_ex:g} Hz, {args.a_ex:g} m/s²: {len(t.s)} rows ({t.computed} computed, {wall:.1f} s); "
-          f"PCS s_up = {fmt(s_up)}, s_dn = {fmt(s_dn)}")
-    print(f"wrote {path}")
-    return 0
-
-
-def cmd_predict(args: argparse.Namespace) -> int:
-    from .cli import UserError, _figure, _fmt, _out, _params, _plan_outputs, write_json
-    from .slowflow import load_drift_law, predict, read_drift_table
-
-    p = _params(args)
-    stem = f"predict_{_fmt(args.f_ex)}Hz_{_fmt(args.a_ex)}ms2_s0_{_fmt(args.s0)}"
-    _plan_outputs(args, [f"{stem}.{ext}" for ext in ("csv", "json", "png")])
-    try:
-        drift = read_drift_table(args.drift) if args.drift else load_drift_law(args.law)
-    except FileNotFoundError as e:
-        raise UserError(f"cannot read {e.filename}: no such file") from None
-    r = predict(p, f_ex=args.f_ex, a_ex=args.a_ex, s0=args.s0, t_end=args.t_end, drift=drift, s_dn=args.s_dn, d_eff=args.d_eff)
-    out = _out(args)
-    with open(out / f"{stem}.csv", "w", newline="", encoding="utf-8") as f:
-        w = csv.writer(f)
-        w.writerow(["t_s", "s", "amplitude_h", "branch"])
-        for row in zip(r.t, r.s, r.amplitude, r.branch):
-            w.writerow([f"{row[0]:.6g}", f"{row[1]:.10g}", f"{row[2]:.10g}", row[3]])
-    write_json(out / f"{stem}.json", {
-        "kind": "prediction", "f_ex_hz": r.f_ex, "a_ex_m_s2": r.a_ex, "s0": r.s0, "t_end_s": args.t_end,
-        "drift": args.drift or args.law, "behaviour": r.behaviour, "s_final": r.s_final, "amplitude_final_h": r.amplitude_final,
-        "events": [{"kind": k, "t_s": t, "s": s} for k, t, s in r.events], "s_up": r.s_up, "s_dn": r.s_dn,
-        "s_dn_source": r.s_dn_source, "extrapolated": r.extrapolated, "warnings": r.warnings,
-        "classification": r.classification, "timings_s": r.timings_s, "params_toml": p.toml_text(),
-    })
-    drew = _figure(_draw_prediction, r, out / f"{stem}.png")
-    for w_ in r.warnings:
-        print(f"beamslider: warning: {w_}", file=sys.stderr)
-    print(f"predict {r.f_ex:g} Hz, {r.a_ex:g} m/s², s0 = {r.s0:g}: {r.behaviour}, s_final = {r.s_final:.4f}, "
-          f"Â_final = {r.amplitude_final:.3f} h ({1e3 * sum(r.timings_s.values()):.1f} ms)")
-    for ext in ("csv", "json", "png") if drew else ("csv", "json"):
-        print(f"wrote {out / f'{stem}.{ext}'}")
-    return 0
-
-
-def _draw_prediction(r: Any, path: Any) -> None:
-    from ._mpl import require_matplotlib
-
-    require_matplotlib("the prediction figure")
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, (a1, a2) = plt.subplots(2, 1, figsize=(6.4, 5.0), sharex=True)
-    a1.plot(r.t, r.s, color="k")
-    a1.set_ylabel("s")
-    a2.plot(r.t, r.amplitude, color="tab:red")
-    a2.set_ylabel("Â = |w(4L/7)|/h")
-    a2.set_xlabel("t [s]")
-    for k, t, s in r.events:
-        if k in ("jump_up", "jump_down"):
-            for a in (a1, a2):
-                a.axvline(t, color="0.6", lw=0.8, ls=":")
-    a1.set_title(f"predicted: {r.f_ex:g} Hz, {r.a_ex:g} m/s², s0 = {r.s0:g} — {r.behaviour}")
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)
