@@ -13,7 +13,7 @@ use beamslider_core::{Error, MapConfig, MapRow, MapRunOptions, ResultsLock};
 use pyo3::exceptions::{PyKeyboardInterrupt, PyValueError};
 use pyo3::prelude::*;
 
-use crate::{SimulationError, guarded};
+use crate::guarded;
 
 /// A job as it crosses to Python and to Dask workers: (grid index, None) for a run from rest,
 /// (grid index, row JSON with its end state) for a continuation.
