@@ -199,3 +199,10 @@ def axis_values(name: str, text: str, *, what: str = "a comma-separated list") -
     except ValueError:
         raise UserError(f"{name} {text!r}: give START:STOP:STEP (STOP >= START, at most {MAX_GRID} values) "
                         f"or {what}") from None
+
+
+def print_written(out: Path, stem: str, drew: bool) -> int:
+    """Print the ``wrote`` lines of a ``stem``.csv/.json(/.png) result (the figure only if drawn); exit 0."""
+    for ext in ("csv", "json", "png") if drew else ("csv", "json"):
+        print(f"wrote {out / f'{stem}.{ext}'}")
+    return 0

@@ -10,7 +10,7 @@ from typing import Any
 
 
 from ..superslow import hb_manifold
-from ._common import add_common, add_force, figure, fmt, out_dir, params_from_args, plan_outputs, positive, write_json
+from ._common import add_common, add_force, figure, fmt, out_dir, params_from_args, plan_outputs, positive, print_written, write_json
 
 
 def add_parser(sub: Any) -> None:
@@ -55,9 +55,7 @@ def cmd_hb_manifold(args: argparse.Namespace) -> int:
     s_up = "none" if m.s_up is None else f"{m.s_up:.4f}"
     s_dn = "none" if m.s_dn is None else f"{m.s_dn:.4f}"
     print(f"HB N={m.n_modes} {m.f_ex:g} Hz, {m.a_ex:g} m/s²: s_up = {s_up}, s_dn = {s_dn} ({1e3 * wall:.1f} ms)")
-    for ext in ("csv", "json", "png") if drew else ("csv", "json"):
-        print(f"wrote {out / f'{stem}.{ext}'}")
-    return 0
+    return print_written(out, stem, drew)
 
 
 def _draw(m: Any, path: Any) -> None:

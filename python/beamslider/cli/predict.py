@@ -13,7 +13,7 @@ from typing import Any
 
 from ..slowflow import drift_table, load_drift_law, predict, read_drift_table
 from ._common import (UserError, add_common, add_force, figure, fmt, out_dir, params_from_args, plan_outputs,
-                      positive, write_json)
+                      positive, print_written, write_json)
 
 
 def add_parser(sub: Any) -> None:
@@ -104,9 +104,7 @@ def cmd_predict(args: argparse.Namespace) -> int:
         print(f"beamslider: warning: {w_}", file=sys.stderr)
     print(f"predict {r.f_ex:g} Hz, {r.a_ex:g} m/s², s0 = {r.s0:g}: {r.behaviour}, s_final = {r.s_final:.4f}, "
           f"Â_final = {r.amplitude_final:.3f} h ({1e3 * sum(r.timings_s.values()):.1f} ms)")
-    for ext in ("csv", "json", "png") if drew else ("csv", "json"):
-        print(f"wrote {out / f'{stem}.{ext}'}")
-    return 0
+    return print_written(out, stem, drew)
 
 
 def _draw_prediction(r: Any, path: Any) -> None:
