@@ -1,0 +1,348 @@
+"""Layer (b2) of issue 17: the local features of issue §3.2 computed from layer (a) (Λ_g, θ̂/θ_gap,
+f_slope, s − s_res, Â/max Â_H, branch) and the transferable drift law fitted on several operating
+points' PCS tables (distance-weighted k-nearest neighbours in standardised feature space, per
+branch; V = 0 where Λ_g < 1; odd symmetry by construction; leave-one-operating-point-out
+validation), with its JSON file. Used by :mod:`beamslider.slowflow`."""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Dict, List, Optional, Sequence, Tuple, Union
+
+import numpy as np
+
+from . import _core
+from .params import Parameters, resolve
+from .drift_pcs import DriftTable
+
+
+# ---------------------------------------------------------------------------------------------
+# Features of issue 17 §3.2 from layer (a)
+
+
+_BEAM_CACHE: Dict[tuple, tuple] = {}
+
+
+def _modes(p: Parameters, n_modes: int, s: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
+    """Φ(s) [kg^-½] and Φ'(s) [kg^-½ m^-1] of the first n_modes modes at positions s: linear
+    interpolation in a table of the exact mode shapes on 4001 points of [0, 1] (the slope by a
+    central difference, step 1e-6 L), computed once per parameter set."""
+    import dataclasses
+
+    key = (repr(p), int(n_modes))
+    if key not in _BEAM_CACHE:
+        q = dataclasses.replace(p, n_modes=int(n_modes))
+        g = np.linspace(0.0, 1.0, 4001)
+        h = 1e-6
+        xs = np.concatenate([g, np.clip(g - h, 0, 1), np.clip(g + h, 0, 1)])
+        d = _core.beam_properties(q.toml_text(), [float(v) for v in xs])
+        phi = np.asarray(d["phi"], dtype=float)
+        n = g.size
+        f0, fm, fp = phi[:, :n], phi[:, n:2 * n], phi[:, 2 * n:]
+        step = (np.clip(g + h, 0, 1) - np.clip(g - h, 0, 1)) * p.length_m
+        if len(_BEAM_CACHE) > 16:
+            _BEAM_CACHE.clear()
+        _BEAM_CACHE[key] = (g, f0, (fp - fm) / step)
+    g, f0, df = _BEAM_CACHE[key]
+    phi = np.stack([np.interp(s, g, f0[k]) for k in range(f0.shape[0])], axis=1)
+    dphi = np.stack([np.interp(s, g, df[k]) for k in range(df.shape[0])], axis=1)
+    return phi, dphi
+
+
+def features(manifold, branch: str, s: Sequence[float]) -> Dict[str, np.ndarray]:
+    """Local features of issue 17 §3.2 on one branch of a layer-(a) manifold at positions s
+    (half coordinate, within the branch): Q is interpolated linearly between the branch's
+    continuation points.
+
+    Returns a dict of arrays: ``lift_off`` Λ_g = Ω²|ŵ_abs|/g with ŵ_abs = a_ex/Ω² + Φ(s)ᵀQ;
+    ``slope_gap`` θ̂/θ_gap with θ̂ = |Φ'(s)ᵀQ|, θ_gap = (R − h)/B; ``slope_mu`` θ̂/μ; ``f_slope``
+    = −(Ω²/2g) Re[ŵ_abs conj(Φ'(s)ᵀQ)]; ``a_ex_g`` = a_ex/g; ``amplitude`` Â; ``ds_res`` =
+    s − s_res (the first linear-resonance position of layer (a), 0.5 if there is none);
+    ``amp_rel`` = Â / max Â of the high branch.
+    """
+    p = manifold.params
+    b = manifold.high if branch == "H" else manifold.low
+    s = np.atleast_1d(np.asarray(s, dtype=float))
+    if len(b) == 0:
+        raise ValueError(f"invalid parameter `branch` = {branch!r}: the manifold has no such branch")
+    o = np.argsort(b.s)
+    bs, bq = b.s[o], b.q[o]
+    q = np.stack([np.interp(s, bs, bq[:, k].real) + 1j * np.interp(s, bs, bq[:, k].imag) for k in range(bq.shape[1])], axis=1)
+    phi, dphi = _modes(p, bq.shape[1], s)
+    omega = 2 * math.pi * manifold.f_ex
+    g = p.gravity_m_s2
+    w_abs = manifold.a_ex / omega**2 + np.sum(phi * q, axis=1)
+    theta = np.sum(dphi * q, axis=1)
+    theta_gap = (p.gap_ratio * p.thickness_m - p.thickness_m) / p.contact_spacing_m
+    return {
+        "lift_off": omega**2 * np.abs(w_abs) / g,
+        "slope_gap": np.abs(theta) / theta_gap,
+        "slope_mu": np.abs(theta) / p.friction_coefficient,
+        "f_slope": -(omega**2 / (2 * g)) * np.real(w_abs * np.conj(theta)),
+        "a_ex_g": np.full(s.shape, manifold.a_ex / g),
+        "amplitude": np.interp(s, bs, b.amplitude[o]),
+        "ds_res": s - (float(manifold.s_res[0]) if len(manifold.s_res) else 0.5),
+        "amp_rel": np.interp(s, bs, b.amplitude[o]) / (float(np.max(manifold.high.amplitude)) if len(manifold.high) else 1.0),
+    }
+
+
+# The regression inputs (standardised). Chosen by the leave-one-operating-point-out error on the
+# 12 validation tables (docs/superslow/validation_b_law.txt): with the issue's list (log Λ_g,
+# θ̂/θ_gap, f_slope, a_ex/g, Â) the error was 0.68 × typical |V| (k = 6), with s − s_res and
+# Â/max Â_H in place of a_ex/g and Â it is 0.53 ×.
+FEATURES = ("log_lift_off", "slope_gap", "f_slope", "ds_res", "amp_rel")
+
+
+def _x(feat: Dict[str, np.ndarray]) -> np.ndarray:
+    cols = []
+    for name in FEATURES:
+        cols.append(np.log(np.maximum(feat["lift_off"], 1e-12)) if name == "log_lift_off" else np.asarray(feat[name], dtype=float))
+    return np.stack(cols, axis=1)
+
+
+@dataclass
+class DriftLaw:
+    """A fitted transferable drift law (layer (b2)): V = 0 where Λ_g < 1, otherwise the
+    distance-weighted mean of the k nearest training samples of the same branch in standardised
+    feature space (odd symmetry: evaluated in the half coordinate)."""
+
+    x: Dict[str, np.ndarray]
+    """Training features per branch ('L', 'H'), shape (n, len(FEATURES))."""
+    v: Dict[str, np.ndarray]
+    """Training V (towards the centre positive) per branch [1/s]."""
+    groups: Dict[str, np.ndarray]
+    """Operating-point index of each training sample per branch."""
+    mean: np.ndarray
+    """Feature means (standardisation)."""
+    std: np.ndarray
+    """Feature standard deviations."""
+    lo: np.ndarray
+    """Training range of the features (min)."""
+    hi: np.ndarray
+    """Training range of the features (max)."""
+    points: List[Tuple[float, float]]
+    """Training operating points (f_ex, a_ex)."""
+    k: int = 6
+    """Neighbours."""
+    loo: Dict[str, float] = field(default_factory=dict)
+    """Leave-one-operating-point-out errors: RMS error of V, typical |V| (RMS), their ratio,
+    per branch and overall."""
+    loo_per_point: List[dict] = field(default_factory=list)
+    """Per held-out operating point: RMS error and typical |V|."""
+    fit_time_s: float = 0.0
+    """Wall time of the fit (including the layer-(a) manifolds of the training points) [s]."""
+    x_exist: np.ndarray = field(default_factory=lambda: np.zeros((0, len(FEATURES))))
+    """Features of HB high-branch nodes on [max(s_up, 0.2), 0.5] of the training points (for s_dn)."""
+    y_exist: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    """1 where the PCS high branch exists at that node (below the table's s_dn), else 0."""
+    g_exist: np.ndarray = field(default_factory=lambda: np.zeros(0, int))
+    """Operating-point index of each existence sample."""
+    loo_s_dn: List[dict] = field(default_factory=list)
+    """Leave-one-point-out s_dn of the law against the PCS tables' s_dn."""
+    _trees: dict = field(default_factory=dict, repr=False, compare=False)
+
+    def evaluate(self, branch: str, feat: Dict[str, np.ndarray], exclude_group: Optional[int] = None) -> Tuple[np.ndarray, np.ndarray]:
+        """V at the given features (half coordinate, towards the centre positive) and a flag per
+        point: True where a feature lies outside the training range (extrapolation)."""
+        return self._evaluate_x(branch, _x(feat), np.asarray(feat["lift_off"]), exclude_group)
+
+    def s_dn(self, manifold, exclude_group: Optional[int] = None) -> Optional[float]:
+        """Jump-down position learnt from the PCS tables (s_dn="law"): the first HB high-branch node
+        above max(s_up, 0.2) where the distance-weighted vote of the k nearest training nodes says
+        the PCS high branch no longer exists (None: it reaches the centre)."""
+        if self.y_exist.size == 0 or len(manifold.high) == 0:
+            return None
+        s = _exist_nodes(manifold)
+        if s.size == 0:
+            return None
+        p = self._exist_prob(_x(features(manifold, "H", s)), exclude_group)
+        gone = np.nonzero(p < 0.5)[0]
+        return None if gone.size == 0 else float(s[gone[0]])
+
+    def _exist_prob(self, x, exclude_group=None):
+        from scipy.spatial import cKDTree
+
+        key = ("exist", exclude_group)
+        if key not in self._trees:
+            keep = self.g_exist != exclude_group if exclude_group is not None else np.ones(self.y_exist.size, bool)
+            self._trees[key] = (cKDTree((self.x_exist[keep] - self.mean) / self.std), self.y_exist[keep])
+        tree, y = self._trees[key]
+        k = min(self.k, y.size)
+        dk, idx = tree.query((x - self.mean) / self.std, k=k)
+        dk, idx = dk.reshape(x.shape[0], k), idx.reshape(x.shape[0], k)
+        w = 1.0 / np.maximum(dk, 1e-6)
+        return (w * y[idx]).sum(axis=1) / w.sum(axis=1)
+
+    def _evaluate_x(self, branch, x, lift_off, exclude_group=None):
+        from scipy.spatial import cKDTree
+
+        key = (branch, exclude_group)
+        if key not in self._trees:
+            xt, vt = self.x[branch], self.v[branch]
+            if exclude_group is not None:
+                keep = self.groups[branch] != exclude_group
+                xt, vt = xt[keep], vt[keep]
+            self._trees[key] = (cKDTree((xt - self.mean) / self.std) if xt.shape[0] else None, vt)
+        tree, vt = self._trees[key]
+        out = np.zeros(x.shape[0])
+        if tree is None:
+            return out, np.ones(x.shape[0], dtype=bool)
+        k = min(self.k, vt.size)
+        dk, idx = tree.query((x - self.mean) / self.std, k=k)
+        dk, idx = dk.reshape(x.shape[0], k), idx.reshape(x.shape[0], k)
+        w = 1.0 / np.maximum(dk, 1e-6)
+        out = (w * vt[idx]).sum(axis=1) / w.sum(axis=1)
+        out[lift_off < 1.0] = 0.0
+        outside = np.any((x < self.lo - 1e-9) | (x > self.hi + 1e-9), axis=1)
+        return out, outside
+
+
+def _exist_nodes(manifold) -> np.ndarray:
+    lo = max(manifold.s_up or 0.2, 0.2)
+    hi = float(np.max(manifold.high.s))
+    return np.linspace(lo, hi, 31) if hi > lo else np.zeros(0)
+
+
+def _manifold_for(params, f_ex, a_ex, n_modes, d_eff):
+    from .superslow import hb_manifold
+
+    return hb_manifold(params, f_ex=f_ex, a_ex=a_ex, n_modes=n_modes, d_eff=d_eff)
+
+
+def _training_samples(table: DriftTable, manifold) -> Dict[str, Tuple[np.ndarray, np.ndarray]]:
+    out = {}
+    for br in ("L", "H"):
+        s, v, _ = table.branch_rows(br)
+        b = manifold.high if br == "H" else manifold.low
+        if s.size == 0 or len(b) == 0:
+            out[br] = (np.zeros((0, len(FEATURES))), np.zeros(0))
+            continue
+        lo, hi = float(np.min(b.s)), float(np.max(b.s))
+        m = (s >= lo) & (s <= hi)
+        if not m.any():
+            out[br] = (np.zeros((0, len(FEATURES))), np.zeros(0))
+            continue
+        f = features(manifold, br, s[m])
+        out[br] = (_x(f), v[m])
+    return out
+
+
+def fit_drift_law(tables: Sequence[DriftTable], *, params: Optional[Parameters] = None, k: int = 6, n_modes: int = 5) -> DriftLaw:
+    """Fit the transferable drift law (issue 17 §3.2, b2) on PCS drift tables of several operating
+    points, and validate it leave one operating point out.
+
+    Each table row (s, branch) is paired with the layer-(a) features at the same s on the same
+    branch (rows where the HB branch does not exist are left out). Rows with Λ_g < 1 train
+    nothing (the law is 0 there by construction).
+    """
+    if len(tables) < 2:
+        raise ValueError("invalid parameter `tables`: need at least two operating points")
+    if int(k) < 1:
+        raise ValueError(f"invalid parameter `k` = {k}: must be >= 1")
+    t0 = time.perf_counter()
+    p = resolve(params)
+    xs: Dict[str, list] = {"L": [], "H": []}
+    vs: Dict[str, list] = {"L": [], "H": []}
+    gs: Dict[str, list] = {"L": [], "H": []}
+    xe, ye, ge, mfs = [], [], [], []
+    for gi, t in enumerate(tables):
+        mf = _manifold_for(p, t.f_ex, t.a_ex, n_modes, None)
+        mfs.append(mf)
+        se = _exist_nodes(mf) if len(mf.high) else np.zeros(0)
+        if se.size:
+            xe.append(_x(features(mf, "H", se)))
+            ye.append(np.ones(se.size) if t.s_dn_pcs is None else (se <= t.s_dn_pcs).astype(float))
+            ge.append(np.full(se.size, gi))
+        for br, (x, v) in _training_samples(t, mf).items():
+            xs[br].append(x)
+            vs[br].append(v)
+            gs[br].append(np.full(v.size, gi))
+    X = {br: np.concatenate(xs[br]) if xs[br] else np.zeros((0, len(FEATURES))) for br in xs}
+    V = {br: np.concatenate(vs[br]) if vs[br] else np.zeros(0) for br in vs}
+    G = {br: np.concatenate(gs[br]) if gs[br] else np.zeros(0, int) for br in gs}
+    allx = np.concatenate([X["L"], X["H"]])
+    if allx.shape[0] == 0:
+        raise ValueError("invalid parameter `tables`: no row lies on a branch of the HB manifold")
+    # Drop lift-off-free rows from the training set (the law is 0 there).
+    for br in X:
+        keep = X[br][:, 0] >= 0.0
+        X[br], V[br], G[br] = X[br][keep], V[br][keep], G[br][keep]
+    allx = np.concatenate([X["L"], X["H"]])
+    std = allx.std(axis=0)
+    std[std == 0] = 1.0
+    law = DriftLaw(x=X, v=V, groups=G, mean=allx.mean(axis=0), std=std, lo=allx.min(axis=0), hi=allx.max(axis=0),
+                   points=[(t.f_ex, t.a_ex) for t in tables], k=int(k),
+                   x_exist=np.concatenate(xe) if xe else np.zeros((0, len(FEATURES))),
+                   y_exist=np.concatenate(ye) if ye else np.zeros(0), g_exist=np.concatenate(ge) if ge else np.zeros(0, int))
+    for gi, t in enumerate(tables):
+        law.loo_s_dn.append({"f_ex": t.f_ex, "a_ex": t.a_ex, "s_dn_pcs": t.s_dn_pcs, "s_dn_law": law.s_dn(mfs[gi], exclude_group=gi)})
+    # Leave one operating point out.
+    err2 = {"L": [], "H": []}
+    for gi, t in enumerate(tables):
+        row = {"f_ex": t.f_ex, "a_ex": t.a_ex}
+        e_all, v_all = [], []
+        for br in ("L", "H"):
+            m = G[br] == gi
+            if not m.any():
+                continue
+            xb = X[br][m]
+            pred, _ = law._evaluate_x(br, xb, np.exp(xb[:, 0]), exclude_group=gi)
+            e = pred - V[br][m]
+            err2[br].extend(e.tolist())
+            e_all.extend(e.tolist())
+            v_all.extend(V[br][m].tolist())
+        if e_all:
+            row["rms_error"] = float(np.sqrt(np.mean(np.square(e_all))))
+            row["typical_v"] = float(np.sqrt(np.mean(np.square(v_all))))
+            law.loo_per_point.append(row)
+    typ = float(np.sqrt(np.mean(np.square(np.concatenate([V["L"], V["H"]])))))
+    for br in ("L", "H"):
+        if err2[br]:
+            law.loo[f"rms_error_{br}"] = float(np.sqrt(np.mean(np.square(err2[br]))))
+            law.loo[f"typical_v_{br}"] = float(np.sqrt(np.mean(np.square(V[br])))) if V[br].size else float("nan")
+    allerr = err2["L"] + err2["H"]
+    law.loo["rms_error"] = float(np.sqrt(np.mean(np.square(allerr)))) if allerr else float("nan")
+    law.loo["typical_v"] = typ
+    law.loo["ratio"] = law.loo["rms_error"] / typ if typ > 0 else float("nan")
+    law.fit_time_s = time.perf_counter() - t0
+    return law
+
+
+def save_drift_law(law: DriftLaw, path: Union[str, os.PathLike]) -> None:
+    """Write a fitted law as JSON (training samples included; read back by :func:`load_drift_law`)."""
+    d = {
+        "kind": "beamslider drift law", "version": 1, "features": list(FEATURES), "k": law.k,
+        "x": {b: law.x[b].tolist() for b in law.x}, "v": {b: law.v[b].tolist() for b in law.v},
+        "groups": {b: law.groups[b].tolist() for b in law.groups}, "mean": law.mean.tolist(), "std": law.std.tolist(),
+        "lo": law.lo.tolist(), "hi": law.hi.tolist(), "points": [list(p) for p in law.points], "loo": law.loo,
+        "loo_per_point": law.loo_per_point, "fit_time_s": law.fit_time_s,
+        "x_exist": law.x_exist.tolist(), "y_exist": law.y_exist.tolist(), "g_exist": law.g_exist.tolist(), "loo_s_dn": law.loo_s_dn,
+    }
+    Path(path).write_text(json.dumps(d), encoding="utf-8")
+
+
+def load_drift_law(path: Union[str, os.PathLike]) -> DriftLaw:
+    """Read a law written by :func:`save_drift_law`."""
+    d = json.loads(Path(path).read_text(encoding="utf-8"))
+    if d.get("kind") != "beamslider drift law":
+        raise ValueError(f"invalid parameter `law`: {path} is not a beamslider drift law file")
+    if list(d.get("features", [])) != list(FEATURES):
+        raise ValueError(f"invalid parameter `law`: {path} uses the features {d.get('features')}, this version {list(FEATURES)}")
+    arr = lambda v: np.asarray(v, dtype=float)  # noqa: E731
+    n = len(FEATURES)
+    return DriftLaw(
+        x={b: arr(v).reshape(-1, n) for b, v in d["x"].items()}, v={b: arr(v) for b, v in d["v"].items()},
+        groups={b: np.asarray(v, dtype=int) for b, v in d["groups"].items()}, mean=arr(d["mean"]), std=arr(d["std"]),
+        lo=arr(d["lo"]), hi=arr(d["hi"]), points=[tuple(p) for p in d["points"]], k=int(d["k"]), loo=d.get("loo", {}),
+        loo_per_point=d.get("loo_per_point", []), fit_time_s=float(d.get("fit_time_s", 0.0)),
+        x_exist=arr(d.get("x_exist", [])).reshape(-1, n), y_exist=arr(d.get("y_exist", [])),
+        g_exist=np.asarray(d.get("g_exist", []), dtype=int), loo_s_dn=d.get("loo_s_dn", []),
+    )
+
+
+DriftLaw.save = save_drift_law  # type: ignore[attr-defined]
