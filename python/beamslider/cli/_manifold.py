@@ -28,10 +28,12 @@ def add_manifold_options(sp: argparse.ArgumentParser, *, default_on: bool) -> No
                     help="slider positions: START:STOP:STEP or a comma list (default B/(2L)..0.5 by 0.005)")
 
 
-def add_operating_point(sp: argparse.ArgumentParser) -> None:
-    """--f-ex and --a-ex with the signature move's values as defaults."""
+def add_operating_point(sp: argparse.ArgumentParser, *, positive_level: bool = False) -> None:
+    """--f-ex and --a-ex with the signature move's values as defaults (``positive_level``: a_ex > 0
+    required, for the harmonic-balance and predictor commands)."""
     sp.add_argument("--f-ex", type=positive(float), default=124.0, metavar="HZ", help="excitation frequency (124)")
-    sp.add_argument("--a-ex", type=float, default=14.0, metavar="M_S2", help="base acceleration amplitude (14)")
+    sp.add_argument("--a-ex", type=positive(float) if positive_level else float, default=14.0, metavar="M_S2",
+                    help="base acceleration amplitude (14)")
 
 
 def add_run_options(sp: argparse.ArgumentParser) -> None:

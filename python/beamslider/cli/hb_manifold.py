@@ -10,6 +10,7 @@ from typing import Any
 
 
 from ..superslow import hb_manifold
+from ._manifold import add_operating_point
 from ._common import add_common, add_force, figure, fmt, out_dir, params_from_args, plan_outputs, positive, print_written, write_json
 
 
@@ -20,8 +21,7 @@ def add_parser(sub: Any) -> None:
         description="Compute the super-slow manifold by N-mode single-term harmonic balance with the slider "
                     "rigidly attached (pseudo-arclength continuation, folds, stability) and write "
                     "hb_manifold_<f>Hz_<a>ms2.csv/.json/.png.")
-    sp.add_argument("--f-ex", type=positive(float), default=124.0, metavar="HZ", help="excitation frequency (124)")
-    sp.add_argument("--a-ex", type=positive(float), default=14.0, metavar="M_S2", help="base acceleration amplitude (14)")
+    add_operating_point(sp, positive_level=True)
     sp.add_argument("--n-modes", type=positive(int), default=5, metavar="N", help="retained beam modes (5)")
     sp.add_argument("--d-eff", type=float, metavar="D", help="equivalent damping ratio of all modes (default: params)")
     add_common(sp, window=False)

@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import Any
 
 from ..slowflow import drift_table, load_drift_law, predict, read_drift_table
+from ._manifold import add_operating_point
 from ._common import (UserError, add_common, add_force, figure, fmt, out_dir, params_from_args, plan_outputs,
                       positive, print_written, write_json)
 
@@ -24,8 +25,7 @@ def add_parser(sub: Any) -> None:
                     "pseudo-constrained runs on both branches (down-sweep from the centre for the low branch, "
                     "up-sweep from the clamping for the high branch) and write drift_<f>Hz_<a>ms2.jsonl "
                     "(rows appended as produced; --resume continues a killed run).")
-    sp.add_argument("--f-ex", type=positive(float), default=124.0, metavar="HZ", help="excitation frequency (124)")
-    sp.add_argument("--a-ex", type=positive(float), default=14.0, metavar="M_S2", help="base acceleration amplitude (14)")
+    add_operating_point(sp, positive_level=True)
     sp.add_argument("--ds", type=positive(float), default=0.02, metavar="DS", help="s step of the sweeps (0.02)")
     sp.add_argument("--window-s", type=positive(float), default=1.0, metavar="S", help="record window per s (1)")
     sp.add_argument("--settle-periods", type=positive(int), default=40, metavar="K", help="settling periods per s (40)")
@@ -39,8 +39,7 @@ def add_parser(sub: Any) -> None:
         description="Predict one operating point with the reduced model of issue 17: HB manifold (layer a), a drift "
                     "law (a PCS drift table of this point, or a fitted law) and the slow flow with jump events, "
                     "classified by the operating-map classifier. Writes predict_<f>Hz_<a>ms2_s0_<s0>.csv/.json/.png.")
-    sp.add_argument("--f-ex", type=positive(float), default=124.0, metavar="HZ", help="excitation frequency (124)")
-    sp.add_argument("--a-ex", type=positive(float), default=14.0, metavar="M_S2", help="base acceleration amplitude (14)")
+    add_operating_point(sp, positive_level=True)
     sp.add_argument("--s0", type=positive(float), default=0.3, metavar="S0", help="initial slider position (0.3)")
     sp.add_argument("--t-end", type=positive(float), default=120.0, metavar="S", help="duration (120)")
     g = sp.add_mutually_exclusive_group(required=True)
