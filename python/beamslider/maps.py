@@ -276,7 +276,7 @@ def run_map_config(config_toml: str, *, out: Optional[Union[str, Path]] = None, 
     table = rows_to_table([json.loads(r) for r in rows])
     if report and (extend or extended):
         t_end = float(_toml.loads(canonical)["duration_s"])
-        print(f"re-ran {extended} not-settled of {len(table['index'])} points from their saved end states "
+        print(f"re-ran {extended} not-settled or undetermined of {len(table['index'])} points from their saved end states "
               f"to t_end = {t_end:g} s")
     return table
 
@@ -297,7 +297,7 @@ def operating_map(params: Optional[Parameters] = None, *, f_ex: Any, a_ex: Any, 
     the map (``KeyboardInterrupt``) keeping the finished points.
 
     ``extend_to``: extend the map in ``out`` (run for ``t_end`` seconds) to ``extend_to`` seconds:
-    the points that had not settled (``not_settled``) continue from the end states saved in the
+    the points that had not settled (``not_settled``) or got no behaviour (``undetermined``) continue from the end states saved in the
     results file — each continued row is bitwise the row of a ``extend_to``-second run from rest,
     but for the wall time — and the settled points keep their rows; the number of re-run points
     is printed. An interrupted extension is finished by the same call.

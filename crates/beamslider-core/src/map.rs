@@ -16,7 +16,7 @@
 //! Every completed row carries its run's end state ([`EndState`]: the state, the step index, the
 //! stepper's memory and the super-slow signals so far, [`crate::envelope_stream`]). A map can
 //! therefore be **extended in time** ([`MapRunOptions::extend`]): the points that had not
-//! settled ([`Behaviour::NotSettled`]) continue from their saved end states to the new duration,
+//! settled ([`Behaviour::NotSettled`]) or got no behaviour ([`Behaviour::Undetermined`]) continue from their saved end states to the new duration,
 //! bitwise as if they had run there from the start; settled points keep their rows. Memory per
 //! point in flight: the binned super-slow signals and a few hundred raw samples.
 
@@ -515,9 +515,11 @@ impl MapRow {
         (self.f_ex_hz.to_bits(), self.a_ex_m_s2.to_bits(), self.s0.to_bits())
     }
 
-    /// A not-settled completed row with an end state before `t_end_s`: continued by an extension.
+    /// A completed row without a behaviour (not settled, or undetermined: settled at a level
+    /// between the thresholds, which a longer run may still leave) with an end state before
+    /// `t_end_s`: continued by an extension.
     pub fn continuable(&self, t_end_s: f64) -> bool {
-        self.behaviour == Behaviour::NotSettled && self.status == Status::Completed.name() && self.end.is_some() && self.t_end_s < t_end_s
+        matches!(self.behaviour, Behaviour::NotSettled | Behaviour::Undetermined) && self.status == Status::Completed.name() && self.end.is_some() && self.t_end_s < t_end_s
     }
 
     fn point(&self) -> MapPoint {
@@ -796,7 +798,7 @@ pub struct MapOutcome {
     pub resumed: usize,
     /// Points computed by this call (from rest or continued).
     pub computed: usize,
-    /// Not-settled points continued from their saved end states by this call.
+    /// Not-settled and undetermined points continued from their saved end states by this call.
     pub extended: usize,
     /// Whether the run was cancelled before all points were done.
     pub cancelled: bool,
@@ -882,7 +884,7 @@ fn check_settings(cfg: &MapConfig, opts: &MapRunOptions, path: &Path, old: &Resu
         if s.duration_s > new.duration_s {
             return Err(Error::invalid("extend_to", new.duration_s, &format!("must exceed the map's t_end ({} s)", s.duration_s)));
         }
-        if let Some(r) = old.rows.iter().find(|r| r.behaviour == Behaviour::NotSettled && r.status == Status::Completed.name() && r.end.is_none()) {
+        if let Some(r) = old.rows.iter().find(|r| matches!(r.behaviour, Behaviour::NotSettled | Behaviour::Undetermined) && r.status == Status::Completed.name() && r.end.is_none()) {
             return Err(Error::invalid("extend_to", path.display(), &format!("point #{} (f_ex = {} Hz, a_ex = {} m/s^2, s0 = {}) has no saved end state", r.index, r.f_ex_hz, r.a_ex_m_s2, r.s0)));
         }
         return Ok(());
@@ -987,7 +989,7 @@ impl MapResults {
                 kept.push(r);
             }
         }
-        // Not-settled rows that end before the map's duration continue from their end states.
+        // Not-settled and undetermined rows that end before the map's duration continue from their end states.
         let (cont, kept): (Vec<MapRow>, Vec<MapRow>) = kept.into_iter().partition(|r| r.continuable(cfg.duration_s));
         let extended = cont.len();
         let mut jobs: Vec<Job> = cont.into_iter().map(|r| Job::Continue(r.point(), Box::new(r))).collect();
