@@ -55,6 +55,11 @@ pub(super) struct Mhb {
     sin: Vec<f64>,
     /// Static load σ m g (N): the slider's weight (0 without sag).
     weight: f64,
+    /// Highest order H.
+    kmax: usize,
+    /// cos(mτ_j), sin(mτ_j) for m = 0..=2H, row-major (m, j) (Jacobian sums).
+    tc: Vec<f64>,
+    ts: Vec<f64>,
 }
 
 impl Mhb {
@@ -80,12 +85,21 @@ impl Mhb {
         let mut sin = Vec::with_capacity(orders.len() * nt);
         for &k in &orders {
             for j in 0..nt {
-                let tau = 2.0 * std::f64::consts::PI * (k * j) as f64 / nt as f64;
+                let tau = 2.0 * std::f64::consts::PI * ((k * j) % nt) as f64 / nt as f64;
                 cos.push(tau.cos());
                 sin.push(tau.sin());
             }
         }
-        Mhb { orders, offsets, nx, nt, cos, sin, weight: if sag { slider_weight_n } else { 0.0 } }
+        let mut tc = Vec::with_capacity((2 * kmax + 1) * nt);
+        let mut ts = Vec::with_capacity((2 * kmax + 1) * nt);
+        for m in 0..=2 * kmax {
+            for j in 0..nt {
+                let tau = 2.0 * std::f64::consts::PI * ((m * j) % nt) as f64 / nt as f64;
+                tc.push(tau.cos());
+                ts.push(tau.sin());
+            }
+        }
+        Mhb { orders, offsets, nx, nt, cos, sin, weight: if sag { slider_weight_n } else { 0.0 }, kmax, tc, ts }
     }
 
     /// Amplitudes |Φ(4L/7)ᵀQ_k| / h per order (for k = 0: the signed static value) of the scaled
@@ -181,55 +195,66 @@ impl Mhb {
         let cax = sys.k_ax / 2.0;
         // D₂ term 8D₂ωᵢ(w(L/2)/h)² q̇ᵢ = 4κᵢ w² (q̇ᵢ/Ω), κᵢ = 2ωᵢD₂Ω/h² (as the single-term solver).
         let d2 = sys.d2.as_ref();
-        let mut ft = Vec::with_capacity(nt);
-        let mut jq: Vec<DMatrix<f64>> = Vec::new();
-        let mut jd: Vec<DVector<f64>> = Vec::new();
+        let nn = n * n;
+        let mmax = 2 * self.kmax;
+        // Fourier sums of the time-domain Jacobians: C_m = Σ_j J_j cos mτ_j, S_m = Σ_j J_j sin mτ_j
+        // (m ≤ 2 k_max), and the same for the diagonal q̇-derivative of the D₂ term.
+        let (mut cm, mut sm) = (vec![0.0; if want_j { (mmax + 1) * nn } else { 0 }], vec![0.0; if want_j { (mmax + 1) * nn } else { 0 }]);
+        let (mut cdm, mut sdm) = (vec![0.0; (mmax + 1) * n], vec![0.0; (mmax + 1) * n]);
+        let mut jj = vec![0.0; nn];
+        let mut dd = vec![0.0; n];
+        let mut kq = DVector::zeros(n);
         for j in 0..nt {
-            let kq = &sys.kmat * &qt[j];
+            kq.gemv(1.0, &sys.kmat, &qt[j], 0.0);
             let e = qt[j].dot(&kq);
-            let mut f = &kq * (cax * e);
             let mut wm = 0.0;
-            if let Some((kappa, pm)) = d2 {
+            if let Some((_, pm)) = d2 {
                 wm = pm.iter().zip(qt[j].iter()).map(|(a, b)| a * b).sum::<f64>();
-                for i in 0..n {
-                    f[i] += 4.0 * kappa[i] * wm * wm * qd[j][i];
-                }
             }
-            ft.push(f);
-            if want_j {
-                let mut a = &sys.kmat * (cax * e) + (&kq * kq.transpose()) * (2.0 * cax);
-                let mut dd = DVector::zeros(n);
-                if let Some((kappa, pm)) = d2 {
-                    for i in 0..n {
-                        for m in 0..n {
-                            a[(i, m)] += 8.0 * kappa[i] * wm * pm[m] * qd[j][i];
-                        }
-                        dd[i] = 4.0 * kappa[i] * wm * wm;
+            // Residual: project f(τ_j) onto every retained harmonic.
+            for i in 0..n {
+                let mut f = cax * e * kq[i];
+                if let Some((kappa, _)) = d2 {
+                    f += 4.0 * kappa[i] * wm * wm * qd[j][i];
+                }
+                for (h, &k) in self.orders.iter().enumerate() {
+                    let o = self.offsets[h];
+                    if k == 0 {
+                        r[o + i] += f / nt as f64;
+                    } else {
+                        r[o + i] += 2.0 / nt as f64 * self.cos[h * nt + j] * f;
+                        r[o + n + i] -= 2.0 / nt as f64 * self.sin[h * nt + j] * f;
                     }
                 }
-                jq.push(a);
-                jd.push(dd);
             }
-        }
-        // Projection weights of row type (h, part): part 0 = Re / static, 1 = Im.
-        let weight = |h: usize, part: usize, j: usize| -> f64 {
-            let k = self.orders[h];
-            if k == 0 {
-                1.0 / nt as f64
-            } else if part == 0 {
-                2.0 / nt as f64 * self.cos[h * nt + j]
-            } else {
-                -2.0 / nt as f64 * self.sin[h * nt + j]
+            if !want_j {
+                continue;
             }
-        };
-        let parts = |h: usize| if self.orders[h] == 0 { 1 } else { 2 };
-        for h in 0..self.orders.len() {
-            for part in 0..parts(h) {
-                let o = self.offsets[h] + part * n;
-                for j in 0..nt {
-                    let w = weight(h, part, j);
-                    for i in 0..n {
-                        r[o + i] += w * ft[j][i];
+            // J_j = (k_ax/2)[(qᵀKq)K + 2Kq(Kq)ᵀ] (+ D₂: ∂/∂q of 4κᵢw²q̇ᵢ), row-major.
+            for a in 0..n {
+                for b in 0..n {
+                    jj[a * n + b] = cax * (e * sys.kmat[(a, b)] + 2.0 * kq[a] * kq[b]);
+                }
+            }
+            if let Some((kappa, pm)) = d2 {
+                for a in 0..n {
+                    for b in 0..n {
+                        jj[a * n + b] += 8.0 * kappa[a] * wm * pm[b] * qd[j][a];
+                    }
+                    dd[a] = 4.0 * kappa[a] * wm * wm;
+                }
+            }
+            for m in 0..=mmax {
+                let (c, s) = (self.tc[m * nt + j], self.ts[m * nt + j]);
+                let (cmm, smm) = (&mut cm[m * nn..(m + 1) * nn], &mut sm[m * nn..(m + 1) * nn]);
+                for e2 in 0..nn {
+                    cmm[e2] += c * jj[e2];
+                    smm[e2] += s * jj[e2];
+                }
+                if d2.is_some() {
+                    for a in 0..n {
+                        cdm[m * n + a] += c * dd[a];
+                        sdm[m * n + a] += s * dd[a];
                     }
                 }
             }
@@ -256,33 +281,60 @@ impl Mhb {
                 jac[(o + n + i, o + i)] += kf * sys.e_diag[i];
             }
         }
-        // Nonlinear blocks: ∂F_(h,part)/∂(Q_l, part') = Σ_j w_j [J_q ∂q_j/∂x + J_d ∂q̇_j/∂x].
+        // Nonlinear blocks: ∂F_(row)/∂x_(col) = w_row Σ_j f_row(kτ_j) [J_j g_col(lτ_j) + J^d_j h_col(lτ_j)],
+        // with the products of trigonometric functions reduced to the sums C_m, S_m:
+        // cos k cos l = ½(C_|k−l| + C_k+l), sin k sin l = ½(C_|k−l| − C_k+l),
+        // sin k cos l = ½(S_k+l + sgn(k−l) S_|k−l|), cos k sin l = ½(S_k+l − sgn(k−l) S_|k−l|).
+        let combo = |row_sin: bool, k: usize, col_sin: bool, l: usize| -> [(f64, bool, usize); 2] {
+            let (dm, sp) = (k.abs_diff(l), k + l);
+            let sg = match k.cmp(&l) {
+                std::cmp::Ordering::Greater => 1.0,
+                std::cmp::Ordering::Less => -1.0,
+                std::cmp::Ordering::Equal => 0.0,
+            };
+            match (row_sin, col_sin) {
+                (false, false) => [(0.5, false, dm), (0.5, false, sp)],
+                (true, true) => [(0.5, false, dm), (-0.5, false, sp)],
+                (true, false) => [(0.5 * sg, true, dm), (0.5, true, sp)],
+                (false, true) => [(-0.5 * sg, true, dm), (0.5, true, sp)],
+            }
+        };
+        let parts = |h: usize| if self.orders[h] == 0 { 1 } else { 2 };
         for h in 0..self.orders.len() {
+            let k = self.orders[h];
             for part in 0..parts(h) {
                 let ro = self.offsets[h] + part * n;
+                let (rw, row_sin) = if k == 0 { (1.0 / nt as f64, false) } else if part == 0 { (2.0 / nt as f64, false) } else { (-2.0 / nt as f64, true) };
                 for (l, &kl) in self.orders.iter().enumerate() {
-                    let klf = kl as f64;
                     for cpart in 0..parts(l) {
                         let co = self.offsets[l] + cpart * n;
-                        let mut blkm = DMatrix::<f64>::zeros(n, n);
-                        let mut diag = DVector::<f64>::zeros(n);
-                        for j in 0..nt {
-                            let w = weight(h, part, j);
-                            let (c, sn) = if kl == 0 { (1.0, 0.0) } else { (self.cos[l * nt + j], self.sin[l * nt + j]) };
-                            // ∂q/∂u_l = cos, ∂q/∂v_l = −sin; ∂(q̇/Ω)/∂u_l = −k sin, ∂(q̇/Ω)/∂v_l = −k cos.
-                            let (dq, dqd) = if cpart == 0 { (c, -klf * sn) } else { (-sn, -klf * c) };
-                            if dq != 0.0 {
-                                blkm += &jq[j] * (w * dq);
+                        // q-derivative: cos lτ (Re), −sin lτ (Im); q̇/Ω-derivative: −l sin lτ, −l cos lτ.
+                        let (gq, q_sin) = if cpart == 0 { (1.0, false) } else { (-1.0, true) };
+                        for (cf, is_sin, m) in combo(row_sin, k, q_sin, kl) {
+                            if cf == 0.0 {
+                                continue;
                             }
-                            if d2.is_some() && dqd != 0.0 {
-                                diag += &jd[j] * (w * dqd);
+                            let src = if is_sin { &sm[m * nn..(m + 1) * nn] } else { &cm[m * nn..(m + 1) * nn] };
+                            let f = rw * gq * cf;
+                            for a in 0..n {
+                                for b in 0..n {
+                                    jac[(ro + a, co + b)] += f * src[a * n + b];
+                                }
                             }
                         }
-                        for i in 0..n {
-                            blkm[(i, i)] += diag[i];
+                        if d2.is_some() && kl > 0 {
+                            let (gd, d_sin) = if cpart == 0 { (-(kl as f64), true) } else { (-(kl as f64), false) };
+                            for (cf, is_sin, m) in combo(row_sin, k, d_sin, kl) {
+                                if cf == 0.0 {
+                                    continue;
+                                }
+                                let src = if is_sin { &sdm[m * n..(m + 1) * n] } else { &cdm[m * n..(m + 1) * n] };
+                                let f = rw * gd * cf;
+                                for a in 0..n {
+                                    jac[(ro + a, co + a)] += f * src[a];
+                                }
+                            }
                         }
-                        let mut view = jac.view_mut((ro, co), (n, n));
-                        view += blkm;
                     }
                 }
             }
