@@ -10,9 +10,13 @@ position in milliseconds (a PCS sweep, :func:`beamslider.super_slow_manifold`, t
   the zeros of its discriminant, the linear resonance position and the high-branch estimate;
 - :func:`backbone` — the single-mode backbone with the slider, Ω² M₁(s) = ω₁² + ¾ b a².
 
-Amplitudes are Â = |w(4L/7)| / h (docs/model.md §7's measure). Known limit (issue 17 §8): with the
-beam's 0.1 % damping, single-term HB gives no jump-down of the high branch (``s_dn`` is None);
-an equivalent damping ``d_eff`` is the option that can end it.
+Amplitudes are Â = |w(4L/7)| / h (docs/model.md §7's measure; the first harmonic). Options (issue 17
+§2.5, off by default): ``d_eff`` (equivalent damping), ``harmonics`` = 3, 5, 7 (multi-harmonic HB,
+alternating frequency–time method) and ``static_sag`` (zeroth harmonic under the slider's weight).
+Known limit (issue 17 §8): with the beam's 0.1 % damping HB gives no jump-down of the high branch
+(``s_dn`` is None), with single-term or multi-harmonic HB and with the static sag
+(docs/superslow/validation_a_options.txt); an equivalent damping ``d_eff`` is the option that can
+end it.
 """
 
 from __future__ import annotations
