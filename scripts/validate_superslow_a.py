@@ -9,6 +9,11 @@ Produces, into docs/superslow/:
 
 Not part of the fast test suite; PCS sweeps take seconds to minutes each:
     nohup python scripts/validate_superslow_a.py > /tmp/validate_a.log 2>&1 &
+
+Subcommand ``options`` (issue §2.5.2 multi-harmonic HB, §2.5.3 static sag; uses the cached PCS
+CSVs, seconds): writes validation_a_options.txt (the §4.1 table for H = 1, 3, 5 and the static
+sag, N = 5, with the cost per manifold) and fig4_overlay_options.png:
+    python scripts/validate_superslow_a.py options
 """
 
 from __future__ import annotations
@@ -246,7 +251,117 @@ def main() -> int:
     return 0
 
 
+OPTIONS = [("H=1", dict(harmonics=1)), ("H=3", dict(harmonics=3)), ("H=5", dict(harmonics=5)),
+           ("H=1 sag", dict(static_sag=True)), ("H=3 sag", dict(harmonics=3, static_sag=True)),
+           ("H=5 sag", dict(harmonics=5, static_sag=True))]
+
+
+def timed(repeat=5, **kw):
+    """Median wall time [ms] of hb_manifold (Python call included) and the last manifold."""
+    ts = []
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        m = hb_manifold(**kw)
+        ts.append(1e3 * (time.perf_counter() - t0))
+    return float(np.median(ts)), m
+
+
+def options() -> int:
+    """§4.1 with the layer-(a) options multi-harmonic HB and static sag (N = 5)."""
+    OUT.mkdir(parents=True, exist_ok=True)
+    LINES.clear()
+    say("Layer (a) options of issue 17 §2.5.2 (multi-harmonic HB: odd harmonics up to H) and §2.5.3 (static sag")
+    say("under the slider's weight; with it all harmonics 0..H), N = 5, against the PCS manifold (N = 5, 100 periods")
+    say(f"per step, Δs = {DS}). beamslider {beamslider.__version__}. Command: python scripts/validate_superslow_a.py options")
+    say("")
+    head = (f"{'point':>12} | {'PCS s_up':>8} {'PCS s_dn':>8} | {'option':>8} {'s_up':>7} {'|Δs_up|':>7} {'s_dn':>7} | "
+            f"{'RMS high':>8} {'n':>3} | {'max a3/a1':>9} {'max a5/a1':>9} {'Â0(0.3)':>8} | {'ms':>6} {'steps':>5}")
+    say(head)
+    say("-" * len(head))
+    rows = []
+    for f, a in POINTS:
+        up_s, up_a, dn_s, dn_a = pcs(f, a)
+        su_p, sd_p = jumps(up_s, up_a, dn_s, dn_a)
+        for label, kw in OPTIONS:
+            ms, _ = timed(f_ex=f, a_ex=a, n_modes=5, **kw)
+            m = hb_manifold(f_ex=f, a_ex=a, n_modes=5, s=up_s, sample=True, **kw)
+            err, n = rms_high(m, up_s, up_a, sd_p)
+            dsu = abs(m.s_up - su_p) if (m.s_up is not None and su_p is not None) else None
+            orders = list(m.harmonic_orders)
+            ha = m.high.harmonic_amplitude
+            r3 = float(np.max(ha[:, orders.index(3)] / ha[:, 0])) if 3 in orders and len(ha) else float("nan")
+            r5 = float(np.max(ha[:, orders.index(5)] / ha[:, 0])) if 5 in orders and len(ha) else float("nan")
+            a0 = float("nan")
+            if 0 in orders and len(ha):
+                k = int(np.argmin(np.abs(m.high.s - 0.3)))
+                a0 = float(ha[k, orders.index(0)])
+            say(f"{f'({f}, {a})':>12} | {fmt(su_p):>8} {fmt(sd_p):>8} | {label:>8} {fmt(m.s_up):>7} {fmt(dsu):>7} "
+                f"{fmt(m.s_dn):>7} | {100 * err:>7.2f}% {n:>3} | {r3:>9.2e} {r5:>9.2e} {a0:>8.4f} | {ms:>6.1f} {m.steps:>5}")
+            rows.append((f, a, label, m.s_up, su_p, m.s_dn, sd_p, err, ms))
+        say("")
+    say("Columns: s_up/s_dn of the HB manifold ('none': the low branch reaches s_min / the high branch reaches 0.5);")
+    say("RMS high: relative RMS error of the first-harmonic Â of the high branch against the PCS up-sweep on [0.35, 0.5];")
+    say("max a_k/a1: largest ratio of the k-th to the first harmonic of w(4L/7) on the high branch; Â0(0.3): static")
+    say("deflection w₀(4L/7)/h on the high branch at s ≈ 0.3 (negative: down); ms: median wall time of one manifold")
+    say("(both branches, default grid 201 s, Python call included, 5 repeats, shared 2-core machine).")
+    say("")
+    base = {(r[0], r[1]): r for r in rows if r[2] == "H=1"}
+    say("Effect of each option on s_up (s_up(option) − s_up(H=1)) and whether s_dn appears:")
+    for label, _ in OPTIONS[1:]:
+        parts = []
+        for f, a in POINTS:
+            r = next(x for x in rows if x[0] == f and x[1] == a and x[2] == label)
+            b = base[(f, a)]
+            d = (r[3] - b[3]) if (r[3] is not None and b[3] is not None) else None
+            parts.append(f"({f},{a}): {('%+.2e' % d) if d is not None else 'n/a'}, s_dn {fmt(r[5])}")
+        say(f"  {label:>8}: " + "; ".join(parts))
+    say("")
+    for label, _ in OPTIONS:
+        ms = [r[8] for r in rows if r[2] == label]
+        say(f"  cost {label:>8}: median {np.median(ms):.1f} ms per manifold (range {min(ms):.1f}–{max(ms):.1f}) over the 6 points")
+    say("")
+    try:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        say("matplotlib missing: no figure")
+        (OUT / "validation_a_options.txt").write_text("\n".join(LINES) + "\n", encoding="utf-8")
+        return 0
+    fig, axes = plt.subplots(1, 2, figsize=(12, 4.6))
+    for ax, a in zip(axes, (14, 8)):
+        up_s, up_a, dn_s, dn_a = pcs(124, a)
+        ax.plot(up_s, up_a, "o", ms=2.5, color="0.35", label="PCS N=5 up-sweep")
+        ax.plot(dn_s, dn_a, "s", ms=2.5, mfc="none", color="0.55", label="PCS N=5 down-sweep")
+        for (label, kw), col, ls in zip(OPTIONS[:4], ("tab:red", "tab:orange", "tab:purple", "tab:green"),
+                                        ("-", "--", ":", "-.")):
+            m = hb_manifold(f_ex=124, a_ex=a, n_modes=5, **kw)
+            for run in (m.up_run, m.down_run):
+                st = run.stable
+                ax.plot(run.s, np.where(st, run.amplitude, np.nan), ls, color=col, lw=1.3)
+                ax.plot(run.s, np.where(~st, run.amplitude, np.nan), ls, color=col, lw=0.6, alpha=0.5)
+            ax.plot([], [], ls, color=col, label=f"HB N=5 {label}")
+        ax.set_xlim(0, 0.5)
+        ax.set_xlabel("slider position s = x/L")
+        ax.set_ylabel("first-harmonic amplitude |w(4L/7)| / h")
+        ax.set_title(f"124 Hz, {a} m/s² (seed Fig. 4{'a' if a == 14 else 'b'})")
+        ax.grid(alpha=0.3)
+    axes[0].legend(fontsize=7, loc="upper left")
+    fig.suptitle("HB options (multi-harmonic H, static sag; thin = unstable) over PCS sweeps (markers)")
+    fig.tight_layout()
+    fig.savefig(OUT / "fig4_overlay_options.png", dpi=130)
+    say("Figure: docs/superslow/fig4_overlay_options.png")
+    (OUT / "validation_a_options.txt").write_text("\n".join(LINES) + "\n", encoding="utf-8")
+    return 0
+
+
 if __name__ == "__main__":
+    if len(sys.argv) > 1:
+        if sys.argv[1] != "options" or len(sys.argv) > 2:
+            print("usage: validate_superslow_a.py [options]", file=sys.stderr)
+            sys.exit(2)
+        sys.exit(options())
     try:
         rc = main()
     finally:

@@ -10,9 +10,13 @@ position in milliseconds (a PCS sweep, :func:`beamslider.super_slow_manifold`, t
   the zeros of its discriminant, the linear resonance position and the high-branch estimate;
 - :func:`backbone` — the single-mode backbone with the slider, Ω² M₁(s) = ω₁² + ¾ b a².
 
-Amplitudes are Â = |w(4L/7)| / h (docs/model.md §7's measure). Known limit (issue 17 §8): with the
-beam's 0.1 % damping, single-term HB gives no jump-down of the high branch (``s_dn`` is None);
-an equivalent damping ``d_eff`` is the option that can end it.
+Amplitudes are Â = |w(4L/7)| / h (docs/model.md §7's measure; the first harmonic). Options (issue 17
+§2.5, off by default): ``d_eff`` (equivalent damping), ``harmonics`` = 3, 5, 7 (multi-harmonic HB,
+alternating frequency–time method) and ``static_sag`` (zeroth harmonic under the slider's weight).
+Known limit (issue 17 §8): with the beam's 0.1 % damping HB gives no jump-down of the high branch
+(``s_dn`` is None), with single-term or multi-harmonic HB and with the static sag
+(docs/superslow/validation_a_options.txt); an equivalent damping ``d_eff`` is the option that can
+end it.
 """
 
 from __future__ import annotations
@@ -40,7 +44,12 @@ class HbBranch:
     stable: np.ndarray
     """Stability flag (bool): det ∂R/∂(Re Q, Im Q) > 0."""
     q: np.ndarray
-    """Complex modal amplitudes Q, shape (points, n_modes) [m kg^½]; q(t) = Re(Q e^{iΩt})."""
+    """Complex modal amplitudes Q, shape (points, n_modes) [m kg^½]; q(t) = Re(Q e^{iΩt})
+    (the first harmonic)."""
+    harmonic_amplitude: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
+    """With ``harmonics > 1`` or ``static_sag``: |Φ(4L/7)ᵀQ_k| / h per order of
+    :attr:`HbManifold.harmonic_orders`, shape (points, orders) (order 0: the signed static
+    deflection / h); empty for single-term HB."""
 
     def amplitude_at(self, s: Sequence[float]) -> np.ndarray:
         """Â at the given s by linear interpolation between the branch's points; NaN outside the
@@ -108,6 +117,11 @@ class HbManifold:
     """Â of the high branch solved exactly at each grid s (NaN where it does not exist)."""
     low_on_grid: np.ndarray = field(default_factory=lambda: np.zeros(0))
     """Â of the low branch solved exactly at each grid s (NaN where it does not exist)."""
+    static_sag: bool = False
+    """Static sag under the slider's weight included (zeroth harmonic, issue §2.5.3)."""
+    harmonic_orders: tuple = ()
+    """Harmonic orders k of the ansatz, in the column order of ``HbBranch.harmonic_amplitude``
+    (empty for single-term HB)."""
 
     def backbone(self, amplitude: Sequence[float], s: Sequence[float]) -> np.ndarray:
         """Single-mode backbone with the slider Ω_bb(Â, s) [rad/s] (see :func:`backbone`)."""
@@ -139,9 +153,11 @@ class ClosedFormN1:
     """High-branch estimate √(4(M₁Ω² − ω₁²)/(3b)) as Â (NaN where M₁Ω² ≤ ω₁²)."""
 
 
-def _branch(d, n_modes: int) -> HbBranch:
+def _branch(d, n_modes: int, n_orders: int = 0) -> HbBranch:
     q = (np.asarray(d["q_re"]) + 1j * np.asarray(d["q_im"])).reshape(-1, n_modes)
-    return HbBranch(s=d["s"], amplitude=d["amplitude_h"], phase=d["phase_rad"], stable=np.asarray(d["stable"], dtype=bool), q=q)
+    harm = np.asarray(d["harmonic_amplitude_h"], dtype=float).reshape(-1, n_orders) if n_orders else np.zeros((0, 0))
+    return HbBranch(s=d["s"], amplitude=d["amplitude_h"], phase=d["phase_rad"], stable=np.asarray(d["stable"], dtype=bool), q=q,
+                    harmonic_amplitude=harm)
 
 
 def _grid(s: Optional[Sequence[float]]) -> Optional[List[float]]:
@@ -165,8 +181,9 @@ def hb_manifold(
     omega1_factor: float = 1.0,
     max_steps: int = 20_000,
     sample: bool = False,
+    static_sag: bool = False,
 ) -> HbManifold:
-    """Super-slow manifold by N-mode single-term harmonic balance (issue 17 §2.3).
+    """Super-slow manifold by N-mode harmonic balance (issue 17 §2.3; options §2.5).
 
     Args:
         params: model parameters (``None``: defaults). Its ``n_modes`` is replaced by ``n_modes``;
@@ -174,7 +191,10 @@ def hb_manifold(
         f_ex: excitation frequency [Hz].
         a_ex: base-acceleration amplitude [m/s^2].
         n_modes: retained beam modes N (1..20).
-        harmonics: harmonics of the ansatz; only 1 is implemented.
+        harmonics: H, the ansatz keeps the odd harmonics 1, 3, …, H (1, 3, 5 or 7; default 1 =
+            single-term HB; issue §2.5.2). H > 1 is solved by the alternating frequency–time
+            method (exact for the cubic terms) with the same continuation; ``amplitude`` stays
+            the first-harmonic Â, the others are in ``HbBranch.harmonic_amplitude``.
         d_eff: equivalent damping ratio replacing the modal damping of all modes [-] (issue
             §2.5.1); ``None`` keeps ``params.damping_ratio``.
         s: increasing slider positions within [B/(2L), 0.5]; the continuation covers
@@ -184,6 +204,8 @@ def hb_manifold(
         max_steps: cap of continuation steps per run.
         sample: also solve the high and low branches exactly at every grid s
             (``high_on_grid``, ``low_on_grid``; costs about 10 µs per point and branch).
+        static_sag: include the static sag under the slider's weight m·g at x = sL (a zeroth
+            harmonic Q₀; with it all harmonics 0..H are kept; issue §2.5.3). Off by default.
 
     Returns:
         :class:`HbManifold` with the branches (s, Â, phase, stable, Q), folds, ``s_up``,
@@ -193,6 +215,10 @@ def hb_manifold(
     f_ex, a_ex = _number("f_ex", f_ex), _number("a_ex", a_ex)
     n_modes = _positive_int("n_modes", n_modes)
     harmonics = _positive_int("harmonics", harmonics)
+    if harmonics not in (1, 3, 5, 7):
+        raise ValueError(f"invalid parameter `harmonics`: {harmonics} (must be 1, 3, 5 or 7: the odd harmonics up to H)")
+    if not isinstance(static_sag, (bool, np.bool_)):
+        raise ValueError(f"invalid parameter `static_sag`: {static_sag!r} (must be True or False)")
     max_steps = _positive_int("max_steps", max_steps)
     d = None if d_eff is None else _number("d_eff", d_eff)
     out = _core.hb_manifold(
@@ -206,14 +232,17 @@ def hb_manifold(
         s_values=_grid(s),
         max_steps=max_steps,
         sample_on_grid=bool(sample),
+        static_sag=bool(static_sag),
     )
     n = int(out["n_modes"])
+    orders = tuple(int(k) for k in out["harmonic_orders"])
+    k = len(orders)
     return HbManifold(
-        high=_branch(out["high"], n),
-        low=_branch(out["low"], n),
-        middle=_branch(out["middle"], n),
-        up_run=_branch(out["up_run"], n),
-        down_run=_branch(out["down_run"], n),
+        high=_branch(out["high"], n, k),
+        low=_branch(out["low"], n, k),
+        middle=_branch(out["middle"], n, k),
+        up_run=_branch(out["up_run"], n, k),
+        down_run=_branch(out["down_run"], n, k),
         folds_s=out["folds_s"],
         folds_amplitude=out["folds_amplitude_h"],
         s_up=out["s_up"],
@@ -232,6 +261,8 @@ def hb_manifold(
         s_grid=out["s_grid"],
         high_on_grid=out["high_on_grid"],
         low_on_grid=out["low_on_grid"],
+        static_sag=bool(static_sag),
+        harmonic_orders=orders,
     )
 
 

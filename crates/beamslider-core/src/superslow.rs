@@ -28,9 +28,14 @@
 //!   tangent changes sign, refined by Brent's method on it; a point is stable when
 //!   det ∂R/∂(Re Q, Im Q) > 0 (sign between folds, issue §2.3).
 //!
-//! Options of issue §2.5: the equivalent damping D_eff (replaces Dₙ of all modes) and a detuning
-//! factor of ω₁ (for the sensitivity check of §4.6) exist; multi-harmonic HB, static sag and the
-//! mass participation η are not implemented (`harmonics` other than 1 is an error).
+//! Options of issue §2.5: the equivalent damping D_eff (replaces Dₙ of all modes), a detuning
+//! factor of ω₁ (for the sensitivity check of §4.6), multi-harmonic HB (`harmonics` = 3, 5, 7:
+//! odd harmonics up to H) and the static sag under the slider's weight (`static_sag`, a zeroth
+//! harmonic); the last two are solved by the alternating frequency–time residual of
+//! [`superslow_mhb`](self) (module `superslow_mhb.rs`) with the same continuation.
+
+#[path = "superslow_mhb.rs"]
+mod mhb;
 
 use nalgebra::{DMatrix, DVector};
 
@@ -43,7 +48,8 @@ use crate::params::{MAX_MODES, Params};
 pub struct HbOptions {
     /// Retained beam modes N (1..=20; default 5).
     pub n_modes: usize,
-    /// Harmonics of the HB ansatz; only 1 (single-term HB) is implemented.
+    /// Harmonics of the HB ansatz: the odd harmonics 1, 3, …, H for H = `harmonics` ∈ {1, 3, 5, 7}
+    /// (1 = single-term HB, the default; issue §2.5.2). With `static_sag`, all harmonics 0..=H.
     pub harmonics: usize,
     /// Equivalent damping ratio D_eff replacing Dₙ of all modes (issue §2.5.1); None = the
     /// parameters' damping_ratio.
@@ -60,11 +66,24 @@ pub struct HbOptions {
     /// Also solve the high and low branches exactly at every s of the grid
     /// ([`HbManifold::high_on_grid`], [`HbManifold::low_on_grid`]; default false).
     pub sample_on_grid: bool,
+    /// Static sag under the slider's weight m·g at x = sL (issue §2.5.3; gravity acts on the
+    /// slider only, MODEL.md §1): adds the zeroth harmonic Q₀ (default false).
+    pub static_sag: bool,
 }
 
 impl Default for HbOptions {
     fn default() -> Self {
-        HbOptions { n_modes: 5, harmonics: 1, d_eff: None, omega1_factor: 1.0, s: None, max_steps: 20_000, max_step: 0.05, sample_on_grid: false }
+        HbOptions {
+            n_modes: 5,
+            harmonics: 1,
+            d_eff: None,
+            omega1_factor: 1.0,
+            s: None,
+            max_steps: 20_000,
+            max_step: 0.05,
+            sample_on_grid: false,
+            static_sag: false,
+        }
     }
 }
 
@@ -83,6 +102,12 @@ pub struct HbBranch {
     pub q_re: Vec<f64>,
     /// Im Qₙ, row-major (point, mode) [m kg^½].
     pub q_im: Vec<f64>,
+    /// Multi-harmonic / sag runs only: |Φ(4L/7)ᵀQ_k| / h per harmonic order of
+    /// [`HbManifold::harmonic_orders`] (for k = 0 the signed static value), row-major (point, order).
+    pub harmonic_amplitude_h: Vec<f64>,
+    /// Multi-harmonic / sag runs only: all unknowns in physical units (Re Q₁, Im Q₁, Re Q_k, Im Q_k
+    /// for the other k ≥ 1 ascending, Q₀), row-major (point, unknown) [m kg^½].
+    pub state: Vec<f64>,
 }
 
 impl HbBranch {
@@ -127,6 +152,8 @@ impl HbBranch {
         self.stable.push(p.stable);
         self.q_re.extend_from_slice(&p.q_re);
         self.q_im.extend_from_slice(&p.q_im);
+        self.harmonic_amplitude_h.extend_from_slice(&p.harm);
+        self.state.extend_from_slice(&p.state);
     }
 }
 
@@ -174,6 +201,9 @@ pub struct HbManifold {
     pub high_on_grid: Vec<f64>,
     /// Â of the low branch solved at each grid s (NaN where the branch does not exist).
     pub low_on_grid: Vec<f64>,
+    /// Harmonic orders of the ansatz in the layout of [`HbBranch::harmonic_amplitude_h`]
+    /// (empty for single-term HB).
+    pub harmonic_orders: Vec<usize>,
 }
 
 struct PointOut {
@@ -183,6 +213,8 @@ struct PointOut {
     stable: bool,
     q_re: Vec<f64>,
     q_im: Vec<f64>,
+    harm: Vec<f64>,
+    state: Vec<f64>,
 }
 
 /// The N-mode, single-harmonic HB system with the slider rigidly attached (issue §2.3).
@@ -205,6 +237,10 @@ pub struct HbSystem {
     p47: Vec<f64>,
     q_ref: f64,
     f_ref: f64,
+    /// Multi-harmonic / static-sag residual (None: single-term HB).
+    mhb: Option<mhb::Mhb>,
+    /// Number of real unknowns (parameter excluded): 2N for single-term HB.
+    nx: usize,
 }
 
 fn check_excitation(f_ex_hz: f64, a_ex: f64) -> Result<()> {
@@ -233,11 +269,11 @@ impl HbSystem {
         if !(1..=MAX_MODES).contains(&opts.n_modes) {
             return Err(Error::invalid("n_modes", opts.n_modes, "must lie in 1..=20"));
         }
-        if opts.harmonics != 1 {
+        if !matches!(opts.harmonics, 1 | 3 | 5 | 7) {
             return Err(Error::invalid(
                 "harmonics",
                 opts.harmonics,
-                "only 1 (single-term harmonic balance) is implemented",
+                "must be 1, 3, 5 or 7 (odd harmonics up to H; even harmonics alone are not excited)",
             ));
         }
         check_d_eff(opts.d_eff)?;
@@ -268,6 +304,9 @@ impl HbSystem {
             .fold(0.0, f64::max);
         let q_ref = p.thickness_m / phi_max;
         let f_ref = omega[0] * omega[0] * q_ref;
+        let mhb = (opts.harmonics > 1 || opts.static_sag)
+            .then(|| mhb::Mhb::new(n, opts.harmonics, opts.static_sag, p.slider_mass_kg * p.gravity_m_s2));
+        let nx = mhb.as_ref().map_or(2 * n, |m| m.nx);
         Ok(HbSystem {
             n,
             length: p.length_m,
@@ -285,6 +324,8 @@ impl HbSystem {
             p47,
             q_ref,
             f_ref,
+            mhb,
+            nx,
             beam,
         })
     }
@@ -310,12 +351,12 @@ impl HbSystem {
     /// Residual R(Q, s) in physical units [N kg^-½]: (Re R, Im R) of issue §2.3 for Q = u + iv,
     /// with the forcing scaled by `load` (1 = the excitation).
     pub fn residual(&self, u: &[f64], v: &[f64], s: f64, load: f64) -> (Vec<f64>, Vec<f64>) {
-        let mut y = DVector::zeros(2 * self.n + 1);
+        let mut y = DVector::zeros(self.nx + 1);
         for i in 0..self.n {
             y[i] = u[i] / self.q_ref;
             y[self.n + i] = v[i] / self.q_ref;
         }
-        y[2 * self.n] = s;
+        y[self.nx] = s;
         let (r, _) = self.eval(&y, Param::S { load }, false);
         let re = (0..self.n).map(|i| r[i] * self.f_ref).collect();
         let im = (0..self.n).map(|i| r[self.n + i] * self.f_ref).collect();
@@ -324,30 +365,66 @@ impl HbSystem {
 
     /// Jacobian ∂(Re R, Im R)/∂(Re Q, Im Q, s) in physical units (2N × (2N+1)).
     pub fn jacobian(&self, u: &[f64], v: &[f64], s: f64) -> DMatrix<f64> {
-        let mut y = DVector::zeros(2 * self.n + 1);
+        let mut y = DVector::zeros(self.nx + 1);
         for i in 0..self.n {
             y[i] = u[i] / self.q_ref;
             y[self.n + i] = v[i] / self.q_ref;
         }
-        y[2 * self.n] = s;
+        y[self.nx] = s;
         let (_, j) = self.eval(&y, Param::S { load: 1.0 }, true);
         let mut out = j * self.f_ref;
-        for c in 0..2 * self.n {
-            for r in 0..2 * self.n {
+        for c in 0..self.nx {
+            for r in 0..self.nx {
                 out[(r, c)] /= self.q_ref;
             }
         }
         out
     }
 
+    /// Number of real unknowns: 2N for single-term HB, more with harmonics or the static sag
+    /// (layout of [`HbBranch::state`]).
+    pub fn n_unknowns(&self) -> usize {
+        self.nx
+    }
+
+    /// Residual of all unknowns `x` (physical units, layout of [`HbBranch::state`]; for single-term
+    /// HB (Re Q, Im Q)) at s [N kg^-½].
+    pub fn residual_state(&self, x: &[f64], s: f64) -> Vec<f64> {
+        let y = self.scaled_state(x, s);
+        let (r, _) = self.eval(&y, Param::S { load: 1.0 }, false);
+        r.iter().map(|v| v * self.f_ref).collect()
+    }
+
+    /// Jacobian ∂R/∂(x, s) of [`HbSystem::residual_state`] (nx × (nx + 1), physical units).
+    pub fn jacobian_state(&self, x: &[f64], s: f64) -> DMatrix<f64> {
+        let y = self.scaled_state(x, s);
+        let (_, j) = self.eval(&y, Param::S { load: 1.0 }, true);
+        let mut out = j * self.f_ref;
+        for c in 0..self.nx {
+            for r in 0..self.nx {
+                out[(r, c)] /= self.q_ref;
+            }
+        }
+        out
+    }
+
+    fn scaled_state(&self, x: &[f64], s: f64) -> DVector<f64> {
+        let mut y = DVector::zeros(self.nx + 1);
+        for (i, v) in x.iter().take(self.nx).enumerate() {
+            y[i] = v / self.q_ref;
+        }
+        y[self.nx] = s;
+        y
+    }
+
     /// Solve R(Q, s) = 0 at fixed s by Newton's method from a guess (u, v); returns (u, v).
     pub fn solve_point(&self, s: f64, u: &[f64], v: &[f64]) -> Result<(Vec<f64>, Vec<f64>)> {
-        let mut y = DVector::zeros(2 * self.n + 1);
+        let mut y = DVector::zeros(self.nx + 1);
         for i in 0..self.n {
             y[i] = u[i] / self.q_ref;
             y[self.n + i] = v[i] / self.q_ref;
         }
-        y[2 * self.n] = s;
+        y[self.nx] = s;
         let y = self
             .newton_fixed(&y, Param::S { load: 1.0 })
             .ok_or_else(|| Error::Numerical(format!("HB Newton did not converge at s = {s}")))?;
@@ -372,6 +449,9 @@ impl HbSystem {
     /// Scaled residual r = R/f_ref and (optionally) the scaled Jacobian [∂r/∂x | ∂r/∂p] of the
     /// unknowns y = (Re Q/q_ref, Im Q/q_ref, p), p = s or the load factor.
     fn eval(&self, y: &DVector<f64>, par: Param, want_j: bool) -> (DVector<f64>, DMatrix<f64>) {
+        if let Some(m) = &self.mhb {
+            return m.eval(self, y, par, want_j);
+        }
         let n = self.n;
         let (s, load) = match par {
             Param::S { load } => (y[2 * n], load),
@@ -489,7 +569,7 @@ impl HbSystem {
 
     /// Newton at fixed parameter (the last entry of y).
     fn newton_fixed(&self, y0: &DVector<f64>, par: Param) -> Option<DVector<f64>> {
-        let n2 = 2 * self.n;
+        let n2 = self.nx;
         let mut y = y0.clone();
         // At a fold (singular Jacobian) Newton converges only linearly: allow many iterations
         // and accept a small residual.
@@ -534,17 +614,18 @@ impl HbSystem {
     }
 
     fn point_out(&self, y: &DVector<f64>, stable: bool) -> PointOut {
-        let n = self.n;
         let (u, v) = self.uv(y);
         let wr: f64 = self.p47.iter().zip(&u).map(|(a, b)| a * b).sum();
         let wi: f64 = self.p47.iter().zip(&v).map(|(a, b)| a * b).sum();
         PointOut {
-            s: y[2 * n],
+            s: y[self.nx],
             amplitude_h: wr.hypot(wi) / self.thickness,
             phase_rad: -wi.atan2(wr),
             stable,
             q_re: u,
             q_im: v,
+            harm: self.mhb.as_ref().map_or_else(Vec::new, |m| m.harmonic_amplitudes(self, y)),
+            state: if self.mhb.is_some() { (0..self.nx).map(|i| y[i] * self.q_ref).collect() } else { Vec::new() },
         }
     }
 
@@ -594,7 +675,7 @@ struct Continuation<'a> {
 
 impl Continuation<'_> {
     fn dim(&self) -> usize {
-        2 * self.sys.n + 1
+        self.sys.nx + 1
     }
 
     /// Newton on [R(y); tᵀ(y − y_pred)] = 0 from y_pred.
@@ -650,7 +731,7 @@ impl Continuation<'_> {
     }
 
     fn stable(&self, j: &DMatrix<f64>) -> bool {
-        let n2 = 2 * self.sys.n;
+        let n2 = self.sys.nx;
         j.columns(0, n2).into_owned().lu().determinant() > 0.0
     }
 
@@ -758,7 +839,7 @@ impl Continuation<'_> {
 /// Solution at fixed s by continuation in the load factor from 0 to its first arrival at 1
 /// (the lowest-amplitude solution reached from rest).
 fn solve_from_rest(sys: &HbSystem, s: f64, opts: &HbOptions) -> Result<DVector<f64>> {
-    let n2 = 2 * sys.n;
+    let n2 = sys.nx;
     let cont = Continuation { sys, par: Param::Load { s }, max_steps: opts.max_steps, h_max: opts.max_step * 5.0, h_min: 1e-10 };
     let y0 = DVector::zeros(n2 + 1);
     let run = cont.trace(y0, 1.0, -1.0, 1.0);
@@ -818,9 +899,14 @@ pub fn hb_manifold(params: &Params, f_ex_hz: f64, a_ex: f64, opts: &HbOptions) -
         return Err(Error::invalid("max_step", opts.max_step, "must be finite and > 0"));
     }
     let (s_lo, s_hi) = (grid[0], grid[grid.len() - 1]);
-    let n2 = 2 * sys.n;
+    let n2 = sys.nx;
     let cont = Continuation { sys: &sys, par: Param::S { load: 1.0 }, max_steps: opts.max_steps, h_max: opts.max_step, h_min: 1e-10 };
-    let mut out = HbManifold { s_range: (s_lo, s_hi), n_modes: sys.n, ..Default::default() };
+    let mut out = HbManifold {
+        s_range: (s_lo, s_hi),
+        n_modes: sys.n,
+        harmonic_orders: sys.mhb.as_ref().map_or_else(Vec::new, |m| m.orders.clone()),
+        ..Default::default()
+    };
 
     let y_lo = solve_from_rest(&sys, s_lo, opts)?;
     let up = cont.trace(y_lo, 1.0, s_lo, s_hi);
@@ -891,6 +977,9 @@ pub fn hb_manifold(params: &Params, f_ex_hz: f64, a_ex: f64, opts: &HbOptions) -
 /// Â of a branch (monotone in s) at s: Newton at fixed s from Q interpolated between the
 /// neighbouring continuation points (the interpolated Â if Newton fails); NaN outside the branch.
 fn sample_branch(sys: &HbSystem, b: &HbBranch, s: f64) -> f64 {
+    if sys.mhb.is_some() {
+        return sample_branch_state(sys, b, s);
+    }
     let n = sys.n;
     for i in 0..b.len().saturating_sub(1) {
         let (a, c) = (b.s[i], b.s[i + 1]);
@@ -909,6 +998,29 @@ fn sample_branch(sys: &HbSystem, b: &HbBranch, s: f64) -> f64 {
                 wr.hypot(wi) / sys.thickness
             }
             Err(_) => b.amplitude_h[i] + w * (b.amplitude_h[i + 1] - b.amplitude_h[i]),
+        };
+    }
+    f64::NAN
+}
+
+/// [`sample_branch`] for the multi-harmonic / sag system: Newton at fixed s on all unknowns.
+fn sample_branch_state(sys: &HbSystem, b: &HbBranch, s: f64) -> f64 {
+    let nx = sys.nx;
+    for i in 0..b.len().saturating_sub(1) {
+        let (a, c) = (b.s[i], b.s[i + 1]);
+        let (lo, hi) = if a <= c { (a, c) } else { (c, a) };
+        if s < lo || s > hi {
+            continue;
+        }
+        let w = if c != a { (s - a) / (c - a) } else { 0.0 };
+        let mut y = DVector::zeros(nx + 1);
+        for k in 0..nx {
+            y[k] = (b.state[i * nx + k] + w * (b.state[(i + 1) * nx + k] - b.state[i * nx + k])) / sys.q_ref;
+        }
+        y[nx] = s;
+        return match sys.newton_fixed(&y, Param::S { load: 1.0 }) {
+            Some(y) => sys.point_out(&y, true).amplitude_h,
+            None => b.amplitude_h[i] + w * (b.amplitude_h[i + 1] - b.amplitude_h[i]),
         };
     }
     f64::NAN

@@ -316,7 +316,9 @@ fn bad_inputs_are_errors_naming_the_argument() {
     assert_eq!(field(hb_manifold(&p, 124.0, f64::INFINITY, &o).map(|_| ())), "a_ex");
     assert_eq!(field(hb_manifold(&p, 124.0, 14.0, &opts(0)).map(|_| ())), "n_modes");
     assert_eq!(field(hb_manifold(&p, 124.0, 14.0, &opts(21)).map(|_| ())), "n_modes");
-    assert_eq!(field(hb_manifold(&p, 124.0, 14.0, &HbOptions { harmonics: 3, ..opts(5) }).map(|_| ())), "harmonics");
+    for h in [0usize, 2, 4, 9] {
+        assert_eq!(field(hb_manifold(&p, 124.0, 14.0, &HbOptions { harmonics: h, ..opts(5) }).map(|_| ())), "harmonics");
+    }
     assert_eq!(field(hb_manifold(&p, 124.0, 14.0, &HbOptions { d_eff: Some(-0.1), ..opts(5) }).map(|_| ())), "d_eff");
     for bad in [vec![], vec![0.3], vec![0.3, 0.2], vec![0.01, 0.3], vec![0.2, 0.6], vec![0.2, f64::NAN]] {
         assert_eq!(field(hb_manifold(&p, 124.0, 14.0, &HbOptions { s: Some(bad.clone()), ..opts(5) }).map(|_| ())), "s", "{bad:?}");

@@ -19,6 +19,8 @@ fn branch_dict<'py>(py: Python<'py>, b: &HbBranch) -> PyResult<Bound<'py, PyDict
     d.set_item("stable", b.stable.clone().into_pyarray(py))?;
     d.set_item("q_re", b.q_re.clone().into_pyarray(py))?;
     d.set_item("q_im", b.q_im.clone().into_pyarray(py))?;
+    d.set_item("harmonic_amplitude_h", b.harmonic_amplitude_h.clone().into_pyarray(py))?;
+    d.set_item("state", b.state.clone().into_pyarray(py))?;
     Ok(d)
 }
 
@@ -26,9 +28,11 @@ fn branch_dict<'py>(py: Python<'py>, b: &HbBranch) -> PyResult<Bound<'py, PyDict
 /// `up_run`, `down_run` (dicts of arrays `s`, `amplitude_h`, `phase_rad`, `stable`, `q_re`,
 /// `q_im` flat (point, mode)), `folds_s`, `folds_amplitude_h`, `s_up`, `s_dn` (None when absent),
 /// `s_res`, `s_range`, `n_modes`, `steps`, `warnings`, and with `sample_on_grid` the branches
-/// solved on the grid: `s_grid`, `high_on_grid`, `low_on_grid` (NaN where absent).
+/// solved on the grid: `s_grid`, `high_on_grid`, `low_on_grid` (NaN where absent). With
+/// `harmonics` > 1 or `static_sag` (issue §2.5.2/3), `harmonic_orders` and per branch
+/// `harmonic_amplitude_h` (flat (point, order)) and `state` (flat (point, unknown)).
 #[pyfunction]
-#[pyo3(signature = (params_toml, *, f_ex_hz, a_ex_m_s2, n_modes=5, harmonics=1, d_eff=None, omega1_factor=1.0, s_values=None, max_steps=20_000, max_step=0.05, sample_on_grid=false))]
+#[pyo3(signature = (params_toml, *, f_ex_hz, a_ex_m_s2, n_modes=5, harmonics=1, d_eff=None, omega1_factor=1.0, s_values=None, max_steps=20_000, max_step=0.05, sample_on_grid=false, static_sag=false))]
 #[allow(clippy::too_many_arguments)]
 pub fn hb_manifold<'py>(
     py: Python<'py>,
@@ -43,9 +47,10 @@ pub fn hb_manifold<'py>(
     max_steps: usize,
     max_step: f64,
     sample_on_grid: bool,
+    static_sag: bool,
 ) -> PyResult<Bound<'py, PyDict>> {
     let params = parse_params(params_toml)?;
-    let opts = HbOptions { n_modes, harmonics, d_eff, omega1_factor, s: s_values, max_steps, max_step, sample_on_grid };
+    let opts = HbOptions { n_modes, harmonics, d_eff, omega1_factor, s: s_values, max_steps, max_step, sample_on_grid, static_sag };
     let m = py.detach(|| guarded(|| core_hb(&params, f_ex_hz, a_ex_m_s2, &opts)))?;
     let d = PyDict::new(py);
     d.set_item("high", branch_dict(py, &m.high)?)?;
@@ -65,6 +70,7 @@ pub fn hb_manifold<'py>(
     d.set_item("s_grid", m.s_grid.into_pyarray(py))?;
     d.set_item("high_on_grid", m.high_on_grid.into_pyarray(py))?;
     d.set_item("low_on_grid", m.low_on_grid.into_pyarray(py))?;
+    d.set_item("harmonic_orders", m.harmonic_orders)?;
     Ok(d)
 }
 

@@ -18,12 +18,16 @@ def add_parser(sub: Any) -> None:
     """Register the subcommand."""
     sp = sub.add_parser(
         "hb-manifold", help="super-slow manifold by harmonic balance (milliseconds; slider rigidly attached)",
-        description="Compute the super-slow manifold by N-mode single-term harmonic balance with the slider "
+        description="Compute the super-slow manifold by N-mode harmonic balance (single-term by default) with the slider "
                     "rigidly attached (pseudo-arclength continuation, folds, stability) and write "
                     "hb_manifold_<f>Hz_<a>ms2.csv/.json/.png.")
     add_operating_point(sp, positive_level=True)
     sp.add_argument("--n-modes", type=positive(int), default=5, metavar="N", help="retained beam modes (5)")
     sp.add_argument("--d-eff", type=float, metavar="D", help="equivalent damping ratio of all modes (default: params)")
+    sp.add_argument("--harmonics", type=int, default=1, choices=(1, 3, 5, 7), metavar="H",
+                    help="odd harmonics 1..H of the ansatz: 1, 3, 5 or 7 (1 = single-term HB)")
+    sp.add_argument("--static-sag", action="store_true",
+                    help="include the static sag under the slider's weight (zeroth harmonic; off by default)")
     add_common(sp, window=False)
     add_force(sp)
     sp.set_defaults(func=cmd_hb_manifold)
@@ -32,10 +36,12 @@ def add_parser(sub: Any) -> None:
 def cmd_hb_manifold(args: argparse.Namespace) -> int:
     p = params_from_args(args)
     stem = f"hb_manifold_{fmt(args.f_ex)}Hz_{fmt(args.a_ex)}ms2_N{args.n_modes}" + (
-        f"_Deff{fmt(args.d_eff)}" if args.d_eff is not None else "")
+        f"_Deff{fmt(args.d_eff)}" if args.d_eff is not None else "") + (
+        f"_H{args.harmonics}" if args.harmonics != 1 else "") + ("_sag" if args.static_sag else "")
     plan_outputs(args, [f"{stem}.{ext}" for ext in ("csv", "json", "png")])
     t0 = time.perf_counter()
-    m = hb_manifold(p, f_ex=args.f_ex, a_ex=args.a_ex, n_modes=args.n_modes, d_eff=args.d_eff)
+    m = hb_manifold(p, f_ex=args.f_ex, a_ex=args.a_ex, n_modes=args.n_modes, d_eff=args.d_eff,
+                    harmonics=args.harmonics, static_sag=args.static_sag)
     wall = time.perf_counter() - t0
     out = out_dir(args)
     with open(out / f"{stem}.csv", "w", newline="", encoding="utf-8") as f:
@@ -47,14 +53,15 @@ def cmd_hb_manifold(args: argparse.Namespace) -> int:
                 w.writerow([name, f"{row[0]:.10g}", f"{row[1]:.10g}", f"{row[2]:.10g}", int(row[3])])
     write_json(out / f"{stem}.json", {
         "kind": "hb_manifold", "f_ex_hz": m.f_ex, "a_ex_m_s2": m.a_ex, "n_modes": m.n_modes, "harmonics": m.harmonics,
-        "d_eff": m.d_eff, "s_up": m.s_up, "s_dn": m.s_dn, "s_res": m.s_res.tolist(), "folds_s": m.folds_s.tolist(),
+        "d_eff": m.d_eff, "static_sag": m.static_sag, "harmonic_orders": list(m.harmonic_orders), "s_up": m.s_up, "s_dn": m.s_dn, "s_res": m.s_res.tolist(), "folds_s": m.folds_s.tolist(),
         "folds_amplitude_h": m.folds_amplitude.tolist(), "steps": m.steps, "warnings": m.warnings,
         "wall_time_s": wall, "params_toml": p.toml_text(),
     })
     drew = figure(_draw, m, out / f"{stem}.png")
     s_up = "none" if m.s_up is None else f"{m.s_up:.4f}"
     s_dn = "none" if m.s_dn is None else f"{m.s_dn:.4f}"
-    print(f"HB N={m.n_modes} {m.f_ex:g} Hz, {m.a_ex:g} m/s²: s_up = {s_up}, s_dn = {s_dn} ({1e3 * wall:.1f} ms)")
+    opt = (f" H={m.harmonics}" if m.harmonics != 1 else "") + (" +sag" if m.static_sag else "")
+    print(f"HB N={m.n_modes}{opt} {m.f_ex:g} Hz, {m.a_ex:g} m/s²: s_up = {s_up}, s_dn = {s_dn} ({1e3 * wall:.1f} ms)")
     return print_written(out, stem, drew)
 
 
@@ -78,7 +85,8 @@ def _draw(m: Any, path: Any) -> None:
     ax.set_xlabel("slider position s = x/L")
     ax.set_ylabel("amplitude |w(4L/7)| / h")
     ax.set_title(f"HB manifold, N = {m.n_modes}: {m.f_ex:g} Hz, {m.a_ex:g} m/s²"
-                 + (f", D_eff = {m.d_eff:g}" if m.d_eff is not None else ""))
+                 + (f", D_eff = {m.d_eff:g}" if m.d_eff is not None else "")
+                 + (f", H = {m.harmonics}" if m.harmonics != 1 else "") + (", static sag" if m.static_sag else ""))
     ax.legend()
     ax.grid(alpha=0.3)
     fig.tight_layout()
