@@ -249,6 +249,17 @@ def test_minmax_decimation_keeps_every_columns_extremes():
     # every drawn point is a sample of the trace
     idx = np.searchsorted(t, td)
     np.testing.assert_array_equal(y[idx], yd)
+    # the band drawn in panel (a): per column, the first time, the minimum and the maximum
+    from beamslider.plotting import minmax_band
+
+    tb, lo, hi = minmax_band(t, y, columns=1000)
+    assert len(tb) == len(lo) == len(hi) == 1000
+    cols = y[:1000 * per].reshape(1000, per)
+    np.testing.assert_array_equal(lo, cols.min(axis=1))
+    np.testing.assert_array_equal(hi, cols.max(axis=1))
+    first = np.arange(1000) * per + np.minimum(cols.argmin(axis=1), cols.argmax(axis=1))
+    np.testing.assert_array_equal(tb, t[first])  # the earlier extreme's time
+    assert minmax_band(t[:3999], y[:3999], columns=1000) is None  # short traces are drawn as they are
 
 
 # --- 3. one writer per results file -----------------------------------------------------------
