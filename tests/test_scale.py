@@ -232,6 +232,24 @@ def test_cli_simulate_streams_npz_by_default_and_csv_or_parquet_on_request(tmp_p
         assert r.returncode == 0, r.stderr
 
 
+def test_simulate_command_imports_only_what_it_needs():
+    r = _run_py("""
+import sys
+from beamslider.cli import COMMANDS, build_parser
+build_parser("simulate")
+heavy = ("scipy", "matplotlib", "dask", "distributed", "pyarrow", "beamslider.discover", "beamslider.maps",
+         "beamslider.enma", "beamslider.superslow", "beamslider.study", "beamslider.slowflow")
+print(sorted(m for m in sys.modules if m.split(".")[0] in heavy or m.startswith(heavy)))
+full = build_parser()
+names = set(next(a for a in full._subparsers._group_actions).choices)
+assert names == set(COMMANDS), (names ^ set(COMMANDS))
+for c in COMMANDS:  # each command's module registers it
+    assert c in next(a for a in build_parser(c)._subparsers._group_actions).choices, c
+""")
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.strip() == "[]", r.stdout
+
+
 def test_minmax_decimation_keeps_every_columns_extremes():
     rng = np.random.default_rng(1)
     n = 1_000_003
