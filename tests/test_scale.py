@@ -193,9 +193,12 @@ def test_sigint_during_streamed_write_leaves_no_file_under_the_final_name(tmp_pa
     assert list(tmp_path.iterdir()) == []
 
 
-def test_cli_interrupted_simulate_leaves_an_incomplete_sidecar_that_plot_refuses(tmp_path):
+@pytest.mark.parametrize("manifold", [False, True])
+def test_cli_interrupted_simulate_leaves_an_incomplete_sidecar_that_plot_refuses(tmp_path, manifold):
+    # With the manifold (the default) it runs in a background thread: Ctrl-C stops both.
     out = tmp_path / "o"
-    p = subprocess.Popen(CLI + ["simulate", "--t-end", "600", "--record-every", "1", "--no-manifold", "--out", str(out)],
+    p = subprocess.Popen(CLI + ["simulate", "--t-end", "600", "--record-every", "1", "--out", str(out)]
+                         + ([] if manifold else ["--no-manifold"]),
                          stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=ENV)
     stem = "fs_124Hz_14ms2_s0_0p3"
     for _ in range(300):
@@ -207,6 +210,7 @@ def test_cli_interrupted_simulate_leaves_an_incomplete_sidecar_that_plot_refuses
     _o, err = p.communicate(timeout=60)
     assert p.returncode == 130, err
     assert not (out / f"{stem}.npz").exists()
+    assert not list(out.glob("manifold_*.csv")) or not manifold  # the manifold was stopped, not finished
     assert not [f for f in out.iterdir() if "partial" in f.name]
     meta = json.loads((out / f"{stem}.json").read_text())
     assert meta["complete"] is False
