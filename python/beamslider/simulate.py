@@ -439,9 +439,6 @@ def blocked_envelope(t: Any, w: Any, window: float = 1.0, *, block: int = 2**19,
         block = 1 << (n.bit_length() - 1)
     if block < 4 * margin:
         return envelope(t, w, window=window)
-    h = np.zeros(block)
-    h[0] = h[block // 2] = 1.0
-    h[1:block // 2] = 2.0
     amp = np.empty(n)
     step = block - 2 * margin
     a, kept = 0, 0
@@ -449,7 +446,13 @@ def blocked_envelope(t: Any, w: Any, window: float = 1.0, *, block: int = 2**19,
         last = a + block >= n
         if last:
             a = n - block
-        z = np.abs(np.fft.ifft(np.fft.fft(np.asarray(w[a:a + block], dtype=float)) * h))
+        # |x + i H[x]| with the Hilbert transform by real FFTs (-i on the positive frequencies, 0 at
+        # DC and Nyquist): the one-sided-spectrum analytic signal to rounding, at half the cost.
+        x = np.asarray(w[a:a + block], dtype=float)
+        spec = np.fft.rfft(x)
+        spec[0] = spec[-1] = 0.0
+        spec *= -1j
+        z = np.hypot(x, np.fft.irfft(spec, block))
         hi = n if last else a + block - margin
         amp[kept:hi] = z[kept - a:hi - a]
         kept = hi
