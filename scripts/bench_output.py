@@ -1,12 +1,19 @@
 """Benchmark of issue 18: the CLI's `simulate` end to end against the bare core run of the same
 duration (record_every 1 and 10; target: CLI <= 2x core), the peak memory of a streamed 600-s
-run, and a map on a LocalCluster of 2 workers against the local map.
+run (NPZ and Parquet), and a map on a LocalCluster of 2 workers against the local map.
 
-    python scripts/bench_output.py [--t-end 120] [--long 600] [--map-points 1000] [--map-t-end 0.5]
+    python scripts/bench_output.py [--t-end 120] [--repeat 5] [--long 600] [--map-points 1000]
+                                   [--map-t-end 0.5] [--skip cli long map] [--pythonpath DIR]
 
-"Core" is beamslider-batch-free: the binding's in-memory run without any output (the time loop
-and the recorder), timed in this process. The CLI is timed as a subprocess (interpreter start,
-import, run, NPZ written by Rust, JSON, figure).
+"Core" is the binding's in-memory run in this process (`beamslider.simulate`, the same six
+channels at the same record_every, no file, no figure). "CLI" is what the README's main command
+does, timed as a subprocess: `beamslider simulate --t-end T --record-every K --out DIR`, i.e.
+interpreter start, imports, the run streamed to NPZ by Rust, the PCS manifold (the default) and
+the figure (the default), JSON and CSV files; and the same with `--no-manifold`. Figures are
+medians of `--repeat` runs (CLI and core alternating); the load average is printed before and
+after, since the machine may be shared. A breakdown of the CLI's work done one piece after the
+other (`--skip breakdown` to leave it out) shows where the time goes. `--pythonpath DIR` times the
+Python package found in DIR instead (e.g. an older checkout, with the same `_core` copied in).
 """
 
 from __future__ import annotations
@@ -14,7 +21,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import resource
+import statistics
 import subprocess
 import sys
 import tempfile
@@ -22,36 +29,83 @@ import textwrap
 import time
 from pathlib import Path
 
+ENV = dict(os.environ)
+
+
+def load() -> str:
+    return "load average " + " ".join(f"{x:.2f}" for x in os.getloadavg())
+
 
 def core_time(t_end: float, every: int) -> float:
-    import beamslider
+    code = textwrap.dedent(f"""
+        import time, beamslider
+        beamslider.simulate(f_ex=124, a_ex=14, t_end=0.01, record_every=1)  # warm
+        t0 = time.perf_counter()
+        beamslider.simulate(f_ex=124, a_ex=14, s0=0.3, t_end={t_end}, record_every={every}, max_memory=1e12)
+        print(time.perf_counter() - t0)
+    """)
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=ENV)
+    if r.returncode != 0:
+        raise SystemExit(r.stderr)
+    return float(r.stdout.strip().splitlines()[-1])
 
+
+def cli_time(t_end: float, every: int, out: Path, manifold: bool) -> float:
+    argv = [sys.executable, "-m", "beamslider", "simulate", "--t-end", str(t_end), "--record-every", str(every),
+            "--out", str(out), "--force"] + ([] if manifold else ["--no-manifold"])
     t0 = time.perf_counter()
-    beamslider.simulate(f_ex=124, a_ex=14, s0=0.3, t_end=t_end, record_every=every, max_memory=1e12)
-    return time.perf_counter() - t0
-
-
-def cli_time(t_end: float, every: int, out: Path) -> float:
-    t0 = time.perf_counter()
-    r = subprocess.run([sys.executable, "-m", "beamslider", "simulate", "--t-end", str(t_end), "--record-every",
-                        str(every), "--no-manifold", "--no-progress", "--out", str(out)], capture_output=True, text=True)
+    r = subprocess.run(argv, capture_output=True, text=True, env=ENV)
     wall = time.perf_counter() - t0
     if r.returncode != 0:
         raise SystemExit(r.stderr)
+    if not (out / "fs_124Hz_14ms2_s0_0p3.png").exists():
+        raise SystemExit("the CLI drew no figure")
     return wall
 
 
+def breakdown(t_end: float, every: int, tmp: Path) -> str:
+    """The CLI's pieces one after the other, in a fresh interpreter."""
+    code = textwrap.dedent(f"""
+        import time
+        t0 = time.perf_counter()
+        import beamslider.cli.simulate
+        from beamslider import simulate, super_slow_manifold
+        t1 = time.perf_counter()
+        r = simulate(f_ex=124, a_ex=14, t_end={t_end}, record_every={every}, out={str(tmp / 'bd.npz')!r},
+                     overwrite=True)
+        t2 = time.perf_counter()
+        r.display_envelope(1.0)
+        t3 = time.perf_counter()
+        m = super_slow_manifold(f_ex=124, a_ex=14)
+        t4 = time.perf_counter()
+        import matplotlib.figure, matplotlib.backends.backend_agg
+        from beamslider.plotting import plot_operating_point
+        t5 = time.perf_counter()
+        plot_operating_point(r, manifold=m, path={str(tmp / 'bd.png')!r})
+        t6 = time.perf_counter()
+        print(f"imports {{t1 - t0:.2f}} s, run streamed to NPZ {{t2 - t1:.2f}} s, envelope {{t3 - t2:.2f}} s, "
+              f"manifold {{t4 - t3:.2f}} s, matplotlib import {{t5 - t4:.2f}} s, figure {{t6 - t5:.2f}} s")
+    """)
+    t0 = time.perf_counter()
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=ENV)
+    total = time.perf_counter() - t0
+    if r.returncode != 0:
+        raise SystemExit(r.stderr)
+    return r.stdout.strip() + f" (process {total:.2f} s)"
+
+
 def streamed_peak(t_end: float, out: Path) -> dict:
+    """Peak RSS of a streamed run at record_every 1 (NPZ, or Parquet by the file name)."""
     code = textwrap.dedent(f"""
         import json, resource, time, beamslider
         base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
         t0 = time.perf_counter()
         r = beamslider.simulate(f_ex=124, a_ex=14, t_end={t_end}, record_every=1, out={str(out)!r})
         wall = time.perf_counter() - t0
-        print(json.dumps({{"rows": len(r.t), "wall_s": wall, "base_kib": base,
-                           "peak_kib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss}}))
+        peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss  # before any column is read
+        print(json.dumps({{"rows": len(r.t), "wall_s": wall, "base_kib": base, "peak_kib": peak}}))
     """)
-    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=ENV)
     if r.returncode != 0:
         raise SystemExit(r.stderr)
     return json.loads(r.stdout.strip().splitlines()[-1])
@@ -89,26 +143,43 @@ def map_bench(points: int, t_end: float, tmp: Path) -> None:
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--t-end", type=float, default=120.0)
+    ap.add_argument("--repeat", type=int, default=5)
     ap.add_argument("--long", type=float, default=600.0)
     ap.add_argument("--map-points", type=int, default=1000)
     ap.add_argument("--map-t-end", type=float, default=0.5)
-    ap.add_argument("--skip", nargs="*", default=[], choices=["cli", "long", "map"])
+    ap.add_argument("--skip", nargs="*", default=[], choices=["cli", "breakdown", "long", "parquet", "map"])
+    ap.add_argument("--pythonpath", help="time the beamslider package found in this folder")
     a = ap.parse_args()
+    if a.pythonpath:
+        ENV["PYTHONPATH"] = os.path.abspath(a.pythonpath)
+        sys.path.insert(0, ENV["PYTHONPATH"])
+    print(f"{load()} at the start; {os.cpu_count()} cores")
     with tempfile.TemporaryDirectory() as d:
         tmp = Path(d)
         if "cli" not in a.skip:
             for every in (1, 10):
-                core = core_time(a.t_end, every)
-                cli = cli_time(a.t_end, every, tmp / f"cli{every}")
-                print(f"simulate {a.t_end:g} s, record_every {every}: core {core:.2f} s, CLI end to end {cli:.2f} s "
-                      f"= {cli / core:.2f}x core (target <= 2x)")
+                core, full, bare = [], [], []
+                for _ in range(a.repeat):
+                    core.append(core_time(a.t_end, every))
+                    full.append(cli_time(a.t_end, every, tmp / f"cli{every}", True))
+                    bare.append(cli_time(a.t_end, every, tmp / f"bare{every}", False))
+                c, f, b = (statistics.median(x) for x in (core, full, bare))
+                print(f"simulate {a.t_end:g} s, record_every {every} (medians of {a.repeat}): core {c:.2f} s; "
+                      f"CLI end to end with the manifold and the figure (the defaults) {f:.2f} s = {f / c:.2f}x core, "
+                      f"with --no-manifold {b:.2f} s = {b / c:.2f}x core (target <= 2x); {load()}")
+                if "breakdown" not in a.skip:
+                    print(f"  one after the other: {breakdown(a.t_end, every, tmp)}")
         if "long" not in a.skip:
-            d = streamed_peak(a.long, tmp / "long.npz")
-            size = (tmp / "long.npz").stat().st_size
-            print(f"streamed {a.long:g} s at record_every 1: {d['rows']} rows, {size / 1e9:.2f} GB on disk in "
-                  f"{d['wall_s']:.1f} s; peak RSS {d['peak_kib'] / 1024:.0f} MiB (after import {d['base_kib'] / 1024:.0f} MiB)")
+            for name in ("long.npz",) + (() if "parquet" in a.skip else ("long.parquet",)):
+                d = streamed_peak(a.long, tmp / name)
+                size = (tmp / name).stat().st_size
+                print(f"streamed {a.long:g} s at record_every 1 to {name}: {d['rows']} rows, {size / 1e9:.2f} GB on disk "
+                      f"in {d['wall_s']:.1f} s; peak RSS {d['peak_kib'] / 1024:.0f} MiB (after import "
+                      f"{d['base_kib'] / 1024:.0f} MiB); {load()}")
+                (tmp / name).unlink()
         if "map" not in a.skip:
             map_bench(a.map_points, a.map_t_end, tmp)
+            print(load())
 
 
 if __name__ == "__main__":

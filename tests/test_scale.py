@@ -84,7 +84,7 @@ print(json.dumps({{"before_kib": before, "after_kib": after, "rows": len(res.t),
 def test_streamed_files_equal_the_in_memory_run_bitwise(tmp_path):
     args = dict(f_ex=124, a_ex=14, s0=0.3, t_end=0.2, record_every=3)
     mem = beamslider.simulate(**args)
-    for name in ("a.npz", "a.csv"):
+    for name in ("a.npz", "a.csv", "a.parquet"):
         res = beamslider.simulate(**args, out=tmp_path / name)
         assert res.path == tmp_path / name
         for f in ("t", "w", "s", "x_c", "z_c", "beta"):
@@ -95,9 +95,73 @@ def test_streamed_files_equal_the_in_memory_run_bitwise(tmp_path):
         np.testing.assert_array_equal(z["w_4L7_m"], mem.w)
     with pytest.raises(ValueError, match="`out`.*exists"):
         beamslider.simulate(**args, out=tmp_path / "a.npz")
-    with pytest.raises(ValueError, match="`out`.*npz or .csv"):
-        beamslider.simulate(**args, out=tmp_path / "a.parquet")
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.csv", "a.npz"]  # no temporary files left
+    with pytest.raises(ValueError, match="`out`.*npz, .csv or .parquet"):
+        beamslider.simulate(**args, out=tmp_path / "a.h5")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.csv", "a.npz", "a.parquet"]  # no temporary files left
+    import pyarrow.parquet as pq
+
+    table = pq.read_table(tmp_path / "a.parquet")  # an ordinary Parquet file: any reader takes it
+    from beamslider.trajectory import COLUMNS
+
+    assert table.column_names == list(COLUMNS)
+    np.testing.assert_array_equal(table.column("w_4L7_m").to_numpy(), mem.w)
+
+
+def test_parquet_and_csv_results_read_each_column_on_first_use(tmp_path):
+    args = dict(f_ex=124, a_ex=14, s0=0.3, t_end=0.2, record_every=3)
+    for name in ("b.parquet", "b.csv"):
+        res = beamslider.simulate(**args, out=tmp_path / name)
+        assert "w" not in res.__dict__ and "t" not in res.__dict__  # nothing read yet
+        assert len(res.w) == 1 + round(0.2 / 2e-5) // 3
+        assert "w" in res.__dict__
+
+
+def test_parquet_without_pyarrow_names_the_extra(tmp_path):
+    hide = textwrap.dedent("""
+        import sys
+        class _NoArrow:
+            def find_spec(self, name, path=None, target=None):
+                if name == "pyarrow" or name.startswith("pyarrow."):
+                    raise ImportError("No module named 'pyarrow' (hidden by the test)")
+                return None
+        sys.meta_path.insert(0, _NoArrow())
+    """)
+    code = hide + textwrap.dedent(f"""
+        import beamslider
+        try:
+            beamslider.simulate(f_ex=124, a_ex=14, t_end=0.1, out={str(tmp_path / 'r.parquet')!r})
+        except ImportError as e:
+            print(e)
+        from beamslider.cli import main
+        sys.exit(main(["simulate", "--t-end", "0.1", "--format", "parquet", "--no-manifold", "--out",
+                       {str(tmp_path / 'o')!r}]))
+    """)
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=ENV, timeout=300)
+    assert 'pip install "beamslider[parquet]"' in r.stdout, r.stdout + r.stderr
+    assert r.returncode == 1 and 'beamslider[parquet]' in r.stderr and "Traceback" not in r.stderr, r.stderr
+    assert r.stderr.count("\n") == 1
+    assert list(tmp_path.iterdir()) == []  # nothing written, not even the folder
+
+
+def test_csv_result_is_read_at_bounded_memory(tmp_path):
+    out = tmp_path / "run.csv"
+    r = _run_py(f"""
+import json, resource, beamslider
+res = beamslider.simulate(f_ex=124, a_ex=14, t_end=40.0, record_every=1, out={str(out)!r})
+before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+n, t_last, w_first = len(res.t), float(res.t[-1]), float(res.w[1])  # every column parsed
+after = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+print(json.dumps({{"before_kib": before, "after_kib": after, "rows": n, "t_last": t_last, "w1": w_first}}))
+""")
+    assert r.returncode == 0, r.stderr
+    d = json.loads(r.stdout.strip().splitlines()[-1])
+    rows = 1 + round(40.0 / 2e-5)
+    assert d["rows"] == rows and d["t_last"] == pytest.approx(40.0)
+    assert d["w1"] == beamslider.simulate(f_ex=124, a_ex=14, t_end=1e-4, record_every=1).w[1]
+    data_mb = rows * 6 * 8 / 1e6  # 96 MB of columns, 2 M lines of text
+    growth_mb = (d["after_kib"] - d["before_kib"]) / 1024
+    print(f"CSV of 40 s at record_every=1 read: {data_mb:.0f} MB of columns, peak RSS grew by {growth_mb:.1f} MB")
+    assert growth_mb < data_mb / 4, (growth_mb, data_mb)
 
 
 def test_csv_numbers_round_trip(tmp_path):
@@ -129,9 +193,12 @@ def test_sigint_during_streamed_write_leaves_no_file_under_the_final_name(tmp_pa
     assert list(tmp_path.iterdir()) == []
 
 
-def test_cli_interrupted_simulate_leaves_an_incomplete_sidecar_that_plot_refuses(tmp_path):
+@pytest.mark.parametrize("manifold", [False, True])
+def test_cli_interrupted_simulate_leaves_an_incomplete_sidecar_that_plot_refuses(tmp_path, manifold):
+    # With the manifold (the default) it runs in a background thread: Ctrl-C stops both.
     out = tmp_path / "o"
-    p = subprocess.Popen(CLI + ["simulate", "--t-end", "600", "--record-every", "1", "--no-manifold", "--out", str(out)],
+    p = subprocess.Popen(CLI + ["simulate", "--t-end", "600", "--record-every", "1", "--out", str(out)]
+                         + ([] if manifold else ["--no-manifold"]),
                          stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=ENV)
     stem = "fs_124Hz_14ms2_s0_0p3"
     for _ in range(300):
@@ -143,6 +210,7 @@ def test_cli_interrupted_simulate_leaves_an_incomplete_sidecar_that_plot_refuses
     _o, err = p.communicate(timeout=60)
     assert p.returncode == 130, err
     assert not (out / f"{stem}.npz").exists()
+    assert not list(out.glob("manifold_*.csv")) or not manifold  # the manifold was stopped, not finished
     assert not [f for f in out.iterdir() if "partial" in f.name]
     meta = json.loads((out / f"{stem}.json").read_text())
     assert meta["complete"] is False
@@ -151,12 +219,12 @@ def test_cli_interrupted_simulate_leaves_an_incomplete_sidecar_that_plot_refuses
     assert r.returncode == 1 and "did not finish" in r.stderr and "Traceback" not in r.stderr
 
 
-def test_cli_simulate_streams_npz_by_default_and_csv_on_request(tmp_path):
+def test_cli_simulate_streams_npz_by_default_and_csv_or_parquet_on_request(tmp_path):
     stem = "fs_124Hz_14ms2_s0_0p3"
-    for fmt in ("npz", "csv"):
+    for fmt in ("npz", "csv", "parquet"):
         out = tmp_path / fmt
         r = subprocess.run(CLI + ["simulate", "--t-end", "0.3", "--no-manifold", "--out", str(out)]
-                           + (["--format", "csv"] if fmt == "csv" else []), capture_output=True, text=True, env=ENV)
+                           + (["--format", fmt] if fmt != "npz" else []), capture_output=True, text=True, env=ENV)
         assert r.returncode == 0, r.stderr
         meta = json.loads((out / f"{stem}.json").read_text())
         assert meta["complete"] is True and meta["data"] == f"{stem}.{fmt}"
@@ -166,6 +234,24 @@ def test_cli_simulate_streams_npz_by_default_and_csv_on_request(tmp_path):
         r = subprocess.run(CLI + ["plot", str(out / f"{stem}.json"), "--out", str(out / "re")], capture_output=True,
                            text=True, env=ENV)
         assert r.returncode == 0, r.stderr
+
+
+def test_simulate_command_imports_only_what_it_needs():
+    r = _run_py("""
+import sys
+from beamslider.cli import COMMANDS, build_parser
+build_parser("simulate")
+heavy = ("scipy", "matplotlib", "dask", "distributed", "pyarrow", "beamslider.discover", "beamslider.maps",
+         "beamslider.enma", "beamslider.superslow", "beamslider.study", "beamslider.slowflow")
+print(sorted(m for m in sys.modules if m.split(".")[0] in heavy or m.startswith(heavy)))
+full = build_parser()
+names = set(next(a for a in full._subparsers._group_actions).choices)
+assert names == set(COMMANDS), (names ^ set(COMMANDS))
+for c in COMMANDS:  # each command's module registers it
+    assert c in next(a for a in build_parser(c)._subparsers._group_actions).choices, c
+""")
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.strip() == "[]", r.stdout
 
 
 def test_minmax_decimation_keeps_every_columns_extremes():
@@ -185,6 +271,17 @@ def test_minmax_decimation_keeps_every_columns_extremes():
     # every drawn point is a sample of the trace
     idx = np.searchsorted(t, td)
     np.testing.assert_array_equal(y[idx], yd)
+    # the band drawn in panel (a): per column, the first time, the minimum and the maximum
+    from beamslider.plotting import minmax_band
+
+    tb, lo, hi = minmax_band(t, y, columns=1000)
+    assert len(tb) == len(lo) == len(hi) == 1000
+    cols = y[:1000 * per].reshape(1000, per)
+    np.testing.assert_array_equal(lo, cols.min(axis=1))
+    np.testing.assert_array_equal(hi, cols.max(axis=1))
+    first = np.arange(1000) * per + np.minimum(cols.argmin(axis=1), cols.argmax(axis=1))
+    np.testing.assert_array_equal(tb, t[first])  # the earlier extreme's time
+    assert minmax_band(t[:3999], y[:3999], columns=1000) is None  # short traces are drawn as they are
 
 
 # --- 3. one writer per results file -----------------------------------------------------------
@@ -231,6 +328,30 @@ def test_second_writer_of_a_results_file_fails_at_once_naming_folder_and_pid(tmp
     first.release()
     with _core.ResultsLock(path):
         pass
+
+
+def test_lock_file_is_removed_on_release_and_one_left_by_a_killed_holder_does_not_block(tmp_path):
+    path = tmp_path / "map.jsonl"
+    lock = tmp_path / "map.jsonl.lock"
+    with _core.ResultsLock(path):
+        assert lock.exists()
+    assert not lock.exists()
+    holder = subprocess.Popen([sys.executable, "-c", "import sys, time; from beamslider import _core; "
+                               "l = _core.ResultsLock(sys.argv[1]); print('held', flush=True); time.sleep(120)",
+                               str(path)], stdout=subprocess.PIPE, text=True, env=ENV)
+    try:
+        assert holder.stdout.readline().strip() == "held"
+        with pytest.raises(BlockingIOError, match=f"PID {holder.pid}"):
+            _core.ResultsLock(path)
+    finally:
+        holder.kill()
+        holder.wait()
+    assert lock.exists()  # SIGKILL: no clean-up ran
+    with _core.ResultsLock(path):  # its lock died with it
+        pass
+    assert not lock.exists()
+    beamslider.operating_map(f_ex=[120.0], a_ex=10.0, t_end=0.5, out=tmp_path / "m")
+    assert not [f for f in (tmp_path / "m").iterdir() if f.name.endswith(".lock")]
 
 
 def test_study_results_file_takes_the_lock(tmp_path):

@@ -16,14 +16,48 @@ Python face:
 - :mod:`beamslider.plotting` — the paper's three-panel figures; ``beamslider`` — the command line.
 """
 
-from . import discover, enma, superslow
+from typing import TYPE_CHECKING, Any
+
 from ._core import SimulationError
-from .measurement import Measurement, MeasurementFormatError, parse_operating_point, read_measurement
 from .params import Parameters
-from .maps import Classification, classify, classify_result, operating_map, plot_operating_map, read_map
 from .simulate import (ManifoldResult, SimulationResult, available_memory, envelope, manifold_grid, read_trajectory,
                        recorded_size, simulate, super_slow_manifold)
-from .superslow import HbManifold, hb_manifold
+
+# The rest is imported on first use (PEP 562): ``import beamslider`` and ``beamslider simulate``
+# stay quick (discover, enma, maps, superslow and their dependencies cost about a second).
+_LAZY = {
+    "discover": (".discover", None), "enma": (".enma", None), "superslow": (".superslow", None),
+    "HbManifold": (".superslow", "HbManifold"), "hb_manifold": (".superslow", "hb_manifold"),
+    "Measurement": (".measurement", "Measurement"), "MeasurementFormatError": (".measurement", "MeasurementFormatError"),
+    "parse_operating_point": (".measurement", "parse_operating_point"),
+    "read_measurement": (".measurement", "read_measurement"),
+    "Classification": (".maps", "Classification"), "classify": (".maps", "classify"),
+    "classify_result": (".maps", "classify_result"), "operating_map": (".maps", "operating_map"),
+    "plot_operating_map": (".maps", "plot_operating_map"), "read_map": (".maps", "read_map"),
+}
+
+if TYPE_CHECKING:  # pragma: no cover
+    from . import discover, enma, superslow  # noqa: F401
+    from .maps import Classification, classify, classify_result, operating_map, plot_operating_map, read_map  # noqa: F401
+    from .measurement import Measurement, MeasurementFormatError, parse_operating_point, read_measurement  # noqa: F401
+    from .superslow import HbManifold, hb_manifold  # noqa: F401
+
+
+def __getattr__(name: str) -> Any:
+    if name not in _LAZY:
+        raise AttributeError(f"module 'beamslider' has no attribute {name!r}")
+    import importlib
+
+    module, attr = _LAZY[name]
+    mod = importlib.import_module(module, __name__)
+    value = mod if attr is None else getattr(mod, attr)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list:
+    return sorted(set(globals()) | set(_LAZY))
+
 
 __version__ = "0.1.0"
 

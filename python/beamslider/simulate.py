@@ -23,8 +23,10 @@ MODELS = ("fs", "pcs", "beam")
 
 _FIELDS = ("t", "w", "s", "x_c", "z_c", "beta")
 
-EXACT_ENVELOPE_SAMPLES = 2**21
-"""Runs up to this many samples get the exact (whole-run FFT) envelope in figures and summaries."""
+EXACT_ENVELOPE_SAMPLES = 2**18
+"""Runs up to this many samples get the exact (whole-run FFT) envelope in figures and summaries;
+longer ones the blocked envelope (power-of-two FFTs: a whole-run FFT of an awkward length such as
+600 001 samples takes ten times one of 2^19)."""
 
 
 @dataclass
@@ -65,13 +67,10 @@ class SimulationResult:
     """The trajectory file of a streamed run (``simulate(..., out=...)``), else None."""
 
     def __getattr__(self, name: str) -> Any:
-        # The columns of a streamed CSV run are read on first use (see read_trajectory).
-        lazy = self.__dict__.get("_lazy_path")
+        # The columns of a streamed CSV or Parquet run are read on first use (see read_trajectory).
+        lazy = self.__dict__.get("_lazy_columns")
         if name in _FIELDS and lazy is not None:
-            cols = read_trajectory(lazy)
-            for f, c in zip(_FIELDS, COLUMNS):
-                self.__dict__[f] = cols[c]
-            del self.__dict__["_lazy_path"]
+            self.__dict__[name] = lazy[COLUMNS[_FIELDS.index(name)]]
             return self.__dict__[name]
         raise AttributeError(name)
 
@@ -95,8 +94,8 @@ class SimulationResult:
 
     def display_envelope(self, window: float = 1.0) -> np.ndarray:
         """The envelope for figures and summaries: :meth:`envelope` up to ``EXACT_ENVELOPE_SAMPLES``
-        samples; for longer runs the analytic signal is computed in overlapping FFT blocks
-        (:func:`blocked_envelope`, O(n log block) instead of one FFT of the whole run)."""
+        samples; for longer runs the analytic signal is computed in overlapping power-of-two FFT
+        blocks (:func:`blocked_envelope`, O(n log block) instead of one FFT of the whole run)."""
         if len(self.t) <= EXACT_ENVELOPE_SAMPLES:
             return self.envelope(window)
         cache = self.__dict__.setdefault("_envelopes_blocked", {})
@@ -210,11 +209,14 @@ def simulate(
         record_every: keep every k-th step (the start state is the first sample).
         progress: show a tqdm progress bar (None: only when standard error is a terminal).
         out: stream the trajectory to this file as it is computed, at constant memory:
-            ``"run.npz"`` (NumPy, one float64 ``<column>.npy`` per channel, stored uncompressed)
-            or ``"run.csv"`` (shortest round-trip numbers). The file is written under a temporary
-            name and renamed when the run ends; an interrupted run leaves nothing under ``out``.
-            The result's columns are then read lazily: memory-mapped from the ``.npz``, loaded
-            on first use from a CSV (see :func:`read_trajectory`).
+            ``"run.npz"`` (NumPy, one float64 ``<column>.npy`` per channel, stored uncompressed),
+            ``"run.csv"`` (shortest round-trip numbers) or ``"run.parquet"`` (Apache Parquet,
+            float64 columns in row groups of ``CHUNK_ROWS``; needs the extra ``parquet``,
+            i.e. pyarrow: the run streams to a temporary ``.npz`` that is then copied chunk by
+            chunk). The file is written under a temporary name and renamed when the run ends;
+            an interrupted run leaves nothing under ``out``. The result's columns are then read
+            lazily (see :func:`read_trajectory`): memory-mapped from the ``.npz``, column by
+            column on first use from Parquet, converted chunk by chunk on first use from a CSV.
         overwrite: replace an existing ``out`` (default: refuse).
         max_memory: bytes the recorded arrays of an in-memory run may take (default: half of
             :func:`available_memory`); a larger run is refused before it starts with a
@@ -251,40 +253,21 @@ def simulate(
     target = _check_out(out, overwrite)
     if target is None:
         _check_memory(t_end, p.dt_s, record_every, max_memory)
-    with _progress_bar(progress, t_end, f"{model.upper()} {f_ex:g} Hz {a_ex:g} m/s²", "s") as cb:
-        res = _core.simulate(
-            p.toml_text(),
-            f_ex_hz=float(f_ex),
-            a_ex_m_s2=float(a_ex),
-            s0=float(s0),
-            t_end_s=t_end,
-            model=model,
-            s_pcs=s_pcs_value,
-            record_every=record_every,
-            progress=cb,
-            out=None if target is None else str(target),
-        )
-    empty = np.empty(0)
-    result = SimulationResult(
-        t=res.get("t_s", empty),
-        w=res.get("w_4L7_m", empty),
-        s=res.get("s", empty),
-        x_c=res.get("xC_m", empty),
-        z_c=res.get("zC_m", empty),
-        beta=res.get("beta_rad", empty),
-        status=res["status"],
-        message=res["message"],
-        counters=dict(res["counters"]),
-        final_state=dict(res["final_state"]),
-        params=p,
-        f_ex=float(f_ex),
-        a_ex=float(a_ex),
-        s0=float(s0),
-        model=model,
-        path=target,
-    )
-    if target is not None:
-        _attach(result, target)
+    stream = target
+    if target is not None and target.suffix.lower() == ".parquet":
+        stream = target.with_name(f".{target.name}.partial-{os.getpid()}.npz")
+    try:
+        res = _run(p, progress, stream, f_ex=float(f_ex), a_ex=float(a_ex), s0=float(s0), t_end=t_end, model=model,
+                   s_pcs=s_pcs_value, record_every=record_every)
+        if stream is not target:
+            from .trajectory import write_parquet_from_npz
+
+            write_parquet_from_npz(stream, target)
+    finally:
+        if stream is not target:
+            with contextlib.suppress(OSError):
+                os.remove(stream)
+    result = _result(res, p, f_ex, a_ex, s0, model, target)
     if result.counters.get("cap_hits", 0):
         warnings.warn(
             f"the contact solver hit its iteration cap in {result.counters['cap_hits']} steps "
@@ -297,16 +280,37 @@ def simulate(
     return result
 
 
+def _run(p: Parameters, progress: Optional[bool], out: Optional[Path], *, f_ex: float, a_ex: float, s0: float,
+         t_end: float, model: str, s_pcs: Optional[float], record_every: int) -> Dict[str, Any]:
+    with _progress_bar(progress, t_end, f"{model.upper()} {f_ex:g} Hz {a_ex:g} m/s²", "s") as cb:
+        return _core.simulate(p.toml_text(), f_ex_hz=f_ex, a_ex_m_s2=a_ex, s0=s0, t_end_s=t_end, model=model,
+                              s_pcs=s_pcs, record_every=record_every, progress=cb,
+                              out=None if out is None else str(out))
+
+
+def _result(res: Dict[str, Any], p: Parameters, f_ex: float, a_ex: float, s0: float, model: str,
+            target: Optional[Path]) -> SimulationResult:
+    empty = np.empty(0)
+    result = SimulationResult(
+        t=res.get("t_s", empty), w=res.get("w_4L7_m", empty), s=res.get("s", empty), x_c=res.get("xC_m", empty),
+        z_c=res.get("zC_m", empty), beta=res.get("beta_rad", empty), status=res["status"], message=res["message"],
+        counters=dict(res["counters"]), final_state=dict(res["final_state"]), params=p, f_ex=float(f_ex),
+        a_ex=float(a_ex), s0=float(s0), model=model, path=target)
+    if target is not None:
+        _attach(result, target)
+    return result
+
+
 def _attach(result: SimulationResult, path: Path) -> None:
-    """Columns of a streamed run: memory-mapped (.npz) or read on first use (CSV)."""
+    """Columns of a streamed run: memory-mapped (.npz) or read on first use (CSV, Parquet)."""
+    cols = read_trajectory(path)
     if path.suffix.lower() == ".npz":
-        cols = read_trajectory(path)
         for f, c in zip(_FIELDS, COLUMNS):
             setattr(result, f, cols[c])
     else:
         for f in _FIELDS:
             del result.__dict__[f]
-        result.__dict__["_lazy_path"] = path
+        result.__dict__["_lazy_columns"] = cols
 
 
 def manifold_grid(params: Optional[Parameters] = None) -> np.ndarray:
@@ -324,6 +328,7 @@ def super_slow_manifold(
     periods: int = 100,
     record: int = 25,
     progress: bool = False,
+    _stop: Any = None,
 ) -> ManifoldResult:
     """Super-slow manifold by sequential PCS continuation in s, upward then downward from the
     same initial state (docs/model.md §6).
@@ -337,6 +342,9 @@ def super_slow_manifold(
         periods: excitation periods simulated at each s (reference 100, paper 300).
         record: periods at the end of each s over which the amplitude is averaged.
         progress: show a tqdm progress bar (one tick per s).
+
+    The interpreter is released while the core runs. ``_stop`` (a ``threading.Event``) lets
+    another thread stop a manifold computed in the background (``KeyboardInterrupt`` is raised).
     """
     p = resolve(params)
     f_ex, a_ex = _number("f_ex", f_ex), _number("a_ex", a_ex)
@@ -349,7 +357,8 @@ def super_slow_manifold(
     record = _positive_int("record", record)
     if record > periods:
         raise ValueError(f"invalid parameter `record` = {record}: must lie in 1..=periods ({periods})")
-    with _progress_bar(progress, 2 * grid.size, f"manifold {f_ex:g} Hz {a_ex:g} m/s²", "pts") as cb:
+    with _progress_bar(progress, 2 * grid.size, f"manifold {f_ex:g} Hz {a_ex:g} m/s²", "pts") as bar:
+        cb = bar if _stop is None else _stoppable(bar, _stop)
         out = _core.super_slow_manifold(
             p.toml_text(),
             f_ex_hz=float(f_ex),
@@ -371,6 +380,17 @@ def super_slow_manifold(
         record=record,
         params=p,
     )
+
+
+def _stoppable(bar: Optional[Callable[[float, float], None]], stop: Any) -> Callable[[float, float], None]:
+    """A monitor callback that raises ``KeyboardInterrupt`` once ``stop`` is set (the core's own
+    Ctrl-C check only works in the main thread)."""
+    def update(done: float, total: float) -> None:
+        if stop.is_set():
+            raise KeyboardInterrupt
+        if bar is not None:
+            bar(done, total)
+    return update
 
 
 def envelope(t: Any, w: Any, window: float = 1.0) -> np.ndarray:
@@ -401,39 +421,40 @@ def envelope(t: Any, w: Any, window: float = 1.0) -> np.ndarray:
 
 
 def blocked_envelope(t: Any, w: Any, window: float = 1.0, *, block: int = 2**19, margin: int = 2**16) -> np.ndarray:
-    """|analytic signal| of a long signal by FFTs of overlapping blocks of ``block`` samples, each
-    block keeping its middle (``margin`` samples dropped at either inner edge), then the
-    ``window``-second moving average (docs/model.md §7). The Hilbert kernel decays as 1/t, so
-    the kept samples differ from the whole-run FFT envelope by far less than the line width of
-    a figure (measured in tests/test_scale.py); the cost is O(n log block) and the memory one
-    block. Used for figures and summaries of runs longer than ``EXACT_ENVELOPE_SAMPLES``."""
+    """|analytic signal| of a long signal by FFTs of overlapping blocks of ``block`` samples (a
+    power of two: fast FFTs), each block keeping its middle (``margin`` samples dropped at either
+    inner edge; the last block is aligned with the end of the run, so every block has the same
+    length), then the ``window``-second moving average (docs/model.md §7). The Hilbert kernel
+    decays as 1/t, so the kept samples differ from the whole-run FFT envelope by far less than
+    the line width of a figure (measured in tests/test_scale.py); the cost is O(n log block) and
+    the memory one block. Runs shorter than ``block`` use blocks of the largest power of two
+    that fits (at least 4·``margin``). Used for figures and summaries of runs longer than
+    ``EXACT_ENVELOPE_SAMPLES``."""
     t = np.asarray(t)
     n = len(w)
     if n < 2:
         raise ValueError("need at least two samples")
     dt = float(t[1] - t[0])
-    if n <= block:
+    if n < block:
+        block = 1 << (n.bit_length() - 1)
+    if block < 4 * margin:
         return envelope(t, w, window=window)
     amp = np.empty(n)
     step = block - 2 * margin
-    a = 0
-    while True:
-        b = min(n, a + block)
-        x = np.asarray(w[a:b], dtype=float)
-        spec = np.fft.fft(x)
-        m = len(x)
-        h = np.zeros(m)
-        h[0] = 1.0
-        if m % 2 == 0:
-            h[m // 2] = 1.0
-            h[1:m // 2] = 2.0
-        else:
-            h[1:(m + 1) // 2] = 2.0
-        z = np.abs(np.fft.ifft(spec * h))
-        lo = 0 if a == 0 else margin
-        hi = m if b == n else m - margin
-        amp[a + lo:a + hi] = z[lo:hi]
-        if b == n:
-            break
+    a, kept = 0, 0
+    while kept < n:
+        last = a + block >= n
+        if last:
+            a = n - block
+        # |x + i H[x]| with the Hilbert transform by real FFTs (-i on the positive frequencies, 0 at
+        # DC and Nyquist): the one-sided-spectrum analytic signal to rounding, at half the cost.
+        x = np.asarray(w[a:a + block], dtype=float)
+        spec = np.fft.rfft(x)
+        spec[0] = spec[-1] = 0.0
+        spec *= -1j
+        z = np.hypot(x, np.fft.irfft(spec, block))
+        hi = n if last else a + block - margin
+        amp[kept:hi] = z[kept - a:hi - a]
+        kept = hi
         a += step
     return np.asarray(_core.moving_average(amp, max(1, int(round(float(window) / dt)))))

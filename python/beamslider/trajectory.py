@@ -1,14 +1,15 @@
 """Recorded trajectories (docs/model.md §7): the size of a run's recorded arrays and the memory
-bound checked before a run, the streamed files (``.npz`` / CSV) and their lazy reading. Used by
-:func:`beamslider.simulate`; :func:`read_trajectory` reads files of the CLI too."""
+bound checked before a run, the streamed files (``.npz`` / CSV / Parquet) and their lazy reading.
+Used by :func:`beamslider.simulate`; :func:`read_trajectory` reads files of the CLI too."""
 
 from __future__ import annotations
 
+import contextlib
 import os
 import warnings
 import zipfile
 from pathlib import Path
-from typing import Any, Dict, Optional, Union
+from typing import Any, Dict, Iterator, Mapping, Optional, Union
 
 import numpy as np
 
@@ -19,6 +20,33 @@ COLUMNS = ("t_s", "w_4L7_m", "s", "xC_m", "zC_m", "beta_rad")
 
 MEMORY_FRACTION = 0.5
 """Default ``max_memory`` of :func:`beamslider.simulate`: this fraction of the available memory."""
+
+FORMATS = (".npz", ".csv", ".parquet")
+"""Trajectory file formats, by extension."""
+
+CHUNK_ROWS = 1 << 18
+"""Rows per row group (and per chunk copied) of a Parquet trajectory: 12.6 MB of six float64 columns."""
+
+CSV_CHUNK_ROWS = 1 << 16
+"""Rows parsed at a time when a CSV trajectory is converted for reading (a few MB)."""
+
+PARQUET_HINT = 'pip install "beamslider[parquet]"'
+
+
+class ParquetDependencyError(ImportError):
+    """A Parquet file was asked for but pyarrow (the extra ``parquet``) is not installed."""
+
+
+def _pyarrow() -> Any:
+    try:
+        import pyarrow
+        import pyarrow.parquet  # noqa: F401
+    except ImportError as e:
+        raise ParquetDependencyError(
+            f"Parquet trajectories need pyarrow, which is not installed: {PARQUET_HINT} (or pip install pyarrow)"
+        ) from e
+    return pyarrow
+
 
 MAX_INT = 2**63 - 1
 """Largest integer argument the core takes (counts such as ``record_every``)."""
@@ -95,11 +123,12 @@ def _check_out(out: Any, overwrite: bool) -> Optional[Path]:
     if out is None:
         return None
     if not isinstance(out, (str, os.PathLike)):
-        raise ValueError(f"invalid parameter `out` = {out!r}: give a file name ending in .npz or .csv")
+        raise ValueError(f"invalid parameter `out` = {out!r}: give a file name ending in .npz, .csv or .parquet")
     target = Path(out)
-    if target.suffix.lower() not in (".npz", ".csv"):
-        raise ValueError(f"invalid parameter `out` = {str(out)!r}: the file name must end in .npz or .csv "
-                         "(parquet is not supported)")
+    if target.suffix.lower() not in FORMATS:
+        raise ValueError(f"invalid parameter `out` = {str(out)!r}: the file name must end in .npz, .csv or .parquet")
+    if target.suffix.lower() == ".parquet":
+        _pyarrow()
     if target.exists() and not overwrite:
         raise ValueError(f"invalid parameter `out` = {str(out)!r}: the file exists (pass overwrite=True to replace it)")
     if not target.parent.is_dir():
@@ -126,43 +155,149 @@ def _check_memory(t_end: float, dt: float, record_every: int, max_memory: Option
             "shorten t_end")
 
 
-def read_trajectory(path: Union[str, "os.PathLike[str]"]) -> Dict[str, np.ndarray]:
+def read_trajectory(path: Union[str, "os.PathLike[str]"]) -> Mapping[str, np.ndarray]:
     """The columns of a trajectory file written by :func:`simulate` (``out=``) or the CLI, by
-    channel name (``t_s``, ``w_4L7_m``, ...). An ``.npz`` is memory-mapped (nothing is read until
-    used; the members are stored uncompressed); a CSV is read into memory."""
+    channel name (``t_s``, ``w_4L7_m``, ...), read lazily at bounded memory: an ``.npz`` is
+    memory-mapped (nothing is read until used; the members are stored uncompressed); a
+    ``.parquet`` file is read one column at a time when that column is first used (needs
+    pyarrow); a CSV is converted on first use, ``CSV_CHUNK_ROWS`` rows at a time, into anonymous
+    temporary files (one per column) that are then memory-mapped."""
     path = Path(path)
-    if path.suffix.lower() == ".npz":
+    suffix = path.suffix.lower()
+    if suffix == ".npz":
         return _npz_memmap(path)
-    try:
-        with open(path, "r", encoding="utf-8") as f:
-            header = f.readline().strip().split(",")
-    except UnicodeDecodeError:
-        raise ValueError(f"{path}: not a text CSV file (not UTF-8)") from None
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
+    if suffix == ".parquet":
+        return _ParquetColumns(path)
+    return _CsvColumns(path)
+
+
+class _LazyColumns(Mapping):
+    """Columns by name, each read when first used and kept."""
+
+    def __init__(self, path: Path, names: list) -> None:
+        self.path = path
+        self._names = names
+        self._cols: Dict[str, np.ndarray] = {}
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._names)
+
+    def __len__(self) -> int:
+        return len(self._names)
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        if name not in self._names:
+            raise KeyError(name)
+        if name not in self._cols:
+            self._load(name)
+        return self._cols[name]
+
+    def _load(self, name: str) -> None:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def __repr__(self) -> str:
+        return f"<trajectory columns {', '.join(self._names)} of {self.path} (read on use)>"
+
+
+class _ParquetColumns(_LazyColumns):
+    def __init__(self, path: Path) -> None:
+        _pyarrow()
+        import pyarrow.parquet as pq
+
         try:
-            data = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2, encoding="utf-8")
-        except (ValueError, UnicodeDecodeError) as e:
-            raise ValueError(f"{path}: {e}") from None
-    if data.size and data.shape[1] != len(header):
-        raise ValueError(f"{path}: rows of {data.shape[1]} values under a header of {len(header)} columns")
-    return {n: (data[:, i] if data.size else np.empty(0)) for i, n in enumerate(header)}
+            self._file = pq.ParquetFile(path)
+        except Exception as e:  # pyarrow raises its own error types
+            raise ValueError(f"{path}: not a readable Parquet file ({e})") from None
+        super().__init__(path, list(self._file.schema_arrow.names))
+
+    def _load(self, name: str) -> None:
+        col = self._file.read(columns=[name]).column(0)
+        self._cols[name] = col.to_numpy()
 
 
-def _npz_memmap(path: Path) -> Dict[str, np.ndarray]:
-    out: Dict[str, np.ndarray] = {}
+class _CsvColumns(_LazyColumns):
+    def __init__(self, path: Path) -> None:
+        try:
+            with open(path, "r", encoding="utf-8") as f:
+                header = f.readline().strip().split(",")
+        except UnicodeDecodeError:
+            raise ValueError(f"{path}: not a text CSV file (not UTF-8)") from None
+        super().__init__(path, header)
+
+    def _load(self, name: str) -> None:
+        # All columns in one pass, CSV_CHUNK_ROWS rows at a time, each appended to its own anonymous
+        # temporary file; then memory-mapped (bounded memory, one parse of the file).
+        import itertools
+        import tempfile
+
+        files = [tempfile.TemporaryFile() for _ in self._names]
+        rows = 0
+        try:
+            with open(self.path, "r", encoding="utf-8") as f, warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                f.readline()
+                while True:
+                    lines = list(itertools.islice(f, CSV_CHUNK_ROWS))
+                    if not lines:
+                        break
+                    block = np.loadtxt(lines, delimiter=",", ndmin=2, dtype=np.float64)
+                    if block.size and block.shape[1] != len(self._names):
+                        raise ValueError(f"{self.path}: rows of {block.shape[1]} values under a header of "
+                                         f"{len(self._names)} columns")
+                    for i, tf in enumerate(files):
+                        tf.write(np.ascontiguousarray(block[:, i]).tobytes())
+                    rows += block.shape[0]
+        except UnicodeDecodeError:
+            raise ValueError(f"{self.path}: not a text CSV file (not UTF-8)") from None
+        except ValueError as e:
+            raise ValueError(e if str(e).startswith(str(self.path)) else f"{self.path}: {e}") from None
+        for n, tf in zip(self._names, files):
+            tf.flush()
+            self._cols[n] = np.memmap(tf, dtype=np.float64, mode="r", shape=(rows,)) if rows else np.empty(0)
+            tf.close()  # the mapping keeps the (unlinked) file alive
+
+
+def write_parquet_from_npz(npz: Path, target: Path) -> None:
+    """Copy the columns of a streamed ``.npz`` into a Parquet file, ``CHUNK_ROWS`` rows (one row
+    group) at a time, read with plain reads (not memory-mapped: bounded resident memory).
+    Written under a temporary name and renamed when complete."""
+    pa = _pyarrow()
+    import pyarrow.parquet as pq
+
+    members = _npz_members(npz)
+    names = list(members)
+    n = members[names[0]][1][0] if names else 0
+    tmp = target.with_name(f".{target.name}.partial-{os.getpid()}")
+    schema = pa.schema([(c, pa.float64()) for c in names])
+    try:
+        with open(npz, "rb") as raw, pq.ParquetWriter(tmp, schema, compression="snappy",
+                                                       use_dictionary=False, write_statistics=False) as w:
+            for a in range(0, max(n, 1), CHUNK_ROWS):
+                m = min(CHUNK_ROWS, n - a)
+                arrays = []
+                for c in names:
+                    offset, _shape, dtype = members[c]
+                    raw.seek(offset + a * dtype.itemsize)
+                    arrays.append(pa.array(np.fromfile(raw, dtype=dtype, count=m)))
+                w.write_table(pa.Table.from_arrays(arrays, schema=schema), row_group_size=CHUNK_ROWS)
+        os.replace(tmp, target)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            os.remove(tmp)
+        raise
+
+
+def _npz_members(path: Path) -> Dict[str, Any]:
+    """The ``.npy`` members of an uncompressed ``.npz``: name → (data offset in the file, shape,
+    dtype). Compressed members are not listed."""
+    out: Dict[str, Any] = {}
     try:
         zf = zipfile.ZipFile(path)
     except (zipfile.BadZipFile, OSError) as e:
         raise ValueError(f"{path}: not a readable .npz file ({e})") from None
     with zf, open(path, "rb") as raw:
         for info in zf.infolist():
-            if not info.filename.endswith(".npy"):
-                continue
-            name = info.filename[:-4]
-            if info.compress_type != zipfile.ZIP_STORED:
-                with zf.open(info) as m:
-                    out[name] = np.lib.format.read_array(m)
+            if not info.filename.endswith(".npy") or info.compress_type != zipfile.ZIP_STORED:
                 continue
             raw.seek(info.header_offset)
             local = raw.read(30)
@@ -173,7 +308,24 @@ def _npz_memmap(path: Path) -> Dict[str, np.ndarray]:
             shape, fortran, dtype = read_header(raw)
             if fortran or dtype.hasobject:
                 raise ValueError(f"{path}: member {info.filename} is not a plain array")
+            out[info.filename[:-4]] = (raw.tell(), shape, dtype)
+    return out
+
+
+def _npz_memmap(path: Path) -> Dict[str, np.ndarray]:
+    out: Dict[str, np.ndarray] = {}
+    stored = _npz_members(path)
+    with zipfile.ZipFile(path) as zf:
+        for info in zf.infolist():
+            name = info.filename[:-4]
+            if not info.filename.endswith(".npy"):
+                continue
+            if name not in stored:  # compressed: read it
+                with zf.open(info) as m:
+                    out[name] = np.lib.format.read_array(m)
+                continue
+            offset, shape, dtype = stored[name]
             n = int(np.prod(shape))
-            out[name] = (np.memmap(path, dtype=dtype, mode="r", offset=raw.tell(), shape=shape) if n
+            out[name] = (np.memmap(path, dtype=dtype, mode="r", offset=offset, shape=shape) if n
                          else np.empty(shape, dtype=dtype))
     return out

@@ -12,7 +12,8 @@ status, never a traceback.
 
 Layout (imports run one way only: this file → subcommand modules → shared helpers):
 
-- one module per subcommand, each with ``add_parser(sub)`` and its ``cmd_*`` function:
+- one module per subcommand (imported only when its command is run, see ``COMMANDS``), each with
+  ``add_parser(sub)`` and its ``cmd_*`` function:
   :mod:`.simulate`, :mod:`.manifold`, :mod:`.compare`, :mod:`.plot`, :mod:`.map`, :mod:`.enma`,
   :mod:`.hb_manifold`, :mod:`.predict` (``drift-table`` and ``predict``), :mod:`.discover` (``discover`` and ``synthesize``), :mod:`.study`;
 - shared helpers: :mod:`._common` (errors, exit codes, common options, output planning, ranges),
@@ -28,15 +29,28 @@ from typing import Optional, Sequence
 
 from .. import _core
 from .._mpl import PlotDependencyError
-from . import compare, discover, enma, hb_manifold, manifold, map, plot, predict, simulate, study
+from ..trajectory import ParquetDependencyError
 from ._common import (DEFAULT_OUT, EXIT_ERROR, EXIT_FAULT, EXIT_INTERRUPTED, MAX_GRID, UserError, one_line,
                       write_json)
 from ._files import (DEFAULT_MANIFOLD_RECORD, MANIFOLD_HEADER, manifold_file_stem, manifold_stem,
                      read_manifold_csv, read_simulation_csv, run_stem, simulation_stem, simulation_summary,
                      write_manifold_csv, write_simulation_csv)
 
-SUBCOMMANDS = (simulate, manifold, compare, map, plot, enma, hb_manifold, predict, discover, study)
+SUBCOMMAND_MODULES = ("simulate", "manifold", "compare", "map", "plot", "enma", "hb_manifold", "predict", "discover",
+                      "study")
 """The subcommand modules in the order ``beamslider --help`` lists them."""
+
+COMMANDS = {"simulate": "simulate", "manifold": "manifold", "compare": "compare", "map": "map", "plot": "plot",
+            "enma": "enma", "hb-manifold": "hb_manifold", "drift-table": "predict", "predict": "predict",
+            "discover": "discover", "synthesize": "discover", "study": "study"}
+"""Each command and the module that registers it: ``beamslider simulate ...`` imports only
+``cli/simulate.py`` and what it needs (no discover, maps, Dask, ...; tests/test_scale.py)."""
+
+
+def _module(name: str):
+    import importlib
+
+    return importlib.import_module(f".{name}", __name__)
 
 __all__ = [
     "DEFAULT_MANIFOLD_RECORD", "DEFAULT_OUT", "EXIT_ERROR", "EXIT_FAULT", "EXIT_INTERRUPTED", "MANIFOLD_HEADER",
@@ -46,8 +60,9 @@ __all__ = [
 ]
 
 
-def build_parser() -> argparse.ArgumentParser:
-    """The argument parser of the ``beamslider`` command (every subcommand registered)."""
+def build_parser(command: Optional[str] = None) -> argparse.ArgumentParser:
+    """The argument parser of the ``beamslider`` command: every subcommand registered, or only
+    ``command``'s module when it names one (quicker start: the others are not imported)."""
     ap = argparse.ArgumentParser(
         prog="beamslider",
         description="Self-adaptive beam-slider system (Müller, Beck & Krack, MSSP 2023): simulations, "
@@ -56,14 +71,16 @@ def build_parser() -> argparse.ArgumentParser:
     ap.add_argument("--version", action="version", version="beamslider 0.1.0")
     sub = ap.add_subparsers(dest="command", metavar="COMMAND")
     sub.required = True
-    for module in SUBCOMMANDS:
-        module.add_parser(sub)
+    names = (COMMANDS[command],) if command in COMMANDS else SUBCOMMAND_MODULES
+    for name in names:
+        _module(name).add_parser(sub)
     return ap
 
 
 def main(argv: Optional[Sequence[str]] = None) -> int:
     """Entry point of the ``beamslider`` console script."""
-    args = build_parser().parse_args(argv)
+    words = list(sys.argv[1:] if argv is None else argv)
+    args = build_parser(words[0] if words else None).parse_args(words)
     warnings.simplefilter("ignore", RuntimeWarning)  # run faults are reported by the commands
     try:
         return args.func(args)
@@ -73,7 +90,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     except (UserError, ValueError, OverflowError, _core.SimulationError) as e:
         print(f"beamslider: error: {one_line(e)}", file=sys.stderr)
         return EXIT_ERROR
-    except PlotDependencyError as e:
+    except (PlotDependencyError, ParquetDependencyError) as e:
         print(f"beamslider: error: {e}", file=sys.stderr)
         return EXIT_ERROR
     except OSError as e:

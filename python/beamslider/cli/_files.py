@@ -68,12 +68,12 @@ def write_simulation_csv(path: Path, result: SimulationResult) -> None:
 
 
 def read_simulation_csv(path: Path) -> Dict[str, np.ndarray]:
-    """The columns of a trajectory file (.npz memory-mapped, or CSV); a UserError naming the file
-    when it is not one."""
+    """The columns of a trajectory file (.npz memory-mapped, .parquet read by column, or CSV); a
+    UserError naming the file when it is not one."""
     need = ["t_s", "w_4L7_m", "s", "xC_m", "zC_m", "beta_rad"]
     if not path.exists():
         raise UserError(f"{path}: no such file")
-    if path.suffix == ".npz":
+    if path.suffix in (".npz", ".parquet"):
         from ..simulate import read_trajectory
 
         try:

@@ -64,9 +64,10 @@ def check_manifold_args(args: argparse.Namespace) -> None:
                         f"({args.manifold_periods})")
 
 
-def run_manifold(args: argparse.Namespace, p: Parameters, f_ex: float, a_ex: float) -> ManifoldResult:
-    """Compute the manifold of the command line and write its CSV into --out."""
+def run_manifold(args: argparse.Namespace, p: Parameters, f_ex: float, a_ex: float, stop=None) -> ManifoldResult:
+    """Compute the manifold of the command line and write its CSV into --out (``stop``: a
+    ``threading.Event`` that stops a manifold run in a background thread)."""
     m = super_slow_manifold(p, f_ex=f_ex, a_ex=a_ex, s=grid(args), periods=args.manifold_periods,
-                            record=args.manifold_record, progress=args.progress)
+                            record=args.manifold_record, progress=args.progress, _stop=stop)
     write_manifold_csv(out_dir(args) / f"{manifold_name(args, f_ex, a_ex)}.csv", m)
     return m

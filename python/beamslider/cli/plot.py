@@ -56,9 +56,9 @@ def cmd_plot(args: argparse.Namespace) -> int:
             csv_path = path.with_name(meta["data"])
         elif meta.get("kind") == "compare":
             csv_path = path.with_name(f"{path.stem}_model.csv")
-        elif path.suffix == ".npz":
+        elif path.suffix in (".npz", ".parquet"):
             csv_path = path
-        if csv_path.suffix == ".npz" and not meta:
+        if csv_path.suffix in (".npz", ".parquet") and not meta:
             raise UserError(f"{path}: no summary {json_path.name} beside it: cannot tell whether the run finished")
         p = Parameters.from_toml_text(meta["params_toml"]) if "params_toml" in meta else Parameters()
         cols = read_simulation_csv(csv_path)

@@ -1,11 +1,12 @@
 """``beamslider simulate``: one operating point (default: the signature move, 124 Hz, 14 m/s², s₀ = 0.3,
-60 s) streamed to NPZ (or CSV) + JSON + the three-panel figure, with the PCS manifold overlaid."""
+60 s) streamed to NPZ (or CSV, Parquet) + JSON + the three-panel figure, with the PCS manifold overlaid."""
 
 from __future__ import annotations
 
 import argparse
+import threading
 import time
-from typing import Any
+from typing import Any, Callable, Optional
 
 from ..simulate import simulate
 from ._common import figure, out_dir, params_from_args, plan_outputs, positive, report, write_json_atomic
@@ -17,23 +18,67 @@ def add_parser(sub: Any) -> None:
     """Register ``beamslider simulate``."""
     sp = sub.add_parser("simulate", help="run one operating point and plot it (default: the signature move)",
                         description="Run one operating point (default: 124 Hz, 14 m/s², s0 = 0.3, 60 s) and "
-                                    "write <stem>.npz (or .csv), <stem>.json and the three-panel figure <stem>.png.")
+                                    "write <stem>.npz (or .csv, .parquet), <stem>.json and the three-panel figure <stem>.png.")
     add_operating_point(sp)
     sp.add_argument("--s0", type=float, default=0.3, help="initial slider position x/L (0.3)")
     sp.add_argument("--t-end", type=positive(float), default=60.0, metavar="S", help="simulated time [s] (60)")
     sp.add_argument("--model", choices=["fs", "pcs", "beam"], default="fs",
                     help="free slider, pseudo-constrained slider or beam only (fs)")
     sp.add_argument("--s-pcs", type=float, metavar="S", help="slider position of the PCS model (default s0)")
-    sp.add_argument("--format", choices=["npz", "csv"], default="npz",
-                    help="trajectory file: npz (NumPy, default; np.load or beamslider.read_trajectory) or csv "
-                         "(shortest round-trip numbers); streamed to disk as the run goes")
+    sp.add_argument("--format", choices=["npz", "csv", "parquet"], default="npz",
+                    help="trajectory file: npz (NumPy, default; np.load or beamslider.read_trajectory), csv "
+                         "(shortest round-trip numbers) or parquet (needs pip install \"beamslider[parquet]\"); "
+                         "streamed to disk as the run goes")
     add_run_options(sp)
     sp.set_defaults(func=cmd_simulate)
 
 
-def cmd_simulate(args: argparse.Namespace) -> int:
-    from ..plotting import plot_operating_point
+class _Background:
+    """``fn(*args, stop=event)`` in a thread; :meth:`result` waits (Ctrl-C stays responsive) and
+    re-raises its exception, :meth:`cancel` sets the event and waits for the thread to stop."""
 
+    def __init__(self, fn: Callable[..., Any], *args: Any) -> None:
+        self.stop = threading.Event()
+        self._value: Any = None
+        self._error: Optional[BaseException] = None
+
+        def run() -> None:
+            try:
+                self._value = fn(*args, stop=self.stop)
+            except BaseException as e:  # handed to the main thread
+                self._error = e
+
+        self._thread = threading.Thread(target=run, name="beamslider-background")
+        self._thread.start()
+
+    def result(self) -> Any:
+        try:
+            while self._thread.is_alive():
+                self._thread.join(0.1)
+        except BaseException:
+            self.cancel()
+            raise
+        if self._error is not None:
+            raise self._error
+        return self._value
+
+    def cancel(self) -> None:
+        self.stop.set()
+        self._thread.join()
+
+
+def _preload_figure(stop: threading.Event) -> None:
+    """Import matplotlib and the figure module (about a second) while the core runs."""
+    try:
+        import matplotlib.backends.backend_agg  # noqa: F401
+        import matplotlib.figure  # noqa: F401
+
+        from .. import plotting  # noqa: F401
+    except ImportError:
+        pass  # reported when the figure is drawn
+
+
+def cmd_simulate(args: argparse.Namespace) -> int:
     p = params_from_args(args)
     stem = run_stem(args.model, args.f_ex, args.a_ex, args.s0, args.s_pcs)
     with_manifold = args.manifold and args.model != "beam"
@@ -43,6 +88,10 @@ def cmd_simulate(args: argparse.Namespace) -> int:
              record_every=args.record_every, _check_only=True)
     if with_manifold:
         check_manifold_args(args)
+    if args.format == "parquet":
+        from ..trajectory import _pyarrow
+
+        _pyarrow()  # the extra named before anything is written
     data_name = f"{stem}.{args.format}"
     plan_outputs(args, [data_name, f"{stem}.json", f"{stem}.png"] + ([man_name] if man_name else []))
     out = out_dir(args)
@@ -52,21 +101,33 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         "kind": "simulation", "data": data_name, "format": args.format, "complete": False, "model": args.model,
         "f_ex_hz": args.f_ex, "a_ex_m_s2": args.a_ex, "s0": args.s0, "t_end_s": args.t_end,
         "record_every": args.record_every, "params_toml": p.toml_text()})
+    # While the core runs (interpreter released) the manifold runs on the other core and
+    # matplotlib is imported: the three overlap on a multi-core machine.
+    preload = _Background(_preload_figure)
+    background = _Background(run_manifold, args, p, args.f_ex, args.a_ex) if with_manifold else None
     t0 = time.perf_counter()
-    # The trajectory streams from the core to disk (temporary name, renamed when complete).
-    result = simulate(p, f_ex=args.f_ex, a_ex=args.a_ex, s0=args.s0, t_end=args.t_end, model=args.model,
-                      s_pcs=args.s_pcs, record_every=args.record_every, progress=args.progress,
-                      out=written[0], overwrite=True)
-    wall = time.perf_counter() - t0
-    manifold = None
-    summary = simulation_summary(result, t_end=args.t_end, record_every=args.record_every, wall_s=wall,
-                                 window=args.window)
+    try:
+        # The trajectory streams from the core to disk (temporary name, renamed when complete).
+        result = simulate(p, f_ex=args.f_ex, a_ex=args.a_ex, s0=args.s0, t_end=args.t_end, model=args.model,
+                          s_pcs=args.s_pcs, record_every=args.record_every, progress=args.progress,
+                          out=written[0], overwrite=True)
+        wall = time.perf_counter() - t0
+        summary = simulation_summary(result, t_end=args.t_end, record_every=args.record_every, wall_s=wall,
+                                     window=args.window)
+    except BaseException:
+        if background is not None:
+            background.cancel()
+        raise
     summary.update({"data": data_name, "format": args.format, "complete": True})
-    if with_manifold:
-        manifold = run_manifold(args, p, args.f_ex, args.a_ex)
+    manifold = None
+    if background is not None:
+        manifold = background.result()
         summary["manifold_csv"] = man_name
         written.insert(2, out / man_name)
     write_json_atomic(written[1], summary)
+    preload.result()
+    from ..plotting import plot_operating_point
+
     if not figure(plot_operating_point, result, manifold=manifold, window=args.window, path=written[-1]):
         written.pop()
     print(f"{result.model.upper()} {args.f_ex:g} Hz, {args.a_ex:g} m/s², {args.t_end:g} s: {result.status}; "
