@@ -313,8 +313,9 @@ def fit_drift_law(tables: Sequence[DriftTable], *, params: Optional[Parameters] 
     return law
 
 
-def save_drift_law(law: DriftLaw, path: Union[str, os.PathLike]) -> None:
-    """Write a fitted law as JSON (training samples included; read back by :func:`load_drift_law`)."""
+def law_json(law: DriftLaw) -> str:
+    """The law file's JSON text (what :func:`save_drift_law` writes; read by the core,
+    ``beamslider-batch map --predictor``)."""
     d = {
         "kind": "beamslider drift law", "version": 1, "features": list(FEATURES), "k": law.k,
         "x": {b: law.x[b].tolist() for b in law.x}, "v": {b: law.v[b].tolist() for b in law.v},
@@ -323,13 +324,22 @@ def save_drift_law(law: DriftLaw, path: Union[str, os.PathLike]) -> None:
         "loo_per_point": law.loo_per_point, "fit_time_s": law.fit_time_s,
         "x_exist": law.x_exist.tolist(), "y_exist": law.y_exist.tolist(), "g_exist": law.g_exist.tolist(), "loo_s_dn": law.loo_s_dn,
     }
-    Path(path).write_text(json.dumps(d), encoding="utf-8")
+    return json.dumps(d)
+
+
+def save_drift_law(law: DriftLaw, path: Union[str, os.PathLike]) -> None:
+    """Write a fitted law as JSON (training samples included; read back by :func:`load_drift_law`
+    and by the core: ``beamslider-batch map --predictor``)."""
+    Path(path).write_text(law_json(law), encoding="utf-8")
 
 
 def load_drift_law(path: Union[str, os.PathLike]) -> DriftLaw:
-    """Read a law written by :func:`save_drift_law`."""
-    d = json.loads(Path(path).read_text(encoding="utf-8"))
-    if d.get("kind") != "beamslider drift law":
+    """Read a law written by :func:`save_drift_law` (ValueError for a file that is not one)."""
+    try:
+        d = json.loads(Path(path).read_text(encoding="utf-8"))
+    except json.JSONDecodeError as e:
+        raise ValueError(f"invalid parameter `law`: {path} is not a beamslider drift law file ({e})") from None
+    if not isinstance(d, dict) or d.get("kind") != "beamslider drift law":
         raise ValueError(f"invalid parameter `law`: {path} is not a beamslider drift law file")
     if list(d.get("features", [])) != list(FEATURES):
         raise ValueError(f"invalid parameter `law`: {path} uses the features {d.get('features')}, this version {list(FEATURES)}")

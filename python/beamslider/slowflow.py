@@ -36,7 +36,7 @@ from . import _core
 from .params import Parameters, resolve
 from .simulate import _number
 from .drift_law import (FEATURES, DriftLaw, _manifold_for, _modes, features, fit_drift_law,  # noqa: F401
-                        load_drift_law, save_drift_law)
+                        law_json, load_drift_law, save_drift_law)
 from .drift_pcs import DriftTable, drift_table, read_drift_table  # noqa: F401
 
 __all__ = [
@@ -289,26 +289,55 @@ def predicted_map(
     t_end: float = 120.0,
     s_dn: str = "hb",
     d_eff: Optional[float] = None,
+    n_modes: int = 5,
     out: Union[str, os.PathLike, None] = None,
     force: bool = False,
+    resume: bool = False,
+    threads: Optional[int] = None,
 ) -> List[dict]:
     """An operating map by the reduced predictor (issue 17 §4.4) with a fitted law (b2): one row per
     (f_ex, a_ex) in the results format of the FS maps (``map.jsonl`` version 2; ``status`` is
-    ``predicted``, counters are zero, no end state). With ``out`` (a folder) the rows are written
-    to ``out/map.jsonl`` (refused if it exists unless ``force``) and read back by
-    :func:`beamslider.read_map`."""
+    ``predicted``, counters are zero, no end state; extra keys ``events``, ``extrapolated``,
+    ``s_dn_source``).
+
+    The default (``s_dn='hb'``) is computed by the core (manifold, law, slow flow and classifier
+    in Rust, ``threads`` threads, the interpreter released, Ctrl-C stops it) and written by the
+    core's map results writer, as ``beamslider-batch map --predictor``: with ``out`` (a folder) the
+    rows go to ``out/map.jsonl`` with the predictor in its header; an existing file is refused
+    (``FileExistsError``) unless ``force`` (replaced) or ``resume`` (its points are kept; it must
+    hold the same law and settings). ``s_dn='law'`` or ``'none'`` are evaluated in Python
+    (:func:`predict`) and cannot be written (``out`` must be None)."""
+    from .maps import map_config_toml
+
     p = resolve(params)
+    if s_dn not in ("hb", "law", "none"):
+        raise ValueError(f"invalid parameter `s_dn` = {s_dn!r}: one of 'hb', 'law', 'none'")
+    if not isinstance(drift, DriftLaw):
+        raise ValueError("invalid parameter `drift`: a fitted DriftLaw (fit_drift_law / load_drift_law)")
+    if s_dn != "hb":
+        if out is not None:
+            raise ValueError(f"invalid parameter `out`: a map with s_dn={s_dn!r} is evaluated in Python and not written (the core writes s_dn='hb')")
+        return _predicted_rows_python(p, drift, f_ex, a_ex, s0, t_end, s_dn, d_eff, n_modes)
     path = None
     if out is not None:
         path = Path(out) / "map.jsonl"
-        if path.exists() and not force:
-            raise FileExistsError(f"{path} exists: pass force=True to overwrite")
+        if path.exists() and not (force or resume):
+            raise FileExistsError(f"{path} exists: pass force=True to overwrite or resume=True to continue it")
+        if path.exists() and force and not resume:
+            path.unlink()
+    cfg = map_config_toml(p, f_ex=[float(v) for v in f_ex], a_ex=[float(v) for v in a_ex], s0=float(s0), t_end=float(t_end))
+    rows = _core.predicted_map(cfg, law_json(drift), out=None if path is None else str(path), resume=bool(resume),
+                               threads=threads, n_modes=int(n_modes), d_eff=d_eff)
+    return [json.loads(r) for r in rows]
+
+
+def _predicted_rows_python(p, drift, f_ex, a_ex, s0, t_end, s_dn, d_eff, n_modes) -> List[dict]:
     rows = []
     k = 0
     for a in a_ex:
         for f in f_ex:
             t0 = time.perf_counter()
-            r = predict(p, f_ex=float(f), a_ex=float(a), s0=s0, t_end=t_end, drift=drift, s_dn=s_dn, d_eff=d_eff)
+            r = predict(p, f_ex=float(f), a_ex=float(a), s0=s0, t_end=t_end, drift=drift, s_dn=s_dn, d_eff=d_eff, n_modes=n_modes)
             wall = time.perf_counter() - t0
             c = dict(r.classification)
             row = {"index": k, "f_ex_hz": float(f), "a_ex_m_s2": float(a), "s0": float(s0), "t_end_s": float(t_end),
@@ -326,17 +355,4 @@ def predicted_map(
                     row[key] = None
             rows.append(row)
             k += 1
-    if path is not None:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        try:
-            import tomllib
-        except ImportError:  # Python < 3.11
-            import tomli as tomllib
-
-        criteria = tomllib.loads(_core.default_map_config()).get("criteria", {})
-        settings = {"params_toml": p.toml_text(), "duration_s": float(t_end), "record_every": 1, "criteria": criteria}
-        with open(path, "w", encoding="utf-8") as fh:
-            fh.write(json.dumps({"beamslider_map": 2, "settings": settings, "predictor": {"law_points": [list(q) for q in drift.points], "s_dn": s_dn, "d_eff": d_eff}}) + "\n")
-            for row in rows:
-                fh.write(json.dumps(row) + "\n")
     return rows
