@@ -205,12 +205,21 @@ def test_core_evaluates_the_law_as_python(tmp_path):
         for key in ("lift_off", "slope_gap", "f_slope", "ds_res", "amp_rel", "amplitude"):
             scale = float(np.max(np.abs(f_py[key])))
             np.testing.assert_allclose(f_rs[key], f_py[key], rtol=1e-4, atol=1e-5 * scale, err_msg=f"{br} {key}")
-    for f_, a_, s0 in ((124, 14, 0.3), (106, 10, 0.4), (126, 10, 0.3)):
-        r_py = predict(f_ex=f_, a_ex=a_, s0=s0, drift=law)
-        r_rs = json.loads(_core.predict_point(p.toml_text(), text, f_ex_hz=float(f_), a_ex_m_s2=float(a_), s0=s0))
-        assert r_rs["behaviour"] == r_py.behaviour
-        assert r_rs["s_final"] == pytest.approx(r_py.classification["s_final"], abs=1e-3)
-        assert r_rs["extrapolated"] == r_py.extrapolated
+    shifted = _realistic_law()
+    shifted.s_up_shift = -0.015  # the learnt s_up correction moves the low branch's fold
+    for lw in (law, shifted):
+        text = law_json(lw)
+        for f_, a_, s0 in ((124, 14, 0.3), (106, 10, 0.4), (126, 10, 0.3), (114, 14, 0.3)):
+            r_py = predict(f_ex=f_, a_ex=a_, s0=s0, drift=lw)
+            r_rs = json.loads(_core.predict_point(p.toml_text(), text, f_ex_hz=float(f_), a_ex_m_s2=float(a_), s0=s0))
+            assert r_rs["behaviour"] == r_py.behaviour, (f_, a_, s0, lw.s_up_shift)
+            assert r_rs["s_final"] == pytest.approx(r_py.classification["s_final"], abs=1e-3)
+            assert r_rs["extrapolated"] == r_py.extrapolated
+            ups_py = [e[2] for e in r_py.events if e[0] == "jump_up"]
+            ups_rs = [e[2] for e in r_rs["events"] if e[0] == "jump_up"]
+            assert ups_rs == pytest.approx(ups_py, abs=1e-6)
+    r = predict(f_ex=124, a_ex=14, drift=shifted)
+    assert r.s_up == pytest.approx(hb_manifold(f_ex=124, a_ex=14).s_up - 0.015, abs=1e-3)
 
 
 def test_predicted_map_written_by_the_core(tmp_path):

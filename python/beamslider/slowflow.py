@@ -99,6 +99,19 @@ class Prediction:
     s0: float = 0.3
 
 
+def _stretch_low(s: np.ndarray, s_up: Optional[float], shift: float, lo: float) -> np.ndarray:
+    """The low branch's nodes with its fold moved from s_up to s_up + shift (the learnt s_up
+    correction of the b2 law): s' = z − (z − s)(z − s_up')/(z − s_up), z = the branch's upper end;
+    Â and V stay those of the HB node s."""
+    if s_up is None or shift == 0.0 or s.size < 2:
+        return s
+    z = float(s[-1])
+    target = max(s_up + shift, lo)
+    if not (z > s_up and z > target):
+        return s
+    return z - (z - s) * (z - target) / (z - s_up)
+
+
 def slow_model(manifold, drift, *, s_dn: str = "hb", nodes: int = 121):
     """Nodes of the reduced model: each branch of ``manifold`` sampled at up to ``nodes`` points
     (plus its ends) in the half coordinate, with Â and V there.
@@ -150,6 +163,12 @@ def slow_model(manifold, drift, *, s_dn: str = "hb", nodes: int = 121):
                 info["extrapolated"] = True
             info["features"][br] = {"s": s, **f}
         out[br] = ([float(x) for x in s], [float(x) for x in amp], [float(x) for x in v])
+    shift = float(getattr(drift, "s_up_shift", 0.0) or 0.0) if isinstance(drift, DriftLaw) else 0.0
+    if shift and s_up is not None and out["L"][0]:
+        s_l = _stretch_low(np.asarray(out["L"][0]), s_up, shift, float(lo_all))
+        out["L"] = ([float(x) for x in s_l], out["L"][1], out["L"][2])
+        info["s_up"] = float(s_l[0])
+        info["s_up_hb"] = s_up
     high_fold = s_dn_v is not None and len(out["H"][0]) > 0
     return out["L"], out["H"], s_up is not None, high_fold, info
 

@@ -55,6 +55,8 @@ struct LawFile {
     hi: Vec<f64>,
     #[serde(default)]
     points: Vec<Vec<f64>>,
+    #[serde(default)]
+    s_up_shift: f64,
 }
 
 /// Training samples of one branch.
@@ -85,6 +87,9 @@ pub struct DriftLaw {
     pub hi: [f64; NF],
     /// Training operating points (f_ex, a_ex).
     pub points: Vec<(f64, f64)>,
+    /// Learnt shift of the HB jump-up position (median of s_up(PCS) − s_up(HB) over the training
+    /// tables; 0: none): the low branch's fold is moved by it ([`slow_model`]).
+    pub s_up_shift: f64,
     /// Fingerprint of the samples (FNV-1a over the bits of k, the samples and the scaling):
     /// written to a predicted map's header and compared on resume.
     pub fingerprint: String,
@@ -120,8 +125,12 @@ impl DriftLaw {
         }
         let lo = arr("lo", &f.lo)?;
         let hi = arr("hi", &f.hi)?;
+        if !(f.s_up_shift.is_finite() && f.s_up_shift.abs() < 0.5) {
+            return Err(Error::invalid("law", "s_up_shift", "must be finite, |shift| < 0.5"));
+        }
         let mut hash = Fnv::new();
         hash.add(f.k as f64);
+        hash.add(f.s_up_shift);
         for x in mean.iter().chain(&std) {
             hash.add(*x);
         }
@@ -151,7 +160,7 @@ impl DriftLaw {
             return Err(Error::invalid("law", "samples", "the law has no training samples"));
         }
         let points = f.points.iter().filter(|p| p.len() == 2).map(|p| (p[0], p[1])).collect();
-        Ok(DriftLaw { k: f.k, low, high, mean, std, lo, hi, points, fingerprint: format!("{:016x}", hash.0) })
+        Ok(DriftLaw { k: f.k, low, high, mean, std, lo, hi, points, s_up_shift: f.s_up_shift, fingerprint: format!("{:016x}", hash.0) })
     }
 
     /// Read a law file.
@@ -393,6 +402,21 @@ pub fn slow_model(params: &Params, manifold: &HbManifold, law: &DriftLaw, f_ex_h
         if high {
             model.high = br;
         } else {
+            // The learnt s_up correction: the fold moves from s_up to s_up + shift, the branch
+            // stretched linearly towards its upper end z (Â and V those of the HB node):
+            // s′ = z − (z − s)(z − s_up′)/(z − s_up).
+            if let Some(su) = manifold.s_up
+                && law.s_up_shift != 0.0
+                && br.s.len() >= 2
+            {
+                let z = br.s[br.s.len() - 1];
+                let target = (su + law.s_up_shift).max(manifold.s_range.0);
+                if z > su && z > target {
+                    for x in br.s.iter_mut() {
+                        *x = z - (z - *x) * (z - target) / (z - su);
+                    }
+                }
+            }
             model.low = br;
         }
     }
