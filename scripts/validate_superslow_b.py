@@ -581,6 +581,28 @@ def stage_levers():
                 lines.append(f"{kind:>7} {sname:>10} {('%+.4f' % law.s_up_shift) if shift else 'off':>10} | {st:3d}/112 {100 * st / 112:5.1f}% {ph:3d}/112 {100 * ph / 112:5.1f}% | "
                              f"{np.median(errs):14.4f} {np.percentile(errs, 90):8.4f} {errs.size:4d} | {'—' if wall is None else f'{wall:.1f}':>15}")
                 print(lines[-1], flush=True)
+    # The dead band of V (|V| <= v_dead read as rest; Python path only), b1 and b2 (12 fine tables,
+    # s_up correction, training points in-sample here).
+    lines.append("")
+    lines.append("dead band of V (predict(v_dead=...)): strict/phase agreement, final-s median and 90th percentile over points steady in both")
+    b1t = {(f, a): read_drift_table(MAP_DRIFT / f"drift_{f:g}Hz_{a:g}ms2.jsonl") for f in f_ex for a in a_ex} if MAP_DRIFT.exists() else None
+    law = fit_drift_law(available_tables())
+
+    def row(r):
+        c = r.classification
+        return {"behaviour": r.behaviour, "reason": c["reason"], "s_final": c["s_final"], "steady": c["steady"]}
+
+    for vd in (0.0, 2e-4, 4e-4, 6e-4, 1e-3):
+        out = []
+        variants = [("b2+s_up (in-sample)", lambda f, a: predict(f_ex=f, a_ex=a, drift=law, v_dead=vd))]
+        if b1t is not None:
+            variants.insert(0, ("b1", lambda f, a: predict(f_ex=f, a_ex=a, drift=b1t[(f, a)], s_dn="table", v_dead=vd)))
+        for name, mk in variants:
+            rows = {(f, a): row(mk(f, a)) for f in f_ex for a in a_ex}
+            st, ph, e = _score(rows, ref, names)
+            out.append(f"{name} {st}/{ph} of 112, final s {np.median(e):.4f} / {np.percentile(e, 90):.4f} (n {e.size})")
+        lines.append(f"  v_dead {vd:.4f} 1/s: " + " | ".join(out))
+        print(lines[-1], flush=True)
     (OUT / "validation_c_levers.txt").write_text("\n".join(lines) + "\n", encoding="utf-8")
 
 

@@ -112,7 +112,15 @@ def _stretch_low(s: np.ndarray, s_up: Optional[float], shift: float, lo: float) 
     return z - (z - s) * (z - target) / (z - s_up)
 
 
-def slow_model(manifold, drift, *, s_dn: str = "hb", nodes: int = 121):
+def dead_band(v: np.ndarray, v_dead: float) -> np.ndarray:
+    """V with a dead band: V − clip(V, −v_dead, v_dead) (continuous; |V| ≤ v_dead is no drift).
+    A drift slower than the resolution of the PCS tables is read as rest, as the FS map's
+    settled rule reads a slider drifting less than 0.005 in 30 s (< 1.7e-4 1/s) as steady."""
+    v = np.asarray(v, dtype=float)
+    return v - np.clip(v, -v_dead, v_dead) if v_dead > 0 else v
+
+
+def slow_model(manifold, drift, *, s_dn: str = "hb", nodes: int = 121, v_dead: Optional[float] = None):
     """Nodes of the reduced model: each branch of ``manifold`` sampled at up to ``nodes`` points
     (plus its ends) in the half coordinate, with Â and V there.
 
@@ -121,8 +129,14 @@ def slow_model(manifold, drift, *, s_dn: str = "hb", nodes: int = 121):
     own jump-down (None with single-term HB unless d_eff ends the high branch); 'table' — the
     PCS sweep's jump-down of the drift table (b1 only); 'none'.
 
+    ``v_dead``: dead band of V [1/s] (:func:`dead_band`; None or 0: none). An option of this
+    Python path only (measured in docs/superslow/validation_c_levers.txt; not used by the core).
+
     Returns (low, high, low_ends_in_fold, high_ends_in_fold, info dict).
     """
+    v_dead = float(v_dead or 0.0)
+    if v_dead < 0 or not math.isfinite(v_dead):
+        raise ValueError(f"invalid parameter `v_dead` = {v_dead}: must be finite and >= 0")
     if s_dn not in ("hb", "table", "law", "none"):
         raise ValueError(f"invalid parameter `s_dn` = {s_dn!r}: one of 'hb', 'table', 'law', 'none'")
     lo_all, hi_all = manifold.s_range
@@ -162,6 +176,7 @@ def slow_model(manifold, drift, *, s_dn: str = "hb", nodes: int = 121):
             if np.any(outside & (f["lift_off"] >= 1.0)):
                 info["extrapolated"] = True
             info["features"][br] = {"s": s, **f}
+        v = dead_band(v, v_dead)
         out[br] = ([float(x) for x in s], [float(x) for x in amp], [float(x) for x in v])
     shift = float(getattr(drift, "s_up_shift", 0.0) or 0.0) if isinstance(drift, DriftLaw) else 0.0
     if shift and s_up is not None and out["L"][0]:
@@ -203,6 +218,7 @@ def predict(
     manifold=None,
     source: str = "hb",
     build_up: Union[str, float] = "auto",
+    v_dead: Optional[float] = None,
 ) -> Prediction:
     """Predict the behaviour of one operating point with the reduced super-slow model (issue 17).
 
@@ -228,6 +244,8 @@ def predict(
             and Â ramps up meanwhile. 'auto': three envelope time constants 3/(D Ω) of the
             first mode (D = d_eff or the parameters' damping ratio; 3.9 s at 124 Hz); 0: start on
             the manifold.
+        v_dead: dead band of V [1/s] (:func:`dead_band`; default none). Measured, not adopted:
+            see docs/superslow/validation_c_levers.txt.
 
     Returns:
         :class:`Prediction` with s(t), Â(t), the events, the classifier's behaviour and the
@@ -262,12 +280,15 @@ def predict(
             raise ValueError("invalid parameter `source` = 'table': needs a DriftTable as drift")
         t1 = time.perf_counter()
         low, high, lf, hf, su, sd = table_model(drift)
+        if v_dead:
+            low = (low[0], low[1], [float(x) for x in dead_band(low[2], v_dead)])
+            high = (high[0], high[1], [float(x) for x in dead_band(high[2], v_dead)])
         info = {"extrapolated": False, "features": {}, "s_up": su if lf else None, "s_dn": sd if hf else None,
                 "s_dn_source": "table" if hf else "none"}
     else:
         mf = manifold if manifold is not None else _manifold_for(p, f_ex, a_ex, n_modes, d_eff)
         t1 = time.perf_counter()
-        low, high, lf, hf, info = slow_model(mf, drift, s_dn=s_dn)
+        low, high, lf, hf, info = slow_model(mf, drift, s_dn=s_dn, v_dead=v_dead)
         if (s_dn == "table" and info["s_dn"] is not None and info["s_up"] is not None and info["s_dn"] <= info["s_up"]):
             # The PCS high branch ends below the HB jump-up: the combined model has no
             # coexistence interval (a jump up would land nowhere). Fall back to the table's
