@@ -350,7 +350,8 @@ fn run_predicted_map_command(cfg: &MapConfig, law_path: &std::path::Path, out: &
     let law = predictor::DriftLaw::from_file(law_path).with_context(|| format!("cannot use the drift law {}", law_path.display()))?;
     let results = out.join(map::RESULTS_FILE);
     let opts = MapRunOptions { out: Some(results.clone()), resume, threads, extend: false };
-    map::preflight(cfg, &opts)?;
+    // The checks of `map::preflight` (with the predictor's header) are made by the core before it
+    // writes anything; map.toml and map.txt are written after the map.
     std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
     let total = cfg.points()?.len();
     let bar = if quiet { ProgressBar::hidden() } else { ProgressBar::new(total as u64) };
