@@ -1087,7 +1087,7 @@ pub(crate) fn write_line(f: &mut File, path: &Path, line: &str) -> Result<()> {
 
 /// "t_end = 120 s", or for an extended map "t_end = 120 s (settled points kept from 60 s)".
 fn t_end_text(rows: &[&MapRow]) -> String {
-    let ok: Vec<f64> = rows.iter().filter(|r| r.status == Status::Completed.name()).map(|r| r.t_end_s).collect();
+    let ok: Vec<f64> = rows.iter().filter(|r| r.status == Status::Completed.name() || r.status == crate::predictor::STATUS_PREDICTED).map(|r| r.t_end_s).collect();
     let hi = ok.iter().copied().fold(f64::NEG_INFINITY, f64::max);
     let lo = ok.iter().copied().fold(f64::INFINITY, f64::min);
     if ok.is_empty() {
