@@ -171,3 +171,89 @@ def test_drift_table_cli(tmp_path):
     assert main(args) != 0  # exists: refused without --resume / --force
     assert main(args + ["--resume"]) == 0  # complete: nothing recomputed
     np.testing.assert_array_equal(read_drift_table(path).v, t.v)
+
+
+def _realistic_law():
+    """A law on synthetic tables at three points (V < 0 on L, a zero of V_H near 0.42)."""
+    tables = [_synthetic_table(f_, a_, lambda s: -0.004 + 0 * s, lambda s: 0.03 * (0.42 - s)) for f_, a_ in ((124, 14), (120, 12), (126, 10))]
+    return fit_drift_law(tables, k=3)
+
+
+def test_core_evaluates_the_law_as_python(tmp_path):
+    """The core's kNN law (beamslider-batch map --predictor) against the Python one on the same
+    law file: V and the extrapolation flag equal; the core's features (exact mode shapes) against
+    the Python ones (interpolated mode table); whole predictions equal in behaviour and final s."""
+    from beamslider import _core
+    from beamslider.drift_law import _x, law_json
+
+    law = _realistic_law()
+    text = law_json(law)
+    rng = np.random.default_rng(1)
+    for br in ("L", "H"):
+        x = law.lo + (law.hi - law.lo) * rng.uniform(-0.2, 1.2, size=(200, len(law.lo)))
+        lift = np.exp(x[:, 0])
+        v_py, out_py = law._evaluate_x(br, x, lift)
+        v_rs, out_rs = _core.drift_law_evaluate(text, high=br == "H", x=x.tolist(), lift_off=lift.tolist())
+        np.testing.assert_allclose(v_rs, v_py, rtol=1e-12, atol=1e-15)
+        np.testing.assert_array_equal(out_rs, out_py)
+    p = Parameters()
+    m = hb_manifold(f_ex=124, a_ex=14)
+    for br, b in (("H", m.high), ("L", m.low)):
+        s = np.linspace(b.s.min(), b.s.max(), 17)
+        f_py = features(m, br, s)
+        f_rs = _core.hb_features(p.toml_text(), f_ex_hz=124.0, a_ex_m_s2=14.0, high=br == "H", s=s.tolist())
+        for key in ("lift_off", "slope_gap", "f_slope", "ds_res", "amp_rel", "amplitude"):
+            scale = float(np.max(np.abs(f_py[key])))
+            np.testing.assert_allclose(f_rs[key], f_py[key], rtol=1e-4, atol=1e-5 * scale, err_msg=f"{br} {key}")
+    shifted = _realistic_law()
+    shifted.s_up_shift = -0.015  # the learnt s_up correction moves the low branch's fold
+    for lw in (law, shifted):
+        text = law_json(lw)
+        for f_, a_, s0 in ((124, 14, 0.3), (106, 10, 0.4), (126, 10, 0.3), (114, 14, 0.3)):
+            r_py = predict(f_ex=f_, a_ex=a_, s0=s0, drift=lw)
+            r_rs = json.loads(_core.predict_point(p.toml_text(), text, f_ex_hz=float(f_), a_ex_m_s2=float(a_), s0=s0))
+            assert r_rs["behaviour"] == r_py.behaviour, (f_, a_, s0, lw.s_up_shift)
+            assert r_rs["s_final"] == pytest.approx(r_py.classification["s_final"], abs=1e-3)
+            assert r_rs["extrapolated"] == r_py.extrapolated
+            ups_py = [e[2] for e in r_py.events if e[0] == "jump_up"]
+            ups_rs = [e[2] for e in r_rs["events"] if e[0] == "jump_up"]
+            assert ups_rs == pytest.approx(ups_py, abs=1e-6)
+    r = predict(f_ex=124, a_ex=14, drift=shifted)
+    assert r.s_up == pytest.approx(hb_manifold(f_ex=124, a_ex=14).s_up - 0.015, abs=1e-3)
+
+
+def test_predicted_map_written_by_the_core(tmp_path):
+    """predicted_map writes through the core's map writer: predictor in the header, resume keeps
+    the rows, another law is refused on resume, bad law files are clear errors."""
+    from beamslider import _core, read_map
+
+    law = _realistic_law()
+    out = tmp_path / "pm"
+    rows = predicted_map(drift=law, f_ex=[122, 124], a_ex=[14], out=out)
+    header = json.loads((out / "map.jsonl").read_text().splitlines()[0])
+    assert header["predictor"]["kind"] == "drift_law_knn" and header["predictor"]["law_points"]
+    assert [r["status"] for r in rows] == ["predicted", "predicted"]
+    again = predicted_map(drift=law, f_ex=[122, 124, 126], a_ex=[14], out=out, resume=True)
+    assert [json.dumps(r, sort_keys=True) for r in again[:2]] == [json.dumps(r, sort_keys=True) for r in rows]
+    assert len(read_map(out)["behaviour"]) == 3
+    other = fit_drift_law([_synthetic_table(f_, a_, lambda s: -0.002 + 0 * s, lambda s: 0.01 * (0.45 - s)) for f_, a_ in ((124, 14), (120, 12))], k=2)
+    with pytest.raises(ValueError, match="another drift law"):
+        predicted_map(drift=other, f_ex=[122], a_ex=[14], out=out, resume=True)
+    # In memory, the same rows as written (but the wall time).
+    mem = predicted_map(drift=law, f_ex=[122, 124], a_ex=[14])
+    strip = lambda r: {k: v for k, v in r.items() if k != "wall_time_s"}  # noqa: E731
+    assert [strip(r) for r in mem] == [strip(r) for r in rows]
+    cfg = "duration_s = 120.0\n[grid]\nf_ex_hz = [124.0]\na_ex_m_s2 = [14.0]\n"
+    for bad, match in (("{", "not a beamslider drift law"), ('{"kind": "x"}', "not a beamslider drift law"),
+                       (law_json_text(law).replace("slope_gap", "slope_mu"), "features")):
+        with pytest.raises(ValueError, match=match):
+            _core.predicted_map(cfg, bad)
+    (tmp_path / "bad.json").write_text("[1, 2]")
+    with pytest.raises(ValueError, match="not a beamslider drift law"):
+        load_drift_law(tmp_path / "bad.json")
+
+
+def law_json_text(law):
+    from beamslider.drift_law import law_json
+
+    return law_json(law)

@@ -144,6 +144,11 @@ class DriftLaw:
     """Operating-point index of each existence sample."""
     loo_s_dn: List[dict] = field(default_factory=list)
     """Leave-one-point-out s_dn of the law against the PCS tables' s_dn."""
+    s_up_shift: float = 0.0
+    """Learnt correction of the HB jump-up position (the low branch's fold moved by it): the
+    median of s_up(PCS) − s_up(HB) over the training tables with both (0: none)."""
+    loo_s_up: List[dict] = field(default_factory=list)
+    """Per training point: s_up of HB, of the PCS table, and HB + the shift fitted without it."""
     _trees: dict = field(default_factory=dict, repr=False, compare=False)
 
     def evaluate(self, branch: str, feat: Dict[str, np.ndarray], exclude_group: Optional[int] = None) -> Tuple[np.ndarray, np.ndarray]:
@@ -232,13 +237,19 @@ def _training_samples(table: DriftTable, manifold) -> Dict[str, Tuple[np.ndarray
     return out
 
 
-def fit_drift_law(tables: Sequence[DriftTable], *, params: Optional[Parameters] = None, k: int = 6, n_modes: int = 5) -> DriftLaw:
+def fit_drift_law(tables: Sequence[DriftTable], *, params: Optional[Parameters] = None, k: int = 6, n_modes: int = 5,
+                  s_up_correction: bool = True) -> DriftLaw:
     """Fit the transferable drift law (issue 17 §3.2, b2) on PCS drift tables of several operating
     points, and validate it leave one operating point out.
 
     Each table row (s, branch) is paired with the layer-(a) features at the same s on the same
     branch (rows where the HB branch does not exist are left out). Rows with Λ_g < 1 train
     nothing (the law is 0 there by construction).
+
+    ``s_up_correction``: also learn the shift of the jump-up position, s_up(PCS) − s_up(HB)
+    (median over the tables where both exist; single-term HB with the slider rigidly attached
+    puts the fold too close to the centre, issue §8), applied by :func:`beamslider.slowflow.predict`
+    by moving the low branch's fold (``DriftLaw.s_up_shift``).
     """
     if len(tables) < 2:
         raise ValueError("invalid parameter `tables`: need at least two operating points")
@@ -279,6 +290,14 @@ def fit_drift_law(tables: Sequence[DriftTable], *, params: Optional[Parameters] 
                    points=[(t.f_ex, t.a_ex) for t in tables], k=int(k),
                    x_exist=np.concatenate(xe) if xe else np.zeros((0, len(FEATURES))),
                    y_exist=np.concatenate(ye) if ye else np.zeros(0), g_exist=np.concatenate(ge) if ge else np.zeros(0, int))
+    # The learnt s_up correction (median PCS − HB over the tables with both), leave one out.
+    d_up = {gi: t.s_up_pcs - mfs[gi].s_up for gi, t in enumerate(tables) if t.s_up_pcs is not None and mfs[gi].s_up is not None}
+    if s_up_correction and d_up:
+        law.s_up_shift = float(np.median(list(d_up.values())))
+        for gi, t in enumerate(tables):
+            others = [v for g, v in d_up.items() if g != gi]
+            law.loo_s_up.append({"f_ex": t.f_ex, "a_ex": t.a_ex, "s_up_hb": mfs[gi].s_up, "s_up_pcs": t.s_up_pcs,
+                                 "s_up_corrected_loo": None if (mfs[gi].s_up is None or not others) else mfs[gi].s_up + float(np.median(others))})
     for gi, t in enumerate(tables):
         law.loo_s_dn.append({"f_ex": t.f_ex, "a_ex": t.a_ex, "s_dn_pcs": t.s_dn_pcs, "s_dn_law": law.s_dn(mfs[gi], exclude_group=gi)})
     # Leave one operating point out.
@@ -313,8 +332,9 @@ def fit_drift_law(tables: Sequence[DriftTable], *, params: Optional[Parameters] 
     return law
 
 
-def save_drift_law(law: DriftLaw, path: Union[str, os.PathLike]) -> None:
-    """Write a fitted law as JSON (training samples included; read back by :func:`load_drift_law`)."""
+def law_json(law: DriftLaw) -> str:
+    """The law file's JSON text (what :func:`save_drift_law` writes; read by the core,
+    ``beamslider-batch map --predictor``)."""
     d = {
         "kind": "beamslider drift law", "version": 1, "features": list(FEATURES), "k": law.k,
         "x": {b: law.x[b].tolist() for b in law.x}, "v": {b: law.v[b].tolist() for b in law.v},
@@ -322,14 +342,24 @@ def save_drift_law(law: DriftLaw, path: Union[str, os.PathLike]) -> None:
         "lo": law.lo.tolist(), "hi": law.hi.tolist(), "points": [list(p) for p in law.points], "loo": law.loo,
         "loo_per_point": law.loo_per_point, "fit_time_s": law.fit_time_s,
         "x_exist": law.x_exist.tolist(), "y_exist": law.y_exist.tolist(), "g_exist": law.g_exist.tolist(), "loo_s_dn": law.loo_s_dn,
+        "s_up_shift": law.s_up_shift, "loo_s_up": law.loo_s_up,
     }
-    Path(path).write_text(json.dumps(d), encoding="utf-8")
+    return json.dumps(d)
+
+
+def save_drift_law(law: DriftLaw, path: Union[str, os.PathLike]) -> None:
+    """Write a fitted law as JSON (training samples included; read back by :func:`load_drift_law`
+    and by the core: ``beamslider-batch map --predictor``)."""
+    Path(path).write_text(law_json(law), encoding="utf-8")
 
 
 def load_drift_law(path: Union[str, os.PathLike]) -> DriftLaw:
-    """Read a law written by :func:`save_drift_law`."""
-    d = json.loads(Path(path).read_text(encoding="utf-8"))
-    if d.get("kind") != "beamslider drift law":
+    """Read a law written by :func:`save_drift_law` (ValueError for a file that is not one)."""
+    try:
+        d = json.loads(Path(path).read_text(encoding="utf-8"))
+    except json.JSONDecodeError as e:
+        raise ValueError(f"invalid parameter `law`: {path} is not a beamslider drift law file ({e})") from None
+    if not isinstance(d, dict) or d.get("kind") != "beamslider drift law":
         raise ValueError(f"invalid parameter `law`: {path} is not a beamslider drift law file")
     if list(d.get("features", [])) != list(FEATURES):
         raise ValueError(f"invalid parameter `law`: {path} uses the features {d.get('features')}, this version {list(FEATURES)}")
@@ -342,6 +372,7 @@ def load_drift_law(path: Union[str, os.PathLike]) -> DriftLaw:
         loo_per_point=d.get("loo_per_point", []), fit_time_s=float(d.get("fit_time_s", 0.0)),
         x_exist=arr(d.get("x_exist", [])).reshape(-1, n), y_exist=arr(d.get("y_exist", [])),
         g_exist=np.asarray(d.get("g_exist", []), dtype=int), loo_s_dn=d.get("loo_s_dn", []),
+        s_up_shift=float(d.get("s_up_shift", 0.0)), loo_s_up=d.get("loo_s_up", []),
     )
 
 

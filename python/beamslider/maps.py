@@ -313,7 +313,8 @@ def operating_map(params: Optional[Parameters] = None, *, f_ex: Any, a_ex: Any, 
 
     ``predictor``: a fitted drift law (:func:`beamslider.superslow.fit_drift_law`): the map is
     predicted by the reduced super-slow model instead of FS runs (milliseconds per point; one s0;
-    same results format, see :func:`beamslider.slowflow.predicted_map`).
+    same results format and writer, ``resume`` as for FS maps, see
+    :func:`beamslider.slowflow.predicted_map`).
 
     Returns a dict of numpy arrays, one entry per grid point in grid order (s0 slowest, then a_ex,
     f_ex fastest): see :func:`rows_to_table`.
@@ -322,10 +323,13 @@ def operating_map(params: Optional[Parameters] = None, *, f_ex: Any, a_ex: Any, 
         from .slowflow import predicted_map
 
         s0s = np.atleast_1d(np.asarray(s0, dtype=float))
-        if s0s.size != 1 or resume or extend_to is not None:
-            raise ValueError("invalid parameter `predictor`: takes one s0 and no resume / extend_to")
+        if s0s.size != 1 or extend_to is not None:
+            raise ValueError("invalid parameter `predictor`: takes one s0 and no extend_to")
+        if scheduler is not None or scheduler_file is not None:
+            raise ValueError("invalid parameter `predictor`: a predicted map runs locally (milliseconds per point), not on a scheduler")
         rows = predicted_map(params, drift=predictor, f_ex=[float(v) for v in np.atleast_1d(f_ex)],
-                             a_ex=[float(v) for v in np.atleast_1d(a_ex)], s0=float(s0s[0]), t_end=float(t_end), out=out)
+                             a_ex=[float(v) for v in np.atleast_1d(a_ex)], s0=float(s0s[0]), t_end=float(t_end), out=out,
+                             resume=resume, threads=threads)
         return rows_to_table(rows)
     if extend_to is not None:
         try:

@@ -36,7 +36,7 @@ from . import _core
 from .params import Parameters, resolve
 from .simulate import _number
 from .drift_law import (FEATURES, DriftLaw, _manifold_for, _modes, features, fit_drift_law,  # noqa: F401
-                        load_drift_law, save_drift_law)
+                        law_json, load_drift_law, save_drift_law)
 from .drift_pcs import DriftTable, drift_table, read_drift_table  # noqa: F401
 
 __all__ = [
@@ -99,7 +99,28 @@ class Prediction:
     s0: float = 0.3
 
 
-def slow_model(manifold, drift, *, s_dn: str = "hb", nodes: int = 121):
+def _stretch_low(s: np.ndarray, s_up: Optional[float], shift: float, lo: float) -> np.ndarray:
+    """The low branch's nodes with its fold moved from s_up to s_up + shift (the learnt s_up
+    correction of the b2 law): s' = z − (z − s)(z − s_up')/(z − s_up), z = the branch's upper end;
+    Â and V stay those of the HB node s."""
+    if s_up is None or shift == 0.0 or s.size < 2:
+        return s
+    z = float(s[-1])
+    target = max(s_up + shift, lo)
+    if not (z > s_up and z > target):
+        return s
+    return z - (z - s) * (z - target) / (z - s_up)
+
+
+def dead_band(v: np.ndarray, v_dead: float) -> np.ndarray:
+    """V with a dead band: V − clip(V, −v_dead, v_dead) (continuous; |V| ≤ v_dead is no drift).
+    A drift slower than the resolution of the PCS tables is read as rest, as the FS map's
+    settled rule reads a slider drifting less than 0.005 in 30 s (< 1.7e-4 1/s) as steady."""
+    v = np.asarray(v, dtype=float)
+    return v - np.clip(v, -v_dead, v_dead) if v_dead > 0 else v
+
+
+def slow_model(manifold, drift, *, s_dn: str = "hb", nodes: int = 121, v_dead: Optional[float] = None):
     """Nodes of the reduced model: each branch of ``manifold`` sampled at up to ``nodes`` points
     (plus its ends) in the half coordinate, with Â and V there.
 
@@ -108,8 +129,14 @@ def slow_model(manifold, drift, *, s_dn: str = "hb", nodes: int = 121):
     own jump-down (None with single-term HB unless d_eff ends the high branch); 'table' — the
     PCS sweep's jump-down of the drift table (b1 only); 'none'.
 
+    ``v_dead``: dead band of V [1/s] (:func:`dead_band`; None or 0: none). An option of this
+    Python path only (measured in docs/superslow/validation_c_levers.txt; not used by the core).
+
     Returns (low, high, low_ends_in_fold, high_ends_in_fold, info dict).
     """
+    v_dead = float(v_dead or 0.0)
+    if v_dead < 0 or not math.isfinite(v_dead):
+        raise ValueError(f"invalid parameter `v_dead` = {v_dead}: must be finite and >= 0")
     if s_dn not in ("hb", "table", "law", "none"):
         raise ValueError(f"invalid parameter `s_dn` = {s_dn!r}: one of 'hb', 'table', 'law', 'none'")
     lo_all, hi_all = manifold.s_range
@@ -149,7 +176,14 @@ def slow_model(manifold, drift, *, s_dn: str = "hb", nodes: int = 121):
             if np.any(outside & (f["lift_off"] >= 1.0)):
                 info["extrapolated"] = True
             info["features"][br] = {"s": s, **f}
+        v = dead_band(v, v_dead)
         out[br] = ([float(x) for x in s], [float(x) for x in amp], [float(x) for x in v])
+    shift = float(getattr(drift, "s_up_shift", 0.0) or 0.0) if isinstance(drift, DriftLaw) else 0.0
+    if shift and s_up is not None and out["L"][0]:
+        s_l = _stretch_low(np.asarray(out["L"][0]), s_up, shift, float(lo_all))
+        out["L"] = ([float(x) for x in s_l], out["L"][1], out["L"][2])
+        info["s_up"] = float(s_l[0])
+        info["s_up_hb"] = s_up
     high_fold = s_dn_v is not None and len(out["H"][0]) > 0
     return out["L"], out["H"], s_up is not None, high_fold, info
 
@@ -184,6 +218,7 @@ def predict(
     manifold=None,
     source: str = "hb",
     build_up: Union[str, float] = "auto",
+    v_dead: Optional[float] = None,
 ) -> Prediction:
     """Predict the behaviour of one operating point with the reduced super-slow model (issue 17).
 
@@ -209,6 +244,8 @@ def predict(
             and Â ramps up meanwhile. 'auto': three envelope time constants 3/(D Ω) of the
             first mode (D = d_eff or the parameters' damping ratio; 3.9 s at 124 Hz); 0: start on
             the manifold.
+        v_dead: dead band of V [1/s] (:func:`dead_band`; default none). Measured, not adopted:
+            see docs/superslow/validation_c_levers.txt.
 
     Returns:
         :class:`Prediction` with s(t), Â(t), the events, the classifier's behaviour and the
@@ -243,12 +280,15 @@ def predict(
             raise ValueError("invalid parameter `source` = 'table': needs a DriftTable as drift")
         t1 = time.perf_counter()
         low, high, lf, hf, su, sd = table_model(drift)
+        if v_dead:
+            low = (low[0], low[1], [float(x) for x in dead_band(low[2], v_dead)])
+            high = (high[0], high[1], [float(x) for x in dead_band(high[2], v_dead)])
         info = {"extrapolated": False, "features": {}, "s_up": su if lf else None, "s_dn": sd if hf else None,
                 "s_dn_source": "table" if hf else "none"}
     else:
         mf = manifold if manifold is not None else _manifold_for(p, f_ex, a_ex, n_modes, d_eff)
         t1 = time.perf_counter()
-        low, high, lf, hf, info = slow_model(mf, drift, s_dn=s_dn)
+        low, high, lf, hf, info = slow_model(mf, drift, s_dn=s_dn, v_dead=v_dead)
         if (s_dn == "table" and info["s_dn"] is not None and info["s_up"] is not None and info["s_dn"] <= info["s_up"]):
             # The PCS high branch ends below the HB jump-up: the combined model has no
             # coexistence interval (a jump up would land nowhere). Fall back to the table's
@@ -289,26 +329,55 @@ def predicted_map(
     t_end: float = 120.0,
     s_dn: str = "hb",
     d_eff: Optional[float] = None,
+    n_modes: int = 5,
     out: Union[str, os.PathLike, None] = None,
     force: bool = False,
+    resume: bool = False,
+    threads: Optional[int] = None,
 ) -> List[dict]:
     """An operating map by the reduced predictor (issue 17 §4.4) with a fitted law (b2): one row per
     (f_ex, a_ex) in the results format of the FS maps (``map.jsonl`` version 2; ``status`` is
-    ``predicted``, counters are zero, no end state). With ``out`` (a folder) the rows are written
-    to ``out/map.jsonl`` (refused if it exists unless ``force``) and read back by
-    :func:`beamslider.read_map`."""
+    ``predicted``, counters are zero, no end state; extra keys ``events``, ``extrapolated``,
+    ``s_dn_source``).
+
+    The default (``s_dn='hb'``) is computed by the core (manifold, law, slow flow and classifier
+    in Rust, ``threads`` threads, the interpreter released, Ctrl-C stops it) and written by the
+    core's map results writer, as ``beamslider-batch map --predictor``: with ``out`` (a folder) the
+    rows go to ``out/map.jsonl`` with the predictor in its header; an existing file is refused
+    (``FileExistsError``) unless ``force`` (replaced) or ``resume`` (its points are kept; it must
+    hold the same law and settings). ``s_dn='law'`` or ``'none'`` are evaluated in Python
+    (:func:`predict`) and cannot be written (``out`` must be None)."""
+    from .maps import map_config_toml
+
     p = resolve(params)
+    if s_dn not in ("hb", "law", "none"):
+        raise ValueError(f"invalid parameter `s_dn` = {s_dn!r}: one of 'hb', 'law', 'none'")
+    if not isinstance(drift, DriftLaw):
+        raise ValueError("invalid parameter `drift`: a fitted DriftLaw (fit_drift_law / load_drift_law)")
+    if s_dn != "hb":
+        if out is not None:
+            raise ValueError(f"invalid parameter `out`: a map with s_dn={s_dn!r} is evaluated in Python and not written (the core writes s_dn='hb')")
+        return _predicted_rows_python(p, drift, f_ex, a_ex, s0, t_end, s_dn, d_eff, n_modes)
     path = None
     if out is not None:
         path = Path(out) / "map.jsonl"
-        if path.exists() and not force:
-            raise FileExistsError(f"{path} exists: pass force=True to overwrite")
+        if path.exists() and not (force or resume):
+            raise FileExistsError(f"{path} exists: pass force=True to overwrite or resume=True to continue it")
+        if path.exists() and force and not resume:
+            path.unlink()
+    cfg = map_config_toml(p, f_ex=[float(v) for v in f_ex], a_ex=[float(v) for v in a_ex], s0=float(s0), t_end=float(t_end))
+    rows = _core.predicted_map(cfg, law_json(drift), out=None if path is None else str(path), resume=bool(resume),
+                               threads=threads, n_modes=int(n_modes), d_eff=d_eff)
+    return [json.loads(r) for r in rows]
+
+
+def _predicted_rows_python(p, drift, f_ex, a_ex, s0, t_end, s_dn, d_eff, n_modes) -> List[dict]:
     rows = []
     k = 0
     for a in a_ex:
         for f in f_ex:
             t0 = time.perf_counter()
-            r = predict(p, f_ex=float(f), a_ex=float(a), s0=s0, t_end=t_end, drift=drift, s_dn=s_dn, d_eff=d_eff)
+            r = predict(p, f_ex=float(f), a_ex=float(a), s0=s0, t_end=t_end, drift=drift, s_dn=s_dn, d_eff=d_eff, n_modes=n_modes)
             wall = time.perf_counter() - t0
             c = dict(r.classification)
             row = {"index": k, "f_ex_hz": float(f), "a_ex_m_s2": float(a), "s0": float(s0), "t_end_s": float(t_end),
@@ -326,17 +395,4 @@ def predicted_map(
                     row[key] = None
             rows.append(row)
             k += 1
-    if path is not None:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        try:
-            import tomllib
-        except ImportError:  # Python < 3.11
-            import tomli as tomllib
-
-        criteria = tomllib.loads(_core.default_map_config()).get("criteria", {})
-        settings = {"params_toml": p.toml_text(), "duration_s": float(t_end), "record_every": 1, "criteria": criteria}
-        with open(path, "w", encoding="utf-8") as fh:
-            fh.write(json.dumps({"beamslider_map": 2, "settings": settings, "predictor": {"law_points": [list(q) for q in drift.points], "s_dn": s_dn, "d_eff": d_eff}}) + "\n")
-            for row in rows:
-                fh.write(json.dumps(row) + "\n")
     return rows

@@ -129,6 +129,11 @@ enum Command {
         /// Print the default configuration (the paper's map) as TOML and exit.
         #[arg(long)]
         print_config: bool,
+        /// Predict the map with the reduced super-slow model (issue 17, b2) and this drift law
+        /// (JSON, written by `beamslider.slowflow.fit_drift_law(...).save(path)`) instead of FS
+        /// runs: milliseconds per point, the same results format (status `predicted`).
+        #[arg(long, value_name = "LAW.json")]
+        predictor: Option<PathBuf>,
         /// Hide the progress bar.
         #[arg(long, short = 'q')]
         quiet: bool,
@@ -185,7 +190,7 @@ const EXIT_FAULT: u8 = 3;
 
 fn run(cli: Cli) -> Result<ExitCode> {
     match cli.command {
-        Command::Map { config, out, threads, resume, extend_to, print_config, quiet } => {
+        Command::Map { config, out, threads, resume, extend_to, print_config, predictor, quiet } => {
             let saved = out.join("map.toml");
             let mut cfg = match &config {
                 Some(path) => MapConfig::from_toml_file(path)?,
@@ -201,6 +206,12 @@ fn run(cli: Cli) -> Result<ExitCode> {
             if print_config {
                 print!("{}", cfg.to_toml_string());
                 return Ok(ExitCode::SUCCESS);
+            }
+            if let Some(law) = predictor {
+                if extend_to.is_some() {
+                    anyhow::bail!("--extend-to does not apply to a predicted map (--predictor): predict it for the longer duration");
+                }
+                return run_predicted_map_command(&cfg, &law, &out, threads, resume, quiet);
             }
             return run_map_command(&cfg, &out, threads, resume, extend_to.is_some(), quiet);
         }
@@ -330,6 +341,52 @@ fn run_map_command(cfg: &MapConfig, out: &std::path::Path, threads: Option<usize
     eprintln!("beamslider-batch: {} of {} points failed (the others are done):", failed.len(), outcome.rows.len());
     for r in failed {
         eprintln!("  #{} f_ex = {} Hz, a_ex = {} m/s^2, s0 = {}: {}: {}", r.index, r.f_ex_hz, r.a_ex_m_s2, r.s0, r.status, r.reason);
+    }
+    Ok(ExitCode::from(EXIT_FAULT))
+}
+
+fn run_predicted_map_command(cfg: &MapConfig, law_path: &std::path::Path, out: &std::path::Path, threads: Option<usize>, resume: bool, quiet: bool) -> Result<ExitCode> {
+    use std::sync::atomic::AtomicBool;
+    let law = predictor::DriftLaw::from_file(law_path).with_context(|| format!("cannot use the drift law {}", law_path.display()))?;
+    let results = out.join(map::RESULTS_FILE);
+    let opts = MapRunOptions { out: Some(results.clone()), resume, threads, extend: false };
+    // The checks of `map::preflight` (with the predictor's header) are made by the core before it
+    // writes anything; map.toml and map.txt are written after the map.
+    std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
+    let total = cfg.points()?.len();
+    let bar = if quiet { ProgressBar::hidden() } else { ProgressBar::new(total as u64) };
+    bar.set_style(ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {pos}/{len} points {msg}").unwrap_or_else(|_| ProgressStyle::default_bar()));
+    let progress = |done: usize, _total: usize, row: &MapRow| {
+        bar.set_position(done as u64);
+        bar.set_message(format!("{} Hz {} m/s2: {}", row.f_ex_hz, row.a_ex_m_s2, row.behaviour));
+    };
+    let cancel = AtomicBool::new(false);
+    let t0 = std::time::Instant::now();
+    let outcome = predictor::run_predicted_map(cfg, &law, &predictor::PredictOptions::default(), &opts, &cancel, &progress)?;
+    bar.finish_and_clear();
+    std::fs::write(out.join("map.toml"), cfg.to_toml_string()).with_context(|| format!("cannot write {}", out.join("map.toml").display()))?;
+    let table = map::text_table(&outcome.rows);
+    std::fs::write(out.join("map.txt"), &table).with_context(|| format!("cannot write {}", out.join("map.txt").display()))?;
+    print!("{table}");
+    let extrapolated = outcome.rows.iter().filter(|r| r.extra.get("extrapolated").and_then(|v| v.as_bool()).unwrap_or(false)).count();
+    eprintln!(
+        "{} points predicted by the drift law {} (trained on {} operating points): {} computed in {:.2} s, {} from the results file; {} outside the law's training range; wrote {}",
+        outcome.rows.len(),
+        law_path.display(),
+        law.points.len(),
+        outcome.computed,
+        t0.elapsed().as_secs_f64(),
+        outcome.resumed,
+        extrapolated,
+        results.display()
+    );
+    let failed: Vec<&MapRow> = outcome.rows.iter().filter(|r| r.status == map::STATUS_ERROR).collect();
+    if failed.is_empty() {
+        return Ok(ExitCode::SUCCESS);
+    }
+    eprintln!("beamslider-batch: {} of {} points failed (the others are done):", failed.len(), outcome.rows.len());
+    for r in failed {
+        eprintln!("  #{} f_ex = {} Hz, a_ex = {} m/s^2, s0 = {}: {}", r.index, r.f_ex_hz, r.a_ex_m_s2, r.s0, r.reason);
     }
     Ok(ExitCode::from(EXIT_FAULT))
 }

@@ -7,7 +7,8 @@
 //! (§4), [`solver`] and [`stepper`] (§5), [`simulation`] and [`manifold`] (§6), [`record`] and
 //! [`signal`] and [`envelope_stream`] (§7), [`classify`], [`map`] and [`study`] (§8) on the one batch [`runner`], [`enma`] (§9); [`superslow`]: the super-slow
 //! manifold by harmonic balance (issue 17, layer (a)); [`drift`] and [`slowflow`]: the drift law
-//! from the PCS model and the slow flow (issue 17, layer (b)).
+//! from the PCS model and the slow flow (issue 17, layer (b)); [`predictor`]: the fitted drift law
+//! evaluated in the core and predicted operating maps (issue 17, b2).
 #![warn(missing_docs)]
 
 mod arith;
@@ -23,6 +24,7 @@ pub mod lock;
 pub mod map;
 pub mod output;
 pub mod params;
+pub mod predictor;
 pub mod record;
 pub mod runner;
 pub mod signal;

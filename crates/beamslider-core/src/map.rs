@@ -224,6 +224,9 @@ struct Header {
     /// A study's configuration (study results files only, [`crate::study::StudyResults`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     study: Option<serde_json::Value>,
+    /// The reduced predictor of a predicted map ([`crate::predictor::run_predicted_map`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    predictor: Option<serde_json::Value>,
 }
 
 impl MapConfig {
@@ -670,11 +673,16 @@ fn run_point_guarded(model: &Model, cfg: &MapConfig, job: &Job, cancel: &AtomicB
         Ok(Err(e)) => e.to_string(),
         Err(what) => format!("internal error: {what}"),
     };
-    let c = no_classification(p, message);
+    Some(error_row(p, &message, t0))
+}
+
+/// The row of a point that failed with `message` (status `error`; started at `t0`).
+pub fn error_row(p: &MapPoint, message: &str, t0: Instant) -> MapRow {
+    let c = no_classification(p, message.to_string());
     let mut row = MapRow::new(p, f64::NAN, &Status::Completed, &c, &Counters::default(), t0.elapsed().as_secs_f64(), None);
     row.status = STATUS_ERROR.to_string();
     row.t_end_s = 0.0;
-    Some(row)
+    row
 }
 
 /// Contents of an existing results file.
@@ -693,6 +701,8 @@ pub struct ResultsFile {
     pub version: u32,
     /// The study configuration of the header (a study results file), as JSON.
     pub study: Option<serde_json::Value>,
+    /// The predictor of the header (a predicted map, [`crate::predictor`]), as JSON.
+    pub predictor: Option<serde_json::Value>,
 }
 
 pub(crate) fn io_err(path: &Path, source: std::io::Error) -> Error {
@@ -704,7 +714,7 @@ impl ResultsFile {
     /// text; None for a file without a header.
     pub fn header_json(&self) -> Option<String> {
         let s = self.settings.as_ref()?;
-        Some(serde_json::to_string(&Header { beamslider_map: self.version, settings: s.clone(), study: self.study.clone() }).expect("header serialises"))
+        Some(serde_json::to_string(&Header { beamslider_map: self.version, settings: s.clone(), study: self.study.clone(), predictor: self.predictor.clone() }).expect("header serialises"))
     }
 }
 
@@ -748,6 +758,7 @@ pub fn read_results(path: &Path) -> Result<ResultsFile> {
                     out.version = h.beamslider_map;
                     out.settings = Some(h.settings);
                     out.study = h.study;
+                    out.predictor = h.predictor;
                     true
                 }
                 Err(_) => false,
@@ -837,7 +848,7 @@ pub fn preflight(cfg: &MapConfig, opts: &MapRunOptions) -> Result<()> {
         return Err(Error::invalid("extend_to", cfg.duration_s, "needs the results file of the map to extend (out)"));
     }
     if let Some(path) = &opts.out {
-        existing_results(cfg, opts, path)?;
+        existing_results(cfg, opts, path, None)?;
     }
     Ok(())
 }
@@ -845,7 +856,7 @@ pub fn preflight(cfg: &MapConfig, opts: &MapRunOptions) -> Result<()> {
 /// The results file `path` of the map to run, read and checked (None when absent or empty): an
 /// existing file needs `resume` or `extend` and the same settings ([`check_settings`]); `extend`
 /// needs one.
-fn existing_results(cfg: &MapConfig, opts: &MapRunOptions, path: &Path) -> Result<Option<ResultsFile>> {
+fn existing_results(cfg: &MapConfig, opts: &MapRunOptions, path: &Path, predictor: Option<&serde_json::Value>) -> Result<Option<ResultsFile>> {
     let exists = path.exists() && std::fs::metadata(path).map(|m| m.len() > 0).unwrap_or(false);
     if exists && !opts.resume && !opts.extend {
         return Err(Error::invalid("out", path.display(), "the results file exists: resume it, or choose another output"));
@@ -857,13 +868,13 @@ fn existing_results(cfg: &MapConfig, opts: &MapRunOptions, path: &Path) -> Resul
         return Ok(None);
     }
     let old = read_results(path)?;
-    check_settings(cfg, opts, path, &old)?;
+    check_settings(cfg, opts, path, &old, predictor)?;
     Ok(Some(old))
 }
 
 /// The settings of an existing results file against the map to run (resume: equal; extend:
 /// equal but for a duration ≤ the new one, and end states saved for the not-settled points).
-fn check_settings(cfg: &MapConfig, opts: &MapRunOptions, path: &Path, old: &ResultsFile) -> Result<()> {
+fn check_settings(cfg: &MapConfig, opts: &MapRunOptions, path: &Path, old: &ResultsFile, predictor: Option<&serde_json::Value>) -> Result<()> {
     let new = cfg.settings();
     if old.settings.is_some() && old.version != FORMAT_VERSION {
         let what = if opts.extend { "extend_to" } else { "resume" };
@@ -891,6 +902,14 @@ fn check_settings(cfg: &MapConfig, opts: &MapRunOptions, path: &Path, old: &Resu
     }
     if *s != new {
         return Err(Error::invalid("resume", path.display(), "the results file was written with other settings (parameters, duration, record_every or criteria); only the grid may change"));
+    }
+    if old.predictor.as_ref() != predictor {
+        let what = match (&old.predictor, predictor) {
+            (Some(_), None) => "the results file is a predicted map (reduced predictor), not FS runs",
+            (None, Some(_)) => "the results file holds FS runs, not a predicted map",
+            _ => "the results file was predicted with another drift law or predictor settings",
+        };
+        return Err(Error::invalid("resume", path.display(), what));
     }
     Ok(())
 }
@@ -926,6 +945,16 @@ impl MapResults {
     /// Check the map (as [`preflight`]), take the results file's lock, cut off a torn last line,
     /// write the header of a new file and plan the jobs.
     pub fn open(cfg: &MapConfig, opts: &MapRunOptions) -> Result<MapResults> {
+        MapResults::open_with(cfg, opts, None)
+    }
+
+    /// As [`MapResults::open`] for a map predicted by the reduced model ([`crate::predictor`]):
+    /// the header also holds `predictor`, and a resumed file must hold the same one.
+    pub fn open_predicted(cfg: &MapConfig, opts: &MapRunOptions, predictor: &serde_json::Value) -> Result<MapResults> {
+        MapResults::open_with(cfg, opts, Some(predictor))
+    }
+
+    fn open_with(cfg: &MapConfig, opts: &MapRunOptions, predictor: Option<&serde_json::Value>) -> Result<MapResults> {
         cfg.validate()?;
         let points = cfg.points()?;
         let settings = cfg.settings();
@@ -941,7 +970,7 @@ impl MapResults {
                     std::fs::create_dir_all(dir).map_err(|e| io_err(dir, e))?;
                 }
                 let lock = ResultsLock::acquire(path)?;
-                let old = existing_results(cfg, opts, path)?;
+                let old = existing_results(cfg, opts, path, predictor)?;
                 let exists = old.is_some();
                 if let Some(old) = old
                     && old.settings.as_ref().is_some_and(|s| *s != settings)
@@ -949,7 +978,7 @@ impl MapResults {
                     // Extension: the header takes the new duration. Write the new file beside the
                     // old one and swap them, so that a kill loses nothing.
                     let tmp = path.with_extension("jsonl.extend-tmp");
-                    let mut text = header_line(&settings);
+                    let mut text = header_line_predictor(&settings, predictor);
                     text.push('\n');
                     for r in &latest(old.rows) {
                         text.push_str(&r.to_json());
@@ -962,13 +991,13 @@ impl MapResults {
                     let old = read_results(path)?;
                     let mut f = open_append(path, old.good_len)?;
                     if old.settings.is_none() {
-                        write_line(&mut f, path, &header_line(&settings))?;
+                        write_line(&mut f, path, &header_line_predictor(&settings, predictor))?;
                     }
                     existing = latest(old.rows);
                     f
                 } else {
                     let mut f = OpenOptions::new().create(true).truncate(true).write(true).open(path).map_err(|e| io_err(path, e))?;
-                    write_line(&mut f, path, &header_line(&settings))?;
+                    write_line(&mut f, path, &header_line_predictor(&settings, predictor))?;
                     drop(f);
                     OpenOptions::new().append(true).open(path).map_err(|e| io_err(path, e))?
                 };
@@ -1042,11 +1071,11 @@ pub fn run_map(cfg: &MapConfig, opts: &MapRunOptions, cancel: &AtomicBool, progr
 
 /// The header line of a results file (without the newline); `study`: a study's configuration.
 pub(crate) fn header_line_with(s: &Settings, study: Option<&serde_json::Value>) -> String {
-    serde_json::to_string(&Header { beamslider_map: FORMAT_VERSION, settings: s.clone(), study: study.cloned() }).expect("header serialises")
+    serde_json::to_string(&Header { beamslider_map: FORMAT_VERSION, settings: s.clone(), study: study.cloned(), predictor: None }).expect("header serialises")
 }
 
-fn header_line(s: &Settings) -> String {
-    header_line_with(s, None)
+fn header_line_predictor(s: &Settings, predictor: Option<&serde_json::Value>) -> String {
+    serde_json::to_string(&Header { beamslider_map: FORMAT_VERSION, settings: s.clone(), study: None, predictor: predictor.cloned() }).expect("header serialises")
 }
 
 /// Append one line and flush it to the operating system.
@@ -1060,7 +1089,7 @@ pub(crate) fn write_line(f: &mut File, path: &Path, line: &str) -> Result<()> {
 
 /// "t_end = 120 s", or for an extended map "t_end = 120 s (settled points kept from 60 s)".
 fn t_end_text(rows: &[&MapRow]) -> String {
-    let ok: Vec<f64> = rows.iter().filter(|r| r.status == Status::Completed.name()).map(|r| r.t_end_s).collect();
+    let ok: Vec<f64> = rows.iter().filter(|r| r.status == Status::Completed.name() || r.status == crate::predictor::STATUS_PREDICTED).map(|r| r.t_end_s).collect();
     let hi = ok.iter().copied().fold(f64::NEG_INFINITY, f64::max);
     let lo = ok.iter().copied().fold(f64::INFINITY, f64::min);
     if ok.is_empty() {

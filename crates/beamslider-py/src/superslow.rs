@@ -4,7 +4,8 @@
 use beamslider_core::drift::{BranchLabel, DriftOptions, drift_table_pcs as core_drift};
 use beamslider_core::slowflow::{EventKind, SlowBranch, SlowFlowOptions, SlowModel, slow_flow as core_slow_flow};
 use beamslider_core::superslow::{HbBranch, HbOptions, HbSystem, closed_form_n1_scaled, hb_manifold as core_hb};
-use beamslider_core::{Criteria, Excitation, Model};
+use beamslider_core::predictor::{self, DriftLaw};
+use beamslider_core::{Criteria, Excitation, MapConfig, MapRow, MapRunOptions, Model};
 use numpy::IntoPyArray;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -264,7 +265,120 @@ pub fn slow_flow<'py>(
     Ok(d)
 }
 
+fn parse_law(law_json: &str) -> PyResult<DriftLaw> {
+    guarded(|| DriftLaw::from_json_str(law_json))
+}
+
+/// The fitted drift law (JSON text of a law file) evaluated by the core: V and the
+/// outside-training-range flag at law inputs `x` (rows of FEATURES) with Λ_g `lift_off`, on the
+/// high (`high=True`) or low branch.
+#[pyfunction]
+#[pyo3(signature = (law_json, *, high, x, lift_off))]
+pub fn drift_law_evaluate(law_json: &str, high: bool, x: Vec<Vec<f64>>, lift_off: Vec<f64>) -> PyResult<(Vec<f64>, Vec<bool>)> {
+    let law = parse_law(law_json)?;
+    if x.len() != lift_off.len() || x.iter().any(|r| r.len() != predictor::NF) {
+        return Err(pyo3::exceptions::PyValueError::new_err(format!("invalid parameter `x`: rows of {} features, one lift_off per row", predictor::NF)));
+    }
+    let (mut v, mut out) = (Vec::with_capacity(x.len()), Vec::with_capacity(x.len()));
+    for (r, &l) in x.iter().zip(&lift_off) {
+        let (vi, oi) = law.evaluate(high, &std::array::from_fn(|i| r[i]), l);
+        v.push(vi);
+        out.push(oi);
+    }
+    Ok((v, out))
+}
+
+/// Layer-(a) features of issue 17 §3.2 computed by the core at `s` on one branch (`high`) of
+/// the HB manifold: dict of arrays lift_off, slope_gap, f_slope, ds_res, amp_rel, amplitude.
+#[pyfunction]
+#[pyo3(signature = (params_toml, *, f_ex_hz, a_ex_m_s2, high, s, n_modes=5, d_eff=None))]
+#[allow(clippy::too_many_arguments)]
+pub fn hb_features<'py>(py: Python<'py>, params_toml: &str, f_ex_hz: f64, a_ex_m_s2: f64, high: bool, s: Vec<f64>, n_modes: usize, d_eff: Option<f64>) -> PyResult<Bound<'py, PyDict>> {
+    let params = parse_params(params_toml)?;
+    let opts = HbOptions { n_modes, d_eff, ..HbOptions::default() };
+    let f = py.detach(|| {
+        guarded(|| {
+            let m = core_hb(&params, f_ex_hz, a_ex_m_s2, &opts)?;
+            predictor::features(&params, &m, f_ex_hz, a_ex_m_s2, high, &s)
+        })
+    })?;
+    let d = PyDict::new(py);
+    let col = |g: fn(&predictor::Features) -> f64| f.iter().map(g).collect::<Vec<f64>>();
+    d.set_item("lift_off", col(|x| x.lift_off).into_pyarray(py))?;
+    d.set_item("slope_gap", col(|x| x.slope_gap).into_pyarray(py))?;
+    d.set_item("f_slope", col(|x| x.f_slope).into_pyarray(py))?;
+    d.set_item("ds_res", col(|x| x.ds_res).into_pyarray(py))?;
+    d.set_item("amp_rel", col(|x| x.amp_rel).into_pyarray(py))?;
+    d.set_item("amplitude", col(|x| x.amplitude_h).into_pyarray(py))?;
+    Ok(d)
+}
+
+/// One operating point predicted entirely in the core (HB manifold, the law, slow flow,
+/// classification): the map row as JSON text (status `predicted`).
+#[pyfunction]
+#[pyo3(signature = (params_toml, law_json, *, f_ex_hz, a_ex_m_s2, s0=0.3, t_end_s=120.0, n_modes=5, d_eff=None))]
+#[allow(clippy::too_many_arguments)]
+pub fn predict_point(py: Python<'_>, params_toml: &str, law_json: &str, f_ex_hz: f64, a_ex_m_s2: f64, s0: f64, t_end_s: f64, n_modes: usize, d_eff: Option<f64>) -> PyResult<String> {
+    let params = parse_params(params_toml)?;
+    let law = parse_law(law_json)?;
+    let opts = predictor::PredictOptions { hb: HbOptions { n_modes, d_eff, ..HbOptions::default() }, ..predictor::PredictOptions::default() };
+    py.detach(|| {
+        guarded(|| {
+            let t0 = std::time::Instant::now();
+            let p = predictor::predict_point(&params, &law, f_ex_hz, a_ex_m_s2, s0, t_end_s, &opts)?;
+            Ok(predictor::predicted_row(0, f_ex_hz, a_ex_m_s2, s0, t_end_s, &p, t0.elapsed().as_secs_f64()).to_json())
+        })
+    })
+}
+
+/// A map predicted by the core with a drift law (`beamslider-batch map --predictor`): the map
+/// configuration (TOML), the law (JSON text), the results file `out` (None: in memory) written
+/// through the map results writer (lock, header with the predictor, resume). Runs on `threads`
+/// threads with the interpreter released; Ctrl-C stops it (finished rows stay in the file).
+/// Returns the rows (JSON texts, grid order).
+#[pyfunction]
+#[pyo3(signature = (config_toml, law_json, *, out=None, resume=false, threads=None, n_modes=5, d_eff=None, progress=None))]
+#[allow(clippy::too_many_arguments)]
+pub fn predicted_map(
+    py: Python<'_>,
+    config_toml: &str,
+    law_json: &str,
+    out: Option<std::path::PathBuf>,
+    resume: bool,
+    threads: Option<usize>,
+    n_modes: usize,
+    d_eff: Option<f64>,
+    progress: Option<Py<PyAny>>,
+) -> PyResult<Vec<String>> {
+    crate::check_threads(threads)?;
+    let cfg = guarded(|| MapConfig::from_toml_str(config_toml))?;
+    let law = parse_law(law_json)?;
+    let popts = predictor::PredictOptions { hb: HbOptions { n_modes, d_eff, ..HbOptions::default() }, ..predictor::PredictOptions::default() };
+    let opts = MapRunOptions { out, resume, threads, extend: false };
+    let cancel = std::sync::atomic::AtomicBool::new(false);
+    let done = std::sync::atomic::AtomicUsize::new(0);
+    let total = guarded(|| cfg.points())?.len();
+    let poll = |py: Python<'_>| -> PyResult<()> {
+        py.check_signals()?;
+        match &progress {
+            Some(cb) => cb.call1(py, (done.load(std::sync::atomic::Ordering::Relaxed), total)).map(|_| ()),
+            None => Ok(()),
+        }
+    };
+    let prog = |n: usize, _t: usize, _r: &MapRow| done.store(n, std::sync::atomic::Ordering::Relaxed);
+    let outcome = crate::detached(py, &cancel, 100, || predictor::run_predicted_map(&cfg, &law, &popts, &opts, &cancel, &prog), &poll)?;
+    poll(py)?;
+    if outcome.cancelled || cancel.load(std::sync::atomic::Ordering::Relaxed) {
+        return Err(pyo3::exceptions::PyKeyboardInterrupt::new_err("map interrupted"));
+    }
+    Ok(outcome.rows.iter().map(MapRow::to_json).collect())
+}
+
 pub fn register_b(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(drift_law_evaluate, m)?)?;
+    m.add_function(wrap_pyfunction!(hb_features, m)?)?;
+    m.add_function(wrap_pyfunction!(predict_point, m)?)?;
+    m.add_function(wrap_pyfunction!(predicted_map, m)?)?;
     m.add_function(wrap_pyfunction!(drift_table_pcs, m)?)?;
     m.add_function(wrap_pyfunction!(read_drift_table, m)?)?;
     m.add_function(wrap_pyfunction!(slow_flow, m)?)?;

@@ -1,0 +1,644 @@
+//! Issue 17 §3.2 (b2) and §3.3 in the core: the transferable drift law evaluated without Python,
+//! the reduced model of one operating point (layer (a) + law + slow flow + the map classifier)
+//! and a predicted operating map written through the map results writer ([`crate::map::MapResults`]).
+//!
+//! * [`DriftLaw`] — the law file written by `beamslider.slowflow.fit_drift_law(...).save(path)`
+//!   (JSON): per branch, training samples (features, V); evaluated as the distance-weighted mean
+//!   of the k nearest samples of the same branch in standardised feature space,
+//!   V = Σ wᵢVᵢ / Σ wᵢ with wᵢ = 1/max(dᵢ, 10⁻⁶), and V = 0 where Λ_g < 1 (no lift-off).
+//! * [`features`] — the local features of issue §3.2 at s on one branch of an HB manifold, with
+//!   Q interpolated linearly in s between the continuation points:
+//!   ŵ_abs = a_ex/Ω² + Φ(s)ᵀQ, θ̂ = Φ′(s)ᵀQ, Λ_g = Ω²|ŵ_abs|/g, θ̂/θ_gap with θ_gap = (R − h)/B,
+//!   f_slope = −(Ω²/2g) Re[ŵ_abs θ̂*], s − s_res, Â/max Â_H. The law's inputs are
+//!   (ln Λ_g, θ̂/θ_gap, f_slope, s − s_res, Â/max Â_H) ([`FEATURES`]).
+//! * [`predict_point`] — nodes on each branch, V from the law, [`crate::slowflow::slow_flow`]
+//!   and its classification; [`run_predicted_map`] — every point of a map configuration.
+//!
+//! Closed form: the manifold and the features (layer (a)). Fitted: V (the law's samples are PCS
+//! drift tables of the training points).
+
+use std::path::Path;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Instant;
+
+use serde::Deserialize;
+
+use crate::beam::Beam;
+use crate::classify::Criteria;
+use crate::error::{Error, Result};
+use crate::map::{Job, MapConfig, MapOutcome, MapResults, MapRow, MapRunOptions, Progress};
+use crate::params::Params;
+use crate::runner::run_batch;
+use crate::slowflow::{EventKind, Prediction, SlowBranch, SlowFlowOptions, SlowModel, slow_flow};
+use crate::stepper::Counters;
+use crate::superslow::{HbBranch, HbManifold, HbOptions, hb_manifold};
+
+/// Inputs of the law, in this order (as `beamslider.drift_law.FEATURES`).
+pub const FEATURES: [&str; 5] = ["log_lift_off", "slope_gap", "f_slope", "ds_res", "amp_rel"];
+/// Number of inputs.
+pub const NF: usize = FEATURES.len();
+/// Status of a predicted map row (no FS run).
+pub const STATUS_PREDICTED: &str = "predicted";
+
+#[derive(Deserialize)]
+struct LawFile {
+    kind: String,
+    #[serde(default)]
+    version: u32,
+    features: Vec<String>,
+    k: usize,
+    x: std::collections::HashMap<String, Vec<Vec<f64>>>,
+    v: std::collections::HashMap<String, Vec<f64>>,
+    mean: Vec<f64>,
+    std: Vec<f64>,
+    lo: Vec<f64>,
+    hi: Vec<f64>,
+    #[serde(default)]
+    points: Vec<Vec<f64>>,
+    #[serde(default)]
+    s_up_shift: f64,
+}
+
+/// Training samples of one branch.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct LawBranch {
+    /// Standardised features, one row per sample.
+    pub z: Vec<[f64; NF]>,
+    /// V [1/s] (towards the centre positive).
+    pub v: Vec<f64>,
+}
+
+/// A fitted transferable drift law (issue 17 §3.2, b2), as written by the Python package.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DriftLaw {
+    /// Neighbours.
+    pub k: usize,
+    /// Low-branch samples.
+    pub low: LawBranch,
+    /// High-branch samples.
+    pub high: LawBranch,
+    /// Feature means (standardisation).
+    pub mean: [f64; NF],
+    /// Feature standard deviations.
+    pub std: [f64; NF],
+    /// Training range (min) of the features.
+    pub lo: [f64; NF],
+    /// Training range (max).
+    pub hi: [f64; NF],
+    /// Training operating points (f_ex, a_ex).
+    pub points: Vec<(f64, f64)>,
+    /// Learnt shift of the HB jump-up position (median of s_up(PCS) − s_up(HB) over the training
+    /// tables; 0: none): the low branch's fold is moved by it ([`slow_model`]).
+    pub s_up_shift: f64,
+    /// Fingerprint of the samples (FNV-1a over the bits of k, the samples and the scaling):
+    /// written to a predicted map's header and compared on resume.
+    pub fingerprint: String,
+}
+
+fn arr(name: &str, v: &[f64]) -> Result<[f64; NF]> {
+    if v.len() != NF || v.iter().any(|x| !x.is_finite()) {
+        return Err(Error::invalid("law", name, &format!("needs {NF} finite values")));
+    }
+    Ok(std::array::from_fn(|i| v[i]))
+}
+
+impl DriftLaw {
+    /// Parse the JSON text of a law file (checks its kind, features and shapes).
+    pub fn from_json_str(text: &str) -> Result<DriftLaw> {
+        let f: LawFile = serde_json::from_str(text).map_err(|e| Error::invalid("law", "file", &format!("not a beamslider drift law file ({e})")))?;
+        if f.kind != "beamslider drift law" {
+            return Err(Error::invalid("law", &f.kind, "not a beamslider drift law file (kind)"));
+        }
+        if f.version > 1 {
+            return Err(Error::invalid("law", f.version, "format version newer than this build (1)"));
+        }
+        if f.features != FEATURES {
+            return Err(Error::invalid("law", format!("{:?}", f.features), &format!("this build's features are {FEATURES:?}")));
+        }
+        if f.k == 0 {
+            return Err(Error::invalid("law", "k = 0", "k must be >= 1"));
+        }
+        let mean = arr("mean", &f.mean)?;
+        let std = arr("std", &f.std)?;
+        if std.iter().any(|&s| s <= 0.0) {
+            return Err(Error::invalid("law", "std", "standard deviations must be > 0"));
+        }
+        let lo = arr("lo", &f.lo)?;
+        let hi = arr("hi", &f.hi)?;
+        if !(f.s_up_shift.is_finite() && f.s_up_shift.abs() < 0.5) {
+            return Err(Error::invalid("law", "s_up_shift", "must be finite, |shift| < 0.5"));
+        }
+        let mut hash = Fnv::new();
+        hash.add(f.k as f64);
+        hash.add(f.s_up_shift);
+        for x in mean.iter().chain(&std) {
+            hash.add(*x);
+        }
+        let mut branch = |name: &str| -> Result<LawBranch> {
+            let x = f.x.get(name).map(Vec::as_slice).unwrap_or(&[]);
+            let v = f.v.get(name).map(Vec::as_slice).unwrap_or(&[]);
+            if x.len() != v.len() {
+                return Err(Error::invalid("law", format!("branch {name}"), "x and v must have the same number of samples"));
+            }
+            let mut out = LawBranch::default();
+            for (row, &vi) in x.iter().zip(v) {
+                let r = arr(&format!("x[{name}]"), row)?;
+                if !vi.is_finite() {
+                    return Err(Error::invalid("law", format!("v[{name}]"), "values must be finite"));
+                }
+                for x in r.iter().chain(std::iter::once(&vi)) {
+                    hash.add(*x);
+                }
+                out.z.push(std::array::from_fn(|i| (r[i] - mean[i]) / std[i]));
+                out.v.push(vi);
+            }
+            Ok(out)
+        };
+        let low = branch("L")?;
+        let high = branch("H")?;
+        if low.v.is_empty() && high.v.is_empty() {
+            return Err(Error::invalid("law", "samples", "the law has no training samples"));
+        }
+        let points = f.points.iter().filter(|p| p.len() == 2).map(|p| (p[0], p[1])).collect();
+        Ok(DriftLaw { k: f.k, low, high, mean, std, lo, hi, points, s_up_shift: f.s_up_shift, fingerprint: format!("{:016x}", hash.0) })
+    }
+
+    /// Read a law file.
+    pub fn from_file(path: impl AsRef<Path>) -> Result<DriftLaw> {
+        let path = path.as_ref();
+        let text = std::fs::read_to_string(path).map_err(|e| Error::Io { path: path.display().to_string(), source: e })?;
+        DriftLaw::from_json_str(&text).map_err(|e| match e {
+            Error::InvalidParameter { field, value: _, allowed } => Error::InvalidParameter { field, value: path.display().to_string(), allowed },
+            e => e,
+        })
+    }
+
+    fn branch(&self, high: bool) -> &LawBranch {
+        if high { &self.high } else { &self.low }
+    }
+
+    /// V at the features `x` (law inputs, [`FEATURES`]) on the high (`high`) or low branch, and
+    /// whether `x` lies outside the training range. `lift_off` = Λ_g (V = 0 where < 1).
+    pub fn evaluate(&self, high: bool, x: &[f64; NF], lift_off: f64) -> (f64, bool) {
+        let outside = (0..NF).any(|i| x[i] < self.lo[i] - 1e-9 || x[i] > self.hi[i] + 1e-9);
+        let b = self.branch(high);
+        if b.v.is_empty() {
+            return (0.0, true);
+        }
+        let z: [f64; NF] = std::array::from_fn(|i| (x[i] - self.mean[i]) / self.std[i]);
+        let mut d: Vec<(f64, usize)> = b.z.iter().enumerate().map(|(j, zj)| ((0..NF).map(|i| (zj[i] - z[i]).powi(2)).sum::<f64>(), j)).collect();
+        let k = self.k.min(d.len());
+        if k < d.len() {
+            d.select_nth_unstable_by(k - 1, |a, b| a.0.total_cmp(&b.0));
+        }
+        let (mut sw, mut swv) = (0.0, 0.0);
+        for &(d2, j) in &d[..k] {
+            let w = 1.0 / d2.sqrt().max(1e-6);
+            sw += w;
+            swv += w * b.v[j];
+        }
+        let v = if lift_off < 1.0 { 0.0 } else { swv / sw };
+        (v, outside)
+    }
+}
+
+/// FNV-1a, 64 bit, over f64 bit patterns.
+struct Fnv(u64);
+impl Fnv {
+    fn new() -> Fnv {
+        Fnv(0xcbf2_9ce4_8422_2325)
+    }
+    fn add(&mut self, x: f64) {
+        for b in x.to_bits().to_le_bytes() {
+            self.0 ^= b as u64;
+            self.0 = self.0.wrapping_mul(0x0000_0100_0000_01b3);
+        }
+    }
+}
+
+/// The local features of issue §3.2 at one s on one branch.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Features {
+    /// Λ_g = Ω²|ŵ_abs|/g.
+    pub lift_off: f64,
+    /// θ̂/θ_gap.
+    pub slope_gap: f64,
+    /// f_slope = −(Ω²/2g) Re[ŵ_abs θ̂*].
+    pub f_slope: f64,
+    /// s − s_res (s_res: the first linear-resonance position; 0.5 if none).
+    pub ds_res: f64,
+    /// Â / max Â of the high branch.
+    pub amp_rel: f64,
+    /// Â.
+    pub amplitude_h: f64,
+}
+
+impl Features {
+    /// The law's inputs ([`FEATURES`]).
+    pub fn x(&self) -> [f64; NF] {
+        [self.lift_off.max(1e-12).ln(), self.slope_gap, self.f_slope, self.ds_res, self.amp_rel]
+    }
+}
+
+/// A branch's points sorted by s: (s, Â, Re Q, Im Q) with Q row-major (point, mode).
+struct Sorted {
+    s: Vec<f64>,
+    a: Vec<f64>,
+    qr: Vec<f64>,
+    qi: Vec<f64>,
+    n: usize,
+}
+
+impl Sorted {
+    fn new(b: &HbBranch, n: usize) -> Sorted {
+        let mut o: Vec<usize> = (0..b.len()).collect();
+        o.sort_by(|&i, &j| b.s[i].total_cmp(&b.s[j]));
+        let pick = |v: &[f64], m: usize| o.iter().flat_map(|&i| v[i * m..(i + 1) * m].iter().copied()).collect::<Vec<f64>>();
+        Sorted { s: pick(&b.s, 1), a: pick(&b.amplitude_h, 1), qr: pick(&b.q_re, n), qi: pick(&b.q_im, n), n }
+    }
+    /// Cell and weight of s for linear interpolation as numpy.interp (clamped at the ends).
+    fn at(&self, s: f64) -> (usize, usize, f64) {
+        let m = self.s.len();
+        if m == 1 || s <= self.s[0] {
+            return (0, 0, 0.0);
+        }
+        if s >= self.s[m - 1] {
+            return (m - 1, m - 1, 0.0);
+        }
+        let j = self.s.partition_point(|&x| x <= s).clamp(1, m - 1);
+        let (a, b) = (self.s[j - 1], self.s[j]);
+        (j - 1, j, if b > a { (s - a) / (b - a) } else { 0.0 })
+    }
+    fn lerp(&self, y: &[f64], stride: usize, k: usize, s: f64) -> f64 {
+        let (i, j, w) = self.at(s);
+        let (a, b) = (y[i * stride + k], y[j * stride + k]);
+        if w == 0.0 { a } else { a + w * (b - a) }
+    }
+}
+
+/// Features of issue §3.2 at positions `s` (half coordinate, within the branch) on the high
+/// (`high`) or low branch of `manifold` (computed with `params` and `n_modes` modes).
+pub fn features(params: &Params, manifold: &HbManifold, f_ex_hz: f64, a_ex: f64, high: bool, s: &[f64]) -> Result<Vec<Features>> {
+    let beam = beam_for(params, manifold.n_modes)?;
+    features_with(params, &beam, manifold, f_ex_hz, a_ex, high, s)
+}
+
+/// The beam with `n_modes` modes (the mode shapes of the features).
+pub fn beam_for(params: &Params, n_modes: usize) -> Result<Beam> {
+    let mut p = params.clone();
+    p.n_modes = n_modes;
+    Beam::new(&p)
+}
+
+/// [`features`] with the beam of [`beam_for`] built once by the caller.
+pub fn features_with(params: &Params, beam: &Beam, manifold: &HbManifold, f_ex_hz: f64, a_ex: f64, high: bool, s: &[f64]) -> Result<Vec<Features>> {
+    let b = if high { &manifold.high } else { &manifold.low };
+    if b.is_empty() {
+        return Err(Error::invalid("branch", if high { "H" } else { "L" }, "the manifold has no such branch"));
+    }
+    let n = manifold.n_modes;
+    if beam.n != n {
+        return Err(Error::invalid("beam", beam.n, &format!("the manifold has {n} modes")));
+    }
+    let p = params;
+    let sorted = Sorted::new(b, n);
+    let omega = 2.0 * std::f64::consts::PI * f_ex_hz;
+    let g = p.gravity_m_s2;
+    let theta_gap = (p.gap_ratio * p.thickness_m - p.thickness_m) / p.contact_spacing_m;
+    let s_res = manifold.s_res.first().copied().unwrap_or(0.5);
+    let a_max = if manifold.high.is_empty() { 1.0 } else { manifold.high.amplitude_h.iter().copied().fold(f64::NEG_INFINITY, f64::max) };
+    let (mut phi, mut dphi) = (vec![0.0; n], vec![0.0; n]);
+    let mut out = Vec::with_capacity(s.len());
+    for &si in s {
+        let x = si * p.length_m;
+        for m in 0..n {
+            phi[m] = beam.phi_exact(m, x);
+            dphi[m] = beam.dphi_exact(m, x);
+        }
+        let (mut wr, mut wi, mut tr, mut ti) = (a_ex / (omega * omega), 0.0, 0.0, 0.0);
+        for m in 0..n {
+            let qr = sorted.lerp(&sorted.qr, n, m, si);
+            let qi = sorted.lerp(&sorted.qi, n, m, si);
+            wr += phi[m] * qr;
+            wi += phi[m] * qi;
+            tr += dphi[m] * qr;
+            ti += dphi[m] * qi;
+        }
+        let amp = sorted.lerp(&sorted.a, 1, 0, si);
+        out.push(Features {
+            lift_off: omega * omega * wr.hypot(wi) / g,
+            slope_gap: tr.hypot(ti) / theta_gap,
+            f_slope: -(omega * omega / (2.0 * g)) * (wr * tr + wi * ti),
+            ds_res: si - s_res,
+            amp_rel: amp / a_max,
+            amplitude_h: amp,
+        });
+    }
+    let _ = sorted.n;
+    Ok(out)
+}
+
+/// Settings of [`predict_point`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct PredictOptions {
+    /// Layer (a) settings (modes, D_eff, ...).
+    pub hb: HbOptions,
+    /// Nodes per branch (default 121, as the Python package).
+    pub nodes: usize,
+    /// Build-up time [s]; None: three envelope time constants 3/(DΩ) (D = d_eff or the
+    /// parameters' damping ratio), as `beamslider.slowflow.predict`.
+    pub build_up_s: Option<f64>,
+    /// Classification thresholds.
+    pub criteria: Criteria,
+}
+
+impl Default for PredictOptions {
+    fn default() -> Self {
+        PredictOptions { hb: HbOptions::default(), nodes: 121, build_up_s: None, criteria: Criteria::default() }
+    }
+}
+
+/// Result of [`predict_point`].
+#[derive(Debug, Clone)]
+pub struct PointPrediction {
+    /// The slow flow and its classification.
+    pub flow: Prediction,
+    /// Some node with lift-off lies outside the law's training range.
+    pub extrapolated: bool,
+    /// The reduced model (nodes, Â, V).
+    pub model: SlowModel,
+    /// Jump-up position used.
+    pub s_up: Option<f64>,
+    /// Jump-down position used (the HB manifold's own).
+    pub s_dn: Option<f64>,
+    /// Wall times [s]: manifold, drift evaluation, slow flow.
+    pub timings_s: [f64; 3],
+}
+
+fn linspace(a: f64, z: f64, n: usize) -> Vec<f64> {
+    if n < 2 {
+        return vec![a];
+    }
+    let step = (z - a) / (n - 1) as f64;
+    let mut v: Vec<f64> = (0..n).map(|i| a + i as f64 * step).collect();
+    v[n - 1] = z;
+    v
+}
+
+/// The reduced model of one operating point from its HB manifold and a law: each branch
+/// sampled at `nodes` points over its s-range (the high branch up to the HB s_dn), Â and V there.
+/// Returns the model and whether the law extrapolated.
+pub fn slow_model(params: &Params, manifold: &HbManifold, law: &DriftLaw, f_ex_hz: f64, a_ex: f64, nodes: usize) -> Result<(SlowModel, bool)> {
+    let beam = beam_for(params, manifold.n_modes)?;
+    slow_model_with(params, &beam, manifold, law, f_ex_hz, a_ex, nodes)
+}
+
+/// [`slow_model`] with the beam of [`beam_for`] built once by the caller.
+pub fn slow_model_with(params: &Params, beam: &Beam, manifold: &HbManifold, law: &DriftLaw, f_ex_hz: f64, a_ex: f64, nodes: usize) -> Result<(SlowModel, bool)> {
+    let mut extrapolated = false;
+    let mut model = SlowModel { low_ends_in_fold: manifold.s_up.is_some(), ..SlowModel::default() };
+    for high in [false, true] {
+        let b = if high { &manifold.high } else { &manifold.low };
+        if b.is_empty() {
+            continue;
+        }
+        let a = b.s.iter().copied().fold(f64::INFINITY, f64::min);
+        let mut z = b.s.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        if high && let Some(sd) = manifold.s_dn {
+            z = z.min(sd);
+        }
+        if z <= a {
+            continue;
+        }
+        let s = linspace(a, z, nodes.max(2));
+        let feats = features_with(params, beam, manifold, f_ex_hz, a_ex, high, &s)?;
+        let mut br = SlowBranch { s: s.clone(), amplitude_h: Vec::with_capacity(s.len()), v_per_s: Vec::with_capacity(s.len()) };
+        for f in &feats {
+            let (v, outside) = law.evaluate(high, &f.x(), f.lift_off);
+            extrapolated |= outside && f.lift_off >= 1.0;
+            br.amplitude_h.push(f.amplitude_h);
+            br.v_per_s.push(v);
+        }
+        if high {
+            model.high = br;
+        } else {
+            // The learnt s_up correction: the fold moves from s_up to s_up + shift, the branch
+            // stretched linearly towards its upper end z (Â and V those of the HB node):
+            // s′ = z − (z − s)(z − s_up′)/(z − s_up).
+            if let Some(su) = manifold.s_up
+                && law.s_up_shift != 0.0
+                && br.s.len() >= 2
+            {
+                let z = br.s[br.s.len() - 1];
+                let target = (su + law.s_up_shift).max(manifold.s_range.0);
+                if z > su && z > target {
+                    for x in br.s.iter_mut() {
+                        *x = z - (z - *x) * (z - target) / (z - su);
+                    }
+                }
+            }
+            model.low = br;
+        }
+    }
+    model.high_ends_in_fold = manifold.s_dn.is_some() && !model.high.s.is_empty();
+    Ok((model, extrapolated))
+}
+
+/// Predict one operating point with the reduced model (issue 17 §3.3): HB manifold, V from the
+/// law, slow flow from s₀ for `t_end_s` seconds, classified by the map classifier unchanged.
+pub fn predict_point(params: &Params, law: &DriftLaw, f_ex_hz: f64, a_ex: f64, s0: f64, t_end_s: f64, opts: &PredictOptions) -> Result<PointPrediction> {
+    let beam = beam_for(params, opts.hb.n_modes)?;
+    predict_point_with(params, &beam, law, f_ex_hz, a_ex, s0, t_end_s, opts)
+}
+
+/// [`predict_point`] with the beam of [`beam_for`] (`opts.hb.n_modes` modes) built once by the caller.
+#[allow(clippy::too_many_arguments)]
+pub fn predict_point_with(params: &Params, beam: &Beam, law: &DriftLaw, f_ex_hz: f64, a_ex: f64, s0: f64, t_end_s: f64, opts: &PredictOptions) -> Result<PointPrediction> {
+    let lo = params.s_min();
+    if !(s0.is_finite() && s0 >= lo - 1e-12 && s0 <= 1.0 - lo + 1e-12) {
+        return Err(Error::invalid("s0", s0, &format!("must lie on the beam, {lo:.4} <= s0 <= {:.4}", 1.0 - lo)));
+    }
+    if !(t_end_s.is_finite() && t_end_s > 0.0) {
+        return Err(Error::invalid("t_end", t_end_s, "must be > 0"));
+    }
+    let t0 = Instant::now();
+    let manifold = hb_manifold(params, f_ex_hz, a_ex, &opts.hb)?;
+    let t1 = Instant::now();
+    let (model, extrapolated) = slow_model_with(params, beam, &manifold, law, f_ex_hz, a_ex, opts.nodes)?;
+    let t2 = Instant::now();
+    let build_up = match opts.build_up_s {
+        Some(t) => t,
+        None => {
+            let d = opts.hb.d_eff.unwrap_or(params.damping_ratio);
+            if d > 0.0 { 3.0 / (d * 2.0 * std::f64::consts::PI * f_ex_hz) } else { 0.0 }
+        }
+    };
+    let fo = SlowFlowOptions { t_end_s, criteria: opts.criteria.clone(), build_up_s: build_up.min(t_end_s), ..SlowFlowOptions::default() };
+    let flow = slow_flow(&model, s0, &fo)?;
+    let t3 = Instant::now();
+    Ok(PointPrediction {
+        s_up: model.s_up(),
+        s_dn: model.s_dn(),
+        flow,
+        extrapolated,
+        model,
+        timings_s: [(t1 - t0).as_secs_f64(), (t2 - t1).as_secs_f64(), (t3 - t2).as_secs_f64()],
+    })
+}
+
+fn event_name(k: EventKind) -> &'static str {
+    match k {
+        EventKind::JumpUp => "jump_up",
+        EventKind::JumpDown => "jump_down",
+        EventKind::Equilibrium => "equilibrium",
+        EventKind::Wall => "wall",
+    }
+}
+
+fn finite(x: f64) -> Option<f64> {
+    x.is_finite().then_some(x)
+}
+
+/// A predicted map row (the FS map's row format; status `predicted`, zero counters; the extra
+/// keys `events`, `extrapolated`, `s_dn_source`).
+pub fn predicted_row(index: usize, f_ex_hz: f64, a_ex: f64, s0: f64, t_end_s: f64, p: &PointPrediction, wall_s: f64) -> MapRow {
+    let c = &p.flow.classification;
+    let mut extra = serde_json::Map::new();
+    let events: Vec<serde_json::Value> = p.flow.events.iter().map(|e| serde_json::json!([event_name(e.kind), e.t_s, e.s])).collect();
+    extra.insert("events".into(), serde_json::Value::Array(events));
+    extra.insert("extrapolated".into(), serde_json::Value::Bool(p.extrapolated));
+    extra.insert("s_dn_source".into(), serde_json::Value::String(if p.s_dn.is_some() { "hb" } else { "none" }.into()));
+    MapRow {
+        index,
+        f_ex_hz,
+        a_ex_m_s2: a_ex,
+        s0,
+        t_end_s,
+        status: STATUS_PREDICTED.to_string(),
+        behaviour: c.behaviour,
+        reason: c.reason.clone(),
+        s_final: c.s_final,
+        amplitude_final_h: c.amplitude_final_h,
+        amplitude_initial_h: c.amplitude_initial_h,
+        amplitude_max_h: c.amplitude_max_h,
+        s_min: c.s_min,
+        s_max: c.s_max,
+        net_travel: c.net_travel,
+        travel_to_centre: c.travel_to_centre,
+        turn_s: finite(c.turn_s),
+        turn_t_s: finite(c.turn_t_s),
+        jump_up_t_s: c.jump_up_t_s.clone(),
+        jump_down_t_s: c.jump_down_t_s.clone(),
+        steady: c.steady,
+        phase: c.phase.clone(),
+        counters: Counters::default(),
+        wall_time_s: wall_s,
+        end: None,
+        extra,
+    }
+}
+
+/// The predictor's description in a predicted map's header (compared on resume).
+pub fn header_value(law: &DriftLaw, opts: &PredictOptions) -> serde_json::Value {
+    serde_json::json!({
+        "kind": "drift_law_knn",
+        "law_fingerprint": law.fingerprint,
+        "law_points": law.points.iter().map(|p| [p.0, p.1]).collect::<Vec<_>>(),
+        "k": law.k,
+        "n_modes": opts.hb.n_modes,
+        "d_eff": opts.hb.d_eff,
+        "s_dn": "hb",
+        "nodes": opts.nodes,
+    })
+}
+
+/// Predict every point of `cfg`'s grid with the law (in parallel, `opts.threads` workers),
+/// appending each row to the results file as the FS maps do ([`MapResults`]: lock, resume,
+/// header; the header also holds the predictor, [`header_value`]). A failed point becomes a row
+/// with status `error`; `cancel` stops the map keeping the finished rows.
+pub fn run_predicted_map(cfg: &MapConfig, law: &DriftLaw, popts: &PredictOptions, opts: &MapRunOptions, cancel: &AtomicBool, progress: Progress<'_>) -> Result<MapOutcome> {
+    if opts.extend {
+        return Err(Error::invalid("extend_to", cfg.duration_s, "a predicted map is not extended (predict it for the longer duration)"));
+    }
+    let mut popts = popts.clone();
+    popts.criteria = cfg.criteria.clone();
+    let params = cfg.effective_params();
+    let header = header_value(law, &popts);
+    params.validate()?;
+    let beam = beam_for(&params, popts.hb.n_modes)?;
+    let mut results = MapResults::open_predicted(cfg, opts, &header)?;
+    let jobs = std::mem::take(&mut results.jobs);
+    let total = results.total;
+    let t_end = cfg.duration_s;
+    run_batch(
+        &jobs,
+        opts.threads,
+        cancel,
+        |job: &Job| {
+            if cancel.load(Ordering::Relaxed) {
+                return Ok(None);
+            }
+            let p = *job.point();
+            let t0 = Instant::now();
+            let row = match predict_point_with(&params, &beam, law, p.f_ex_hz, p.a_ex_m_s2, p.s0, t_end, &popts) {
+                Ok(pr) => predicted_row(p.index, p.f_ex_hz, p.a_ex_m_s2, p.s0, t_end, &pr, t0.elapsed().as_secs_f64()),
+                Err(e) => crate::map::error_row(&p, &e.to_string(), t0),
+            };
+            Ok(Some(row))
+        },
+        |row: &MapRow| {
+            results.append(row.clone())?;
+            if let Some(last) = results.rows.last() {
+                progress(results.rows.len(), total, last);
+            }
+            Ok(())
+        },
+    )?;
+    Ok(results.finish())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn law_text(k: usize) -> String {
+        serde_json::json!({
+            "kind": "beamslider drift law", "version": 1, "features": FEATURES, "k": k,
+            "x": {"L": [[0.0, 0.0, 0.0, 0.0, 0.0], [1.0, 0.0, 0.0, 0.0, 0.0]], "H": [[0.0, 1.0, 0.0, 0.0, 0.0]]},
+            "v": {"L": [1.0, 3.0], "H": [-2.0]},
+            "mean": [0.0, 0.0, 0.0, 0.0, 0.0], "std": [1.0, 1.0, 1.0, 1.0, 1.0],
+            "lo": [0.0, 0.0, 0.0, 0.0, 0.0], "hi": [1.0, 1.0, 1.0, 1.0, 1.0], "points": [[124.0, 14.0]]
+        })
+        .to_string()
+    }
+
+    #[test]
+    fn knn_is_inverse_distance_weighted_and_zero_without_lift_off() {
+        let law = DriftLaw::from_json_str(&law_text(2)).unwrap();
+        // Distances 0.25 and 0.75: weights 4 and 4/3 → (4·1 + 4/3·3)/(16/3) = 1.5.
+        let (v, out) = law.evaluate(false, &[0.25, 0.0, 0.0, 0.0, 0.0], 2.0);
+        assert!((v - 1.5).abs() < 1e-12 && !out);
+        let (v, _) = law.evaluate(false, &[0.25, 0.0, 0.0, 0.0, 0.0], 0.9);
+        assert_eq!(v, 0.0);
+        let (v, out) = law.evaluate(true, &[5.0, 0.0, 0.0, 0.0, 0.0], 2.0);
+        assert_eq!(v, -2.0);
+        assert!(out);
+    }
+
+    #[test]
+    fn bad_law_files_are_clear_errors() {
+        for bad in ["", "{}", "[1, 2]", r#"{"kind": "other"}"#] {
+            assert!(DriftLaw::from_json_str(bad).is_err(), "{bad}");
+        }
+        let wrong_features = law_text(2).replace("slope_gap", "slope_mu");
+        let e = DriftLaw::from_json_str(&wrong_features).unwrap_err().to_string();
+        assert!(e.contains("features"), "{e}");
+        let zero_k = law_text(0);
+        assert!(DriftLaw::from_json_str(&zero_k).is_err());
+        let short = law_text(1).replace("\"L\":[1.0,3.0]", "\"L\":[1.0]");
+        assert_ne!(short, law_text(1));
+        assert!(DriftLaw::from_json_str(&short).is_err());
+        let e = DriftLaw::from_file("/nonexistent/law.json").unwrap_err();
+        assert!(matches!(e, Error::Io { .. }));
+    }
+}
