@@ -1,5 +1,5 @@
 """The ``beamslider`` command: simulate, manifold, compare, map, plot, enma, hb-manifold, drift-table,
-predict, discover, synthesize, study.
+predict, discover, synthesize, study, design.
 
 Each subcommand writes CSV/JSON results and PNG figures into an output folder (``--out``,
 default ``./beamslider-out``). ``simulate``, ``manifold``, ``compare`` and ``plot`` never replace an
@@ -14,7 +14,7 @@ Layout (imports run one way only: this file → subcommand modules → shared he
 
 - one module per subcommand, each with ``add_parser(sub)`` and its ``cmd_*`` function:
   :mod:`.simulate`, :mod:`.manifold`, :mod:`.compare`, :mod:`.plot`, :mod:`.map`, :mod:`.enma`,
-  :mod:`.hb_manifold`, :mod:`.predict` (``drift-table`` and ``predict``), :mod:`.discover` (``discover`` and ``synthesize``), :mod:`.study`;
+  :mod:`.hb_manifold`, :mod:`.predict` (``drift-table`` and ``predict``), :mod:`.discover` (``discover`` and ``synthesize``), :mod:`.study`, :mod:`.design`;
 - shared helpers: :mod:`._common` (errors, exit codes, common options, output planning, ranges),
   :mod:`._files` (stems and the CSV/JSON files of a run), :mod:`._manifold` (the manifold options).
 """
@@ -28,14 +28,14 @@ from typing import Optional, Sequence
 
 from .. import _core
 from .._mpl import PlotDependencyError
-from . import compare, discover, enma, hb_manifold, manifold, map, plot, predict, simulate, study
+from . import compare, design, discover, enma, hb_manifold, manifold, map, plot, predict, simulate, study
 from ._common import (DEFAULT_OUT, EXIT_ERROR, EXIT_FAULT, EXIT_INTERRUPTED, MAX_GRID, UserError, one_line,
                       write_json)
 from ._files import (DEFAULT_MANIFOLD_RECORD, MANIFOLD_HEADER, manifold_file_stem, manifold_stem,
                      read_manifold_csv, read_simulation_csv, run_stem, simulation_stem, simulation_summary,
                      write_manifold_csv, write_simulation_csv)
 
-SUBCOMMANDS = (simulate, manifold, compare, map, plot, enma, hb_manifold, predict, discover, study)
+SUBCOMMANDS = (simulate, manifold, compare, map, plot, enma, hb_manifold, predict, discover, study, design)
 """The subcommand modules in the order ``beamslider --help`` lists them."""
 
 __all__ = [
