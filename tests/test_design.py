@@ -206,7 +206,7 @@ def test_cli_design(tmp_path, capsys):
     assert s["evaluations_search"] == 2
     bad = tmp_path / "bad.toml"
     bad.write_text("[design]\nnot_a_field = [0.0, 1.0]\n")
-    assert cli_main(["design", "--config", str(bad), "--out", str(tmp_path / "b")]) == 2
+    assert cli_main(["design", "--config", str(bad), "--out", str(tmp_path / "b")]) == 1
     assert "not_a_field" in capsys.readouterr().err
     assert not (tmp_path / "b").exists()
 

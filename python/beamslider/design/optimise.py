@@ -110,8 +110,11 @@ class _Search:
         for k, x in zip(keys, xs):
             if k in self.w or k in out or any(k == t[0] for t in todo):
                 continue
-            p = self.c.design_params(x)
-            viol = self.c.violation(p)
+            try:
+                p = self.c.design_params(x)
+                viol = self.c.violation(p)
+            except ValueError as e:  # a combination of in-bound values the model rejects (e.g. B >= L)
+                p, viol = self.c.params, f"invalid parameters: {e}"
             if viol:
                 out[k] = self.w.add(self._record(x, p, evaluator, mode, t_end, samples, None, viol, 0.0))
                 self.evaluated_now += 1
