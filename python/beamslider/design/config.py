@@ -104,8 +104,12 @@ class Variable:
 
     def __post_init__(self) -> None:
         if self.name not in _PARAM_FIELDS:
+            import difflib
+
+            near = difflib.get_close_matches(self.name, _PARAM_FIELDS, n=1, cutoff=0.5)
+            hint = f"; did you mean {near[0]!r}?" if near else ""
             raise ValueError(f"invalid design variable {self.name!r}: not a field of beamslider.Parameters "
-                             f"(TOML keys, docs/model.md §1)")
+                             f"(TOML keys, docs/model.md §1){hint}")
         if self.name in _NOT_CONTINUOUS:
             raise ValueError(f"invalid design variable {self.name!r}: not a continuous quantity")
         lo = _num(f"design.{self.name}[0]", self.low)

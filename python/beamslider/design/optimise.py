@@ -332,7 +332,8 @@ def optimise(config: Union[DesignConfig, str, Path], *, out: Optional[Union[str,
             prototype=proto, pareto=pareto_front(search, objective=obj), checks=result_checks,
             jam=_jam_report([r for r in records if r["evaluator"] == "fs"] or records),
             optimiser={"nit": int(res.nit), "nfev": int(res.nfev), "message": str(res.message),
-                       "population": int(c.popsize * len(c.variables)), "seed": c.seed},
+                       "population": int(len(getattr(res, "population", [])) or max(5, c.popsize * len(c.variables))),
+                       "seed": c.seed},
             wall_time_s=time.perf_counter() - t0, evaluated_now=s.evaluated_now, runs_now=s.runs_now)
     finally:
         if writer is not None:
