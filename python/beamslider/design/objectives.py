@@ -62,7 +62,7 @@ def adapted_intervals(f_hz: Sequence[float], behaviour: Sequence[str], amplitude
                 edge = 0.5 * (lo + hi)
             pieces.append((lo, edge) if good[i] else (edge, hi))
     merged: List[Tuple[float, float]] = []
-    for p in pieces:
+    for p in ((float(lo), float(hi)) for lo, hi in pieces):
         if p[1] <= p[0]:
             continue
         if merged and p[0] <= merged[-1][1]:
