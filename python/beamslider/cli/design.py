@@ -25,6 +25,8 @@ def add_parser(sub: Any) -> None:
     sp.add_argument("--threads", "-j", type=int, metavar="N", help="local worker threads (default: one per core)")
     sp.add_argument("--check-t-end", type=float, metavar="S",
                     help="duration of the FS re-checks of prototype and best design [s] (default: the search's t_end_s)")
+    sp.add_argument("--robust-check-t-end", type=float, metavar="S",
+                    help="duration of the robust FS re-checks [s] (default: --check-t-end)")
     sp.add_argument("--resume", action="store_true", help="continue the run in --out, skipping evaluated designs")
     sp.add_argument("--print-config", action="store_true", help="print an example configuration (TOML) and exit")
     add_common(sp, model_options=False, window=False)
@@ -50,7 +52,8 @@ def cmd_design(args: Any) -> int:
     out = Path(args.out)
     t0 = time.perf_counter()
     res = optimise(config, out=out, resume=args.resume, scheduler=args.scheduler, scheduler_file=args.scheduler_file,
-                   threads=args.threads, progress=args.progress, check_t_end_s=args.check_t_end)
+                   threads=args.threads, progress=args.progress, check_t_end_s=args.check_t_end,
+                   robust_check_t_end_s=args.robust_check_t_end)
     written = write_outputs(res, out)
     print(res.text(), end="")
     print(f"wall time {time.perf_counter() - t0:.1f} s")

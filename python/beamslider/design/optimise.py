@@ -252,7 +252,7 @@ def _jam_report(records: List[Dict[str, Any]]) -> Dict[str, Any]:
 def optimise(config: Union[DesignConfig, str, Path], *, out: Optional[Union[str, Path]] = None, resume: bool = False,
              scheduler: Any = None, scheduler_file: Optional[str] = None, threads: Optional[int] = None,
              task_threads: int = 1, progress: Optional[bool] = False, check_t_end_s: Optional[float] = None,
-             checks: bool = True) -> DesignResult:
+             robust_check_t_end_s: Optional[float] = None, checks: bool = True) -> DesignResult:
     """Optimise the slider design of ``config`` (a :class:`DesignConfig` or the path of its TOML).
 
     ``out``: folder of the results file ``design.jsonl`` (one line per evaluated design, written at
@@ -260,7 +260,8 @@ def optimise(config: Union[DesignConfig, str, Path], *, out: Optional[Union[str,
     twice, same result as an uninterrupted run). ``scheduler`` / ``scheduler_file``: the FS runs on
     a Dask cluster (chunks of ``chunk_size`` runs, ``task_threads`` rayon threads each); default
     local on ``threads`` threads (one per core). ``check_t_end_s``: duration of the FS re-checks
-    (default: the search's ``t_end_s``); ``checks=False`` skips them. Ctrl-C stops the run keeping
+    (default: the search's ``t_end_s``), ``robust_check_t_end_s`` that of the robust re-checks
+    (default ``check_t_end_s``); ``checks=False`` skips them. Ctrl-C stops the run keeping
     the finished designs (``KeyboardInterrupt``)."""
     from scipy.optimize import differential_evolution
 
@@ -270,8 +271,10 @@ def optimise(config: Union[DesignConfig, str, Path], *, out: Optional[Union[str,
     if threads is not None and (isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) or threads < 1):
         raise ValueError(f"invalid parameter `threads` = {threads!r}: must be an integer >= 1")
     t_check = c.t_end_s if check_t_end_s is None else float(check_t_end_s)
-    if not (math.isfinite(t_check) and t_check > 0):
-        raise ValueError(f"invalid parameter `check_t_end_s` = {check_t_end_s!r}: must be a positive number of seconds")
+    t_robust = t_check if robust_check_t_end_s is None else float(robust_check_t_end_s)
+    for name, v in (("check_t_end_s", t_check), ("robust_check_t_end_s", t_robust)):
+        if not (math.isfinite(v) and v > 0):
+            raise ValueError(f"invalid parameter `{name}` = {v!r}: must be a positive number of seconds")
     client, own = None, False
     if scheduler is not None or scheduler_file is not None:
         from .._dask import connect
@@ -321,7 +324,7 @@ def optimise(config: Union[DesignConfig, str, Path], *, out: Optional[Union[str,
                 result_checks[f"{name}_nominal" if not name.startswith("recheck") else name] = r
             rs = c.robust_samples_values()
             if rs:
-                recs = s.evaluate([x for _, x in named[:2]], evaluator="fs", mode="robust", t_end=t_check, samples=rs,
+                recs = s.evaluate([x for _, x in named[:2]], evaluator="fs", mode="robust", t_end=t_robust, samples=rs,
                                   desc="FS check (robust)")
                 for (name, _x), r in zip(named[:2], recs):
                     result_checks[f"{name}_robust"] = r
