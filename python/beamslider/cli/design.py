@@ -46,8 +46,8 @@ def cmd_design(args: Any) -> int:
         raise ValueError(f"{args.config}: no such file")
     if args.scheduler and args.scheduler_file:
         raise ValueError("give --scheduler or --scheduler-file, not both")
-    if args.threads is not None and args.threads < 1:
-        raise ValueError(f"invalid --threads {args.threads}: must be >= 1")
+    if args.threads is not None and not 1 <= args.threads <= 65536:
+        raise ValueError(f"invalid --threads {args.threads}: must be in 1..=65536")
     config = read_config(args.config)
     out = Path(args.out)
     t0 = time.perf_counter()

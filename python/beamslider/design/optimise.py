@@ -268,8 +268,9 @@ def optimise(config: Union[DesignConfig, str, Path], *, out: Optional[Union[str,
     if not isinstance(config, DesignConfig):
         config = read_config(config)
     c = config
-    if threads is not None and (isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) or threads < 1):
-        raise ValueError(f"invalid parameter `threads` = {threads!r}: must be an integer >= 1")
+    if threads is not None and (isinstance(threads, bool) or not isinstance(threads, (int, np.integer))
+                                or not 1 <= threads <= 65536):
+        raise ValueError(f"invalid parameter `threads` = {threads!r}: must be an integer in 1..=65536")
     t_check = c.t_end_s if check_t_end_s is None else float(check_t_end_s)
     t_robust = t_check if robust_check_t_end_s is None else float(robust_check_t_end_s)
     for name, v in (("check_t_end_s", t_check), ("robust_check_t_end_s", t_robust)):
