@@ -309,7 +309,9 @@ def optimise(config: Union[DesignConfig, str, Path], *, out: Optional[Union[str,
             proto = writer.get(design_key(c.evaluator, mode, c.t_end_s, c.prototype_x()))
         result_checks: Dict[str, Dict[str, Any]] = {}
         if checks:
-            named = [("prototype", c.prototype_x()), ("best", np.array(best["x"]))]
+            px = c.prototype_x()
+            inside = all(v.low <= x <= v.high for v, x in zip(c.variables, px))
+            named = ([("prototype", px)] if inside else []) + [("best", np.array(best["x"]))]
             if c.evaluator == "predictor" and c.recheck > 0:
                 ranked = sorted((r for r in search if r["feasible"]), key=lambda r: -r["score"])
                 seen: List[str] = []
@@ -325,9 +327,10 @@ def optimise(config: Union[DesignConfig, str, Path], *, out: Optional[Union[str,
                 result_checks[f"{name}_nominal" if not name.startswith("recheck") else name] = r
             rs = c.robust_samples_values()
             if rs:
-                recs = s.evaluate([x for _, x in named[:2]], evaluator="fs", mode="robust", t_end=t_robust, samples=rs,
+                two = [(n, x) for n, x in named if n in ("prototype", "best")]
+                recs = s.evaluate([x for _, x in two], evaluator="fs", mode="robust", t_end=t_robust, samples=rs,
                                   desc="FS check (robust)")
-                for (name, _x), r in zip(named[:2], recs):
+                for (name, _x), r in zip(two, recs):
                     result_checks[f"{name}_robust"] = r
         records = [writer.records[k] for k in writer.order]
         obj = "bandwidth_hz" if c.maximise == "bandwidth" else "harvest"
