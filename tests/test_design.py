@@ -233,3 +233,11 @@ def test_dask_search_equals_local(tmp_path, cluster):
     dask = optimise(cfg, out=tmp_path / "dask", checks=False, scheduler=cluster)
     assert strip(dask.search) == strip(local.search)
     assert dask.best["x"] == local.best["x"]
+
+
+def test_prototype_outside_the_bounds_is_not_rechecked():
+    cfg = tiny(variables=[dict(name="gap_ratio", low=1.1, high=1.2)], include_prototype=False, maxiter=0)
+    with pytest.raises(ValueError, match="include_prototype"):
+        tiny(variables=[dict(name="gap_ratio", low=1.1, high=1.2)])
+    res = optimise(cfg, check_t_end_s=1.5)
+    assert res.prototype is None and "prototype_nominal" not in res.checks and res.checks["best_nominal"]["feasible"]
