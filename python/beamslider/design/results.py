@@ -1,0 +1,219 @@
+"""Results of a design run: the file ``design.jsonl`` (a header line with the configuration, then
+one JSON line per evaluated design, appended and flushed as soon as the design is done, under the
+core's one-writer lock ``design.jsonl.lock``), the Pareto front and :class:`DesignResult`."""
+
+from __future__ import annotations
+
+import json
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Dict, List, Optional, Union
+
+import numpy as np
+
+from .. import _core
+from .._json import json_safe
+from ..params import Parameters
+from .config import RESULTS_FILE, DesignConfig
+
+FORMAT = 1
+"""Version of the design results file."""
+
+
+def design_key(evaluator: str, mode: str, t_end_s: float, x: Any) -> str:
+    """Identity of one evaluation: evaluator, mode (``nominal`` / ``robust``), run duration and the
+    exact design vector (floats written with repr, so a resumed optimiser finds it bitwise)."""
+    return json.dumps([evaluator, mode, float(t_end_s), [float(v) for v in np.asarray(x, dtype=float).ravel()]])
+
+
+def read_design_file(path: Union[str, Path]) -> tuple:
+    """(header, records, byte length of the complete part). An incomplete last line (a run killed
+    while writing) is ignored; a damaged complete line is a ValueError naming it."""
+    path = Path(path)
+    if path.is_dir():
+        path = path / RESULTS_FILE
+    data = path.read_bytes()
+    good = data.rfind(b"\n") + 1
+    lines = data[:good].decode("utf-8").splitlines()
+    if not lines:
+        return None, [], 0
+    try:
+        header = json.loads(lines[0])
+    except json.JSONDecodeError:
+        raise ValueError(f"{path}: line 1 is not JSON") from None
+    if header.get("beamslider_design") != FORMAT:
+        raise ValueError(f"{path}: not a beamslider design results file (version {FORMAT})")
+    records = []
+    for k, line in enumerate(lines[1:], start=2):
+        try:
+            records.append(json.loads(line))
+        except json.JSONDecodeError:
+            raise ValueError(f"{path}: line {k} is damaged") from None
+    return header, records, good
+
+
+class DesignWriter:
+    """The results of a design run, in memory and (``path`` given) in the file: ``add(record)``
+    appends one line at once, ``get(key)`` returns a finished evaluation. ``resume=False`` refuses
+    an existing non-empty file; ``resume=True`` checks that it belongs to the same configuration."""
+
+    def __init__(self, config: DesignConfig, path: Optional[Path], resume: bool) -> None:
+        self.records: Dict[str, Dict[str, Any]] = {}
+        self.order: List[str] = []
+        self._file = None
+        self._lock = None
+        if path is None:
+            return
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        self._lock = _core.ResultsLock(str(path))
+        try:
+            header = {"beamslider_design": FORMAT, "config": json_safe(config.to_dict())}
+            text = json.dumps(header)
+            if path.exists() and path.stat().st_size > 0:
+                if not resume:
+                    raise FileExistsError(f"{path} exists: pass resume=True (--resume) to continue that run, "
+                                          f"or choose another output folder")
+                old, records, good = read_design_file(path)
+                if old is not None and json.dumps(old) != text:
+                    raise ValueError(f"{path} holds a run of another configuration: cannot resume it with this one")
+                with open(path, "r+b") as f:  # drop a truncated last line
+                    f.truncate(good)
+                for r in records:
+                    self._remember(r)
+                self._file = open(path, "a", encoding="utf-8")
+                if old is None:
+                    self._write(text)
+            else:
+                self._file = open(path, "w", encoding="utf-8")
+                self._write(text)
+        except BaseException:
+            self.close()
+            raise
+
+    def _write(self, line: str) -> None:
+        assert self._file is not None
+        self._file.write(line + "\n")
+        self._file.flush()
+        os.fsync(self._file.fileno())
+
+    def _remember(self, r: Dict[str, Any]) -> None:
+        if r["key"] not in self.records:
+            self.order.append(r["key"])
+        self.records[r["key"]] = r
+
+    def __contains__(self, key: str) -> bool:
+        return key in self.records
+
+    def get(self, key: str) -> Optional[Dict[str, Any]]:
+        return self.records.get(key)
+
+    def add(self, record: Dict[str, Any]) -> Dict[str, Any]:
+        """Append one evaluated design (returned as read back from its JSON text)."""
+        text = json.dumps(json_safe(record))
+        rec = json.loads(text)
+        if self._file is not None:
+            self._write(text)
+        self._remember(rec)
+        return rec
+
+    def close(self) -> None:
+        if self._file is not None:
+            self._file.close()
+            self._file = None
+        if self._lock is not None:
+            self._lock.release()
+            self._lock = None
+
+
+def pareto_front(records: List[Dict[str, Any]], *, objective: str = "bandwidth_hz") -> List[Dict[str, Any]]:
+    """The feasible records not dominated in (``objective`` high, ``slider_mass_kg`` low), sorted by mass.
+    Ties (equal mass and objective) keep the first record."""
+    feas = [r for r in records if r.get("feasible")]
+    front = []
+    for r in feas:
+        m, b = r["slider_mass_kg"], r[objective]
+        dominated = any((o["slider_mass_kg"] <= m and o[objective] >= b)
+                        and (o["slider_mass_kg"] < m or o[objective] > b) for o in feas)
+        if not dominated and not any(o["slider_mass_kg"] == m and o[objective] == b for o in front):
+            front.append(r)
+    return sorted(front, key=lambda r: r["slider_mass_kg"])
+
+
+@dataclass
+class DesignResult:
+    """What :func:`beamslider.design.optimise` found.
+
+    ``records``: every evaluated design (dicts as in ``design.jsonl``: ``x``, ``variables``,
+    ``params``, ``bandwidth_hz``, ``harvest``, ``score``, ``feasible``, ``samples`` with the
+    per-line objectives and the classified points, …); ``search``: those of the optimiser's search;
+    ``best``: the search's best record and ``best_params`` its :class:`Parameters`; ``prototype``:
+    the search record of the base design (if evaluated); ``pareto``: the Pareto front of bandwidth
+    vs slider mass over the search's feasible designs; ``checks``: FS re-checks by name
+    (``prototype_nominal``, ``best_nominal``, ``prototype_robust``, ``best_robust``, ``recheck_<k>``);
+    ``jam``: the jam report; ``optimiser``: scipy's result summary (nit, nfev, message)."""
+
+    config: DesignConfig
+    records: List[Dict[str, Any]]
+    search: List[Dict[str, Any]]
+    best: Dict[str, Any]
+    best_params: Parameters
+    prototype: Optional[Dict[str, Any]]
+    pareto: List[Dict[str, Any]]
+    checks: Dict[str, Dict[str, Any]] = field(default_factory=dict)
+    jam: Dict[str, Any] = field(default_factory=dict)
+    optimiser: Dict[str, Any] = field(default_factory=dict)
+    wall_time_s: float = 0.0
+    evaluated_now: int = 0
+    """Designs evaluated by this call (not read back from a resumed file)."""
+    runs_now: int = 0
+    """Single runs (FS or predicted points) done by this call."""
+
+    def summary(self) -> Dict[str, Any]:
+        """Plain-data summary (``summary.json``)."""
+        def brief(r: Optional[Dict[str, Any]]) -> Optional[Dict[str, Any]]:
+            if r is None:
+                return None
+            return {k: r.get(k) for k in ("evaluator", "mode", "t_end_s", "variables", "slider_mass_kg", "gap_ratio",
+                                          "bandwidth_hz", "harvest", "score", "bandwidth_mean_hz", "bandwidth_quantile_hz",
+                                          "harvest_mean", "harvest_quantile", "feasible", "violation", "moved")} | {
+                "lines": r["samples"][0]["lines"] if len(r.get("samples", [])) == 1 else None}
+        return json_safe({
+            "evaluations_search": len(self.search), "evaluated_now": self.evaluated_now, "runs_now": self.runs_now,
+            "wall_time_s": self.wall_time_s, "optimiser": self.optimiser,
+            "best": brief(self.best), "prototype": brief(self.prototype),
+            "pareto": [brief(r) for r in self.pareto],
+            "checks": {k: brief(v) for k, v in self.checks.items()}, "jam": self.jam,
+        })
+
+    def text(self) -> str:
+        """A short human-readable report."""
+        c = self.config
+        lines = [f"design search: {len(self.search)} designs ({c.evaluator}, {c.maximise}"
+                 f"{'' if c.robust == 'none' else ', robust ' + c.robust}), band {c.f_lo_hz:g}-{c.f_hi_hz:g} Hz "
+                 f"step {c.f_step_hz:g}, a_ex {', '.join(f'{a:g}' for a in c.a_ex_m_s2)} m/s^2, s0 "
+                 f"{', '.join(f'{s:g}' for s in c.s0)}, t_end {c.t_end_s:g} s"]
+
+        def row(name: str, r: Optional[Dict[str, Any]]) -> None:
+            if r is None:
+                return
+            per = ""
+            if len(r.get("samples", [])) == 1:
+                per = " (" + ", ".join(f"{l['a_ex_m_s2']:g} m/s^2: {l['bandwidth_hz']:.2f} Hz" for l in r["samples"][0]["lines"]) + ")"
+            var = ", ".join(f"{k} = {v:.5g}" for k, v in r["variables"].items())
+            lines.append(f"  {name:<18} [{r['evaluator']}, {r['mode']}, {r['t_end_s']:g} s] {var}: bandwidth "
+                         f"{r['bandwidth_hz']:.2f} Hz{per}, harvest {r['harvest']:.3f}"
+                         + ("" if r.get("feasible", True) else f" INFEASIBLE ({r['violation']})"))
+
+        row("prototype", self.prototype)
+        row("best", self.best)
+        for k, v in self.checks.items():
+            row(k, v)
+        lines.append(f"  Pareto front (bandwidth vs slider mass): " + "; ".join(
+            f"m = {r['slider_mass_kg'] * 1e3:.1f} g: {r['bandwidth_hz']:.2f} Hz" for r in self.pareto))
+        if self.jam:
+            lines.append(f"  jam report: {self.jam.get('text', '')}")
+        lines.append(f"  {self.evaluated_now} designs / {self.runs_now} runs evaluated now in {self.wall_time_s:.1f} s"
+                     f" ({self.optimiser.get('message', '')})")
+        return "\n".join(lines) + "\n"
