@@ -95,14 +95,22 @@ fn tilted_frame_slides_the_slider_downhill_at_the_incline_rate() {
 
 #[test]
 fn tilt_below_the_friction_angle_holds_the_slider() {
-    // tan 0.15 = 0.151 < μ = 0.2: after landing the slider sticks (the landing itself may shift it
-    // by the free-fall drift of ~µm, not more).
-    let (t, x) = drift(0.15, 0.2, 0.15);
-    let i0 = t.iter().position(|&v| v >= 0.03).unwrap();
-    let moved = (x[x.len() - 1] - x[i0]).abs();
-    // Sliding at μ = 0.1 (tan α > μ) would move it by ½ a t² ≈ 5 mm in that time.
-    assert!(moved < 2e-6, "stuck slider moved by {moved:e} m");
-    let (t2, x2) = drift(0.15, 0.1, 0.15);
-    let j0 = t2.iter().position(|&v| v >= 0.03).unwrap();
-    assert!(x2[x2.len() - 1] - x2[j0] > 1e-3, "slider does not slide when tan alpha > mu");
+    // tan 0.15 = 0.151 < μ = 0.2: once the beam's ringing after the landing has decayed, the
+    // slider sticks. (With the prototype's D = 0.001 the ringing lasts seconds and its contact
+    // vibration transports the slider, the system's own drift mechanism: 0.27 mm in 0.12 s; with
+    // D = 0.05 the creep after landing is 12 µm by t = 0.1 s and stops: 0.5 µm over 0.2–0.4 s.)
+    // Sliding at μ = 0.1 (tan α > μ) moves it by centimetres over 0.2–0.4 s.
+    let run_d = |mu: f64| {
+        let p = Params { tilt_rad: 0.15, friction_coefficient: mu, damping_ratio: 0.05, ..Params::default() };
+        let (rec, sum) = run(p, SliderModel::Free, 100.0, 0.0, 0.5, 0.4, 10);
+        assert_eq!(sum.status, Status::Completed);
+        let (t, x) = (rec.column("t_s").unwrap(), rec.column("xC_m").unwrap());
+        let i0 = t.iter().position(|&v| v >= 0.2).unwrap();
+        x[x.len() - 1] - x[i0]
+    };
+    let stuck = run_d(0.2);
+    let sliding = run_d(0.1);
+    eprintln!("tan a < mu: moved {stuck:e} m; tan a > mu: moved {sliding:e} m");
+    assert!(stuck.abs() < 1e-6, "stuck slider moved by {stuck:e} m");
+    assert!(sliding > 1e-3, "slider does not slide when tan alpha > mu: {sliding:e} m");
 }
