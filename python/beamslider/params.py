@@ -166,7 +166,7 @@ ALLOWED: Dict[str, str] = {
     "friction_coefficient": "finite, ≥ 0",
     "restitution": "in [0, 1]",
     "gravity_m_s2": "finite, ≥ 0",
-    "tilt_rad": "finite, |α| < π/2",
+    "tilt_rad": "finite, −π/2 < α < π/2",
     "n_modes": "integer 1..20",
     "dt_s": "finite, > 0; below the stability limit ≈ 2/ω_N of the highest mode; ≥ 10 steps per excitation period",
     "contact_solver": '"fast" or "reference"',
