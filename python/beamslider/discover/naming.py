@@ -622,8 +622,11 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
                         z_before=(before[k] - f.value) / f.stderr, z_after=(after_f[k] - f.value) / f.stderr,
                         exceeds_uncertainty=bool(abs(before[k] - f.value) > 2 * f.stderr))
                 for k, f in meas.items()}
-    negligible = [f for f in fits if verdicts[f.effects]
-                  and all(r.startswith("negligible change") for r in verdicts[f.effects])]
+    # "none" also when an adequate fit needs only a negligible change but fails the gap share: a
+    # small gap before (a few sigma, mostly noise) cannot shrink to 0.3 x with any fit.
+    negligible = [f for f in fits if verdicts[f.effects] and f.adequate
+                  and any(r.startswith("negligible change") for r in verdicts[f.effects])
+                  and all(r.startswith(("negligible change", "small share of the gap")) for r in verdicts[f.effects])]
     if chi2_0 <= _chi2_quantile(n):
         verdict = "none"
     elif best is not None:

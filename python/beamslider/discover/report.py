@@ -102,7 +102,8 @@ def verdict_line(d: Discovery) -> str:
         best = d.rejected[0] if d.rejected else None
         why = (f"; best candidate {' + '.join(best['effects'])} rejected: {best['reasons'][0]}" if best else "")
         return f"unexplained discrepancy (gap {d.gap_before:.3g}; off: {off or 'no single feature beyond 2 sigma'}){why}"
-    neg = [r for r in d.rejected if r["reasons"] and all(x.startswith("negligible change") for x in r["reasons"])]
+    neg = [r for r in d.rejected if r["reasons"] and any(x.startswith("negligible change") for x in r["reasons"])
+           and all(x.startswith(("negligible change", "small share of the gap")) for x in r["reasons"])]
     if neg:
         return (f"none (gap {d.gap_before:.3g} closed by a negligible change: {' + '.join(neg[0]['effects'])}, "
                 f"{neg[0]['reasons'][0]})")
