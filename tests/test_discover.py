@@ -323,8 +323,8 @@ def test_joint_beam_and_slider_evidence_names_both(tmp_path):
 
 
 def test_cli_takes_enma_and_measured_together(tmp_path):
-    """`beamslider discover --enma ... --measured ...`: one joint discover (data of the baseline
-    itself, so the verdict is "none" without fits; report.json says level joint)."""
+    """`beamslider discover --enma ... --measured ...`: one joint discover over both feature sets
+    (data of the baseline itself; two candidates keep it short), report.json says level joint."""
     r = run_cli("synthesize", "enma", "--out", str(tmp_path / "e"), "--seed", "4", cwd=tmp_path, timeout=300)
     assert r.returncode == 0, r.stderr
     r = run_cli("synthesize", "slider", "--points", "124,6,0.3", "--duration", "8", "--out", str(tmp_path / "s"),
@@ -332,9 +332,11 @@ def test_cli_takes_enma_and_measured_together(tmp_path):
     assert r.returncode == 0, r.stderr
     runs = sorted(str(p) for p in (tmp_path / "s").glob("*.txt"))
     r = run_cli("discover", "--enma", str(tmp_path / "e" / "enma_data.csv"), "--measured", *runs,
-                "--out", str(tmp_path / "d"), cwd=tmp_path, timeout=600)
+                "--effects", "axial_preload,friction_coefficient", "--out", str(tmp_path / "d"), cwd=tmp_path,
+                timeout=900)
     assert r.returncode == 0, r.stderr
     rep = json.loads((tmp_path / "d" / "report.json").read_text())
-    assert rep["level"] == "joint" and rep["verdict"] == "none", r.stdout
+    assert rep["level"] == "joint" and rep["verdict"] in ("none", "unexplained"), r.stdout
+    assert rep["named_effects"] == []
     assert "f0_hz" in rep["features"] and any(k.startswith("speed_early@") for k in rep["features"])
-    assert "verdict: none" in r.stdout
+    assert len([line for line in r.stdout.splitlines() if line.startswith("verdict: ")]) == 1
