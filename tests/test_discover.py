@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 import math
 
+import numpy as np
 import pytest
 
 import beamslider as bs
@@ -219,3 +220,123 @@ def test_separability_rows_and_recommendation():
         if not r["separable"]:
             rec = r["recommended"]
             assert (rec["f_ex"], rec["a_ex"], rec["s0"]) in grid and rec["separation"] >= 0
+
+
+# --- issue 20, second part: tilt, the core's batch runner, joint fit, out-of-library cases ---------
+
+
+def test_tilt_parameter_round_trips_and_is_validated(tmp_path):
+    p = bs.Parameters(tilt_rad=0.01)
+    p.to_toml(tmp_path / "p.toml")
+    assert bs.Parameters.from_toml(tmp_path / "p.toml").tilt_rad == 0.01
+    assert bs.Parameters().tilt_rad == 0.0
+    with pytest.raises(ValueError, match="tilt_rad"):
+        bs.Parameters(tilt_rad=2.0)
+    e = dc.EFFECTS["tilt"]
+    assert e.field == "tilt_rad" and e.level == "slider" and e.relevance > 0
+    assert not e.relevant(1e-3, bs.Parameters())[0] and e.relevant(5e-3, bs.Parameters())[0]
+
+
+def test_tilt_drifts_the_slider_downhill_on_a_beam_at_rest():
+    """a_ex = 0: sliding on an incline, x'' = g (sin a - mu cos a), and the opposite tilt the other way."""
+    g, mu, alpha = 9.81, 0.2, 0.35
+    for sign in (1, -1):
+        r = bs.simulate(bs.Parameters(tilt_rad=sign * alpha), f_ex=100, a_ex=0.0, s0=0.5, t_end=0.15, record_every=10)
+        keep = r.t >= 0.03
+        c = np.polyfit(r.t[keep], r.s[keep] * 0.14, 2)
+        expected = sign * g * (math.sin(alpha) - mu * math.cos(alpha))
+        assert 2 * c[0] == pytest.approx(expected, rel=0.03)
+
+
+def test_batch_runs_match_single_runs():
+    """The core's batch runner (one chi2 evaluation's runs) gives the single run's s bit for bit,
+    independent of the thread count; a failing job is a result, bad arguments are ValueErrors."""
+    from beamslider import _core
+
+    p = bs.Parameters()
+    jobs = [(p.toml_text(), 124.0, 14.0, 0.3, 0.5), (p.toml_text(), 110.0, 10.0, 0.3, 0.5),
+            (bs.Parameters(gap_ratio=1.1).toml_text(), 124.0, 14.0, 0.3, 0.5)]
+    one = _core.run_free_slider_batch(jobs, record_every=5, keep_every=5, threads=1)
+    two = _core.run_free_slider_batch(jobs, record_every=5, keep_every=5, threads=2)
+    ref = bs.simulate(p, f_ex=124.0, a_ex=14.0, s0=0.3, t_end=0.5, record_every=5)
+    assert np.array_equal(one[0]["s"], ref.s[::5]) and np.array_equal(one[0]["t"], ref.t[::5])
+    for a, b in zip(one, two):
+        assert np.array_equal(a["s"], b["s"]) and np.array_equal(a["amplitude_h"], b["amplitude_h"])
+    assert one[0]["status"] == "completed"
+    bad = _core.run_free_slider_batch([(p.toml_text(), 124.0, -1.0, 0.3, 0.5), jobs[0]])
+    assert bad[0]["error_kind"] == "invalid" and "a_ex" in bad[0]["error"] and "s" in bad[1]
+    with pytest.raises(ValueError, match="threads"):
+        _core.run_free_slider_batch(jobs, threads=0)
+    with pytest.raises(ValueError, match="keep_every"):
+        _core.run_free_slider_batch(jobs, keep_every=0)
+
+
+def _runs(truth: bs.Parameters, tmp_path, seed: int = 3, duration_s: float = 15):
+    paths = dc.synthesize_slider_runs(truth, operating_points=[(110, 10, 0.3), (124, 6, 0.3)], duration_s=duration_s,
+                                      out_dir=tmp_path / "data", seed=seed)
+    return [bs.read_measurement(p) for p in paths]
+
+
+def test_hidden_tilt_is_named(tmp_path):
+    runs = _runs(bs.Parameters(tilt_rad=0.008), tmp_path)
+    d = dc.discover(measured=runs, baseline=bs.Parameters(), effects=["tilt", "friction_coefficient"])
+    assert d.verdict == "named" and d.named_effects == ["tilt"], dc.verdict_line(d)
+    p = d.parameters["tilt"]
+    assert abs(p["value"] - 0.008) <= 3 * p["stderr"] + 5e-4, p
+
+
+OUT_OF_LIBRARY = {
+    "natural_frequency_detuning": lambda: dc._realise(bs.Parameters(), {"natural_frequency_detuning": 0.98}),
+    "tilt": lambda: bs.Parameters(tilt_rad=0.01),
+    "com_offset": lambda: bs.Parameters(com_offset_m=5.5e-3),
+}
+
+
+@pytest.mark.parametrize("truth", sorted(OUT_OF_LIBRARY))
+def test_out_of_library_effects_are_unexplained(truth, tmp_path):
+    """The true effect removed from the candidates (friction and clearance left): verdict
+    'unexplained', nothing named, the moved features listed (slider mass: the test above)."""
+    d = dc.discover(measured=_runs(OUT_OF_LIBRARY[truth](), tmp_path), baseline=bs.Parameters(),
+                    effects=["friction_coefficient", "clearance"])
+    assert d.verdict == "unexplained", dc.verdict_line(d)
+    assert d.named_effects == [] and d.parameters == {} and d.updated == d.baseline
+    assert d.features_off and all(abs(f["z"]) > 2 for f in d.features_off)
+    assert d.rejected and all(r["reasons"] for r in d.rejected)
+
+
+def test_joint_beam_and_slider_evidence_names_both(tmp_path):
+    """A beam-level effect (axial preload 10 N) and a slider-level one (mu = 0.26) hidden; ENMA and
+    runs together in one joint fit name both."""
+    truth = bs.Parameters(axial_preload_n=10.0, friction_coefficient=0.26)
+    data = dc.synthesize_enma(truth, seed=3)
+    runs = _runs(truth, tmp_path)
+    d = dc.discover(enma_data=data, measured=runs, baseline=bs.Parameters(), progress=False,
+                    effects=["axial_preload", "rotational_clamping_compliance", "friction_coefficient", "clearance"])
+    assert d.level == "joint"
+    assert d.verdict == "named" and sorted(d.named_effects) == ["axial_preload", "friction_coefficient"], dc.verdict_line(d)
+    assert abs(d.parameters["axial_preload"]["value"] - 10.0) <= 3 * d.parameters["axial_preload"]["stderr"] + 0.5
+    mu = d.parameters["friction_coefficient"]
+    assert abs(mu["value"] - 0.26) <= 3 * mu["stderr"] + 0.01, mu
+    assert d.gap_after <= 0.3 * d.gap_before
+    dc.write_report(d, tmp_path / "report")
+    assert is_png(tmp_path / "report" / "backbone.png") and is_png(tmp_path / "report" / "slider.png")
+
+
+def test_cli_takes_enma_and_measured_together(tmp_path):
+    """`beamslider discover --enma ... --measured ...`: one joint discover over both feature sets
+    (data of the baseline itself; two candidates keep it short), report.json says level joint."""
+    r = run_cli("synthesize", "enma", "--out", str(tmp_path / "e"), "--seed", "4", cwd=tmp_path, timeout=300)
+    assert r.returncode == 0, r.stderr
+    r = run_cli("synthesize", "slider", "--points", "124,6,0.3", "--duration", "8", "--out", str(tmp_path / "s"),
+                cwd=tmp_path, timeout=300)
+    assert r.returncode == 0, r.stderr
+    runs = sorted(str(p) for p in (tmp_path / "s").glob("*.txt"))
+    r = run_cli("discover", "--enma", str(tmp_path / "e" / "enma_data.csv"), "--measured", *runs,
+                "--effects", "axial_preload,friction_coefficient", "--out", str(tmp_path / "d"), cwd=tmp_path,
+                timeout=900)
+    assert r.returncode == 0, r.stderr
+    rep = json.loads((tmp_path / "d" / "report.json").read_text())
+    assert rep["level"] == "joint" and rep["verdict"] in ("none", "unexplained"), r.stdout
+    assert rep["named_effects"] == []
+    assert "f0_hz" in rep["features"] and any(k.startswith("speed_early@") for k in rep["features"])
+    assert len([line for line in r.stdout.splitlines() if line.startswith("verdict: ")]) == 1

@@ -61,6 +61,9 @@ class Parameters:
     """Normal restitution coefficient eps_N [-] (tangential eps_T = 0)."""
     gravity_m_s2: float = 9.81
     """Gravitational acceleration g [m/s^2], acting on the slider only."""
+    tilt_rad: float = 0.0
+    """Tilt alpha of the frame about the transverse axis [rad]: the slider's gravity is
+    (g sin alpha, -g cos alpha) along/across the beam; alpha > 0 lowers the end x = L. 0 = level."""
     n_modes: int = 5
     """Number of retained beam modes N (1..20)."""
     dt_s: float = 2e-5
@@ -139,7 +142,7 @@ SYMBOLS: Dict[str, str] = {
     "slider_mass_kg": "m", "slider_inertia_kg_m2": "J_C", "contact_spacing_m": "B", "com_offset_m": "d",
     "gap_ratio": "R/h", "k_r_nm_per_rad": "k_r", "k_t_n_per_m": "k_t", "damping_ratio": "D",
     "damping_ratio_quadratic": "D₂", "axial_preload_n": "H₀", "friction_coefficient": "μ", "restitution": "ε_N",
-    "gravity_m_s2": "g", "n_modes": "N", "dt_s": "Δt", "contact_solver": "—", "solver_tol_rel": "—",
+    "gravity_m_s2": "g", "tilt_rad": "α", "n_modes": "N", "dt_s": "Δt", "contact_solver": "—", "solver_tol_rel": "—",
     "solver_tol_abs": "—", "solver_max_iter": "—",
 }
 """Symbol of each field in docs/model.md."""
@@ -163,6 +166,7 @@ ALLOWED: Dict[str, str] = {
     "friction_coefficient": "finite, ≥ 0",
     "restitution": "in [0, 1]",
     "gravity_m_s2": "finite, ≥ 0",
+    "tilt_rad": "finite, −π/2 < α < π/2",
     "n_modes": "integer 1..20",
     "dt_s": "finite, > 0; below the stability limit ≈ 2/ω_N of the highest mode; ≥ 10 steps per excitation period",
     "contact_solver": '"fast" or "reference"',

@@ -47,7 +47,7 @@ const KEYS: &[&str] = &[
     "length_m", "thickness_m", "density_kg_m3", "beam_mass_kg", "youngs_modulus_pa", "slider_mass_kg",
     "slider_inertia_kg_m2", "contact_spacing_m", "com_offset_m", "gap_ratio", "k_r_nm_per_rad", "k_t_n_per_m",
     "damping_ratio", "damping_ratio_quadratic", "axial_preload_n", "friction_coefficient", "restitution",
-    "gravity_m_s2", "n_modes", "dt_s", "contact_solver", "solver_tol_rel", "solver_tol_abs", "solver_max_iter",
+    "gravity_m_s2", "tilt_rad", "n_modes", "dt_s", "contact_solver", "solver_tol_rel", "solver_tol_abs", "solver_max_iter",
     "duration_s", "record_every", "f_ex_hz", "a_ex_m_s2", "s0", "start", "stop", "step",
 ];
 

@@ -69,6 +69,10 @@ pub struct Params {
     pub restitution: f64,
     /// Gravitational acceleration g [m/s²], acting on the slider only.
     pub gravity_m_s2: f64,
+    /// Tilt α of the frame about the transverse axis [rad] (extension of docs/model.md §3): the
+    /// slider's gravity is (g sin α, −g cos α) in beam axes (x along the beam, z across), so
+    /// α > 0 lowers the end x = L. 0 = level frame (the paper's set-up).
+    pub tilt_rad: f64,
     /// Number of retained beam modes N (1..=20).
     pub n_modes: usize,
     /// Fixed time step Δt [s].
@@ -104,6 +108,7 @@ impl Default for Params {
             friction_coefficient: 0.2,
             restitution: 0.5,
             gravity_m_s2: 9.81,
+            tilt_rad: 0.0,
             n_modes: 5,
             dt_s: 2e-5,
             contact_solver: ContactSolver::Fast,
@@ -210,6 +215,9 @@ impl Params {
         }
         if !(self.restitution.is_finite() && (0.0..=1.0).contains(&self.restitution)) {
             return Err(Error::invalid("restitution", self.restitution, "must lie in [0, 1]"));
+        }
+        if !(self.tilt_rad.is_finite() && self.tilt_rad.abs() < std::f64::consts::FRAC_PI_2) {
+            return Err(Error::invalid("tilt_rad", self.tilt_rad, "must be finite with |tilt_rad| < pi/2"));
         }
         if !(1..=MAX_MODES).contains(&self.n_modes) {
             return Err(Error::invalid("n_modes", self.n_modes, "must lie in 1..=20"));
@@ -341,6 +349,8 @@ mod tests {
         assert_eq!(field_of(Params { solver_max_iter: 0, ..d() }), "solver_max_iter");
         assert_eq!(field_of(Params { damping_ratio_quadratic: -1e-4, ..d() }), "damping_ratio_quadratic");
         assert_eq!(field_of(Params { axial_preload_n: f64::NAN, ..d() }), "axial_preload_n");
+        assert_eq!(field_of(Params { tilt_rad: 1.6, ..d() }), "tilt_rad");
+        assert_eq!(field_of(Params { tilt_rad: f64::NAN, ..d() }), "tilt_rad");
     }
 
     #[test]

@@ -149,7 +149,10 @@ pub struct Stepper<'a, const N: usize> {
     damp2: Option<([f64; N], [f64; N])>,
     dt: f64,
     eps_n: f64,
+    /// g cos α: gravity across the beam [m/s²].
     gravity: f64,
+    /// g sin α: gravity along the beam (frame tilt α) [m/s²]; used only when non-zero.
+    gravity_x: f64,
     inv_m: f64,
     inv_j: f64,
     solver: ContactSolver,
@@ -293,7 +296,9 @@ impl<'a, const N: usize> Stepper<'a, N> {
             }),
             dt: p.dt_s,
             eps_n: p.restitution,
-            gravity: p.gravity_m_s2,
+            // cos 0 = 1 exactly, so a level frame keeps g bit for bit.
+            gravity: p.gravity_m_s2 * p.tilt_rad.cos(),
+            gravity_x: p.gravity_m_s2 * p.tilt_rad.sin(),
             inv_m: 1.0 / p.slider_mass_kg,
             inv_j: 1.0 / p.slider_inertia_kg_m2,
             solver: p.contact_solver,
@@ -424,7 +429,9 @@ impl<'a, const N: usize> Stepper<'a, N> {
                 Err(StepFault::NonFinite)
             };
         }
-        let mut vs = [s.us[0], fma(-dt, self.gravity, s.us[1]), s.us[2]];
+        // h_M of the slider: m (g sin α, −g cos α, 0) (docs/model.md §3, frame tilt α).
+        let vs0 = if self.gravity_x != 0.0 { fma(dt, self.gravity_x, s.us[0]) } else { s.us[0] };
+        let mut vs = [vs0, fma(-dt, self.gravity, s.us[1]), s.us[2]];
 
         // 2. Contact kinematics at (t_M, q_M).
         let x_kin = match self.kin {

@@ -22,6 +22,7 @@ use pyo3::exceptions::{PyBlockingIOError, PyException, PyKeyboardInterrupt, PyOS
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
+mod discover;
 mod maprun;
 mod study;
 mod superslow;
@@ -501,6 +502,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(enma::virtual_enma, m)?)?;
     m.add_function(wrap_pyfunction!(enma::beam_properties, m)?)?;
     study::register(m)?;
+    discover::register(m)?;
     superslow::register(m)?;
     m.add_function(wrap_pyfunction!(check_map, m)?)?;
     Ok(())

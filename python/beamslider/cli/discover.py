@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import sys
 import time
 from typing import Any, List, Tuple
 
@@ -19,10 +20,11 @@ def add_parser(sub: Any) -> None:
         description="Compare measured data with the --params baseline (default: the prototype), name the missing "
                     "physical effect(s) among the candidates (beamslider.discover.EFFECTS), add them and report the "
                     "gap before and after. Beam level: --enma FILE (ENMA CSV). Slider level: --measured FILE... "
-                    "(published measured format, operating point in the file name). Without data: the paper's "
+                    "(published measured format, operating point in the file name). Both together: one joint fit "
+                    "(beam-level effects from both, slider-level ones from the runs). Without data: the paper's "
                     "case, a synthetic ENMA of the prototype against the ideally clamped beam.")
     sp.add_argument("--enma", metavar="CSV", help="ENMA data (beam level)")
-    sp.add_argument("--measured", metavar="FILE", nargs="+", help="measured free-slider runs (slider level)")
+    sp.add_argument("--measured", metavar="FILE", nargs="+", help="measured free-slider runs (slider level; with --enma: joint fit)")
     sp.add_argument("--effects", metavar="LIST", help="comma list of candidate effects (default: all of the level)")
     sp.add_argument("--max-effects", type=positive(int), default=2, metavar="K", help="largest set fitted (2)")
     sp.add_argument("--gap-ratio", type=float, default=0.3, metavar="R",
@@ -66,13 +68,18 @@ def cmd_discover(args: argparse.Namespace) -> int:
     from .. import enma
     from ..measurement import read_measurement
 
-    if args.enma and args.measured:
-        raise UserError("give --enma (beam level) or --measured (slider level), not both")
     effects = [e.strip() for e in args.effects.split(",") if e.strip()] if args.effects else None
     if not (0 < args.gap_ratio <= 1):
         raise UserError(f"--gap-ratio {args.gap_ratio}: must be in (0, 1]")
     t0 = time.perf_counter()
-    if args.enma:
+    prog = args.progress if args.progress is not None else sys.stderr.isatty()
+    if args.enma and args.measured:
+        # Joint fit over the beam (ENMA) and slider (runs) features.
+        baseline = Parameters.from_toml(args.params) if args.params else Parameters()
+        runs = [read_measurement(p) for p in args.measured]
+        d = dc.discover(enma_data=enma.read(args.enma), measured=runs, baseline=baseline, effects=effects,
+                        max_effects=args.max_effects, gap_ratio=args.gap_ratio, progress=prog)
+    elif args.enma:
         baseline = Parameters.from_toml(args.params) if args.params else Parameters()
         d = dc.discover(enma_data=enma.read(args.enma), baseline=baseline, effects=effects, max_effects=args.max_effects,
                         gap_ratio=args.gap_ratio)
@@ -80,7 +87,7 @@ def cmd_discover(args: argparse.Namespace) -> int:
         baseline = Parameters.from_toml(args.params) if args.params else Parameters()
         runs = [read_measurement(p) for p in args.measured]
         d = dc.discover(measured=runs, baseline=baseline, effects=effects, max_effects=args.max_effects,
-                        gap_ratio=args.gap_ratio)
+                        gap_ratio=args.gap_ratio, progress=prog)
     else:
         baseline = (Parameters.from_toml(args.params) if args.params
                     else Parameters(k_r_nm_per_rad=math.inf, k_t_n_per_m=math.inf))

@@ -150,6 +150,13 @@ EFFECTS: Dict[str, Effect] = {e.name: e for e in (
            "linear", 0.0, 1.0, lambda p: 1.0, "slider",
            ("speed_early", "speed_late", "s_turning", "s_final", "amplitude_final_h"), (0.2, 0.8),
            relevance=0.05, relevance_reason="0.05: impact tests of steel on steel scatter by about that"),
+    Effect("tilt",
+           "tilt alpha of the frame about the transverse axis (docs/model.md §3): gravity gets the component "
+           "g sin(alpha) along the beam, alpha > 0 lowers the end x = L, and pushes the slider downhill",
+           "tilt_rad", "rad", "linear", -100.0, 100.0, lambda p: 1e-3, "slider",
+           ("speed_early", "speed_late", "s_turning", "s_final", "amplitude_final_h"), (-20.0, 20.0),
+           relevance=2e-3, relevance_reason="2 mrad = 0.11 deg, what a frame set up with a machinist's bubble "
+                                            "level (and the shaker's mounting) can be off by"),
 )}
 
 

@@ -7,7 +7,7 @@ import math
 import os
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
-from typing import Dict, List, Sequence, Tuple
+from typing import Callable, Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -104,6 +104,7 @@ def measured_slider_features(runs: Sequence[Measurement]) -> Tuple[Dict[str, Fea
 
 
 def _simulate_ops(params: Parameters, ops: Sequence[OperatingPoint], *, s0_shift: float = 0.0):
+    """Full-resolution runs at the operating points (the synthesiser's truth runs)."""
     from ..simulate import simulate
 
     def one(op: OperatingPoint):
@@ -113,14 +114,59 @@ def _simulate_ops(params: Parameters, ops: Sequence[OperatingPoint], *, s0_shift
         return list(ex.map(one, ops))
 
 
+RUN_RECORD_EVERY = 5
+"""Steps between recorded samples of a model run (Δt = 2e-5 s: 1e-4 s, the measured format's)."""
+RUN_KEEP_EVERY = 5
+"""Of those, every k-th sample of t, s and the 1-s envelope is kept for the features (5e-4 s)."""
+
+
+def batch_slider_features(params_list: Sequence[Parameters], ops: Sequence[OperatingPoint], *,
+                          s0_shifts: Optional[Sequence[float]] = None, threads: Optional[int] = None,
+                          on_run: Optional[Callable[[int], None]] = None
+                          ) -> List[Optional[Tuple[Dict[str, Feature], Dict[str, str]]]]:
+    """Features of free-slider runs of every model of ``params_list`` at the operating points
+    (same code as measured), all runs as one batch of the core's parallel runner
+    (``_core.run_free_slider_batch``: interpreter released, Ctrl-C, deterministic). A model whose
+    parameters are invalid or one of whose runs fails numerically gives None. ``s0_shifts``: per
+    model, a shift of every run's s0 (repeated runs)."""
+    shifts = list(s0_shifts) if s0_shifts is not None else [0.0] * len(params_list)
+    jobs = []
+    for p, d in zip(params_list, shifts):
+        jobs += [(p.toml_text(), op.f_ex, op.a_ex, op.s0 + d, op.duration_s) for op in ops]
+    res = _core.run_free_slider_batch(jobs, record_every=RUN_RECORD_EVERY, keep_every=RUN_KEEP_EVERY,
+                                      window_s=1.0, threads=threads, on_done=on_run)
+    out: List[Optional[Tuple[Dict[str, Feature], Dict[str, str]]]] = []
+    k = 0
+    for _ in params_list:
+        feats: Dict[str, Feature] = {}
+        behaviours: Dict[str, str] = {}
+        ok = True
+        for op in ops:
+            r = res[k]
+            k += 1
+            if "error" in r:
+                ok = False
+                continue
+            fe, beh = slider_features(r["t"], r["s"], r["amplitude_h"], tag=op.tag)
+            feats.update(fe)
+            behaviours[op.tag] = beh
+        out.append((feats, behaviours) if ok else None)
+    return out
+
+
 def model_slider_features(params: Parameters, ops: Sequence[OperatingPoint], *, s0_shift: float = 0.0
                           ) -> Tuple[Dict[str, Feature], Dict[str, str]]:
-    """Features of free-slider runs of the model at the operating points (same code as measured)."""
+    """Features of free-slider runs of the model at the operating points (same code as measured);
+    the runs go through the core's parallel runner (:func:`batch_slider_features`). Raises
+    ``ValueError`` for invalid parameters and ``SimulationError`` when a run fails."""
+    jobs = [(params.toml_text(), op.f_ex, op.a_ex, op.s0 + s0_shift, op.duration_s) for op in ops]
+    res = _core.run_free_slider_batch(jobs, record_every=RUN_RECORD_EVERY, keep_every=RUN_KEEP_EVERY, window_s=1.0)
     feats: Dict[str, Feature] = {}
     behaviours: Dict[str, str] = {}
-    for op, r in zip(ops, _simulate_ops(params, ops, s0_shift=s0_shift)):
-        amp = r.envelope(1.0) / params.thickness_m
-        fe, beh = slider_features(r.t, r.s, amp, tag=op.tag)
+    for op, r in zip(ops, res):
+        if "error" in r:
+            raise (ValueError if r["error_kind"] == "invalid" else _core.SimulationError)(f"{op.tag}: {r['error']}")
+        fe, beh = slider_features(r["t"], r["s"], r["amplitude_h"], tag=op.tag)
         feats.update(fe)
         behaviours[op.tag] = beh
     return feats, behaviours

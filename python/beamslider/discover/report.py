@@ -57,13 +57,16 @@ def write_report(d: Discovery, out_dir: PathLike) -> List[Path]:
     plt.close(fig)
     written.append(out / "gap.png")
     figs = ["gap.png"]
-    if d.level == "beam" and isinstance(d.data, EnmaData):
-        enma.plot_enma(d.data, enma.fit_backbone(d.data), models={"baseline": d.baseline, "updated": d.updated},
+    # Joint level: data = dict(enma=..., measured=[...]); both figures.
+    enma_d = d.data.get("enma") if isinstance(d.data, dict) else (d.data if isinstance(d.data, EnmaData) else None)
+    runs_d = d.data.get("measured") if isinstance(d.data, dict) else (d.data if d.level == "slider" else None)
+    if enma_d is not None:
+        enma.plot_enma(enma_d, enma.fit_backbone(enma_d), models={"baseline": d.baseline, "updated": d.updated},
                        path=out / "backbone.png")
         written.append(out / "backbone.png")
         figs.append("backbone.png")
-    elif d.level == "slider" and d.data:
-        ms = d.data
+    if runs_d:
+        ms = runs_d
         ops = [OperatingPoint(m.f_ex, m.a_ex, m.s0, float(m.t[-1])) for m in ms]
         base_runs = _simulate_ops(d.baseline, ops)
         upd_runs = _simulate_ops(d.updated, ops)
@@ -99,7 +102,8 @@ def verdict_line(d: Discovery) -> str:
         best = d.rejected[0] if d.rejected else None
         why = (f"; best candidate {' + '.join(best['effects'])} rejected: {best['reasons'][0]}" if best else "")
         return f"unexplained discrepancy (gap {d.gap_before:.3g}; off: {off or 'no single feature beyond 2 sigma'}){why}"
-    neg = [r for r in d.rejected if r["reasons"] and all(x.startswith("negligible change") for x in r["reasons"])]
+    neg = [r for r in d.rejected if r["reasons"] and any(x.startswith("negligible change") for x in r["reasons"])
+           and all(x.startswith(("negligible change", "small share of the gap")) for x in r["reasons"])]
     if neg:
         return (f"none (gap {d.gap_before:.3g} closed by a negligible change: {' + '.join(neg[0]['effects'])}, "
                 f"{neg[0]['reasons'][0]})")

@@ -12,7 +12,8 @@ import numpy as np
 
 from ..params import Parameters, resolve
 from .effects import EFFECTS, Effect, _realise
-from .models import OperatingPoint, model_slider_features
+from .._core import SimulationError
+from .models import OperatingPoint, batch_slider_features
 
 
 def _bumped(e: Effect, p: Parameters, steps: float) -> float:
@@ -33,16 +34,22 @@ def slider_sensitivities(effects: Sequence[str], baseline: Optional[Parameters],
     :func:`discover`) — when each effect moves by ``steps`` relevance thresholds from the
     baseline (one FS run per effect and point)."""
     base = resolve(baseline)
-    f0 = model_slider_features(base, ops)[0]
-    reps = [model_slider_features(base, ops, s0_shift=d)[0] for d in (-0.002, 0.002)]
+    models = [base, base, base] + [_realise(base, {n: _bumped(EFFECTS[n], base, steps)}) for n in effects]
+    # All runs as one batch of the core's parallel runner.
+    res = batch_slider_features(models, ops, s0_shifts=[0.0, -0.002, 0.002] + [0.0] * len(effects))
+    if res[0] is None:
+        raise SimulationError("the baseline model's runs failed")
+    f0 = res[0][0]
+    reps = [r[0] for r in res[1:3] if r is not None]
     sig = {}
     for k, f in f0.items():
         vals = [f.value] + [r[k].value for r in reps if k in r]
         sig[k] = math.hypot(f.stderr, float(np.std(vals, ddof=1)) if len(vals) > 1 else 0.0)
     out: Dict[str, Dict[str, float]] = {}
-    for name in effects:
-        e = EFFECTS[name]
-        f = model_slider_features(_realise(base, {name: _bumped(e, base, steps)}), ops)[0]
+    for name, r in zip(effects, res[3:]):
+        if r is None:
+            raise SimulationError(f"the runs of the model with {name} moved by {steps:g} relevance thresholds failed")
+        f = r[0]
         out[name] = {k: (f[k].value - f0[k].value) / sig[k] for k in f0 if k in f}
     return out
 
