@@ -4,6 +4,9 @@ canonical by the core: ``Parameters.toml_text``.)"""
 
 from __future__ import annotations
 
+import os
+from typing import Any, Callable, Dict, TypeVar, Union
+
 import tomli_w
 
 try:
@@ -15,4 +18,25 @@ TOMLDecodeError = _reader.TOMLDecodeError
 loads = _reader.loads
 dumps = tomli_w.dumps
 
-__all__ = ["TOMLDecodeError", "dumps", "loads"]
+T = TypeVar("T")
+
+
+def loads_config(text: str, what: str) -> Dict[str, Any]:
+    """The TOML of a ``what`` configuration (study, design, ...); a syntax error is a ValueError."""
+    try:
+        return loads(text)
+    except TOMLDecodeError as e:
+        raise ValueError(f"cannot read the {what} configuration: {e}") from None
+
+
+def read_config_file(path: Union[str, "os.PathLike[str]"], parse: Callable[[str], T]) -> T:
+    """``parse`` the UTF-8 text of the file ``path``; its errors are prefixed with the path."""
+    with open(os.fspath(path), "rb") as f:
+        data = f.read()
+    try:
+        return parse(data.decode("utf-8"))
+    except ValueError as e:  # UnicodeDecodeError included
+        raise ValueError(f"{os.fspath(path)}: {e}") from None
+
+
+__all__ = ["TOMLDecodeError", "dumps", "loads", "loads_config", "read_config_file"]

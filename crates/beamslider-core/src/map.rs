@@ -479,13 +479,19 @@ fn finite(x: f64) -> Option<f64> {
 
 impl MapRow {
     fn new(p: &MapPoint, t_end_s: f64, status: &Status, c: &Classification, counters: &Counters, wall: f64, end: Option<EndState>) -> MapRow {
+        MapRow::from_classification(p, t_end_s, status.name(), c, Counters { max_residual: 0.0, ..*counters }, wall, end)
+    }
+
+    /// A row from a classification (FS runs, and the predictor's slow flows with status
+    /// `predicted`); no extra keys.
+    pub fn from_classification(p: &MapPoint, t_end_s: f64, status: &str, c: &Classification, counters: Counters, wall: f64, end: Option<EndState>) -> MapRow {
         MapRow {
             index: p.index,
             f_ex_hz: p.f_ex_hz,
             a_ex_m_s2: p.a_ex_m_s2,
             s0: p.s0,
             t_end_s,
-            status: status.name().to_string(),
+            status: status.to_string(),
             behaviour: c.behaviour,
             reason: c.reason.clone(),
             s_final: c.s_final,
@@ -502,7 +508,7 @@ impl MapRow {
             jump_down_t_s: c.jump_down_t_s.clone(),
             steady: c.steady,
             phase: c.phase.clone(),
-            counters: Counters { max_residual: 0.0, ..*counters },
+            counters,
             wall_time_s: wall,
             end,
             extra: serde_json::Map::new(),

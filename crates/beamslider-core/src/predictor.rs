@@ -26,7 +26,7 @@ use serde::Deserialize;
 use crate::beam::Beam;
 use crate::classify::Criteria;
 use crate::error::{Error, Result};
-use crate::map::{Job, MapConfig, MapOutcome, MapResults, MapRow, MapRunOptions, Progress};
+use crate::map::{Job, MapConfig, MapOutcome, MapPoint, MapResults, MapRow, MapRunOptions, Progress};
 use crate::params::Params;
 use crate::runner::run_batch;
 use crate::slowflow::{EventKind, Prediction, SlowBranch, SlowFlowOptions, SlowModel, slow_flow};
@@ -495,10 +495,6 @@ fn event_name(k: EventKind) -> &'static str {
     }
 }
 
-fn finite(x: f64) -> Option<f64> {
-    x.is_finite().then_some(x)
-}
-
 /// A predicted map row (the FS map's row format; status `predicted`, zero counters; the extra
 /// keys `events`, `extrapolated`, `s_dn_source`).
 pub fn predicted_row(index: usize, f_ex_hz: f64, a_ex: f64, s0: f64, t_end_s: f64, p: &PointPrediction, wall_s: f64) -> MapRow {
@@ -508,34 +504,10 @@ pub fn predicted_row(index: usize, f_ex_hz: f64, a_ex: f64, s0: f64, t_end_s: f6
     extra.insert("events".into(), serde_json::Value::Array(events));
     extra.insert("extrapolated".into(), serde_json::Value::Bool(p.extrapolated));
     extra.insert("s_dn_source".into(), serde_json::Value::String(if p.s_dn.is_some() { "hb" } else { "none" }.into()));
-    MapRow {
-        index,
-        f_ex_hz,
-        a_ex_m_s2: a_ex,
-        s0,
-        t_end_s,
-        status: STATUS_PREDICTED.to_string(),
-        behaviour: c.behaviour,
-        reason: c.reason.clone(),
-        s_final: c.s_final,
-        amplitude_final_h: c.amplitude_final_h,
-        amplitude_initial_h: c.amplitude_initial_h,
-        amplitude_max_h: c.amplitude_max_h,
-        s_min: c.s_min,
-        s_max: c.s_max,
-        net_travel: c.net_travel,
-        travel_to_centre: c.travel_to_centre,
-        turn_s: finite(c.turn_s),
-        turn_t_s: finite(c.turn_t_s),
-        jump_up_t_s: c.jump_up_t_s.clone(),
-        jump_down_t_s: c.jump_down_t_s.clone(),
-        steady: c.steady,
-        phase: c.phase.clone(),
-        counters: Counters::default(),
-        wall_time_s: wall_s,
-        end: None,
-        extra,
-    }
+    let point = MapPoint { index, f_ex_hz, a_ex_m_s2: a_ex, s0 };
+    let mut row = MapRow::from_classification(&point, t_end_s, STATUS_PREDICTED, c, Counters::default(), wall_s, None);
+    row.extra = extra;
+    row
 }
 
 /// The predictor's description in a predicted map's header (compared on resume).

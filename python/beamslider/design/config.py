@@ -371,20 +371,11 @@ class DesignConfig:
 
     @classmethod
     def from_toml_text(cls, text: str) -> "DesignConfig":
-        try:
-            d = _toml.loads(text)
-        except _toml.TOMLDecodeError as e:
-            raise ValueError(f"cannot read the design configuration: {e}") from None
-        return cls.from_dict(d)
+        return cls.from_dict(_toml.loads_config(text, "design"))
 
     @classmethod
     def from_toml(cls, path: Union[str, "os.PathLike[str]"]) -> "DesignConfig":
-        with open(os.fspath(path), "rb") as f:
-            data = f.read()
-        try:
-            return cls.from_toml_text(data.decode("utf-8"))
-        except ValueError as e:
-            raise ValueError(f"{os.fspath(path)}: {e}") from None
+        return _toml.read_config_file(path, cls.from_toml_text)
 
 
 def read_config(path: Union[str, "os.PathLike[str]"]) -> DesignConfig:

@@ -193,21 +193,12 @@ class StudyConfig:
     @classmethod
     def from_toml_text(cls, text: str) -> "StudyConfig":
         """Parse study TOML (see the class docstring)."""
-        try:
-            d = _toml.loads(text)
-        except _toml.TOMLDecodeError as e:
-            raise ValueError(f"cannot read the study configuration: {e}") from None
-        return cls.from_dict(d)
+        return cls.from_dict(_toml.loads_config(text, "study"))
 
     @classmethod
     def from_toml(cls, path: Union[str, "os.PathLike[str]"]) -> "StudyConfig":
         """Read a study TOML file."""
-        with open(os.fspath(path), "rb") as f:
-            data = f.read()
-        try:
-            return cls.from_toml_text(data.decode("utf-8"))
-        except ValueError as e:
-            raise ValueError(f"{os.fspath(path)}: {e}") from None
+        return _toml.read_config_file(path, cls.from_toml_text)
 
     @classmethod
     def from_dict(cls, d: Dict[str, Any]) -> "StudyConfig":
