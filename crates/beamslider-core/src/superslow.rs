@@ -351,12 +351,7 @@ impl HbSystem {
     /// Residual R(Q, s) in physical units [N kg^-½]: (Re R, Im R) of issue §2.3 for Q = u + iv,
     /// with the forcing scaled by `load` (1 = the excitation).
     pub fn residual(&self, u: &[f64], v: &[f64], s: f64, load: f64) -> (Vec<f64>, Vec<f64>) {
-        let mut y = DVector::zeros(self.nx + 1);
-        for i in 0..self.n {
-            y[i] = u[i] / self.q_ref;
-            y[self.n + i] = v[i] / self.q_ref;
-        }
-        y[self.nx] = s;
+        let y = self.scaled_state(&[&u[..self.n], &v[..self.n]].concat(), s);
         let (r, _) = self.eval(&y, Param::S { load }, false);
         let re = (0..self.n).map(|i| r[i] * self.f_ref).collect();
         let im = (0..self.n).map(|i| r[self.n + i] * self.f_ref).collect();
@@ -365,20 +360,7 @@ impl HbSystem {
 
     /// Jacobian ∂(Re R, Im R)/∂(Re Q, Im Q, s) in physical units (2N × (2N+1)).
     pub fn jacobian(&self, u: &[f64], v: &[f64], s: f64) -> DMatrix<f64> {
-        let mut y = DVector::zeros(self.nx + 1);
-        for i in 0..self.n {
-            y[i] = u[i] / self.q_ref;
-            y[self.n + i] = v[i] / self.q_ref;
-        }
-        y[self.nx] = s;
-        let (_, j) = self.eval(&y, Param::S { load: 1.0 }, true);
-        let mut out = j * self.f_ref;
-        for c in 0..self.nx {
-            for r in 0..self.nx {
-                out[(r, c)] /= self.q_ref;
-            }
-        }
-        out
+        self.jacobian_state(&[&u[..self.n], &v[..self.n]].concat(), s)
     }
 
     /// Number of real unknowns: 2N for single-term HB, more with harmonics or the static sag
