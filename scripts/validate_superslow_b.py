@@ -7,6 +7,7 @@ Not part of the fast test suite (PCS drift tables take minutes per operating poi
     python scripts/validate_superslow_b.py runs        # §4.3: representative runs (b1 tables and b2 LOO law)
     python scripts/validate_superslow_b.py map         # §4.4: predicted map (b2) against docs/operating_map.jsonl
     python scripts/validate_superslow_b.py speed       # §4.5: timings
+    python scripts/validate_superslow_b.py features    # choice of the b2 law's inputs (leave one point out)
     python scripts/validate_superslow_b.py all
 
 Everything is written to docs/superslow/ (validation_b*.txt, figures, drift/*.jsonl, law.json).
@@ -548,7 +549,7 @@ def _score(rows_pred, ref, names):
     return strict, phase, np.asarray(errs)
 
 
-def _loo_map(tables, f_ex, a_ex, shift, k=6):
+def _loo_map(tables, f_ex, a_ex, shift, k=4):
     """The predicted map with the law fitted on all tables, but each training point predicted by
     the law fitted without its own table (leave one operating point out)."""
     law = fit_drift_law(tables, k=k, s_up_correction=shift)
@@ -606,9 +607,64 @@ def stage_levers():
     (OUT / "validation_c_levers.txt").write_text("\n".join(lines) + "\n", encoding="utf-8")
 
 
+# Candidate input sets of the b2 law: the issue's list, last version's, and sets with the position s.
+FEATURE_SETS = [("log_lift_off", "slope_gap", "f_slope", "a_ex_g", "amplitude"),
+                ("log_lift_off", "slope_gap", "f_slope", "ds_res", "amp_rel"),
+                ("amp_rel", "s"), ("log_lift_off", "amp_rel", "s"), ("log_lift_off", "s"),
+                ("slope_gap", "amp_rel", "s"), ("amp_rel", "s", "a_ex_g")]
+
+
+def stage_features():
+    """Choice of the law's inputs by leave-one-operating-point-out validation on the training
+    tables only: the V error (law.loo) and the behaviour of each training point predicted by the
+    law fitted without its table. The whole map (training points leave one out) is printed too, as
+    the test; it was not used for the choice."""
+    import beamslider.drift_law as dl
+
+    tables = available_tables()
+    ref = read_map(ROOT / "docs" / "operating_map.jsonl")
+    f_ex = sorted(set(float(x) for x in ref["f_ex_hz"]))
+    a_ex = sorted(set(float(x) for x in ref["a_ex_m_s2"]))
+    names = ["inactivity", "trivial_adaption", "signature_move", "relaxation_oscillation", "self_damping", "not_settled", "undetermined"]
+    idx = {(float(ref["f_ex_hz"][j]), float(ref["a_ex_m_s2"][j])): j for j in range(len(ref["f_ex_hz"]))}
+
+    def row(r):
+        c = r.classification
+        return {"behaviour": r.behaviour, "reason": c["reason"], "s_final": c["s_final"], "steady": c["steady"]}
+
+    saved = dl.FEATURES
+    lines = ["Choice of the b2 law's inputs (issue 17 §3.2), leave one operating point out on the "
+             f"{len(tables)} training tables ({', '.join(f'({t.f_ex:g}, {t.a_ex:g})' for t in tables)}), s_up correction on.",
+             "Selection: V error and training points right (LOO). The map columns (all 112 points, training points LOO) are the test.",
+             f"{'inputs':>52} {'k':>2} | {'V err/|V| all':>13} {'L':>6} {'H':>6} | {'training LOO':>12} | {'map strict':>10} {'phase':>6} {'final-s med':>11} {'p90':>6}"]
+    try:
+        for feats in FEATURE_SETS:
+            for k in (4, 6):
+                dl.FEATURES = feats
+                law = fit_drift_law(tables, k=k)
+                ok = 0
+                rows = {(f, a): row(predict(f_ex=f, a_ex=a, drift=law)) for f in f_ex for a in a_ex}
+                for j, t in enumerate(tables):
+                    lw = fit_drift_law([x for i, x in enumerate(tables) if i != j], k=k)
+                    r = row(predict(f_ex=t.f_ex, a_ex=t.a_ex, drift=lw))
+                    rows[(t.f_ex, t.a_ex)] = r
+                    ok += r["behaviour"] == ref["behaviour"][idx[(t.f_ex, t.a_ex)]]
+                st, ph, errs = _score(rows, ref, names)
+                agree = [abs(r["s_final"] - ref["s_final"][idx[key]]) for key, r in rows.items()
+                         if r["behaviour"] == ref["behaviour"][idx[key]] and ref["steady"][idx[key]] and np.isfinite(ref["s_final"][idx[key]])]
+                lo = law.loo
+                lines.append(f"{', '.join(feats):>52} {k:2d} | {lo['ratio']:13.3f} {lo['rms_error_L'] / lo['typical_v_L']:6.3f} {lo['rms_error_H'] / lo['typical_v_H']:6.3f} | "
+                             f"{ok:6d}/{len(tables):<5d} | {st:4d}/112 {ph:3d}/112 {np.median(agree):11.4f} {np.percentile(agree, 90):6.4f}")
+                print(lines[-1], flush=True)
+    finally:
+        dl.FEATURES = saved
+    lines.append(f"adopted: {', '.join(saved)} (k = 4); final-s columns over the agreeing points steady in FS")
+    (OUT / "validation_b_features.txt").write_text("\n".join(lines) + "\n", encoding="utf-8")
+
+
 if __name__ == "__main__":
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("stage", choices=["tables", "map_tables", "slopes", "runs", "map", "speed", "levers", "all"])
+    ap.add_argument("stage", choices=["tables", "map_tables", "slopes", "runs", "map", "speed", "levers", "features", "all"])
     ap.add_argument("--points", help="tables: only these points, e.g. 124:14,126:10")
     ap.add_argument("--training", default="cheap", choices=["coarse", "cheap"], help="speed: training table settings (timed from scratch)")
     ap.add_argument("--training-set", default="12 points", choices=["12 points", "6 points"], help="speed: training points")
@@ -630,3 +686,5 @@ if __name__ == "__main__":
         stage_speed(args.training, args.training_set)
     if args.stage == "levers":
         stage_levers()
+    if args.stage == "features":
+        stage_features()

@@ -191,7 +191,7 @@ def test_core_evaluates_the_law_as_python(tmp_path):
     rng = np.random.default_rng(1)
     for br in ("L", "H"):
         x = law.lo + (law.hi - law.lo) * rng.uniform(-0.2, 1.2, size=(200, len(law.lo)))
-        lift = np.exp(x[:, 0])
+        lift = np.exp(rng.uniform(-0.5, 1.0, size=200))  # Λ_g on both sides of 1
         v_py, out_py = law._evaluate_x(br, x, lift)
         v_rs, out_rs = _core.drift_law_evaluate(text, high=br == "H", x=x.tolist(), lift_off=lift.tolist())
         np.testing.assert_allclose(v_rs, v_py, rtol=1e-12, atol=1e-15)
@@ -202,7 +202,7 @@ def test_core_evaluates_the_law_as_python(tmp_path):
         s = np.linspace(b.s.min(), b.s.max(), 17)
         f_py = features(m, br, s)
         f_rs = _core.hb_features(p.toml_text(), f_ex_hz=124.0, a_ex_m_s2=14.0, high=br == "H", s=s.tolist())
-        for key in ("lift_off", "slope_gap", "f_slope", "ds_res", "amp_rel", "amplitude"):
+        for key in ("lift_off", "slope_gap", "f_slope", "ds_res", "amp_rel", "amplitude", "s"):
             scale = float(np.max(np.abs(f_py[key])))
             np.testing.assert_allclose(f_rs[key], f_py[key], rtol=1e-4, atol=1e-5 * scale, err_msg=f"{br} {key}")
     shifted = _realistic_law()
@@ -245,7 +245,7 @@ def test_predicted_map_written_by_the_core(tmp_path):
     assert [strip(r) for r in mem] == [strip(r) for r in rows]
     cfg = "duration_s = 120.0\n[grid]\nf_ex_hz = [124.0]\na_ex_m_s2 = [14.0]\n"
     for bad, match in (("{", "not a beamslider drift law"), ('{"kind": "x"}', "not a beamslider drift law"),
-                       (law_json_text(law).replace("slope_gap", "slope_mu"), "features")):
+                       (law_json_text(law).replace('"amp_rel"', '"slope_mu"'), "features")):
         with pytest.raises(ValueError, match=match):
             _core.predicted_map(cfg, bad)
     (tmp_path / "bad.json").write_text("[1, 2]")

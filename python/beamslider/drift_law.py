@@ -63,7 +63,7 @@ def features(manifold, branch: str, s: Sequence[float]) -> Dict[str, np.ndarray]
     ``slope_gap`` θ̂/θ_gap with θ̂ = |Φ'(s)ᵀQ|, θ_gap = (R − h)/B; ``slope_mu`` θ̂/μ; ``f_slope``
     = −(Ω²/2g) Re[ŵ_abs conj(Φ'(s)ᵀQ)]; ``a_ex_g`` = a_ex/g; ``amplitude`` Â; ``ds_res`` =
     s − s_res (the first linear-resonance position of layer (a), 0.5 if there is none);
-    ``amp_rel`` = Â / max Â of the high branch.
+    ``amp_rel`` = Â / max Â of the high branch; ``s`` = s.
     """
     p = manifold.params
     b = manifold.high if branch == "H" else manifold.low
@@ -88,14 +88,20 @@ def features(manifold, branch: str, s: Sequence[float]) -> Dict[str, np.ndarray]
         "amplitude": np.interp(s, bs, b.amplitude[o]),
         "ds_res": s - (float(manifold.s_res[0]) if len(manifold.s_res) else 0.5),
         "amp_rel": np.interp(s, bs, b.amplitude[o]) / (float(np.max(manifold.high.amplitude)) if len(manifold.high) else 1.0),
+        "s": s.copy(),
     }
 
 
-# The regression inputs (standardised). Chosen by the leave-one-operating-point-out error on the
-# 12 validation tables (docs/superslow/validation_b_law.txt): with the issue's list (log Λ_g,
-# θ̂/θ_gap, f_slope, a_ex/g, Â) the error was 0.68 × typical |V| (k = 6), with s − s_res and
-# Â/max Â_H in place of a_ex/g and Â it is 0.53 ×.
-FEATURES = ("log_lift_off", "slope_gap", "f_slope", "ds_res", "amp_rel")
+# The regression inputs (standardised): the relative amplitude Â/max Â_H and the position s.
+# Chosen by leave-one-operating-point-out validation on the 12 training tables
+# (docs/superslow/validation_b_features.txt, scripts/validate_superslow_b.py features): the
+# issue's list (log Λ_g, θ̂/θ_gap, f_slope, a_ex/g, Â) gave a V error of 0.68 × typical |V|,
+# (log Λ_g, θ̂/θ_gap, f_slope, s − s_res, Â/max Â_H) 0.52 ×, (Â/max Â_H, s) 0.46 × (k = 4) and
+# the most training points predicted right leave one out. Why s: the PCS high branch's stable
+# zeros of V (where the FS slider stops) sit at nearly the same s across the map (0.33 from
+# 110 to 130 Hz, 0.35–0.38 below), which no amplitude- or slope-only feature locates. Λ_g enters
+# through the constraint V = 0 where Λ_g < 1.
+FEATURES = ("amp_rel", "s")
 
 
 def _x(feat: Dict[str, np.ndarray]) -> np.ndarray:
@@ -127,7 +133,7 @@ class DriftLaw:
     """Training range of the features (max)."""
     points: List[Tuple[float, float]]
     """Training operating points (f_ex, a_ex)."""
-    k: int = 6
+    k: int = 4
     """Neighbours."""
     loo: Dict[str, float] = field(default_factory=dict)
     """Leave-one-operating-point-out errors: RMS error of V, typical |V| (RMS), their ratio,
@@ -155,6 +161,16 @@ class DriftLaw:
         """V at the given features (half coordinate, towards the centre positive) and a flag per
         point: True where a feature lies outside the training range (extrapolation)."""
         return self._evaluate_x(branch, _x(feat), np.asarray(feat["lift_off"]), exclude_group)
+
+    def outside_points(self, f_ex: float, a_ex: float) -> bool:
+        """True where (f_ex, a_ex) lies outside the box of the training operating points (the
+        law's inputs, Â/max Â_H and s, are bounded everywhere, so the operating point itself is
+        the range that a law can be used outside of)."""
+        if not self.points:
+            return False
+        f = [p[0] for p in self.points]
+        a = [p[1] for p in self.points]
+        return not (min(f) - 1e-9 <= f_ex <= max(f) + 1e-9 and min(a) - 1e-9 <= a_ex <= max(a) + 1e-9)
 
     def s_dn(self, manifold, exclude_group: Optional[int] = None) -> Optional[float]:
         """Jump-down position learnt from the PCS tables (s_dn="law"): the first HB high-branch node
@@ -219,25 +235,26 @@ def _manifold_for(params, f_ex, a_ex, n_modes, d_eff):
     return hb_manifold(params, f_ex=f_ex, a_ex=a_ex, n_modes=n_modes, d_eff=d_eff)
 
 
-def _training_samples(table: DriftTable, manifold) -> Dict[str, Tuple[np.ndarray, np.ndarray]]:
+def _training_samples(table: DriftTable, manifold) -> Dict[str, Tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """Per branch: the law inputs, V and Λ_g of the table's rows that lie on the HB branch."""
     out = {}
     for br in ("L", "H"):
         s, v, _ = table.branch_rows(br)
         b = manifold.high if br == "H" else manifold.low
         if s.size == 0 or len(b) == 0:
-            out[br] = (np.zeros((0, len(FEATURES))), np.zeros(0))
+            out[br] = (np.zeros((0, len(FEATURES))), np.zeros(0), np.zeros(0))
             continue
         lo, hi = float(np.min(b.s)), float(np.max(b.s))
         m = (s >= lo) & (s <= hi)
         if not m.any():
-            out[br] = (np.zeros((0, len(FEATURES))), np.zeros(0))
+            out[br] = (np.zeros((0, len(FEATURES))), np.zeros(0), np.zeros(0))
             continue
         f = features(manifold, br, s[m])
-        out[br] = (_x(f), v[m])
+        out[br] = (_x(f), v[m], np.asarray(f["lift_off"], dtype=float))
     return out
 
 
-def fit_drift_law(tables: Sequence[DriftTable], *, params: Optional[Parameters] = None, k: int = 6, n_modes: int = 5,
+def fit_drift_law(tables: Sequence[DriftTable], *, params: Optional[Parameters] = None, k: int = 4, n_modes: int = 5,
                   s_up_correction: bool = True) -> DriftLaw:
     """Fit the transferable drift law (issue 17 §3.2, b2) on PCS drift tables of several operating
     points, and validate it leave one operating point out.
@@ -260,6 +277,7 @@ def fit_drift_law(tables: Sequence[DriftTable], *, params: Optional[Parameters] 
     xs: Dict[str, list] = {"L": [], "H": []}
     vs: Dict[str, list] = {"L": [], "H": []}
     gs: Dict[str, list] = {"L": [], "H": []}
+    ls: Dict[str, list] = {"L": [], "H": []}
     xe, ye, ge, mfs = [], [], [], []
     for gi, t in enumerate(tables):
         mf = _manifold_for(p, t.f_ex, t.a_ex, n_modes, None)
@@ -269,20 +287,22 @@ def fit_drift_law(tables: Sequence[DriftTable], *, params: Optional[Parameters] 
             xe.append(_x(features(mf, "H", se)))
             ye.append(np.ones(se.size) if t.s_dn_pcs is None else (se <= t.s_dn_pcs).astype(float))
             ge.append(np.full(se.size, gi))
-        for br, (x, v) in _training_samples(t, mf).items():
+        for br, (x, v, lift) in _training_samples(t, mf).items():
             xs[br].append(x)
+            ls[br].append(lift)
             vs[br].append(v)
             gs[br].append(np.full(v.size, gi))
     X = {br: np.concatenate(xs[br]) if xs[br] else np.zeros((0, len(FEATURES))) for br in xs}
     V = {br: np.concatenate(vs[br]) if vs[br] else np.zeros(0) for br in vs}
     G = {br: np.concatenate(gs[br]) if gs[br] else np.zeros(0, int) for br in gs}
+    LIFT = {br: np.concatenate(ls[br]) if ls[br] else np.zeros(0) for br in ls}
     allx = np.concatenate([X["L"], X["H"]])
     if allx.shape[0] == 0:
         raise ValueError("invalid parameter `tables`: no row lies on a branch of the HB manifold")
     # Drop lift-off-free rows from the training set (the law is 0 there).
     for br in X:
-        keep = X[br][:, 0] >= 0.0
-        X[br], V[br], G[br] = X[br][keep], V[br][keep], G[br][keep]
+        keep = LIFT[br] >= 1.0
+        X[br], V[br], G[br], LIFT[br] = X[br][keep], V[br][keep], G[br][keep], LIFT[br][keep]
     allx = np.concatenate([X["L"], X["H"]])
     std = allx.std(axis=0)
     std[std == 0] = 1.0
@@ -310,7 +330,7 @@ def fit_drift_law(tables: Sequence[DriftTable], *, params: Optional[Parameters] 
             if not m.any():
                 continue
             xb = X[br][m]
-            pred, _ = law._evaluate_x(br, xb, np.exp(xb[:, 0]), exclude_group=gi)
+            pred, _ = law._evaluate_x(br, xb, LIFT[br][m], exclude_group=gi)
             e = pred - V[br][m]
             err2[br].extend(e.tolist())
             e_all.extend(e.tolist())

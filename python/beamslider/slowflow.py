@@ -150,7 +150,8 @@ def slow_model(manifold, drift, *, s_dn: str = "hb", nodes: int = 121, v_dead: O
         if not isinstance(drift, DriftLaw):
             raise ValueError("invalid parameter `s_dn` = 'law': needs a DriftLaw as drift")
         s_dn_v = drift.s_dn(manifold)
-    info = {"extrapolated": False, "features": {}, "s_up": s_up, "s_dn": s_dn_v, "s_dn_source": s_dn if s_dn_v is not None else "none"}
+    info = {"extrapolated": isinstance(drift, DriftLaw) and drift.outside_points(manifold.f_ex, manifold.a_ex),
+            "features": {}, "s_up": s_up, "s_dn": s_dn_v, "s_dn_source": s_dn if s_dn_v is not None else "none"}
     out = {}
     for br in ("L", "H"):
         b = manifold.low if br == "L" else manifold.high

@@ -6,16 +6,15 @@ use std::process::Stdio;
 mod common;
 use common::{bin, rows};
 
-/// A small law file in the format of `beamslider.slowflow.save_drift_law` (features
-/// log_lift_off, slope_gap, f_slope, ds_res, amp_rel): V < 0 on the low branch, a zero of V on
-/// the high branch between s − s_res = −0.05 and +0.05.
+/// A small law file in the format of `beamslider.slowflow.save_drift_law` (features amp_rel, s):
+/// V < 0 on the low branch, a zero of V on the high branch between s = 0.35 and 0.40.
 const LAW: &str = r#"{"kind": "beamslider drift law", "version": 1,
- "features": ["log_lift_off", "slope_gap", "f_slope", "ds_res", "amp_rel"], "k": 2,
- "x": {"L": [[1.0, 0.5, 0.0, 0.0, 0.1], [1.0, 0.5, 0.0, 0.2, 0.1]],
-       "H": [[2.0, 2.0, 0.0, -0.05, 0.9], [2.0, 2.0, 0.0, 0.05, 0.9]]},
+ "features": ["amp_rel", "s"], "k": 2,
+ "x": {"L": [[0.1, 0.25], [0.1, 0.45]],
+       "H": [[0.9, 0.35], [0.9, 0.40]]},
  "v": {"L": [-0.004, -0.004], "H": [0.01, -0.01]},
- "mean": [1.5, 1.0, 0.0, 0.0, 0.5], "std": [0.5, 1.0, 1.0, 0.1, 0.4],
- "lo": [1.0, 0.5, 0.0, -0.05, 0.1], "hi": [2.0, 2.0, 0.0, 0.2, 0.9], "points": [[124.0, 14.0], [120.0, 12.0]]}"#;
+ "mean": [0.5, 0.35], "std": [0.4, 0.1],
+ "lo": [0.1, 0.25], "hi": [0.9, 0.45], "points": [[124.0, 14.0], [120.0, 12.0]]}"#;
 
 #[test]
 fn predicted_map_writes_resumes_and_refuses() {
@@ -63,7 +62,7 @@ fn bad_or_missing_law_is_a_one_line_error() {
     let bad = dir.join("bad.json");
     std::fs::write(&bad, "{\"kind\": \"something else\"}").unwrap();
     let wrong = dir.join("wrong.json");
-    std::fs::write(&wrong, LAW.replace("slope_gap", "slope_mu")).unwrap();
+    std::fs::write(&wrong, LAW.replace("\"amp_rel\"", "\"slope_mu\"")).unwrap();
     for (law, needle) in [(dir.join("missing.json"), "missing.json"), (bad.clone(), "not a beamslider drift law"), (wrong.clone(), "features")] {
         let o = bin().args(["map", "-q", "-o"]).arg(dir.join("out")).arg("--predictor").arg(&law).output().unwrap();
         assert_eq!(o.status.code(), Some(1));

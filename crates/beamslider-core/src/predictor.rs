@@ -10,7 +10,10 @@
 //!   Q interpolated linearly in s between the continuation points:
 //!   ŵ_abs = a_ex/Ω² + Φ(s)ᵀQ, θ̂ = Φ′(s)ᵀQ, Λ_g = Ω²|ŵ_abs|/g, θ̂/θ_gap with θ_gap = (R − h)/B,
 //!   f_slope = −(Ω²/2g) Re[ŵ_abs θ̂*], s − s_res, Â/max Â_H. The law's inputs are
-//!   (ln Λ_g, θ̂/θ_gap, f_slope, s − s_res, Â/max Â_H) ([`FEATURES`]).
+//!   (Â/max Â_H, s) ([`FEATURES`]): the relative amplitude on the branch and the position (the
+//!   stable zeros of V_H, where the slider stops, sit at nearly the same s over the map; chosen by
+//!   the leave-one-operating-point-out error, docs/superslow/validation_b_features.txt); Λ_g
+//!   enters through the constraint V = 0 where Λ_g < 1.
 //! * [`predict_point`] — nodes on each branch, V from the law, [`crate::slowflow::slow_flow`]
 //!   and its classification; [`run_predicted_map`] — every point of a map configuration.
 //!
@@ -34,7 +37,7 @@ use crate::stepper::Counters;
 use crate::superslow::{HbBranch, HbManifold, HbOptions, hb_manifold};
 
 /// Inputs of the law, in this order (as `beamslider.drift_law.FEATURES`).
-pub const FEATURES: [&str; 5] = ["log_lift_off", "slope_gap", "f_slope", "ds_res", "amp_rel"];
+pub const FEATURES: [&str; 2] = ["amp_rel", "s"];
 /// Number of inputs.
 pub const NF: usize = FEATURES.len();
 /// Status of a predicted map row (no FS run).
@@ -177,6 +180,19 @@ impl DriftLaw {
         if high { &self.high } else { &self.low }
     }
 
+    /// Whether (f_ex, a_ex) lies outside the box of the training operating points (the law's
+    /// inputs are bounded everywhere, so the operating point is the range a law is used outside of).
+    pub fn outside_points(&self, f_ex_hz: f64, a_ex: f64) -> bool {
+        if self.points.is_empty() {
+            return false;
+        }
+        let (mut f0, mut f1, mut a0, mut a1) = (f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY);
+        for &(f, a) in &self.points {
+            (f0, f1, a0, a1) = (f0.min(f), f1.max(f), a0.min(a), a1.max(a));
+        }
+        !(f_ex_hz >= f0 - 1e-9 && f_ex_hz <= f1 + 1e-9 && a_ex >= a0 - 1e-9 && a_ex <= a1 + 1e-9)
+    }
+
     /// V at the features `x` (law inputs, [`FEATURES`]) on the high (`high`) or low branch, and
     /// whether `x` lies outside the training range. `lift_off` = Λ_g (V = 0 where < 1).
     pub fn evaluate(&self, high: bool, x: &[f64; NF], lift_off: f64) -> (f64, bool) {
@@ -231,12 +247,14 @@ pub struct Features {
     pub amp_rel: f64,
     /// Â.
     pub amplitude_h: f64,
+    /// s (half coordinate).
+    pub s: f64,
 }
 
 impl Features {
     /// The law's inputs ([`FEATURES`]).
     pub fn x(&self) -> [f64; NF] {
-        [self.lift_off.max(1e-12).ln(), self.slope_gap, self.f_slope, self.ds_res, self.amp_rel]
+        [self.amp_rel, self.s]
     }
 }
 
@@ -332,6 +350,7 @@ pub fn features_with(params: &Params, beam: &Beam, manifold: &HbManifold, f_ex_h
             ds_res: si - s_res,
             amp_rel: amp / a_max,
             amplitude_h: amp,
+            s: si,
         });
     }
     let _ = sorted.n;
@@ -395,7 +414,7 @@ pub fn slow_model(params: &Params, manifold: &HbManifold, law: &DriftLaw, f_ex_h
 
 /// [`slow_model`] with the beam of [`beam_for`] built once by the caller.
 pub fn slow_model_with(params: &Params, beam: &Beam, manifold: &HbManifold, law: &DriftLaw, f_ex_hz: f64, a_ex: f64, nodes: usize) -> Result<(SlowModel, bool)> {
-    let mut extrapolated = false;
+    let mut extrapolated = law.outside_points(f_ex_hz, a_ex);
     let mut model = SlowModel { low_ends_in_fold: manifold.s_up.is_some(), ..SlowModel::default() };
     for high in [false, true] {
         let b = if high { &manifold.high } else { &manifold.low };
@@ -576,10 +595,10 @@ mod tests {
     fn law_text(k: usize) -> String {
         serde_json::json!({
             "kind": "beamslider drift law", "version": 1, "features": FEATURES, "k": k,
-            "x": {"L": [[0.0, 0.0, 0.0, 0.0, 0.0], [1.0, 0.0, 0.0, 0.0, 0.0]], "H": [[0.0, 1.0, 0.0, 0.0, 0.0]]},
+            "x": {"L": [[0.0, 0.0], [1.0, 0.0]], "H": [[0.0, 1.0]]},
             "v": {"L": [1.0, 3.0], "H": [-2.0]},
-            "mean": [0.0, 0.0, 0.0, 0.0, 0.0], "std": [1.0, 1.0, 1.0, 1.0, 1.0],
-            "lo": [0.0, 0.0, 0.0, 0.0, 0.0], "hi": [1.0, 1.0, 1.0, 1.0, 1.0], "points": [[124.0, 14.0]]
+            "mean": [0.0, 0.0], "std": [1.0, 1.0],
+            "lo": [0.0, 0.0], "hi": [1.0, 1.0], "points": [[124.0, 14.0], [120.0, 10.0]]
         })
         .to_string()
     }
@@ -588,13 +607,20 @@ mod tests {
     fn knn_is_inverse_distance_weighted_and_zero_without_lift_off() {
         let law = DriftLaw::from_json_str(&law_text(2)).unwrap();
         // Distances 0.25 and 0.75: weights 4 and 4/3 → (4·1 + 4/3·3)/(16/3) = 1.5.
-        let (v, out) = law.evaluate(false, &[0.25, 0.0, 0.0, 0.0, 0.0], 2.0);
+        let (v, out) = law.evaluate(false, &[0.25, 0.0], 2.0);
         assert!((v - 1.5).abs() < 1e-12 && !out);
-        let (v, _) = law.evaluate(false, &[0.25, 0.0, 0.0, 0.0, 0.0], 0.9);
+        let (v, _) = law.evaluate(false, &[0.25, 0.0], 0.9);
         assert_eq!(v, 0.0);
-        let (v, out) = law.evaluate(true, &[5.0, 0.0, 0.0, 0.0, 0.0], 2.0);
+        let (v, out) = law.evaluate(true, &[5.0, 0.0], 2.0);
         assert_eq!(v, -2.0);
         assert!(out);
+    }
+
+    #[test]
+    fn operating_points_outside_the_training_box_are_reported() {
+        let law = DriftLaw::from_json_str(&law_text(2)).unwrap();
+        assert!(!law.outside_points(122.0, 12.0) && !law.outside_points(124.0, 10.0));
+        assert!(law.outside_points(118.0, 12.0) && law.outside_points(122.0, 16.0));
     }
 
     #[test]
@@ -602,7 +628,7 @@ mod tests {
         for bad in ["", "{}", "[1, 2]", r#"{"kind": "other"}"#] {
             assert!(DriftLaw::from_json_str(bad).is_err(), "{bad}");
         }
-        let wrong_features = law_text(2).replace("slope_gap", "slope_mu");
+        let wrong_features = law_text(2).replace("amp_rel", "slope_mu");
         let e = DriftLaw::from_json_str(&wrong_features).unwrap_err().to_string();
         assert!(e.contains("features"), "{e}");
         let zero_k = law_text(0);

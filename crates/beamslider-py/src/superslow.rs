@@ -289,7 +289,7 @@ pub fn drift_law_evaluate(law_json: &str, high: bool, x: Vec<Vec<f64>>, lift_off
 }
 
 /// Layer-(a) features of issue 17 §3.2 computed by the core at `s` on one branch (`high`) of
-/// the HB manifold: dict of arrays lift_off, slope_gap, f_slope, ds_res, amp_rel, amplitude.
+/// the HB manifold: dict of arrays lift_off, slope_gap, f_slope, ds_res, amp_rel, amplitude, s.
 #[pyfunction]
 #[pyo3(signature = (params_toml, *, f_ex_hz, a_ex_m_s2, high, s, n_modes=5, d_eff=None))]
 #[allow(clippy::too_many_arguments)]
@@ -310,6 +310,7 @@ pub fn hb_features<'py>(py: Python<'py>, params_toml: &str, f_ex_hz: f64, a_ex_m
     d.set_item("ds_res", col(|x| x.ds_res).into_pyarray(py))?;
     d.set_item("amp_rel", col(|x| x.amp_rel).into_pyarray(py))?;
     d.set_item("amplitude", col(|x| x.amplitude_h).into_pyarray(py))?;
+    d.set_item("s", col(|x| x.s).into_pyarray(py))?;
     Ok(d)
 }
 
