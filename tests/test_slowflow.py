@@ -2,6 +2,7 @@
 manifold with synthetic drift, the fitted law's constraints, the predict CLI."""
 
 import json
+import os
 
 import numpy as np
 import pytest
@@ -109,7 +110,7 @@ def test_features_and_law_constraints(tmp_path):
     # Λ_g at the high amplitude: Ω²|ŵ_abs|/g with |ŵ_abs| ≥ |w(s)| ~ Â h.
     assert np.all(f["lift_off"] > (2 * np.pi * 124) ** 2 * 0.5e-3 / 9.81)
     tables = [_synthetic_table(f_, a_, lambda s: -0.004 + 0 * s, lambda s: 0.03 * (0.42 - s)) for f_, a_ in ((124, 14), (120, 12), (126, 10))]
-    law = fit_drift_law(tables, k=3)
+    law = fit_drift_law(tables, k=3, monostable_vote=False)
     assert np.isfinite(law.loo["ratio"])
     feat = dict(f)
     feat["lift_off"] = np.array([0.5, 2.0, 0.9])
@@ -128,7 +129,7 @@ def test_features_and_law_constraints(tmp_path):
     assert law.s_dn(m) is None and all(r["s_dn_law"] is None for r in law.loo_s_dn)
     for tb in tables:
         tb.s_dn_pcs = 0.33
-    law2 = fit_drift_law(tables, k=3)
+    law2 = fit_drift_law(tables, k=3, monostable_vote=False)
     sdn = law2.s_dn(m)
     assert sdn is not None and m.s_up < sdn < 0.5
     r3 = predict(f_ex=124, a_ex=14, drift=law2, s_dn="law")
@@ -173,10 +174,11 @@ def test_drift_table_cli(tmp_path):
     np.testing.assert_array_equal(read_drift_table(path).v, t.v)
 
 
-def _realistic_law():
-    """A law on synthetic tables at three points (V < 0 on L, a zero of V_H near 0.42)."""
+def _realistic_law(monostable_vote=False):
+    """A law on synthetic tables at three points (V < 0 on L, a zero of V_H near 0.42). The
+    synthetic tables have no jumps, so with ``monostable_vote`` every point is voted monostable."""
     tables = [_synthetic_table(f_, a_, lambda s: -0.004 + 0 * s, lambda s: 0.03 * (0.42 - s)) for f_, a_ in ((124, 14), (120, 12), (126, 10))]
-    return fit_drift_law(tables, k=3)
+    return fit_drift_law(tables, k=3, monostable_vote=monostable_vote)
 
 
 def test_core_evaluates_the_law_as_python(tmp_path):
@@ -220,6 +222,44 @@ def test_core_evaluates_the_law_as_python(tmp_path):
             assert ups_rs == pytest.approx(ups_py, abs=1e-6)
     r = predict(f_ex=124, a_ex=14, drift=shifted)
     assert r.s_up == pytest.approx(hb_manifold(f_ex=124, a_ex=14).s_up - 0.015, abs=1e-3)
+    # A monostable law (every training point voted single-branch): the core and Python agree,
+    # and the slider follows the low branch through the HB fold towards the clamping.
+    mono = _realistic_law(monostable_vote=True)
+    text = law_json(mono)
+    for f_, a_, s0 in ((124, 14, 0.3), (126, 10, 0.3)):
+        r_py = predict(f_ex=f_, a_ex=a_, s0=s0, drift=mono)
+        r_rs = json.loads(_core.predict_point(p.toml_text(), text, f_ex_hz=float(f_), a_ex_m_s2=float(a_), s0=s0))
+        assert r_py.monostable and r_rs["monostable"]
+        assert r_rs["behaviour"] == r_py.behaviour == "self_damping", (f_, a_, r_py.behaviour)
+        assert r_rs["s_final"] == pytest.approx(r_py.classification["s_final"], abs=1e-3)
+        assert not [e for e in r_py.events if e[0] == "jump_up"] and not [e for e in r_rs["events"] if e[0] == "jump_up"]
+        assert r_py.s_final < hb_manifold(f_ex=f_, a_ex=a_).s_up
+
+
+def test_monostable_vote_is_the_nearest_training_point():
+    """The vote (ln Â_L(s_up), s_up): a law whose tables are labelled bistable (a PCS s_up) except
+    one monostable point answers each training point's own label in sample, and leave one out the
+    label of the nearest other point; monostable_vote=False or a manifold without fold: False."""
+    from beamslider.drift_law import _mono_x
+
+    pts = ((124, 14), (124, 6), (110, 8))
+    tables = []
+    for f_, a_ in pts:
+        t = _synthetic_table(f_, a_, lambda s: -0.004 + 0 * s, lambda s: 0.03 * (0.42 - s))
+        t.s_up_pcs = None if (f_, a_) == (124, 6) else hb_manifold(f_ex=f_, a_ex=a_).s_up
+        tables.append(t)
+    law = fit_drift_law(tables, k=3)
+    assert list(law.mono_y) == [0.0, 1.0, 0.0]
+    for gi, (f_, a_) in enumerate(pts):
+        m = hb_manifold(f_ex=f_, a_ex=a_)
+        assert law.monostable(m) == ((f_, a_) == (124, 6))
+        x = _mono_x(m)
+        d = [np.sum(((law.mono_x[j] - x) / law.mono_std) ** 2) if j != gi else np.inf for j in range(3)]
+        assert law.monostable(m, exclude_group=gi) == bool(law.mono_y[int(np.argmin(d))])
+    assert not fit_drift_law(tables, k=3, monostable_vote=False).monostable(hb_manifold(f_ex=124, a_ex=6))
+    back = load_drift_law_text(law)
+    np.testing.assert_array_equal(back.mono_x, law.mono_x)
+    assert back.monostable(hb_manifold(f_ex=124, a_ex=6))
 
 
 def test_predicted_map_written_by_the_core(tmp_path):
@@ -236,7 +276,7 @@ def test_predicted_map_written_by_the_core(tmp_path):
     again = predicted_map(drift=law, f_ex=[122, 124, 126], a_ex=[14], out=out, resume=True)
     assert [json.dumps(r, sort_keys=True) for r in again[:2]] == [json.dumps(r, sort_keys=True) for r in rows]
     assert len(read_map(out)["behaviour"]) == 3
-    other = fit_drift_law([_synthetic_table(f_, a_, lambda s: -0.002 + 0 * s, lambda s: 0.01 * (0.45 - s)) for f_, a_ in ((124, 14), (120, 12))], k=2)
+    other = fit_drift_law([_synthetic_table(f_, a_, lambda s: -0.002 + 0 * s, lambda s: 0.01 * (0.45 - s)) for f_, a_ in ((124, 14), (120, 12))], k=2, monostable_vote=False)
     with pytest.raises(ValueError, match="another drift law"):
         predicted_map(drift=other, f_ex=[122], a_ex=[14], out=out, resume=True)
     # In memory, the same rows as written (but the wall time).
@@ -251,6 +291,14 @@ def test_predicted_map_written_by_the_core(tmp_path):
     (tmp_path / "bad.json").write_text("[1, 2]")
     with pytest.raises(ValueError, match="not a beamslider drift law"):
         load_drift_law(tmp_path / "bad.json")
+
+
+def load_drift_law_text(law):
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as d:
+        save_drift_law(law, os.path.join(d, "law.json"))
+        return load_drift_law(os.path.join(d, "law.json"))
 
 
 def law_json_text(law):

@@ -155,7 +155,29 @@ class DriftLaw:
     median of s_up(PCS) − s_up(HB) over the training tables with both (0: none)."""
     loo_s_up: List[dict] = field(default_factory=list)
     """Per training point: s_up of HB, of the PCS table, and HB + the shift fitted without it."""
+    mono_x: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
+    """Per training point with an HB fold: (ln Â_L at the fold [h], s_up of HB) (the inputs of
+    the monostability vote, :meth:`monostable`)."""
+    mono_y: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    """1 where that point's PCS sweeps show no jump-up (a single, low branch), else 0."""
+    mono_std: np.ndarray = field(default_factory=lambda: np.ones(2))
+    """Standardisation of ``mono_x``."""
+    mono_groups: np.ndarray = field(default_factory=lambda: np.zeros(0, int))
+    """Training-point index of each monostability sample."""
     _trees: dict = field(default_factory=dict, repr=False, compare=False)
+
+    def monostable(self, manifold, exclude_group: Optional[int] = None) -> bool:
+        """Whether the operating point has a single (low) branch in the nonsmooth model although
+        single-term HB with the slider rigidly attached has a fold: the label of the nearest
+        training point in standardised (ln Â_L(s_up), s_up) of the HB manifold (the low
+        branch's amplitude at its fold and the fold's position), the label being "the PCS
+        sweeps show no jump-up". False without an HB fold or without samples."""
+        x = _mono_x(manifold)
+        keep = self.mono_groups != exclude_group if exclude_group is not None else np.ones(self.mono_y.size, bool)
+        if x is None or not keep.any():
+            return False
+        d = np.sum(((self.mono_x[keep] - x) / self.mono_std) ** 2, axis=1)
+        return bool(self.mono_y[keep][int(np.argmin(d))] > 0.5)
 
     def evaluate(self, branch: str, feat: Dict[str, np.ndarray], exclude_group: Optional[int] = None) -> Tuple[np.ndarray, np.ndarray]:
         """V at the given features (half coordinate, towards the centre positive) and a flag per
@@ -223,6 +245,14 @@ class DriftLaw:
         return out, outside
 
 
+def _mono_x(manifold) -> Optional[np.ndarray]:
+    """(ln Â_L at the HB fold, s_up) or None without a fold."""
+    lo = manifold.low
+    if manifold.s_up is None or len(lo) == 0:
+        return None
+    return np.array([math.log(max(float(lo.amplitude[int(np.argmin(lo.s))]), 1e-12)), float(manifold.s_up)])
+
+
 def _exist_nodes(manifold) -> np.ndarray:
     lo = max(manifold.s_up or 0.2, 0.2)
     hi = float(np.max(manifold.high.s))
@@ -255,7 +285,7 @@ def _training_samples(table: DriftTable, manifold) -> Dict[str, Tuple[np.ndarray
 
 
 def fit_drift_law(tables: Sequence[DriftTable], *, params: Optional[Parameters] = None, k: int = 4, n_modes: int = 5,
-                  s_up_correction: bool = True) -> DriftLaw:
+                  s_up_correction: bool = True, monostable_vote: bool = True) -> DriftLaw:
     """Fit the transferable drift law (issue 17 §3.2, b2) on PCS drift tables of several operating
     points, and validate it leave one operating point out.
 
@@ -267,6 +297,12 @@ def fit_drift_law(tables: Sequence[DriftTable], *, params: Optional[Parameters] 
     (median over the tables where both exist; single-term HB with the slider rigidly attached
     puts the fold too close to the centre, issue §8), applied by :func:`beamslider.slowflow.predict`
     by moving the low branch's fold (``DriftLaw.s_up_shift``).
+
+    ``monostable_vote``: also learn where the nonsmooth model has a single, low branch although
+    HB has a fold (the PCS sweeps of a training point show no jump-up: the slider's impacts keep
+    the beam off the high branch at low excitation), voted by the nearest training point in
+    (ln Â_L(s_up), s_up) of the HB manifold (:meth:`DriftLaw.monostable`); the slow flow then
+    follows the low branch through the fold towards the clamping (self-damping).
     """
     if len(tables) < 2:
         raise ValueError("invalid parameter `tables`: need at least two operating points")
@@ -279,9 +315,15 @@ def fit_drift_law(tables: Sequence[DriftTable], *, params: Optional[Parameters] 
     gs: Dict[str, list] = {"L": [], "H": []}
     ls: Dict[str, list] = {"L": [], "H": []}
     xe, ye, ge, mfs = [], [], [], []
+    mx, my, mg = [], [], []
     for gi, t in enumerate(tables):
         mf = _manifold_for(p, t.f_ex, t.a_ex, n_modes, None)
         mfs.append(mf)
+        xm = _mono_x(mf)
+        if monostable_vote and xm is not None:
+            mx.append(xm)
+            my.append(1.0 if t.s_up_pcs is None else 0.0)
+            mg.append(gi)
         se = _exist_nodes(mf) if len(mf.high) else np.zeros(0)
         if se.size:
             xe.append(_x(features(mf, "H", se)))
@@ -310,6 +352,10 @@ def fit_drift_law(tables: Sequence[DriftTable], *, params: Optional[Parameters] 
                    points=[(t.f_ex, t.a_ex) for t in tables], k=int(k),
                    x_exist=np.concatenate(xe) if xe else np.zeros((0, len(FEATURES))),
                    y_exist=np.concatenate(ye) if ye else np.zeros(0), g_exist=np.concatenate(ge) if ge else np.zeros(0, int))
+    if mx:
+        law.mono_x, law.mono_y, law.mono_groups = np.array(mx), np.array(my), np.array(mg, dtype=int)
+        sd = law.mono_x.std(axis=0)
+        law.mono_std = np.where(sd > 0, sd, 1.0)
     # The learnt s_up correction (median PCS − HB over the tables with both), leave one out.
     d_up = {gi: t.s_up_pcs - mfs[gi].s_up for gi, t in enumerate(tables) if t.s_up_pcs is not None and mfs[gi].s_up is not None}
     if s_up_correction and d_up:
@@ -363,6 +409,8 @@ def law_json(law: DriftLaw) -> str:
         "loo_per_point": law.loo_per_point, "fit_time_s": law.fit_time_s,
         "x_exist": law.x_exist.tolist(), "y_exist": law.y_exist.tolist(), "g_exist": law.g_exist.tolist(), "loo_s_dn": law.loo_s_dn,
         "s_up_shift": law.s_up_shift, "loo_s_up": law.loo_s_up,
+        "mono_x": law.mono_x.tolist(), "mono_y": law.mono_y.tolist(), "mono_std": law.mono_std.tolist(),
+        "mono_groups": law.mono_groups.tolist(),
     }
     return json.dumps(d)
 
@@ -393,6 +441,8 @@ def load_drift_law(path: Union[str, os.PathLike]) -> DriftLaw:
         x_exist=arr(d.get("x_exist", [])).reshape(-1, n), y_exist=arr(d.get("y_exist", [])),
         g_exist=np.asarray(d.get("g_exist", []), dtype=int), loo_s_dn=d.get("loo_s_dn", []),
         s_up_shift=float(d.get("s_up_shift", 0.0)), loo_s_up=d.get("loo_s_up", []),
+        mono_x=arr(d.get("mono_x", [])).reshape(-1, 2), mono_y=arr(d.get("mono_y", [])),
+        mono_std=arr(d.get("mono_std", [1.0, 1.0])), mono_groups=np.asarray(d.get("mono_groups", []), dtype=int),
     )
 
 

@@ -94,6 +94,8 @@ class Prediction:
     """Wall times: manifold (a), drift evaluation, slow flow [s]."""
     build_up_s: float = 0.0
     """Build-up time used [s] (s = s0 until then)."""
+    monostable: bool = False
+    """The law's monostability vote said: a single low branch (no jump-up; :meth:`DriftLaw.monostable`)."""
     f_ex: float = 0.0
     a_ex: float = 0.0
     s0: float = 0.3
@@ -185,8 +187,33 @@ def slow_model(manifold, drift, *, s_dn: str = "hb", nodes: int = 121, v_dead: O
         out["L"] = ([float(x) for x in s_l], out["L"][1], out["L"][2])
         info["s_up"] = float(s_l[0])
         info["s_up_hb"] = s_up
+    if isinstance(drift, DriftLaw) and out["L"][0] and drift.monostable(manifold):
+        out["L"], out["H"] = _monostable_low(manifold, drift, out["L"], v_dead), ([], [], [])
+        info.update(s_up=None, s_dn=None, s_dn_source="none", monostable=True)
+        return out["L"], out["H"], False, False, info
     high_fold = s_dn_v is not None and len(out["H"][0]) > 0
     return out["L"], out["H"], s_up is not None, high_fold, info
+
+
+MONO_NODES = 40
+
+
+def _monostable_low(manifold, law: DriftLaw, low, v_dead: float = 0.0):
+    """The single low branch of a monostable point (:meth:`DriftLaw.monostable`): below the
+    (possibly shifted) fold s_up′ the low branch continues along the HB branch that reaches the
+    clamping, on MONO_NODES nodes s_min + (s_up′ − s_min)·i/MONO_NODES, with its amplitude capped
+    at the low branch's amplitude at the fold (no jump) and V from the law's low-branch samples."""
+    su, a_su = low[0][0], low[1][0]
+    lo = float(np.min(manifold.high.s)) if len(manifold.high) else su
+    if not lo < su:
+        return low
+    s_new = lo + (su - lo) * np.arange(MONO_NODES) / MONO_NODES
+    f = features(manifold, "H", s_new)
+    amp = np.minimum(f["amplitude"], a_su)
+    f["amp_rel"] = amp / float(np.max(manifold.high.amplitude))
+    f["amplitude"] = amp
+    v = dead_band(law.evaluate("L", f)[0], v_dead)
+    return ([float(x) for x in s_new] + list(low[0]), [float(x) for x in amp] + list(low[1]), [float(x) for x in v] + list(low[2]))
 
 
 def table_model(table: DriftTable):
@@ -317,6 +344,7 @@ def predict(
         amplitude_final=float(r["amplitude_final_h"]), s_up=info["s_up"], s_dn=info["s_dn"], s_dn_source=info["s_dn_source"],
         features=info["features"], extrapolated=bool(info["extrapolated"]), warnings=warnings,
         timings_s={"manifold": t1 - t0, "drift": t2 - t1, "slow_flow": t3 - t2}, build_up_s=float(min(t_build, t_end)), f_ex=f_ex, a_ex=a_ex, s0=s0,
+        monostable=bool(info.get("monostable", False)),
     )
 
 

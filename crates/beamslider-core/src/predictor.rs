@@ -60,6 +60,12 @@ struct LawFile {
     points: Vec<Vec<f64>>,
     #[serde(default)]
     s_up_shift: f64,
+    #[serde(default)]
+    mono_x: Vec<Vec<f64>>,
+    #[serde(default)]
+    mono_y: Vec<f64>,
+    #[serde(default)]
+    mono_std: Vec<f64>,
 }
 
 /// Training samples of one branch.
@@ -93,6 +99,11 @@ pub struct DriftLaw {
     /// Learnt shift of the HB jump-up position (median of s_up(PCS) − s_up(HB) over the training
     /// tables; 0: none): the low branch's fold is moved by it ([`slow_model`]).
     pub s_up_shift: f64,
+    /// Monostability samples, one per training point with an HB fold: (ln Â_L at the fold,
+    /// s_up of HB) and whether its PCS sweeps show no jump-up ([`DriftLaw::monostable`]).
+    pub mono: Vec<([f64; 2], bool)>,
+    /// Standardisation of the monostability inputs.
+    pub mono_std: [f64; 2],
     /// Fingerprint of the samples (FNV-1a over the bits of k, the samples and the scaling):
     /// written to a predicted map's header and compared on resume.
     pub fingerprint: String,
@@ -163,7 +174,21 @@ impl DriftLaw {
             return Err(Error::invalid("law", "samples", "the law has no training samples"));
         }
         let points = f.points.iter().filter(|p| p.len() == 2).map(|p| (p[0], p[1])).collect();
-        Ok(DriftLaw { k: f.k, low, high, mean, std, lo, hi, points, s_up_shift: f.s_up_shift, fingerprint: format!("{:016x}", hash.0) })
+        if f.mono_x.len() != f.mono_y.len() || f.mono_x.iter().any(|r| r.len() != 2 || r.iter().any(|x| !x.is_finite())) {
+            return Err(Error::invalid("law", "mono_x", "one row of 2 finite values per mono_y"));
+        }
+        let mono_std = match f.mono_std.as_slice() {
+            [] => [1.0, 1.0],
+            &[a, b] if a > 0.0 && b > 0.0 && a.is_finite() && b.is_finite() => [a, b],
+            _ => return Err(Error::invalid("law", "mono_std", "two finite values > 0")),
+        };
+        let mono: Vec<([f64; 2], bool)> = f.mono_x.iter().zip(&f.mono_y).map(|(r, &y)| ([r[0], r[1]], y > 0.5)).collect();
+        for (x, y) in &mono {
+            hash.add(x[0]);
+            hash.add(x[1]);
+            hash.add(if *y { 1.0 } else { 0.0 });
+        }
+        Ok(DriftLaw { k: f.k, low, high, mean, std, lo, hi, points, s_up_shift: f.s_up_shift, mono, mono_std, fingerprint: format!("{:016x}", hash.0) })
     }
 
     /// Read a law file.
@@ -178,6 +203,23 @@ impl DriftLaw {
 
     fn branch(&self, high: bool) -> &LawBranch {
         if high { &self.high } else { &self.low }
+    }
+
+    /// Whether the operating point has a single (low) branch in the nonsmooth model although
+    /// single-term HB has a fold: the label of the nearest training point in standardised
+    /// (ln Â_L(s_up), s_up) of the HB manifold (label: its PCS sweeps show no jump-up). False
+    /// without an HB fold or without samples.
+    pub fn monostable(&self, manifold: &HbManifold) -> bool {
+        let Some(x) = mono_x(manifold) else { return false };
+        let d = |m: &[f64; 2]| ((m[0] - x[0]) / self.mono_std[0]).powi(2) + ((m[1] - x[1]) / self.mono_std[1]).powi(2);
+        let mut best: Option<(f64, bool)> = None;
+        for (m, y) in &self.mono {
+            let dm = d(m);
+            if best.is_none_or(|(b, _)| dm < b) {
+                best = Some((dm, *y));
+            }
+        }
+        best.is_some_and(|(_, y)| y)
     }
 
     /// Whether (f_ex, a_ex) lies outside the box of the training operating points (the law's
@@ -217,6 +259,17 @@ impl DriftLaw {
         (v, outside)
     }
 }
+
+/// (ln Â_L at the HB fold, s_up), None without a fold (inputs of [`DriftLaw::monostable`]).
+fn mono_x(manifold: &HbManifold) -> Option<[f64; 2]> {
+    let su = manifold.s_up?;
+    let lo = &manifold.low;
+    let i = (0..lo.len()).min_by(|&i, &j| lo.s[i].total_cmp(&lo.s[j]))?;
+    Some([lo.amplitude_h[i].max(1e-12).ln(), su])
+}
+
+/// Nodes of the single low branch of a monostable point below its fold.
+const MONO_NODES: usize = 40;
 
 /// FNV-1a, 64 bit, over f64 bit patterns.
 struct Fnv(u64);
@@ -390,6 +443,8 @@ pub struct PointPrediction {
     pub s_up: Option<f64>,
     /// Jump-down position used (the HB manifold's own).
     pub s_dn: Option<f64>,
+    /// The law's monostability vote said: a single low branch ([`DriftLaw::monostable`]).
+    pub monostable: bool,
     /// Wall times [s]: manifold, drift evaluation, slow flow.
     pub timings_s: [f64; 3],
 }
@@ -460,7 +515,41 @@ pub fn slow_model_with(params: &Params, beam: &Beam, manifold: &HbManifold, law:
         }
     }
     model.high_ends_in_fold = manifold.s_dn.is_some() && !model.high.s.is_empty();
+    if !model.low.s.is_empty() && law.monostable(manifold) {
+        monostable_low(params, beam, manifold, law, f_ex_hz, a_ex, &mut model)?;
+    }
     Ok((model, extrapolated))
+}
+
+/// The single low branch of a monostable point ([`DriftLaw::monostable`]): below the (possibly
+/// shifted) fold s_up′ the low branch continues along the HB branch that reaches the clamping, on
+/// [`MONO_NODES`] nodes s_min + (s_up′ − s_min)·i/MONO_NODES, with the amplitude capped at the low
+/// branch's amplitude at the fold (no jump) and V from the law's low-branch samples; no high branch.
+fn monostable_low(params: &Params, beam: &Beam, manifold: &HbManifold, law: &DriftLaw, f_ex_hz: f64, a_ex: f64, model: &mut SlowModel) -> Result<()> {
+    let (su, a_su) = (model.low.s[0], model.low.amplitude_h[0]);
+    let lo = if manifold.high.is_empty() { su } else { manifold.high.s.iter().copied().fold(f64::INFINITY, f64::min) };
+    model.high = SlowBranch::default();
+    model.low_ends_in_fold = false;
+    model.high_ends_in_fold = false;
+    if !(lo < su) {
+        return Ok(());
+    }
+    let s: Vec<f64> = (0..MONO_NODES).map(|i| lo + (su - lo) * i as f64 / MONO_NODES as f64).collect();
+    let feats = features_with(params, beam, manifold, f_ex_hz, a_ex, true, &s)?;
+    let a_max = manifold.high.amplitude_h.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let mut br = SlowBranch { s: s.clone(), amplitude_h: Vec::with_capacity(s.len() + model.low.s.len()), v_per_s: Vec::with_capacity(s.len() + model.low.s.len()) };
+    for f in &feats {
+        let amp = f.amplitude_h.min(a_su);
+        let capped = Features { amp_rel: amp / a_max, amplitude_h: amp, ..*f };
+        let (v, _) = law.evaluate(false, &capped.x(), f.lift_off);
+        br.amplitude_h.push(amp);
+        br.v_per_s.push(v);
+    }
+    br.s.extend_from_slice(&model.low.s);
+    br.amplitude_h.extend_from_slice(&model.low.amplitude_h);
+    br.v_per_s.extend_from_slice(&model.low.v_per_s);
+    model.low = br;
+    Ok(())
 }
 
 /// Predict one operating point with the reduced model (issue 17 §3.3): HB manifold, V from the
@@ -498,6 +587,7 @@ pub fn predict_point_with(params: &Params, beam: &Beam, law: &DriftLaw, f_ex_hz:
     Ok(PointPrediction {
         s_up: model.s_up(),
         s_dn: model.s_dn(),
+        monostable: law.monostable(&manifold),
         flow,
         extrapolated,
         model,
@@ -522,6 +612,7 @@ pub fn predicted_row(index: usize, f_ex_hz: f64, a_ex: f64, s0: f64, t_end_s: f6
     let events: Vec<serde_json::Value> = p.flow.events.iter().map(|e| serde_json::json!([event_name(e.kind), e.t_s, e.s])).collect();
     extra.insert("events".into(), serde_json::Value::Array(events));
     extra.insert("extrapolated".into(), serde_json::Value::Bool(p.extrapolated));
+    extra.insert("monostable".into(), serde_json::Value::Bool(p.monostable));
     extra.insert("s_dn_source".into(), serde_json::Value::String(if p.s_dn.is_some() { "hb" } else { "none" }.into()));
     let point = MapPoint { index, f_ex_hz, a_ex_m_s2: a_ex, s0 };
     let mut row = MapRow::from_classification(&point, t_end_s, STATUS_PREDICTED, c, Counters::default(), wall_s, None);
