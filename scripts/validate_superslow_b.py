@@ -634,7 +634,7 @@ def stage_features():
 
     saved = dl.FEATURES
     lines = ["Choice of the b2 law's inputs (issue 17 §3.2), leave one operating point out on the "
-             f"{len(tables)} training tables ({', '.join(f'({t.f_ex:g}, {t.a_ex:g})' for t in tables)}), s_up correction on.",
+             f"{len(tables)} training tables ({', '.join(f'({t.f_ex:g}, {t.a_ex:g})' for t in tables)}), s_up correction and monostability vote on (the defaults).",
              "Selection: V error and training points right (LOO). The map columns (all 112 points, training points LOO) are the test.",
              f"{'inputs':>52} {'k':>2} | {'V err/|V| all':>13} {'L':>6} {'H':>6} | {'training LOO':>12} | {'map strict':>10} {'phase':>6} {'final-s med':>11} {'p90':>6}"]
     try:
