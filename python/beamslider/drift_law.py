@@ -245,12 +245,28 @@ class DriftLaw:
         return out, outside
 
 
+def mono_features(manifold, s: Sequence[float], a_cap: float) -> Dict[str, np.ndarray]:
+    """Features on the single low branch of a monostable point below the HB fold: those of the
+    HB branch that reaches the clamping, with the amplitude capped at ``a_cap`` (the low branch's
+    amplitude at the fold) in ``amplitude`` and ``amp_rel``."""
+    f = features(manifold, "H", s)
+    amp = np.minimum(f["amplitude"], a_cap)
+    f["amp_rel"] = amp / float(np.max(manifold.high.amplitude))
+    f["amplitude"] = amp
+    return f
+
+
+def _fold_amplitude(manifold) -> float:
+    lo = manifold.low
+    return float(lo.amplitude[int(np.argmin(lo.s))])
+
+
 def _mono_x(manifold) -> Optional[np.ndarray]:
     """(ln Â_L at the HB fold, s_up) or None without a fold."""
     lo = manifold.low
     if manifold.s_up is None or len(lo) == 0:
         return None
-    return np.array([math.log(max(float(lo.amplitude[int(np.argmin(lo.s))]), 1e-12)), float(manifold.s_up)])
+    return np.array([math.log(max(_fold_amplitude(manifold), 1e-12)), float(manifold.s_up)])
 
 
 def _exist_nodes(manifold) -> np.ndarray:

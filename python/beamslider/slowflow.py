@@ -35,7 +35,7 @@ import numpy as np
 from . import _core
 from .params import Parameters, resolve
 from .simulate import _number
-from .drift_law import (FEATURES, DriftLaw, _manifold_for, _modes, features, fit_drift_law,  # noqa: F401
+from .drift_law import (FEATURES, DriftLaw, _manifold_for, _modes, features, fit_drift_law, mono_features,  # noqa: F401
                         law_json, load_drift_law, save_drift_law)
 from .drift_pcs import DriftTable, drift_table, read_drift_table  # noqa: F401
 
@@ -208,10 +208,8 @@ def _monostable_low(manifold, law: DriftLaw, low, v_dead: float = 0.0):
     if not lo < su:
         return low
     s_new = lo + (su - lo) * np.arange(MONO_NODES) / MONO_NODES
-    f = features(manifold, "H", s_new)
-    amp = np.minimum(f["amplitude"], a_su)
-    f["amp_rel"] = amp / float(np.max(manifold.high.amplitude))
-    f["amplitude"] = amp
+    f = mono_features(manifold, s_new, a_su)
+    amp = f["amplitude"]
     v = dead_band(law.evaluate("L", f)[0], v_dead)
     return ([float(x) for x in s_new] + list(low[0]), [float(x) for x in amp] + list(low[1]), [float(x) for x in v] + list(low[2]))
 
