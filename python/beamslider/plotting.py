@@ -135,7 +135,8 @@ def plot_operating_point(
     if result is not None:
         # A streamed run brings what the figure needs from the core (computed as it streamed):
         # the min/max decimation of w and s and the super-slow signals; nothing is read back.
-        if ov is not None and ov.window == window and len(ov.amplitude_h):
+        # Beside a measurement both envelopes are computed alike (FFT Hilbert, per sample).
+        if ov is not None and ov.window == window and len(ov.amplitude_h) and measurement is None:
             env = None  # panel (c) from the overview
         else:
             env = result.display_envelope(window) if len(result.t) > 2 else None
@@ -178,7 +179,7 @@ def plot_operating_point(
         # A run that stopped early (diverged, left the beam) may leave too little for an envelope.
         t_stop = float(result.t[-1]) if len(result.t) else 0.0
         empty = not any(env is not None and len(t) > 2 and t[-1] - t[0] >= window for _, _, t, _, _, env in series)
-        empty = empty and not (ov is not None and ov.window == window and len(ov.amplitude_h))
+        empty = empty and not (ov is not None and env is None and len(ov.amplitude_h))
         note = f"model run {result.status} at t = {t_stop:.4g} s" + (
             f":\nshorter than the {window:g}-s envelope window,\nno super-slow amplitude to show" if empty else "")
         ax_a.text(0.5, 0.5 if empty else 0.04, note, transform=ax_a.transAxes, ha="center",

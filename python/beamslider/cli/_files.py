@@ -140,21 +140,23 @@ def read_manifold_csv(path: Path, *, f_ex: float, a_ex: float, params: Parameter
     )
 
 
-def final_amplitude(result: SimulationResult, window: float) -> float:
+def final_amplitude(result: SimulationResult, window: float, streamed: bool = True) -> float:
     """Super-slow amplitude [m] at the end of a run: of a streamed run, the last value of the
     super-slow signals the core computed as it streamed (``RunOverview``, the definition of the
-    operating maps, without reading the trajectory back); else (in-memory runs, and runs shorter
-    than one 0.2-s bin) the last value of :meth:`SimulationResult.display_envelope`."""
+    operating maps, without reading the trajectory back); else (in-memory runs, runs shorter
+    than one 0.2-s bin, or ``streamed=False``) the last value of
+    :meth:`SimulationResult.display_envelope`."""
     ov = result.overview
-    if ov is not None and ov.window == window and len(ov.amplitude_h):
+    if streamed and ov is not None and ov.window == window and len(ov.amplitude_h):
         return float(ov.amplitude_h[-1] * result.params.thickness_m)
     env = result.display_envelope(window) if len(result.t) > 2 else np.array([np.nan])
     return float(env[-1])
 
 
 def simulation_summary(result: SimulationResult, *, t_end: float, record_every: int, wall_s: float,
-                       window: float) -> Dict[str, Any]:
-    amp = final_amplitude(result, window)
+                       window: float, streamed: bool = True) -> Dict[str, Any]:
+    """The JSON summary of a run (``streamed``: see :func:`final_amplitude`)."""
+    amp = final_amplitude(result, window, streamed)
     return {
         "kind": "simulation",
         "model": result.model,
