@@ -64,6 +64,8 @@ pub struct MinMaxColumns {
     per: u64,
     full: u64,
     i: u64,
+    /// Samples left in the current column before the next one starts.
+    left: u64,
     cur: Option<Extremes>,
     /// Times of the kept samples [s].
     pub t: Vec<f64>,
@@ -80,21 +82,25 @@ impl MinMaxColumns {
             return None;
         }
         let per = n / c;
-        Some(MinMaxColumns { n, per, full: per * c, i: 0, cur: None, t: Vec::with_capacity(2 * columns + 2), y: Vec::with_capacity(2 * columns + 2) })
+        Some(MinMaxColumns { n, per, full: per * c, i: 0, left: 0, cur: None, t: Vec::with_capacity(2 * columns + 2), y: Vec::with_capacity(2 * columns + 2) })
     }
 
     /// The next sample (time t [s], value v).
     pub fn push(&mut self, t: f64, v: f64) {
         let i = self.i;
         self.i += 1;
-        let starts = i < self.full && i % self.per == 0 || i == self.full;
-        if starts {
+        if self.left == 0 {
+            // a new column (or the remainder after the last full one)
             if let Some(e) = self.cur.take() {
                 e.emit(&mut self.t, &mut self.y, false);
             }
             self.cur = Some(Extremes::new(i, t, v));
-        } else if let Some(e) = self.cur.as_mut() {
-            e.add(i, t, v);
+            self.left = if i < self.full { self.per - 1 } else { u64::MAX };
+        } else {
+            self.left -= 1;
+            if let Some(e) = self.cur.as_mut() {
+                e.add(i, t, v);
+            }
         }
     }
 
@@ -131,7 +137,8 @@ pub struct OverviewRecorder {
     stride: u64,
     sample_dt_s: f64,
     idx: Option<(usize, usize, usize)>,
-    row: u64,
+    /// Rows until the next one that feeds the super-slow stream.
+    skip: u64,
     w: Option<MinMaxColumns>,
     s: Option<MinMaxColumns>,
     signals: Option<EnvelopeStream>,
@@ -149,7 +156,7 @@ impl OverviewRecorder {
             stride,
             sample_dt_s: dt_s * k as f64 * stride as f64,
             idx: None,
-            row: 0,
+            skip: 0,
             w: None,
             s: None,
             signals: None,
@@ -187,12 +194,14 @@ impl Recorder for OverviewRecorder {
         if let Some(d) = self.s.as_mut() {
             d.push(t, s);
         }
-        if self.row % self.stride == 0
-            && let Some(st) = self.signals.as_mut()
-        {
-            st.push(w, s);
+        if self.skip == 0 {
+            if let Some(st) = self.signals.as_mut() {
+                st.push(w, s);
+            }
+            self.skip = self.stride - 1;
+        } else {
+            self.skip -= 1;
         }
-        self.row += 1;
         Ok(())
     }
 }
