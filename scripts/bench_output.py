@@ -70,11 +70,12 @@ def breakdown(t_end: float, every: int, tmp: Path) -> str:
         t0 = time.perf_counter()
         import beamslider.cli.simulate
         from beamslider import simulate, super_slow_manifold
+        from beamslider.cli._files import simulation_summary
         t1 = time.perf_counter()
         r = simulate(f_ex=124, a_ex=14, t_end={t_end}, record_every={every}, out={str(tmp / 'bd.npz')!r},
                      overwrite=True)
         t2 = time.perf_counter()
-        r.display_envelope(1.0)
+        simulation_summary(r, t_end={t_end}, record_every={every}, wall_s=t2 - t1, window=1.0)
         t3 = time.perf_counter()
         m = super_slow_manifold(f_ex=124, a_ex=14)
         t4 = time.perf_counter()
@@ -83,7 +84,7 @@ def breakdown(t_end: float, every: int, tmp: Path) -> str:
         t5 = time.perf_counter()
         plot_operating_point(r, manifold=m, path={str(tmp / 'bd.png')!r})
         t6 = time.perf_counter()
-        print(f"imports {{t1 - t0:.2f}} s, run streamed to NPZ {{t2 - t1:.2f}} s, envelope {{t3 - t2:.2f}} s, "
+        print(f"imports {{t1 - t0:.2f}} s, run streamed to NPZ {{t2 - t1:.2f}} s, summary {{t3 - t2:.2f}} s, "
               f"manifold {{t4 - t3:.2f}} s, matplotlib import {{t5 - t4:.2f}} s, figure {{t6 - t5:.2f}} s")
     """)
     t0 = time.perf_counter()

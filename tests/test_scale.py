@@ -284,6 +284,66 @@ def test_minmax_decimation_keeps_every_columns_extremes():
     assert minmax_band(t[:3999], y[:3999], columns=1000) is None  # short traces are drawn as they are
 
 
+@pytest.mark.parametrize("every", [1, 5, 7])
+def test_streamed_overview_equals_numpy_decimation_and_the_maps_super_slow_signals(tmp_path, every):
+    """The core's overview of a streamed run (figure and summary data, computed as it streams) is
+    numpy's min/max per pixel column of the in-memory run, and its super-slow signals are those an
+    operating map computes from samples every 20 steps (envelope_stream)."""
+    args = dict(f_ex=124, a_ex=14, s0=0.3, t_end=3.0, record_every=every)
+    mem = beamslider.simulate(**args)
+    res = beamslider.simulate(**args, out=tmp_path / f"r{every}.npz")
+    ov = res.overview
+    assert ov is not None and ov.columns == 2000 and ov.window == 1.0
+    if len(mem.t) >= 4 * 2000:
+        for got, y in ((ov.w_minmax, mem.w), (ov.s_minmax, mem.s)):
+            want = decimate_minmax(mem.t, y, columns=2000)
+            np.testing.assert_array_equal(got[0], want[0])
+            np.testing.assert_array_equal(got[1], want[1])
+    else:
+        assert ov.w_minmax is None and ov.s_minmax is None  # short traces are drawn as they are
+    stride = max(1, round(20 / every))
+    p = beamslider.Parameters()
+    t0, dt, s, a = _core.super_slow_signals(np.ascontiguousarray(mem.w[::stride]), np.ascontiguousarray(mem.s[::stride]),
+                                            p.dt_s * every * stride, p.thickness_m, 1.0)
+    assert len(a) == 3.0 / 0.2 - 1  # the last bin waits for samples past the end
+    np.testing.assert_array_equal(ov.amplitude_h, a)
+    np.testing.assert_array_equal(ov.s, s)
+    np.testing.assert_allclose(ov.t, t0 + dt * np.arange(len(a)))
+    # the classic envelope (FFT Hilbert, per sample) agrees where both are defined
+    env = mem.envelope(1.0) / p.thickness_m
+    mid = np.interp(ov.t[3:-3], mem.t, env)
+    np.testing.assert_allclose(ov.amplitude_h[3:-3], mid, rtol=2e-2)
+
+
+def test_cli_summary_and_figure_use_the_streamed_overview(tmp_path, monkeypatch):
+    """``beamslider simulate`` takes the final amplitude from the core's super-slow signals (the
+    operating maps' definition) and draws without reading the trajectory back."""
+    from beamslider import plotting
+    from beamslider.cli import main
+
+    calls = []
+    real = plotting.decimate_minmax
+
+    def spy(t, y, columns=2000):
+        calls.append(len(t))
+        return real(t, y, columns)
+
+    monkeypatch.setattr(plotting, "decimate_minmax", spy)
+    monkeypatch.setattr(beamslider.SimulationResult, "display_envelope",
+                        lambda self, window=1.0: pytest.fail("the envelope was recomputed from the file"))
+    out = tmp_path / "o"
+    assert main(["simulate", "--t-end", "2", "--record-every", "1", "--no-manifold", "--out", str(out)]) == 0
+    stem = "fs_124Hz_14ms2_s0_0p3"
+    meta = json.loads((out / f"{stem}.json").read_text())
+    assert (out / f"{stem}.png").exists() and calls == []
+    cols = beamslider.read_trajectory(out / f"{stem}.npz")
+    p = beamslider.Parameters()
+    _, _, _, a = _core.super_slow_signals(np.ascontiguousarray(cols["w_4L7_m"][::20]),
+                                          np.ascontiguousarray(cols["s"][::20]), p.dt_s * 20, p.thickness_m, 1.0)
+    assert meta["final_amplitude_over_h"] == a[-1]
+    assert meta["final_amplitude_m"] == a[-1] * p.thickness_m
+
+
 # --- 3. one writer per results file -----------------------------------------------------------
 
 

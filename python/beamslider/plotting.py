@@ -17,7 +17,7 @@ import numpy as np
 
 from ._mpl import require_matplotlib
 from .measurement import Measurement
-from .simulate import ManifoldResult, SimulationResult
+from .simulate import PIXEL_COLUMNS, ManifoldResult, SimulationResult
 
 if TYPE_CHECKING:  # pragma: no cover
     from matplotlib.figure import Figure
@@ -33,9 +33,6 @@ DOWN_COLOR = "C3"
 def _thin(n: int, limit: int) -> slice:
     return slice(None, None, max(1, n // limit))
 
-
-PIXEL_COLUMNS = 2000
-"""Columns a time panel is decimated to (more than the pixels of the figure's panels at 120 dpi)."""
 
 ENVELOPE_POINTS = 4000
 """Points of the envelope curve of panel (c) (the envelope is a moving average: smooth)."""
@@ -82,7 +79,12 @@ def minmax_band(t: np.ndarray, y: np.ndarray, columns: int = PIXEL_COLUMNS):
     of the time of a line zig-zagging between the extremes, and looks the same at that density."""
     if len(t) < 4 * columns:
         return None
-    td, yd = decimate_minmax(t, y, columns)
+    return band_of_pairs(*decimate_minmax(t, y, columns), columns)
+
+
+def band_of_pairs(td: np.ndarray, yd: np.ndarray, columns: int):
+    """:func:`minmax_band` from a decimation already made (:func:`decimate_minmax`, or the
+    core's of a streamed run, ``SimulationResult.overview``)."""
     m = 2 * columns  # the column pairs (the remainder's extremes are dropped: under one column)
     lo = np.minimum(yd[0:m:2], yd[1:m:2])
     hi = np.maximum(yd[0:m:2], yd[1:m:2])
@@ -129,24 +131,44 @@ def plot_operating_point(
     if measurement is not None:
         series.append(("measurement", MEASURED_COLOR, measurement.t, measurement.w, measurement.s,
                        measurement.envelope(window) if len(measurement.t) > 2 else None))
+    ov = result.overview if result is not None else None
     if result is not None:
-        env = result.display_envelope(window) if len(result.t) > 2 else None
+        # A streamed run brings what the figure needs from the core (computed as it streamed):
+        # the min/max decimation of w and s and the super-slow signals; nothing is read back.
+        # Beside a measurement both envelopes are computed alike (FFT Hilbert, per sample).
+        if ov is not None and ov.window == window and len(ov.amplitude_h) and measurement is None:
+            env = None  # panel (c) from the overview
+        else:
+            env = result.display_envelope(window) if len(result.t) > 2 else None
+            ov = ov if ov is not None and (ov.w_minmax is not None or ov.s_minmax is not None) else None
         series.append(("model", MODEL_COLOR, result.t, result.w, result.s, env))
 
     for label, color, t, w, s, env in series:
-        band = minmax_band(t, w)
+        mine = ov if label == "model" else None
+        if mine is not None and mine.w_minmax is not None:
+            band = band_of_pairs(*mine.w_minmax, mine.columns)
+        else:
+            band = minmax_band(t, w)
         if band is None:
             ax_w.plot(t, np.asarray(w) / thickness, color=color, lw=0.4, alpha=0.8, label=label)
         else:  # min/max per pixel column as one filled band (docs/model.md §7, figures)
             tb, lo, hi = band
             ax_w.fill_between(tb, lo / thickness, hi / thickness, color=color, lw=0, alpha=0.8, label=label)
-        ts, ss = decimate_minmax(t, s)
+        ts, ss = mine.s_minmax if mine is not None and mine.s_minmax is not None else decimate_minmax(t, s)
         ax_s.plot(ts, ss, color=color, lw=1.2, label=label)
-        if env is not None:
+        if mine is not None and env is None and mine.window == window and len(mine.amplitude_h):
+            # the super-slow signals (0.2-s bins of a 1-s moving average: already smooth)
+            xs, amp_h, x0, a0, x1, a1 = (mine.s, mine.amplitude_h, mine.s[0], mine.amplitude_h[0], mine.s[-1],
+                                         mine.amplitude_h[-1])
+        elif env is not None:
             k = _thin(len(t), ENVELOPE_POINTS)
-            ax_a.plot(s[k], env[k] / thickness, color=color, lw=1.2, label=f"{label} (envelope)")
-            ax_a.plot(s[0], env[0] / thickness, "o", color=color, ms=6, mfc="white", zorder=5)
-            ax_a.plot(s[-1], env[-1] / thickness, "o", color=color, ms=6, zorder=5)
+            xs, amp_h, x0, a0, x1, a1 = (s[k], env[k] / thickness, s[0], env[0] / thickness, s[-1],
+                                         env[-1] / thickness)
+        else:
+            continue
+        ax_a.plot(xs, amp_h, color=color, lw=1.2, label=f"{label} (envelope)")
+        ax_a.plot(x0, a0, "o", color=color, ms=6, mfc="white", zorder=5)
+        ax_a.plot(x1, a1, "o", color=color, ms=6, zorder=5)
     if manifold is not None:
         per = f", {manifold.periods} periods per s-step" if manifold.periods else ""
         ax_a.plot(manifold.up_s, manifold.up_amplitude / thickness, "^--", color=UP_COLOR, ms=3, lw=0.8,
@@ -157,6 +179,7 @@ def plot_operating_point(
         # A run that stopped early (diverged, left the beam) may leave too little for an envelope.
         t_stop = float(result.t[-1]) if len(result.t) else 0.0
         empty = not any(env is not None and len(t) > 2 and t[-1] - t[0] >= window for _, _, t, _, _, env in series)
+        empty = empty and not (ov is not None and env is None and len(ov.amplitude_h))
         note = f"model run {result.status} at t = {t_stop:.4g} s" + (
             f":\nshorter than the {window:g}-s envelope window,\nno super-slow amplitude to show" if empty else "")
         ax_a.text(0.5, 0.5 if empty else 0.04, note, transform=ax_a.transAxes, ha="center",

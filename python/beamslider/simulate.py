@@ -10,7 +10,7 @@ import sys
 import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable, Dict, Iterator, Optional, Sequence, Union
+from typing import Any, Callable, Dict, Iterator, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
@@ -27,6 +27,38 @@ EXACT_ENVELOPE_SAMPLES = 2**18
 """Runs up to this many samples get the exact (whole-run FFT) envelope in figures and summaries;
 longer ones the blocked envelope (power-of-two FFTs: a whole-run FFT of an awkward length such as
 600 001 samples takes ten times one of 2^19)."""
+
+
+PIXEL_COLUMNS = 2000
+"""Columns a time panel of a figure is decimated to (more than the pixels of the figure's panels
+at 120 dpi); streamed runs get this decimation from the core (:class:`RunOverview`)."""
+
+
+@dataclass
+class RunOverview:
+    """What a summary and a figure need of a streamed run (``simulate(..., out=...)``), gathered
+    by the core while the rows were written (core module ``overview``, docs/model.md §7), so that
+    neither reads the trajectory back."""
+
+    window: float
+    """Moving-average window [s] of ``amplitude_h``."""
+    t: np.ndarray
+    """Centres of the 0.2-s bins of the super-slow signals [s]."""
+    s: np.ndarray
+    """Mean slider position s per bin [-]."""
+    amplitude_h: np.ndarray
+    """Super-slow amplitude of w(4L/7) / h per bin: the ``window``-second centred moving average
+    of the binned |analytic signal| (FIR Hilbert transformer), exactly as an operating map
+    computes it from samples every 20 steps (core ``envelope_stream``); the bins whose filter
+    would see past the end (the last ≤ 0.25 s) are left out. Empty for runs shorter than one bin."""
+    w_minmax: Optional[Tuple[np.ndarray, np.ndarray]]
+    """(times [s], values [m]) of w(4L/7) decimated to ``columns`` pixel columns: the samples of
+    each column's minimum and maximum in time order (as ``plotting.decimate_minmax``); None for
+    short runs (< 4·columns rows) and runs that stopped early."""
+    s_minmax: Optional[Tuple[np.ndarray, np.ndarray]]
+    """The same decimation of s."""
+    columns: int
+    """Pixel columns of the decimation."""
 
 
 @dataclass
@@ -65,6 +97,9 @@ class SimulationResult:
     """"fs", "pcs" or "beam"."""
     path: Optional[Path] = None
     """The trajectory file of a streamed run (``simulate(..., out=...)``), else None."""
+    overview: Optional[RunOverview] = None
+    """Of a streamed run: the super-slow signals and the figure's decimation computed by the core
+    as the rows were written (:class:`RunOverview`); None for in-memory runs."""
 
     def __getattr__(self, name: str) -> Any:
         # The columns of a streamed CSV or Parquet run are read on first use (see read_trajectory).
@@ -193,6 +228,7 @@ def simulate(
     overwrite: bool = False,
     max_memory: Optional[float] = None,
     _check_only: bool = False,
+    _window: float = 1.0,
 ) -> SimulationResult:
     """Integrate the beam–slider system with Moreau's midpoint scheme (docs/model.md §5–6).
 
@@ -221,6 +257,9 @@ def simulate(
         max_memory: bytes the recorded arrays of an in-memory run may take (default: half of
             :func:`available_memory`); a larger run is refused before it starts with a
             ``ValueError`` giving the size. Not used with ``out``.
+
+    A streamed run's result also carries ``overview`` (:class:`RunOverview`): the super-slow
+    signals (1-s window) and the min/max decimation its figure draws, computed as it streamed.
 
     The interpreter is released while the core runs; Ctrl-C raises ``KeyboardInterrupt``
     within a few milliseconds. A run that stops on a fault (slider left the beam, divergence)
@@ -258,7 +297,7 @@ def simulate(
         stream = target.with_name(f".{target.name}.partial-{os.getpid()}.npz")
     try:
         res = _run(p, progress, stream, f_ex=float(f_ex), a_ex=float(a_ex), s0=float(s0), t_end=t_end, model=model,
-                   s_pcs=s_pcs_value, record_every=record_every)
+                   s_pcs=s_pcs_value, record_every=record_every, window=float(_window))
         if stream is not target:
             from .trajectory import write_parquet_from_npz
 
@@ -281,11 +320,28 @@ def simulate(
 
 
 def _run(p: Parameters, progress: Optional[bool], out: Optional[Path], *, f_ex: float, a_ex: float, s0: float,
-         t_end: float, model: str, s_pcs: Optional[float], record_every: int) -> Dict[str, Any]:
+         t_end: float, model: str, s_pcs: Optional[float], record_every: int, window: float = 1.0) -> Dict[str, Any]:
     with _progress_bar(progress, t_end, f"{model.upper()} {f_ex:g} Hz {a_ex:g} m/s²", "s") as cb:
-        return _core.simulate(p.toml_text(), f_ex_hz=f_ex, a_ex_m_s2=a_ex, s0=s0, t_end_s=t_end, model=model,
-                              s_pcs=s_pcs, record_every=record_every, progress=cb,
-                              out=None if out is None else str(out))
+        res = _core.simulate(p.toml_text(), f_ex_hz=f_ex, a_ex_m_s2=a_ex, s0=s0, t_end_s=t_end, model=model,
+                             s_pcs=s_pcs, record_every=record_every, progress=cb,
+                             out=None if out is None else str(out), window_s=window, columns=PIXEL_COLUMNS)
+    res["window"] = window
+    return res
+
+
+def _overview(res: Dict[str, Any]) -> Optional[RunOverview]:
+    o = res.get("overview")
+    if o is None:
+        return None
+    ss = o["super_slow"]
+    if ss is None:
+        t = s = a = np.empty(0)
+    else:
+        t0, dt, s, a = ss
+        t = t0 + dt * np.arange(len(a))
+    pair = lambda k: None if o[k] is None else (o[f"{k}_t"], o[k])  # noqa: E731
+    return RunOverview(window=res["window"], t=t, s=s, amplitude_h=a, w_minmax=pair("w"), s_minmax=pair("s"),
+                       columns=PIXEL_COLUMNS)
 
 
 def _result(res: Dict[str, Any], p: Parameters, f_ex: float, a_ex: float, s0: float, model: str,
@@ -295,7 +351,7 @@ def _result(res: Dict[str, Any], p: Parameters, f_ex: float, a_ex: float, s0: fl
         t=res.get("t_s", empty), w=res.get("w_4L7_m", empty), s=res.get("s", empty), x_c=res.get("xC_m", empty),
         z_c=res.get("zC_m", empty), beta=res.get("beta_rad", empty), status=res["status"], message=res["message"],
         counters=dict(res["counters"]), final_state=dict(res["final_state"]), params=p, f_ex=float(f_ex),
-        a_ex=float(a_ex), s0=float(s0), model=model, path=target)
+        a_ex=float(a_ex), s0=float(s0), model=model, path=target, overview=_overview(res))
     if target is not None:
         _attach(result, target)
     return result

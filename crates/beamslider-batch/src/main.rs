@@ -243,7 +243,8 @@ fn run(cli: Cli) -> Result<ExitCode> {
             } else {
                 // Written under a temporary name and renamed when complete (.npz or CSV).
                 let format = if out.extension().is_some_and(|e| e.eq_ignore_ascii_case("npz")) { Format::Npz } else { Format::Csv };
-                let mut rec = FileRecorder::create_as(&out, format)?;
+                let rows = beamslider_core::recorded_rows(duration, m.params.dt_s, record_every);
+                let mut rec = FileRecorder::create_as(&out, format, rows)?;
                 let sum = m.run(&start, &opts, &mut rec, &mut bar)?;
                 rec.commit()?;
                 sum

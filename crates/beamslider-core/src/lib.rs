@@ -5,7 +5,7 @@
 //!
 //! Modules follow the physics: [`params`] (§1), [`beam`] and [`excitation`] (§2), [`slider`] (§3), [`contact`]
 //! (§4), [`solver`] and [`stepper`] (§5), [`simulation`] and [`manifold`] (§6), [`record`] and
-//! [`signal`] and [`envelope_stream`] (§7), [`classify`], [`map`] and [`study`] (§8) on the one batch [`runner`], [`enma`] (§9); [`superslow`]: the super-slow
+//! [`signal`], [`envelope_stream`], [`output`] and [`overview`] (§7), [`classify`], [`map`] and [`study`] (§8) on the one batch [`runner`], [`enma`] (§9); [`superslow`]: the super-slow
 //! manifold by harmonic balance (issue 17, layer (a)); [`drift`] and [`slowflow`]: the drift law
 //! from the PCS model and the slow flow (issue 17, layer (b)); [`predictor`]: the fitted drift law
 //! evaluated in the core and predicted operating maps (issue 17, b2).
@@ -23,6 +23,7 @@ pub mod manifold;
 pub mod lock;
 pub mod map;
 pub mod output;
+pub mod overview;
 pub mod params;
 pub mod predictor;
 pub mod record;
@@ -44,7 +45,8 @@ pub use error::{Error, Result};
 pub use params::{ContactSolver, Params};
 pub use lock::ResultsLock;
 pub use output::{FileRecorder, Format, recorded_bytes, recorded_rows};
-pub use record::{ColumnRecorder, Channel, CsvRecorder, MemoryRecorder, NullRecorder, Recorder};
+pub use overview::{Overview, OverviewRecorder};
+pub use record::{ColumnRecorder, Channel, CsvRecorder, MemoryRecorder, NullRecorder, Recorder, Tee};
 pub use simulation::{
     CancelFlag, Checkpoint, Excitation, Model, Monitor, RunOptions, RunSummary, SliderModel, State,
     Status, set_simd,

@@ -1,8 +1,14 @@
 //! Super-slow (invariant) manifold of docs/model.md §6: the steady-state beam amplitude as a function
 //! of slider position, by sequential continuation of the pseudo-constrained slider (PCS) in s,
-//! upwards and then downwards from the same initial state.
+//! upwards and downwards from the same initial state. The two sweeps are independent, so they run
+//! on two threads (the results do not depend on it: each sweep is sequential, and the counters
+//! are sums and maxima); the calling thread polls the caller's monitor meanwhile
+//! ([`crate::runner::watched`]).
+
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
 use crate::error::{Error, Result};
+use crate::runner;
 use crate::record::{Channel, MemoryRecorder, NullRecorder};
 use crate::signal::hilbert_envelope;
 use crate::simulation::{Excitation, Model, Monitor, RunOptions, SliderModel, State, Status};
@@ -80,34 +86,71 @@ pub fn super_slow_manifold(
         ));
     }
     let start = model.initial_state_pcs(excitation)?;
-    let mut out = Manifold::default();
     let down: Vec<f64> = opts.s_values.iter().rev().copied().collect();
     let total = 2 * opts.s_values.len();
-    let mut done = 0;
-    for (branch, grid) in [(&mut out.up, &opts.s_values), (&mut out.down, &down)] {
+    let cancel = AtomicBool::new(false);
+    // Positions done per sweep (fractional within a position), as f64 bits.
+    let done = [AtomicU64::new(0), AtomicU64::new(0)];
+    let sweep = |k: usize, grid: &[f64]| -> Result<(Branch, Counters)> {
         let mut state = start.clone();
-        for &s in grid.iter() {
-            let mut sub = SubMonitor { inner: &mut *monitor, done: done as f64, total: total as f64, t0: state.t_s, span: 1.0 };
-            let (amp, next, c) = one_point(model, excitation, opts, s, &state, &mut sub)?;
-            out.counters.add(&c);
+        let mut branch = Branch::default();
+        let mut counters = Counters::default();
+        for (i, &s) in grid.iter().enumerate() {
+            let mut sub = SubMonitor { cancel: &cancel, done: &done[k], base: i as f64, t0: state.t_s, span: 1.0 };
+            let r = one_point(model, excitation, opts, s, &state, &mut sub);
+            let (amp, next, c) = match r {
+                Ok(x) => x,
+                Err(e) => {
+                    cancel.store(true, Ordering::Relaxed); // the other sweep stops too
+                    return Err(e);
+                }
+            };
+            counters.add(&c);
             state = next;
             branch.s.push(s);
             branch.amplitude_m.push(amp);
-            done += 1;
-            if !monitor.poll(done as f64, total as f64) {
+            done[k].store(((i + 1) as f64).to_bits(), Ordering::Relaxed);
+            if cancel.load(Ordering::Relaxed) && i + 1 < grid.len() {
                 return Err(Error::Interrupted { t_s: state.t_s });
             }
         }
+        Ok((branch, counters))
+    };
+    let progress = || f64::from_bits(done[0].load(Ordering::Relaxed)) + f64::from_bits(done[1].load(Ordering::Relaxed));
+    let both = runner::watched(&cancel, std::time::Duration::from_millis(10), || {
+        std::thread::scope(|sc| {
+            let dn = sc.spawn(|| runner::catch_panic(|| sweep(1, &down)));
+            let up = runner::catch_panic(|| sweep(0, &opts.s_values));
+            let dn = dn.join().unwrap_or_else(|p| Err(runner::panic_message(p.as_ref())));
+            let internal = |what: String| Error::Numerical(format!("internal error: {what}"));
+            match (up.unwrap_or_else(|w| Err(internal(w))), dn.unwrap_or_else(|w| Err(internal(w)))) {
+                (Ok(u), Ok(d)) => Ok((u, d)),
+                // the error that stopped the other sweep, not the other's interruption
+                (Err(e @ Error::Interrupted { .. }), Err(f)) | (Err(f), Err(e @ Error::Interrupted { .. })) => {
+                    if matches!(f, Error::Interrupted { .. }) { Err(e) } else { Err(f) }
+                }
+                (Err(e), _) | (_, Err(e)) => Err(e),
+            }
+        })
+    }, || monitor.poll(progress(), total as f64));
+    let ((up, cu), (dn, cd)) = both?;
+    if cancel.load(Ordering::Relaxed) {
+        return Err(Error::Interrupted { t_s: 0.0 });
     }
-    Ok(out)
+    let mut counters = cu;
+    counters.add(&cd);
+    if !monitor.poll(total as f64, total as f64) {
+        return Err(Error::Interrupted { t_s: 0.0 });
+    }
+    Ok(Manifold { up, down: dn, counters })
 }
 
-/// Forwards the polls of the runs at one slider position to the caller's monitor as progress
-/// in units of positions (so that Ctrl-C and progress bars act within a position too).
+/// The monitor of the runs at one slider position: records the progress of its sweep (in units
+/// of positions) for the polling thread, and stops the run once the batch is cancelled.
 struct SubMonitor<'a> {
-    inner: &'a mut dyn Monitor,
-    done: f64,
-    total: f64,
+    cancel: &'a AtomicBool,
+    done: &'a AtomicU64,
+    base: f64,
     t0: f64,
     span: f64,
 }
@@ -115,7 +158,8 @@ struct SubMonitor<'a> {
 impl Monitor for SubMonitor<'_> {
     fn poll(&mut self, t_s: f64, _t_end_s: f64) -> bool {
         let frac = ((t_s - self.t0) / self.span).clamp(0.0, 1.0);
-        self.inner.poll(self.done + frac, self.total)
+        self.done.store((self.base + frac).to_bits(), Ordering::Relaxed);
+        !self.cancel.load(Ordering::Relaxed)
     }
 }
 

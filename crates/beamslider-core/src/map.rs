@@ -125,8 +125,11 @@ fn default_duration() -> f64 {
     120.0
 }
 
+/// Steps between the samples a map keeps for the classifier (its default `record_every`).
+pub const DEFAULT_RECORD_EVERY: usize = 20;
+
 fn default_record_every() -> usize {
-    20
+    DEFAULT_RECORD_EVERY
 }
 
 /// A map: parameters, grid, duration, recording interval and classification thresholds. As TOML:

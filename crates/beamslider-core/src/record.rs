@@ -239,6 +239,20 @@ impl<W: Write> Recorder for CsvRecorder<W> {
     }
 }
 
+/// Hands every row to two recorders (e.g. a file and an [`crate::overview::OverviewRecorder`]).
+pub struct Tee<'a>(pub &'a mut dyn Recorder, pub &'a mut dyn Recorder);
+
+impl Recorder for Tee<'_> {
+    fn begin(&mut self, names: &[String]) -> Result<()> {
+        self.0.begin(names)?;
+        self.1.begin(names)
+    }
+    fn push(&mut self, row: &[f64]) -> Result<()> {
+        self.0.push(row)?;
+        self.1.push(row)
+    }
+}
+
 /// Discards everything.
 #[derive(Debug, Default, Clone, Copy)]
 pub struct NullRecorder;

@@ -14,8 +14,8 @@ mod enma;
 
 use beamslider_core::{
     Criteria, MapConfig, MapRow, MapRunOptions, SuperSlow,
-    Channel, ColumnRecorder, Error, Excitation, FileRecorder, ManifoldOptions, Model, Monitor, Params, Recorder,
-    RunOptions, SliderModel, Status, runner, signal,
+    Channel, ColumnRecorder, Error, Excitation, FileRecorder, ManifoldOptions, Model, Monitor, OverviewRecorder, Params, Recorder,
+    RunOptions, Tee, SliderModel, Status, runner, signal,
 };
 use numpy::{IntoPyArray, PyArray1, PyReadonlyArray1};
 use pyo3::exceptions::{PyBlockingIOError, PyException, PyKeyboardInterrupt, PyOSError, PyValueError};
@@ -195,9 +195,13 @@ fn recorded_rows(t_end_s: f64, dt_s: f64, record_every: usize) -> u64 {
 /// columns (numpy arrays keyed by `t_s`, `w_4L7_m`, `s`, `xC_m`, `zC_m`, `beta_rad`), `status`,
 /// `message`, `counters` (dict), `final_state` (dict) and `rows`. With `out` (a `.npz` or `.csv`
 /// path) the rows are streamed into that file instead (written under a temporary name, renamed
-/// when the run ends; an interrupted run leaves nothing) and no columns are returned.
+/// when the run ends; an interrupted run leaves nothing) and no columns are returned; instead
+/// `overview` holds what a summary and a figure need, gathered as the rows stream (core module
+/// `overview`): `w_t`, `w`, `s_t`, `s` (min/max decimation to `columns` pixel columns, or None)
+/// and `super_slow` = (t0 [s], bin spacing [s], s per bin, amplitude/h per bin; `window_s`
+/// moving average), or None.
 #[pyfunction]
-#[pyo3(signature = (params_toml, *, f_ex_hz, a_ex_m_s2, s0, t_end_s, model, s_pcs=None, record_every=10, progress=None, out=None))]
+#[pyo3(signature = (params_toml, *, f_ex_hz, a_ex_m_s2, s0, t_end_s, model, s_pcs=None, record_every=10, progress=None, out=None, window_s=1.0, columns=2000))]
 #[allow(clippy::too_many_arguments)]
 fn simulate<'py>(
     py: Python<'py>,
@@ -211,6 +215,8 @@ fn simulate<'py>(
     record_every: usize,
     progress: Option<Py<PyAny>>,
     out: Option<std::path::PathBuf>,
+    window_s: f64,
+    columns: usize,
 ) -> PyResult<Bound<'py, PyDict>> {
     let params = parse_params(params_toml)?;
     let slider_model = match model {
@@ -247,13 +253,17 @@ fn simulate<'py>(
             m.check_run(&start, &opts)?;
             match &out {
                 Some(path) => {
-                    let mut rec = FileRecorder::create(path)?;
-                    let summary = m.run(&start, &opts, &mut rec, &mut monitor)?;
+                    let expected = beamslider_core::recorded_rows(opts.duration_s, m.params.dt_s, record_every);
+                    let mut rec = FileRecorder::create(path, expected)?;
+                    let mut ov = OverviewRecorder::new(expected, columns, m.params.dt_s, record_every);
+                    let summary = m.run(&start, &opts, &mut Tee(&mut rec, &mut ov), &mut monitor)?;
                     if let Status::Interrupted { .. } = summary.status {
-                        return Ok((summary, Vec::new(), 0)); // the recorder removes its files
+                        return Ok((summary, Vec::new(), 0, None)); // the recorder removes its files
                     }
                     let rows = rec.commit()?;
-                    Ok((summary, Vec::new(), rows))
+                    let ov = ov.finish();
+                    let signals = ov.signals.as_ref().map(|st| st.super_slow(m.params.thickness_m, window_s));
+                    Ok((summary, Vec::new(), rows, Some((ov, signals))))
                 }
                 None => {
                     let rows = beamslider_core::recorded_rows(opts.duration_s, m.params.dt_s, record_every);
@@ -264,7 +274,7 @@ fn simulate<'py>(
                     let mut columns = std::mem::take(&mut rec.columns);
                     // RECORDED is the channel order above.
                     columns.truncate(RECORDED.len());
-                    Ok((summary, columns, n))
+                    Ok((summary, columns, n, None))
                 }
             }
         })
@@ -272,7 +282,7 @@ fn simulate<'py>(
     if let Some(e) = monitor.error.take() {
         return Err(e);
     }
-    let (summary, columns, rows) = outcome?;
+    let (summary, columns, rows, overview) = outcome?;
     if let Status::Interrupted { t_s } = summary.status {
         return Err(PyKeyboardInterrupt::new_err(format!("interrupted at t = {t_s} s")));
     }
@@ -281,6 +291,17 @@ fn simulate<'py>(
         d.set_item(*name, col.into_pyarray(py))?;
     }
     d.set_item("rows", rows)?;
+    if let Some((ov, signals)) = overview {
+        let o = PyDict::new(py);
+        let (w_t, w) = ov.w.map_or((None, None), |(t, y)| (Some(t.into_pyarray(py)), Some(y.into_pyarray(py))));
+        let (s_t, s) = ov.s.map_or((None, None), |(t, y)| (Some(t.into_pyarray(py)), Some(y.into_pyarray(py))));
+        o.set_item("w_t", w_t)?;
+        o.set_item("w", w)?;
+        o.set_item("s_t", s_t)?;
+        o.set_item("s", s)?;
+        o.set_item("super_slow", signals.map(|x| (x.t0_s, x.dt_s, x.s.into_pyarray(py), x.amplitude_h.into_pyarray(py))))?;
+        d.set_item("overview", o)?;
+    }
     d.set_item("status", summary.status.name())?;
     d.set_item("message", summary.status.message())?;
     d.set_item("counters", counters_dict(py, &summary.counters)?)?;

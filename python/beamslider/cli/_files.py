@@ -140,9 +140,23 @@ def read_manifold_csv(path: Path, *, f_ex: float, a_ex: float, params: Parameter
     )
 
 
-def simulation_summary(result: SimulationResult, *, t_end: float, record_every: int, wall_s: float,
-                       window: float) -> Dict[str, Any]:
+def final_amplitude(result: SimulationResult, window: float, streamed: bool = True) -> float:
+    """Super-slow amplitude [m] at the end of a run: of a streamed run, the last value of the
+    super-slow signals the core computed as it streamed (``RunOverview``, the definition of the
+    operating maps, without reading the trajectory back); else (in-memory runs, runs shorter
+    than one 0.2-s bin, or ``streamed=False``) the last value of
+    :meth:`SimulationResult.display_envelope`."""
+    ov = result.overview
+    if streamed and ov is not None and ov.window == window and len(ov.amplitude_h):
+        return float(ov.amplitude_h[-1] * result.params.thickness_m)
     env = result.display_envelope(window) if len(result.t) > 2 else np.array([np.nan])
+    return float(env[-1])
+
+
+def simulation_summary(result: SimulationResult, *, t_end: float, record_every: int, wall_s: float,
+                       window: float, streamed: bool = True) -> Dict[str, Any]:
+    """The JSON summary of a run (``streamed``: see :func:`final_amplitude`)."""
+    amp = final_amplitude(result, window, streamed)
     return {
         "kind": "simulation",
         "model": result.model,
@@ -156,8 +170,8 @@ def simulation_summary(result: SimulationResult, *, t_end: float, record_every: 
         "message": result.message,
         "final_t_s": float(result.t[-1]),
         "final_s": float(result.s[-1]),
-        "final_amplitude_m": float(env[-1]),
-        "final_amplitude_over_h": float(env[-1] / result.params.thickness_m),
+        "final_amplitude_m": amp,
+        "final_amplitude_over_h": amp / result.params.thickness_m,
         "wall_time_s": wall_s,
         "counters": result.counters,
         "params_toml": result.params.toml_text(),

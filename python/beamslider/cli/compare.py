@@ -57,8 +57,9 @@ def cmd_compare(args: argparse.Namespace) -> int:
     result = simulate(p, f_ex=f_ex, a_ex=a_ex, s0=s0, t_end=t_end, record_every=args.record_every,
                       progress=args.progress, out=written[0], overwrite=True)
     wall = time.perf_counter() - t0
+    # The model's final amplitude by the same method as the measurement's (FFT envelope).
     summary = simulation_summary(result, t_end=t_end, record_every=args.record_every, wall_s=wall,
-                                 window=args.window)
+                                 window=args.window, streamed=False)
     menv = meas.envelope(args.window)
     summary.update({
         "kind": "compare",

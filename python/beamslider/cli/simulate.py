@@ -110,7 +110,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         # The trajectory streams from the core to disk (temporary name, renamed when complete).
         result = simulate(p, f_ex=args.f_ex, a_ex=args.a_ex, s0=args.s0, t_end=args.t_end, model=args.model,
                           s_pcs=args.s_pcs, record_every=args.record_every, progress=args.progress,
-                          out=written[0], overwrite=True)
+                          out=written[0], overwrite=True, _window=args.window)
         wall = time.perf_counter() - t0
         summary = simulation_summary(result, t_end=args.t_end, record_every=args.record_every, wall_s=wall,
                                      window=args.window)
