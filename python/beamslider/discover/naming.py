@@ -536,8 +536,10 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
     slider-level free-slider runs (``measured``, files of the published format) or both (one joint
     fit over both feature sets: beam-level effects from both, slider-level ones from the runs),
     name them, add them and measure the gap before and after (module docs: criterion).
-    ``gap_ratio``: a named set must leave at most this share of the gap (0.3); otherwise the
-    verdict is "unexplained". ``progress``: a bar of fits done / to do. ``threads``: workers of
+    ``gap_ratio``: a named set must leave at most this share of the gap beyond the noise,
+    sqrt(max(χ² − E[χ²], 0)/n) (0.3); otherwise the verdict is "unexplained". Slider level: each
+    model is an ensemble of runs from s0 + :data:`.models.ENSEMBLE_S0_SHIFTS` whose spread joins
+    the feature uncertainties. ``progress``: a bar of fits done / to do. ``threads``: workers of
     the core's runner for the free-slider runs (None: one per core)."""
     import time
 
