@@ -426,3 +426,20 @@ def test_friction_is_named_with_the_issues_60_s_runs(tmp_path):
     assert d.verdict == "named" and d.named_effects == ["friction_coefficient"], dc.verdict_line(d)
     p = d.parameters["friction_coefficient"]
     assert abs(p["value"] - 0.26) <= 2 * p["stderr"], p
+
+
+def test_pooled_model_spread():
+    """The model spread pools the ensemble's variance (4 dof) with the scatter of the last scan
+    level about a quadratic trend (4 dof): a smooth trend adds nothing, roughness adds its variance."""
+    from beamslider.discover.models import Ensemble
+    from beamslider.discover.naming import _pooled_spread
+
+    ens = Ensemble({"a": 1.0, "b": 2.0}, {"a": 0.1, "b": 0.0}, 5, {})
+    smooth = [{"a": 1.0 + 0.3 * j + 0.01 * j * j, "b": 2.0} for j in range(7)]
+    out = _pooled_spread(ens, [smooth], ["a", "b"])
+    assert out["a"] == pytest.approx(math.sqrt(0.1 ** 2 * 4 / 8)) and out["b"] == pytest.approx(0.0, abs=1e-12)
+    rough = [{"a": 1.0, "b": 2.0 + (0.5 if j % 2 else -0.5)} for j in range(7)]
+    r = np.array([(0.5 if j % 2 else -0.5) for j in range(7)])
+    x = np.arange(7.0)
+    resid = r - np.polyval(np.polyfit(x, r, 2), x)
+    assert _pooled_spread(ens, [rough], ["b"])["b"] == pytest.approx(math.sqrt(np.sum(resid ** 2) / 8))
