@@ -386,6 +386,9 @@ def test_delta_chi2_interval_of_a_scan():
     x = np.linspace(0.0, 2.0, 41)
     best, lo, hi = _interval(x, (x - 1.0) ** 2 / 0.1 ** 2 + 3.0)
     assert best == pytest.approx(1.0) and lo == pytest.approx(0.9) and hi == pytest.approx(1.1)
+    # A coarse scan of the same parabola (step 0.25 = 2.5 sigma) still gives the interval exactly.
+    xc = np.linspace(0.0, 2.0, 9)
+    assert _interval(xc, (xc - 1.0) ** 2 / 0.1 ** 2)[1:] == pytest.approx((0.9, 1.1))
     # Not crossing chi2_min + 1 inside the scan: the scan's end; rough profiles: the outermost points.
     assert _interval(x, np.zeros_like(x))[1:] == (0.0, 2.0)
     f = np.full_like(x, 50.0)

@@ -208,8 +208,8 @@ runs' features are given: one batch of the remaining runs."""
 
 def _interval(xs: np.ndarray, fs: np.ndarray) -> Tuple[float, float, float]:
     """Minimum of a scanned profile χ²(x) and its Δχ² = 1 interval: the outermost scan points with
-    χ² ≤ χ²_min + 1, extended by linear interpolation to where the profile crosses χ²_min + 1
-    (the scan's ends if it does not)."""
+    χ² ≤ χ²_min + 1, extended to where the profile crosses χ²_min + 1 by interpolation in
+    sqrt(χ² − χ²_min) (the scan's ends if it does not cross)."""
     order = np.argsort(xs)
     xs, fs = xs[order], fs[order]
     ok = np.isfinite(fs)
@@ -221,9 +221,13 @@ def _interval(xs: np.ndarray, fs: np.ndarray) -> Tuple[float, float, float]:
     lo_i, hi_i = int(inside[0]), int(inside[-1])
 
     def cross(i_in: int, i_out: int) -> float:
+        # Interpolated in sqrt(χ² − χ²_min), linear in x for a parabolic profile: exact for a
+        # parabola however coarse the scan (linear in χ² would shrink the interval by the
+        # ratio of the scan step to the interval).
         if not np.isfinite(fs[i_out]):
             return float(xs[i_out])
-        w = (level - fs[i_in]) / (fs[i_out] - fs[i_in])
+        r_in, r_out = math.sqrt(max(fs[i_in] - fs[j], 0.0)), math.sqrt(max(fs[i_out] - fs[j], 0.0))
+        w = (1.0 - r_in) / (r_out - r_in)
         return float(xs[i_in] + w * (xs[i_out] - xs[i_in]))
 
     lo = cross(lo_i, lo_i - 1) if lo_i > 0 else float(xs[0])
