@@ -63,10 +63,14 @@ def main() -> int:
     ap.add_argument("--max-effects", type=int, default=1)
     ap.add_argument("--out", type=Path, default=Path("docs/discover/table.md"))
     ap.add_argument("--cases", default=",".join(CASES))
+    ap.add_argument("--force", action="store_true", help="overwrite --out")
     args = ap.parse_args()
     ops = [tuple(float(v) for v in part.split(",")) for part in args.ops.split(";") if part.strip()]
-    rows = ["| hidden truth | candidates | verdict | named: fitted ± stderr | gap before → after | wall time (load), CPU time of all threads |",
-            "|---|---|---|---|---|---|"]
+    if args.out.exists() and not args.force:
+        print(f"error: {args.out} exists (use --force to overwrite)", file=sys.stderr)
+        return 1
+    rows = ["| hidden truth | candidates | verdict | named: fitted ± stderr | gap before → after | gap beyond the noise before → after | wall time (load), CPU time of all threads |",
+            "|---|---|---|---|---|---|---|"]
     for key in args.cases.split(","):
         label, spec, effects = CASES[key]
         with tempfile.TemporaryDirectory() as tmp:
@@ -81,10 +85,14 @@ def main() -> int:
                           for e in d.named_effects) or "—"
         cands = f"all {len(SLIDER)}" if len(effects) == len(SLIDER) else f"all but {set(SLIDER).difference(effects).pop()}"
         line = (f"| {label} | {cands} | {d.verdict} | {named} | {d.gap_before:.3g} → {d.gap_after:.3g} | "
-                f"{wall:.0f} s (load {load[0]:.1f}), CPU {cpu:.0f} s |")
+                f"{d.gap_excess_before:.3g} → {d.gap_excess_after:.3g} | {wall:.0f} s (load {load[0]:.1f}), CPU {cpu:.0f} s |")
         rows.append(line)
         print(line, flush=True)
         print("   ", dc.verdict_line(d), flush=True)
+        best = d.rejected[0] if d.rejected and not d.named_effects else None
+        if best:
+            print("    best rejected:", best["effects"], {k: round(v, 6) for k, v in best["values"].items()},
+                  f"chi2 {best['chi2']:.3g}", best["reasons"], flush=True)
         text = (f"Slider-level discover (scripts/discover_table.py): {len(ops)} runs of {args.duration:g} s at "
                 f"{ops} (f_ex Hz, a_ex m/s², s0), s noise 0.001, seed 3, sets of up to {args.max_effects} effect(s), "
                 f"baseline the prototype; wall time on {os.cpu_count()} cores with the 1-min load average of the "

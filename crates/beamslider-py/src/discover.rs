@@ -30,7 +30,14 @@ struct Reduced {
     outcome: Result<(Vec<f64>, Vec<f64>, Vec<f64>, Status), Error>,
 }
 
-fn run_one(job: &Job, record_every: usize, keep_every: usize, window_s: f64, cancel: &AtomicBool) -> Result<Option<(Vec<f64>, Vec<f64>, Vec<f64>, Status)>, Error> {
+fn run_one(
+    job: &Job,
+    record_every: usize,
+    keep_every: usize,
+    window_s: f64,
+    detrend_s: Option<f64>,
+    cancel: &AtomicBool,
+) -> Result<Option<(Vec<f64>, Vec<f64>, Vec<f64>, Status)>, Error> {
     let (toml, f, a, s0, duration) = job;
     let params = Params::from_toml_str(toml)?;
     let h = params.thickness_m;
@@ -59,6 +66,16 @@ fn run_one(job: &Job, record_every: usize, keep_every: usize, window_s: f64, can
         return Err(Error::Numerical(format!("run ended after {} samples ({})", t.len(), summary.status.message())));
     }
     let dt_rec = t[1] - t[0];
+    // As the reader of measured data (docs/model.md §7): w minus its centred moving average over
+    // `detrend_s`, which also takes a few per cent off the amplitude (|sinc| of the window).
+    let w = match detrend_s {
+        Some(d) => {
+            let k = (d / dt_rec).round().max(1.0).min((2 * w.len() + 1) as f64) as usize;
+            let mean = signal::moving_average(&w, k);
+            w.iter().zip(&mean).map(|(x, m)| x - m).collect()
+        }
+        None => w,
+    };
     let amp = signal::envelope_checked(&w, dt_rec, window_s)?;
     let pick = |v: &[f64], scale: f64| v.iter().step_by(keep_every).map(|x| x * scale).collect::<Vec<f64>>();
     Ok(Some((pick(&t, 1.0), pick(&s, 1.0), pick(&amp, 1.0 / h), summary.status)))
@@ -67,19 +84,21 @@ fn run_one(job: &Job, record_every: usize, keep_every: usize, window_s: f64, can
 /// Run free-slider jobs `(params_toml, f_ex_hz, a_ex_m_s2, s0, duration_s)` in parallel (`threads`
 /// workers, default one per core) with the interpreter released. Each run records t, w(4L/7), s
 /// every `record_every` steps; the worker computes A = envelope(w, `window_s`)/h and keeps every
-/// `keep_every`-th sample. Returns one dict per job, in job order: `t`, `s`, `amplitude_h`
+/// `keep_every`-th sample; with `detrend_s` (the measured data's 0.1 s), w minus its centred moving
+/// average over that time first, as the reader does to integrated measured velocity. Returns one dict per job, in job order: `t`, `s`, `amplitude_h`
 /// (arrays) and `status` ("completed", "left_beam", "diverged"), or `error` (message) and
 /// `error_kind` ("invalid": bad parameters; "numerical"). `on_done(n)` is called from the calling
 /// thread with the number of runs finished since the last call; Ctrl-C or an exception in it
 /// cancels the batch.
 #[pyfunction]
-#[pyo3(signature = (jobs, *, record_every=5, keep_every=5, window_s=1.0, threads=None, on_done=None))]
+#[pyo3(signature = (jobs, *, record_every=5, keep_every=5, window_s=1.0, detrend_s=None, threads=None, on_done=None))]
 fn run_free_slider_batch<'py>(
     py: Python<'py>,
     jobs: Vec<Job>,
     record_every: usize,
     keep_every: usize,
     window_s: f64,
+    detrend_s: Option<f64>,
     threads: Option<usize>,
     on_done: Option<Py<PyAny>>,
 ) -> PyResult<Vec<Bound<'py, PyDict>>> {
@@ -92,6 +111,11 @@ fn run_free_slider_batch<'py>(
     }
     if !(window_s.is_finite() && window_s > 0.0) {
         return Err(PyValueError::new_err(format!("invalid parameter `window_s` = {window_s}: must be finite and > 0")));
+    }
+    if let Some(d) = detrend_s {
+        if !(d.is_finite() && d > 0.0) {
+            return Err(PyValueError::new_err(format!("invalid parameter `detrend_s` = {d}: must be finite and > 0")));
+        }
     }
     let indexed: Vec<(usize, Job)> = jobs.into_iter().enumerate().collect();
     let cancel = AtomicBool::new(false);
@@ -111,7 +135,7 @@ fn run_free_slider_batch<'py>(
             &cancel,
             |(i, job)| {
                 // A failed job is a result (the fit's bad point); a panic is one too.
-                let r = runner::catch_panic(|| run_one(job, record_every, keep_every, window_s, &cancel))
+                let r = runner::catch_panic(|| run_one(job, record_every, keep_every, window_s, detrend_s, &cancel))
                     .unwrap_or_else(|what| Err(Error::Numerical(format!("internal error: {what}"))));
                 Ok(match r {
                     Ok(Some(v)) => Some(Reduced { index: *i, outcome: Ok(v) }),

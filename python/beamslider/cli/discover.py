@@ -28,7 +28,8 @@ def add_parser(sub: Any) -> None:
     sp.add_argument("--effects", metavar="LIST", help="comma list of candidate effects (default: all of the level)")
     sp.add_argument("--max-effects", type=positive(int), default=2, metavar="K", help="largest set fitted (2)")
     sp.add_argument("--gap-ratio", type=float, default=0.3, metavar="R",
-                    help="a named effect must leave at most this share of the gap (0.3), else 'unexplained'")
+                    help="a named effect must leave at most this share of the gap beyond the noise, "
+                         "sqrt(max(chi2 - E[chi2], 0)/n) (0.3), else 'unexplained'")
     sp.add_argument("--seed", type=int, default=0, help="noise seed of the paper's synthetic case (0)")
     add_common(sp, window=False)
     sp.set_defaults(func=cmd_discover)

@@ -16,7 +16,12 @@ model is missing, add it, and show the disagreement shrink.
    χ² by more than the 99 % quantile of χ²(1) corrected for picking the best of m candidates
    (Bonferroni: 1 − 0.01/m, e.g. 9.14 for m = 4), and the best pair containing it replaces it only
    if it lowers χ² by more than that again (m = the pairs that extend it, e.g. 8.61 for m = 3) —
-   a simpler explanation wins unless a richer one is clearly better.
+   a simpler explanation wins unless a richer one is clearly better. A set is named only if the
+   updated model is adequate, each parameter moved by a relevant amount and the gap beyond the
+   noise, sqrt(max(χ² − E[χ²], 0)/n), shrinks to ≤ ``gap_ratio`` (0.3) of itself; else
+   "unexplained". Slider level: a model's features are the mean of an ensemble of runs from
+   s0 + (0, ±0.001, ±0.002), their spread part of the uncertainty (the final state of a long run
+   depends on such unresolvable perturbations).
 4. **Adding it**: :func:`write_report` writes the updated TOML, ``report.json``, ``report.md`` and
    figures; the "after" features come from full simulations of the updated model.
 5. **Synthesiser** (:func:`synthesize_enma`, :func:`synthesize_slider_runs`): hidden-effect data

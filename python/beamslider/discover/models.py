@@ -13,7 +13,7 @@ import numpy as np
 
 from .. import _core, enma
 from ..enma import EnmaData
-from ..measurement import Measurement
+from ..measurement import DISPLACEMENT_DETREND_S, Measurement
 from ..params import Parameters
 from .features import Feature, _feature, enma_features, slider_features
 
@@ -134,7 +134,7 @@ def batch_slider_features(params_list: Sequence[Parameters], ops: Sequence[Opera
     for p, d in zip(params_list, shifts):
         jobs += [(p.toml_text(), op.f_ex, op.a_ex, op.s0 + d, op.duration_s) for op in ops]
     res = _core.run_free_slider_batch(jobs, record_every=RUN_RECORD_EVERY, keep_every=RUN_KEEP_EVERY,
-                                      window_s=1.0, threads=threads, on_done=on_run)
+                                      window_s=1.0, detrend_s=DISPLACEMENT_DETREND_S, threads=threads, on_done=on_run)
     out: List[Optional[Tuple[Dict[str, Feature], Dict[str, str]]]] = []
     k = 0
     for _ in params_list:
@@ -154,13 +154,67 @@ def batch_slider_features(params_list: Sequence[Parameters], ops: Sequence[Opera
     return out
 
 
+ENSEMBLE_S0_SHIFTS = (0.0, -0.002, -0.001, 0.001, 0.002)
+"""Shifts of s0 of the runs of a model's ensemble (:func:`ensemble_slider_features`): perturbations
+the data cannot resolve. After 60 s the final state at (124 Hz, 14 m/s²) and (126, 10) depends on
+them as much as on a change of μ by 2e-4 (measured: docs/discover/sensitivity.md)."""
+
+
+@dataclass
+class Ensemble:
+    """Features of one model over runs from s0 + :data:`ENSEMBLE_S0_SHIFTS`."""
+
+    mean: Dict[str, float]
+    """Mean of each feature over the runs that have it (at least half of them)."""
+    spread: Dict[str, float]
+    """Standard deviation over those runs: the model's sensitivity to what the data cannot resolve."""
+    runs: int
+    behaviours: Dict[str, str]
+    """Behaviour types of the unshifted run."""
+
+
+def combine_ensemble(members: Sequence[Optional[Tuple[Dict[str, Feature], Dict[str, str]]]]) -> Optional[Ensemble]:
+    """Mean and spread of the features of one model's runs (the first: unshifted; None: failed)."""
+    if not members or members[0] is None:
+        return None
+    ok = [m[0] for m in members if m is not None]
+    names = sorted({k for m in ok for k in m})
+    mean, spread = {}, {}
+    for k in names:
+        v = np.array([m[k].value for m in ok if k in m])
+        if 2 * len(v) >= len(members):
+            mean[k] = float(np.mean(v))
+            spread[k] = float(np.std(v, ddof=1)) if len(v) > 1 else 0.0
+    return Ensemble(mean, spread, len(ok), members[0][1])
+
+
+def ensemble_slider_features(params_list: Sequence[Parameters], ops: Sequence[OperatingPoint], *,
+                             threads: Optional[int] = None, on_run: Optional[Callable[[int], None]] = None,
+                             central: Optional[Sequence[Optional[Tuple[Dict[str, Feature], Dict[str, str]]]]] = None
+                             ) -> List[Optional[Ensemble]]:
+    """Per model, the features of its runs from s0 + :data:`ENSEMBLE_S0_SHIFTS` (one batch of the
+    core's runner for all models): mean and spread. ``central``: the unshifted runs' features when
+    already known (their runs are not repeated). None for a model whose unshifted runs fail."""
+    shifts = list(ENSEMBLE_S0_SHIFTS) if central is None else [d for d in ENSEMBLE_S0_SHIFTS if d != 0.0]
+    res = batch_slider_features([p for p in params_list for _ in shifts], ops,
+                                s0_shifts=[d for _ in params_list for d in shifts], threads=threads, on_run=on_run)
+    out: List[Optional[Ensemble]] = []
+    for i in range(len(params_list)):
+        members = list(res[i * len(shifts):(i + 1) * len(shifts)])
+        if central is not None:
+            members = [central[i]] + members
+        out.append(combine_ensemble(members))
+    return out
+
+
 def model_slider_features(params: Parameters, ops: Sequence[OperatingPoint], *, s0_shift: float = 0.0
                           ) -> Tuple[Dict[str, Feature], Dict[str, str]]:
     """Features of free-slider runs of the model at the operating points (same code as measured);
     the runs go through the core's parallel runner (:func:`batch_slider_features`). Raises
     ``ValueError`` for invalid parameters and ``SimulationError`` when a run fails."""
     jobs = [(params.toml_text(), op.f_ex, op.a_ex, op.s0 + s0_shift, op.duration_s) for op in ops]
-    res = _core.run_free_slider_batch(jobs, record_every=RUN_RECORD_EVERY, keep_every=RUN_KEEP_EVERY, window_s=1.0)
+    res = _core.run_free_slider_batch(jobs, record_every=RUN_RECORD_EVERY, keep_every=RUN_KEEP_EVERY, window_s=1.0,
+                                      detrend_s=DISPLACEMENT_DETREND_S)
     feats: Dict[str, Feature] = {}
     behaviours: Dict[str, str] = {}
     for op, r in zip(ops, res):

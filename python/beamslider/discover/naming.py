@@ -18,7 +18,7 @@ from ..measurement import Measurement
 from ..params import Parameters, resolve
 from .effects import EFFECTS, Effect, _apply, _realise
 from .features import Feature, enma_features
-from .models import _levels_for, batch_slider_features, beam_surrogate, measured_slider_features, simulated_enma_features
+from .models import ENSEMBLE_S0_SHIFTS, Ensemble, _levels_for, batch_slider_features, ensemble_slider_features, beam_surrogate, measured_slider_features, simulated_enma_features
 
 
 SIGNIFICANCE = 0.01
@@ -37,6 +37,12 @@ class CandidateFit:
     dof: int
     adequate: bool
     bic: float
+    predicted: Dict[str, float] = field(default_factory=dict)
+    """Slider level: the features of the fitted model, mean of its ensemble of runs."""
+    model_spread: Dict[str, float] = field(default_factory=dict)
+    """Slider level: their spread over the ensemble (:data:`.models.ENSEMBLE_S0_SHIFTS`)."""
+    intervals: Dict[str, Tuple[float, float]] = field(default_factory=dict)
+    """Slider level: the Δχ² = 1 interval of each parameter from its profile scan."""
 
 
 @dataclass
@@ -66,20 +72,34 @@ class Discovery:
     features_off: List[Dict[str, Any]] = field(default_factory=list)
     """Features still off after the update (|z| > 2), largest first."""
     gap_ratio: float = 0.3
+    gap_excess_before: float = 0.0
+    """Gap beyond the noise before: sqrt(max(χ²₀ − n, 0)/n) (:data:`GAP_EXCESS_MEASURE`)."""
+    gap_excess_after: float = 0.0
+    """The same after the update: sqrt(max(χ² − (n − k), 0)/n)."""
 
     def to_json(self) -> Dict[str, Any]:
         return _json_safe(dict(
             verdict=self.verdict, level=self.level, named_effects=self.named_effects, parameters=self.parameters,
             rejected=self.rejected, features_off=self.features_off, gap_ratio=self.gap_ratio,
             gap_before=self.gap_before, gap_after=self.gap_after, gap_measure=GAP_MEASURE,
+            gap_excess_before=self.gap_excess_before, gap_excess_after=self.gap_excess_after,
+            gap_excess_measure=GAP_EXCESS_MEASURE,
             chi2_before=self.chi2_before, criterion=self.criterion, features=self.features,
             behaviours=self.behaviours, alternatives=[list(a) for a in self.alternatives],
             candidates=[dict(effects=list(c.effects), values=c.values, stderrs=c.stderrs, chi2=c.chi2, dof=c.dof,
-                             adequate=c.adequate, bic=c.bic) for c in self.candidates],
+                             adequate=c.adequate, bic=c.bic, intervals=c.intervals) for c in self.candidates],
             baseline=self.baseline.to_dict(), updated=self.updated.to_dict(), runtime_s=self.runtime_s))
 
 
-GAP_MEASURE = "RMS over the features of (model - measured) / measurement uncertainty"
+GAP_MEASURE = ("RMS over the features of (model - measured) / uncertainty (measurement and, slider level, "
+               "the model's spread over its ensemble of runs)")
+GAP_EXCESS_MEASURE = ("gap beyond the noise: sqrt(max(chi2 - E[chi2], 0) / n), E[chi2] = n for the baseline "
+                      "and n - k for a model with k fitted parameters; the naming rule compares these")
+
+
+def _excess(chi2: float, dof: int, n: int) -> float:
+    """Gap beyond the noise: sqrt(max(χ² − dof, 0)/n) (:data:`GAP_EXCESS_MEASURE`)."""
+    return math.sqrt(max(chi2 - dof, 0.0) / max(n, 1))
 
 
 def _chi2_quantile(dof: int) -> float:
@@ -88,8 +108,18 @@ def _chi2_quantile(dof: int) -> float:
     return float(chi2.ppf(1 - SIGNIFICANCE, max(dof, 1)))
 
 
-def _gap(model: Dict[str, float], meas: Dict[str, Feature]) -> Tuple[float, float]:
-    z = [(model[k] - f.value) / f.stderr for k, f in meas.items() if k in model and math.isfinite(model[k])]
+def _sigma(f: Feature, spread: float, runs: int) -> float:
+    """Uncertainty of (model − measured) for a model feature that is the mean of ``runs`` runs whose
+    spread is ``spread`` (runs = 0: no model spread): the measured value is one draw of the truth's
+    spread, the model's mean has spread²/runs."""
+    return math.sqrt(f.stderr ** 2 + (spread ** 2 * (1 + 1 / runs) if runs > 0 else 0.0))
+
+
+def _gap(model: Dict[str, float], meas: Dict[str, Feature], spread: Optional[Dict[str, float]] = None,
+         runs: int = 0) -> Tuple[float, float]:
+    sp = spread or {}
+    z = [(model[k] - f.value) / _sigma(f, sp.get(k, 0.0), runs) for k, f in meas.items()
+         if k in model and math.isfinite(model[k])]
     z = np.asarray(z)
     return float(np.sqrt(np.mean(z ** 2))) if len(z) else 0.0, float(np.sum(z ** 2))
 
@@ -171,96 +201,179 @@ def _stderr_of(e: Effect, u: float, su: float, baseline: Parameters) -> float:
     return abs(e.scale(baseline)) * su
 
 
+EnsembleMany = Callable[[List[Parameters], List[Optional[Dict[str, float]]]], List[Optional[Ensemble]]]
+"""Ensembles (:func:`.models.ensemble_slider_features`) of several parameter sets whose unshifted
+runs' features are given: one batch of the remaining runs."""
+
+
+def _interval(xs: np.ndarray, fs: np.ndarray) -> Tuple[float, float, float]:
+    """Minimum of a scanned profile χ²(x) and its Δχ² = 1 interval: the outermost scan points with
+    χ² ≤ χ²_min + 1, extended to where the profile crosses χ²_min + 1 by interpolation in
+    sqrt(χ² − χ²_min) (the scan's ends if it does not cross)."""
+    order = np.argsort(xs)
+    xs, fs = xs[order], fs[order]
+    ok = np.isfinite(fs)
+    if not ok.any():
+        return math.nan, -math.inf, math.inf
+    j = int(np.nanargmin(np.where(ok, fs, np.inf)))
+    level = fs[j] + 1.0
+    inside = np.flatnonzero(ok & (fs <= level))
+    lo_i, hi_i = int(inside[0]), int(inside[-1])
+
+    def cross(i_in: int, i_out: int) -> float:
+        # Interpolated in sqrt(χ² − χ²_min), linear in x for a parabolic profile: exact for a
+        # parabola however coarse the scan (linear in χ² would shrink the interval by the
+        # ratio of the scan step to the interval).
+        if not np.isfinite(fs[i_out]):
+            return float(xs[i_out])
+        r_in, r_out = math.sqrt(max(fs[i_in] - fs[j], 0.0)), math.sqrt(max(fs[i_out] - fs[j], 0.0))
+        w = (1.0 - r_in) / (r_out - r_in)
+        return float(xs[i_in] + w * (xs[i_out] - xs[i_in]))
+
+    lo = cross(lo_i, lo_i - 1) if lo_i > 0 else float(xs[0])
+    hi = cross(hi_i, hi_i + 1) if hi_i < len(xs) - 1 else float(xs[-1])
+    return float(xs[j]), lo, hi
+
+
+def _pooled_spread(ens: Ensemble, levels: Sequence[Sequence[Optional[Dict[str, float]]]],
+                   names: Sequence[str]) -> Dict[str, float]:
+    """The model's spread of each feature at the fitted point, pooled from two measurements of the
+    same thing — its sensitivity to what the data cannot resolve: the variance over the ensemble
+    of runs (R − 1 degrees of freedom) and the scatter about a quadratic trend of the single runs
+    of the last refinement level of each profile scan (7 points, 4 degrees of freedom; the trend is
+    what the data resolve, the scatter the roughness). Five runs alone give an unstable estimate
+    (4 degrees of freedom: at μ = 0.26, 60 s, the final amplitude at 126 Hz spreads by 0.002 over
+    the ensemble, by 0.007 over nine perturbations)."""
+    out: Dict[str, float] = {}
+    for k in names:
+        ss, dof = 0.0, 0
+        if k in ens.spread and ens.runs > 1:
+            ss += ens.spread[k] ** 2 * (ens.runs - 1)
+            dof += ens.runs - 1
+        for pts in levels:
+            xs = np.array([j for j, m in enumerate(pts) if m is not None and k in m and math.isfinite(m[k])], dtype=float)
+            if len(xs) >= 5:
+                v = np.array([pts[int(j)][k] for j in xs])  # type: ignore[index]
+                c = np.polyfit(xs, v, 2)
+                ss += float(np.sum((v - np.polyval(c, xs)) ** 2))
+                dof += len(xs) - 3
+        out[k] = math.sqrt(ss / dof) if dof > 0 else 0.0
+    return out
+
+
 def _profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str, Feature],
                  model_fn: Optional[Callable[[Parameters], Dict[str, float]]] = None, *, grid_n: int = 9,
-                 refine: int = 5, model_many: Optional[ModelMany] = None,
+                 refine: int = 2, model_many: Optional[ModelMany] = None,
+                 ensemble_many: Optional[EnsembleMany] = None, spread0: Optional[Dict[str, float]] = None,
                  fixed: Optional[Dict[str, float]] = None) -> CandidateFit:
-    """Fit for expensive, not smooth objectives (slider level): per effect a grid scan of χ² over
-    its search range (all grid points as one batch of runs), golden-section refinement in the
-    best bracket (two points as one batch, then one at a time), one coordinate pass per effect; the
-    standard error from the curvature of the χ² profile (χ² = χ²_min + (u − û)²/σ²). ``fixed``:
-    values of further effects (by name) held at given values (the joint fit's beam-level part)."""
+    """Fit for expensive, rough objectives (slider level). Per effect (one coordinate pass): a grid
+    scan of χ² over its search range (``grid_n`` points, one batch of runs), then ``refine``
+    levels of 7 points spanning ± one step around the best so far (each one batch; the step
+    shrinks 3× per level). The model's sensitivity to what the data cannot resolve enters every
+    χ² as a spread of the features (σ² = σ_meas² + 2·spread² for one run against one measured
+    draw): ``spread0`` (the baseline's) at first, then that of an ensemble of runs
+    (``ensemble_many``) at the best coarse point, and at the end that of the ensemble at the
+    fitted point, whose mean gives the fit's χ² (σ² = σ_meas² + (1 + 1/R)·spread²). Standard
+    error: half the Δχ² = 1 interval of the rescored profile scan (:func:`_interval`).
+    ``fixed``: values of further effects held (the joint fit's beam-level part)."""
     many = model_many if model_many is not None else _one_at_a_time(model_fn)  # type: ignore[arg-type]
     names = list(meas)
-    sig = np.array([meas[k].stderr for k in names])
+    se = np.array([meas[k].stderr for k in names])
     y = np.array([meas[k].value for k in names])
-    cache: Dict[Tuple[float, ...], float] = {}
+    cache: Dict[Tuple[float, ...], Optional[Dict[str, float]]] = {}
     fixed = dict(fixed or {})
+    spread = dict(spread0 or {})
+
+    def sig_single() -> np.ndarray:
+        return np.sqrt(se ** 2 + 2 * np.array([spread.get(k, 0.0) for k in names]) ** 2)
+
+    def chi2_from(m: Optional[Dict[str, float]], sig: np.ndarray) -> float:
+        if m is None:
+            return math.inf
+        r = np.array([(m[k] - yk) / sk if k in m and math.isfinite(m[k]) else 5.0
+                      for k, yk, sk in zip(names, y, sig)])
+        return float(r @ r)
+
+    def key_of(u: np.ndarray) -> Tuple[float, ...]:
+        return tuple(round(float(v), 12) for v in u)
 
     def params_of(u: np.ndarray) -> Parameters:
         vals = dict(fixed)
         vals.update({e.name: e.value(float(x), baseline) for e, x in zip(effects, u)})
         return _realise(baseline, vals)
 
-    def chi2_many(us: List[np.ndarray]) -> List[float]:
-        keys = [tuple(round(float(v), 12) for v in u) for u in us]
+    def evaluate(us: List[np.ndarray]) -> None:
         todo: Dict[Tuple[float, ...], Parameters] = {}
-        for key, u in zip(keys, us):
+        for u in us:
+            key = key_of(u)
             if key not in cache and key not in todo:
                 try:
                     todo[key] = params_of(u)
                 except ValueError:
-                    cache[key] = math.inf
+                    cache[key] = None
         if todo:
             for key, m in zip(todo, many(list(todo.values()))):
-                if m is None:
-                    cache[key] = math.inf
-                    continue
-                r = np.array([(m.get(k, yk + 5 * sk) - yk) / sk for k, yk, sk in zip(names, y, sig)])
-                cache[key] = float(r @ r) if np.all(np.isfinite(r)) else math.inf
-        return [cache[k] for k in keys]
+                cache[key] = m
 
     def chi2(u: np.ndarray) -> float:
-        return chi2_many([u])[0]
+        return chi2_from(cache[key_of(u)], sig_single())
+
+    def ensemble_at(u: np.ndarray) -> Optional[Ensemble]:
+        if ensemble_many is None or cache.get(key_of(u)) is None:
+            return None
+        return ensemble_many([params_of(u)], [cache[key_of(u)]])[0]
 
     u = np.array([np.clip(e.variable(e.baseline_value(baseline), baseline), e.lower, e.upper) for e in effects])
-    samples: List[List[Tuple[float, float]]] = [[] for _ in effects]
+    samples: List[List[np.ndarray]] = [[] for _ in effects]
+    last: List[List[np.ndarray]] = [[] for _ in effects]
     for i, e in enumerate(effects):
         lo, hi = e.search if math.isfinite(e.search[0]) else (e.lower, e.upper)
-        grid = np.linspace(lo, hi, grid_n)
         at = lambda x: np.where(np.arange(len(u)) == i, x, u)  # noqa: E731
-        vals = chi2_many([at(g) for g in grid])
-        j = int(np.argmin(vals))
-        a, b = grid[max(j - 1, 0)], grid[min(j + 1, grid_n - 1)]
-        pts = list(zip(grid, vals))
-        gr = (math.sqrt(5) - 1) / 2
-        c, d = b - gr * (b - a), a + gr * (b - a)
-        fc, fd = chi2_many([at(c), at(d)])
-        pts += [(c, fc), (d, fd)]
-        for _ in range(max(refine - 2, 0)):
-            if fc < fd:
-                b, d, fd = d, c, fc
-                c = b - gr * (b - a)
-                fc = chi2(at(c))
-                pts.append((c, fc))
-            else:
-                a, c, fc = c, d, fd
-                d = a + gr * (b - a)
-                fd = chi2(at(d))
-                pts.append((d, fd))
-        x_best, f_best = min(pts, key=lambda p: p[1])
+        grid = list(np.linspace(lo, hi, grid_n))
+        evaluate([at(g) for g in grid])
+        xs = list(grid)
+        step = (hi - lo) / max(grid_n - 1, 1)
+        x_best = min(xs, key=lambda x: chi2(at(x)))
+        if i == 0:
+            ens = ensemble_at(at(x_best))
+            if ens is not None:
+                spread.update(ens.spread)
+                x_best = min(xs, key=lambda x: chi2(at(x)))
+        fine = []
+        for _ in range(refine):
+            fine = [x for x in np.linspace(x_best - step, x_best + step, 7) if lo <= x <= hi]
+            evaluate([at(x) for x in fine])
+            xs += fine
+            x_best = min(xs, key=lambda x: chi2(at(x)))
+            step /= 3
         u[i] = x_best
-        samples[i] = pts
-    best_chi2 = chi2(u)
-    values, stderrs = dict(fixed), {}
+        samples[i] = [at(x) for x in xs]
+        last[i] = [at(x) for x in fine]
+    ens = ensemble_at(u)
+    n, k = len(names), len(effects) + len(fixed)
+    predicted: Dict[str, float] = {}
+    if ens is not None:
+        spread.update(_pooled_spread(ens, [[cache[key_of(p)] for p in pts] for pts in last], names))
+        predicted = dict(ens.mean)
+        sig_e = np.sqrt(se ** 2 + (1 + 1 / ens.runs) * np.array([spread.get(kk, 0.0) for kk in names]) ** 2)
+        best_chi2 = chi2_from(ens.mean, sig_e)
+    else:
+        best_chi2 = chi2(u)
+        predicted = dict(cache[key_of(u)] or {})
+    values, stderrs, intervals = dict(fixed), {}, {}
     for i, e in enumerate(effects):
-        pts = sorted(samples[i])
-        xs = np.array([p[0] for p in pts])
-        fs = np.array([p[1] for p in pts])
-        ok = np.isfinite(fs)
-        step = (np.ptp(xs[ok]) / max(grid_n - 1, 1)) if ok.sum() > 2 else 1.0
-        near = ok & (np.abs(xs - u[i]) <= 1.5 * step)
-        su = math.inf
-        if near.sum() >= 3:
-            curv = np.polyfit(xs[near] - u[i], fs[near], 2)[0]
-            if curv > 0:
-                su = 1 / math.sqrt(curv)
+        xs = np.array([p[i] for p in samples[i]])
+        fs = np.array([chi2(p) for p in samples[i]])
+        _, lo_u, hi_u = _interval(xs, fs)
+        su = (hi_u - lo_u) / 2 if math.isfinite(lo_u) and math.isfinite(hi_u) else math.inf
         values[e.name] = e.value(u[i], baseline)
         stderrs[e.name] = _stderr_of(e, u[i], su, baseline)
-    n, k = len(names), len(effects) + len(fixed)
+        ends = sorted((e.value(lo_u, baseline), e.value(hi_u, baseline))) if math.isfinite(su) else [-math.inf, math.inf]
+        intervals[e.name] = (ends[0], ends[1])
     names_all = tuple(list(fixed) + [e.name for e in effects])
-    return CandidateFit(names_all, values, stderrs, best_chi2, n - k,
-                        best_chi2 <= _chi2_quantile(n - k), best_chi2 + k * math.log(max(n, 2)))
+    return CandidateFit(names_all, values, stderrs, best_chi2, n - k, best_chi2 <= _chi2_quantile(n - k),
+                        best_chi2 + k * math.log(max(n, 2)), predicted,
+                        {kk: spread.get(kk, 0.0) for kk in names}, intervals)
 
 
 def _lrt_threshold(df: int, m: int) -> float:
@@ -323,12 +436,14 @@ def _pairs_to_fit(cand_effects: Sequence[Effect], singles: List[CandidateFit], m
 def _fit_sets(cand_effects: Sequence[Effect], max_effects: int, level: str, base: Parameters,
               meas: Dict[str, Feature], model_fn: Callable[[Parameters], Dict[str, float]],
               diff_step: Optional[float], max_nfev: int, *, model_many: Optional[ModelMany] = None,
+              ensemble_many: Optional[EnsembleMany] = None, spread0: Optional[Dict[str, float]] = None,
               progress: bool = False) -> List[CandidateFit]:
     """Fit every single candidate and the sets of up to ``max_effects`` (:func:`_pairs_to_fit`)."""
     def fit(combo: Sequence[Effect]) -> CandidateFit:
         if level == "beam":
             return _fit_candidate(combo, base, meas, model_fn, diff_step=diff_step, max_nfev=max_nfev)
-        return _profile_fit(combo, base, meas, model_fn, model_many=model_many)
+        return _profile_fit(combo, base, meas, model_fn, model_many=model_many, ensemble_many=ensemble_many,
+                            spread0=spread0)
 
     bar = _progress_bar(progress, len(cand_effects), f"discover ({level}): fits")
     fits = []
@@ -349,7 +464,8 @@ def _fit_sets(cand_effects: Sequence[Effect], max_effects: int, level: str, base
 def _fit_sets_joint(cand_effects: Sequence[Effect], max_effects: int, base: Parameters,
                     meas_b: Dict[str, Feature], model_b: Callable[[Parameters], Dict[str, float]],
                     meas_s: Dict[str, Feature], model_many: ModelMany, chi2_b0: float, chi2_s0: float,
-                    *, progress: bool = False) -> List[CandidateFit]:
+                    *, ensemble_many: Optional[EnsembleMany] = None, spread0: Optional[Dict[str, float]] = None,
+                    progress: bool = False) -> List[CandidateFit]:
     """Joint fit over beam (ENMA) and slider (run) features, χ² = χ²_beam + χ²_slider. The beam
     features do not depend on slider-level effects (the ENMA is of the beam alone), so a set's
     beam-level parameters are fitted to the beam features (weighted least squares on the
@@ -357,17 +473,20 @@ def _fit_sets_joint(cand_effects: Sequence[Effect], max_effects: int, base: Para
     by the profile fit of the runs with those beam-level values held; a set of beam-level effects
     only costs one evaluation of the runs. Returns one fit per set, as :func:`_fit_sets`."""
     names_s = list(meas_s)
-    sig = np.array([meas_s[k].stderr for k in names_s])
-    y = np.array([meas_s[k].value for k in names_s])
 
-    def chi2_s_of(ps: List[Parameters]) -> List[float]:
+    def chi2_s_of(ps: List[Parameters]) -> List[Tuple[float, Dict[str, float], Dict[str, float]]]:
+        """χ² of the runs of each model (with its ensemble's mean and spread when given)."""
+        singles = model_many(ps)
+        ens = ensemble_many(ps, singles) if ensemble_many is not None else [None] * len(ps)
         out = []
-        for m in model_many(ps):
+        for m, e in zip(singles, ens):
             if m is None:
-                out.append(math.inf)
+                out.append((math.inf, {}, {}))
                 continue
-            r = np.array([(m.get(k, yk + 5 * sk) - yk) / sk for k, yk, sk in zip(names_s, y, sig)])
-            out.append(float(r @ r) if np.all(np.isfinite(r)) else math.inf)
+            mean, sp, runs = (e.mean, e.spread, e.runs) if e is not None else (m, dict(spread0 or {}), 1)
+            f = {k: mean[k] if k in mean else meas_s[k].value + 5 * _sigma(meas_s[k], sp.get(k, 0.0), runs)
+                 for k in names_s}
+            out.append((_gap(f, meas_s, sp, runs)[1], mean, sp))
         return out
 
     n = len(meas_b) + len(meas_s)
@@ -383,12 +502,12 @@ def _fit_sets_joint(cand_effects: Sequence[Effect], max_effects: int, base: Para
         only_b = [i for i, c in enumerate(combos) if all(e.level == "beam" for e in c)]
         if only_b:
             ps = [_realise(base, beam_fits[tuple(e.name for e in combos[i])].values) for i in only_b]
-            for i, c2 in zip(only_b, chi2_s_of(ps)):
+            for i, (c2, mean, sp) in zip(only_b, chi2_s_of(ps)):
                 bf = beam_fits[tuple(e.name for e in combos[i])]
                 chi2 = bf.chi2 + c2
                 k = len(combos[i])
                 out[i] = CandidateFit(bf.effects, dict(bf.values), dict(bf.stderrs), chi2, n - k,
-                                      chi2 <= _chi2_quantile(n - k), chi2 + k * math.log(n))
+                                      chi2 <= _chi2_quantile(n - k), chi2 + k * math.log(n), mean, sp)
                 bar.update(1)
         for i, combo in enumerate(combos):
             if out[i] is not None:
@@ -396,13 +515,15 @@ def _fit_sets_joint(cand_effects: Sequence[Effect], max_effects: int, base: Para
             eb = tuple(e for e in combo if e.level == "beam")
             es = [e for e in combo if e.level != "beam"]
             bf = beam_fits.get(tuple(e.name for e in eb)) if eb else None
-            sf = _profile_fit(es, base, meas_s, model_many=model_many, fixed=bf.values if bf else None)
+            sf = _profile_fit(es, base, meas_s, model_many=model_many, ensemble_many=ensemble_many, spread0=spread0,
+                              fixed=bf.values if bf else None)
             chi2 = (bf.chi2 if bf else chi2_b0) + sf.chi2
             k = len(combo)
             values = {e.name: sf.values[e.name] for e in combo}
             stderrs = {**(bf.stderrs if bf else {}), **sf.stderrs}
             out[i] = CandidateFit(tuple(e.name for e in combo), values, stderrs, chi2, n - k,
-                                  chi2 <= _chi2_quantile(n - k), chi2 + k * math.log(n))
+                                  chi2 <= _chi2_quantile(n - k), chi2 + k * math.log(n), sf.predicted,
+                                  sf.model_spread, sf.intervals)
             bar.update(1)
         return [f for f in out if f is not None]
 
@@ -417,11 +538,12 @@ def _fit_sets_joint(cand_effects: Sequence[Effect], max_effects: int, base: Para
     return fits
 
 
-def _judge(fits: Sequence[CandidateFit], base: Parameters, n: int, gap_before: float,
+def _judge(fits: Sequence[CandidateFit], base: Parameters, n: int, excess_before: float,
            gap_ratio: float) -> Dict[Tuple[str, ...], List[str]]:
     """The naming rule per fitted set: the reasons it may not be named (empty: it may). Not
-    adequate (chi2 > chi2_0.99(n - k)); a parameter moved by less than its relevance threshold;
-    a small share of the gap (fitted gap sqrt(chi2/n) > gap_ratio x gap before)."""
+    adequate (χ² > χ²₀.₉₉(n − k)); a parameter moved by less than its relevance threshold; a
+    small share of the gap beyond the noise (:func:`_excess`: sqrt(max(χ² − (n − k), 0)/n) >
+    gap_ratio × the baseline's sqrt(max(χ²₀ − n, 0)/n))."""
     out: Dict[Tuple[str, ...], List[str]] = {}
     for f in fits:
         reasons = []
@@ -431,9 +553,10 @@ def _judge(fits: Sequence[CandidateFit], base: Parameters, n: int, gap_before: f
             ok, how = EFFECTS[e].relevant(f.values[e], base)
             if not ok:
                 reasons.append(f"negligible change of {EFFECTS[e].field}: {how}")
-        g = math.sqrt(max(f.chi2, 0.0) / max(n, 1))
-        if g > gap_ratio * gap_before:
-            reasons.append(f"small share of the gap: {gap_before:.3g} -> {g:.3g} (more than {gap_ratio:g} x)")
+        g = _excess(f.chi2, f.dof, n)
+        if g > gap_ratio * excess_before:
+            reasons.append(f"small share of the gap beyond the noise: {excess_before:.3g} -> {g:.3g} "
+                           f"(more than {gap_ratio:g} x)")
         out[f.effects] = reasons
     return out
 
@@ -446,8 +569,10 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
     slider-level free-slider runs (``measured``, files of the published format) or both (one joint
     fit over both feature sets: beam-level effects from both, slider-level ones from the runs),
     name them, add them and measure the gap before and after (module docs: criterion).
-    ``gap_ratio``: a named set must leave at most this share of the gap (0.3); otherwise the
-    verdict is "unexplained". ``progress``: a bar of fits done / to do. ``threads``: workers of
+    ``gap_ratio``: a named set must leave at most this share of the gap beyond the noise,
+    sqrt(max(χ² − E[χ²], 0)/n) (0.3); otherwise the verdict is "unexplained". Slider level: each
+    model is an ensemble of runs from s0 + :data:`.models.ENSEMBLE_S0_SHIFTS` whose spread joins
+    the feature uncertainties. ``progress``: a bar of fits done / to do. ``threads``: workers of
     the core's runner for the free-slider runs (None: one per core)."""
     import time
 
@@ -474,6 +599,9 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
     meas: Dict[str, Feature] = {}
     before: Dict[str, float] = {}
     model_many: Optional[ModelMany] = None
+    ensemble_many: Optional[EnsembleMany] = None
+    spread_base: Dict[str, float] = {}
+    runs_base = len(ENSEMBLE_S0_SHIFTS) if measured is not None else 0
     bias: Dict[str, float] = {}
     if enma_data is not None:
         meas_b = enma_features(enma_data)
@@ -490,26 +618,26 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
         before.update({k: f.value for k, f in sim_base.items()})
     if measured is not None:
         meas_s, beh_meas, ops = measured_slider_features(measured)
-        # Baseline and the run-to-run variability of the model (repeated runs from s0 ± 0.002,
-        # which joins the uncertainty): one batch of runs.
-        trio = batch_slider_features([base, base, base], ops, s0_shifts=[0.0, -0.002, 0.002], threads=threads)
-        if trio[0] is None:
+        # Baseline: an ensemble of runs from s0 + ENSEMBLE_S0_SHIFTS (one batch): the mean is the
+        # prediction, the spread the model's sensitivity to what the data cannot resolve.
+        ens_base = ensemble_slider_features([base], ops, threads=threads)[0]
+        if ens_base is None:
             raise _core.SimulationError("the baseline model's runs at the measured operating points failed")
-        base_feats, beh_base = trio[0]
-        reps = [t[0] for t in trio[1:] if t is not None]
-        for k, f in list(meas_s.items()):
-            vals = [base_feats[k].value] + [r[k].value for r in reps if k in r] if k in base_feats else []
-            spread = float(np.std(vals, ddof=1)) if len(vals) > 1 else 0.0
-            meas_s[k] = dataclasses.replace(f, stderr=math.hypot(f.stderr, spread))
-        behaviours = {"measured": beh_meas, "baseline": beh_base}
+        spread_base = {k: ens_base.spread.get(k, 0.0) for k in meas_s}
+        behaviours = {"measured": beh_meas, "baseline": ens_base.behaviours}
 
         def model_many_fn(ps: List[Parameters]) -> List[Optional[Dict[str, float]]]:
             return [None if r is None else {k: f.value for k, f in r[0].items()}
                     for r in batch_slider_features(ps, ops, threads=threads)]
 
+        def ensemble_many_fn(ps: List[Parameters], central: List[Optional[Dict[str, float]]]) -> List[Optional[Ensemble]]:
+            cen = [None if c is None else ({k: Feature(k, v, 0.0) for k, v in c.items()}, {}) for c in central]
+            return ensemble_slider_features(ps, ops, threads=threads, central=cen)
+
+        ensemble_many = ensemble_many_fn
         model_many = model_many_fn
         meas.update(meas_s)
-        before.update({k: f.value for k, f in base_feats.items()})
+        before.update(ens_base.mean)
 
     def model_fn(p: Parameters) -> Dict[str, float]:
         out: Dict[str, float] = {}
@@ -526,9 +654,10 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
     # Features the baseline cannot compute (e.g. no turning point) count as a disagreement of 5σ.
     for k in meas:
         if k not in before:
-            before[k] = meas[k].value + 5 * meas[k].stderr
-    gap_before, chi2_0 = _gap(before, meas)
+            before[k] = meas[k].value + 5 * _sigma(meas[k], spread_base.get(k, 0.0), runs_base)
+    gap_before, chi2_0 = _gap(before, meas, spread_base, runs_base)
     n = len(meas)
+    excess_before = _excess(chi2_0, n, n)
     fits: List[CandidateFit] = []
 
     def refit_beam_bias(fits_b: List[CandidateFit]) -> None:
@@ -553,7 +682,8 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
                                        max_nfev=max_nfev) for f in fits]
         elif level == "slider":
             fits = _fit_sets(cand_effects, max_effects, level, base, meas, model_fn, diff_step, max_nfev,
-                             model_many=model_many, progress=progress)
+                             model_many=model_many, ensemble_many=ensemble_many, spread0=spread_base,
+                             progress=progress)
         else:
             assert model_many is not None
             # Beam stage first (cheap): its selection re-centres the surrogate's bias.
@@ -562,46 +692,54 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
             if beam_cands and chi2_b0 > _chi2_quantile(len(meas_b)):
                 fits_b = _fit_sets(beam_cands, max_effects, "beam", base, meas_b, model_b, None, 200)
                 refit_beam_bias(fits_b)
-            chi2_s0 = _gap({k: before[k] for k in meas_s}, meas_s)[1]
+            chi2_s0 = _gap({k: before[k] for k in meas_s}, meas_s, spread_base, runs_base)[1]
             fits = _fit_sets_joint(cand_effects, max_effects, base, meas_b, model_b, meas_s, model_many,
-                                   chi2_b0, chi2_s0, progress=progress)
-    verdicts = _judge(fits, base, n, gap_before, gap_ratio)
+                                   chi2_b0, chi2_s0, ensemble_many=ensemble_many, spread0=spread_base,
+                                   progress=progress)
+    verdicts = _judge(fits, base, n, excess_before, gap_ratio)
     best, alts = _select([f for f in fits if not verdicts[f.effects]], chi2_0, n)
 
-    def after_of(p: Parameters) -> Tuple[Dict[str, float], Dict[str, str]]:
-        # "After": full simulation of the updated model (not the surrogate): virtual ENMA and runs.
+    def after_of(p: Parameters) -> Tuple[Dict[str, float], Dict[str, str], Dict[str, float]]:
+        # "After": full simulation of the updated model (not the surrogate): virtual ENMA and the
+        # ensemble of runs (mean, behaviours of the unshifted run, spread).
         out: Dict[str, float] = {}
         beh: Dict[str, str] = {}
+        sp: Dict[str, float] = {}
         if enma_data is not None:
             out.update({k: f.value for k, f in simulated_enma_features(p, enma_levels)[0].items()})
         if measured is not None:
-            r = batch_slider_features([p], ops, threads=threads)[0]
-            if r is not None:
-                out.update({k: f.value for k, f in r[0].items()})
-                beh = r[1]
-        return out, beh
+            e = ensemble_slider_features([p], ops, threads=threads)[0]
+            if e is not None:
+                out.update(e.mean)
+                beh, sp = e.behaviours, e.spread
+        return out, beh, sp
 
-    def gap_of(f: Dict[str, float]) -> float:
+    def filled(f: Dict[str, float], sp: Dict[str, float]) -> Dict[str, float]:
         f = dict(f)
         for k in meas:
             if k not in f:
-                f[k] = meas[k].value + 5 * meas[k].stderr
-        return _gap(f, meas)[0]
+                f[k] = meas[k].value + 5 * _sigma(meas[k], sp.get(k, 0.0), runs_base)
+        return f
 
     after_f: Dict[str, float] = dict(before)
+    spread_after: Dict[str, float] = dict(spread_base)
     beh_upd = behaviours.get("baseline", {})
     updated = base
     if best is not None:
         cand = _realise(base, {e: best.values[e] for e in best.effects})
-        f_c, b_c = after_of(cand)
-        g_c = gap_of(f_c)
-        if g_c <= gap_ratio * gap_before:
-            updated, after_f, beh_upd = cand, f_c, b_c
+        f_c, b_c, sp_c = after_of(cand)
+        # The fit's spread pools the ensemble with the roughness of its scan (_pooled_spread).
+        sp_c = {**sp_c, **{k: v for k, v in best.model_spread.items() if k in sp_c or k in f_c}}
+        f_c = filled(f_c, sp_c)
+        chi2_c = _gap(f_c, meas, sp_c, runs_base)[1]
+        g_c = _excess(chi2_c, n - len(best.effects), n)
+        if g_c <= gap_ratio * excess_before:
+            updated, after_f, beh_upd, spread_after = cand, f_c, b_c, sp_c
         else:
             # The fit's gap was small enough, the full simulation's is not: not named.
             verdicts[best.effects] = verdicts[best.effects] + [
-                f"small share of the gap in the full simulation of the updated model: gap {g_c:.3g} > "
-                f"{gap_ratio:g} x {gap_before:.3g}"]
+                f"small share of the gap beyond the noise in the full simulation of the updated model: "
+                f"{g_c:.3g} > {gap_ratio:g} x {excess_before:.3g}"]
             best, alts = None, []
     if measured is not None:
         behaviours["updated"] = beh_upd
@@ -613,17 +751,22 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
         params_out = {e: dict(field=EFFECTS[e].field, value=best.values[e], stderr=best.stderrs[e],
                               unit=EFFECTS[e].unit, baseline=EFFECTS[e].baseline_value(base),
                               relevance=EFFECTS[e].relevant(best.values[e], base)[1]) for e in named}
-    for k in meas:
-        if k not in after_f:
-            after_f[k] = meas[k].value + 5 * meas[k].stderr
-    gap_after, _ = _gap(after_f, meas)
+    after_f = filled(after_f, spread_after)
+    gap_after, chi2_after = _gap(after_f, meas, spread_after, runs_base)
+    excess_after = _excess(chi2_after, n - len(best.effects) if best is not None else n, n)
+
+    def sig(k: str, sp: Dict[str, float]) -> float:
+        return _sigma(meas[k], sp.get(k, 0.0), runs_base)
+
     features = {k: dict(measured=f.value, uncertainty=f.stderr, baseline=before[k], updated=after_f[k],
+                        model_spread_baseline=spread_base.get(k, 0.0), model_spread_updated=spread_after.get(k, 0.0),
                         unit=f.unit, description=f.description,
-                        z_before=(before[k] - f.value) / f.stderr, z_after=(after_f[k] - f.value) / f.stderr,
-                        exceeds_uncertainty=bool(abs(before[k] - f.value) > 2 * f.stderr))
+                        z_before=(before[k] - f.value) / sig(k, spread_base),
+                        z_after=(after_f[k] - f.value) / sig(k, spread_after),
+                        exceeds_uncertainty=bool(abs(before[k] - f.value) > 2 * sig(k, spread_base)))
                 for k, f in meas.items()}
-    # "none" also when an adequate fit needs only a negligible change but fails the gap share: a
-    # small gap before (a few sigma, mostly noise) cannot shrink to 0.3 x with any fit.
+    # "none" also when an adequate fit needs only a negligible change (and may fail the gap share):
+    # the data are explained without a physically relevant change.
     negligible = [f for f in fits if verdicts[f.effects] and f.adequate
                   and any(r.startswith("negligible change") for r in verdicts[f.effects])
                   and all(r.startswith(("negligible change", "small share of the gap")) for r in verdicts[f.effects])]
@@ -642,8 +785,9 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
     off = sorted(((k, v["z_after"]) for k, v in features.items() if abs(v["z_after"]) > 2), key=lambda x: -abs(x[1]))
     criterion = (f"an effect set is named only if (1) the baseline does not fit, chi2 = {chi2_0:.3g} > chi2_0.99(n={n}) = "
                  f"{_chi2_quantile(n):.2f}; (2) the updated model is adequate, chi2 <= chi2_0.99(n-k); (3) each "
-                 f"parameter moved by at least its relevance threshold (EFFECTS[...].relevance); (4) the gap after "
-                 f"<= {gap_ratio:g} x gap before (fit and full simulation); among the sets that pass, forward "
+                 f"parameter moved by at least its relevance threshold (EFFECTS[...].relevance); (4) the gap beyond "
+                 f"the noise, sqrt(max(chi2 - E[chi2], 0)/n), after <= {gap_ratio:g} x before ({excess_before:.3g}; "
+                 f"fit and full simulation); among the sets that pass, forward "
                  f"selection by likelihood-ratio tests at 99 %, Bonferroni-corrected for picking the best of m "
                  f"sets (m = {len(cand_effects)}: {_lrt_threshold(1, len(cand_effects)):.2f}); otherwise the "
                  f"verdict is 'unexplained' and nothing is added")
@@ -651,7 +795,8 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
                      updated, behaviours, alts, enma_data if level == "beam" else list(measured or []) if level == "slider"
                      else dict(enma=enma_data, measured=list(measured or [])),
                      time.perf_counter() - t0, verdict=verdict, rejected=rejected,
-                     features_off=[dict(feature=k, z=z) for k, z in off], gap_ratio=gap_ratio)
+                     features_off=[dict(feature=k, z=z) for k, z in off], gap_ratio=gap_ratio,
+                     gap_excess_before=excess_before, gap_excess_after=excess_after)
 
 
 # --- synthesiser ----------------------------------------------------------------------------------

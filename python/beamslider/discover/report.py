@@ -14,7 +14,7 @@ from .. import enma
 from ..enma import EnmaData
 from .effects import EFFECTS
 from .models import OperatingPoint, _simulate_ops
-from .naming import Discovery, GAP_MEASURE
+from .naming import Discovery, GAP_EXCESS_MEASURE, GAP_MEASURE
 
 PathLike = Union[str, "os.PathLike[str]"]
 
@@ -96,7 +96,8 @@ def verdict_line(d: Discovery) -> str:
         what = ", ".join(f"{e} ({d.parameters[e]['field']} = {_fmt(d.parameters[e]['value'])} ± "
                          f"{_fmt(d.parameters[e]['stderr'])}, baseline {_fmt(d.parameters[e]['baseline'])})"
                          for e in d.named_effects)
-        return f"named {what}; gap {d.gap_before:.3g} -> {d.gap_after:.3g}"
+        return (f"named {what}; gap {d.gap_before:.3g} -> {d.gap_after:.3g} "
+                f"(beyond the noise {d.gap_excess_before:.3g} -> {d.gap_excess_after:.3g})")
     if d.verdict == "unexplained":
         off = ", ".join(f"{f['feature']} z = {f['z']:+.1f}" for f in d.features_off[:3])
         best = d.rejected[0] if d.rejected else None
@@ -126,7 +127,8 @@ def _markdown(d: Discovery, figs: Sequence[str]) -> str:
     else:
         lines.append("**Named: nothing** — the baseline agrees with the data within the measurement uncertainty.")
     lines += ["", f"Gap ({GAP_MEASURE}): before {d.gap_before:.3g}, after {d.gap_after:.3g} "
-              f"(chi2 of the baseline {d.chi2_before:.3g} over {len(d.features)} features).", ""]
+              f"(chi2 of the baseline {d.chi2_before:.3g} over {len(d.features)} features); "
+              f"{GAP_EXCESS_MEASURE}: before {d.gap_excess_before:.3g}, after {d.gap_excess_after:.3g}.", ""]
     if d.parameters:
         lines += ["| effect | parameter | fitted | ± std. error | baseline |", "|---|---|---|---|---|"]
         for e, p in d.parameters.items():
@@ -144,10 +146,12 @@ def _markdown(d: Discovery, figs: Sequence[str]) -> str:
             vals = ", ".join(f"{EFFECTS[e].field} = {_fmt(r['values'][e])}" for e in r["effects"])
             lines.append(f"- {' + '.join(r['effects'])} ({vals}; chi2 = {r['chi2']:.3g}): " + "; ".join(r["reasons"]))
         lines.append("")
-    lines += ["| feature | measured | ± | baseline | updated | z before | z after |", "|---|---|---|---|---|---|---|"]
+    lines += ["| feature | measured | ± | baseline (model spread) | updated (model spread) | z before | z after |",
+              "|---|---|---|---|---|---|---|"]
     for k, f in d.features.items():
-        lines.append(f"| {k} | {_fmt(f['measured'])} | {_fmt(f['uncertainty'])} | {_fmt(f['baseline'])} | "
-                     f"{_fmt(f['updated'])} | {f['z_before']:+.2f} | {f['z_after']:+.2f} |")
+        sb, su = f.get("model_spread_baseline", 0.0), f.get("model_spread_updated", 0.0)
+        lines.append(f"| {k} | {_fmt(f['measured'])} | {_fmt(f['uncertainty'])} | {_fmt(f['baseline'])} "
+                     f"({_fmt(sb)}) | {_fmt(f['updated'])} ({_fmt(su)}) | {f['z_before']:+.2f} | {f['z_after']:+.2f} |")
     if d.behaviours:
         lines += ["", "Behaviour types: " + "; ".join(f"{k}: {v}" for k, v in d.behaviours.items())]
     lines += ["", "Candidates (chi2, dof, adequate at 99 %):", ""]
