@@ -8,8 +8,10 @@ run (NPZ and Parquet), and a map on a LocalCluster of 2 workers against the loca
 "Core" is the binding's in-memory run in this process (`beamslider.simulate`, the same six
 channels at the same record_every, no file, no figure). "CLI" is what the README's main command
 does, timed as a subprocess: `beamslider simulate --t-end T --record-every K --out DIR`, i.e.
-interpreter start, imports, the run streamed to NPZ by Rust, the PCS manifold (the default) and
-the figure (the default), JSON and CSV files; and the same with `--no-manifold`. Figures are
+interpreter start, imports, the run streamed to NPZ by Rust, the harmonic-balance manifold (the
+default overlay since issue 18's last step) and the figure (the default), JSON and CSV files; the
+same with `--manifold pcs` (the PCS continuation overlay, the earlier default) and with
+`--no-manifold`. Figures are
 medians of `--repeat` runs (CLI and core alternating); the load average is printed before and
 after, since the machine may be shared. A breakdown of the CLI's work done one piece after the
 other (`--skip breakdown` to leave it out) shows where the time goes. `--pythonpath DIR` times the
@@ -50,9 +52,9 @@ def core_time(t_end: float, every: int) -> float:
     return float(r.stdout.strip().splitlines()[-1])
 
 
-def cli_time(t_end: float, every: int, out: Path, manifold: bool) -> float:
+def cli_time(t_end: float, every: int, out: Path, extra: list) -> float:
     argv = [sys.executable, "-m", "beamslider", "simulate", "--t-end", str(t_end), "--record-every", str(every),
-            "--out", str(out), "--force"] + ([] if manifold else ["--no-manifold"])
+            "--out", str(out), "--force"] + list(extra)
     t0 = time.perf_counter()
     r = subprocess.run(argv, capture_output=True, text=True, env=ENV)
     wall = time.perf_counter() - t0
@@ -70,6 +72,7 @@ def breakdown(t_end: float, every: int, tmp: Path) -> str:
         t0 = time.perf_counter()
         import beamslider.cli.simulate
         from beamslider import simulate, super_slow_manifold
+        from beamslider.superslow import hb_manifold
         from beamslider.cli._files import simulation_summary
         t1 = time.perf_counter()
         r = simulate(f_ex=124, a_ex=14, t_end={t_end}, record_every={every}, out={str(tmp / 'bd.npz')!r},
@@ -77,7 +80,9 @@ def breakdown(t_end: float, every: int, tmp: Path) -> str:
         t2 = time.perf_counter()
         simulation_summary(r, t_end={t_end}, record_every={every}, wall_s=t2 - t1, window=1.0)
         t3 = time.perf_counter()
-        m = super_slow_manifold(f_ex=124, a_ex=14)
+        m = hb_manifold(f_ex=124, a_ex=14)
+        t3b = time.perf_counter()
+        super_slow_manifold(f_ex=124, a_ex=14)
         t4 = time.perf_counter()
         import matplotlib.figure, matplotlib.backends.backend_agg
         from beamslider.plotting import plot_operating_point
@@ -85,7 +90,7 @@ def breakdown(t_end: float, every: int, tmp: Path) -> str:
         plot_operating_point(r, manifold=m, path={str(tmp / 'bd.png')!r})
         t6 = time.perf_counter()
         print(f"imports {{t1 - t0:.2f}} s, run streamed to NPZ {{t2 - t1:.2f}} s, summary {{t3 - t2:.2f}} s, "
-              f"manifold {{t4 - t3:.2f}} s, matplotlib import {{t5 - t4:.2f}} s, figure {{t6 - t5:.2f}} s")
+              f"HB manifold {{t3b - t3:.3f}} s (PCS manifold {{t4 - t3b:.2f}} s, not in the default), matplotlib import {{t5 - t4:.2f}} s, figure {{t6 - t5:.2f}} s")
     """)
     t0 = time.perf_counter()
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=ENV)
@@ -159,15 +164,17 @@ def main() -> None:
         tmp = Path(d)
         if "cli" not in a.skip:
             for every in (1, 10):
-                core, full, bare = [], [], []
+                core, full, pcs, bare = [], [], [], []
                 for _ in range(a.repeat):
                     core.append(core_time(a.t_end, every))
-                    full.append(cli_time(a.t_end, every, tmp / f"cli{every}", True))
-                    bare.append(cli_time(a.t_end, every, tmp / f"bare{every}", False))
-                c, f, b = (statistics.median(x) for x in (core, full, bare))
+                    full.append(cli_time(a.t_end, every, tmp / f"cli{every}", []))
+                    pcs.append(cli_time(a.t_end, every, tmp / f"pcs{every}", ["--manifold", "pcs"]))
+                    bare.append(cli_time(a.t_end, every, tmp / f"bare{every}", ["--no-manifold"]))
+                c, f, q, b = (statistics.median(x) for x in (core, full, pcs, bare))
                 print(f"simulate {a.t_end:g} s, record_every {every} (medians of {a.repeat}): core {c:.2f} s; "
-                      f"CLI end to end with the manifold and the figure (the defaults) {f:.2f} s = {f / c:.2f}x core, "
-                      f"with --no-manifold {b:.2f} s = {b / c:.2f}x core (target <= 2x); {load()}")
+                      f"CLI end to end with the defaults (HB manifold and figure) {f:.2f} s = {f / c:.2f}x core "
+                      f"(target <= 2x); with --manifold pcs {q:.2f} s = {q / c:.2f}x, with --no-manifold {b:.2f} s = "
+                      f"{b / c:.2f}x; {load()}")
                 if "breakdown" not in a.skip:
                     print(f"  one after the other: {breakdown(a.t_end, every, tmp)}")
         if "long" not in a.skip:

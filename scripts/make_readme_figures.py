@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """Regenerate the README's main figure, docs/signature_move.png, with the current code: exactly
-what `beamslider simulate` (no options) draws — 124 Hz, 14 m/s², s0 = 0.3, 60 s, the manifold
+what `beamslider simulate --manifold pcs` draws — 124 Hz, 14 m/s², s0 = 0.3, 60 s, the PCS manifold
 with 100 periods per s-step. Needs the package with the plot extra (pip install ".[plot]").
 
     python3 scripts/make_readme_figures.py            # about 10-20 s

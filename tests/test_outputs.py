@@ -89,3 +89,37 @@ def test_figure_of_a_diverged_run_says_so(tmp_path):
     assert ax_a.get_xlabel() == "time t [s]"
     assert "h = beam thickness" in fig._supxlabel.get_text()
     assert np.isfinite(r.t[-1])
+
+
+def test_default_overlay_is_the_hb_manifold_and_plot_reads_it_back(tmp_path):
+    """Issue 18: the default overlay of panel (c) is the harmonic-balance manifold (milliseconds),
+    written as hb_manifold_<f>Hz_<a>ms2_N5.csv; `beamslider plot` draws it again from that file."""
+    r = run_cli("simulate", "--t-end", "0.2", "--no-progress", "--out", "o", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    out = tmp_path / "o"
+    meta = json.loads((out / "fs_124Hz_14ms2_s0_0p3.json").read_text())
+    assert meta["manifold_csv"] == "hb_manifold_124Hz_14ms2_N5.csv"
+    m = read_manifold_csv(out / meta["manifold_csv"], f_ex=124, a_ex=14, params=beamslider.Parameters())
+    hb = beamslider.superslow.hb_manifold(f_ex=124, a_ex=14)
+    assert m.n_modes == 5 and len(m.high.s) == len(hb.high.s) and len(m.low.s) == len(hb.low.s) > 0
+    np.testing.assert_allclose(m.high.amplitude, hb.high.amplitude, rtol=1e-9)  # independent recomputation
+    assert not list(out.glob("manifold_*"))  # no PCS sweep was run
+    r = run_cli("plot", str(out / "fs_124Hz_14ms2_s0_0p3.json"), "--out", "p", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    assert is_png(tmp_path / "p" / "fs_124Hz_14ms2_s0_0p3.png")
+
+
+def test_manifold_kind_options(tmp_path):
+    """--manifold pcs|none, PCS options imply pcs, a PCS option with --manifold hb is refused in one line."""
+    r = run_cli("simulate", "--t-end", "0.1", "--manifold", "none", "--no-progress", "--out", "n", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    assert sorted(p.suffix for p in (tmp_path / "n").iterdir()) == [".json", ".npz", ".png"]
+    r = run_cli("simulate", "--t-end", "0.1", *FAST, "--out", "p", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    assert len(list((tmp_path / "p").glob("manifold_124Hz_14ms2_4periods_avg2_s*.csv"))) == 1
+    r = run_cli("simulate", "--t-end", "0.1", "--manifold", "hb", "--manifold-periods", "4", "--out", "x", cwd=tmp_path)
+    assert r.returncode != 0 and "Traceback" not in r.stderr and len(r.stderr.strip().splitlines()) == 1
+    assert "--manifold-periods" in r.stderr and "--manifold pcs" in r.stderr
+    assert not (tmp_path / "x").exists()
+    r = run_cli("simulate", "--t-end", "0.1", "--a-ex", "0", "--manifold", "hb", "--out", "z", cwd=tmp_path)
+    assert r.returncode != 0 and "a_ex > 0" in r.stderr and "Traceback" not in r.stderr

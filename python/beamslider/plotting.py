@@ -1,6 +1,6 @@
 """Figures as the paper shows them (its Figs. 6–9): for one operating point (a) w(4L/7)/h against
 time, (b) slider position s against time, (c) super-slow dynamics: envelope amplitude/h against s
-with the PCS manifold branches (docs/model.md §6–7) overlaid; model and measurement overlaid.
+with the super-slow manifold (harmonic balance or PCS, docs/model.md §6–7) overlaid; model and measurement overlaid.
 
 Figures are built with ``matplotlib.figure.Figure`` (no pyplot, no global backend change), so
 they work headless and in threads; ``path`` writes a PNG. matplotlib is an optional dependency
@@ -105,7 +105,8 @@ def plot_operating_point(
 
     Args:
         result: simulated run (model), or None.
-        manifold: PCS manifold branches to overlay on panel (c), or None.
+        manifold: super-slow manifold to overlay on panel (c): the PCS sweeps (``ManifoldResult``),
+            the harmonic-balance branches (``superslow.HbManifold`` or the CLI's ``HbCurves``), or None.
         measurement: measured run to overlay, or None.
         window: moving-average window of the envelope [s].
         title: figure title (default: the operating point).
@@ -169,7 +170,17 @@ def plot_operating_point(
         ax_a.plot(xs, amp_h, color=color, lw=1.2, label=f"{label} (envelope)")
         ax_a.plot(x0, a0, "o", color=color, ms=6, mfc="white", zorder=5)
         ax_a.plot(x1, a1, "o", color=color, ms=6, zorder=5)
-    if manifold is not None:
+    if manifold is not None and hasattr(manifold, "high"):
+        # harmonic-balance manifold (issue 17 layer (a)): amplitudes already in units of h
+        n = getattr(manifold, "n_modes", 0)
+        tag = f"HB manifold (N = {n})" if n else "HB manifold"
+        for name, color, style in (("high", UP_COLOR, "--"), ("low", DOWN_COLOR, "--"), ("middle", "0.45", ":")):
+            b = getattr(manifold, name)
+            if len(b.s):
+                order = np.argsort(b.s)
+                ax_a.plot(np.asarray(b.s)[order], np.asarray(b.amplitude)[order], style, color=color, lw=1.0,
+                          label=f"{tag}, {name} branch" + (" (unstable)" if name == "middle" else ""))
+    elif manifold is not None:
         per = f", {manifold.periods} periods per s-step" if manifold.periods else ""
         ax_a.plot(manifold.up_s, manifold.up_amplitude / thickness, "^--", color=UP_COLOR, ms=3, lw=0.8,
                   label=f"PCS manifold, upward sweep{per}")

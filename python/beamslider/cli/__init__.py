@@ -7,7 +7,7 @@ existing file without ``--force``, and a refused run creates nothing (not even t
 Figures need matplotlib (``pip install "beamslider[plot]"``); without it these commands write
 their data and skip the figure with a one-line note (``beamslider plot`` is an error). ``beamslider
 simulate`` without options runs the paper's signature-move case (124 Hz, 14 m/s², s₀ = 0.3) for
-60 s with the PCS manifold overlaid. User errors give a one-line message and a non-zero exit
+60 s with the harmonic-balance manifold overlaid (``--manifold pcs``: the PCS one). User errors give a one-line message and a non-zero exit
 status, never a traceback.
 
 Layout (imports run one way only: this file → subcommand modules → shared helpers):

@@ -9,6 +9,7 @@ import hashlib
 import json
 import re
 import warnings
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Dict, List, Optional, Sequence
 
@@ -116,12 +117,83 @@ def write_manifold_csv(path: Path, m: ManifoldResult) -> None:
                 w.writerow([branch, f"{s:.6g}", f"{a:.10e}"])
 
 
-def read_manifold_csv(path: Path, *, f_ex: float, a_ex: float, params: Parameters) -> ManifoldResult:
+HB_MANIFOLD_HEADER = ["branch", "s", "amplitude_h", "phase_rad", "stable"]
+"""Columns of a harmonic-balance manifold CSV (``beamslider hb-manifold``, and the default overlay
+of ``simulate``/``compare``): branch high/low/middle, Â = |w(4L/7)|/h, phase, stability."""
+
+
+@dataclass
+class HbCurves:
+    """The branches of a harmonic-balance manifold as read back from its CSV (what panel (c)
+    draws): ``branches[name] = (s, amplitude_h)`` for high, low and middle."""
+
+    branches: Dict[str, Any]
+    f_ex: float
+    a_ex: float
+    n_modes: int
+    params: Parameters
+
+    @property
+    def high(self) -> Any:
+        return _Curve(*self.branches["high"])
+
+    @property
+    def low(self) -> Any:
+        return _Curve(*self.branches["low"])
+
+    @property
+    def middle(self) -> Any:
+        return _Curve(*self.branches["middle"])
+
+
+@dataclass
+class _Curve:
+    s: np.ndarray
+    amplitude: np.ndarray
+
+
+def hb_manifold_file_stem(f_ex: float, a_ex: float, n_modes: int = 5) -> str:
+    """File name stem of a harmonic-balance manifold, e.g. ``hb_manifold_124Hz_14ms2_N5``."""
+    return f"hb_manifold_{fmt(f_ex)}Hz_{fmt(a_ex)}ms2_N{int(n_modes)}"
+
+
+def write_hb_manifold_csv(path: Path, m: Any) -> None:
+    """The branches of an :class:`~beamslider.superslow.HbManifold` as CSV (HB_MANIFOLD_HEADER)."""
+    with open(path, "w", newline="", encoding="utf-8") as f:
+        w = csv.writer(f)
+        w.writerow(HB_MANIFOLD_HEADER)
+        for name in ("high", "low", "middle"):
+            b = getattr(m, name)
+            for row in zip(b.s, b.amplitude, b.phase, b.stable):
+                w.writerow([name, f"{row[0]:.10g}", f"{row[1]:.10g}", f"{row[2]:.10g}", int(row[3])])
+
+
+def _read_hb_manifold_rows(path: Path, r: Any, *, f_ex: float, a_ex: float, params: Parameters) -> HbCurves:
+    rows: Dict[str, List[List[float]]] = {name: [[], []] for name in ("high", "low", "middle")}
+    for lineno, row in enumerate(r, start=2):
+        try:
+            target = rows[row[0]]
+            s, a = float(row[1]), float(row[2])
+        except (KeyError, IndexError, ValueError):
+            raise UserError(f"{path}:{lineno}: malformed HB manifold row {row!r}") from None
+        target[0].append(s)
+        target[1].append(a)
+    m = re.search(r"_N(\d+)", Path(path).name)
+    return HbCurves(branches={k: (np.array(v[0]), np.array(v[1])) for k, v in rows.items()}, f_ex=f_ex, a_ex=a_ex,
+                    n_modes=int(m.group(1)) if m else 0, params=params)
+
+
+def read_manifold_csv(path: Path, *, f_ex: float, a_ex: float, params: Parameters) -> Any:
+    """A manifold CSV written by this package: the PCS sweeps (:data:`MANIFOLD_HEADER`, returns a
+    :class:`ManifoldResult`) or the harmonic-balance branches (:data:`HB_MANIFOLD_HEADER`, returns
+    :class:`HbCurves`)."""
     up: List[List[float]] = [[], []]
     down: List[List[float]] = [[], []]
     with open(path, "r", encoding="utf-8") as f:
         r = csv.reader(f)
         header = next(r, None)
+        if header == HB_MANIFOLD_HEADER:
+            return _read_hb_manifold_rows(path, r, f_ex=f_ex, a_ex=a_ex, params=params)
         # "sweep" is the name older versions of this package wrote for the branch column.
         if header not in (MANIFOLD_HEADER, ["sweep", "s", "amplitude_m"]):
             raise UserError(f"{path}: not a beamslider manifold CSV (header branch,s,amplitude_m)")

@@ -11,7 +11,7 @@ from typing import Any
 from ..simulate import simulate
 from ._common import UserError, figure, out_dir, params_from_args, plan_outputs, positive, report, write_json_atomic
 from ._files import measurement, simulation_summary
-from ._manifold import add_run_options, check_manifold_args, manifold_name, run_manifold
+from ._manifold import add_run_options, check_manifold_args, manifold_name, resolve_manifold, run_manifold
 
 
 def add_parser(sub: Any) -> None:
@@ -46,9 +46,10 @@ def cmd_compare(args: argparse.Namespace) -> int:
     p = params_from_args(args)
     name = Path(args.measurement).name
     stem = "compare_" + (name[:-3] if name.lower().endswith(".gz") else Path(name).stem).rsplit(".txt", 1)[0]
+    resolve_manifold(args, a_ex)
     man_name = f"{manifold_name(args, f_ex, a_ex)}.csv" if args.manifold else None
     simulate(p, f_ex=f_ex, a_ex=a_ex, s0=s0, t_end=t_end, record_every=args.record_every, _check_only=True)  # names bad input first
-    if args.manifold:
+    if args.manifold_kind == "pcs":
         check_manifold_args(args)
     out = plan_outputs(args, [f"{stem}_model.csv", f"{stem}.json", f"{stem}.png"] + ([man_name] if man_name else []))
     t0 = time.perf_counter()

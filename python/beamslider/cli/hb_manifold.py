@@ -4,12 +4,12 @@ written as CSV + JSON + figure."""
 from __future__ import annotations
 
 import argparse
-import csv
 import time
 from typing import Any
 
 
 from ..superslow import hb_manifold
+from ._files import hb_manifold_file_stem, write_hb_manifold_csv
 from ._manifold import add_operating_point
 from ._common import add_common, add_force, figure, fmt, out_dir, params_from_args, plan_outputs, positive, print_written, write_json
 
@@ -35,7 +35,7 @@ def add_parser(sub: Any) -> None:
 
 def cmd_hb_manifold(args: argparse.Namespace) -> int:
     p = params_from_args(args)
-    stem = f"hb_manifold_{fmt(args.f_ex)}Hz_{fmt(args.a_ex)}ms2_N{args.n_modes}" + (
+    stem = hb_manifold_file_stem(args.f_ex, args.a_ex, args.n_modes) + (
         f"_Deff{fmt(args.d_eff)}" if args.d_eff is not None else "") + (
         f"_H{args.harmonics}" if args.harmonics != 1 else "") + ("_sag" if args.static_sag else "")
     plan_outputs(args, [f"{stem}.{ext}" for ext in ("csv", "json", "png")])
@@ -44,13 +44,7 @@ def cmd_hb_manifold(args: argparse.Namespace) -> int:
                     harmonics=args.harmonics, static_sag=args.static_sag)
     wall = time.perf_counter() - t0
     out = out_dir(args)
-    with open(out / f"{stem}.csv", "w", newline="", encoding="utf-8") as f:
-        w = csv.writer(f)
-        w.writerow(["branch", "s", "amplitude_h", "phase_rad", "stable"])
-        for name in ("high", "low", "middle"):
-            b = getattr(m, name)
-            for row in zip(b.s, b.amplitude, b.phase, b.stable):
-                w.writerow([name, f"{row[0]:.10g}", f"{row[1]:.10g}", f"{row[2]:.10g}", int(row[3])])
+    write_hb_manifold_csv(out / f"{stem}.csv", m)
     write_json(out / f"{stem}.json", {
         "kind": "hb_manifold", "f_ex_hz": m.f_ex, "a_ex_m_s2": m.a_ex, "n_modes": m.n_modes, "harmonics": m.harmonics,
         "d_eff": m.d_eff, "static_sag": m.static_sag, "harmonic_orders": list(m.harmonic_orders), "s_up": m.s_up, "s_dn": m.s_dn, "s_res": m.s_res.tolist(), "folds_s": m.folds_s.tolist(),

@@ -1,5 +1,6 @@
 """``beamslider simulate``: one operating point (default: the signature move, 124 Hz, 14 m/s², s₀ = 0.3,
-60 s) streamed to NPZ (or CSV, Parquet) + JSON + the three-panel figure, with the PCS manifold overlaid."""
+60 s) streamed to NPZ (or CSV, Parquet) + JSON + the three-panel figure, with the super-slow manifold overlaid
+(harmonic balance by default, ``--manifold pcs`` for the PCS continuation)."""
 
 from __future__ import annotations
 
@@ -11,7 +12,8 @@ from typing import Any, Callable, Optional
 from ..simulate import simulate
 from ._common import figure, out_dir, params_from_args, plan_outputs, positive, report, write_json_atomic
 from ._files import run_stem, simulation_summary
-from ._manifold import add_operating_point, add_run_options, check_manifold_args, manifold_name, run_manifold
+from ._manifold import (add_operating_point, add_run_options, check_manifold_args, manifold_name,
+                        resolve_manifold, run_manifold)
 
 
 def add_parser(sub: Any) -> None:
@@ -81,12 +83,13 @@ def _preload_figure(stop: threading.Event) -> None:
 def cmd_simulate(args: argparse.Namespace) -> int:
     p = params_from_args(args)
     stem = run_stem(args.model, args.f_ex, args.a_ex, args.s0, args.s_pcs)
+    resolve_manifold(args, args.a_ex)
     with_manifold = args.manifold and args.model != "beam"
     man_name = f"{manifold_name(args, args.f_ex, args.a_ex)}.csv" if with_manifold else None
     # Bad input is named before anything else.
     simulate(p, f_ex=args.f_ex, a_ex=args.a_ex, s0=args.s0, t_end=args.t_end, model=args.model, s_pcs=args.s_pcs,
              record_every=args.record_every, _check_only=True)
-    if with_manifold:
+    if with_manifold and args.manifold_kind == "pcs":
         check_manifold_args(args)
     if args.format == "parquet":
         from ..trajectory import _pyarrow
