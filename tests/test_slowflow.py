@@ -305,3 +305,77 @@ def law_json_text(law):
     from beamslider.drift_law import law_json
 
     return law_json(law)
+
+
+def test_jump_down_from_the_forcing_ratio():
+    """s_dn="law": the high branch ends where ρ(s) = a_ex/(Ω² Â_H(s) h) falls below the law's ρ_c,
+    checked against ρ recomputed by hand from the manifold's own arrays; none below min ρ; the
+    core (predict_point) and Python agree on the jump-down position and the behaviour."""
+    from beamslider import _core
+    from beamslider.drift_law import forcing_ratio, law_json, s_dn_forcing_ratio
+
+    m = hb_manifold(f_ex=124, a_ex=8)
+    h = Parameters().thickness_m
+    o = np.argsort(m.high.s)
+    s_h, a_h = m.high.s[o], m.high.amplitude[o]
+    rho_hand = 8.0 / ((2 * np.pi * 124) ** 2 * a_h * h)
+    rho_c = float(np.interp(0.32, s_h, rho_hand))
+    s_dn = s_dn_forcing_ratio(m, rho_c)
+    assert s_dn == pytest.approx(0.32, abs=2e-3)
+    assert float(forcing_ratio(m, [s_dn])[0]) == pytest.approx(rho_c, rel=2e-3)
+    assert s_dn_forcing_ratio(m, 0.5 * float(np.nanmin(rho_hand))) is None  # never that low: reaches the centre
+    assert s_dn_forcing_ratio(m, 0.0) is None
+    law = _realistic_law()
+    law.rho_c = rho_c
+    text = law_json(law)
+    p = Parameters()
+    for f_, a_, s0 in ((124, 8, 0.3), (126, 10, 0.3), (124, 14, 0.3)):
+        r_py = predict(f_ex=f_, a_ex=a_, s0=s0, drift=law)
+        r_rs = json.loads(_core.predict_point(p.toml_text(), text, f_ex_hz=float(f_), a_ex_m_s2=float(a_), s0=s0))
+        expect = s_dn_forcing_ratio(hb_manifold(f_ex=f_, a_ex=a_), rho_c)
+        assert (r_py.s_dn is None) == (expect is None)
+        if expect is not None:
+            assert r_py.s_dn == pytest.approx(expect, abs=1e-9) and r_py.s_dn_source == "law"
+        assert r_rs["behaviour"] == r_py.behaviour, (f_, a_)
+        assert r_rs["s_final"] == pytest.approx(r_py.classification["s_final"], abs=1e-3)
+        dn_py = [e[2] for e in r_py.events if e[0] == "jump_down"]
+        dn_rs = [e[2] for e in r_rs["events"] if e[0] == "jump_down"]
+        assert dn_rs == pytest.approx(dn_py, abs=1e-6)
+    # 'hb' ignores the law's rule (single-term HB has no jump-down here)
+    assert predict(f_ex=124, a_ex=8, drift=law, s_dn="hb").s_dn is None
+
+
+def test_learnt_lift_off_threshold_and_monostable_label():
+    """Λ_c: where a table's drift towards the clamping ends (two or more rows at rest below it),
+    in Λ_g of the HB branch reaching the clamping; the law is zero below Λ_c. The monostable label
+    needs a down sweep that stays below MONO_RISE_H on the clamping side of the HB fold."""
+    from beamslider.drift_law import MONO_RISE_H, learn_lift_off_threshold
+
+    s_stop = 0.15
+    t = _synthetic_table(124, 6, lambda s: np.where(s < s_stop, 0.0, -0.006), lambda s: np.where(s < s_stop, 0.0, -0.006))
+    m = hb_manifold(f_ex=124, a_ex=6)
+    lc = learn_lift_off_threshold(t, m)
+    s_rows = np.unique(t.s[t.s < 0.3])
+    i = int(np.searchsorted(s_rows, s_stop))
+    expect = float(np.mean(features(m, "H", s_rows[[i - 1, i]])["lift_off"]))
+    assert lc == pytest.approx(expect, rel=1e-12)
+    moving = _synthetic_table(124, 6, lambda s: -0.006 + 0 * s, lambda s: -0.006 + 0 * s)  # drifts down to the clamp
+    assert learn_lift_off_threshold(moving, m) is None
+    others = [_synthetic_table(f_, a_, lambda s: -0.004 + 0 * s, lambda s: 0.03 * (0.42 - s)) for f_, a_ in ((124, 14), (120, 12))]
+    law = fit_drift_law([t] + others, k=3)
+    assert law.lift_c == pytest.approx(lc) and law.lift_c_per_point == [{"f_ex": 124, "a_ex": 6, "lift_c": lc}]
+    assert fit_drift_law([t] + others, k=3, lift_off_threshold=1.0).lift_c == 1.0
+    f = features(m, "H", np.array([0.06, 0.12, 0.2]))
+    v, _ = law.evaluate("H", f)
+    assert np.all(v[f["lift_off"] < lc] == 0.0) and np.any(f["lift_off"] < lc)
+    assert load_drift_law_text(law).lift_c == law.lift_c
+    with pytest.raises(ValueError, match="lift_off_threshold"):
+        fit_drift_law([t] + others, lift_off_threshold=-1)
+    # monostable label: no PCS jump-up and the down sweep stays low -> 1; rising beyond MONO_RISE_H -> 0
+    s_fold = hb_manifold(f_ex=124, a_ex=14).s_up
+    for rise, label in ((0.5 * MONO_RISE_H, 1.0), (1.5 * MONO_RISE_H, 0.0)):
+        tabs = [_synthetic_table(f_, a_, lambda s: -0.004 + 0 * s, lambda s: 0.03 * (0.42 - s)) for f_, a_ in ((124, 14), (120, 12))]
+        tabs[0].s_up_pcs = None
+        tabs[0].amplitude = np.where((tabs[0].s < s_fold) & (tabs[0].sweep == "down"), rise, 0.03)
+        tabs[1].s_up_pcs = hb_manifold(f_ex=120, a_ex=12).s_up
+        assert fit_drift_law(tabs, k=3).mono_y[0] == label

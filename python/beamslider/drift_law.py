@@ -1,7 +1,7 @@
 """Layer (b2) of issue 17: the local features of issue §3.2 computed from layer (a) (Λ_g, θ̂/θ_gap,
 f_slope, s − s_res, Â/max Â_H, branch) and the transferable drift law fitted on several operating
 points' PCS tables (distance-weighted k-nearest neighbours in standardised feature space, per
-branch; V = 0 where Λ_g < 1; odd symmetry by construction; leave-one-operating-point-out
+branch; V = 0 where Λ_g < Λ_c (learnt, 1 by the issue); odd symmetry by construction; leave-one-operating-point-out
 validation), with its JSON file. Used by :mod:`beamslider.slowflow`."""
 
 from __future__ import annotations
@@ -100,7 +100,7 @@ def features(manifold, branch: str, s: Sequence[float]) -> Dict[str, np.ndarray]
 # the most training points predicted right leave one out. Why s: the PCS high branch's stable
 # zeros of V (where the FS slider stops) sit at nearly the same s across the map (0.33 from
 # 110 to 130 Hz, 0.35–0.38 below), which no amplitude- or slope-only feature locates. Λ_g enters
-# through the constraint V = 0 where Λ_g < 1.
+# through the constraint V = 0 where Λ_g < Λ_c.
 FEATURES = ("amp_rel", "s")
 
 
@@ -113,7 +113,7 @@ def _x(feat: Dict[str, np.ndarray]) -> np.ndarray:
 
 @dataclass
 class DriftLaw:
-    """A fitted transferable drift law (layer (b2)): V = 0 where Λ_g < 1, otherwise the
+    """A fitted transferable drift law (layer (b2)): V = 0 where Λ_g < Λ_c (``lift_c``), otherwise the
     distance-weighted mean of the k nearest training samples of the same branch in standardised
     feature space (odd symmetry: evaluated in the half coordinate)."""
 
@@ -142,12 +142,9 @@ class DriftLaw:
     """Per held-out operating point: RMS error and typical |V|."""
     fit_time_s: float = 0.0
     """Wall time of the fit (including the layer-(a) manifolds of the training points) [s]."""
-    x_exist: np.ndarray = field(default_factory=lambda: np.zeros((0, len(FEATURES))))
-    """Features of HB high-branch nodes on [max(s_up, 0.2), 0.5] of the training points (for s_dn)."""
-    y_exist: np.ndarray = field(default_factory=lambda: np.zeros(0))
-    """1 where the PCS high branch exists at that node (below the table's s_dn), else 0."""
-    g_exist: np.ndarray = field(default_factory=lambda: np.zeros(0, int))
-    """Operating-point index of each existence sample."""
+    rho_c: float = 0.0
+    """Forcing ratio at which the PCS high branch ends (s_dn="law", :meth:`s_dn`): the median over
+    the training tables with a PCS jump-down of ρ(s_dn) = a_ex / (Ω² Â_H(s_dn) h) (0: none has one)."""
     loo_s_dn: List[dict] = field(default_factory=list)
     """Leave-one-point-out s_dn of the law against the PCS tables' s_dn."""
     s_up_shift: float = 0.0
@@ -159,11 +156,17 @@ class DriftLaw:
     """Per training point with an HB fold: (ln Â_L at the fold [h], s_up of HB) (the inputs of
     the monostability vote, :meth:`monostable`)."""
     mono_y: np.ndarray = field(default_factory=lambda: np.zeros(0))
-    """1 where that point's PCS sweeps show no jump-up (a single, low branch), else 0."""
+    """1 where that point's PCS down sweep shows no jump-up and stays low (below MONO_RISE_H on the
+    clamping side of the HB fold: a single, low branch), else 0."""
     mono_std: np.ndarray = field(default_factory=lambda: np.ones(2))
     """Standardisation of ``mono_x``."""
     mono_groups: np.ndarray = field(default_factory=lambda: np.zeros(0, int))
     """Training-point index of each monostability sample."""
+    lift_c: float = 1.0
+    """Lift-off threshold Λ_c: V = 0 where Λ_g < Λ_c. 1 is the issue's constraint (no lift-off
+    below it); :func:`fit_drift_law` learns it from the tables (:func:`learn_lift_off_threshold`)."""
+    lift_c_per_point: List[dict] = field(default_factory=list)
+    """The tables' own Λ_c values (where their clampward drift ends), the median of which is ``lift_c``."""
     _trees: dict = field(default_factory=dict, repr=False, compare=False)
 
     def monostable(self, manifold, exclude_group: Optional[int] = None) -> bool:
@@ -171,7 +174,8 @@ class DriftLaw:
         single-term HB with the slider rigidly attached has a fold: the label of the nearest
         training point in standardised (ln Â_L(s_up), s_up) of the HB manifold (the low
         branch's amplitude at its fold and the fold's position), the label being "the PCS
-        sweeps show no jump-up". False without an HB fold or without samples."""
+        down sweep shows no jump-up and stays low" (``mono_y``). False without an HB fold or
+        without samples."""
         x = _mono_x(manifold)
         keep = self.mono_groups != exclude_group if exclude_group is not None else np.ones(self.mono_y.size, bool)
         if x is None or not keep.any():
@@ -194,32 +198,11 @@ class DriftLaw:
         a = [p[1] for p in self.points]
         return not (min(f) - 1e-9 <= f_ex <= max(f) + 1e-9 and min(a) - 1e-9 <= a_ex <= max(a) + 1e-9)
 
-    def s_dn(self, manifold, exclude_group: Optional[int] = None) -> Optional[float]:
-        """Jump-down position learnt from the PCS tables (s_dn="law"): the first HB high-branch node
-        above max(s_up, 0.2) where the distance-weighted vote of the k nearest training nodes says
-        the PCS high branch no longer exists (None: it reaches the centre)."""
-        if self.y_exist.size == 0 or len(manifold.high) == 0:
-            return None
-        s = _exist_nodes(manifold)
-        if s.size == 0:
-            return None
-        p = self._exist_prob(_x(features(manifold, "H", s)), exclude_group)
-        gone = np.nonzero(p < 0.5)[0]
-        return None if gone.size == 0 else float(s[gone[0]])
-
-    def _exist_prob(self, x, exclude_group=None):
-        from scipy.spatial import cKDTree
-
-        key = ("exist", exclude_group)
-        if key not in self._trees:
-            keep = self.g_exist != exclude_group if exclude_group is not None else np.ones(self.y_exist.size, bool)
-            self._trees[key] = (cKDTree((self.x_exist[keep] - self.mean) / self.std), self.y_exist[keep])
-        tree, y = self._trees[key]
-        k = min(self.k, y.size)
-        dk, idx = tree.query((x - self.mean) / self.std, k=k)
-        dk, idx = dk.reshape(x.shape[0], k), idx.reshape(x.shape[0], k)
-        w = 1.0 / np.maximum(dk, 1e-6)
-        return (w * y[idx]).sum(axis=1) / w.sum(axis=1)
+    def s_dn(self, manifold, rho_c: Optional[float] = None) -> Optional[float]:
+        """Jump-down position learnt from the PCS tables (s_dn="law"; :func:`s_dn_forcing_ratio`
+        with the law's ``rho_c``, or ``rho_c`` if given)."""
+        rc = self.rho_c if rho_c is None else rho_c
+        return s_dn_forcing_ratio(manifold, rc) if rc > 0 else None
 
     def _evaluate_x(self, branch, x, lift_off, exclude_group=None):
         from scipy.spatial import cKDTree
@@ -240,7 +223,7 @@ class DriftLaw:
         dk, idx = dk.reshape(x.shape[0], k), idx.reshape(x.shape[0], k)
         w = 1.0 / np.maximum(dk, 1e-6)
         out = (w * vt[idx]).sum(axis=1) / w.sum(axis=1)
-        out[lift_off < 1.0] = 0.0
+        out[lift_off < self.lift_c] = 0.0
         outside = np.any((x < self.lo - 1e-9) | (x > self.hi + 1e-9), axis=1)
         return out, outside
 
@@ -269,10 +252,59 @@ def _mono_x(manifold) -> Optional[np.ndarray]:
     return np.array([math.log(max(_fold_amplitude(manifold), 1e-12)), float(manifold.s_up)])
 
 
-def _exist_nodes(manifold) -> np.ndarray:
-    lo = max(manifold.s_up or 0.2, 0.2)
-    hi = float(np.max(manifold.high.s))
-    return np.linspace(lo, hi, 31) if hi > lo else np.zeros(0)
+S_DN_MIN = 0.2
+"""Smallest s at which :func:`s_dn_forcing_ratio` looks for the end of the high branch."""
+
+
+def forcing_ratio(manifold, s: Sequence[float]) -> np.ndarray:
+    """ρ(s) = a_ex / (Ω² Â_H(s) h) on the HB high branch: the base acceleration over the beam's
+    acceleration amplitude at x = 4L/7, the inverse of the dynamic amplification (NaN where the
+    branch does not exist). Single-mode HB (issue §2.2) ends the high branch where Â_H(s) reaches
+    the damping-limited peak F(s)/(2DωΩ), F = (γ + mφ(s)) a_ex: there ρ is proportional to the
+    damping ratio D. The nonsmooth model's high branch ends at a ρ set by its effective damping
+    (the slider's impacts), learnt from the PCS tables as ``DriftLaw.rho_c``."""
+    s = np.asarray(s, dtype=float)
+    amp = manifold.high.amplitude_at(s) if len(manifold.high) else np.full(s.shape, np.nan)
+    omega = 2 * math.pi * manifold.f_ex
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return manifold.a_ex / (omega ** 2 * amp * manifold.params.thickness_m)
+
+
+def s_dn_forcing_ratio(manifold, rho_c: float) -> Optional[float]:
+    """Jump-down position from the forcing ratio (issue §2.2's end of the high branch with the
+    effective damping of the nonsmooth model): the first s ≥ S_DN_MIN on the HB high branch where
+    ρ(s) (:func:`forcing_ratio`) falls below ``rho_c``, linearly interpolated between the branch's
+    points; None where it never does (the high branch reaches the centre)."""
+    hb = manifold.high
+    if len(hb) == 0 or not rho_c > 0:
+        return None
+    o = np.argsort(hb.s)
+    s = np.asarray(hb.s, dtype=float)[o]
+    omega = 2 * math.pi * manifold.f_ex
+    with np.errstate(divide="ignore", invalid="ignore"):
+        r = manifold.a_ex / (omega ** 2 * np.asarray(hb.amplitude, dtype=float)[o] * manifold.params.thickness_m)
+    for i in range(1, s.size):
+        if s[i] < S_DN_MIN or not (r[i] < rho_c):
+            continue
+        if s[i - 1] >= S_DN_MIN and r[i - 1] >= rho_c and r[i - 1] != r[i]:
+            return float(s[i - 1] + (s[i] - s[i - 1]) * (r[i - 1] - rho_c) / (r[i - 1] - r[i]))
+        return float(s[i])
+    return None
+
+
+MONO_RISE_H = 0.175
+"""Amplitude [h] a PCS down sweep must exceed on the clamping side of the HB fold to count as
+having left its low branch: the midpoint of the map classifier's low (0.05 h) and high (0.3 h)
+levels. A training point is labelled monostable (single low branch) when its down sweep neither
+jumps up nor rises beyond it (:func:`fit_drift_law`)."""
+
+
+def _stays_low(table: DriftTable, s_fold: float) -> bool:
+    """The PCS down sweep of ``table`` never exceeds MONO_RISE_H on the clamping side of s_fold."""
+    m = table.sweep == "down"
+    s = np.where(table.s[m] > 0.5, 1.0 - table.s[m], table.s[m])
+    a = table.amplitude[m][s < s_fold]
+    return bool(a.size == 0 or np.nanmax(a) < MONO_RISE_H)
 
 
 def _manifold_for(params, f_ex, a_ex, n_modes, d_eff):
@@ -300,13 +332,48 @@ def _training_samples(table: DriftTable, manifold) -> Dict[str, Tuple[np.ndarray
     return out
 
 
+LIFT_V_EPS = 5e-4
+"""|V| [1/s] below which a PCS table row counts as at rest when :func:`learn_lift_off_threshold`
+looks for the end of the clampward drift (three times the FS map's steady drift, 0.005 in 30 s)."""
+
+
+def learn_lift_off_threshold(table: DriftTable, manifold, v_eps: float = LIFT_V_EPS) -> Optional[float]:
+    """Λ_c of one PCS table: per branch, walking from the clamping towards the centre over the
+    rows below s = 0.3, at least two rows at rest (|V| < ``v_eps``) followed by a row drifting
+    towards the clamping (V ≤ −``v_eps``) mark where the self-damping drift ends; Λ_c is the
+    lift-off number Λ_g of the HB branch that reaches the clamping (as the slow flow uses it there)
+    midway between the two rows. The median over the branches that show it; None if none does
+    (the drift reaches the clamping, or no drift towards it)."""
+    per = []
+    if len(manifold.high) == 0:
+        return None
+    for br in ("L", "H"):
+        s, v, _ = table.branch_rows(br)
+        keep = s < 0.3
+        s, v = s[keep], v[keep]
+        if s.size < 4:
+            continue
+        o = np.argsort(s)
+        s, v = s[o], v[o]
+        n = 0
+        while n < s.size and abs(v[n]) < v_eps:
+            n += 1
+        if n < 2 or n >= s.size or not v[n] <= -v_eps:
+            continue
+        lam = features(manifold, "H", s[[n - 1, n]])["lift_off"]
+        if np.all(np.isfinite(lam)):
+            per.append(0.5 * float(lam[0] + lam[1]))
+    return float(np.median(per)) if per else None
+
+
 def fit_drift_law(tables: Sequence[DriftTable], *, params: Optional[Parameters] = None, k: int = 4, n_modes: int = 5,
-                  s_up_correction: bool = True, monostable_vote: bool = True) -> DriftLaw:
+                  s_up_correction: bool = True, monostable_vote: bool = True,
+                  lift_off_threshold: Union[str, float] = "learn") -> DriftLaw:
     """Fit the transferable drift law (issue 17 §3.2, b2) on PCS drift tables of several operating
     points, and validate it leave one operating point out.
 
     Each table row (s, branch) is paired with the layer-(a) features at the same s on the same
-    branch (rows where the HB branch does not exist are left out). Rows with Λ_g < 1 train
+    branch (rows where the HB branch does not exist are left out). Rows with Λ_g < Λ_c train
     nothing (the law is 0 there by construction).
 
     ``s_up_correction``: also learn the shift of the jump-up position, s_up(PCS) − s_up(HB)
@@ -315,36 +382,59 @@ def fit_drift_law(tables: Sequence[DriftTable], *, params: Optional[Parameters] 
     by moving the low branch's fold (``DriftLaw.s_up_shift``).
 
     ``monostable_vote``: also learn where the nonsmooth model has a single, low branch although
-    HB has a fold (the PCS sweeps of a training point show no jump-up: the slider's impacts keep
-    the beam off the high branch at low excitation), voted by the nearest training point in
+    HB has a fold (the PCS down sweep of a training point neither jumps up nor rises beyond
+    MONO_RISE_H on the clamping side of the HB fold: the slider's impacts keep the beam off the
+    high branch at low excitation), voted by the nearest training point in
     (ln Â_L(s_up), s_up) of the HB manifold (:meth:`DriftLaw.monostable`); the slow flow then
     follows the low branch through the fold towards the clamping (self-damping).
+
+    The jump-down position (s_dn="law" of :func:`beamslider.slowflow.predict`) is learnt as
+    ``rho_c``: the median over the tables with a PCS jump-down of the forcing ratio there
+    (:func:`forcing_ratio`); the high branch then ends where ρ(s) falls below it
+    (:func:`s_dn_forcing_ratio`; ``loo_s_dn`` has each table's s_dn with ``rho_c`` fitted
+    without it).
+
+    ``lift_off_threshold``: Λ_c of the constraint V = 0 where Λ_g < Λ_c. 'learn' (default): the
+    median over the tables of :func:`learn_lift_off_threshold` (where the PCS drift towards the
+    clamping ends, in Λ_g of the HB manifold; 1 if no table shows it). Λ_g < 1 means no lift-off
+    of a beam point moving with the HB amplitude; the PCS tables stop drifting at Λ_g ≈ 0.75–0.97
+    (the slider's impacts lift it where the rigidly attached HB amplitude says they would not),
+    and the FS runs stop near Λ_g ≈ 0.6–0.75. A number: that Λ_c (1 = the issue's constraint).
     """
     if len(tables) < 2:
         raise ValueError("invalid parameter `tables`: need at least two operating points")
     if int(k) < 1:
         raise ValueError(f"invalid parameter `k` = {k}: must be >= 1")
+    if isinstance(lift_off_threshold, str):
+        if lift_off_threshold != "learn":
+            raise ValueError(f"invalid parameter `lift_off_threshold` = {lift_off_threshold!r}: 'learn' or a number in (0, 2]")
+    elif not (isinstance(lift_off_threshold, (int, float)) and 0 < float(lift_off_threshold) <= 2):
+        raise ValueError(f"invalid parameter `lift_off_threshold` = {lift_off_threshold!r}: 'learn' or a number in (0, 2]")
     t0 = time.perf_counter()
     p = resolve(params)
     xs: Dict[str, list] = {"L": [], "H": []}
     vs: Dict[str, list] = {"L": [], "H": []}
     gs: Dict[str, list] = {"L": [], "H": []}
     ls: Dict[str, list] = {"L": [], "H": []}
-    xe, ye, ge, mfs = [], [], [], []
+    mfs = []
+    rho_per: Dict[int, float] = {}
     mx, my, mg = [], [], []
+    lift_per = []
     for gi, t in enumerate(tables):
         mf = _manifold_for(p, t.f_ex, t.a_ex, n_modes, None)
         mfs.append(mf)
+        lc = learn_lift_off_threshold(t, mf) if lift_off_threshold == "learn" else None
+        if lc is not None:
+            lift_per.append({"f_ex": t.f_ex, "a_ex": t.a_ex, "lift_c": lc})
         xm = _mono_x(mf)
         if monostable_vote and xm is not None:
             mx.append(xm)
-            my.append(1.0 if t.s_up_pcs is None else 0.0)
+            my.append(1.0 if (t.s_up_pcs is None and _stays_low(t, float(mf.s_up))) else 0.0)
             mg.append(gi)
-        se = _exist_nodes(mf) if len(mf.high) else np.zeros(0)
-        if se.size:
-            xe.append(_x(features(mf, "H", se)))
-            ye.append(np.ones(se.size) if t.s_dn_pcs is None else (se <= t.s_dn_pcs).astype(float))
-            ge.append(np.full(se.size, gi))
+        if t.s_dn_pcs is not None:
+            r = forcing_ratio(mf, [t.s_dn_pcs])[0]
+            if np.isfinite(r):
+                rho_per[gi] = float(r)
         for br, (x, v, lift) in _training_samples(t, mf).items():
             xs[br].append(x)
             ls[br].append(lift)
@@ -357,17 +447,21 @@ def fit_drift_law(tables: Sequence[DriftTable], *, params: Optional[Parameters] 
     allx = np.concatenate([X["L"], X["H"]])
     if allx.shape[0] == 0:
         raise ValueError("invalid parameter `tables`: no row lies on a branch of the HB manifold")
-    # Drop lift-off-free rows from the training set (the law is 0 there).
+    # Λ_c, then drop the rows below it from the training set (the law is 0 there).
+    if lift_off_threshold == "learn":
+        lift_c = float(np.median([r["lift_c"] for r in lift_per])) if lift_per else 1.0
+    else:
+        lift_c = float(lift_off_threshold)
     for br in X:
-        keep = LIFT[br] >= 1.0
+        keep = LIFT[br] >= lift_c
         X[br], V[br], G[br], LIFT[br] = X[br][keep], V[br][keep], G[br][keep], LIFT[br][keep]
     allx = np.concatenate([X["L"], X["H"]])
     std = allx.std(axis=0)
     std[std == 0] = 1.0
     law = DriftLaw(x=X, v=V, groups=G, mean=allx.mean(axis=0), std=std, lo=allx.min(axis=0), hi=allx.max(axis=0),
                    points=[(t.f_ex, t.a_ex) for t in tables], k=int(k),
-                   x_exist=np.concatenate(xe) if xe else np.zeros((0, len(FEATURES))),
-                   y_exist=np.concatenate(ye) if ye else np.zeros(0), g_exist=np.concatenate(ge) if ge else np.zeros(0, int))
+                   rho_c=float(np.median(list(rho_per.values()))) if rho_per else 0.0,
+                   lift_c=lift_c, lift_c_per_point=lift_per)
     if mx:
         law.mono_x, law.mono_y, law.mono_groups = np.array(mx), np.array(my), np.array(mg, dtype=int)
         sd = law.mono_x.std(axis=0)
@@ -381,7 +475,10 @@ def fit_drift_law(tables: Sequence[DriftTable], *, params: Optional[Parameters] 
             law.loo_s_up.append({"f_ex": t.f_ex, "a_ex": t.a_ex, "s_up_hb": mfs[gi].s_up, "s_up_pcs": t.s_up_pcs,
                                  "s_up_corrected_loo": None if (mfs[gi].s_up is None or not others) else mfs[gi].s_up + float(np.median(others))})
     for gi, t in enumerate(tables):
-        law.loo_s_dn.append({"f_ex": t.f_ex, "a_ex": t.a_ex, "s_dn_pcs": t.s_dn_pcs, "s_dn_law": law.s_dn(mfs[gi], exclude_group=gi)})
+        others = [v for g, v in rho_per.items() if g != gi]
+        rc = float(np.median(others)) if others else 0.0
+        law.loo_s_dn.append({"f_ex": t.f_ex, "a_ex": t.a_ex, "s_dn_pcs": t.s_dn_pcs, "rho_pcs": rho_per.get(gi),
+                             "rho_c_loo": rc, "s_dn_law": law.s_dn(mfs[gi], rho_c=rc)})
     # Leave one operating point out.
     err2 = {"L": [], "H": []}
     for gi, t in enumerate(tables):
@@ -423,10 +520,10 @@ def law_json(law: DriftLaw) -> str:
         "groups": {b: law.groups[b].tolist() for b in law.groups}, "mean": law.mean.tolist(), "std": law.std.tolist(),
         "lo": law.lo.tolist(), "hi": law.hi.tolist(), "points": [list(p) for p in law.points], "loo": law.loo,
         "loo_per_point": law.loo_per_point, "fit_time_s": law.fit_time_s,
-        "x_exist": law.x_exist.tolist(), "y_exist": law.y_exist.tolist(), "g_exist": law.g_exist.tolist(), "loo_s_dn": law.loo_s_dn,
+        "rho_c": law.rho_c, "loo_s_dn": law.loo_s_dn,
         "s_up_shift": law.s_up_shift, "loo_s_up": law.loo_s_up,
         "mono_x": law.mono_x.tolist(), "mono_y": law.mono_y.tolist(), "mono_std": law.mono_std.tolist(),
-        "mono_groups": law.mono_groups.tolist(),
+        "mono_groups": law.mono_groups.tolist(), "lift_c": law.lift_c, "lift_c_per_point": law.lift_c_per_point,
     }
     return json.dumps(d)
 
@@ -454,11 +551,11 @@ def load_drift_law(path: Union[str, os.PathLike]) -> DriftLaw:
         groups={b: np.asarray(v, dtype=int) for b, v in d["groups"].items()}, mean=arr(d["mean"]), std=arr(d["std"]),
         lo=arr(d["lo"]), hi=arr(d["hi"]), points=[tuple(p) for p in d["points"]], k=int(d["k"]), loo=d.get("loo", {}),
         loo_per_point=d.get("loo_per_point", []), fit_time_s=float(d.get("fit_time_s", 0.0)),
-        x_exist=arr(d.get("x_exist", [])).reshape(-1, n), y_exist=arr(d.get("y_exist", [])),
-        g_exist=np.asarray(d.get("g_exist", []), dtype=int), loo_s_dn=d.get("loo_s_dn", []),
+        rho_c=float(d.get("rho_c", 0.0)), loo_s_dn=d.get("loo_s_dn", []),
         s_up_shift=float(d.get("s_up_shift", 0.0)), loo_s_up=d.get("loo_s_up", []),
         mono_x=arr(d.get("mono_x", [])).reshape(-1, 2), mono_y=arr(d.get("mono_y", [])),
         mono_std=arr(d.get("mono_std", [1.0, 1.0])), mono_groups=np.asarray(d.get("mono_groups", []), dtype=int),
+        lift_c=float(d.get("lift_c", 1.0)), lift_c_per_point=d.get("lift_c_per_point", []),
     )
 
 

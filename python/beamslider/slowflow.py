@@ -7,7 +7,7 @@
   f_slope, a_ex/g, Â, branch).
 - :func:`fit_drift_law` — (b2) a transferable drift law fitted on several operating points'
   tables (distance-weighted k-nearest neighbours in standardised feature space, per branch; V = 0
-  where Λ_g < 1; odd symmetry by construction), with leave-one-operating-point-out validation.
+  where Λ_g < Λ_c, learnt from the tables; odd symmetry by construction), with leave-one-operating-point-out validation.
 - :func:`predict` — HB manifold (layer (a)) + drift (a table or a fitted law) + slow flow
   (core, exact per-cell integration with event location) + the operating-map classifier.
 
@@ -22,6 +22,7 @@ every name is importable from here.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import os
@@ -122,14 +123,16 @@ def dead_band(v: np.ndarray, v_dead: float) -> np.ndarray:
     return v - np.clip(v, -v_dead, v_dead) if v_dead > 0 else v
 
 
-def slow_model(manifold, drift, *, s_dn: str = "hb", nodes: int = 121, v_dead: Optional[float] = None):
+def slow_model(manifold, drift, *, s_dn: str = "auto", nodes: int = 121, v_dead: Optional[float] = None):
     """Nodes of the reduced model: each branch of ``manifold`` sampled at up to ``nodes`` points
     (plus its ends) in the half coordinate, with Â and V there.
 
     ``drift``: a :class:`DriftTable` (b1: V interpolated linearly in s on the branch's rows,
     held constant beyond them) or a :class:`DriftLaw` (b2). ``s_dn``: 'hb' — the HB manifold's
-    own jump-down (None with single-term HB unless d_eff ends the high branch); 'table' — the
-    PCS sweep's jump-down of the drift table (b1 only); 'none'.
+    own jump-down (None with single-term HB unless d_eff ends the high branch); 'law' — the HB
+    manifold's own, else the law's (:meth:`DriftLaw.s_dn`: where the forcing ratio falls below the
+    PCS tables' ``rho_c``; b2 only); 'table' — the PCS sweep's jump-down of the drift table (b1
+    only); 'none'; 'auto' (default) — 'law' with a DriftLaw, 'hb' with a DriftTable.
 
     ``v_dead``: dead band of V [1/s] (:func:`dead_band`; None or 0: none). An option of this
     Python path only (measured in docs/superslow/validation_c_levers.txt; not used by the core).
@@ -139,11 +142,13 @@ def slow_model(manifold, drift, *, s_dn: str = "hb", nodes: int = 121, v_dead: O
     v_dead = float(v_dead or 0.0)
     if v_dead < 0 or not math.isfinite(v_dead):
         raise ValueError(f"invalid parameter `v_dead` = {v_dead}: must be finite and >= 0")
-    if s_dn not in ("hb", "table", "law", "none"):
-        raise ValueError(f"invalid parameter `s_dn` = {s_dn!r}: one of 'hb', 'table', 'law', 'none'")
+    if s_dn not in ("auto", "hb", "table", "law", "none"):
+        raise ValueError(f"invalid parameter `s_dn` = {s_dn!r}: one of 'auto', 'hb', 'table', 'law', 'none'")
+    if s_dn == "auto":
+        s_dn = "law" if isinstance(drift, DriftLaw) else "hb"
     lo_all, hi_all = manifold.s_range
     s_up = manifold.s_up
-    s_dn_v = manifold.s_dn if s_dn == "hb" else None
+    s_dn_v = manifold.s_dn if s_dn in ("hb", "law") else None
     if s_dn == "table":
         if not isinstance(drift, DriftTable):
             raise ValueError("invalid parameter `s_dn` = 'table': needs a DriftTable as drift")
@@ -151,7 +156,10 @@ def slow_model(manifold, drift, *, s_dn: str = "hb", nodes: int = 121, v_dead: O
     if s_dn == "law":
         if not isinstance(drift, DriftLaw):
             raise ValueError("invalid parameter `s_dn` = 'law': needs a DriftLaw as drift")
-        s_dn_v = drift.s_dn(manifold)
+        if s_dn_v is None:
+            s_dn_v = drift.s_dn(manifold)
+        else:
+            s_dn = "hb"
     info = {"extrapolated": isinstance(drift, DriftLaw) and drift.outside_points(manifold.f_ex, manifold.a_ex),
             "features": {}, "s_up": s_up, "s_dn": s_dn_v, "s_dn_source": s_dn if s_dn_v is not None else "none"}
     out = {}
@@ -176,7 +184,7 @@ def slow_model(manifold, drift, *, s_dn: str = "hb", nodes: int = 121, v_dead: O
         else:
             f = features(manifold, br, s)
             v, outside = drift.evaluate(br, f)
-            if np.any(outside & (f["lift_off"] >= 1.0)):
+            if np.any(outside & (f["lift_off"] >= drift.lift_c)):
                 info["extrapolated"] = True
             info["features"][br] = {"s": s, **f}
         v = dead_band(v, v_dead)
@@ -238,7 +246,7 @@ def predict(
     s0: float = 0.3,
     t_end: float = 120.0,
     drift,
-    s_dn: str = "hb",
+    s_dn: str = "auto",
     n_modes: int = 5,
     d_eff: Optional[float] = None,
     manifold=None,
@@ -258,8 +266,10 @@ def predict(
             (b2). A law used outside its training range is reported (``extrapolated``, a warning),
             never silently.
         s_dn: source of the jump-down position: 'hb' (the HB manifold's own; none with single-term
-            HB), 'table' (the PCS sweep of a DriftTable), 'law' (learnt from the PCS tables by a
-            fitted DriftLaw, :meth:`DriftLaw.s_dn`), 'none'.
+            HB), 'table' (the PCS sweep of a DriftTable), 'law' (the HB manifold's own, else
+            learnt from the PCS tables by a fitted DriftLaw: where the forcing ratio
+            a_ex/(Ω²Â_H h) falls below the law's ``rho_c``, :meth:`DriftLaw.s_dn`), 'none';
+            'auto' (default): 'law' with a DriftLaw, 'hb' with a DriftTable.
         n_modes: modes of the HB manifold.
         d_eff: equivalent damping ratio of the HB manifold (issue §2.5.1; None: off).
         manifold: a precomputed :func:`beamslider.superslow.hb_manifold` result (skips layer (a)).
@@ -354,7 +364,7 @@ def predicted_map(
     a_ex: Sequence[float],
     s0: float = 0.3,
     t_end: float = 120.0,
-    s_dn: str = "hb",
+    s_dn: str = "law",
     d_eff: Optional[float] = None,
     n_modes: int = 5,
     out: Union[str, os.PathLike, None] = None,
@@ -367,13 +377,14 @@ def predicted_map(
     ``predicted``, counters are zero, no end state; extra keys ``events``, ``extrapolated``,
     ``s_dn_source``).
 
-    The default (``s_dn='hb'``) is computed by the core (manifold, law, slow flow and classifier
+    ``s_dn='law'`` (the default: the HB manifold's jump-down, else the law's, :meth:`DriftLaw.s_dn`)
+    and ``'hb'`` (the HB manifold's own only) are computed by the core (manifold, law, slow flow and classifier
     in Rust, ``threads`` threads, the interpreter released, Ctrl-C stops it) and written by the
     core's map results writer, as ``beamslider-batch map --predictor``: with ``out`` (a folder) the
     rows go to ``out/map.jsonl`` with the predictor in its header; an existing file is refused
     (``FileExistsError``) unless ``force`` (replaced) or ``resume`` (its points are kept; it must
-    hold the same law and settings). ``s_dn='law'`` or ``'none'`` are evaluated in Python
-    (:func:`predict`) and cannot be written (``out`` must be None)."""
+    hold the same law and settings). ``s_dn='none'`` is evaluated in Python (:func:`predict`) and
+    cannot be written (``out`` must be None)."""
     from .maps import map_config_toml
 
     p = resolve(params)
@@ -381,9 +392,9 @@ def predicted_map(
         raise ValueError(f"invalid parameter `s_dn` = {s_dn!r}: one of 'hb', 'law', 'none'")
     if not isinstance(drift, DriftLaw):
         raise ValueError("invalid parameter `drift`: a fitted DriftLaw (fit_drift_law / load_drift_law)")
-    if s_dn != "hb":
+    if s_dn == "none":
         if out is not None:
-            raise ValueError(f"invalid parameter `out`: a map with s_dn={s_dn!r} is evaluated in Python and not written (the core writes s_dn='hb')")
+            raise ValueError(f"invalid parameter `out`: a map with s_dn={s_dn!r} is evaluated in Python and not written (the core writes s_dn='law' and 'hb')")
         return _predicted_rows_python(p, drift, f_ex, a_ex, s0, t_end, s_dn, d_eff, n_modes)
     path = None
     if out is not None:
@@ -393,7 +404,8 @@ def predicted_map(
         if path.exists() and force and not resume:
             path.unlink()
     cfg = map_config_toml(p, f_ex=[float(v) for v in f_ex], a_ex=[float(v) for v in a_ex], s0=float(s0), t_end=float(t_end))
-    rows = _core.predicted_map(cfg, law_json(drift), out=None if path is None else str(path), resume=bool(resume),
+    law = drift if s_dn == "law" else dataclasses.replace(drift, rho_c=0.0, _trees={})
+    rows = _core.predicted_map(cfg, law_json(law), out=None if path is None else str(path), resume=bool(resume),
                                threads=threads, n_modes=int(n_modes), d_eff=d_eff)
     return [json.loads(r) for r in rows]
 

@@ -5,7 +5,9 @@
 //! * [`DriftLaw`] — the law file written by `beamslider.slowflow.fit_drift_law(...).save(path)`
 //!   (JSON): per branch, training samples (features, V); evaluated as the distance-weighted mean
 //!   of the k nearest samples of the same branch in standardised feature space,
-//!   V = Σ wᵢVᵢ / Σ wᵢ with wᵢ = 1/max(dᵢ, 10⁻⁶), and V = 0 where Λ_g < 1 (no lift-off).
+//!   V = Σ wᵢVᵢ / Σ wᵢ with wᵢ = 1/max(dᵢ, 10⁻⁶), and V = 0 where Λ_g < Λ_c (no lift-off; Λ_c
+//!   is the law's `lift_c`, learnt from the PCS tables: where their clampward drift ends; 1 in
+//!   law files without it).
 //! * [`features`] — the local features of issue §3.2 at s on one branch of an HB manifold, with
 //!   Q interpolated linearly in s between the continuation points:
 //!   ŵ_abs = a_ex/Ω² + Φ(s)ᵀQ, θ̂ = Φ′(s)ᵀQ, Λ_g = Ω²|ŵ_abs|/g, θ̂/θ_gap with θ_gap = (R − h)/B,
@@ -13,7 +15,7 @@
 //!   (Â/max Â_H, s) ([`FEATURES`]): the relative amplitude on the branch and the position (the
 //!   stable zeros of V_H, where the slider stops, sit at nearly the same s over the map; chosen by
 //!   the leave-one-operating-point-out error, docs/superslow/validation_b_features.txt); Λ_g
-//!   enters through the constraint V = 0 where Λ_g < 1.
+//!   enters through the constraint V = 0 where Λ_g < Λ_c.
 //! * [`predict_point`] — nodes on each branch, V from the law, [`crate::slowflow::slow_flow`]
 //!   and its classification; [`run_predicted_map`] — every point of a map configuration.
 //!
@@ -66,6 +68,14 @@ struct LawFile {
     mono_y: Vec<f64>,
     #[serde(default)]
     mono_std: Vec<f64>,
+    #[serde(default = "one")]
+    lift_c: f64,
+    #[serde(default)]
+    rho_c: f64,
+}
+
+fn one() -> f64 {
+    1.0
 }
 
 /// Training samples of one branch.
@@ -104,6 +114,12 @@ pub struct DriftLaw {
     pub mono: Vec<([f64; 2], bool)>,
     /// Standardisation of the monostability inputs.
     pub mono_std: [f64; 2],
+    /// Lift-off threshold Λ_c: V = 0 where Λ_g < Λ_c (learnt from the PCS tables by
+    /// `fit_drift_law`; 1, the issue's constraint, in law files without it).
+    pub lift_c: f64,
+    /// Forcing ratio ρ_c at which the nonsmooth model's high branch ends ([`law_s_dn`]; learnt
+    /// from the PCS tables' jump-downs by `fit_drift_law`; 0: none, the HB manifold's own s_dn only).
+    pub rho_c: f64,
     /// Fingerprint of the samples (FNV-1a over the bits of k, the samples and the scaling):
     /// written to a predicted map's header and compared on resume.
     pub fingerprint: String,
@@ -142,9 +158,21 @@ impl DriftLaw {
         if !(f.s_up_shift.is_finite() && f.s_up_shift.abs() < 0.5) {
             return Err(Error::invalid("law", "s_up_shift", "must be finite, |shift| < 0.5"));
         }
+        if !(f.lift_c.is_finite() && f.lift_c > 0.0 && f.lift_c <= 2.0) {
+            return Err(Error::invalid("law", "lift_c", "must be finite, 0 < lift_c <= 2"));
+        }
         let mut hash = Fnv::new();
         hash.add(f.k as f64);
         hash.add(f.s_up_shift);
+        if f.lift_c != 1.0 {
+            hash.add(f.lift_c);
+        }
+        if !(f.rho_c.is_finite() && f.rho_c >= 0.0) {
+            return Err(Error::invalid("law", "rho_c", "must be finite and >= 0"));
+        }
+        if f.rho_c != 0.0 {
+            hash.add(f.rho_c);
+        }
         for x in mean.iter().chain(&std) {
             hash.add(*x);
         }
@@ -188,7 +216,7 @@ impl DriftLaw {
             hash.add(x[1]);
             hash.add(if *y { 1.0 } else { 0.0 });
         }
-        Ok(DriftLaw { k: f.k, low, high, mean, std, lo, hi, points, s_up_shift: f.s_up_shift, mono, mono_std, fingerprint: format!("{:016x}", hash.0) })
+        Ok(DriftLaw { k: f.k, low, high, mean, std, lo, hi, points, s_up_shift: f.s_up_shift, mono, mono_std, lift_c: f.lift_c, rho_c: f.rho_c, fingerprint: format!("{:016x}", hash.0) })
     }
 
     /// Read a law file.
@@ -236,7 +264,7 @@ impl DriftLaw {
     }
 
     /// V at the features `x` (law inputs, [`FEATURES`]) on the high (`high`) or low branch, and
-    /// whether `x` lies outside the training range. `lift_off` = Λ_g (V = 0 where < 1).
+    /// whether `x` lies outside the training range. `lift_off` = Λ_g (V = 0 where < Λ_c).
     pub fn evaluate(&self, high: bool, x: &[f64; NF], lift_off: f64) -> (f64, bool) {
         let outside = (0..NF).any(|i| x[i] < self.lo[i] - 1e-9 || x[i] > self.hi[i] + 1e-9);
         let b = self.branch(high);
@@ -255,7 +283,7 @@ impl DriftLaw {
             sw += w;
             swv += w * b.v[j];
         }
-        let v = if lift_off < 1.0 { 0.0 } else { swv / sw };
+        let v = if lift_off < self.lift_c { 0.0 } else { swv / sw };
         (v, outside)
     }
 }
@@ -441,7 +469,9 @@ pub struct PointPrediction {
     pub model: SlowModel,
     /// Jump-up position used.
     pub s_up: Option<f64>,
-    /// Jump-down position used (the HB manifold's own).
+    /// Jump-down position used (the HB manifold's own, else the law's).
+    pub s_dn_source: &'static str,
+    /// Jump-down position used.
     pub s_dn: Option<f64>,
     /// The law's monostability vote said: a single low branch ([`DriftLaw::monostable`]).
     pub monostable: bool,
@@ -459,8 +489,42 @@ fn linspace(a: f64, z: f64, n: usize) -> Vec<f64> {
     v
 }
 
+/// Smallest s at which [`law_s_dn`] looks for the end of the high branch.
+pub const S_DN_MIN: f64 = 0.2;
+
+/// Jump-down position from the forcing ratio ρ(s) = a_ex / (Ω² Â_H(s) h) on the HB high branch
+/// (issue 17 §2.2: single-mode HB ends the high branch where Â_H reaches the damping-limited peak
+/// F/(2DωΩ), where ρ is proportional to the damping; the nonsmooth model's effective damping is
+/// learnt as ρ_c): the first s ≥ [`S_DN_MIN`] where ρ(s) < ρ_c, linearly interpolated between the
+/// branch's points; None if it never falls below ρ_c or ρ_c = 0 (as `drift_law.s_dn_forcing_ratio`).
+pub fn law_s_dn(manifold: &HbManifold, f_ex_hz: f64, a_ex: f64, rho_c: f64, thickness_m: f64) -> Option<f64> {
+    let hb = &manifold.high;
+    if hb.s.is_empty() || !(rho_c > 0.0) {
+        return None;
+    }
+    let mut idx: Vec<usize> = (0..hb.s.len()).collect();
+    idx.sort_by(|&i, &j| hb.s[i].total_cmp(&hb.s[j]));
+    let omega = 2.0 * std::f64::consts::PI * f_ex_hz;
+    let rho = |i: usize| a_ex / (omega * omega * hb.amplitude_h[i] * thickness_m);
+    for w in 1..idx.len() {
+        let (i0, i1) = (idx[w - 1], idx[w]);
+        let (s0, s1) = (hb.s[i0], hb.s[i1]);
+        let r1 = rho(i1);
+        if s1 < S_DN_MIN || !(r1 < rho_c) {
+            continue;
+        }
+        let r0 = rho(i0);
+        if s0 >= S_DN_MIN && r0 >= rho_c && r0 != r1 {
+            return Some(s0 + (s1 - s0) * (r0 - rho_c) / (r0 - r1));
+        }
+        return Some(s1);
+    }
+    None
+}
+
 /// The reduced model of one operating point from its HB manifold and a law: each branch
-/// sampled at `nodes` points over its s-range (the high branch up to the HB s_dn), Â and V there.
+/// sampled at `nodes` points over its s-range (the high branch up to the HB manifold's s_dn, else
+/// the law's, [`law_s_dn`]), Â and V there.
 /// Returns the model and whether the law extrapolated.
 pub fn slow_model(params: &Params, manifold: &HbManifold, law: &DriftLaw, f_ex_hz: f64, a_ex: f64, nodes: usize) -> Result<(SlowModel, bool)> {
     let beam = beam_for(params, manifold.n_modes)?;
@@ -471,6 +535,7 @@ pub fn slow_model(params: &Params, manifold: &HbManifold, law: &DriftLaw, f_ex_h
 pub fn slow_model_with(params: &Params, beam: &Beam, manifold: &HbManifold, law: &DriftLaw, f_ex_hz: f64, a_ex: f64, nodes: usize) -> Result<(SlowModel, bool)> {
     let mut extrapolated = law.outside_points(f_ex_hz, a_ex);
     let mut model = SlowModel { low_ends_in_fold: manifold.s_up.is_some(), ..SlowModel::default() };
+    let s_dn = manifold.s_dn.or_else(|| law_s_dn(manifold, f_ex_hz, a_ex, law.rho_c, params.thickness_m));
     for high in [false, true] {
         let b = if high { &manifold.high } else { &manifold.low };
         if b.is_empty() {
@@ -478,7 +543,7 @@ pub fn slow_model_with(params: &Params, beam: &Beam, manifold: &HbManifold, law:
         }
         let a = b.s.iter().copied().fold(f64::INFINITY, f64::min);
         let mut z = b.s.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-        if high && let Some(sd) = manifold.s_dn {
+        if high && let Some(sd) = s_dn {
             z = z.min(sd);
         }
         if z <= a {
@@ -489,7 +554,7 @@ pub fn slow_model_with(params: &Params, beam: &Beam, manifold: &HbManifold, law:
         let mut br = SlowBranch { s: s.clone(), amplitude_h: Vec::with_capacity(s.len()), v_per_s: Vec::with_capacity(s.len()) };
         for f in &feats {
             let (v, outside) = law.evaluate(high, &f.x(), f.lift_off);
-            extrapolated |= outside && f.lift_off >= 1.0;
+            extrapolated |= outside && f.lift_off >= law.lift_c;
             br.amplitude_h.push(f.amplitude_h);
             br.v_per_s.push(v);
         }
@@ -514,7 +579,7 @@ pub fn slow_model_with(params: &Params, beam: &Beam, manifold: &HbManifold, law:
             model.low = br;
         }
     }
-    model.high_ends_in_fold = manifold.s_dn.is_some() && !model.high.s.is_empty();
+    model.high_ends_in_fold = s_dn.is_some() && !model.high.s.is_empty();
     if !model.low.s.is_empty() && law.monostable(manifold) {
         monostable_low(params, beam, manifold, law, f_ex_hz, a_ex, &mut model)?;
     }
@@ -587,6 +652,11 @@ pub fn predict_point_with(params: &Params, beam: &Beam, law: &DriftLaw, f_ex_hz:
     Ok(PointPrediction {
         s_up: model.s_up(),
         s_dn: model.s_dn(),
+        s_dn_source: match (model.s_dn(), manifold.s_dn) {
+            (None, _) => "none",
+            (Some(_), Some(_)) => "hb",
+            (Some(_), None) => "law",
+        },
         monostable: law.monostable(&manifold),
         flow,
         extrapolated,
@@ -613,7 +683,7 @@ pub fn predicted_row(index: usize, f_ex_hz: f64, a_ex: f64, s0: f64, t_end_s: f6
     extra.insert("events".into(), serde_json::Value::Array(events));
     extra.insert("extrapolated".into(), serde_json::Value::Bool(p.extrapolated));
     extra.insert("monostable".into(), serde_json::Value::Bool(p.monostable));
-    extra.insert("s_dn_source".into(), serde_json::Value::String(if p.s_dn.is_some() { "hb" } else { "none" }.into()));
+    extra.insert("s_dn_source".into(), serde_json::Value::String(p.s_dn_source.into()));
     let point = MapPoint { index, f_ex_hz, a_ex_m_s2: a_ex, s0 };
     let mut row = MapRow::from_classification(&point, t_end_s, STATUS_PREDICTED, c, Counters::default(), wall_s, None);
     row.extra = extra;
@@ -629,7 +699,7 @@ pub fn header_value(law: &DriftLaw, opts: &PredictOptions) -> serde_json::Value 
         "k": law.k,
         "n_modes": opts.hb.n_modes,
         "d_eff": opts.hb.d_eff,
-        "s_dn": "hb",
+        "s_dn": if law.rho_c > 0.0 { "law" } else { "hb" },
         "nodes": opts.nodes,
     })
 }

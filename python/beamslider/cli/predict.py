@@ -45,9 +45,10 @@ def add_parser(sub: Any) -> None:
     g = sp.add_mutually_exclusive_group(required=True)
     g.add_argument("--drift", metavar="JSONL", help="drift table of this operating point (beamslider drift-table)")
     g.add_argument("--law", metavar="JSON", help="fitted drift law (beamslider.superslow.fit_drift_law(...).save)")
-    sp.add_argument("--s-dn", choices=["hb", "table", "law", "none"], default="hb",
-                    help="jump-down position: from the HB manifold (default), from the PCS table (--drift), "
-                         "learnt by the law (--law), or none")
+    sp.add_argument("--s-dn", choices=["auto", "hb", "table", "law", "none"], default="auto",
+                    help="jump-down position: from the HB manifold (hb), from the PCS table (table, with --drift), "
+                         "the HB manifold's else the law's forcing-ratio rule (law, with --law), or none; "
+                         "auto (default): law with --law, hb with --drift")
     sp.add_argument("--d-eff", type=float, metavar="D", help="equivalent damping ratio of the HB manifold")
     add_common(sp, window=False)
     add_force(sp)
