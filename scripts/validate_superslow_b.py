@@ -30,6 +30,7 @@ from beamslider import Parameters, read_map, simulate  # noqa: E402
 from beamslider.slowflow import (drift_table, fit_drift_law, load_drift_law, predict, predicted_map,  # noqa: E402
                                  read_drift_table, save_drift_law)
 from beamslider.superslow import hb_manifold  # noqa: E402
+from beamslider.drift_law import MONO_RISE_H  # noqa: E402
 
 OUT = ROOT / "docs" / "superslow"
 DRIFT = OUT / "drift"
@@ -320,45 +321,72 @@ def _compare(title, pred, grid_ref, ref, train, f_ex, a_ex, names):
     return lines
 
 
+def _loo_rows(tables, f_ex, a_ex, s_dn="law", **kw):
+    """The b2 map with the law fitted on all tables, each training point predicted by the law
+    fitted without its own table (leave one operating point out)."""
+    law = fit_drift_law(tables, **kw)
+    rows = {(r["f_ex_hz"], r["a_ex_m_s2"]): r for r in predicted_map(drift=law, f_ex=f_ex, a_ex=a_ex, s0=0.3, t_end=120.0, s_dn=s_dn)}
+    for j, t in enumerate(tables):
+        lw = fit_drift_law([x for i, x in enumerate(tables) if i != j], **kw)
+        rows[(t.f_ex, t.a_ex)] = predicted_map(drift=lw, f_ex=[t.f_ex], a_ex=[t.a_ex], s0=0.3, t_end=120.0, s_dn=s_dn)[0]
+    return law, rows
+
+
 def stage_map():
     """§4.4: the map by the predictor (b2 law; b1 per-point tables) against the FS map."""
     tables = available_tables()
     t0 = time.perf_counter()
-    law = fit_drift_law(tables, s_up_correction=False)
+    law_c = fit_drift_law(tables)
     t_fit = time.perf_counter() - t0
-    law_c = fit_drift_law(tables, s_up_correction=True)
     save_drift_law(law_c, OUT / "law.json")
     ref = read_map(ROOT / "docs" / "operating_map.jsonl")
     f_ex = sorted(set(float(x) for x in ref["f_ex_hz"]))
     a_ex = sorted(set(float(x) for x in ref["a_ex_m_s2"]))
     t0 = time.perf_counter()
-    rows = predicted_map(drift=law, f_ex=f_ex, a_ex=a_ex, s0=0.3, t_end=120.0)
-    t_map = time.perf_counter() - t0
-    pred = {(r["f_ex_hz"], r["a_ex_m_s2"]): r for r in rows}
     rows_c = predicted_map(drift=law_c, f_ex=f_ex, a_ex=a_ex, s0=0.3, t_end=120.0, out=OUT / "predicted_map", force=True)
+    t_map = time.perf_counter() - t0
     pred_c = {(r["f_ex_hz"], r["a_ex_m_s2"]): r for r in rows_c}
     names = ["inactivity", "trivial_adaption", "signature_move", "relaxation_oscillation", "self_damping", "not_settled", "undetermined"]
     grid_ref = {(float(ref["f_ex_hz"][i]), float(ref["a_ex_m_s2"][i])): ref["behaviour"][i] for i in range(len(ref["f_ex_hz"]))}
     train = {(t.f_ex, t.a_ex) for t in tables}
     n = len(grid_ref)
     lines = [f"§4.4  Whole map (7 × 16, s0 = 0.3, 120 s) against the FS map docs/operating_map.jsonl",
-             f"b2 law: kNN (k = {law.k}) on features {', '.join(law_features())}, fitted on {len(tables)} PCS tables "
+             f"b2 law: kNN (k = {law_c.k}) on features {', '.join(law_features())}, fitted on {len(tables)} PCS tables "
              + ", ".join(f"({f:g}, {a:g})" for f, a in sorted(train))
-             + f"; leave-one-point-out V error {law.loo['rms_error']:.5f} 1/s = {law.loo['ratio']:.2f} × typical |V| ({law.loo['typical_v']:.5f} 1/s)",
+             + f"; leave-one-point-out V error {law_c.loo['rms_error']:.5f} 1/s = {law_c.loo['ratio']:.2f} × typical |V| ({law_c.loo['typical_v']:.5f} 1/s)",
              f"timing b2: fit {t_fit:.2f} s (layer-(a) manifolds of the training points included), map {t_map:.2f} s ({1e3 * t_map / n:.1f} ms per point); "
-             f"extrapolated points: {sum(r['extrapolated'] for r in rows)} of {n}"]
-    lines += _compare("b2 (transferable law; s_up and branches from HB N = 5, s_dn: HB = none)", pred, grid_ref, ref, train, f_ex, a_ex, names)
-    lines.append("")
-    lines.append(f"learnt s_up correction (median of s_up(PCS) − s_up(HB) over the training tables): {law_c.s_up_shift:+.4f}; leave one out: "
-                 + "; ".join(f"({r['f_ex']:g}, {r['a_ex']:g}) HB {_fmt(r['s_up_hb'], 3)} PCS {_fmt(r['s_up_pcs'], 3)} corrected {_fmt(r['s_up_corrected_loo'], 3)}" for r in law_c.loo_s_up))
-    lines += _compare(f"b2 + learnt s_up correction ({law_c.s_up_shift:+.4f}; the default of fit_drift_law; docs/superslow/law.json, predicted_map/map.jsonl)",
-                      pred_c, grid_ref, ref, train, f_ex, a_ex, names)
-    preds = {"b2": pred, "b2+s_up": pred_c}
-    rows_law = predicted_map(drift=law, f_ex=f_ex, a_ex=a_ex, s0=0.3, t_end=120.0, s_dn="law")
-    pred_law = {(r["f_ex_hz"], r["a_ex_m_s2"]): r for r in rows_law}
-    lines.append("b2 s_dn learnt from the PCS tables (s_dn='law'), leave one point out: "
-                 + "; ".join(f"({r['f_ex']:g}, {r['a_ex']:g}) PCS {_fmt(r['s_dn_pcs'], 3)} law {_fmt(r['s_dn_law'], 3)}" for r in law.loo_s_dn))
-    lines += _compare("b2 with s_dn='law' (learnt jump-down; not the default)", pred_law, grid_ref, ref, train, f_ex, a_ex, names)
+             f"extrapolated points: {sum(r['extrapolated'] for r in rows_c)} of {n}",
+             "",
+             "What the law learns from the PCS tables (no FS run enters the law; the FS map is only the reference):",
+             f"- s_up shift (median s_up(PCS) − s_up(HB)): {law_c.s_up_shift:+.4f}; leave one out: "
+             + "; ".join(f"({r['f_ex']:g}, {r['a_ex']:g}) HB {_fmt(r['s_up_hb'], 3)} PCS {_fmt(r['s_up_pcs'], 3)} corrected {_fmt(r['s_up_corrected_loo'], 3)}" for r in law_c.loo_s_up),
+             f"- lift-off threshold Λ_c = {law_c.lift_c:.3f} (median of the tables where the clampward drift ends: "
+             + ", ".join(f"({r['f_ex']:g}, {r['a_ex']:g}) {r['lift_c']:.3f}" for r in law_c.lift_c_per_point) + "; the issue's constraint is Λ_c = 1)",
+             f"- jump-down forcing ratio ρ_c = a_ex/(Ω² Â_H(s_dn) h) = {law_c.rho_c:.5f} (median over the tables with a PCS jump-down); "
+             "s_dn leave one out: " + "; ".join(f"({r['f_ex']:g}, {r['a_ex']:g}) PCS {_fmt(r['s_dn_pcs'], 3)} law {_fmt(r['s_dn_law'], 3)}" for r in law_c.loo_s_dn),
+             "- monostable labels (PCS down sweep without jump-up that stays below "
+             f"{MONO_RISE_H:g} h on the clamping side of the HB fold): "
+             + ", ".join(f"({tables[g].f_ex:g}, {tables[g].a_ex:g})" for g, y in zip(law_c.mono_groups, law_c.mono_y) if y > 0.5)]
+    lines += _compare("b2 (the default law of fit_drift_law; docs/superslow/law.json, predicted_map/map.jsonl; training points predicted with "
+                      "the law that includes their own PCS table)", pred_c, grid_ref, ref, train, f_ex, a_ex, names)
+    _, pred_loo = _loo_rows(tables, f_ex, a_ex)
+    lines += _compare("b2, training points predicted leave one operating point out (their own PCS table left out of the law)",
+                      pred_loo, grid_ref, ref, train, f_ex, a_ex, names)
+    # What each learnt piece adds (training points leave one out).
+    lines += ["", "Ablations (training points leave one out): strict / phase agreement, final-s error over agreeing points steady in FS (median, 90th percentile)"]
+    for title, s_dn, kw in (("default", "law", {}), ("without the learnt jump-down (s_dn='hb')", "hb", {}),
+                            ("with Λ_c = 1 (the issue's constraint)", "law", {"lift_off_threshold": 1.0}),
+                            ("without the s_up shift", "law", {"s_up_correction": False}),
+                            ("without the monostable vote", "law", {"monostable_vote": False}),
+                            ("none of the four (s_dn='hb', Λ_c = 1, no shift, no vote)", "hb",
+                             {"lift_off_threshold": 1.0, "s_up_correction": False, "monostable_vote": False})):
+        _, rows = _loo_rows(tables, f_ex, a_ex, s_dn=s_dn, **kw)
+        strict, phase, _ = _score(rows, ref, names)
+        errs = [abs(rows[k]["s_final"] - ref["s_final"][i]) for k, i in
+                (((float(ref["f_ex_hz"][i]), float(ref["a_ex_m_s2"][i])), i) for i in range(n))
+                if rows[k]["behaviour"] == ref["behaviour"][i] and ref["steady"][i]]
+        lines.append(f"  {title:<58} {strict:3d}/{n} {phase:3d}/{n}  {np.median(errs):.4f} {np.percentile(errs, 90):.4f} (n {len(errs)})")
+    preds = {"b2": pred_c, "b2 LOO": pred_loo}
     for source, title in (("hb", "b1 (per-point PCS table Δs 0.02: V; HB N = 5 branches and s_up; s_dn from the PCS table)"),
                           ("table", "b1-PCS (per-point PCS table only: V, Â, s_up and s_dn from its sweeps; no layer (a))")):
         b1 = _b1_map(f_ex, a_ex, source)
