@@ -27,7 +27,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "python"))
 
 from beamslider import Parameters, read_map, simulate  # noqa: E402
-from beamslider.slowflow import (drift_table, fit_drift_law, load_drift_law, predict, predicted_map,  # noqa: E402
+from beamslider.slowflow import (drift_table, drift_tables, fit_drift_law, load_drift_law, predict, predicted_map,  # noqa: E402
                                  read_drift_table, save_drift_law)
 from beamslider.superslow import hb_manifold  # noqa: E402
 from beamslider.drift_law import MONO_RISE_H  # noqa: E402
@@ -480,8 +480,6 @@ def stage_speed(training="cheap", training_set="12 points"):
         q = d / f"drift_{f:g}Hz_{a:g}ms2.jsonl"
         if q.exists():
             q.unlink()
-    if (d / "timings.jsonl").exists():
-        (d / "timings.jsonl").unlink()
     c0, t0 = _cpu(), time.perf_counter()
     tabs, _ = _cheap_tables(training, pts_train)
     tab_wall, tab_cpu = time.perf_counter() - t0, _cpu() - c0
@@ -502,7 +500,7 @@ def stage_speed(training="cheap", training_set="12 points"):
     tot_cpu = tab_cpu + fit_cpu + map_cpu
     st, ph, errs = _score({(r["f_ex_hz"], r["a_ex_m_s2"]): r for r in rows}, ref, None)
     lines += [
-        f"training (b2): {len(pts_train)} PCS tables with {CHEAP[training]} — {tab_wall:.1f} s wall (both sweeps of a table on 2 threads), {tab_cpu:.1f} s CPU; fit {fit_wall:.2f} s",
+        f"training (b2): {len(pts_train)} PCS tables with {CHEAP[training]} — {tab_wall:.1f} s wall (two tables at a time, each with its two sweeps on two threads), {tab_cpu:.1f} s CPU; fit {fit_wall:.2f} s",
         f"predicted map (core, 2 threads): {n} points in {map_wall:.2f} s wall, {map_cpu:.2f} s CPU ({1e3 * map_cpu / n:.1f} ms CPU per point); "
         f"agreement of this map {st}/{n} strict, {ph}/{n} phase (training points in-sample here)",
         f"FS map estimate: {n} × {per_fs_wall:.2f} s / 2 threads = {fs_map_wall:.0f} s wall; {n} × {per_fs_cpu:.2f} s = {fs_map_cpu:.0f} s CPU "
@@ -531,35 +529,18 @@ LEVERS = Path("/tmp/beamslider_drift_levers")  # re-computable tables (not commi
 
 
 def _cheap_tables(kind, points):
-    """Training tables with the settings CHEAP[kind] (resumable); returns (tables, wall time of the
-    tables computed now or recorded when they were computed)."""
+    """Training tables with the settings CHEAP[kind] (resumable; computed two at a time,
+    ``drift_tables``); returns (tables, wall time of the tables computed now, or None when all
+    were read from disk)."""
     if kind == "fine":
         return [read_drift_table(table_path(f, a)) for f, a in points], None
     d = LEVERS / kind
-    d.mkdir(parents=True, exist_ok=True)
-    log = d / "timings.jsonl"
-    done = {}
-    if log.exists():
-        for x in log.read_text().splitlines():
-            r = json.loads(x)
-            done[(r["f_ex"], r["a_ex"])] = r["wall_s"]
-    out, wall = [], 0.0
-    for f, a in points:
-        p = d / f"drift_{f:g}Hz_{a:g}ms2.jsonl"
-        if p.exists() and (f, a) in done:
-            out.append(read_drift_table(p))
-            wall += done[(f, a)]
-            continue
-        if p.exists():
-            p.unlink()
-        t0 = time.perf_counter()
-        t = drift_table(f_ex=f, a_ex=a, **CHEAP[kind], out=p)
-        w = time.perf_counter() - t0
-        with open(log, "a", encoding="utf-8") as fh:
-            fh.write(json.dumps({"f_ex": f, "a_ex": a, "wall_s": w}) + "\n")
-        out.append(t)
-        wall += w
-    return out, wall
+    todo = [(f, a) for f, a in points if not (d / f"drift_{f:g}Hz_{a:g}ms2.jsonl").exists()]
+    t0 = time.perf_counter()
+    if todo:
+        drift_tables(points=todo, out=d, threads=2, **CHEAP[kind])
+    wall = time.perf_counter() - t0 if todo else None
+    return [read_drift_table(d / f"drift_{f:g}Hz_{a:g}ms2.jsonl") for f, a in points], wall
 
 
 def _score(rows_pred, ref, names):

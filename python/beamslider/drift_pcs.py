@@ -8,7 +8,8 @@ from __future__ import annotations
 import json
 import os
 from dataclasses import dataclass
-from typing import Dict, Optional, Sequence, Tuple, Union
+from pathlib import Path
+from typing import Dict, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
@@ -182,6 +183,64 @@ def drift_table(
     finally:
         close()
     return _table_from(header, rows, computed, out)
+
+
+def drift_tables(
+    params: Optional[Parameters] = None,
+    *,
+    points: Sequence[Tuple[float, float]],
+    out: Union[str, os.PathLike, None] = None,
+    resume: bool = False,
+    threads: Optional[int] = None,
+    progress: bool = False,
+    **settings,
+) -> List[DriftTable]:
+    """The drift tables of several operating points (e.g. a law's training set), computed
+    concurrently: ``threads`` tables at a time (default: the CPU count; the core releases the
+    interpreter, and each table's two sweeps run on two threads of their own). Each table is the
+    one :func:`drift_table` computes alone (same settings, bitwise the same rows), in the order of
+    ``points``. ``out``: a folder for the files ``drift_<f>Hz_<a>ms2.jsonl`` (``resume`` continues
+    them); ``settings``: the keyword arguments of :func:`drift_table` (ds, settle_periods, ...)."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    pts = [(_number("f_ex", f), _number("a_ex", a)) for f, a in points]
+    if not pts:
+        raise ValueError("invalid parameter `points`: at least one (f_ex, a_ex)")
+    n = int(threads) if threads is not None else (os.cpu_count() or 1)
+    if n < 1:
+        raise ValueError(f"invalid parameter `threads` = {threads}: must be >= 1")
+    folder = None if out is None else Path(out)
+    if folder is not None:
+        folder.mkdir(parents=True, exist_ok=True)
+    bad = set(settings) - {"ds", "s", "settle_periods", "first_settle_periods", "window_s", "sub_windows", "mirror"}
+    if bad:
+        raise ValueError(f"invalid parameter `{sorted(bad)[0]}`: not a drift_table setting")
+    p = resolve(params)
+
+    def one(fa):
+        f, a = fa
+        path = None if folder is None else folder / f"drift_{f:g}Hz_{a:g}ms2.jsonl"
+        return drift_table(p, f_ex=f, a_ex=a, out=path, resume=resume and path is not None and path.exists(), **settings)
+
+    bar = None
+    if progress:
+        try:
+            from tqdm import tqdm
+
+            bar = tqdm(total=len(pts), desc="drift tables", unit="table")
+        except ImportError:  # pragma: no cover
+            bar = None
+    out_tables: List[DriftTable] = []
+    with ThreadPoolExecutor(max_workers=min(n, len(pts))) as ex:
+        try:
+            for tab in ex.map(one, pts):
+                out_tables.append(tab)
+                if bar is not None:
+                    bar.update(1)
+        finally:
+            if bar is not None:
+                bar.close()
+    return out_tables
 
 
 def read_drift_table(path: Union[str, os.PathLike]) -> DriftTable:

@@ -38,13 +38,14 @@ from .params import Parameters, resolve
 from .simulate import _number
 from .drift_law import (FEATURES, DriftLaw, _manifold_for, _modes, features, fit_drift_law, mono_features,  # noqa: F401
                         law_json, load_drift_law, save_drift_law)
-from .drift_pcs import DriftTable, drift_table, read_drift_table  # noqa: F401
+from .drift_pcs import DriftTable, drift_table, drift_tables, read_drift_table  # noqa: F401
 
 __all__ = [
     "DriftTable",
     "DriftLaw",
     "Prediction",
     "drift_table",
+    "drift_tables",
     "read_drift_table",
     "features",
     "fit_drift_law",

@@ -83,7 +83,30 @@ pub struct ModeTable {
     data: Vec<f64>,
 }
 
+/// Beams built by [`Beam::shared`], most recent last (a handful: the reduced predictor asks for
+/// the same beam at every operating point).
+static SHARED: std::sync::Mutex<Vec<(Params, std::sync::Arc<Beam>)>> = std::sync::Mutex::new(Vec::new());
+const SHARED_MAX: usize = 4;
+
 impl Beam {
+    /// [`Beam::new`], shared: the beam of equal parameters is built once per process and reused
+    /// (the same value `new` returns; a small cache of the last few parameter sets).
+    pub fn shared(p: &Params) -> Result<std::sync::Arc<Beam>> {
+        if let Ok(cache) = SHARED.lock()
+            && let Some((_, b)) = cache.iter().rev().find(|(q, _)| q == p)
+        {
+            return Ok(b.clone());
+        }
+        let b = std::sync::Arc::new(Beam::new(p)?);
+        if let Ok(mut cache) = SHARED.lock() {
+            if cache.len() >= SHARED_MAX {
+                cache.remove(0);
+            }
+            cache.push((p.clone(), b.clone()));
+        }
+        Ok(b)
+    }
+
     /// Modes of the beam with the parameters' geometry and clamping (k_r may be +inf).
     pub fn new(p: &Params) -> Result<Beam> {
         p.validate()?;

@@ -383,10 +383,10 @@ pub fn features(params: &Params, manifold: &HbManifold, f_ex_hz: f64, a_ex: f64,
 }
 
 /// The beam with `n_modes` modes (the mode shapes of the features).
-pub fn beam_for(params: &Params, n_modes: usize) -> Result<Beam> {
+pub fn beam_for(params: &Params, n_modes: usize) -> Result<std::sync::Arc<Beam>> {
     let mut p = params.clone();
     p.n_modes = n_modes;
-    Beam::new(&p)
+    Beam::shared(&p)
 }
 
 /// [`features`] with the beam of [`beam_for`] built once by the caller.

@@ -220,7 +220,7 @@ struct PointOut {
 /// The N-mode, single-harmonic HB system with the slider rigidly attached (issue §2.3).
 #[derive(Debug, Clone)]
 pub struct HbSystem {
-    beam: Beam,
+    beam: std::sync::Arc<Beam>,
     n: usize,
     length: f64,
     thickness: f64,
@@ -281,7 +281,7 @@ impl HbSystem {
             return Err(Error::invalid("omega1_factor", opts.omega1_factor, "must be finite and > 0"));
         }
         let p = Params { n_modes: opts.n_modes, ..params.clone() };
-        let beam = Beam::new(&p)?;
+        let beam = Beam::shared(&p)?;
         let n = beam.n;
         let omega_ex = 2.0 * std::f64::consts::PI * f_ex_hz;
         let mut omega = beam.omega.clone();
