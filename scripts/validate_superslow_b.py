@@ -508,6 +508,25 @@ def stage_speed(training="cheap", training_set="12 points"):
         f"whole map including training: predictor {tot_wall:.1f} s wall, {tot_cpu:.1f} s CPU → {fs_map_wall / tot_wall:.1f}× (wall), "
         f"{fs_map_cpu / tot_cpu:.1f}× (CPU); against the measured FS map wall time 327.6 s: {327.6 / tot_wall:.1f}× (bar 20×)",
     ]
+    # The same with the default law's own training tables (TABLE_OPTS, docs/superslow/drift):
+    # recomputed into a temporary folder (rows bitwise those committed), two tables at a time.
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as tmp:
+        c0, t0 = _cpu(), time.perf_counter()
+        fine = drift_tables(points=TRAINING, out=tmp, threads=2, **TABLE_OPTS)
+        fine_wall, fine_cpu = time.perf_counter() - t0, _cpu() - c0
+    same = all(np.array_equal(x.v, read_drift_table(table_path(x.f_ex, x.a_ex)).v) for x in fine)
+    c0, t0 = _cpu(), time.perf_counter()
+    law_f = fit_drift_law(fine)
+    rows_f = predicted_map(drift=law_f, f_ex=f_ex, a_ex=a_ex, s0=0.3, t_end=120.0, threads=2)
+    rest_wall, rest_cpu = time.perf_counter() - t0, _cpu() - c0
+    st_f, ph_f, _ = _score({(r["f_ex_hz"], r["a_ex_m_s2"]): r for r in rows_f}, ref, None)
+    lines += [
+        f"with the default law's training tables ({len(TRAINING)} × {TABLE_OPTS}; rows bitwise equal to docs/superslow/drift: {same}): "
+        f"tables {fine_wall:.1f} s wall, {fine_cpu:.1f} s CPU; fit + map {rest_wall:.2f} s wall; agreement {st_f}/{n} strict, {ph_f}/{n} phase; "
+        f"whole map including training {fs_map_wall / (fine_wall + rest_wall):.1f}× (wall), {fs_map_cpu / (fine_cpu + rest_cpu):.1f}× (CPU)",
+    ]
     (OUT / "validation_b_speed.txt").write_text("\n".join(lines) + "\n", encoding="utf-8")
     print("\n".join(lines))
 
