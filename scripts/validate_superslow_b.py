@@ -172,9 +172,10 @@ def stage_runs():
     tables = available_tables()
     lines = ["§4.3  Representative runs: predictor against the FS map rows (120 s)",
              "b1: V from the point's own PCS drift table (Δs 0.01, 100 settling periods, 2-s windows) on the HB N = 5 manifold, s_dn from the table; "
-             "PCS: table alone (its Â, V, s_up, s_dn); b2: the law fitted on the other training points (leave one out), s_dn none (HB)",
+             "PCS: table alone (its Â, V, s_up, s_dn); b2: the default law fitted on all training points (docs/superslow/law.json); b2-LOO: the law fitted "
+             "on the other training points (leave one out); both with the learnt jump-down (s_dn='law'), Λ_c and monostable vote",
              "FS columns from docs/operating_map.jsonl (s0 = 0.3) and docs/operating_map_s0.4.jsonl: t_up = first jump-up time, turn = turning point s, T = mean jump-up interval",
-             f"{'point':>11} {'s0':>4} {'src':>4} | {'FS behaviour':>22} {'pred behaviour':>22} | {'FS s_f':>6} {'pr s_f':>6} | "
+             f"{'point':>11} {'s0':>4} {'src':>6} | {'FS behaviour':>22} {'pred behaviour':>22} | {'FS s_f':>6} {'pr s_f':>6} | "
              f"{'FS t_up':>7} {'pr t_up':>7} | {'FS turn':>7} {'pr s_up':>7} | {'FS s-range':>13} {'pr s-range':>13} | {'FS T':>5} {'pr T':>5}"]
     for (f, a), s0 in [(pt, 0.3) for pt in REPRESENTATIVE] + [((106.0, 10.0), 0.4)]:
         ref = ref03 if s0 == 0.3 else ref04
@@ -189,8 +190,9 @@ def stage_runs():
             variants.append(("b1", own[0], "table", "hb"))
             variants.append(("PCS", own[0], "table", "table"))
         others = [t for t in tables if (t.f_ex, t.a_ex) != (f, a)]
-        if len(others) >= 2:
-            variants.append(("b2", fit_drift_law(others), "hb", "hb"))
+        variants.append(("b2", fit_drift_law(tables), "law", "hb"))
+        if len(others) >= 2 and own:
+            variants.append(("b2-LOO", fit_drift_law(others), "law", "hb"))
         for name, drift, sdn, source in variants:
             r = predict(f_ex=f, a_ex=a, s0=s0, drift=drift, s_dn=sdn, source=source)
             ups = [e for e in r.events if e[0] == "jump_up"]
@@ -200,7 +202,7 @@ def stage_runs():
             pu = [e[1] for e in ups]
             period_pr = float(np.mean(np.diff(pu))) if len(pu) >= 2 else None
             lines.append(
-                f"({f:g}, {a:g}) {s0:4.1f} {name:>4} | {fsr['behaviour']:>22} {r.behaviour:>22} | {_fmt(fsr['s_final'])} {_fmt(r.s_final)} | "
+                f"({f:g}, {a:g}) {s0:4.1f} {name:>6} | {fsr['behaviour']:>22} {r.behaviour:>22} | {_fmt(fsr['s_final'])} {_fmt(r.s_final)} | "
                 f"{_fmt(fs_ups[0] if fs_ups else None, 1):>7} {_fmt(pu[0] if pu else None, 1):>7} | {_fmt(fsr['turn_s']):>7} {_fmt(ups[0][2] if ups else None):>7} | "
                 f"{_fmt(fsr['s_min'], 3)}–{_fmt(fsr['s_max'], 3)} {_fmt(float(np.min(r.s)), 3)}–{_fmt(float(np.max(r.s)), 3)} | "
                 f"{_fmt(period_fs, 1):>5} {_fmt(period_pr, 1):>5}" + ("  [extrapolated]" if r.extrapolated else "") + (f"  jumps down: {len(downs)}" if downs else ""))
