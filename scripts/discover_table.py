@@ -3,7 +3,7 @@
 slider-level data synthesised from a truth model (in-library and out-of-library effects, a
 negligible change, the baseline itself).
 
-Usage:  python3 scripts/discover_table.py [--duration 60] [--out docs/discover/table.md] [--cases a,b]
+Usage:  python3 scripts/discover_table.py [--duration 60] [--out docs/discover/table.md] [--cases a,b] [--rows-only]
                                           [--ops "104,14,0.3;126,10,0.3;124,14,0.3"] [--max-effects 1]
 
 Data: `synthesize_slider_runs` of the truth at the operating points (default: the issue's three,
@@ -36,6 +36,8 @@ CASES = {
     "mass": ("slider mass x 1.1", dict(slider_mass_kg=P.slider_mass_kg * 1.1), SLIDER),
     "restitution": ("restitution 0.3", dict(restitution=0.3), SLIDER),
     "tilt": ("frame tilt 8 mrad", dict(tilt_rad=0.008), SLIDER),
+    "inertia": ("slider rotary inertia x 1.3", dict(slider_inertia_kg_m2=P.slider_inertia_kg_m2 * 1.3), SLIDER),
+    "com": ("com offset 5.5 mm", dict(com_offset_m=5.5e-3), SLIDER),
     "tilt-out": ("frame tilt 8 mrad, tilt not a candidate", dict(tilt_rad=0.008), [n for n in SLIDER if n != "tilt"]),
     "com-out": ("com offset 5.5 mm, com offset not a candidate", dict(com_offset_m=5.5e-3),
                 [n for n in SLIDER if n != "com_offset"]),
@@ -64,9 +66,10 @@ def main() -> int:
     ap.add_argument("--out", type=Path, default=Path("docs/discover/table.md"))
     ap.add_argument("--cases", default=",".join(CASES))
     ap.add_argument("--force", action="store_true", help="overwrite --out")
+    ap.add_argument("--rows-only", action="store_true", help="print the table rows only, --out is not written")
     args = ap.parse_args()
     ops = [tuple(float(v) for v in part.split(",")) for part in args.ops.split(";") if part.strip()]
-    if args.out.exists() and not args.force:
+    if args.out.exists() and not args.force and not args.rows_only:
         print(f"error: {args.out} exists (use --force to overwrite)", file=sys.stderr)
         return 1
     rows = ["| hidden truth | candidates | verdict | named: fitted ± stderr | gap before → after | gap beyond the noise before → after | wall time (load), CPU time of all threads |",
@@ -98,9 +101,11 @@ def main() -> int:
                 f"baseline the prototype; wall time on {os.cpu_count()} cores with the 1-min load average of the "
                 f"machine at the end of each case; the CPU time of all threads of the process (core runs, features, "
                 f"fits) is what an otherwise idle machine spends, so CPU/2 is the idle 2-core wall time.\n\n" + "\n".join(rows) + "\n")
-        args.out.parent.mkdir(parents=True, exist_ok=True)
-        args.out.write_text(text, encoding="utf-8")
-    print(f"wrote {args.out}")
+        if not args.rows_only:
+            args.out.parent.mkdir(parents=True, exist_ok=True)
+            args.out.write_text(text, encoding="utf-8")
+    if not args.rows_only:
+        print(f"wrote {args.out}")
     return 0
 
 
