@@ -278,11 +278,8 @@ def s_dn_forcing_ratio(manifold, rho_c: float) -> Optional[float]:
     hb = manifold.high
     if len(hb) == 0 or not rho_c > 0:
         return None
-    o = np.argsort(hb.s)
-    s = np.asarray(hb.s, dtype=float)[o]
-    omega = 2 * math.pi * manifold.f_ex
-    with np.errstate(divide="ignore", invalid="ignore"):
-        r = manifold.a_ex / (omega ** 2 * np.asarray(hb.amplitude, dtype=float)[o] * manifold.params.thickness_m)
+    s = np.sort(np.asarray(hb.s, dtype=float))
+    r = forcing_ratio(manifold, s)
     for i in range(1, s.size):
         if s[i] < S_DN_MIN or not (r[i] < rho_c):
             continue

@@ -123,33 +123,23 @@ of ``simulate``/``compare``): branch high/low/middle, Â = |w(4L/7)|/h, phase, s
 
 
 @dataclass
+class _Curve:
+    s: np.ndarray
+    amplitude: np.ndarray
+
+
+@dataclass
 class HbCurves:
     """The branches of a harmonic-balance manifold as read back from its CSV (what panel (c)
-    draws): ``branches[name] = (s, amplitude_h)`` for high, low and middle."""
+    draws): high, low and middle, each with ``s`` and ``amplitude`` (Â in units of h)."""
 
-    branches: Dict[str, Any]
+    high: _Curve
+    low: _Curve
+    middle: _Curve
     f_ex: float
     a_ex: float
     n_modes: int
     params: Parameters
-
-    @property
-    def high(self) -> Any:
-        return _Curve(*self.branches["high"])
-
-    @property
-    def low(self) -> Any:
-        return _Curve(*self.branches["low"])
-
-    @property
-    def middle(self) -> Any:
-        return _Curve(*self.branches["middle"])
-
-
-@dataclass
-class _Curve:
-    s: np.ndarray
-    amplitude: np.ndarray
 
 
 def hb_manifold_file_stem(f_ex: float, a_ex: float, n_modes: int = 5) -> str:
@@ -179,8 +169,8 @@ def _read_hb_manifold_rows(path: Path, r: Any, *, f_ex: float, a_ex: float, para
         target[0].append(s)
         target[1].append(a)
     m = re.search(r"_N(\d+)", Path(path).name)
-    return HbCurves(branches={k: (np.array(v[0]), np.array(v[1])) for k, v in rows.items()}, f_ex=f_ex, a_ex=a_ex,
-                    n_modes=int(m.group(1)) if m else 0, params=params)
+    curves = {k: _Curve(np.array(v[0]), np.array(v[1])) for k, v in rows.items()}
+    return HbCurves(**curves, f_ex=f_ex, a_ex=a_ex, n_modes=int(m.group(1)) if m else 0, params=params)
 
 
 def read_manifold_csv(path: Path, *, f_ex: float, a_ex: float, params: Parameters) -> Any:
