@@ -5,6 +5,7 @@
 # The extension is built once, as one abi3 wheel (valid for every CPython >= 3.9), and installed
 # with its test dependencies into one virtual environment per Python under target/test-venvs/
 # (re-used by later runs). Installs what it needs; a fresh machine needs only the toolchains.
+# The tests marked `heavy` (the discover fits, ~5 min) run on the last (newest) Python only.
 #
 #   BEAMSLIDER_TEST_PYTHONS="/path/to/python3.9 /path/to/python3.13"   choose the interpreters
 #   BEAMSLIDER_REQUIRE_PYTHONS=1   fail unless both 3.9 and 3.13 are found (set by .ci/run)
@@ -56,7 +57,11 @@ for py in "${PYTHONS[@]}"; do
   "$venv/bin/python" -m pip install --quiet --disable-pip-version-check "$WHEEL[test]"
   # Same version number as an earlier build: replace the package itself.
   "$venv/bin/python" -m pip install --quiet --disable-pip-version-check --force-reinstall --no-deps "$WHEEL"
-  echo "scripts/test.sh: pytest on Python $ver ($venv)"
+  # The heavy tests (discover fits of synthetic runs: pure Python on the core, about 5 minutes)
+  # run on the newest Python only; every other test runs on each.
+  marks="not slow"
+  [ "$py" = "${PYTHONS[${#PYTHONS[@]}-1]}" ] || marks="not slow and not heavy"
+  echo "scripts/test.sh: pytest on Python $ver ($venv), -m '$marks'"
   # Run from a neutral directory so that the installed package (not ./python) is imported.
-  (cd tests && "../$venv/bin/python" -m pytest -q -p no:cacheprovider .)
+  (cd tests && "../$venv/bin/python" -m pytest -q -p no:cacheprovider -m "$marks" .)
 done

@@ -22,6 +22,7 @@ def _discover_beam(truth: bs.Parameters, baseline: bs.Parameters, seed: int = 1)
     return dc.discover(enma_data=data, baseline=baseline)
 
 
+@pytest.mark.heavy
 def test_paper_case_names_both_clamping_compliances(tmp_path):
     d = _discover_beam(bs.Parameters(), IDEAL)
     assert sorted(d.named_effects) == ["axial_clamping_compliance", "rotational_clamping_compliance"]
@@ -42,6 +43,7 @@ def test_paper_case_names_both_clamping_compliances(tmp_path):
     assert len(written) >= 5
 
 
+@pytest.mark.heavy
 @pytest.mark.parametrize("truth, expected", [
     (bs.Parameters(k_t_n_per_m=math.inf), "rotational_clamping_compliance"),
     (bs.Parameters(k_r_nm_per_rad=math.inf), "axial_clamping_compliance"),
@@ -52,6 +54,7 @@ def test_one_hidden_compliance_names_only_it(truth, expected):
     assert d.gap_after <= 0.1 * d.gap_before
 
 
+@pytest.mark.heavy
 def test_axial_preload_is_not_mistaken_for_a_compliance():
     d = _discover_beam(bs.Parameters(axial_preload_n=20.0), bs.Parameters(), seed=3)
     assert d.named_effects == ["axial_preload"]
@@ -59,6 +62,7 @@ def test_axial_preload_is_not_mistaken_for_a_compliance():
     assert abs(p["value"] - 20.0) < 3 * p["stderr"] + 0.5
 
 
+@pytest.mark.heavy
 def test_amplitude_dependent_damping_is_named():
     d = _discover_beam(bs.Parameters(damping_ratio_quadratic=5e-4), bs.Parameters(), seed=4)
     assert d.named_effects == ["amplitude_dependent_damping"]
@@ -72,6 +76,7 @@ def test_data_from_the_baseline_names_nothing(seed):
     assert d.gap_after == d.gap_before < 2.0
 
 
+@pytest.mark.heavy
 def test_slider_level_friction_is_named_and_bracketed(tmp_path):
     truth = bs.Parameters(friction_coefficient=0.26)
     paths = dc.synthesize_slider_runs(truth, operating_points=[(110, 10, 0.3), (124, 6, 0.3)], duration_s=15,
@@ -89,6 +94,7 @@ def test_slider_level_friction_is_named_and_bracketed(tmp_path):
     assert is_png(tmp_path / "report" / "slider.png")
 
 
+@pytest.mark.heavy
 def test_cli_discover_and_synthesize(tmp_path):
     r = run_cli("synthesize", "enma", "--truth", str(_write(tmp_path / "t.toml", "k_t_n_per_m = inf\n")),
                 "--out", str(tmp_path / "syn"), "--seed", "2", cwd=tmp_path, timeout=300)
@@ -125,6 +131,7 @@ def _write(path, text):
 BEAM_WITHOUT_PRELOAD = ["rotational_clamping_compliance", "axial_clamping_compliance", "amplitude_dependent_damping"]
 
 
+@pytest.mark.heavy
 def test_out_of_library_beam_effect_is_unexplained(tmp_path):
     """A hidden preload with the preload removed from the candidates: the compliances could move
     f0 but not the rest; nothing is named, the moved features are listed."""
@@ -142,6 +149,7 @@ def test_out_of_library_beam_effect_is_unexplained(tmp_path):
     assert "Unexplained discrepancy" in (tmp_path / "report.md").read_text()
 
 
+@pytest.mark.heavy
 def test_in_library_beam_effect_is_named_with_its_relevance():
     data = dc.synthesize_enma(bs.Parameters(axial_preload_n=20.0), seed=3)
     d = dc.discover(enma_data=data, baseline=bs.Parameters())
@@ -178,6 +186,7 @@ def test_detuning_effect_scales_the_natural_frequency():
     assert f1["b_star"] == pytest.approx(f0["b_star"], rel=1e-6)
 
 
+@pytest.mark.heavy
 def test_out_of_library_slider_effect_is_unexplained(tmp_path):
     """Slider mass 10 % higher hidden, only friction and clearance as candidates: neither fits the
     runs (not adequate), nothing is named, the moved features are listed."""
@@ -277,6 +286,7 @@ def _runs(truth: bs.Parameters, tmp_path, seed: int = 3, duration_s: float = 15)
     return [bs.read_measurement(p) for p in paths]
 
 
+@pytest.mark.heavy
 def test_hidden_tilt_is_named(tmp_path):
     runs = _runs(bs.Parameters(tilt_rad=0.008), tmp_path)
     d = dc.discover(measured=runs, baseline=bs.Parameters(), effects=["tilt", "friction_coefficient"])
@@ -292,6 +302,7 @@ OUT_OF_LIBRARY = {
 }
 
 
+@pytest.mark.heavy
 @pytest.mark.parametrize("truth", sorted(OUT_OF_LIBRARY))
 def test_out_of_library_effects_are_unexplained(truth, tmp_path):
     """The true effect removed from the candidates (friction and clearance left): verdict
@@ -304,6 +315,7 @@ def test_out_of_library_effects_are_unexplained(truth, tmp_path):
     assert d.rejected and all(r["reasons"] for r in d.rejected)
 
 
+@pytest.mark.heavy
 def test_joint_beam_and_slider_evidence_names_both(tmp_path):
     """A beam-level effect (axial preload 10 N) and a slider-level one (mu = 0.26) hidden; ENMA and
     runs together in one joint fit name both."""
@@ -322,6 +334,7 @@ def test_joint_beam_and_slider_evidence_names_both(tmp_path):
     assert is_png(tmp_path / "report" / "backbone.png") and is_png(tmp_path / "report" / "slider.png")
 
 
+@pytest.mark.heavy
 def test_cli_takes_enma_and_measured_together(tmp_path):
     """`beamslider discover --enma ... --measured ...`: one joint discover over both feature sets
     (data of the baseline itself; two candidates keep it short), report.json says level joint."""
@@ -458,6 +471,7 @@ IN_LIBRARY = {  # hidden truth (3-7 x the relevance threshold) -> (effect, param
 }
 
 
+@pytest.mark.heavy
 @pytest.mark.parametrize("effect", sorted(IN_LIBRARY))
 def test_in_library_slider_effect_is_named_alone(effect, tmp_path):
     """Issue 20: each slider-level effect hidden (15-s runs at (110, 10) and (124, 6), sensor

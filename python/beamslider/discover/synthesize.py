@@ -37,17 +37,24 @@ def synthesize_enma(truth: Optional[Parameters] = None, *, levels_m_s2: Sequence
 
 def synthesize_slider_runs(truth: Optional[Parameters] = None, *, operating_points: Sequence[Tuple[float, float, float]],
                            duration_s: float, out_dir: PathLike, noise_s: float = 0.001,
-                           noise_velocity_m_s: float = 0.002, seed: int = 0) -> List[Path]:
+                           noise_velocity_m_s: float = 0.002, seed: int = 0, s0_offset: float = 0.0) -> List[Path]:
     """Hidden-effect free-slider runs of ``truth`` written in the published measured format
     (time, beam velocity at 4L/7, s at 1e-4 s; file names carry the operating point), with white
-    noise on s and the velocity, reproducible by ``seed``. Returns the file paths."""
+    noise on s and the velocity, reproducible by ``seed``. Returns the file paths.
+
+    ``s0_offset``: the truth runs start at s0 + s0_offset while the files name s0 (a slider placed
+    by hand is never exactly where the label says). With 0 the model run at exactly the truth
+    repeats the data's realisation of the chaotic locomotion, which no real measurement allows (the
+    "inverse crime" of synthetic tests): a scan point on the truth then scores far better than its
+    neighbours (docs/discover/table.md)."""
     p = resolve(truth)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     ops = [OperatingPoint(f, a, s0, duration_s) for f, a, s0 in operating_points]
+    sim_ops = [OperatingPoint(f, a, s0 + float(s0_offset), duration_s) for f, a, s0 in operating_points]
     rng = np.random.default_rng(seed)
     paths = []
-    for op, r in zip(ops, _simulate_ops(p, ops)):
+    for op, r in zip(ops, _simulate_ops(p, sim_ops)):
         if not r.completed:
             raise _core.SimulationError(f"truth run at {op.tag} stopped: {r.message}")
         t = r.t
