@@ -8,6 +8,7 @@ Not part of the fast test suite (PCS drift tables take minutes per operating poi
     python scripts/validate_superslow_b.py map         # §4.4: predicted map (b2) against docs/operating_map.jsonl
     python scripts/validate_superslow_b.py speed       # §4.5: timings
     python scripts/validate_superslow_b.py features    # choice of the b2 law's inputs (leave one point out)
+    python scripts/validate_superslow_b.py training_sets  # the b2 map for several training sets (lattices)
     python scripts/validate_superslow_b.py all
 
 Everything is written to docs/superslow/ (validation_b*.txt, figures, drift/*.jsonl, law.json).
@@ -692,9 +693,82 @@ def stage_features():
     (OUT / "validation_b_features.txt").write_text("\n".join(lines) + "\n", encoding="utf-8")
 
 
+# How much the b2 map depends on which operating points train the law: regular lattices over the
+# map (not chosen by looking at it), all with the default law's table settings (TABLE_OPTS).
+LATTICES = {
+    "default (5 representative + 7 spread)": TRAINING,
+    "A: f 102/110/118/126 x a 6/10/14": [(f, a) for f in (102.0, 110.0, 118.0, 126.0) for a in (6.0, 10.0, 14.0)],
+    "B: f 100/108/116/124 x a 6/10/14": [(f, a) for f in (100.0, 108.0, 116.0, 124.0) for a in (6.0, 10.0, 14.0)],
+    "C: f 104/112/120/128 x a 6/10/14": [(f, a) for f in (104.0, 112.0, 120.0, 128.0) for a in (6.0, 10.0, 14.0)],
+    "D: f 102/110/118/126 x a 4/8/12/16": [(f, a) for f in (102.0, 110.0, 118.0, 126.0) for a in (4.0, 8.0, 12.0, 16.0)],
+    "E: f 100/106/.../130 x a 6/12": [(f, a) for f in (100.0, 106.0, 112.0, 118.0, 124.0, 130.0) for a in (6.0, 12.0)],
+    "F: f 102/110/118/126 x a 5/8/11/14": [(f, a) for f in (102.0, 110.0, 118.0, 126.0) for a in (5.0, 8.0, 11.0, 14.0)],
+}
+LATTICE_DRIFT = Path("/tmp/beamslider_drift_lattices")  # re-computable tables (not committed)
+
+
+def stage_training_sets():
+    """Map agreement and final-s error of the b2 law for several training sets (tables with
+    TABLE_OPTS, resumable under LATTICE_DRIFT; the default set's tables are read from
+    docs/superslow/drift), in sample and leave one point out, and for the union of all; then the
+    high-branch drift of the PCS tables at 110 Hz, where the FS runs stop at 0.38 and the law at 0.33."""
+    import shutil
+
+    ref = read_map(ROOT / "docs" / "operating_map.jsonl")
+    f_ex = sorted(set(float(x) for x in ref["f_ex_hz"]))
+    a_ex = sorted(set(float(x) for x in ref["a_ex_m_s2"]))
+    LATTICE_DRIFT.mkdir(parents=True, exist_ok=True)
+    for f, a in TRAINING:  # the committed tables (bitwise what drift_tables gives with TABLE_OPTS)
+        q = LATTICE_DRIFT / table_path(f, a).name
+        if not q.exists():
+            shutil.copy(table_path(f, a), q)
+    everything = sorted({p for pts in LATTICES.values() for p in pts})
+    todo = [p for p in everything if not (LATTICE_DRIFT / f"drift_{p[0]:g}Hz_{p[1]:g}ms2.jsonl").exists()]
+    t0 = time.perf_counter()
+    if todo:
+        drift_tables(points=todo, out=LATTICE_DRIFT, threads=2, progress=True, **TABLE_OPTS)
+    print(f"{len(todo)} tables computed in {time.perf_counter() - t0:.0f} s", flush=True)
+    tabs = {p: read_drift_table(LATTICE_DRIFT / f"drift_{p[0]:g}Hz_{p[1]:g}ms2.jsonl") for p in everything}
+    grid = {(float(ref["f_ex_hz"][i]), float(ref["a_ex_m_s2"][i])): i for i in range(len(ref["f_ex_hz"]))}
+
+    def agreeing_final_s(rows):
+        e = [abs(r["s_final"] - ref["s_final"][grid[k]]) for k, r in rows.items()
+             if r["behaviour"] == ref["behaviour"][grid[k]] and ref["steady"][grid[k]]]
+        return np.asarray(e)
+
+    lines = ["§4.4 training sets: b2 map (s0 = 0.3, 120 s) against docs/operating_map.jsonl, the law fitted on the PCS tables "
+             f"of each set ({TABLE_OPTS}); LOO = each training point on the map predicted by the law fitted without it",
+             "final s: over the agreeing points steady in FS (the §4.4 measure)",
+             f"{'training set':>40} {'pts':>3} | {'strict':>7} {'LOO':>7} | {'final-s median':>14} {'90th pct':>8} {'n':>3}"]
+    sets = dict(LATTICES)
+    sets["union of all the above"] = everything
+    for name, pts in sets.items():
+        law = fit_drift_law([tabs[p] for p in pts])
+        rows = {(r["f_ex_hz"], r["a_ex_m_s2"]): r for r in predicted_map(drift=law, f_ex=f_ex, a_ex=a_ex, s0=0.3, t_end=120.0, threads=2)}
+        st = sum(r["behaviour"] == ref["behaviour"][grid[k]] for k, r in rows.items())
+        err = agreeing_final_s(rows)
+        loo = dict(rows)
+        for p in pts:
+            if p in loo:
+                lw = fit_drift_law([tabs[q] for q in pts if q != p])
+                loo[p] = predicted_map(drift=lw, f_ex=[p[0]], a_ex=[p[1]], s0=0.3, t_end=120.0)[0]
+        st_loo = sum(r["behaviour"] == ref["behaviour"][grid[k]] for k, r in loo.items())
+        lines.append(f"{name:>40} {len(pts):3d} | {st:3d}/112 {st_loo:3d}/112 | {np.median(err):14.4f} {np.percentile(err, 90):8.4f} {err.size:3d}")
+        print(lines[-1], flush=True)
+    lines += ["", "PCS high-branch drift V_H [1e-3 1/s] at 110 Hz (TABLE_OPTS tables) against where the FS runs stop:"]
+    for a in (6.0, 10.0, 14.0):
+        s_, v_, _ = tabs[(110.0, a)].branch_rows("H")
+        m = (s_ > 0.3) & (s_ < 0.48)
+        i = grid[(110.0, a)]
+        lines.append(f"  (110, {a:g}): FS {ref['behaviour'][i]} ending at s = {ref['s_final'][i]:.3f}; V_H: "
+                     + " ".join(f"{x:.2f}:{1e3 * y:+.1f}" for x, y in zip(s_, v_) if 0.3 < x < 0.48))
+    (OUT / "validation_c_training_sets.txt").write_text("\n".join(lines) + "\n", encoding="utf-8")
+    print("\n".join(lines[-4:]))
+
+
 if __name__ == "__main__":
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("stage", choices=["tables", "map_tables", "slopes", "runs", "map", "speed", "levers", "features", "all"])
+    ap.add_argument("stage", choices=["tables", "map_tables", "slopes", "runs", "map", "speed", "levers", "features", "training_sets", "all"])
     ap.add_argument("--points", help="tables: only these points, e.g. 124:14,126:10")
     ap.add_argument("--training", default="cheap", choices=["coarse", "cheap"], help="speed: training table settings (timed from scratch)")
     ap.add_argument("--training-set", default="12 points", choices=["12 points", "6 points"], help="speed: training points")
@@ -718,3 +792,5 @@ if __name__ == "__main__":
         stage_levers()
     if args.stage == "features":
         stage_features()
+    if args.stage == "training_sets":
+        stage_training_sets()

@@ -43,6 +43,9 @@ class CandidateFit:
     """Slider level: their spread over the ensemble (:data:`.models.ENSEMBLE_S0_SHIFTS`)."""
     intervals: Dict[str, Tuple[float, float]] = field(default_factory=dict)
     """Slider level: the Δχ² = 1 interval of each parameter from its profile scan."""
+    roughness: Dict[str, float] = field(default_factory=dict)
+    """Slider level: scatter of the single-run χ² about a parabola near the minimum
+    (:func:`_roughness`); the interval's threshold is χ²_min + 1 + 2·roughness."""
 
 
 @dataclass
@@ -87,7 +90,8 @@ class Discovery:
             chi2_before=self.chi2_before, criterion=self.criterion, features=self.features,
             behaviours=self.behaviours, alternatives=[list(a) for a in self.alternatives],
             candidates=[dict(effects=list(c.effects), values=c.values, stderrs=c.stderrs, chi2=c.chi2, dof=c.dof,
-                             adequate=c.adequate, bic=c.bic, intervals=c.intervals) for c in self.candidates],
+                             adequate=c.adequate, bic=c.bic, intervals=c.intervals, chi2_roughness=c.roughness)
+                        for c in self.candidates],
             baseline=self.baseline.to_dict(), updated=self.updated.to_dict(), runtime_s=self.runtime_s))
 
 
@@ -206,17 +210,38 @@ EnsembleMany = Callable[[List[Parameters], List[Optional[Dict[str, float]]]], Li
 runs' features are given: one batch of the remaining runs."""
 
 
-def _interval(xs: np.ndarray, fs: np.ndarray) -> Tuple[float, float, float]:
+def _roughness(xs: np.ndarray, fs: np.ndarray) -> float:
+    """Scatter of single-run χ² values about a quadratic in x: the residual RMS of a least-squares
+    parabola through the points (at least 5 distinct x, 4 residual degrees of freedom
+    with 7), 0 with fewer. Where the locomotion is chaotic in the parameter (restitution), runs at
+    neighbouring values differ by Δχ² of several units although the data cannot tell them apart."""
+    xs, fs = np.asarray(xs, dtype=float), np.asarray(fs, dtype=float)
+    ok = np.isfinite(fs)
+    xs, fs = xs[ok], fs[ok]
+    ux = np.unique(np.round(xs, 12))
+    if ux.size < 5:
+        return 0.0
+    span = max(float(np.ptp(xs)), 1e-300)
+    t = (xs - xs.mean()) / span
+    c = np.polyfit(t, fs, 2)
+    r = fs - np.polyval(c, t)
+    return float(math.sqrt(float(r @ r) / max(xs.size - 3, 1)))
+
+
+def _interval(xs: np.ndarray, fs: np.ndarray, rough: float = 0.0) -> Tuple[float, float, float]:
     """Minimum of a scanned profile χ²(x) and its Δχ² = 1 interval: the outermost scan points with
     χ² ≤ χ²_min + 1, extended to where the profile crosses χ²_min + 1 by interpolation in
-    sqrt(χ² − χ²_min) (the scan's ends if it does not cross)."""
+    sqrt(χ² − χ²_min) (the scan's ends if it does not cross). For a rough profile (single-run χ²
+    scattering by ``rough`` about a smooth one, :func:`_roughness`) the threshold is
+    χ²_min + 1 + 2·rough: the scan points that the scatter cannot tell from the minimum."""
     order = np.argsort(xs)
     xs, fs = xs[order], fs[order]
     ok = np.isfinite(fs)
     if not ok.any():
         return math.nan, -math.inf, math.inf
     j = int(np.nanargmin(np.where(ok, fs, np.inf)))
-    level = fs[j] + 1.0
+    delta = 1.0 + 2.0 * max(float(rough), 0.0)
+    level = fs[j] + delta
     inside = np.flatnonzero(ok & (fs <= level))
     lo_i, hi_i = int(inside[0]), int(inside[-1])
 
@@ -227,7 +252,7 @@ def _interval(xs: np.ndarray, fs: np.ndarray) -> Tuple[float, float, float]:
         if not np.isfinite(fs[i_out]):
             return float(xs[i_out])
         r_in, r_out = math.sqrt(max(fs[i_in] - fs[j], 0.0)), math.sqrt(max(fs[i_out] - fs[j], 0.0))
-        w = (1.0 - r_in) / (r_out - r_in)
+        w = (math.sqrt(delta) - r_in) / (r_out - r_in)
         return float(xs[i_in] + w * (xs[i_out] - xs[i_in]))
 
     lo = cross(lo_i, lo_i - 1) if lo_i > 0 else float(xs[0])
@@ -274,7 +299,9 @@ def _profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str
     draw): ``spread0`` (the baseline's) at first, then that of an ensemble of runs
     (``ensemble_many``) at the best coarse point, and at the end that of the ensemble at the
     fitted point, whose mean gives the fit's χ² (σ² = σ_meas² + (1 + 1/R)·spread²). Standard
-    error: half the Δχ² = 1 interval of the rescored profile scan (:func:`_interval`).
+    error: half the Δχ² = 1 interval of the rescored profile scan (:func:`_interval`), widened
+    by the scatter of the last refinement level's χ² about a parabola (:func:`_roughness`)
+    where the objective is rough.
     ``fixed``: values of further effects held (the joint fit's beam-level part)."""
     many = model_many if model_many is not None else _one_at_a_time(model_fn)  # type: ignore[arg-type]
     names = list(meas)
@@ -361,10 +388,13 @@ def _profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str
         best_chi2 = chi2(u)
         predicted = dict(cache[key_of(u)] or {})
     values, stderrs, intervals = dict(fixed), {}, {}
+    roughness: Dict[str, float] = {}
     for i, e in enumerate(effects):
         xs = np.array([p[i] for p in samples[i]])
         fs = np.array([chi2(p) for p in samples[i]])
-        _, lo_u, hi_u = _interval(xs, fs)
+        rough = _roughness(np.array([p[i] for p in last[i]]), np.array([chi2(p) for p in last[i]]))
+        _, lo_u, hi_u = _interval(xs, fs, rough)
+        roughness[e.name] = rough
         su = (hi_u - lo_u) / 2 if math.isfinite(lo_u) and math.isfinite(hi_u) else math.inf
         values[e.name] = e.value(u[i], baseline)
         stderrs[e.name] = _stderr_of(e, u[i], su, baseline)
@@ -373,7 +403,7 @@ def _profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str
     names_all = tuple(list(fixed) + [e.name for e in effects])
     return CandidateFit(names_all, values, stderrs, best_chi2, n - k, best_chi2 <= _chi2_quantile(n - k),
                         best_chi2 + k * math.log(max(n, 2)), predicted,
-                        {kk: spread.get(kk, 0.0) for kk in names}, intervals)
+                        {kk: spread.get(kk, 0.0) for kk in names}, intervals, roughness)
 
 
 def _lrt_threshold(df: int, m: int) -> float:
@@ -523,7 +553,7 @@ def _fit_sets_joint(cand_effects: Sequence[Effect], max_effects: int, base: Para
             stderrs = {**(bf.stderrs if bf else {}), **sf.stderrs}
             out[i] = CandidateFit(tuple(e.name for e in combo), values, stderrs, chi2, n - k,
                                   chi2 <= _chi2_quantile(n - k), chi2 + k * math.log(n), sf.predicted,
-                                  sf.model_spread, sf.intervals)
+                                  sf.model_spread, sf.intervals, sf.roughness)
             bar.update(1)
         return [f for f in out if f is not None]
 
@@ -750,7 +780,8 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
         named = list(best.effects)
         params_out = {e: dict(field=EFFECTS[e].field, value=best.values[e], stderr=best.stderrs[e],
                               unit=EFFECTS[e].unit, baseline=EFFECTS[e].baseline_value(base),
-                              relevance=EFFECTS[e].relevant(best.values[e], base)[1]) for e in named}
+                              relevance=EFFECTS[e].relevant(best.values[e], base)[1],
+                              **({"chi2_roughness": best.roughness[e]} if e in best.roughness else {})) for e in named}
     after_f = filled(after_f, spread_after)
     gap_after, chi2_after = _gap(after_f, meas, spread_after, runs_base)
     excess_after = _excess(chi2_after, n - len(best.effects) if best is not None else n, n)
