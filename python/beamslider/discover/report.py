@@ -135,6 +135,12 @@ def _markdown(d: Discovery, figs: Sequence[str]) -> str:
             lines.append(f"| {e} | {p['field']} [{p['unit']}] | {_fmt(p['value'])} | {_fmt(p['stderr'])} | "
                          f"{_fmt(p['baseline'])} |")
         lines.append("")
+        rough = {e: p["chi2_roughness"] for e, p in d.parameters.items() if p.get("chi2_roughness", 0.0) > 1.0}
+        if rough:
+            lines += ["Rough profile: " + ", ".join(f"{e} (single-run chi2 scatters by {v:.3g} about a parabola)"
+                                                    for e, v in rough.items())
+                      + ": runs at neighbouring values differ by more than the data resolve, so the stated error "
+                        "spans the values within chi2_min + 1 + 2 x that scatter.", ""]
     if d.alternatives:
         lines += ["Equally good alternatives: " + "; ".join(", ".join(a) for a in d.alternatives), ""]
     if d.features_off:
