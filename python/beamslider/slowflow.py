@@ -85,7 +85,8 @@ class Prediction:
     s_dn: Optional[float]
     """Jump-down position used (None: the high branch reaches the centre)."""
     s_dn_source: str
-    """Where s_dn comes from: 'hb' (single-term HB, possibly with d_eff), 'table' (PCS), 'none'."""
+    """Where s_dn comes from: 'hb' (single-term HB, possibly with d_eff), 'table' (PCS), 'law' (the
+    law's forcing-ratio rule, :meth:`DriftLaw.s_dn`), 'none'."""
     features: Dict[str, Dict[str, np.ndarray]]
     """Per branch: the node positions ``s`` and the features of :func:`features` there."""
     extrapolated: bool

@@ -469,9 +469,10 @@ pub struct PointPrediction {
     pub model: SlowModel,
     /// Jump-up position used.
     pub s_up: Option<f64>,
-    /// Jump-down position used (the HB manifold's own, else the law's).
+    /// Where s_dn comes from: "hb" (the HB manifold's own fold), "law" (the law's forcing-ratio
+    /// rule, used when the manifold has none) or "none".
     pub s_dn_source: &'static str,
-    /// Jump-down position used.
+    /// Jump-down position used (the HB manifold's own, else the law's).
     pub s_dn: Option<f64>,
     /// The law's monostability vote said: a single low branch ([`DriftLaw::monostable`]).
     pub monostable: bool,
