@@ -218,14 +218,18 @@ def _roughness(xs: np.ndarray, fs: np.ndarray) -> float:
     xs, fs = np.asarray(xs, dtype=float), np.asarray(fs, dtype=float)
     ok = np.isfinite(fs)
     xs, fs = xs[ok], fs[ok]
-    ux = np.unique(np.round(xs, 12))
-    if ux.size < 5:
+    if np.unique(np.round(xs, 12)).size < 5:
         return 0.0
-    span = max(float(np.ptp(xs)), 1e-300)
-    t = (xs - xs.mean()) / span
-    c = np.polyfit(t, fs, 2)
-    r = fs - np.polyval(c, t)
-    return float(math.sqrt(float(r @ r) / max(xs.size - 3, 1)))
+    ss, dof = _parabola_scatter(xs, fs)
+    return math.sqrt(ss / dof)
+
+
+def _parabola_scatter(x: np.ndarray, v: np.ndarray) -> Tuple[float, int]:
+    """Sum of squared residuals of v about a least-squares parabola in x, and their degrees of
+    freedom (len − 3): what a quadratic trend leaves unexplained (the roughness)."""
+    t = (x - x.mean()) / max(float(np.ptp(x)), 1e-300)
+    r = v - np.polyval(np.polyfit(t, v, 2), t)
+    return float(r @ r), len(x) - 3
 
 
 def _interval(xs: np.ndarray, fs: np.ndarray, rough: float = 0.0) -> Tuple[float, float, float]:
@@ -279,9 +283,9 @@ def _pooled_spread(ens: Ensemble, levels: Sequence[Sequence[Optional[Dict[str, f
             xs = np.array([j for j, m in enumerate(pts) if m is not None and k in m and math.isfinite(m[k])], dtype=float)
             if len(xs) >= 5:
                 v = np.array([pts[int(j)][k] for j in xs])  # type: ignore[index]
-                c = np.polyfit(xs, v, 2)
-                ss += float(np.sum((v - np.polyval(c, xs)) ** 2))
-                dof += len(xs) - 3
+                ss_k, dof_k = _parabola_scatter(xs, v)
+                ss += ss_k
+                dof += dof_k
         out[k] = math.sqrt(ss / dof) if dof > 0 else 0.0
     return out
 
