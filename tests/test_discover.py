@@ -15,6 +15,9 @@ from beamslider import discover as dc
 from conftest import is_png, run_cli
 
 IDEAL = bs.Parameters(k_r_nm_per_rad=math.inf, k_t_n_per_m=math.inf)
+S0_OFFSET = 0.0015
+"""The truth runs start 0.0015 off the s0 their files name: the model at exactly the truth must not
+repeat the data's realisation of the chaotic locomotion (no "inverse crime")."""
 
 
 def _discover_beam(truth: bs.Parameters, baseline: bs.Parameters, seed: int = 1) -> dc.Discovery:
@@ -80,7 +83,7 @@ def test_data_from_the_baseline_names_nothing(seed):
 def test_slider_level_friction_is_named_and_bracketed(tmp_path):
     truth = bs.Parameters(friction_coefficient=0.26)
     paths = dc.synthesize_slider_runs(truth, operating_points=[(110, 10, 0.3), (124, 6, 0.3)], duration_s=15,
-                                      out_dir=tmp_path / "data", seed=3)
+                                      out_dir=tmp_path / "data", seed=3, s0_offset=S0_OFFSET)
     runs = [bs.read_measurement(p) for p in paths]
     assert runs[0].f_ex == 110 and runs[1].a_ex == 6 and runs[0].s0 == 0.3
     # Two candidates keep this fast; all seven: scripts/discover_table.py (docs/discover/table.md).
@@ -192,7 +195,7 @@ def test_out_of_library_slider_effect_is_unexplained(tmp_path):
     runs (not adequate), nothing is named, the moved features are listed."""
     truth = bs.Parameters(slider_mass_kg=bs.Parameters().slider_mass_kg * 1.1)
     paths = dc.synthesize_slider_runs(truth, operating_points=[(110, 10, 0.3), (124, 6, 0.3)], duration_s=15,
-                                      out_dir=tmp_path / "data", seed=3)
+                                      out_dir=tmp_path / "data", seed=3, s0_offset=S0_OFFSET)
     d = dc.discover(measured=[bs.read_measurement(p) for p in paths], baseline=bs.Parameters(),
                     effects=["friction_coefficient", "clearance"])
     assert d.verdict == "unexplained", dc.verdict_line(d)
@@ -207,7 +210,7 @@ def test_detuning_is_named_among_all_slider_candidates(tmp_path):
     the detuning is named (scripts/discover_table.py: c = 0.9787 ± 0.0012, gap 5.81 -> 0.71)."""
     truth = dc._realise(bs.Parameters(), {"natural_frequency_detuning": 0.98})
     paths = dc.synthesize_slider_runs(truth, operating_points=[(110, 10, 0.3), (124, 6, 0.3)], duration_s=15,
-                                      out_dir=tmp_path / "data", seed=3)
+                                      out_dir=tmp_path / "data", seed=3, s0_offset=S0_OFFSET)
     d = dc.discover(measured=[bs.read_measurement(p) for p in paths], baseline=bs.Parameters(), max_effects=1)
     assert d.named_effects == ["natural_frequency_detuning"], dc.verdict_line(d)
     p = d.parameters["natural_frequency_detuning"]
@@ -280,7 +283,7 @@ def test_batch_runs_match_single_runs():
         _core.run_free_slider_batch(jobs, keep_every=0)
 
 
-def _runs(truth: bs.Parameters, tmp_path, seed: int = 3, duration_s: float = 15, s0_offset: float = 0.0):
+def _runs(truth: bs.Parameters, tmp_path, seed: int = 3, duration_s: float = 15, s0_offset: float = S0_OFFSET):
     paths = dc.synthesize_slider_runs(truth, operating_points=[(110, 10, 0.3), (124, 6, 0.3)], duration_s=duration_s,
                                       out_dir=tmp_path / "data", seed=seed, s0_offset=s0_offset)
     return [bs.read_measurement(p) for p in paths]
@@ -298,7 +301,6 @@ def test_hidden_tilt_is_named(tmp_path):
 OUT_OF_LIBRARY = {
     "natural_frequency_detuning": lambda: dc._realise(bs.Parameters(), {"natural_frequency_detuning": 0.98}),
     "tilt": lambda: bs.Parameters(tilt_rad=0.01),
-    "com_offset": lambda: bs.Parameters(com_offset_m=5.5e-3),
 }
 
 
@@ -313,6 +315,22 @@ def test_out_of_library_effects_are_unexplained(truth, tmp_path):
     assert d.named_effects == [] and d.parameters == {} and d.updated == d.baseline
     assert d.features_off and all(abs(f["z"]) > 2 for f in d.features_off)
     assert d.rejected and all(r["reasons"] for r in d.rejected)
+
+
+@pytest.mark.heavy
+def test_out_of_library_com_offset_is_unexplained_with_the_issues_runs(tmp_path):
+    """A centre-of-mass offset of 5.5 mm with friction and clearance as the candidates. The two 15-s
+    runs of the tests above do not tell it from friction: with the truth started S0_OFFSET off s0,
+    mu = 0.161 fits them adequately (chi2 14.4 <= 18.5) and would be named. The issue's three 60-s
+    runs do: friction cannot fit them (not adequate), the verdict is 'unexplained'."""
+    paths = dc.synthesize_slider_runs(bs.Parameters(com_offset_m=5.5e-3),
+                                      operating_points=[(104, 14, 0.3), (126, 10, 0.3), (124, 14, 0.3)],
+                                      duration_s=60, out_dir=tmp_path, seed=3, s0_offset=S0_OFFSET)
+    d = dc.discover(measured=[bs.read_measurement(p) for p in paths], baseline=bs.Parameters(),
+                    effects=["friction_coefficient", "clearance"])
+    assert d.verdict == "unexplained", dc.verdict_line(d)
+    assert d.named_effects == [] and d.updated == d.baseline
+    assert all(any(r.startswith("not adequate") for r in c["reasons"]) for c in d.rejected)
 
 
 @pytest.mark.heavy
@@ -433,11 +451,14 @@ def test_naming_rule_compares_the_gap_beyond_the_noise():
 @pytest.mark.slow
 def test_friction_is_named_with_the_issues_60_s_runs(tmp_path):
     """The issue's runs (60 s at (104, 14), (126, 10), (124, 14), s0 = 0.3) with mu = 0.26 hidden,
-    all slider-level candidates: friction named, the truth inside its Delta chi2 = 1 interval
-    widened to 2 sigma."""
+    truth started S0_OFFSET off s0, all slider-level candidates: friction named, within two
+    standard errors. At (124, 14) that run has not jumped up after 60 s, which none of the five
+    ensemble runs of any candidate does (one start in 17 near s0 at mu = 0.26): the
+    mode-conditioned chi2 charges that rarity (2 log 11) instead of a Gaussian miss of 30-180
+    sigma; with one Gaussian the verdict was 'unexplained' (about 3 minutes)."""
     truth = bs.Parameters(friction_coefficient=0.26)
     paths = dc.synthesize_slider_runs(truth, operating_points=[(104, 14, 0.3), (126, 10, 0.3), (124, 14, 0.3)],
-                                      duration_s=60, out_dir=tmp_path, seed=3)
+                                      duration_s=60, out_dir=tmp_path, seed=3, s0_offset=S0_OFFSET)
     d = dc.discover(measured=[bs.read_measurement(p) for p in paths], baseline=bs.Parameters(), max_effects=1)
     assert d.verdict == "named" and d.named_effects == ["friction_coefficient"], dc.verdict_line(d)
     p = d.parameters["friction_coefficient"]
@@ -469,9 +490,6 @@ IN_LIBRARY = {  # hidden truth (3-7 x the relevance threshold) -> (effect, param
     "slider_mass": (dict(slider_mass_kg=1.1 * bs.Parameters().slider_mass_kg), "slider_mass_kg",
                     1.1 * bs.Parameters().slider_mass_kg),
 }
-S0_OFFSET = 0.0015
-"""The truth runs start 0.0015 off the s0 their files name: the model at exactly the truth must not
-repeat the data's realisation of the chaotic locomotion (no "inverse crime")."""
 
 
 @pytest.mark.heavy
@@ -533,3 +551,90 @@ def test_rough_profile_widens_the_interval():
     assert lo < 0.27 and hi > 0.33
     plain = _interval(x, bumps)
     assert 0.27 < plain[1] and plain[2] < 0.31  # the plain Δχ² = 1 interval: 0.28 (+0.025)
+
+
+def _feats(tag, **vals):
+    from beamslider.discover.features import Feature
+
+    return {f"{k}@{tag}": Feature(f"{k}@{tag}", v, 0.0) for k, v in vals.items()}
+
+
+def test_mode_penalty_and_run_mode():
+    """The mode of a run at an operating point is (ends high, has a turning point), from the
+    classifier's high level 0.3 h; its penalty is 2 log((R + 1/2)/(k + 1/2)): zero when all R
+    runs share the data's mode, 2 log 11 for none of five."""
+    from beamslider.discover.models import HIGH_FINAL_H, data_modes, mode_penalty, run_mode
+
+    assert HIGH_FINAL_H == 0.3
+    assert run_mode({"amplitude_final_h@x": 0.31, "s_turning@x": 0.25}, "x") == (True, True)
+    assert run_mode({"amplitude_final_h@x": 0.29}, "x") == (False, False)
+    assert run_mode({"s_final@x": 0.3}, "x") is None
+    assert mode_penalty(5, 5) == 0.0 and mode_penalty(0, 5) == pytest.approx(2 * math.log(11))
+    assert mode_penalty(0, 1) == pytest.approx(2 * math.log(3)) and mode_penalty(2, 5) < mode_penalty(1, 5)
+    meas = {**_feats("a", amplitude_final_h=0.1, s_final=0.26), **_feats("b", amplitude_final_h=1.1, s_turning=0.26)}
+    assert data_modes(meas) == {"a": (False, False), "b": (True, True)}
+
+
+def test_ensemble_features_come_from_the_runs_in_the_data_mode():
+    """A bimodal ensemble (three runs jumped up, two not): the end-state features' mean comes
+    from the runs in the data's mode, with their count; their spread too when it has at least
+    MODE_MIN_DOF degrees of freedom, else the spread over all runs (an upper bound; two or three
+    runs can agree by chance); speed_early from all runs."""
+    from beamslider.discover.models import combine_ensemble
+
+    ends = [(1.10, 0.33), (1.12, 0.332), (0.15, 0.26), (1.11, 0.331), (0.17, 0.262)]
+    members = [({**_feats("x", amplitude_final_h=a, s_final=s, speed_early=-0.005 - 1e-4 * i)}, {})
+               for i, (a, s) in enumerate(ends)]
+    low = combine_ensemble(members, {"x": (False, False)})
+    assert low.mode_counts == {"x": 2} and low.runs == 5
+    assert low.mean["amplitude_final_h@x"] == pytest.approx(0.16) and low.mean["s_final@x"] == pytest.approx(0.261)
+    assert low.mode_spread["s_final@x"] == pytest.approx(np.std([0.26, 0.262], ddof=1))
+    assert low.spread["s_final@x"] == pytest.approx(np.std([e[1] for e in ends], ddof=1))
+    high = combine_ensemble(members + members[:1] + members[3:4], {"x": (True, False)})
+    assert high.mode_counts == {"x": 5} and "s_final@x" in high.mode_spread
+    assert high.spread["s_final@x"] == pytest.approx(high.mode_spread["s_final@x"])
+    assert high.spread["s_final@x"] == pytest.approx(np.std([0.33, 0.332, 0.331, 0.33, 0.331], ddof=1))
+    assert low.mean["speed_early@x"] == pytest.approx(-0.0052)
+    plain = combine_ensemble(members)
+    assert plain.mode_counts == {} and plain.mean["amplitude_final_h@x"] == pytest.approx(np.mean([e[0] for e in ends]))
+    one = combine_ensemble(members[:4], {"x": (False, False)})
+    assert one.mode_counts == {"x": 1} and one.mean["s_final@x"] == pytest.approx(0.26)
+    assert one.spread["s_final@x"] == pytest.approx(np.std([e[1] for e in ends[:4]], ddof=1))
+    assert "s_final@x" not in one.mode_spread
+    none = combine_ensemble(members[:2], {"x": (False, False)})
+    assert none.mode_counts == {"x": 0} and "s_final@x" not in none.mean and "speed_early@x" in none.mean
+
+
+def test_chi2_charges_an_unpredicted_mode_its_expectation_and_penalty():
+    """χ² with modes: where no run of the model is in the data's mode, each mode feature counts 1
+    (its expectation) and the mode costs 2 log((R + 1/2)/(1/2)); in the data's mode the features
+    count their z², plus the penalty of the mode's rarity; other features are unchanged."""
+    from beamslider.discover.naming import _chi2_terms
+
+    names = ["speed_early@x", "s_final@x", "amplitude_final_h@x"]
+    y = np.array([-0.005, 0.26, 0.16])
+    sig = np.array([1e-4, 2e-3, 0.01])
+    modes = {"x": (False, False)}
+    jumped = {"speed_early@x": -0.0052, "s_final@x": 0.33, "amplitude_final_h@x": 1.1}
+    assert _chi2_terms(jumped, names, y, sig) == pytest.approx(4 + (0.07 / 2e-3) ** 2 + (0.94 / 0.01) ** 2)
+    assert _chi2_terms(jumped, names, y, sig, modes) == pytest.approx(4 + 2 + 2 * math.log(3))
+    assert _chi2_terms(jumped, names, y, sig, modes, {"x": 0}, 5) == pytest.approx(4 + 2 + 2 * math.log(11))
+    low = {"speed_early@x": -0.0052, "s_final@x": 0.262, "amplitude_final_h@x": 0.17}
+    assert _chi2_terms(low, names, y, sig, modes) == pytest.approx(4 + 1 + 1)
+    assert _chi2_terms(low, names, y, sig, modes, {"x": 2}, 5) == pytest.approx(4 + 1 + 1 + 2 * math.log(5.5 / 2.5))
+    assert _chi2_terms(None, names, y, sig, modes) == math.inf
+
+
+@pytest.mark.heavy
+def test_negligible_change_is_none_without_the_inverse_crime(tmp_path):
+    """μ = 0.203 (below its 0.01 threshold) in the issue's three 60-s runs, truth started S0_OFFSET
+    off s0: at (126 Hz, 10 m/s²) that run ends low in its relaxation cycle, which two of 17 nearby
+    starts of the prototype do; compared within that mode, the baseline fits ('none'). A single
+    Gaussian over the ensemble named a tilt of 3.3 mrad here (docs/discover/table.md)."""
+    slider = [n for n, e in dc.EFFECTS.items() if e.level == "slider"]
+    paths = dc.synthesize_slider_runs(bs.Parameters(friction_coefficient=0.203),
+                                      operating_points=[(104, 14, 0.3), (126, 10, 0.3), (124, 14, 0.3)],
+                                      duration_s=60, out_dir=tmp_path, seed=3, s0_offset=S0_OFFSET)
+    d = dc.discover(measured=[bs.read_measurement(p) for p in paths], baseline=bs.Parameters(), effects=slider,
+                    max_effects=1)
+    assert d.verdict == "none" and d.named_effects == [], dc.verdict_line(d)

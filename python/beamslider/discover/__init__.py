@@ -21,7 +21,10 @@ model is missing, add it, and show the disagreement shrink.
    noise, sqrt(max(χ² − E[χ²], 0)/n), shrinks to ≤ ``gap_ratio`` (0.3) of itself; else
    "unexplained". Slider level: a model's features are the mean of an ensemble of runs from
    s0 + (0, ±0.001, ±0.002), their spread part of the uncertainty (the final state of a long run
-   depends on such unresolvable perturbations).
+   depends on such unresolvable perturbations). The end-state features are bimodal across such
+   perturbations (jumped up yet or not, the phase of a relaxation cycle), so they are compared
+   with the runs in the data's mode only (:data:`.models.MODE_FEATURES`, :func:`.models.run_mode`),
+   and the mode's rarity is a term of χ² (:func:`.models.mode_penalty`).
 4. **Adding it**: :func:`write_report` writes the updated TOML, ``report.json``, ``report.md`` and
    figures; the "after" features come from full simulations of the updated model.
 5. **Synthesiser** (:func:`synthesize_enma`, :func:`synthesize_slider_runs`): hidden-effect data

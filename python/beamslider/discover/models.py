@@ -6,7 +6,7 @@ from __future__ import annotations
 import math
 import os
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Callable, Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
@@ -160,41 +160,119 @@ the data cannot resolve. After 60 s the final state at (124 Hz, 14 m/s²) and (1
 them as much as on a change of μ by 2e-4 (measured: docs/discover/sensitivity.md)."""
 
 
+HIGH_FINAL_H = 0.3
+"""Final amplitude [h] from which a run ends on the high branch: the classifier's ``high_h``
+(docs/model.md §8)."""
+
+MODE_FEATURES = ("speed_late", "s_final", "amplitude_final_h", "s_turning")
+"""Features that depend on the state a run ends in (its mode, :func:`run_mode`): the jump-up time
+and the phase of a relaxation cycle at the end of a run change with perturbations the data
+cannot resolve (at (124 Hz, 14 m/s²) with μ = 0.26, one start of 17 within ±0.004 of s0 has not
+jumped up after 60 s: docs/discover/table.md), so these features are bimodal across a model's
+ensemble. They are compared only with runs in the data's mode; ``speed_early`` is not."""
+
+
+def run_mode(values: Dict[str, float], tag: str) -> Optional[Tuple[bool, bool]]:
+    """The mode of a run at operating point ``tag``: (ends on the high branch, has a turning
+    point), from its features (``values``: name -> value); None without a final amplitude."""
+    a = values.get(f"amplitude_final_h@{tag}")
+    if a is None or not math.isfinite(a):
+        return None
+    return (a >= HIGH_FINAL_H, f"s_turning@{tag}" in values)
+
+
+def data_modes(meas: Dict[str, Feature]) -> Dict[str, Optional[Tuple[bool, bool]]]:
+    """The measured runs' modes, per operating-point tag."""
+    vals = {k: f.value for k, f in meas.items()}
+    tags = sorted({k.split("@", 1)[1] for k in meas if "@" in k})
+    return {t: run_mode(vals, t) for t in tags}
+
+
+def is_mode_feature(name: str) -> bool:
+    return "@" in name and name.split("@", 1)[0] in MODE_FEATURES
+
+
+def mode_penalty(k: int, runs: int) -> float:
+    """−2 log of the probability of the data's mode, relative to a mode all ``runs`` runs share:
+    2 log((R + ½)/(k + ½)) for ``k`` of R runs in it (the ½: Jeffreys' estimate, so that a mode
+    none of the runs reached keeps a finite probability)."""
+    return 2.0 * math.log((runs + 0.5) / (k + 0.5))
+
+
 @dataclass
 class Ensemble:
     """Features of one model over runs from s0 + :data:`ENSEMBLE_S0_SHIFTS`."""
 
     mean: Dict[str, float]
-    """Mean of each feature over the runs that have it (at least half of them)."""
+    """Mean of each feature over the runs that have it (at least half of them); for the features
+    of :data:`MODE_FEATURES`, over the runs in the data's mode when modes are given (absent when
+    none is)."""
     spread: Dict[str, float]
     """Standard deviation over those runs: the model's sensitivity to what the data cannot resolve."""
     runs: int
     behaviours: Dict[str, str]
     """Behaviour types of the unshifted run."""
+    mode_counts: Dict[str, int] = field(default_factory=dict)
+    """Per operating-point tag: how many of the runs end in the data's mode (:func:`run_mode`)."""
+    mode_spread: Dict[str, float] = field(default_factory=dict)
+    """Mode features: the standard deviation over the runs in the data's mode (at least two),
+    with ``mode_counts − 1`` degrees of freedom; :attr:`spread` uses it only from
+    :data:`MODE_MIN_DOF` on."""
 
 
-def combine_ensemble(members: Sequence[Optional[Tuple[Dict[str, Feature], Dict[str, str]]]]) -> Optional[Ensemble]:
-    """Mean and spread of the features of one model's runs (the first: unshifted; None: failed)."""
+MODE_MIN_DOF = 4
+"""Least degrees of freedom of a mode feature's spread estimated from the runs in the data's mode;
+with fewer, the spread over all runs (an upper bound) is used. Measured: at restitution 0.425 the
+three of five runs that end low at (126 Hz, 10 m/s²) agree on speed_late within 4.6e-5 1/s, while
+seven scan runs nearby scatter by 6e-4; that spread made a χ² of 98 out of one of 24."""
+
+
+def combine_ensemble(members: Sequence[Optional[Tuple[Dict[str, Feature], Dict[str, str]]]],
+                     modes: Optional[Dict[str, Optional[Tuple[bool, bool]]]] = None) -> Optional[Ensemble]:
+    """Mean and spread of the features of one model's runs (the first: unshifted; None: failed).
+    ``modes``: the data's mode per tag (:func:`data_modes`); the features of
+    :data:`MODE_FEATURES` then come from the runs in that mode only."""
     if not members or members[0] is None:
         return None
     ok = [m[0] for m in members if m is not None]
+    vals = [{k: f.value for k, f in m.items()} for m in ok]
+    counts: Dict[str, int] = {}
+    in_mode: Dict[str, List[int]] = {}
+    for tag, md in (modes or {}).items():
+        if md is None:
+            continue
+        idx = [i for i, v in enumerate(vals) if run_mode(v, tag) == md]
+        in_mode[tag] = idx
+        counts[tag] = len(idx)
     names = sorted({k for m in ok for k in m})
-    mean, spread = {}, {}
+    mean, spread, mode_spread = {}, {}, {}
     for k in names:
-        v = np.array([m[k].value for m in ok if k in m])
-        if 2 * len(v) >= len(members):
+        tag = k.split("@", 1)[1] if "@" in k else None
+        v_all = np.array([m[k].value for m in ok if k in m])
+        sd_all = float(np.std(v_all, ddof=1)) if len(v_all) > 1 else 0.0
+        if modes is not None and tag in in_mode and is_mode_feature(k):
+            v = np.array([vals[i][k] for i in in_mode[tag] if k in vals[i]])
+            if len(v) == 0:
+                continue
             mean[k] = float(np.mean(v))
-            spread[k] = float(np.std(v, ddof=1)) if len(v) > 1 else 0.0
-    return Ensemble(mean, spread, len(ok), members[0][1])
+            if len(v) > 1:
+                mode_spread[k] = float(np.std(v, ddof=1))
+            # Few runs in the mode: their spread is unreliable; that over all runs is an upper bound.
+            spread[k] = mode_spread[k] if len(v) - 1 >= MODE_MIN_DOF else sd_all
+        elif 2 * len(v_all) >= len(members):
+            mean[k] = float(np.mean(v_all))
+            spread[k] = sd_all
+    return Ensemble(mean, spread, len(ok), members[0][1], counts, mode_spread)
 
 
 def ensemble_slider_features(params_list: Sequence[Parameters], ops: Sequence[OperatingPoint], *,
                              threads: Optional[int] = None, on_run: Optional[Callable[[int], None]] = None,
-                             central: Optional[Sequence[Optional[Tuple[Dict[str, Feature], Dict[str, str]]]]] = None
-                             ) -> List[Optional[Ensemble]]:
+                             central: Optional[Sequence[Optional[Tuple[Dict[str, Feature], Dict[str, str]]]]] = None,
+                             modes: Optional[Dict[str, Optional[Tuple[bool, bool]]]] = None) -> List[Optional[Ensemble]]:
     """Per model, the features of its runs from s0 + :data:`ENSEMBLE_S0_SHIFTS` (one batch of the
     core's runner for all models): mean and spread. ``central``: the unshifted runs' features when
-    already known (their runs are not repeated). None for a model whose unshifted runs fail."""
+    already known (their runs are not repeated). ``modes``: the data's modes (:func:`combine_ensemble`).
+    None for a model whose unshifted runs fail."""
     shifts = list(ENSEMBLE_S0_SHIFTS) if central is None else [d for d in ENSEMBLE_S0_SHIFTS if d != 0.0]
     res = batch_slider_features([p for p in params_list for _ in shifts], ops,
                                 s0_shifts=[d for _ in params_list for d in shifts], threads=threads, on_run=on_run)
@@ -203,7 +281,7 @@ def ensemble_slider_features(params_list: Sequence[Parameters], ops: Sequence[Op
         members = list(res[i * len(shifts):(i + 1) * len(shifts)])
         if central is not None:
             members = [central[i]] + members
-        out.append(combine_ensemble(members))
+        out.append(combine_ensemble(members, modes))
     return out
 
 

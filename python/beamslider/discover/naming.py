@@ -18,10 +18,16 @@ from ..measurement import Measurement
 from ..params import Parameters, resolve
 from .effects import EFFECTS, Effect, _apply, _realise
 from .features import Feature, enma_features
-from .models import ENSEMBLE_S0_SHIFTS, Ensemble, _levels_for, batch_slider_features, ensemble_slider_features, beam_surrogate, measured_slider_features, simulated_enma_features
+from .models import (ENSEMBLE_S0_SHIFTS, MODE_MIN_DOF, Ensemble, _levels_for, data_modes, is_mode_feature, mode_penalty,
+                     run_mode, batch_slider_features, ensemble_slider_features, beam_surrogate, measured_slider_features, simulated_enma_features)
 
 
 SIGNIFICANCE = 0.01
+
+MODE_CONDITIONING = True
+"""Slider level: compare the features that depend on the state a run ends in
+(:data:`.models.MODE_FEATURES`) only with model runs in the data's mode, and charge the mode's
+rarity as a likelihood term (:func:`_chi2_terms`). False: one Gaussian over all runs."""
 
 
 # --- features -------------------------------------------------------------------------------------
@@ -79,6 +85,10 @@ class Discovery:
     """Gap beyond the noise before: sqrt(max(χ²₀ − n, 0)/n) (:data:`GAP_EXCESS_MEASURE`)."""
     gap_excess_after: float = 0.0
     """The same after the update: sqrt(max(χ² − (n − k), 0)/n)."""
+    modes: Dict[str, Dict[str, Any]] = field(default_factory=dict)
+    """Slider level, per operating point: the data's mode (:func:`.models.run_mode`: ends high,
+    has a turning point) and how many of the baseline's and the updated model's ensemble runs end
+    in it (:data:`MODE_CONDITIONING`)."""
 
     def to_json(self) -> Dict[str, Any]:
         return _json_safe(dict(
@@ -92,7 +102,7 @@ class Discovery:
             candidates=[dict(effects=list(c.effects), values=c.values, stderrs=c.stderrs, chi2=c.chi2, dof=c.dof,
                              adequate=c.adequate, bic=c.bic, intervals=c.intervals, chi2_roughness=c.roughness)
                         for c in self.candidates],
-            baseline=self.baseline.to_dict(), updated=self.updated.to_dict(), runtime_s=self.runtime_s))
+            modes=self.modes, baseline=self.baseline.to_dict(), updated=self.updated.to_dict(), runtime_s=self.runtime_s))
 
 
 GAP_MEASURE = ("RMS over the features of (model - measured) / uncertainty (measurement and, slider level, "
@@ -119,13 +129,70 @@ def _sigma(f: Feature, spread: float, runs: int) -> float:
     return math.sqrt(f.stderr ** 2 + (spread ** 2 * (1 + 1 / runs) if runs > 0 else 0.0))
 
 
+Modes = Dict[str, Optional[Tuple[bool, bool]]]
+
+
+def _mode_terms(model: Dict[str, float], modes: Optional[Modes], counts: Optional[Dict[str, int]],
+                runs: int) -> Tuple[set, float]:
+    """The operating points (tags) whose mode features the model cannot predict (none of its runs
+    ends in the data's mode, :func:`.models.run_mode`), and the sum of the mode penalties
+    (:func:`.models.mode_penalty`). ``counts``: per tag, how many of the model's ``runs`` runs are
+    in the data's mode (an ensemble); None: ``model`` is one run, whose own mode decides."""
+    unpredicted, pen = set(), 0.0
+    for tag, md in (modes or {}).items():
+        if md is None:
+            continue
+        if counts is not None and tag in counts:
+            k, r = counts[tag], max(runs, 1)
+        else:
+            k, r = (1 if run_mode(model, tag) == md else 0), 1
+        if k == 0:
+            unpredicted.add(tag)
+        pen += mode_penalty(k, r)
+    return unpredicted, pen
+
+
+def _chi2_terms(model: Optional[Dict[str, float]], names: Sequence[str], y: np.ndarray, sig: np.ndarray,
+                modes: Optional[Modes] = None, counts: Optional[Dict[str, int]] = None, runs: int = 1) -> float:
+    """χ² of the measured features ``names`` (values ``y``, uncertainties ``sig``) against
+    ``model``: Σ z² (a feature the model lacks counts as 5σ), where a mode feature of an
+    operating point the model cannot predict in the data's mode counts as its expectation, 1,
+    plus the mode penalties (:func:`_mode_terms`): the likelihood of bimodal features is that of
+    the data's mode times that of the features within it."""
+    if model is None:
+        return math.inf
+    unpredicted, pen = _mode_terms(model, modes, counts, runs)
+    total = pen
+    for k, yk, sk in zip(names, y, sig):
+        if "@" in k and k.split("@", 1)[1] in unpredicted and is_mode_feature(k):
+            total += 1.0
+        elif k in model and math.isfinite(model[k]):
+            total += ((model[k] - yk) / sk) ** 2
+        else:
+            total += 25.0
+    return float(total)
+
+
+def _missing_z(name: str, counts: Optional[Dict[str, int]]) -> float:
+    """z of a feature an ensemble lacks: 1 (its expectation) for a mode feature of an operating
+    point where none of its runs is in the data's mode, 5 otherwise (:func:`_chi2_terms`)."""
+    tag = name.split("@", 1)[1] if "@" in name else None
+    return 1.0 if counts and tag in counts and counts[tag] == 0 and is_mode_feature(name) else 5.0
+
+
 def _gap(model: Dict[str, float], meas: Dict[str, Feature], spread: Optional[Dict[str, float]] = None,
-         runs: int = 0) -> Tuple[float, float]:
+         runs: int = 0, modes: Optional[Modes] = None, counts: Optional[Dict[str, int]] = None) -> Tuple[float, float]:
+    """(RMS gap sqrt(χ²/n), χ²) of ``model`` against the measured features (:func:`_chi2_terms`;
+    ``spread``/``runs``: the model's ensemble, :func:`_sigma`; ``modes``/``counts``: the data's
+    modes and the ensemble's runs in them)."""
     sp = spread or {}
-    z = [(model[k] - f.value) / _sigma(f, sp.get(k, 0.0), runs) for k, f in meas.items()
-         if k in model and math.isfinite(model[k])]
-    z = np.asarray(z)
-    return float(np.sqrt(np.mean(z ** 2))) if len(z) else 0.0, float(np.sum(z ** 2))
+    names = list(meas)
+    if not names:
+        return 0.0, 0.0
+    y = np.array([meas[k].value for k in names])
+    sig = np.array([_sigma(meas[k], sp.get(k, 0.0), runs) for k in names])
+    chi2 = _chi2_terms(model, names, y, sig, modes, counts, max(runs, 1))
+    return float(math.sqrt(chi2 / len(names))), chi2
 
 
 def _fit_candidate(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str, Feature],
@@ -265,28 +332,41 @@ def _interval(xs: np.ndarray, fs: np.ndarray, rough: float = 0.0) -> Tuple[float
 
 
 def _pooled_spread(ens: Ensemble, levels: Sequence[Sequence[Optional[Dict[str, float]]]],
-                   names: Sequence[str]) -> Dict[str, float]:
+                   names: Sequence[str], modes: Optional[Modes] = None) -> Dict[str, float]:
     """The model's spread of each feature at the fitted point, pooled from two measurements of the
     same thing — its sensitivity to what the data cannot resolve: the variance over the ensemble
     of runs (R − 1 degrees of freedom) and the scatter about a quadratic trend of the single runs
     of the last refinement level of each profile scan (7 points, 4 degrees of freedom; the trend is
     what the data resolve, the scatter the roughness). Five runs alone give an unstable estimate
     (4 degrees of freedom: at μ = 0.26, 60 s, the final amplitude at 126 Hz spreads by 0.002 over
-    the ensemble, by 0.007 over nine perturbations)."""
+    the ensemble, by 0.007 over nine perturbations). ``modes``: the data's modes; a mode feature's
+    spread comes from the runs in the data's mode only, or, with fewer than
+    :data:`.models.MODE_MIN_DOF` degrees of freedom, is the ensemble's spread over all runs."""
     out: Dict[str, float] = {}
     for k in names:
         ss, dof = 0.0, 0
-        if k in ens.spread and ens.runs > 1:
+        tag = k.split("@", 1)[1] if "@" in k else None
+        md = (modes or {}).get(tag) if tag is not None and is_mode_feature(k) else None
+        if md is not None and tag in ens.mode_counts:
+            runs = ens.mode_counts[tag]
+            if k in ens.mode_spread and runs > 1:
+                ss += ens.mode_spread[k] ** 2 * (runs - 1)
+                dof += runs - 1
+        elif k in ens.spread and ens.runs > 1:
             ss += ens.spread[k] ** 2 * (ens.runs - 1)
             dof += ens.runs - 1
         for pts in levels:
-            xs = np.array([j for j, m in enumerate(pts) if m is not None and k in m and math.isfinite(m[k])], dtype=float)
+            xs = np.array([j for j, m in enumerate(pts) if m is not None and k in m and math.isfinite(m[k])
+                           and (md is None or run_mode(m, tag) == md)], dtype=float)
             if len(xs) >= 5:
                 v = np.array([pts[int(j)][k] for j in xs])  # type: ignore[index]
                 ss_k, dof_k = _parabola_scatter(xs, v)
                 ss += ss_k
                 dof += dof_k
-        out[k] = math.sqrt(ss / dof) if dof > 0 else 0.0
+        if md is not None and tag in ens.mode_counts and dof < MODE_MIN_DOF:
+            out[k] = ens.spread.get(k, 0.0)  # too few runs in the data's mode: the spread over all runs
+        else:
+            out[k] = math.sqrt(ss / dof) if dof > 0 else 0.0
     return out
 
 
@@ -314,16 +394,14 @@ def _profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str
     cache: Dict[Tuple[float, ...], Optional[Dict[str, float]]] = {}
     fixed = dict(fixed or {})
     spread = dict(spread0 or {})
+    modes = data_modes(meas) if MODE_CONDITIONING else None
 
     def sig_single() -> np.ndarray:
         return np.sqrt(se ** 2 + 2 * np.array([spread.get(k, 0.0) for k in names]) ** 2)
 
-    def chi2_from(m: Optional[Dict[str, float]], sig: np.ndarray) -> float:
-        if m is None:
-            return math.inf
-        r = np.array([(m[k] - yk) / sk if k in m and math.isfinite(m[k]) else 5.0
-                      for k, yk, sk in zip(names, y, sig)])
-        return float(r @ r)
+    def chi2_from(m: Optional[Dict[str, float]], sig: np.ndarray, counts: Optional[Dict[str, int]] = None,
+                  runs: int = 1) -> float:
+        return _chi2_terms(m, names, y, sig, modes, counts, runs)
 
     def key_of(u: np.ndarray) -> Tuple[float, ...]:
         return tuple(round(float(v), 12) for v in u)
@@ -384,10 +462,10 @@ def _profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str
     n, k = len(names), len(effects) + len(fixed)
     predicted: Dict[str, float] = {}
     if ens is not None:
-        spread.update(_pooled_spread(ens, [[cache[key_of(p)] for p in pts] for pts in last], names))
+        spread.update(_pooled_spread(ens, [[cache[key_of(p)] for p in pts] for pts in last], names, modes))
         predicted = dict(ens.mean)
         sig_e = np.sqrt(se ** 2 + (1 + 1 / ens.runs) * np.array([spread.get(kk, 0.0) for kk in names]) ** 2)
-        best_chi2 = chi2_from(ens.mean, sig_e)
+        best_chi2 = chi2_from(ens.mean, sig_e, ens.mode_counts, ens.runs)
     else:
         best_chi2 = chi2(u)
         predicted = dict(cache[key_of(u)] or {})
@@ -507,6 +585,7 @@ def _fit_sets_joint(cand_effects: Sequence[Effect], max_effects: int, base: Para
     by the profile fit of the runs with those beam-level values held; a set of beam-level effects
     only costs one evaluation of the runs. Returns one fit per set, as :func:`_fit_sets`."""
     names_s = list(meas_s)
+    modes = data_modes(meas_s) if MODE_CONDITIONING else None
 
     def chi2_s_of(ps: List[Parameters]) -> List[Tuple[float, Dict[str, float], Dict[str, float]]]:
         """χ² of the runs of each model (with its ensemble's mean and spread when given)."""
@@ -518,9 +597,9 @@ def _fit_sets_joint(cand_effects: Sequence[Effect], max_effects: int, base: Para
                 out.append((math.inf, {}, {}))
                 continue
             mean, sp, runs = (e.mean, e.spread, e.runs) if e is not None else (m, dict(spread0 or {}), 1)
-            f = {k: mean[k] if k in mean else meas_s[k].value + 5 * _sigma(meas_s[k], sp.get(k, 0.0), runs)
-                 for k in names_s}
-            out.append((_gap(f, meas_s, sp, runs)[1], mean, sp))
+            counts = e.mode_counts if e is not None else None
+            f = {k: mean[k] for k in names_s if k in mean}
+            out.append((_gap(f, meas_s, sp, runs, modes, counts)[1], mean, sp))
         return out
 
     n = len(meas_b) + len(meas_s)
@@ -636,6 +715,8 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
     ensemble_many: Optional[EnsembleMany] = None
     spread_base: Dict[str, float] = {}
     runs_base = len(ENSEMBLE_S0_SHIFTS) if measured is not None else 0
+    modes: Optional[Modes] = None
+    counts_base: Dict[str, int] = {}
     bias: Dict[str, float] = {}
     if enma_data is not None:
         meas_b = enma_features(enma_data)
@@ -652,9 +733,11 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
         before.update({k: f.value for k, f in sim_base.items()})
     if measured is not None:
         meas_s, beh_meas, ops = measured_slider_features(measured)
+        modes = data_modes(meas_s) if MODE_CONDITIONING else None
         # Baseline: an ensemble of runs from s0 + ENSEMBLE_S0_SHIFTS (one batch): the mean is the
-        # prediction, the spread the model's sensitivity to what the data cannot resolve.
-        ens_base = ensemble_slider_features([base], ops, threads=threads)[0]
+        # prediction, the spread the model's sensitivity to what the data cannot resolve; with
+        # modes, the mode features' mean and spread over the runs in the data's mode.
+        ens_base = ensemble_slider_features([base], ops, threads=threads, modes=modes)[0]
         if ens_base is None:
             raise _core.SimulationError("the baseline model's runs at the measured operating points failed")
         spread_base = {k: ens_base.spread.get(k, 0.0) for k in meas_s}
@@ -666,12 +749,13 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
 
         def ensemble_many_fn(ps: List[Parameters], central: List[Optional[Dict[str, float]]]) -> List[Optional[Ensemble]]:
             cen = [None if c is None else ({k: Feature(k, v, 0.0) for k, v in c.items()}, {}) for c in central]
-            return ensemble_slider_features(ps, ops, threads=threads, central=cen)
+            return ensemble_slider_features(ps, ops, threads=threads, central=cen, modes=modes)
 
         ensemble_many = ensemble_many_fn
         model_many = model_many_fn
         meas.update(meas_s)
         before.update(ens_base.mean)
+        counts_base = ens_base.mode_counts
 
     def model_fn(p: Parameters) -> Dict[str, float]:
         out: Dict[str, float] = {}
@@ -688,8 +772,8 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
     # Features the baseline cannot compute (e.g. no turning point) count as a disagreement of 5σ.
     for k in meas:
         if k not in before:
-            before[k] = meas[k].value + 5 * _sigma(meas[k], spread_base.get(k, 0.0), runs_base)
-    gap_before, chi2_0 = _gap(before, meas, spread_base, runs_base)
+            before[k] = meas[k].value + _missing_z(k, counts_base) * _sigma(meas[k], spread_base.get(k, 0.0), runs_base)
+    gap_before, chi2_0 = _gap(before, meas, spread_base, runs_base, modes, counts_base)
     n = len(meas)
     excess_before = _excess(chi2_0, n, n)
     fits: List[CandidateFit] = []
@@ -726,49 +810,51 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
             if beam_cands and chi2_b0 > _chi2_quantile(len(meas_b)):
                 fits_b = _fit_sets(beam_cands, max_effects, "beam", base, meas_b, model_b, None, 200)
                 refit_beam_bias(fits_b)
-            chi2_s0 = _gap({k: before[k] for k in meas_s}, meas_s, spread_base, runs_base)[1]
+            chi2_s0 = _gap({k: before[k] for k in meas_s}, meas_s, spread_base, runs_base, modes, counts_base)[1]
             fits = _fit_sets_joint(cand_effects, max_effects, base, meas_b, model_b, meas_s, model_many,
                                    chi2_b0, chi2_s0, ensemble_many=ensemble_many, spread0=spread_base,
                                    progress=progress)
     verdicts = _judge(fits, base, n, excess_before, gap_ratio)
     best, alts = _select([f for f in fits if not verdicts[f.effects]], chi2_0, n)
 
-    def after_of(p: Parameters) -> Tuple[Dict[str, float], Dict[str, str], Dict[str, float]]:
+    def after_of(p: Parameters) -> Tuple[Dict[str, float], Dict[str, str], Dict[str, float], Dict[str, int]]:
         # "After": full simulation of the updated model (not the surrogate): virtual ENMA and the
-        # ensemble of runs (mean, behaviours of the unshifted run, spread).
+        # ensemble of runs (mean, behaviours of the unshifted run, spread, runs in the data's modes).
         out: Dict[str, float] = {}
         beh: Dict[str, str] = {}
         sp: Dict[str, float] = {}
+        counts: Dict[str, int] = {}
         if enma_data is not None:
             out.update({k: f.value for k, f in simulated_enma_features(p, enma_levels)[0].items()})
         if measured is not None:
-            e = ensemble_slider_features([p], ops, threads=threads)[0]
+            e = ensemble_slider_features([p], ops, threads=threads, modes=modes)[0]
             if e is not None:
                 out.update(e.mean)
-                beh, sp = e.behaviours, e.spread
-        return out, beh, sp
+                beh, sp, counts = e.behaviours, e.spread, e.mode_counts
+        return out, beh, sp, counts
 
-    def filled(f: Dict[str, float], sp: Dict[str, float]) -> Dict[str, float]:
+    def filled(f: Dict[str, float], sp: Dict[str, float], counts: Dict[str, int]) -> Dict[str, float]:
         f = dict(f)
         for k in meas:
             if k not in f:
-                f[k] = meas[k].value + 5 * _sigma(meas[k], sp.get(k, 0.0), runs_base)
+                f[k] = meas[k].value + _missing_z(k, counts) * _sigma(meas[k], sp.get(k, 0.0), runs_base)
         return f
 
     after_f: Dict[str, float] = dict(before)
     spread_after: Dict[str, float] = dict(spread_base)
+    counts_after: Dict[str, int] = dict(counts_base)
     beh_upd = behaviours.get("baseline", {})
     updated = base
     if best is not None:
         cand = _realise(base, {e: best.values[e] for e in best.effects})
-        f_c, b_c, sp_c = after_of(cand)
+        f_c, b_c, sp_c, n_c = after_of(cand)
         # The fit's spread pools the ensemble with the roughness of its scan (_pooled_spread).
         sp_c = {**sp_c, **{k: v for k, v in best.model_spread.items() if k in sp_c or k in f_c}}
-        f_c = filled(f_c, sp_c)
-        chi2_c = _gap(f_c, meas, sp_c, runs_base)[1]
+        f_c = filled(f_c, sp_c, n_c)
+        chi2_c = _gap(f_c, meas, sp_c, runs_base, modes, n_c)[1]
         g_c = _excess(chi2_c, n - len(best.effects), n)
         if g_c <= gap_ratio * excess_before:
-            updated, after_f, beh_upd, spread_after = cand, f_c, b_c, sp_c
+            updated, after_f, beh_upd, spread_after, counts_after = cand, f_c, b_c, sp_c, n_c
         else:
             # The fit's gap was small enough, the full simulation's is not: not named.
             verdicts[best.effects] = verdicts[best.effects] + [
@@ -786,8 +872,8 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
                               unit=EFFECTS[e].unit, baseline=EFFECTS[e].baseline_value(base),
                               relevance=EFFECTS[e].relevant(best.values[e], base)[1],
                               **({"chi2_roughness": best.roughness[e]} if e in best.roughness else {})) for e in named}
-    after_f = filled(after_f, spread_after)
-    gap_after, chi2_after = _gap(after_f, meas, spread_after, runs_base)
+    after_f = filled(after_f, spread_after, counts_after)
+    gap_after, chi2_after = _gap(after_f, meas, spread_after, runs_base, modes, counts_after)
     excess_after = _excess(chi2_after, n - len(best.effects) if best is not None else n, n)
 
     def sig(k: str, sp: Dict[str, float]) -> float:
@@ -831,7 +917,10 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
                      else dict(enma=enma_data, measured=list(measured or [])),
                      time.perf_counter() - t0, verdict=verdict, rejected=rejected,
                      features_off=[dict(feature=k, z=z) for k, z in off], gap_ratio=gap_ratio,
-                     gap_excess_before=excess_before, gap_excess_after=excess_after)
+                     gap_excess_before=excess_before, gap_excess_after=excess_after,
+                     modes={t: dict(ends_high=md[0], turning_point=md[1], runs=runs_base,
+                                    baseline_runs_in_mode=counts_base.get(t), updated_runs_in_mode=counts_after.get(t))
+                            for t, md in (modes or {}).items() if md is not None})
 
 
 # --- synthesiser ----------------------------------------------------------------------------------

@@ -160,6 +160,11 @@ def _markdown(d: Discovery, figs: Sequence[str]) -> str:
                      f"({_fmt(sb)}) | {_fmt(f['updated'])} ({_fmt(su)}) | {f['z_before']:+.2f} | {f['z_after']:+.2f} |")
     if d.behaviours:
         lines += ["", "Behaviour types: " + "; ".join(f"{k}: {v}" for k, v in d.behaviours.items())]
+    if d.modes:
+        lines += ["", "Modes (end-state features are compared within the data's mode): " + "; ".join(
+            f"{t}: ends {'high' if m['ends_high'] else 'low'}, {'a' if m['turning_point'] else 'no'} turning point, "
+            f"baseline {m['baseline_runs_in_mode']}/{m['runs']} runs in it, updated {m['updated_runs_in_mode']}/{m['runs']}"
+            for t, m in d.modes.items())]
     lines += ["", "Candidates (chi2, dof, adequate at 99 %):", ""]
     for c in sorted(d.candidates, key=lambda c: (len(c.effects), c.chi2)):
         vals = ", ".join(f"{EFFECTS[e].field} = {_fmt(c.values[e])}" for e in c.effects)
