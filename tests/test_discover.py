@@ -359,9 +359,10 @@ def test_cli_takes_enma_and_measured_together(tmp_path):
     r = run_cli("synthesize", "enma", "--out", str(tmp_path / "e"), "--seed", "4", cwd=tmp_path, timeout=300)
     assert r.returncode == 0, r.stderr
     r = run_cli("synthesize", "slider", "--points", "124,6,0.3", "--duration", "8", "--out", str(tmp_path / "s"),
-                cwd=tmp_path, timeout=300)
+                "--s0-offset", "0.0015", cwd=tmp_path, timeout=300)
     assert r.returncode == 0, r.stderr
     runs = sorted(str(p) for p in (tmp_path / "s").glob("*.txt"))
+    assert len(runs) == 1 and runs[0].endswith("RelSliderPosStart03.txt") and bs.read_measurement(runs[0]).s0 == 0.3
     r = run_cli("discover", "--enma", str(tmp_path / "e" / "enma_data.csv"), "--measured", *runs,
                 "--effects", "axial_preload,friction_coefficient", "--out", str(tmp_path / "d"), cwd=tmp_path,
                 timeout=900)
@@ -640,3 +641,10 @@ def test_negligible_change_is_none_without_the_inverse_crime(mu, tmp_path):
     d = dc.discover(measured=[bs.read_measurement(p) for p in paths], baseline=bs.Parameters(), effects=slider,
                     max_effects=1)
     assert d.verdict == "none" and d.named_effects == [], dc.verdict_line(d)
+
+
+@pytest.mark.parametrize("bad", ["nan", "0.2", "x"])
+def test_cli_synthesize_rejects_a_bad_s0_offset(bad, tmp_path):
+    r = run_cli("synthesize", "slider", "--s0-offset", bad, "--out", str(tmp_path / "s"), cwd=tmp_path, timeout=60)
+    assert r.returncode == 2 and "--s0-offset" in r.stderr and "Traceback" not in r.stderr, r.stderr
+    assert not (tmp_path / "s").exists() or not list((tmp_path / "s").glob("*.txt"))

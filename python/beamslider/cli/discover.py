@@ -45,8 +45,22 @@ def add_parser(sub: Any) -> None:
                     help="slider: operating points f_ex,a_ex,s0 separated by ';' (110,10,0.3;124,6,0.3)")
     sp.add_argument("--duration", type=positive(float), default=15.0, metavar="S", help="slider: run length [s] (15)")
     sp.add_argument("--repeats", type=positive(int), default=2, metavar="N", help="enma: noisy repetitions (2)")
+    sp.add_argument("--s0-offset", type=_s0_offset, default=0.0, metavar="DS",
+                    help="slider: the truth runs start DS off the s0 their files name, as a slider placed by hand "
+                         "is; without it the model at exactly the truth repeats the data's chaotic realisation "
+                         "(0; e.g. 0.0015, |DS| <= 0.05)")
     add_common(sp, model_options=False, window=False)
     sp.set_defaults(func=cmd_synthesize)
+
+
+def _s0_offset(text: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not (math.isfinite(v) and abs(v) <= 0.05):
+        raise argparse.ArgumentTypeError(f"{text!r}: must be finite with |DS| <= 0.05")
+    return v
 
 
 def _points(text: str) -> List[Tuple[float, float, float]]:
@@ -116,6 +130,6 @@ def cmd_synthesize(args: argparse.Namespace) -> int:
         print(f"wrote {out / 'enma_data.csv'}")
     else:
         for p in dc.synthesize_slider_runs(truth, operating_points=_points(args.points), duration_s=args.duration,
-                                           out_dir=out, seed=args.seed):
+                                           out_dir=out, seed=args.seed, s0_offset=args.s0_offset):
             print(f"wrote {p}")
     return 0
