@@ -106,7 +106,8 @@ class Discovery:
 
 
 GAP_MEASURE = ("RMS over the features of (model - measured) / uncertainty (measurement and, slider level, "
-               "the model's spread over its ensemble of runs)")
+               "the model's spread over its ensemble of runs), sqrt(chi2 / n); slider level, chi2 includes the "
+               "mode terms (end-state features compared within the data's mode)")
 GAP_EXCESS_MEASURE = ("gap beyond the noise: sqrt(max(chi2 - E[chi2], 0) / n), E[chi2] = n for the baseline "
                       "and n - k for a model with k fitted parameters; the naming rule compares these")
 
