@@ -172,7 +172,17 @@ jumped up after 60 s: docs/discover/table.md), so these features are bimodal acr
 ensemble. They are compared only with runs in the data's mode; ``speed_early`` is not."""
 
 
-def run_mode(values: Dict[str, float], tag: str) -> Optional[Tuple[bool, bool]]:
+Mode = Tuple[bool, bool]
+Modes = Dict[str, Optional[Mode]]
+"""The data's mode per operating-point tag (:func:`data_modes`)."""
+
+
+def tag_of(name: str) -> Optional[str]:
+    """The operating-point tag of a slider-level feature ``<feature>@<tag>`` (None: beam level)."""
+    return name.split("@", 1)[1] if "@" in name else None
+
+
+def run_mode(values: Dict[str, float], tag: str) -> Optional[Mode]:
     """The mode of a run at operating point ``tag``: (ends on the high branch, has a turning
     point), from its features (``values``: name -> value); None without a final amplitude."""
     a = values.get(f"amplitude_final_h@{tag}")
@@ -181,14 +191,15 @@ def run_mode(values: Dict[str, float], tag: str) -> Optional[Tuple[bool, bool]]:
     return (a >= HIGH_FINAL_H, f"s_turning@{tag}" in values)
 
 
-def data_modes(meas: Dict[str, Feature]) -> Dict[str, Optional[Tuple[bool, bool]]]:
+def data_modes(meas: Dict[str, Feature]) -> Modes:
     """The measured runs' modes, per operating-point tag."""
     vals = {k: f.value for k, f in meas.items()}
-    tags = sorted({k.split("@", 1)[1] for k in meas if "@" in k})
+    tags = sorted({t for t in map(tag_of, meas) if t is not None})
     return {t: run_mode(vals, t) for t in tags}
 
 
 def is_mode_feature(name: str) -> bool:
+    """Whether ``name`` (``<feature>@<tag>``) is one of :data:`MODE_FEATURES`."""
     return "@" in name and name.split("@", 1)[0] in MODE_FEATURES
 
 
@@ -228,7 +239,7 @@ seven scan runs nearby scatter by 6e-4; that spread made a χ² of 98 out of one
 
 
 def combine_ensemble(members: Sequence[Optional[Tuple[Dict[str, Feature], Dict[str, str]]]],
-                     modes: Optional[Dict[str, Optional[Tuple[bool, bool]]]] = None) -> Optional[Ensemble]:
+                     modes: Optional[Modes] = None) -> Optional[Ensemble]:
     """Mean and spread of the features of one model's runs (the first: unshifted; None: failed).
     ``modes``: the data's mode per tag (:func:`data_modes`); the features of
     :data:`MODE_FEATURES` then come from the runs in that mode only."""
@@ -247,7 +258,7 @@ def combine_ensemble(members: Sequence[Optional[Tuple[Dict[str, Feature], Dict[s
     names = sorted({k for m in ok for k in m})
     mean, spread, mode_spread = {}, {}, {}
     for k in names:
-        tag = k.split("@", 1)[1] if "@" in k else None
+        tag = tag_of(k)
         v_all = np.array([m[k].value for m in ok if k in m])
         sd_all = float(np.std(v_all, ddof=1)) if len(v_all) > 1 else 0.0
         if modes is not None and tag in in_mode and is_mode_feature(k):
@@ -268,7 +279,7 @@ def combine_ensemble(members: Sequence[Optional[Tuple[Dict[str, Feature], Dict[s
 def ensemble_slider_features(params_list: Sequence[Parameters], ops: Sequence[OperatingPoint], *,
                              threads: Optional[int] = None, on_run: Optional[Callable[[int], None]] = None,
                              central: Optional[Sequence[Optional[Tuple[Dict[str, Feature], Dict[str, str]]]]] = None,
-                             modes: Optional[Dict[str, Optional[Tuple[bool, bool]]]] = None) -> List[Optional[Ensemble]]:
+                             modes: Optional[Modes] = None) -> List[Optional[Ensemble]]:
     """Per model, the features of its runs from s0 + :data:`ENSEMBLE_S0_SHIFTS` (one batch of the
     core's runner for all models): mean and spread. ``central``: the unshifted runs' features when
     already known (their runs are not repeated). ``modes``: the data's modes (:func:`combine_ensemble`).

@@ -18,8 +18,8 @@ from ..measurement import Measurement
 from ..params import Parameters, resolve
 from .effects import EFFECTS, Effect, _apply, _realise
 from .features import Feature, enma_features
-from .models import (ENSEMBLE_S0_SHIFTS, MODE_MIN_DOF, Ensemble, _levels_for, data_modes, is_mode_feature, mode_penalty,
-                     run_mode, batch_slider_features, ensemble_slider_features, beam_surrogate, measured_slider_features, simulated_enma_features)
+from .models import (ENSEMBLE_S0_SHIFTS, MODE_MIN_DOF, Ensemble, Modes, _levels_for, data_modes, is_mode_feature,
+                     mode_penalty, run_mode, tag_of, batch_slider_features, ensemble_slider_features, beam_surrogate, measured_slider_features, simulated_enma_features)
 
 
 SIGNIFICANCE = 0.01
@@ -130,9 +130,6 @@ def _sigma(f: Feature, spread: float, runs: int) -> float:
     return math.sqrt(f.stderr ** 2 + (spread ** 2 * (1 + 1 / runs) if runs > 0 else 0.0))
 
 
-Modes = Dict[str, Optional[Tuple[bool, bool]]]
-
-
 def _mode_terms(model: Dict[str, float], modes: Optional[Modes], counts: Optional[Dict[str, int]],
                 runs: int) -> Tuple[set, float]:
     """The operating points (tags) whose mode features the model cannot predict (none of its runs
@@ -165,7 +162,7 @@ def _chi2_terms(model: Optional[Dict[str, float]], names: Sequence[str], y: np.n
     unpredicted, pen = _mode_terms(model, modes, counts, runs)
     total = pen
     for k, yk, sk in zip(names, y, sig):
-        if "@" in k and k.split("@", 1)[1] in unpredicted and is_mode_feature(k):
+        if tag_of(k) in unpredicted and is_mode_feature(k):
             total += 1.0
         elif k in model and math.isfinite(model[k]):
             total += ((model[k] - yk) / sk) ** 2
@@ -177,7 +174,7 @@ def _chi2_terms(model: Optional[Dict[str, float]], names: Sequence[str], y: np.n
 def _missing_z(name: str, counts: Optional[Dict[str, int]]) -> float:
     """z of a feature an ensemble lacks: 1 (its expectation) for a mode feature of an operating
     point where none of its runs is in the data's mode, 5 otherwise (:func:`_chi2_terms`)."""
-    tag = name.split("@", 1)[1] if "@" in name else None
+    tag = tag_of(name)
     return 1.0 if counts and tag in counts and counts[tag] == 0 and is_mode_feature(name) else 5.0
 
 
@@ -346,7 +343,7 @@ def _pooled_spread(ens: Ensemble, levels: Sequence[Sequence[Optional[Dict[str, f
     out: Dict[str, float] = {}
     for k in names:
         ss, dof = 0.0, 0
-        tag = k.split("@", 1)[1] if "@" in k else None
+        tag = tag_of(k)
         md = (modes or {}).get(tag) if tag is not None and is_mode_feature(k) else None
         if md is not None and tag in ens.mode_counts:
             runs = ens.mode_counts[tag]
