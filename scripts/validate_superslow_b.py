@@ -875,7 +875,7 @@ def stage_stops():
     a_ex = sorted(set(float(x) for x in ref["a_ex_m_s2"]))
     extra = [(108.0, 12.0), (112.0, 12.0), (110.0, 12.0), (114.0, 10.0), (108.0, 8.0)]
     lines += ["", "b2 map with refined training tables (Δs 0.01, 0.0025 on [0.33, 0.46]; 100 settling periods, 2-s windows):",
-              f"{'inputs':>22} {'k':>2} {'training':>12} | {'in-sample strict':>16} {'phase':>6} {'final s p50':>11} {'p90':>6} {'n':>3} | {'LOO strict':>10} {'phase':>6} {'p50':>6} {'p90':>6} {'n':>3} | tables [s]"]
+              f"{'inputs':>22} {'k':>2} {'training':>12} | {'in-sample strict':>16} {'phase':>6} {'final s p50':>11} {'p90':>6} {'n':>3} | {'LOO strict':>10} {'phase':>6} {'p50':>6} {'p90':>6} {'n':>3} | tables computed in this call [s]"]
     saved = drift_law.FEATURES
     try:
         for name, pts in (("12 points", TRAINING), ("17 points", TRAINING + extra), ("18 points", TRAINING + extra + [(112.0, 8.0)])):
