@@ -447,6 +447,19 @@ def _cpu():
     return r.ru_utime + r.ru_stime
 
 
+def _fs_map_time(f_ex, a_ex):
+    """(wall, CPU) seconds of the FS map itself on this machine: the grid at s0 = 0.3, 120 s, 2
+    threads, written to a temporary folder."""
+    import tempfile
+
+    from beamslider import operating_map
+
+    with tempfile.TemporaryDirectory() as tmp:
+        c0, t0 = _cpu(), time.perf_counter()
+        operating_map(f_ex=f_ex, a_ex=a_ex, s0=0.3, t_end=120.0, threads=2, out=tmp)
+        return time.perf_counter() - t0, _cpu() - c0
+
+
 def stage_speed(training="cheap", training_set="12 points"):
     """§4.5: wall and CPU times on this machine (shared: the CPU times are the load-independent
     figures). Per point: the core's prediction (manifold + law + slow flow + classifier) against a
@@ -499,15 +512,9 @@ def stage_speed(training="cheap", training_set="12 points"):
     rows = predicted_map(drift=law, f_ex=f_ex, a_ex=a_ex, s0=0.3, t_end=120.0, threads=2)
     map_wall, map_cpu = time.perf_counter() - t0, _cpu() - c0
     n = len(rows)
-    # The FS map itself, measured: the same grid, 2 threads, into a temporary folder.
+    fs_map_wall, fs_map_cpu = _fs_map_time(f_ex, a_ex)
     import tempfile
 
-    from beamslider import operating_map
-
-    with tempfile.TemporaryDirectory() as tmp:
-        c0, t0 = _cpu(), time.perf_counter()
-        operating_map(f_ex=f_ex, a_ex=a_ex, s0=0.3, t_end=120.0, threads=2, out=tmp)
-        fs_map_wall, fs_map_cpu = time.perf_counter() - t0, _cpu() - c0
     tot_wall = tab_wall + fit_wall + map_wall
     tot_cpu = tab_cpu + fit_cpu + map_cpu
     st, ph, errs = _score({(r["f_ex_hz"], r["a_ex_m_s2"]): r for r in rows}, ref, None)
@@ -785,6 +792,10 @@ def _by_point(m):
     return out
 
 
+def _first_by_point(m):
+    return {k: v[0] for k, v in _by_point(m).items()}
+
+
 def stage_fs_ensemble():
     """The FS map at s0 = 0.3 against FS runs started 0.001 and 0.002 off it (same grid, 120 s):
     the agreement and final-s error the FS model itself reaches, the ceiling of any reduced model;
@@ -799,7 +810,7 @@ def stage_fs_ensemble():
     wall = time.perf_counter() - t0
     ens = read_map(FS_ENSEMBLE / "map.jsonl")
     pred = read_map(OUT / "predicted_map" / "map.jsonl")
-    R, E, P = {k: v[0] for k, v in _by_point(ref).items()}, _by_point(ens), {k: v[0] for k, v in _by_point(pred).items()}
+    R, E, P = _first_by_point(ref), _by_point(ens), _first_by_point(pred)
     agree, err = [], []
     for k, i in R.items():
         for j in E[k]:
@@ -863,7 +874,7 @@ def stage_stops():
     lines = ["§4.4 final s: narrow zeros of the PCS high-branch drift where the FS runs stop (TABLE_OPTS settle/window, Δs 0.0025 in the window)"]
     STOP_TABLES.mkdir(parents=True, exist_ok=True)
     ref = read_map(ROOT / "docs" / "operating_map.jsonl")
-    R = {k: v[0] for k, v in _by_point(ref).items()}
+    R = _first_by_point(ref)
     for f, a, lo, hi in STOP_WINDOWS:
         s = np.unique(np.round(np.concatenate([np.arange(0.04, lo, 0.02), np.arange(lo, hi + 1e-9, 0.0025), np.arange(hi, 0.5001, 0.02)]), 5))
         p = STOP_TABLES / f"window_{f:g}Hz_{a:g}ms2.jsonl"
@@ -922,15 +933,10 @@ def stage_cheap_settings():
     the FS map's measured wall time: does any reach the 80 % bar at ≥ 20× robustly?"""
     import tempfile
 
-    from beamslider import operating_map
-
     ref = read_map(ROOT / "docs" / "operating_map.jsonl")
     f_ex = sorted(set(float(x) for x in ref["f_ex_hz"]))
     a_ex = sorted(set(float(x) for x in ref["a_ex_m_s2"]))
-    with tempfile.TemporaryDirectory() as tmp:
-        t0 = time.perf_counter()
-        operating_map(f_ex=f_ex, a_ex=a_ex, s0=0.3, t_end=120.0, threads=2, out=tmp)
-        fs_wall = time.perf_counter() - t0
+    fs_wall, _ = _fs_map_time(f_ex, a_ex)
     lines = [f"§4.5 training-table settings near the speed bar: FS map {fs_wall:.1f} s wall on 2 threads (measured now); 12 training points "
              "(TRAINING), in-sample; the predicted map by the core on 2 threads",
              f"{'settings':>42} | {'tables [s]':>10} {'fit+map [s]':>11} {'ratio':>6} | {'strict':>7} {'phase':>6} | final s p50  p90"]
@@ -952,7 +958,7 @@ def stage_cheap_settings():
 def _score_agreeing(rows, ref):
     """(strict, phase, final-s errors over the points agreeing with the FS map and steady in it):
     the §4.4 measure."""
-    R = {k: v[0] for k, v in _by_point(ref).items()}
+    R = _first_by_point(ref)
     st, ph, _ = _score(rows, ref, None)
     e = [abs(r["s_final"] - ref["s_final"][R[k]]) for k, r in rows.items()
          if r["behaviour"] == ref["behaviour"][R[k]] and ref["steady"][R[k]] and np.isfinite(ref["s_final"][R[k]])]
@@ -981,15 +987,7 @@ if __name__ == "__main__":
         stage_map()
     if args.stage in ("speed", "all"):
         stage_speed(args.training, args.training_set)
-    if args.stage == "levers":
-        stage_levers()
-    if args.stage == "features":
-        stage_features()
-    if args.stage == "training_sets":
-        stage_training_sets()
-    if args.stage == "fs_ensemble":
-        stage_fs_ensemble()
-    if args.stage == "stops":
-        stage_stops()
-    if args.stage == "cheap_settings":
-        stage_cheap_settings()
+    single = {"levers": stage_levers, "features": stage_features, "training_sets": stage_training_sets,
+              "fs_ensemble": stage_fs_ensemble, "stops": stage_stops, "cheap_settings": stage_cheap_settings}
+    if args.stage in single:
+        single[args.stage]()
