@@ -854,7 +854,11 @@ def stage_fs_ensemble():
 
 
 # Narrow zeros of the PCS high-branch drift where the FS runs stop (issue 17 §4.4 final s).
-STOP_WINDOWS = [(110.0, 10.0, 0.36, 0.40), (108.0, 10.0, 0.37, 0.45)]
+STOP_WINDOWS = [(110.0, 10.0, 0.36, 0.40), (108.0, 10.0, 0.37, 0.45), (112.0, 10.0, 0.37, 0.40), (114.0, 12.0, 0.37, 0.40),
+                (116.0, 12.0, 0.37, 0.40),
+                # the pocket near s = 0.335 (where the FS runs at 116–130 Hz stop, and at 110 Hz linger)
+                (108.0, 10.0, 0.31, 0.36), (110.0, 10.0, 0.31, 0.36), (112.0, 10.0, 0.31, 0.36), (116.0, 12.0, 0.31, 0.36),
+                (118.0, 10.0, 0.31, 0.36)]
 STOP_TABLES = Path("/tmp/beamslider_drift_stops")  # re-computable (not committed)
 
 
@@ -877,11 +881,16 @@ def stage_stops():
     R = _first_by_point(ref)
     for f, a, lo, hi in STOP_WINDOWS:
         s = np.unique(np.round(np.concatenate([np.arange(0.04, lo, 0.02), np.arange(lo, hi + 1e-9, 0.0025), np.arange(hi, 0.5001, 0.02)]), 5))
-        p = STOP_TABLES / f"window_{f:g}Hz_{a:g}ms2.jsonl"
+        p = STOP_TABLES / f"window_{f:g}Hz_{a:g}ms2_{lo:g}-{hi:g}.jsonl"
         t = drift_table(f_ex=f, a_ex=a, s=s, settle_periods=100, window_s=2.0, out=p, resume=p.exists())
         h = [i for i in range(len(t.s)) if t.branch[i] == "H" and lo - 1e-9 <= t.s[i] <= hi + 1e-9]
         lines.append(f"  ({f:g}, {a:g}), FS map stops at s = {ref['s_final'][R[(f, a)]]:.3f}; V_H [1e-3 1/s] ± se: "
                      + " ".join(f"{t.s[i]:.4f}:{1e3 * t.v[i]:+.2f}±{1e3 * t.v_se[i]:.2f}" for i in h))
+    lines.append("FS s(t) at (110, 10): the slider lingers in the pocket near 0.335 and may escape to the stop at 0.382")
+    for s0 in (0.299, 0.3, 0.301):
+        r = simulate(f_ex=110.0, a_ex=10.0, s0=s0, t_end=120.0, record_every=200)
+        tt, ss = np.asarray(r.t), np.asarray(r.s)
+        lines.append(f"  s0 = {s0:g}: " + " ".join(f"t {x:g} s: {ss[min(np.searchsorted(tt, x), ss.size - 1)]:.3f}" for x in (10, 20, 40, 60, 90, 120)))
     f_ex = sorted(set(float(x) for x in ref["f_ex_hz"]))
     a_ex = sorted(set(float(x) for x in ref["a_ex_m_s2"]))
     extra = [(108.0, 12.0), (112.0, 12.0), (110.0, 12.0), (114.0, 10.0), (108.0, 8.0)]
