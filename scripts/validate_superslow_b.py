@@ -32,7 +32,7 @@ sys.path.insert(0, str(ROOT / "python"))
 
 from beamslider import Parameters, read_map, simulate  # noqa: E402
 from beamslider.slowflow import (drift_table, drift_tables, fit_drift_law, load_drift_law, predict, predicted_map,  # noqa: E402
-                                 read_drift_table, save_drift_law)
+                                 read_drift_table, refine_jump_down, save_drift_law)
 from beamslider.superslow import hb_manifold  # noqa: E402
 from beamslider.drift_law import MONO_RISE_H  # noqa: E402
 
@@ -98,6 +98,26 @@ def available_tables():
             if (t.sweep == "up").sum() >= 3 and (t.sweep == "down").sum() >= 3:
                 out.append(t)
     return out
+
+
+# The default law's jump-down bracket (fit_drift_law's bracket rule): JUMP_DOWN_N tables added by
+# bisection in the layer-(a) forcing ratio ρ(s_p) among the map's grid points (refine_jump_down;
+# chosen by layer (a) and the PCS tables only), same settings as the training tables.
+JUMP_DOWN_N = 4
+JUMP_DOWN_DIR = DRIFT / "jump_down"
+MAP_GRID = [(float(f), float(a)) for f in range(100, 131, 2) for a in range(4, 17, 2)]
+
+
+def jump_down_tables(tables, out=JUMP_DOWN_DIR, **settings):
+    """The default law's bracket tables (resumable in ``out``; computed, or read back)."""
+    return refine_jump_down(tables, candidates=MAP_GRID, n=JUMP_DOWN_N, out=out, threads=2, **(settings or TABLE_OPTS))
+
+
+def default_law(tables=None):
+    """(law, training tables, jump-down tables) of docs/superslow/law.json."""
+    tables = available_tables() if tables is None else tables
+    extra = jump_down_tables(tables)
+    return fit_drift_law(tables, jump_down_tables=extra), tables, extra
 
 
 def stage_slopes(t_run=40.0):
@@ -173,11 +193,11 @@ def stage_runs():
     fs = {(r_f, r_a): i for i, (r_f, r_a) in enumerate(zip(*[read_map(ROOT / "docs" / "operating_map.jsonl")[k] for k in ("f_ex_hz", "a_ex_m_s2")]))}
     ref03 = read_map(ROOT / "docs" / "operating_map.jsonl")
     ref04 = read_map(ROOT / "docs" / "operating_map_s0.4.jsonl")
-    tables = available_tables()
+    law_all, tables, extra = default_law()
     lines = ["§4.3  Representative runs: predictor against the FS map rows (120 s)",
              "b1: V from the point's own PCS drift table (Δs 0.01, 100 settling periods, 2-s windows) on the HB N = 5 manifold, s_dn from the table; "
              "PCS: table alone (its Â, V, s_up, s_dn); b2: the default law fitted on all training points (docs/superslow/law.json); b2-LOO: the law fitted "
-             "on the other training points (leave one out); both with the learnt jump-down (s_dn='law'), Λ_c and monostable vote",
+             "on the other training points (leave one out); both with the learnt jump-down (s_dn='law': the bracket rule with the jump-down tables), Λ_c and monostable vote",
              "FS columns from docs/operating_map.jsonl (s0 = 0.3) and docs/operating_map_s0.4.jsonl: t_up = first jump-up time, turn = turning point s, T = mean jump-up interval",
              f"{'point':>11} {'s0':>4} {'src':>6} | {'FS behaviour':>22} {'pred behaviour':>22} | {'FS s_f':>6} {'pr s_f':>6} | "
              f"{'FS t_up':>7} {'pr t_up':>7} | {'FS turn':>7} {'pr s_up':>7} | {'FS s-range':>13} {'pr s-range':>13} | {'FS T':>5} {'pr T':>5}"]
@@ -194,9 +214,9 @@ def stage_runs():
             variants.append(("b1", own[0], "table", "hb"))
             variants.append(("PCS", own[0], "table", "table"))
         others = [t for t in tables if (t.f_ex, t.a_ex) != (f, a)]
-        variants.append(("b2", fit_drift_law(tables), "law", "hb"))
+        variants.append(("b2", law_all, "law", "hb"))
         if len(others) >= 2 and own:
-            variants.append(("b2-LOO", fit_drift_law(others), "law", "hb"))
+            variants.append(("b2-LOO", fit_drift_law(others, jump_down_tables=extra), "law", "hb"))
         for name, drift, sdn, source in variants:
             r = predict(f_ex=f, a_ex=a, s0=s0, drift=drift, s_dn=sdn, source=source)
             ups = [e for e in r.events if e[0] == "jump_up"]
@@ -341,8 +361,9 @@ def _loo_rows(tables, f_ex, a_ex, s_dn="law", **kw):
 def stage_map():
     """§4.4: the map by the predictor (b2 law; b1 per-point tables) against the FS map."""
     tables = available_tables()
+    extra = jump_down_tables(tables)
     t0 = time.perf_counter()
-    law_c = fit_drift_law(tables)
+    law_c = fit_drift_law(tables, jump_down_tables=extra)
     t_fit = time.perf_counter() - t0
     save_drift_law(law_c, OUT / "law.json")
     ref = read_map(ROOT / "docs" / "operating_map.jsonl")
@@ -368,22 +389,29 @@ def stage_map():
              + "; ".join(f"({r['f_ex']:g}, {r['a_ex']:g}) HB {_fmt(r['s_up_hb'], 3)} PCS {_fmt(r['s_up_pcs'], 3)} corrected {_fmt(r['s_up_corrected_loo'], 3)}" for r in law_c.loo_s_up),
              f"- lift-off threshold Λ_c = {law_c.lift_c:.3f} (median of the tables where the clampward drift ends: "
              + ", ".join(f"({r['f_ex']:g}, {r['a_ex']:g}) {r['lift_c']:.3f}" for r in law_c.lift_c_per_point) + "; the issue's constraint is Λ_c = 1)",
-             f"- jump-down forcing ratio ρ_c = a_ex/(Ω² Â_H(s_dn) h) = {law_c.rho_c:.5f} (median over the tables with a PCS jump-down); "
+             f"- jump-down: the PCS high branches end at s_p = {law_c.jump_down_s:.4f} (median of the tables' jump-downs) where the forcing ratio "
+             f"ρ(s_p) = a_ex/(Ω² Â_H(s_p) h) ≤ ρ_c = {law_c.rho_c:.5f}, the geometric midpoint of the bracket "
+             f"({law_c.rho_bracket.get('lo') or 0:.5f}, {law_c.rho_bracket.get('hi') or 0:.5f}) between the tables whose high branch ends there and those "
+             f"whose high branch passes it; jump-down tables (bisection in ρ(s_p), V not used): "
+             + ", ".join(f"({t.f_ex:g}, {t.a_ex:g}) {'ends' if t.s_dn_pcs is not None and t.s_dn_pcs <= law_c.jump_down_s + 0.02 else 'passes'}" for t in extra) + "; "
              "s_dn leave one out: " + "; ".join(f"({r['f_ex']:g}, {r['a_ex']:g}) PCS {_fmt(r['s_dn_pcs'], 3)} law {_fmt(r['s_dn_law'], 3)}" for r in law_c.loo_s_dn),
              "- monostable labels (PCS down sweep without jump-up that stays below "
              f"{MONO_RISE_H:g} h on the clamping side of the HB fold): "
              + ", ".join(f"({tables[g].f_ex:g}, {tables[g].a_ex:g})" for g, y in zip(law_c.mono_groups, law_c.mono_y) if y > 0.5)]
     lines += _compare("b2 (the default law of fit_drift_law; docs/superslow/law.json, predicted_map/map.jsonl; training points predicted with "
                       "the law that includes their own PCS table)", pred_c, grid_ref, ref, train, f_ex, a_ex, names)
-    _, pred_loo = _loo_rows(tables, f_ex, a_ex)
+    _, pred_loo = _loo_rows(tables, f_ex, a_ex, jump_down_tables=extra)
     lines += _compare("b2, training points predicted leave one operating point out (their own PCS table left out of the law)",
                       pred_loo, grid_ref, ref, train, f_ex, a_ex, names)
     # What each learnt piece adds (training points leave one out).
     lines += ["", "Ablations (training points leave one out): strict / phase agreement, final-s error over agreeing points steady in FS (median, 90th percentile)"]
-    for title, s_dn, kw in (("default", "law", {}), ("without the learnt jump-down (s_dn='hb')", "hb", {}),
-                            ("with Λ_c = 1 (the issue's constraint)", "law", {"lift_off_threshold": 1.0}),
-                            ("without the s_up shift", "law", {"s_up_correction": False}),
-                            ("without the monostable vote", "law", {"monostable_vote": False}),
+    for title, s_dn, kw in (("default", "law", {"jump_down_tables": extra}),
+                            ("the jump-down bracket without the jump-down tables", "law", {}),
+                            ("the median jump-down rule (before)", "law", {"jump_down": "median"}),
+                            ("without the learnt jump-down (s_dn='hb')", "hb", {}),
+                            ("with Λ_c = 1 (the issue's constraint)", "law", {"lift_off_threshold": 1.0, "jump_down_tables": extra}),
+                            ("without the s_up shift", "law", {"s_up_correction": False, "jump_down_tables": extra}),
+                            ("without the monostable vote", "law", {"monostable_vote": False, "jump_down_tables": extra}),
                             ("none of the four (s_dn='hb', Λ_c = 1, no shift, no vote)", "hb",
                              {"lift_off_threshold": 1.0, "s_up_correction": False, "monostable_vote": False})):
         _, rows = _loo_rows(tables, f_ex, a_ex, s_dn=s_dn, **kw)
@@ -499,11 +527,15 @@ def stage_speed(training="cheap", training_set="12 points"):
         q = d / f"drift_{f:g}Hz_{a:g}ms2.jsonl"
         if q.exists():
             q.unlink()
+    import tempfile
+
     c0, t0 = _cpu(), time.perf_counter()
     tabs, _ = _cheap_tables(training, pts_train)
+    with tempfile.TemporaryDirectory() as tmp:
+        extra = jump_down_tables(tabs, out=tmp, **CHEAP[training])
     tab_wall, tab_cpu = time.perf_counter() - t0, _cpu() - c0
     c0, t0 = _cpu(), time.perf_counter()
-    law = fit_drift_law(tabs)
+    law = fit_drift_law(tabs, jump_down_tables=extra)
     fit_wall, fit_cpu = time.perf_counter() - t0, _cpu() - c0
     ref = read_map(ROOT / "docs" / "operating_map.jsonl")
     f_ex = sorted(set(float(x) for x in ref["f_ex_hz"]))
@@ -513,13 +545,11 @@ def stage_speed(training="cheap", training_set="12 points"):
     map_wall, map_cpu = time.perf_counter() - t0, _cpu() - c0
     n = len(rows)
     fs_map_wall, fs_map_cpu = _fs_map_time(f_ex, a_ex)
-    import tempfile
-
     tot_wall = tab_wall + fit_wall + map_wall
     tot_cpu = tab_cpu + fit_cpu + map_cpu
     st, ph, errs = _score({(r["f_ex_hz"], r["a_ex_m_s2"]): r for r in rows}, ref, None)
     lines += [
-        f"training (b2): {len(pts_train)} PCS tables with {CHEAP[training]} — {tab_wall:.1f} s wall (two tables at a time, each with its two sweeps on two threads), {tab_cpu:.1f} s CPU; fit {fit_wall:.2f} s",
+        f"training (b2): {len(pts_train)} PCS tables with {CHEAP[training]} + {len(extra)} jump-down tables — {tab_wall:.1f} s wall (two tables at a time, each with its two sweeps on two threads), {tab_cpu:.1f} s CPU; fit {fit_wall:.2f} s",
         f"predicted map (core, 2 threads): {n} points in {map_wall:.2f} s wall, {map_cpu:.2f} s CPU ({1e3 * map_cpu / n:.1f} ms CPU per point); "
         f"agreement of this map {st}/{n} strict, {ph}/{n} phase (training points in-sample here)",
         f"FS map (measured: operating_map, same grid, 2 threads): {fs_map_wall:.1f} s wall, {fs_map_cpu:.1f} s CPU "
@@ -532,15 +562,16 @@ def stage_speed(training="cheap", training_set="12 points"):
     with tempfile.TemporaryDirectory() as tmp:
         c0, t0 = _cpu(), time.perf_counter()
         fine = drift_tables(points=TRAINING, out=tmp, threads=2, **TABLE_OPTS)
+        extra_f = jump_down_tables(fine, out=Path(tmp) / "jump_down")
         fine_wall, fine_cpu = time.perf_counter() - t0, _cpu() - c0
     same = all(np.array_equal(x.v, read_drift_table(table_path(x.f_ex, x.a_ex)).v) for x in fine)
     c0, t0 = _cpu(), time.perf_counter()
-    law_f = fit_drift_law(fine)
+    law_f = fit_drift_law(fine, jump_down_tables=extra_f)
     rows_f = predicted_map(drift=law_f, f_ex=f_ex, a_ex=a_ex, s0=0.3, t_end=120.0, threads=2)
     rest_wall, rest_cpu = time.perf_counter() - t0, _cpu() - c0
     st_f, ph_f, _ = _score({(r["f_ex_hz"], r["a_ex_m_s2"]): r for r in rows_f}, ref, None)
     lines += [
-        f"with the default law's training tables ({len(TRAINING)} × {TABLE_OPTS}; rows bitwise equal to docs/superslow/drift: {same}): "
+        f"with the default law's training tables ({len(TRAINING)} × {TABLE_OPTS} + {len(extra_f)} jump-down tables; rows bitwise equal to docs/superslow/drift: {same}): "
         f"tables {fine_wall:.1f} s wall, {fine_cpu:.1f} s CPU; fit + map {rest_wall:.2f} s wall; agreement {st_f}/{n} strict, {ph_f}/{n} phase; "
         f"whole map including training {fs_map_wall / (fine_wall + rest_wall):.1f}× (wall), {fs_map_cpu / (fine_cpu + rest_cpu):.1f}× (CPU)",
     ]
@@ -597,11 +628,11 @@ def _score(rows_pred, ref, names):
 def _loo_map(tables, f_ex, a_ex, shift, k=4):
     """The predicted map with the law fitted on all tables, but each training point predicted by
     the law fitted without its own table (leave one operating point out)."""
-    law = fit_drift_law(tables, k=k, s_up_correction=shift)
+    law = fit_drift_law(tables, k=k, s_up_correction=shift, jump_down="median")
     rows = {(r["f_ex_hz"], r["a_ex_m_s2"]): r for r in predicted_map(drift=law, f_ex=f_ex, a_ex=a_ex, s0=0.3, t_end=120.0)}
     for j, t in enumerate(tables):
         others = [x for i, x in enumerate(tables) if i != j]
-        lw = fit_drift_law(others, k=k, s_up_correction=shift)
+        lw = fit_drift_law(others, k=k, s_up_correction=shift, jump_down="median")
         r = predicted_map(drift=lw, f_ex=[t.f_ex], a_ex=[t.a_ex], s0=0.3, t_end=120.0)[0]
         rows[(t.f_ex, t.a_ex)] = r
     return law, rows
@@ -632,7 +663,7 @@ def stage_levers():
     lines.append("")
     lines.append("dead band of V (predict(v_dead=...)): strict/phase agreement, final-s median and 90th percentile over points steady in both")
     b1t = {(f, a): read_drift_table(MAP_DRIFT / f"drift_{f:g}Hz_{a:g}ms2.jsonl") for f in f_ex for a in a_ex} if MAP_DRIFT.exists() else None
-    law = fit_drift_law(available_tables())
+    law = fit_drift_law(available_tables(), jump_down="median")
 
     def row(r):
         c = r.classification
@@ -686,11 +717,11 @@ def stage_features():
         for feats in FEATURE_SETS:
             for k in (4, 6):
                 dl.FEATURES = feats
-                law = fit_drift_law(tables, k=k)
+                law = fit_drift_law(tables, k=k, jump_down="median")
                 ok = 0
                 rows = {(f, a): row(predict(f_ex=f, a_ex=a, drift=law)) for f in f_ex for a in a_ex}
                 for j, t in enumerate(tables):
-                    lw = fit_drift_law([x for i, x in enumerate(tables) if i != j], k=k)
+                    lw = fit_drift_law([x for i, x in enumerate(tables) if i != j], k=k, jump_down="median")
                     r = row(predict(f_ex=t.f_ex, a_ex=t.a_ex, drift=lw))
                     rows[(t.f_ex, t.a_ex)] = r
                     ok += r["behaviour"] == ref["behaviour"][idx[(t.f_ex, t.a_ex)]]
@@ -757,14 +788,14 @@ def stage_training_sets():
     sets = dict(LATTICES)
     sets["union of all the above"] = everything
     for name, pts in sets.items():
-        law = fit_drift_law([tabs[p] for p in pts])
+        law = fit_drift_law([tabs[p] for p in pts], jump_down="median")
         rows = {(r["f_ex_hz"], r["a_ex_m_s2"]): r for r in predicted_map(drift=law, f_ex=f_ex, a_ex=a_ex, s0=0.3, t_end=120.0, threads=2)}
         st = sum(r["behaviour"] == ref["behaviour"][grid[k]] for k, r in rows.items())
         err = agreeing_final_s(rows)
         loo = dict(rows)
         for p in pts:
             if p in loo:
-                lw = fit_drift_law([tabs[q] for q in pts if q != p])
+                lw = fit_drift_law([tabs[q] for q in pts if q != p], jump_down="median")
                 loo[p] = predicted_map(drift=lw, f_ex=[p[0]], a_ex=[p[1]], s0=0.3, t_end=120.0)[0]
         st_loo = sum(r["behaviour"] == ref["behaviour"][grid[k]] for k, r in loo.items())
         lines.append(f"{name:>40} {len(pts):3d} | {st:3d}/112 {st_loo:3d}/112 | {np.median(err):14.4f} {np.percentile(err, 90):8.4f} {err.size:3d}")
@@ -805,10 +836,12 @@ def stage_fs_ensemble():
     ref = read_map(ROOT / "docs" / "operating_map.jsonl")
     f_ex = sorted(set(float(x) for x in ref["f_ex_hz"]))
     a_ex = sorted(set(float(x) for x in ref["a_ex_m_s2"]))
+    had = len(read_map(FS_ENSEMBLE / "map.jsonl")["f_ex_hz"]) if (FS_ENSEMBLE / "map.jsonl").exists() else 0
     t0 = time.perf_counter()
-    operating_map(f_ex=f_ex, a_ex=a_ex, s0=ENSEMBLE_S0, out=FS_ENSEMBLE, resume=(FS_ENSEMBLE / "map.jsonl").exists(), threads=2, progress=True)
+    operating_map(f_ex=f_ex, a_ex=a_ex, s0=ENSEMBLE_S0, out=FS_ENSEMBLE, resume=had > 0, threads=2, progress=True)
     wall = time.perf_counter() - t0
     ens = read_map(FS_ENSEMBLE / "map.jsonl")
+    ran = len(ens["f_ex_hz"]) - had
     pred = read_map(OUT / "predicted_map" / "map.jsonl")
     R, E, P = _first_by_point(ref), _by_point(ens), _first_by_point(pred)
     agree, err = [], []
@@ -833,7 +866,8 @@ def stage_fs_ensemble():
     n_pred = sum(pred["behaviour"][P[k]] == ref["behaviour"][i] for k, i in R.items())
     lines = [
         "§4.4 FS reproducibility: the FS map (s0 = 0.3, docs/operating_map.jsonl) against FS runs from s0 = "
-        + ", ".join(f"{x:g}" for x in ENSEMBLE_S0) + f" (same grid, 120 s; {len(ens['f_ex_hz'])} runs, {wall:.0f} s wall on 2 threads this call)",
+        + ", ".join(f"{x:g}" for x in ENSEMBLE_S0) + f" (same grid, 120 s; {len(ens['f_ex_hz'])} runs; "
+        + (f"{ran} run in this call, {wall:.0f} s wall on 2 threads)" if ran else f"read back from {FS_ENSEMBLE})"),
         f"FS vs FS: behaviour agrees in {sum(agree)}/{len(agree)} runs = {100 * np.mean(agree):.1f} %; "
         f"all four perturbed runs agree with the map at {n_pt}/112 points",
         f"FS vs FS final s over agreeing runs steady in the map (n = {len(err)}): median {np.median(err):.4f}, 90th percentile {np.percentile(err, 90):.4f}",
@@ -908,11 +942,11 @@ def stage_stops():
             for feats in (("amp_rel", "s"), ("amp_rel", "s", "ds_res")):
                 for k in (3, 4, 6):
                     drift_law.FEATURES = feats
-                    law = fit_drift_law(tabs, k=k)
+                    law = fit_drift_law(tabs, k=k, jump_down="median")
                     rows = {(r["f_ex_hz"], r["a_ex_m_s2"]): r for r in _predicted_rows_python(Parameters(), law, f_ex, a_ex, 0.3, 120.0, "law", None, 5)}
                     res = [_score_agreeing(rows, ref)]
                     for j, t in enumerate(tabs):
-                        lw = fit_drift_law([x for i, x in enumerate(tabs) if i != j], k=k)
+                        lw = fit_drift_law([x for i, x in enumerate(tabs) if i != j], k=k, jump_down="median")
                         rows[(t.f_ex, t.a_ex)] = _predicted_rows_python(Parameters(), lw, [t.f_ex], [t.a_ex], 0.3, 120.0, "law", None, 5)[0]
                     res.append(_score_agreeing(rows, ref))
                     lines.append(f"{','.join(feats):>22} {k:2d} {name:>12} | " + " | ".join(
@@ -948,19 +982,22 @@ def stage_cheap_settings():
     fs_wall, _ = _fs_map_time(f_ex, a_ex)
     lines = [f"§4.5 training-table settings near the speed bar: FS map {fs_wall:.1f} s wall on 2 threads (measured now); 12 training points "
              "(TRAINING), in-sample; the predicted map by the core on 2 threads",
-             f"{'settings':>42} | {'tables [s]':>10} {'fit+map [s]':>11} {'ratio':>6} | {'strict':>7} {'phase':>6} | final s p50  p90"]
+             f"{'settings':>42} {'jump-down rule':>26} | {'tables [s]':>10} {'fit+map [s]':>11} {'ratio':>6} | {'strict':>7} {'phase':>6} | final s p50  p90"]
     for name, opts in CHEAP_VARIANTS:
-        with tempfile.TemporaryDirectory() as tmp:
+        for rule in ("median", "bracket + jump-down tables"):
+            with tempfile.TemporaryDirectory() as tmp:
+                t0 = time.perf_counter()
+                tabs = drift_tables(points=TRAINING, out=tmp, threads=2, **opts)
+                extra = jump_down_tables(tabs, out=Path(tmp) / "jump_down", **opts) if rule != "median" else []
+                tw = time.perf_counter() - t0
             t0 = time.perf_counter()
-            tabs = drift_tables(points=TRAINING, out=tmp, threads=2, **opts)
-            tw = time.perf_counter() - t0
-        t0 = time.perf_counter()
-        law = fit_drift_law(tabs)
-        rows = {(r["f_ex_hz"], r["a_ex_m_s2"]): r for r in predicted_map(drift=law, f_ex=f_ex, a_ex=a_ex, s0=0.3, t_end=120.0, threads=2)}
-        mw = time.perf_counter() - t0
-        st, ph, e = _score_agreeing(rows, ref)
-        lines.append(f"{name:>42} | {tw:10.2f} {mw:11.2f} {fs_wall / (tw + mw):5.1f}× | {st:3d}/112 {ph:3d}/112 | {np.median(e):.4f} {np.percentile(e, 90):.4f}")
-        print(lines[-1], flush=True)
+            law = fit_drift_law(tabs, jump_down_tables=extra) if rule != "median" else fit_drift_law(tabs, jump_down="median")
+            rows = {(r["f_ex_hz"], r["a_ex_m_s2"]): r for r in predicted_map(drift=law, f_ex=f_ex, a_ex=a_ex, s0=0.3, t_end=120.0, threads=2)}
+            mw = time.perf_counter() - t0
+            st, ph, e = _score_agreeing(rows, ref)
+            lines.append(f"{name:>42} {rule:>26} | {tw:10.2f} {mw:11.2f} {fs_wall / (tw + mw):5.1f}× | {st:3d}/112 {ph:3d}/112 | "
+                         f"{np.median(e):.4f} {np.percentile(e, 90):.4f}")
+            print(lines[-1], flush=True)
     (OUT / "validation_c_cheap_settings.txt").write_text("\n".join(lines) + "\n", encoding="utf-8")
 
 

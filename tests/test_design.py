@@ -241,3 +241,21 @@ def test_prototype_outside_the_bounds_is_not_rechecked():
         tiny(variables=[dict(name="gap_ratio", low=1.1, high=1.2)])
     res = optimise(cfg, check_t_end_s=1.5)
     assert res.prototype is None and "prototype_nominal" not in res.checks and res.checks["best_nominal"]["feasible"]
+
+
+def test_predictor_run_records_the_law_content_and_refuses_a_changed_law(tmp_path):
+    """A predictor search's file records the SHA-256 of the drift law file: resuming it after the
+    law was refitted (same path, other content) is refused, with the same law it goes on."""
+    import hashlib
+
+    law = tmp_path / "law.json"
+    law.write_text('{"kind": "beamslider drift law", "rho_c": 0.0119}', encoding="utf-8")
+    cfg = tiny(evaluator="predictor", drift_law=str(law))
+    path = tmp_path / "run" / "design.jsonl"
+    DesignWriter(cfg, path, False).close()
+    header, _, _ = read_design_file(path)
+    assert header["drift_law_sha256"] == hashlib.sha256(law.read_bytes()).hexdigest()
+    DesignWriter(cfg, path, True).close()  # same law: resumes
+    law.write_text('{"kind": "beamslider drift law", "rho_c": 0.01497}', encoding="utf-8")
+    with pytest.raises(ValueError, match="another content of the drift law"):
+        DesignWriter(cfg, path, True)

@@ -379,3 +379,69 @@ def test_learnt_lift_off_threshold_and_monostable_label():
         tabs[0].amplitude = np.where((tabs[0].s < s_fold) & (tabs[0].sweep == "down"), rise, 0.03)
         tabs[1].s_up_pcs = hb_manifold(f_ex=120, a_ex=12).s_up
         assert fit_drift_law(tabs, k=3).mono_y[0] == label
+
+
+def test_jump_down_bracket_locates_the_boundary_between_ending_and_passing_branches(tmp_path):
+    """The bracket rule of the jump-down (fit_drift_law's default): s_p is the median PCS
+    jump-down position; lo is the largest ρ(s_p) of the tables whose high branch ends there, hi
+    the smallest of those whose high branch passes it, ρ_c = √(lo·hi), all recomputed by hand
+    from forcing_ratio; the high branch then ends at s_p exactly where ρ(s_p) ≤ ρ_c (Python and
+    core alike); jump_down_tables move the bracket without entering V; 'median' is the old rule."""
+    from beamslider import _core
+    from beamslider.drift_law import forcing_ratio, jump_down_bracket, law_json, refine_jump_down
+
+    ends = [(124, 8), (126, 10)]
+    passes = [(124, 14), (120, 12)]
+    tables = []
+    for f_, a_ in ends + passes:
+        t = _synthetic_table(f_, a_, lambda s: -0.004 + 0 * s, lambda s: 0.03 * (0.42 - s))
+        t.s_dn_pcs = 0.32 if (f_, a_) in ends else None
+        tables.append(t)
+    rho = {fa: float(forcing_ratio(hb_manifold(f_ex=fa[0], a_ex=fa[1]), [0.32])[0]) for fa in ends + passes}
+    lo, hi = max(rho[fa] for fa in ends), min(rho[fa] for fa in passes)
+    assert lo < hi
+    law = fit_drift_law(tables, k=3, monostable_vote=False)
+    assert law.jump_down_s == pytest.approx(0.32)
+    assert law.rho_bracket["lo"] == pytest.approx(lo, rel=1e-12) and law.rho_bracket["hi"] == pytest.approx(hi, rel=1e-12)
+    assert law.rho_c == pytest.approx(np.sqrt(lo * hi), rel=1e-12)
+    assert [r["side"] for r in law.rho_bracket["tables"]] == ["ends", "ends", "passes", "passes"]
+    # Leave one out: without (126, 10) the bracket's lower end is (124, 8)'s ρ.
+    loo = {(r["f_ex"], r["a_ex"]): r for r in law.loo_s_dn}
+    assert loo[(126, 10)]["rho_c_loo"] == pytest.approx(np.sqrt(min(rho[fa] for fa in ends) * hi), rel=1e-12)
+    text = law_json(law)
+    p = Parameters()
+    for (f_, a_), r in rho.items():
+        m = hb_manifold(f_ex=f_, a_ex=a_)
+        expect = 0.32 if r <= law.rho_c else None
+        assert law.s_dn(m) == (pytest.approx(0.32) if expect else None)
+        r_py = predict(f_ex=f_, a_ex=a_, drift=law)
+        r_rs = json.loads(_core.predict_point(p.toml_text(), text, f_ex_hz=float(f_), a_ex_m_s2=float(a_), s0=0.3))
+        assert r_rs["behaviour"] == r_py.behaviour and r_rs["s_final"] == pytest.approx(r_py.classification["s_final"], abs=1e-3)
+        dn_py = [e[2] for e in r_py.events if e[0] == "jump_down"]
+        dn_rs = [e[2] for e in r_rs["events"] if e[0] == "jump_down"]
+        assert dn_rs == pytest.approx(dn_py, abs=1e-6)
+        if expect is not None:
+            assert dn_py and dn_py[0] == pytest.approx(0.32, abs=1e-9)
+    # The law file keeps the position: a law read back predicts the same.
+    save_drift_law(law, tmp_path / "law.json")
+    assert load_drift_law(tmp_path / "law.json").jump_down_s == law.jump_down_s
+    # An extra table inside the bracket whose high branch ends raises the bracket's lower end;
+    # its V does not enter the law.
+    mid = (122, 10)
+    r_mid = float(forcing_ratio(hb_manifold(f_ex=mid[0], a_ex=mid[1]), [0.32])[0])
+    extra = _synthetic_table(*mid, lambda s: 0.05 + 0 * s, lambda s: 0.05 + 0 * s)
+    extra.s_dn_pcs = 0.32
+    law2 = fit_drift_law(tables, k=3, monostable_vote=False, jump_down_tables=[extra])
+    assert lo < r_mid < hi
+    assert law2.rho_bracket["lo"] == pytest.approx(r_mid, rel=1e-12)
+    np.testing.assert_array_equal(law2.v["H"], law.v["H"])
+    assert fit_drift_law(tables, k=3, monostable_vote=False, jump_down="median").jump_down_s == 0.0
+    with pytest.raises(ValueError, match="jump_down"):
+        fit_drift_law(tables, jump_down="max")
+    assert refine_jump_down(tables, candidates=[(122, 10)], n=0) == []
+    with pytest.raises(ValueError, match="`n`"):
+        refine_jump_down(tables, candidates=[(122, 10)], n=-1)
+    # No jump-down anywhere: no bracket, no learnt jump-down.
+    for t in tables:
+        t.s_dn_pcs = None
+    assert jump_down_bracket(tables, [hb_manifold(f_ex=t.f_ex, a_ex=t.a_ex) for t in tables], [False] * 4)["rho_c"] == 0.0

@@ -18,7 +18,7 @@ import numpy as np
 
 from . import _core
 from .params import Parameters, resolve
-from .drift_pcs import DriftTable
+from .drift_pcs import DriftTable, drift_tables
 
 
 # ---------------------------------------------------------------------------------------------
@@ -147,6 +147,14 @@ class DriftLaw:
     the training tables with a PCS jump-down of ρ(s_dn) = a_ex / (Ω² Â_H(s_dn) h) (0: none has one)."""
     loo_s_dn: List[dict] = field(default_factory=list)
     """Leave-one-point-out s_dn of the law against the PCS tables' s_dn."""
+    jump_down_s: float = 0.0
+    """Position s_p at which the PCS high branches end (the bracket rule): the high branch ends
+    there if ρ(s_p) ≤ ``rho_c``, else not at all (:func:`s_dn_forcing_ratio`); 0: the first s
+    where ρ(s) < ``rho_c`` (the median rule, and law files written before)."""
+    rho_bracket: dict = field(default_factory=dict)
+    """How ``rho_c`` was learnt (:func:`jump_down_bracket`): the rule ('bracket' or 'median'), the
+    position s_p of the PCS jump-downs, and the bracket (lo, hi) of ρ(s_p) between the tables whose
+    high branch ends there and those whose high branch passes it."""
     s_up_shift: float = 0.0
     """Learnt correction of the HB jump-up position (the low branch's fold moved by it): the
     median of s_up(PCS) − s_up(HB) over the training tables with both (0: none)."""
@@ -198,11 +206,12 @@ class DriftLaw:
         a = [p[1] for p in self.points]
         return not (min(f) - 1e-9 <= f_ex <= max(f) + 1e-9 and min(a) - 1e-9 <= a_ex <= max(a) + 1e-9)
 
-    def s_dn(self, manifold, rho_c: Optional[float] = None) -> Optional[float]:
+    def s_dn(self, manifold, rho_c: Optional[float] = None, s_p: Optional[float] = None) -> Optional[float]:
         """Jump-down position learnt from the PCS tables (s_dn="law"; :func:`s_dn_forcing_ratio`
-        with the law's ``rho_c``, or ``rho_c`` if given)."""
+        with the law's ``rho_c`` and ``jump_down_s``, or the ones given)."""
         rc = self.rho_c if rho_c is None else rho_c
-        return s_dn_forcing_ratio(manifold, rc) if rc > 0 else None
+        sp = self.jump_down_s if s_p is None else s_p
+        return s_dn_forcing_ratio(manifold, rc, sp) if rc > 0 else None
 
     def _evaluate_x(self, branch, x, lift_off, exclude_group=None):
         from scipy.spatial import cKDTree
@@ -270,15 +279,21 @@ def forcing_ratio(manifold, s: Sequence[float]) -> np.ndarray:
         return manifold.a_ex / (omega ** 2 * amp * manifold.params.thickness_m)
 
 
-def s_dn_forcing_ratio(manifold, rho_c: float) -> Optional[float]:
+def s_dn_forcing_ratio(manifold, rho_c: float, s_p: float = 0.0) -> Optional[float]:
     """Jump-down position from the forcing ratio (issue §2.2's end of the high branch with the
     effective damping of the nonsmooth model): the first s ≥ S_DN_MIN on the HB high branch where
     ρ(s) (:func:`forcing_ratio`) falls below ``rho_c``, linearly interpolated between the branch's
-    points; None where it never does (the high branch reaches the centre)."""
+    points; None where it never does (the high branch reaches the centre). With ``s_p`` > 0 (the
+    PCS high branches end at one position, :func:`jump_down_bracket`): s_p if ρ(s_p) ≤ ``rho_c``,
+    else None (also when the branch does not reach s_p)."""
     hb = manifold.high
     if len(hb) == 0 or not rho_c > 0:
         return None
     s = np.sort(np.asarray(hb.s, dtype=float))
+    if s_p > 0:
+        if not (s[0] <= s_p <= s[-1]):
+            return None
+        return float(s_p) if float(forcing_ratio(manifold, [s_p])[0]) <= rho_c else None
     r = forcing_ratio(manifold, s)
     for i in range(1, s.size):
         if s[i] < S_DN_MIN or not (r[i] < rho_c):
@@ -287,6 +302,51 @@ def s_dn_forcing_ratio(manifold, rho_c: float) -> Optional[float]:
             return float(s[i - 1] + (s[i] - s[i - 1]) * (r[i - 1] - rho_c) / (r[i - 1] - r[i]))
         return float(s[i])
     return None
+
+
+JD_WINDOW = 0.02
+"""A PCS high branch ends *at* s_p (:func:`jump_down_bracket`) when its jump-down lies within this
+distance of s_p, and *passes* s_p when it reaches s_p + JD_WINDOW."""
+
+
+def jump_down_bracket(tables: Sequence[DriftTable], manifolds, monostable: Sequence[bool]) -> dict:
+    """The jump-down threshold of the forcing ratio as a classification boundary (issue 17 §2.5,
+    s_dn="law"). The PCS high branches end at nearly one position s_p (the median of the tables'
+    jump-down positions; 0.32 on the prototype at 120–130 Hz) or not at all, and whether they end
+    is ordered by ρ(s_p) = a_ex/(Ω² Â_H(s_p) h) of layer (a). The tables whose high branch ends at
+    or before s_p + JD_WINDOW give a lower bound lo = max ρ(s_p); those whose high branch passes
+    s_p + JD_WINDOW (monostable points excluded) an upper bound hi = min ρ(s_p). ``rho_c`` is the
+    geometric midpoint √(lo·hi) (lo alone, or hi alone, when one side is empty; 0 with no jump-down).
+
+    Returns a dict: rule, s_p, lo, hi, rho_c, consistent (lo < hi), and per table its ρ(s_p) and
+    side ('ends', 'passes' or None)."""
+    s_dn = [t.s_dn_pcs for t in tables if t.s_dn_pcs is not None]
+    out = {"rule": "bracket", "s_p": None, "lo": None, "hi": None, "rho_c": 0.0, "consistent": True, "tables": []}
+    if not s_dn:
+        return out
+    s_p = float(np.median(s_dn))
+    out["s_p"] = s_p
+    lo, hi = [], []
+    for t, mf, mono in zip(tables, manifolds, monostable):
+        r = float(forcing_ratio(mf, [s_p])[0]) if len(mf.high) else float("nan")
+        s_h = t.branch_rows("H")[0]
+        side = None
+        if np.isfinite(r) and not mono:
+            if t.s_dn_pcs is not None and t.s_dn_pcs <= s_p + JD_WINDOW:
+                side = "ends"
+                lo.append(r)
+            elif s_h.size and float(np.max(s_h)) >= s_p + JD_WINDOW:
+                side = "passes"
+                hi.append(r)
+        out["tables"].append({"f_ex": t.f_ex, "a_ex": t.a_ex, "rho_sp": r if np.isfinite(r) else None, "side": side})
+    out["lo"] = max(lo) if lo else None
+    out["hi"] = min(hi) if hi else None
+    if lo and hi:
+        out["rho_c"] = float(math.sqrt(out["lo"] * out["hi"]))
+        out["consistent"] = out["lo"] < out["hi"]
+    elif lo:
+        out["rho_c"] = float(out["lo"])
+    return out
 
 
 MONO_RISE_H = 0.175
@@ -365,7 +425,8 @@ def learn_lift_off_threshold(table: DriftTable, manifold, v_eps: float = LIFT_V_
 
 def fit_drift_law(tables: Sequence[DriftTable], *, params: Optional[Parameters] = None, k: int = 4, n_modes: int = 5,
                   s_up_correction: bool = True, monostable_vote: bool = True,
-                  lift_off_threshold: Union[str, float] = "learn") -> DriftLaw:
+                  lift_off_threshold: Union[str, float] = "learn", jump_down: str = "bracket",
+                  jump_down_tables: Sequence[DriftTable] = ()) -> DriftLaw:
     """Fit the transferable drift law (issue 17 §3.2, b2) on PCS drift tables of several operating
     points, and validate it leave one operating point out.
 
@@ -385,11 +446,16 @@ def fit_drift_law(tables: Sequence[DriftTable], *, params: Optional[Parameters] 
     (ln Â_L(s_up), s_up) of the HB manifold (:meth:`DriftLaw.monostable`); the slow flow then
     follows the low branch through the fold towards the clamping (self-damping).
 
-    The jump-down position (s_dn="law" of :func:`beamslider.slowflow.predict`) is learnt as
-    ``rho_c``: the median over the tables with a PCS jump-down of the forcing ratio there
-    (:func:`forcing_ratio`); the high branch then ends where ρ(s) falls below it
-    (:func:`s_dn_forcing_ratio`; ``loo_s_dn`` has each table's s_dn with ``rho_c`` fitted
-    without it).
+    The jump-down position (s_dn="law" of :func:`beamslider.slowflow.predict`) is learnt as a
+    threshold ``rho_c`` of the forcing ratio (:func:`forcing_ratio`); the high branch then ends
+    where ρ(s) falls below it (:func:`s_dn_forcing_ratio`; ``loo_s_dn`` has each table's s_dn with
+    ``rho_c`` fitted without it). ``jump_down``: 'bracket' (default): the boundary between the
+    tables whose PCS high branch ends at s_p and those whose high branch passes it
+    (:func:`jump_down_bracket`; :func:`refine_jump_down` adds tables inside the bracket);
+    'median': the median of ρ at the tables' own jump-down positions (the rule before; it lies
+    below the boundary by construction, since every table it uses has jumped down).
+    ``jump_down_tables``: further tables that only locate this boundary (those
+    :func:`refine_jump_down` adds inside the bracket); their V does not enter the law.
 
     ``lift_off_threshold``: Λ_c of the constraint V = 0 where Λ_g < Λ_c. 'learn' (default): the
     median over the tables of :func:`learn_lift_off_threshold` (where the PCS drift towards the
@@ -402,6 +468,8 @@ def fit_drift_law(tables: Sequence[DriftTable], *, params: Optional[Parameters] 
         raise ValueError("invalid parameter `tables`: need at least two operating points")
     if int(k) < 1:
         raise ValueError(f"invalid parameter `k` = {k}: must be >= 1")
+    if jump_down not in ("bracket", "median"):
+        raise ValueError(f"invalid parameter `jump_down` = {jump_down!r}: 'bracket' or 'median'")
     if isinstance(lift_off_threshold, str):
         if lift_off_threshold != "learn":
             raise ValueError(f"invalid parameter `lift_off_threshold` = {lift_off_threshold!r}: 'learn' or a number in (0, 2]")
@@ -416,6 +484,7 @@ def fit_drift_law(tables: Sequence[DriftTable], *, params: Optional[Parameters] 
     mfs = []
     rho_per: Dict[int, float] = {}
     mx, my, mg = [], [], []
+    mono_flag: List[bool] = []
     lift_per = []
     for gi, t in enumerate(tables):
         mf = _manifold_for(p, t.f_ex, t.a_ex, n_modes, None)
@@ -424,9 +493,10 @@ def fit_drift_law(tables: Sequence[DriftTable], *, params: Optional[Parameters] 
         if lc is not None:
             lift_per.append({"f_ex": t.f_ex, "a_ex": t.a_ex, "lift_c": lc})
         xm = _mono_x(mf)
+        mono_flag.append(bool(monostable_vote and xm is not None and t.s_up_pcs is None and _stays_low(t, float(mf.s_up))))
         if monostable_vote and xm is not None:
             mx.append(xm)
-            my.append(1.0 if (t.s_up_pcs is None and _stays_low(t, float(mf.s_up))) else 0.0)
+            my.append(1.0 if mono_flag[-1] else 0.0)
             mg.append(gi)
         if t.s_dn_pcs is not None:
             r = forcing_ratio(mf, [t.s_dn_pcs])[0]
@@ -455,9 +525,22 @@ def fit_drift_law(tables: Sequence[DriftTable], *, params: Optional[Parameters] 
     allx = np.concatenate([X["L"], X["H"]])
     std = allx.std(axis=0)
     std[std == 0] = 1.0
+    jd = list(jump_down_tables)
+    jd_mfs = [_manifold_for(p, t.f_ex, t.a_ex, n_modes, None) for t in jd]
+    jd_mono = [bool(monostable_vote and _mono_x(mf) is not None and t.s_up_pcs is None and _stays_low(t, float(mf.s_up))) for t, mf in zip(jd, jd_mfs)]
+
+    def rho_rule(keep):
+        """rho_c, s_p and the bracket record from the training tables with index in ``keep`` (and
+        all ``jump_down_tables``)."""
+        if jump_down == "median":
+            vals = [v for g, v in rho_per.items() if g in keep]
+            return (float(np.median(vals)) if vals else 0.0), 0.0, {"rule": "median", "values": vals}
+        br = jump_down_bracket([tables[g] for g in keep] + jd, [mfs[g] for g in keep] + jd_mfs, [mono_flag[g] for g in keep] + jd_mono)
+        return br["rho_c"], (br["s_p"] or 0.0), br
+
+    rho_c, s_p, bracket = rho_rule(list(range(len(tables))))
     law = DriftLaw(x=X, v=V, groups=G, mean=allx.mean(axis=0), std=std, lo=allx.min(axis=0), hi=allx.max(axis=0),
-                   points=[(t.f_ex, t.a_ex) for t in tables], k=int(k),
-                   rho_c=float(np.median(list(rho_per.values()))) if rho_per else 0.0,
+                   points=[(t.f_ex, t.a_ex) for t in tables], k=int(k), rho_c=rho_c, jump_down_s=s_p, rho_bracket=bracket,
                    lift_c=lift_c, lift_c_per_point=lift_per)
     if mx:
         law.mono_x, law.mono_y, law.mono_groups = np.array(mx), np.array(my), np.array(mg, dtype=int)
@@ -472,10 +555,9 @@ def fit_drift_law(tables: Sequence[DriftTable], *, params: Optional[Parameters] 
             law.loo_s_up.append({"f_ex": t.f_ex, "a_ex": t.a_ex, "s_up_hb": mfs[gi].s_up, "s_up_pcs": t.s_up_pcs,
                                  "s_up_corrected_loo": None if (mfs[gi].s_up is None or not others) else mfs[gi].s_up + float(np.median(others))})
     for gi, t in enumerate(tables):
-        others = [v for g, v in rho_per.items() if g != gi]
-        rc = float(np.median(others)) if others else 0.0
+        rc, sp, _ = rho_rule([g for g in range(len(tables)) if g != gi])
         law.loo_s_dn.append({"f_ex": t.f_ex, "a_ex": t.a_ex, "s_dn_pcs": t.s_dn_pcs, "rho_pcs": rho_per.get(gi),
-                             "rho_c_loo": rc, "s_dn_law": law.s_dn(mfs[gi], rho_c=rc)})
+                             "rho_c_loo": rc, "s_dn_law": law.s_dn(mfs[gi], rho_c=rc, s_p=sp)})
     # Leave one operating point out.
     err2 = {"L": [], "H": []}
     for gi, t in enumerate(tables):
@@ -508,6 +590,48 @@ def fit_drift_law(tables: Sequence[DriftTable], *, params: Optional[Parameters] 
     return law
 
 
+def refine_jump_down(tables: Sequence[DriftTable], *, candidates: Sequence[Tuple[float, float]], n: int = 4,
+                     params: Optional[Parameters] = None, n_modes: int = 5, out: Union[str, os.PathLike, None] = None,
+                     threads: Optional[int] = None, progress: bool = False, **settings) -> List[DriftTable]:
+    """Narrow the jump-down bracket of :func:`jump_down_bracket` by bisection: up to ``n`` times,
+    compute the PCS drift table (``settings`` as :func:`drift_table`; ``out`` a folder as
+    :func:`drift_tables`, resumable) of the candidate operating point whose layer-(a) ρ(s_p) lies
+    inside the bracket (lo, hi) closest to its geometric midpoint, and add it. Only layer (a) and
+    the PCS tables choose the points (no FS run). Stops early when no candidate lies inside the
+    bracket or the tables show no jump-down. Returns the tables added, in order (pass them to
+    :func:`fit_drift_law` as ``jump_down_tables``)."""
+    if int(n) < 0:
+        raise ValueError(f"invalid parameter `n` = {n}: must be >= 0")
+    p = resolve(params)
+    tabs = list(tables)
+    mfs = [_manifold_for(p, t.f_ex, t.a_ex, n_modes, None) for t in tabs]
+    cand = [(float(f), float(a)) for f, a in candidates]
+    cache: Dict[Tuple[float, float], object] = {}
+    for _ in range(int(n)):
+        mono = [bool(_mono_x(mf) is not None and t.s_up_pcs is None and _stays_low(t, float(mf.s_up))) for t, mf in zip(tabs, mfs)]
+        br = jump_down_bracket(tabs, mfs, mono)
+        if br["s_p"] is None or br["lo"] is None or br["hi"] is None or not br["consistent"]:
+            break
+        mid = math.log(br["rho_c"])
+        have = {(t.f_ex, t.a_ex) for t in tabs}
+        best, best_d = None, math.inf
+        for fa in cand:
+            if fa in have:
+                continue
+            if fa not in cache:
+                cache[fa] = _manifold_for(p, fa[0], fa[1], n_modes, None)
+            mf = cache[fa]
+            r = float(forcing_ratio(mf, [br["s_p"]])[0]) if len(mf.high) else float("nan")
+            if np.isfinite(r) and br["lo"] < r < br["hi"] and abs(math.log(r) - mid) < best_d:
+                best, best_d = fa, abs(math.log(r) - mid)
+        if best is None:
+            break
+        t = drift_tables(p, points=[best], out=out, resume=out is not None, threads=threads, progress=progress, **settings)[0]
+        tabs.append(t)
+        mfs.append(cache[best])
+    return tabs[len(tables):]
+
+
 def law_json(law: DriftLaw) -> str:
     """The law file's JSON text (what :func:`save_drift_law` writes; read by the core,
     ``beamslider-batch map --predictor``)."""
@@ -517,7 +641,7 @@ def law_json(law: DriftLaw) -> str:
         "groups": {b: law.groups[b].tolist() for b in law.groups}, "mean": law.mean.tolist(), "std": law.std.tolist(),
         "lo": law.lo.tolist(), "hi": law.hi.tolist(), "points": [list(p) for p in law.points], "loo": law.loo,
         "loo_per_point": law.loo_per_point, "fit_time_s": law.fit_time_s,
-        "rho_c": law.rho_c, "loo_s_dn": law.loo_s_dn,
+        "rho_c": law.rho_c, "jump_down_s": law.jump_down_s, "rho_bracket": law.rho_bracket, "loo_s_dn": law.loo_s_dn,
         "s_up_shift": law.s_up_shift, "loo_s_up": law.loo_s_up,
         "mono_x": law.mono_x.tolist(), "mono_y": law.mono_y.tolist(), "mono_std": law.mono_std.tolist(),
         "mono_groups": law.mono_groups.tolist(), "lift_c": law.lift_c, "lift_c_per_point": law.lift_c_per_point,
@@ -548,7 +672,7 @@ def load_drift_law(path: Union[str, os.PathLike]) -> DriftLaw:
         groups={b: np.asarray(v, dtype=int) for b, v in d["groups"].items()}, mean=arr(d["mean"]), std=arr(d["std"]),
         lo=arr(d["lo"]), hi=arr(d["hi"]), points=[tuple(p) for p in d["points"]], k=int(d["k"]), loo=d.get("loo", {}),
         loo_per_point=d.get("loo_per_point", []), fit_time_s=float(d.get("fit_time_s", 0.0)),
-        rho_c=float(d.get("rho_c", 0.0)), loo_s_dn=d.get("loo_s_dn", []),
+        rho_c=float(d.get("rho_c", 0.0)), jump_down_s=float(d.get("jump_down_s", 0.0)), rho_bracket=d.get("rho_bracket", {}), loo_s_dn=d.get("loo_s_dn", []),
         s_up_shift=float(d.get("s_up_shift", 0.0)), loo_s_up=d.get("loo_s_up", []),
         mono_x=arr(d.get("mono_x", [])).reshape(-1, 2), mono_y=arr(d.get("mono_y", [])),
         mono_std=arr(d.get("mono_std", [1.0, 1.0])), mono_groups=np.asarray(d.get("mono_groups", []), dtype=int),

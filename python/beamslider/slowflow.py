@@ -37,7 +37,7 @@ from . import _core
 from .params import Parameters, resolve
 from .simulate import _number
 from .drift_law import (FEATURES, DriftLaw, _manifold_for, _modes, features, fit_drift_law, mono_features,  # noqa: F401
-                        law_json, load_drift_law, save_drift_law)
+                        law_json, load_drift_law, refine_jump_down, save_drift_law)
 from .drift_pcs import DriftTable, drift_table, drift_tables, read_drift_table  # noqa: F401
 
 __all__ = [
@@ -49,6 +49,7 @@ __all__ = [
     "read_drift_table",
     "features",
     "fit_drift_law",
+    "refine_jump_down",
     "predict",
     "slow_model",
 ]

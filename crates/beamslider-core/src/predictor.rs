@@ -72,6 +72,8 @@ struct LawFile {
     lift_c: f64,
     #[serde(default)]
     rho_c: f64,
+    #[serde(default)]
+    jump_down_s: f64,
 }
 
 fn one() -> f64 {
@@ -120,6 +122,10 @@ pub struct DriftLaw {
     /// Forcing ratio ρ_c at which the nonsmooth model's high branch ends ([`law_s_dn`]; learnt
     /// from the PCS tables' jump-downs by `fit_drift_law`; 0: none, the HB manifold's own s_dn only).
     pub rho_c: f64,
+    /// Position s_p at which the PCS high branches end (learnt by `fit_drift_law`'s bracket rule):
+    /// when > 0 the high branch ends at s_p if ρ(s_p) ≤ ρ_c, else it does not end ([`law_s_dn`]);
+    /// 0 (law files without it): the first s where ρ(s) < ρ_c.
+    pub jump_down_s: f64,
     /// Fingerprint of the samples (FNV-1a over the bits of k, the samples and the scaling):
     /// written to a predicted map's header and compared on resume.
     pub fingerprint: String,
@@ -173,6 +179,12 @@ impl DriftLaw {
         if f.rho_c != 0.0 {
             hash.add(f.rho_c);
         }
+        if !(f.jump_down_s.is_finite() && (0.0..=0.5).contains(&f.jump_down_s)) {
+            return Err(Error::invalid("law", "jump_down_s", "must be finite, 0 <= jump_down_s <= 0.5"));
+        }
+        if f.jump_down_s != 0.0 {
+            hash.add(f.jump_down_s);
+        }
         for x in mean.iter().chain(&std) {
             hash.add(*x);
         }
@@ -216,7 +228,7 @@ impl DriftLaw {
             hash.add(x[1]);
             hash.add(if *y { 1.0 } else { 0.0 });
         }
-        Ok(DriftLaw { k: f.k, low, high, mean, std, lo, hi, points, s_up_shift: f.s_up_shift, mono, mono_std, lift_c: f.lift_c, rho_c: f.rho_c, fingerprint: format!("{:016x}", hash.0) })
+        Ok(DriftLaw { k: f.k, low, high, mean, std, lo, hi, points, s_up_shift: f.s_up_shift, mono, mono_std, lift_c: f.lift_c, rho_c: f.rho_c, jump_down_s: f.jump_down_s, fingerprint: format!("{:016x}", hash.0) })
     }
 
     /// Read a law file.
@@ -498,7 +510,10 @@ pub const S_DN_MIN: f64 = 0.2;
 /// F/(2DωΩ), where ρ is proportional to the damping; the nonsmooth model's effective damping is
 /// learnt as ρ_c): the first s ≥ [`S_DN_MIN`] where ρ(s) < ρ_c, linearly interpolated between the
 /// branch's points; None if it never falls below ρ_c or ρ_c = 0 (as `drift_law.s_dn_forcing_ratio`).
-pub fn law_s_dn(manifold: &HbManifold, f_ex_hz: f64, a_ex: f64, rho_c: f64, thickness_m: f64) -> Option<f64> {
+/// With `s_p` > 0 (the law's `jump_down_s`: the PCS high branches end at one position) the high
+/// branch ends at s_p if ρ(s_p) ≤ ρ_c (Â_H interpolated linearly; None if the branch does not
+/// reach s_p), else it does not end.
+pub fn law_s_dn(manifold: &HbManifold, f_ex_hz: f64, a_ex: f64, rho_c: f64, s_p: f64, thickness_m: f64) -> Option<f64> {
     let hb = &manifold.high;
     if hb.s.is_empty() || !(rho_c > 0.0) {
         return None;
@@ -507,6 +522,19 @@ pub fn law_s_dn(manifold: &HbManifold, f_ex_hz: f64, a_ex: f64, rho_c: f64, thic
     idx.sort_by(|&i, &j| hb.s[i].total_cmp(&hb.s[j]));
     let omega = 2.0 * std::f64::consts::PI * f_ex_hz;
     let rho = |i: usize| a_ex / (omega * omega * hb.amplitude_h[i] * thickness_m);
+    if s_p > 0.0 {
+        for w in 1..idx.len() {
+            let (i0, i1) = (idx[w - 1], idx[w]);
+            let (s0, s1) = (hb.s[i0], hb.s[i1]);
+            if s0 <= s_p && s_p <= s1 {
+                let t = if s1 > s0 { (s_p - s0) / (s1 - s0) } else { 0.0 };
+                let amp = hb.amplitude_h[i0] + t * (hb.amplitude_h[i1] - hb.amplitude_h[i0]);
+                let r = a_ex / (omega * omega * amp * thickness_m);
+                return if r <= rho_c { Some(s_p) } else { None };
+            }
+        }
+        return None;
+    }
     for w in 1..idx.len() {
         let (i0, i1) = (idx[w - 1], idx[w]);
         let (s0, s1) = (hb.s[i0], hb.s[i1]);
@@ -536,7 +564,7 @@ pub fn slow_model(params: &Params, manifold: &HbManifold, law: &DriftLaw, f_ex_h
 pub fn slow_model_with(params: &Params, beam: &Beam, manifold: &HbManifold, law: &DriftLaw, f_ex_hz: f64, a_ex: f64, nodes: usize) -> Result<(SlowModel, bool)> {
     let mut extrapolated = law.outside_points(f_ex_hz, a_ex);
     let mut model = SlowModel { low_ends_in_fold: manifold.s_up.is_some(), ..SlowModel::default() };
-    let s_dn = manifold.s_dn.or_else(|| law_s_dn(manifold, f_ex_hz, a_ex, law.rho_c, params.thickness_m));
+    let s_dn = manifold.s_dn.or_else(|| law_s_dn(manifold, f_ex_hz, a_ex, law.rho_c, law.jump_down_s, params.thickness_m));
     for high in [false, true] {
         let b = if high { &manifold.high } else { &manifold.low };
         if b.is_empty() {
@@ -800,5 +828,18 @@ mod tests {
         assert!(DriftLaw::from_json_str(&short).is_err());
         let e = DriftLaw::from_file("/nonexistent/law.json").unwrap_err();
         assert!(matches!(e, Error::Io { .. }));
+    }
+
+    #[test]
+    fn jump_down_position_is_read_and_checked() {
+        let with = |x: &str| law_text(2).replacen("\"kind\"", &format!("\"jump_down_s\": {x}, \"kind\""), 1);
+        let law = DriftLaw::from_json_str(&with("0.32")).unwrap();
+        assert_eq!(law.jump_down_s, 0.32);
+        assert_ne!(law.fingerprint, DriftLaw::from_json_str(&law_text(2)).unwrap().fingerprint);
+        assert_eq!(DriftLaw::from_json_str(&law_text(2)).unwrap().jump_down_s, 0.0);
+        for bad in ["0.7", "-0.1"] {
+            let e = DriftLaw::from_json_str(&with(bad)).unwrap_err().to_string();
+            assert!(e.contains("jump_down_s"), "{e}");
+        }
     }
 }

@@ -4,6 +4,7 @@ core's one-writer lock ``design.jsonl.lock``), the Pareto front and :class:`Desi
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 from dataclasses import dataclass, field
@@ -70,6 +71,10 @@ class DesignWriter:
         self._lock = _core.ResultsLock(str(path))
         try:
             header = {"beamslider_design": FORMAT, "config": json_safe(config.to_dict())}
+            law = Path(config.drift_law) if config.evaluator == "predictor" and config.drift_law else None
+            if law is not None and law.is_file():
+                # The law's content, not only its path: a refitted law.json must not extend a run.
+                header["drift_law_sha256"] = hashlib.sha256(law.read_bytes()).hexdigest()
             text = json.dumps(header)
             if path.exists() and path.stat().st_size > 0:
                 if not resume:
@@ -77,6 +82,9 @@ class DesignWriter:
                                           f"or choose another output folder")
                 old, records, good = read_design_file(path)
                 if old is not None and json.dumps(old) != text:
+                    if old.get("config") == header["config"] and old.get("drift_law_sha256") != header.get("drift_law_sha256"):
+                        raise ValueError(f"{path} was run with another content of the drift law {config.drift_law} "
+                                         f"(or before the law's hash was recorded): cannot resume it with this law")
                     raise ValueError(f"{path} holds a run of another configuration: cannot resume it with this one")
                 with open(path, "r+b") as f:  # drop a truncated last line
                     f.truncate(good)
