@@ -347,5 +347,6 @@ from .slowflow import (  # noqa: E402
     predict,
     predicted_map,
     read_drift_table,
+    refine_jump_down,
     save_drift_law,
 )
