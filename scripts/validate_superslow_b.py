@@ -393,7 +393,7 @@ def stage_map():
              f"ρ(s_p) = a_ex/(Ω² Â_H(s_p) h) ≤ ρ_c = {law_c.rho_c:.5f}, the geometric midpoint of the bracket "
              f"({law_c.rho_bracket.get('lo') or 0:.5f}, {law_c.rho_bracket.get('hi') or 0:.5f}) between the tables whose high branch ends there and those "
              f"whose high branch passes it; jump-down tables (bisection in ρ(s_p), V not used): "
-             + ", ".join(f"({t.f_ex:g}, {t.a_ex:g}) {'ends' if t.s_dn_pcs is not None and t.s_dn_pcs <= law_c.jump_down_s + 0.02 else 'passes'}" for t in extra) + "; "
+             + ", ".join(f"({r['f_ex']:g}, {r['a_ex']:g}) {r['side']}" for r in law_c.rho_bracket["tables"][len(tables):]) + "; "
              "s_dn leave one out: " + "; ".join(f"({r['f_ex']:g}, {r['a_ex']:g}) PCS {_fmt(r['s_dn_pcs'], 3)} law {_fmt(r['s_dn_law'], 3)}" for r in law_c.loo_s_dn),
              "- monostable labels (PCS down sweep without jump-up that stays below "
              f"{MONO_RISE_H:g} h on the clamping side of the HB fold): "

@@ -356,6 +356,12 @@ levels. A training point is labelled monostable (single low branch) when its dow
 jumps up nor rises beyond it (:func:`fit_drift_law`)."""
 
 
+def _is_monostable(table: DriftTable, manifold) -> bool:
+    """The monostable label of a training table: HB has a fold, yet the PCS down sweep neither
+    jumps up nor rises beyond MONO_RISE_H on the clamping side of it."""
+    return bool(_mono_x(manifold) is not None and table.s_up_pcs is None and _stays_low(table, float(manifold.s_up)))
+
+
 def _stays_low(table: DriftTable, s_fold: float) -> bool:
     """The PCS down sweep of ``table`` never exceeds MONO_RISE_H on the clamping side of s_fold."""
     m = table.sweep == "down"
@@ -493,7 +499,7 @@ def fit_drift_law(tables: Sequence[DriftTable], *, params: Optional[Parameters] 
         if lc is not None:
             lift_per.append({"f_ex": t.f_ex, "a_ex": t.a_ex, "lift_c": lc})
         xm = _mono_x(mf)
-        mono_flag.append(bool(monostable_vote and xm is not None and t.s_up_pcs is None and _stays_low(t, float(mf.s_up))))
+        mono_flag.append(monostable_vote and _is_monostable(t, mf))
         if monostable_vote and xm is not None:
             mx.append(xm)
             my.append(1.0 if mono_flag[-1] else 0.0)
@@ -527,7 +533,7 @@ def fit_drift_law(tables: Sequence[DriftTable], *, params: Optional[Parameters] 
     std[std == 0] = 1.0
     jd = list(jump_down_tables)
     jd_mfs = [_manifold_for(p, t.f_ex, t.a_ex, n_modes, None) for t in jd]
-    jd_mono = [bool(monostable_vote and _mono_x(mf) is not None and t.s_up_pcs is None and _stays_low(t, float(mf.s_up))) for t, mf in zip(jd, jd_mfs)]
+    jd_mono = [monostable_vote and _is_monostable(t, mf) for t, mf in zip(jd, jd_mfs)]
 
     def rho_rule(keep):
         """rho_c, s_p and the bracket record from the training tables with index in ``keep`` (and
@@ -608,7 +614,7 @@ def refine_jump_down(tables: Sequence[DriftTable], *, candidates: Sequence[Tuple
     cand = [(float(f), float(a)) for f, a in candidates]
     cache: Dict[Tuple[float, float], object] = {}
     for _ in range(int(n)):
-        mono = [bool(_mono_x(mf) is not None and t.s_up_pcs is None and _stays_low(t, float(mf.s_up))) for t, mf in zip(tabs, mfs)]
+        mono = [_is_monostable(t, mf) for t, mf in zip(tabs, mfs)]
         br = jump_down_bracket(tabs, mfs, mono)
         if br["s_p"] is None or br["lo"] is None or br["hi"] is None or not br["consistent"]:
             break
