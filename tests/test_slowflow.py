@@ -291,6 +291,15 @@ def test_predicted_map_written_by_the_core(tmp_path):
     (tmp_path / "bad.json").write_text("[1, 2]")
     with pytest.raises(ValueError, match="not a beamslider drift law"):
         load_drift_law(tmp_path / "bad.json")
+    # Out-of-range scalars are refused by Python and core alike.
+    for key, value in (("jump_down_s", 0.7), ("rho_c", -1.0), ("lift_c", 0.0)):
+        d = json.loads(law_json_text(law))
+        d[key] = value
+        (tmp_path / "bad.json").write_text(json.dumps(d))
+        with pytest.raises(ValueError, match=key):
+            load_drift_law(tmp_path / "bad.json")
+        with pytest.raises(ValueError, match=key):
+            _core.predicted_map(cfg, json.dumps(d))
 
 
 def load_drift_law_text(law):
@@ -441,6 +450,10 @@ def test_jump_down_bracket_locates_the_boundary_between_ending_and_passing_branc
     assert refine_jump_down(tables, candidates=[(122, 10)], n=0) == []
     with pytest.raises(ValueError, match="`n`"):
         refine_jump_down(tables, candidates=[(122, 10)], n=-1)
+    with pytest.raises(ValueError, match="candidates"):
+        refine_jump_down(tables, candidates=[(122,)], n=1)
+    with pytest.raises(ValueError, match="jump_down_tables"):
+        fit_drift_law(tables, jump_down_tables=[1])
     # No jump-down anywhere: no bracket, no learnt jump-down.
     for t in tables:
         t.s_dn_pcs = None

@@ -532,6 +532,8 @@ def fit_drift_law(tables: Sequence[DriftTable], *, params: Optional[Parameters] 
     std = allx.std(axis=0)
     std[std == 0] = 1.0
     jd = list(jump_down_tables)
+    if any(not isinstance(t, DriftTable) for t in jd):
+        raise ValueError("invalid parameter `jump_down_tables`: DriftTable objects (refine_jump_down)")
     jd_mfs = [_manifold_for(p, t.f_ex, t.a_ex, n_modes, None) for t in jd]
     jd_mono = [monostable_vote and _is_monostable(t, mf) for t, mf in zip(jd, jd_mfs)]
 
@@ -611,6 +613,8 @@ def refine_jump_down(tables: Sequence[DriftTable], *, candidates: Sequence[Tuple
     p = resolve(params)
     tabs = list(tables)
     mfs = [_manifold_for(p, t.f_ex, t.a_ex, n_modes, None) for t in tabs]
+    if any(not (isinstance(c, (tuple, list)) and len(c) == 2) for c in candidates):
+        raise ValueError("invalid parameter `candidates`: a list of (f_ex, a_ex) pairs")
     cand = [(float(f), float(a)) for f, a in candidates]
     cache: Dict[Tuple[float, float], object] = {}
     for _ in range(int(n)):
@@ -671,6 +675,12 @@ def load_drift_law(path: Union[str, os.PathLike]) -> DriftLaw:
         raise ValueError(f"invalid parameter `law`: {path} is not a beamslider drift law file")
     if list(d.get("features", [])) != list(FEATURES):
         raise ValueError(f"invalid parameter `law`: {path} uses the features {d.get('features')}, this version {list(FEATURES)}")
+    # The scalars the core checks too (predictor::DriftLaw::from_json_str), with its bounds.
+    for key, default, ok, rule in (("rho_c", 0.0, lambda x: x >= 0, ">= 0"), ("jump_down_s", 0.0, lambda x: 0 <= x <= 0.5, "in [0, 0.5]"),
+                                   ("lift_c", 1.0, lambda x: 0 < x <= 2, "in (0, 2]")):
+        x = d.get(key, default)
+        if not (isinstance(x, (int, float)) and math.isfinite(x) and ok(x)):
+            raise ValueError(f"invalid parameter `law`: {path} has {key} = {x!r}, must be finite and {rule}")
     arr = lambda v: np.asarray(v, dtype=float)  # noqa: E731
     n = len(FEATURES)
     return DriftLaw(
