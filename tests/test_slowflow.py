@@ -18,7 +18,8 @@ SHORT = dict(settle_periods=5, first_settle_periods=20, window_s=0.1, sub_window
 def _synthetic_table(f_ex, a_ex, v_low, v_high):
     s = np.linspace(0.036, 0.5, 30)
     return DriftTable(f_ex=f_ex, a_ex=a_ex, s=np.concatenate([s, s]), branch=np.array(["L"] * 30 + ["H"] * 30),
-                      v=np.concatenate([v_low(s), v_high(s)]), v_se=np.zeros(60), amplitude=np.zeros(60),
+                      v=np.concatenate([v_low(s), v_high(s)]), v_se=np.zeros(60),
+                      amplitude=np.concatenate([np.zeros(30), np.full(30, 5.0)]),  # up sweep on the high branch
                       jump=np.zeros(60, bool), sweep=np.array(["down"] * 30 + ["up"] * 30))
 
 
@@ -458,3 +459,41 @@ def test_jump_down_bracket_locates_the_boundary_between_ending_and_passing_branc
     for t in tables:
         t.s_dn_pcs = None
     assert jump_down_bracket(tables, [hb_manifold(f_ex=t.f_ex, a_ex=t.a_ex) for t in tables], [False] * 4)["rho_c"] == 0.0
+
+
+def test_high_branch_samples_must_be_on_the_high_branch():
+    """A row of a PCS up sweep trains V_H only where its amplitude is on the HB high branch:
+    synthetic rows with a low-branch amplitude are dropped, whatever their V; on the committed
+    tables, the monostable point (114, 4) (its up sweep stays at a few hundredths of h) gives no
+    high-branch sample where HB's high branch is high, while (110, 8) keeps every row in range."""
+    from pathlib import Path
+
+    from beamslider.drift_law import ON_BRANCH_RATIO, _training_samples
+
+    m = hb_manifold(f_ex=124, a_ex=14)
+    hs, ha = np.asarray(m.high.s), np.asarray(m.high.amplitude)
+    tab = _synthetic_table(124, 14, lambda s: -0.004 + 0 * s, lambda s: 0.03 * (0.42 - s))
+    up = tab.branch == "H"
+    a_hb = np.interp(tab.s[up], hs[np.argsort(hs)], ha[np.argsort(hs)])
+    low = (tab.s[up] > 0.3) & (tab.s[up] < 0.4)
+    amp = np.where(low, 0.3 * ON_BRANCH_RATIO * a_hb, 0.95 * a_hb)
+    tab.amplitude = tab.amplitude.copy()
+    tab.amplitude[up] = amp
+    v = tab.v.copy()
+    v[np.where(up)[0][low]] = -0.5  # a marker no kept row has
+    tab.v = v
+    x, vh, _ = _training_samples(tab, m)["H"]
+    in_range = (tab.s[up] >= hs.min()) & (tab.s[up] <= hs.max())
+    assert vh.size == int(np.sum(in_range & ~low)) and not np.any(vh == -0.5)
+    assert np.all((x[:, 1] <= 0.3) | (x[:, 1] >= 0.4))
+    drift = Path(__file__).resolve().parents[1] / "docs" / "superslow" / "drift"
+    mono = read_drift_table(drift / "drift_114Hz_4ms2.jsonl")
+    mm = hb_manifold(f_ex=114, a_ex=4)
+    xs, _, _ = _training_samples(mono, mm)["H"]
+    s_mono = xs[:, 1]
+    assert s_mono.size > 0 and s_mono.max() < 0.27
+    ok = read_drift_table(drift / "drift_110Hz_8ms2.jsonl")
+    mo = hb_manifold(f_ex=110, a_ex=8)
+    s_ok, _, _ = ok.branch_rows("H")
+    hs2 = np.asarray(mo.high.s)
+    assert _training_samples(ok, mo)["H"][1].size == int(np.sum((s_ok >= hs2.min()) & (s_ok <= hs2.max())))

@@ -376,8 +376,31 @@ def _manifold_for(params, f_ex, a_ex, n_modes, d_eff):
     return hb_manifold(params, f_ex=f_ex, a_ex=a_ex, n_modes=n_modes, d_eff=d_eff)
 
 
+ON_BRANCH_RATIO = 0.5
+"""A row of a PCS up sweep (branch 'H') trains the high branch only if its amplitude is at least
+this fraction of the HB high branch's at the same s. Rows below it never reached the high
+branch (a monostable point's up sweep stays on its single low branch, at a few hundredths of h
+where HB has ~1 h), and their V, measured on the low branch, must not be paired with high-branch
+features. On the high branch PCS and HB agree within a few per cent (issue §4.1); the rows that
+fail lie a factor 5–40 below, so any ratio in 0.25–0.9 selects the same rows."""
+
+
+def _on_high_branch(table: DriftTable, manifold, s: np.ndarray) -> np.ndarray:
+    """Per row of ``table.branch_rows('H')`` (sorted by s, half coordinate): whether the PCS
+    amplitude is at least ON_BRANCH_RATIO of the HB high branch's at that s (True outside the
+    HB branch's s-range, where the row is dropped anyway)."""
+    m = table.branch == "H"
+    sh = table.s[m]
+    amp = table.amplitude[m][np.argsort(np.where(sh > 0.5, 1.0 - sh, sh))]
+    hs, ha = np.asarray(manifold.high.s, dtype=float), np.asarray(manifold.high.amplitude, dtype=float)
+    o = np.argsort(hs)
+    a_hb = np.interp(s, hs[o], ha[o])
+    return ~(amp < ON_BRANCH_RATIO * a_hb)
+
+
 def _training_samples(table: DriftTable, manifold) -> Dict[str, Tuple[np.ndarray, np.ndarray, np.ndarray]]:
-    """Per branch: the law inputs, V and Λ_g of the table's rows that lie on the HB branch."""
+    """Per branch: the law inputs, V and Λ_g of the table's rows that lie on the HB branch (on
+    the high branch also in amplitude, :func:`_on_high_branch`)."""
     out = {}
     for br in ("L", "H"):
         s, v, _ = table.branch_rows(br)
@@ -387,6 +410,8 @@ def _training_samples(table: DriftTable, manifold) -> Dict[str, Tuple[np.ndarray
             continue
         lo, hi = float(np.min(b.s)), float(np.max(b.s))
         m = (s >= lo) & (s <= hi)
+        if br == "H":
+            m &= _on_high_branch(table, manifold, s)
         if not m.any():
             out[br] = (np.zeros((0, len(FEATURES))), np.zeros(0), np.zeros(0))
             continue
