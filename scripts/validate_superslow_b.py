@@ -687,7 +687,7 @@ def stage_levers():
 FEATURE_SETS = [("log_lift_off", "slope_gap", "f_slope", "a_ex_g", "amplitude"),
                 ("log_lift_off", "slope_gap", "f_slope", "ds_res", "amp_rel"),
                 ("amp_rel", "s"), ("log_lift_off", "amp_rel", "s"), ("log_lift_off", "s"),
-                ("slope_gap", "amp_rel", "s"), ("amp_rel", "s", "a_ex_g")]
+                ("slope_gap", "amp_rel", "s"), ("amp_rel", "s", "a_ex_g"), ("amplitude", "s"), ("amp_rel", "s", "amplitude")]
 
 
 def stage_features():
