@@ -80,10 +80,11 @@ fn one() -> f64 {
     1.0
 }
 
-/// Training samples of one branch.
+/// Training samples of one branch, sorted by the last standardised feature (s) so that
+/// [`DriftLaw::evaluate`] finds the k nearest by a sweep outwards from the query's s.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct LawBranch {
-    /// Standardised features, one row per sample.
+    /// Standardised features, one row per sample (sorted by `z[NF - 1]`).
     pub z: Vec<[f64; NF]>,
     /// V [1/s] (towards the centre positive).
     pub v: Vec<f64>,
@@ -206,6 +207,11 @@ impl DriftLaw {
                 out.z.push(std::array::from_fn(|i| (r[i] - mean[i]) / std[i]));
                 out.v.push(vi);
             }
+            // Sorted by s for the k-nearest sweep (stable: ties keep the file's order).
+            let mut idx: Vec<usize> = (0..out.v.len()).collect();
+            idx.sort_by(|&a, &b| out.z[a][NF - 1].total_cmp(&out.z[b][NF - 1]));
+            out.z = idx.iter().map(|&i| out.z[i]).collect();
+            out.v = idx.iter().map(|&i| out.v[i]).collect();
             Ok(out)
         };
         let low = branch("L")?;
@@ -284,13 +290,9 @@ impl DriftLaw {
             return (0.0, true);
         }
         let z: [f64; NF] = std::array::from_fn(|i| (x[i] - self.mean[i]) / self.std[i]);
-        let mut d: Vec<(f64, usize)> = b.z.iter().enumerate().map(|(j, zj)| ((0..NF).map(|i| (zj[i] - z[i]).powi(2)).sum::<f64>(), j)).collect();
-        let k = self.k.min(d.len());
-        if k < d.len() {
-            d.select_nth_unstable_by(k - 1, |a, b| a.0.total_cmp(&b.0));
-        }
+        let best = nearest(&b.z, &z, self.k);
         let (mut sw, mut swv) = (0.0, 0.0);
-        for &(d2, j) in &d[..k] {
+        for &(d2, j) in &best {
             let w = 1.0 / d2.sqrt().max(1e-6);
             sw += w;
             swv += w * b.v[j];
@@ -298,6 +300,42 @@ impl DriftLaw {
         let v = if lift_off < self.lift_c { 0.0 } else { swv / sw };
         (v, outside)
     }
+}
+
+/// The `k` nearest rows of `z` (sorted by the last column) to `q` in Euclidean distance, as
+/// (squared distance, index) in ascending order: a sweep outwards from q's position in the last
+/// column that stops once that column alone is farther than the k-th best (exact).
+fn nearest(z: &[[f64; NF]], q: &[f64; NF], k: usize) -> Vec<(f64, usize)> {
+    let k = k.min(z.len());
+    let mut best: Vec<(f64, usize)> = Vec::with_capacity(k + 1);
+    let a = NF - 1;
+    let start = z.partition_point(|r| r[a] < q[a]);
+    let (mut left, mut right) = (start, start);
+    loop {
+        let dl = (left > 0).then(|| (q[a] - z[left - 1][a]).powi(2));
+        let dr = (right < z.len()).then(|| (z[right][a] - q[a]).powi(2));
+        let (j, da) = match (dl, dr) {
+            (Some(l), Some(r)) if l <= r => (left - 1, l),
+            (Some(l), None) => (left - 1, l),
+            (_, Some(r)) => (right, r),
+            (None, None) => break,
+        };
+        if best.len() == k && da > best[k - 1].0 {
+            break;
+        }
+        if j < start {
+            left -= 1;
+        } else {
+            right += 1;
+        }
+        let d2: f64 = (0..NF).map(|i| (z[j][i] - q[i]).powi(2)).sum();
+        if best.len() < k || d2 < best[k - 1].0 {
+            let pos = best.partition_point(|e| e.0 <= d2);
+            best.insert(pos, (d2, j));
+            best.truncate(k);
+        }
+    }
+    best
 }
 
 /// (ln Â_L at the HB fold, s_up), None without a fold (inputs of [`DriftLaw::monostable`]).
@@ -781,6 +819,33 @@ pub fn run_predicted_map(cfg: &MapConfig, law: &DriftLaw, popts: &PredictOptions
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    proptest::proptest! {
+        /// The sweep finds the same k nearest distances as a brute-force search (ties may pick
+        /// other rows at an equal distance), in ascending order.
+        #[test]
+        fn nearest_matches_brute_force(pts in proptest::collection::vec((-3.0f64..3.0, -3.0f64..3.0), 1..60),
+                                       q in (-4.0f64..4.0, -4.0f64..4.0), k in 1usize..8, coarse in proptest::bool::ANY) {
+            // `coarse`: coordinates on a grid of 0.5, so that ties occur.
+            let r = |x: f64| if coarse { (2.0 * x).round() / 2.0 } else { x };
+            let mut z: Vec<[f64; NF]> = pts.iter().map(|&(a, b)| [r(a), r(b)]).collect();
+            z.sort_by(|a, b| a[NF - 1].total_cmp(&b[NF - 1]));
+            let q = [r(q.0), r(q.1)];
+            let got = nearest(&z, &q, k);
+            let mut all: Vec<f64> = z.iter().map(|p| (0..NF).map(|i| (p[i] - q[i]).powi(2)).sum()).collect();
+            all.sort_by(f64::total_cmp);
+            proptest::prop_assert_eq!(got.len(), k.min(z.len()));
+            for (n, &(d2, j)) in got.iter().enumerate() {
+                proptest::prop_assert_eq!(d2, all[n]);
+                let dj: f64 = (0..NF).map(|i| (z[j][i] - q[i]).powi(2)).sum();
+                proptest::prop_assert_eq!(dj, d2);
+            }
+            let mut js: Vec<usize> = got.iter().map(|e| e.1).collect();
+            js.sort_unstable();
+            js.dedup();
+            proptest::prop_assert_eq!(js.len(), got.len());
+        }
+    }
 
     fn law_text(k: usize) -> String {
         serde_json::json!({
