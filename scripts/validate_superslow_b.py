@@ -339,6 +339,18 @@ def _compare(title, pred, grid_ref, ref, train, f_ex, a_ex, names):
         lines.append(f"final-s error over agreeing points steady in FS (n = {len(errs)}): median {np.median(errs):.4f}, 90th percentile {np.percentile(errs, 90):.4f} (targets 0.015 / 0.04)")
     if errs_all:
         lines.append(f"final-s error over all points steady in both (n = {len(errs_all)}): median {np.median(errs_all):.4f}, 90th percentile {np.percentile(errs_all, 90):.4f}")
+    flags = [(key, pred[key].get("robust")) for key in grid_ref]
+    if any(fl is not None for _, fl in flags):
+        # The robustness flag (V ± the law's v_resolution): how the predictions it marks robust
+        # compare with the others.
+        for want, name in ((True, "robust (V ± v_resolution changes neither the behaviour nor the final s by > 0.02)"),
+                           (False, "not robust (V ± v_resolution changes the behaviour or the final s by > 0.02)")):
+            ks = [key for key, fl in flags if fl is want]
+            ok = [key for key in ks if pred[key]["behaviour"] == grid_ref[key]]
+            e = [abs(pred[key]["s_final"] - ref["s_final"][idx[key]]) for key in ok if ref["steady"][idx[key]] and np.isfinite(ref["s_final"][idx[key]])]
+            lines.append(f"{name}: {len(ks)} points, agreement {len(ok)}/{len(ks)}"
+                         + (f" = {100 * len(ok) / len(ks):.1f} %" if ks else "")
+                         + (f"; final-s error over its agreeing points steady in FS (n = {len(e)}): median {np.median(e):.4f}, 90th percentile {np.percentile(e, 90):.4f}" if e else ""))
     lines.append("text map (FS | predicted), rows a_ex, columns f_ex " + " ".join(f"{f:g}" for f in f_ex))
     for a in sorted(a_ex, reverse=True):
         lines.append(f"  {a:4g}  " + " ".join(letter[grid_ref[(f, a)]] for f in f_ex) + "  |  " + " ".join(letter[pred[(f, a)]["behaviour"]] for f in f_ex))

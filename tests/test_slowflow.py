@@ -482,14 +482,14 @@ def test_high_branch_samples_must_be_on_the_high_branch():
     v = tab.v.copy()
     v[np.where(up)[0][low]] = -0.5  # a marker no kept row has
     tab.v = v
-    x, vh, _ = _training_samples(tab, m)["H"]
+    x, vh, _, _ = _training_samples(tab, m)["H"]
     in_range = (tab.s[up] >= hs.min()) & (tab.s[up] <= hs.max())
     assert vh.size == int(np.sum(in_range & ~low)) and not np.any(vh == -0.5)
     assert np.all((x[:, 1] <= 0.3) | (x[:, 1] >= 0.4))
     drift = Path(__file__).resolve().parents[1] / "docs" / "superslow" / "drift"
     mono = read_drift_table(drift / "drift_114Hz_4ms2.jsonl")
     mm = hb_manifold(f_ex=114, a_ex=4)
-    xs, _, _ = _training_samples(mono, mm)["H"]
+    xs, _, _, _ = _training_samples(mono, mm)["H"]
     s_mono = xs[:, 1]
     assert s_mono.size > 0 and s_mono.max() < 0.27
     ok = read_drift_table(drift / "drift_110Hz_8ms2.jsonl")
@@ -497,3 +497,47 @@ def test_high_branch_samples_must_be_on_the_high_branch():
     s_ok, _, _ = ok.branch_rows("H")
     hs2 = np.asarray(mo.high.s)
     assert _training_samples(ok, mo)["H"][1].size == int(np.sum((s_ok >= hs2.min()) & (s_ok <= hs2.max())))
+
+
+def test_robustness_flag_from_the_law_resolution(tmp_path):
+    """A prediction is robust when V ± the law's v_resolution changes neither the behaviour nor
+    the final s by more than 0.02: a steep zero of V_H (the stop moves by v_resolution / slope)
+    is robust, a nearly flat drift that a shift of V reverses is not; Python and core agree; a
+    law without a resolution gives None, and the resolution is the median standard error of the
+    training rows and survives the JSON round trip."""
+    from beamslider import _core
+    from beamslider.drift_law import law_json
+
+    def law_with(v_high, se):
+        tables = [_synthetic_table(f_, a_, lambda s: -0.004 + 0 * s, v_high) for f_, a_ in ((124, 14), (120, 12), (126, 10))]
+        for t in tables:
+            t.v_se = np.full(t.v.size, se)
+        return fit_drift_law(tables, k=3, monostable_vote=False)
+
+    steep = law_with(lambda s: 0.03 * (0.42 - s), 3e-4)
+    assert steep.v_resolution == pytest.approx(3e-4)
+    assert load_drift_law_text(steep).v_resolution == pytest.approx(3e-4)
+    r = predict(f_ex=124, a_ex=14, drift=steep)
+    assert r.robust is True and len(r.shifted) == 2
+    assert all(b == r.behaviour and abs(s - r.s_final) <= 0.02 for b, s in r.shifted)
+    # The stop moves by v_resolution / |dV/ds| = 3e-4 / 0.03 = 0.01 either way.
+    assert sorted(s for _, s in r.shifted) == pytest.approx([r.s_final - 0.01, r.s_final + 0.01], abs=3e-3)
+    flat = law_with(lambda s: 2e-4 + 0 * s, 3e-4)  # V_H > 0 everywhere, but within its resolution
+    r2 = predict(f_ex=124, a_ex=14, drift=flat)
+    assert r2.robust is False and {b for b, _ in r2.shifted} | {r2.behaviour} != {r2.behaviour}
+    p = Parameters()
+    for lw, want in ((steep, True), (flat, False)):
+        row = json.loads(_core.predict_point(p.toml_text(), law_json(lw), f_ex_hz=124.0, a_ex_m_s2=14.0, s0=0.3))
+        assert row["robust"] is want
+        assert [b for b, _ in row["shifted"]] == [b for b, _ in predict(f_ex=124, a_ex=14, drift=lw).shifted]
+    unknown = law_with(lambda s: 0.03 * (0.42 - s), 0.0)
+    assert unknown.v_resolution == 0.0
+    assert predict(f_ex=124, a_ex=14, drift=unknown).robust is None
+    row = json.loads(_core.predict_point(p.toml_text(), law_json(unknown), f_ex_hz=124.0, a_ex_m_s2=14.0, s0=0.3))
+    assert row["robust"] is None and "shifted" not in row
+    assert predict(f_ex=124, a_ex=14, drift=steep, robustness=False).robust is None
+    d = json.loads(law_json(steep))
+    d["v_resolution"] = -1.0
+    (tmp_path / "bad.json").write_text(json.dumps(d))
+    with pytest.raises(ValueError, match="v_resolution"):
+        load_drift_law(tmp_path / "bad.json")

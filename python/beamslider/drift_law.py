@@ -175,6 +175,12 @@ class DriftLaw:
     below it); :func:`fit_drift_law` learns it from the tables (:func:`learn_lift_off_threshold`)."""
     lift_c_per_point: List[dict] = field(default_factory=list)
     """The tables' own Λ_c values (where their clampward drift ends), the median of which is ``lift_c``."""
+    v_resolution: float = 0.0
+    """Resolution of V [1/s]: the median standard error (four sub-windows) of the training rows'
+    V. :func:`beamslider.slowflow.predict` re-runs the slow flow with V shifted by ± this much and
+    reports whether the prediction stays the same (``Prediction.robust``); 0: not checked."""
+    v_offset: float = 0.0
+    """Added to V wherever Λ_g ≥ Λ_c (0; the robustness check's shifted copies, :meth:`shifted`)."""
     _trees: dict = field(default_factory=dict, repr=False, compare=False)
 
     def monostable(self, manifold, exclude_group: Optional[int] = None) -> bool:
@@ -195,6 +201,14 @@ class DriftLaw:
         """V at the given features (half coordinate, towards the centre positive) and a flag per
         point: True where a feature lies outside the training range (extrapolation)."""
         return self._evaluate_x(branch, _x(feat), np.asarray(feat["lift_off"]), exclude_group)
+
+    def shifted(self, dv: float) -> "DriftLaw":
+        """A copy whose V is larger by ``dv`` [1/s] wherever Λ_g ≥ Λ_c (the robustness check)."""
+        import copy
+
+        c = copy.copy(self)
+        c.v_offset = self.v_offset + float(dv)
+        return c
 
     def outside_points(self, f_ex: float, a_ex: float) -> bool:
         """True where (f_ex, a_ex) lies outside the box of the training operating points (the
@@ -232,6 +246,8 @@ class DriftLaw:
         dk, idx = dk.reshape(x.shape[0], k), idx.reshape(x.shape[0], k)
         w = 1.0 / np.maximum(dk, 1e-6)
         out = (w * vt[idx]).sum(axis=1) / w.sum(axis=1)
+        if self.v_offset:
+            out = out + self.v_offset
         out[lift_off < self.lift_c] = 0.0
         outside = np.any((x < self.lo - 1e-9) | (x > self.hi + 1e-9), axis=1)
         return out, outside
@@ -398,25 +414,25 @@ def _on_high_branch(table: DriftTable, manifold, s: np.ndarray) -> np.ndarray:
     return ~(amp < ON_BRANCH_RATIO * a_hb)
 
 
-def _training_samples(table: DriftTable, manifold) -> Dict[str, Tuple[np.ndarray, np.ndarray, np.ndarray]]:
-    """Per branch: the law inputs, V and Λ_g of the table's rows that lie on the HB branch (on
-    the high branch also in amplitude, :func:`_on_high_branch`)."""
+def _training_samples(table: DriftTable, manifold) -> Dict[str, Tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]]:
+    """Per branch: the law inputs, V, Λ_g and the standard error of V of the table's rows that
+    lie on the HB branch (on the high branch also in amplitude, :func:`_on_high_branch`)."""
     out = {}
     for br in ("L", "H"):
-        s, v, _ = table.branch_rows(br)
+        s, v, se = table.branch_rows(br)
         b = manifold.high if br == "H" else manifold.low
         if s.size == 0 or len(b) == 0:
-            out[br] = (np.zeros((0, len(FEATURES))), np.zeros(0), np.zeros(0))
+            out[br] = (np.zeros((0, len(FEATURES))), np.zeros(0), np.zeros(0), np.zeros(0))
             continue
         lo, hi = float(np.min(b.s)), float(np.max(b.s))
         m = (s >= lo) & (s <= hi)
         if br == "H":
             m &= _on_high_branch(table, manifold, s)
         if not m.any():
-            out[br] = (np.zeros((0, len(FEATURES))), np.zeros(0), np.zeros(0))
+            out[br] = (np.zeros((0, len(FEATURES))), np.zeros(0), np.zeros(0), np.zeros(0))
             continue
         f = features(manifold, br, s[m])
-        out[br] = (_x(f), v[m], np.asarray(f["lift_off"], dtype=float))
+        out[br] = (_x(f), v[m], np.asarray(f["lift_off"], dtype=float), se[m])
     return out
 
 
@@ -512,6 +528,7 @@ def fit_drift_law(tables: Sequence[DriftTable], *, params: Optional[Parameters] 
     vs: Dict[str, list] = {"L": [], "H": []}
     gs: Dict[str, list] = {"L": [], "H": []}
     ls: Dict[str, list] = {"L": [], "H": []}
+    ses: Dict[str, list] = {"L": [], "H": []}
     mfs = []
     rho_per: Dict[int, float] = {}
     mx, my, mg = [], [], []
@@ -533,15 +550,17 @@ def fit_drift_law(tables: Sequence[DriftTable], *, params: Optional[Parameters] 
             r = forcing_ratio(mf, [t.s_dn_pcs])[0]
             if np.isfinite(r):
                 rho_per[gi] = float(r)
-        for br, (x, v, lift) in _training_samples(t, mf).items():
+        for br, (x, v, lift, se) in _training_samples(t, mf).items():
             xs[br].append(x)
             ls[br].append(lift)
+            ses[br].append(se)
             vs[br].append(v)
             gs[br].append(np.full(v.size, gi))
     X = {br: np.concatenate(xs[br]) if xs[br] else np.zeros((0, len(FEATURES))) for br in xs}
     V = {br: np.concatenate(vs[br]) if vs[br] else np.zeros(0) for br in vs}
     G = {br: np.concatenate(gs[br]) if gs[br] else np.zeros(0, int) for br in gs}
     LIFT = {br: np.concatenate(ls[br]) if ls[br] else np.zeros(0) for br in ls}
+    SE = {br: np.concatenate(ses[br]) if ses[br] else np.zeros(0) for br in ses}
     allx = np.concatenate([X["L"], X["H"]])
     if allx.shape[0] == 0:
         raise ValueError("invalid parameter `tables`: no row lies on a branch of the HB manifold")
@@ -552,7 +571,10 @@ def fit_drift_law(tables: Sequence[DriftTable], *, params: Optional[Parameters] 
         lift_c = float(lift_off_threshold)
     for br in X:
         keep = LIFT[br] >= lift_c
-        X[br], V[br], G[br], LIFT[br] = X[br][keep], V[br][keep], G[br][keep], LIFT[br][keep]
+        X[br], V[br], G[br], LIFT[br], SE[br] = X[br][keep], V[br][keep], G[br][keep], LIFT[br][keep], SE[br][keep]
+    se_all = np.concatenate([SE["L"], SE["H"]])
+    se_all = se_all[np.isfinite(se_all) & (se_all > 0)]
+    v_resolution = float(np.median(se_all)) if se_all.size else 0.0
     allx = np.concatenate([X["L"], X["H"]])
     std = allx.std(axis=0)
     std[std == 0] = 1.0
@@ -574,7 +596,7 @@ def fit_drift_law(tables: Sequence[DriftTable], *, params: Optional[Parameters] 
     rho_c, s_p, bracket = rho_rule(list(range(len(tables))))
     law = DriftLaw(x=X, v=V, groups=G, mean=allx.mean(axis=0), std=std, lo=allx.min(axis=0), hi=allx.max(axis=0),
                    points=[(t.f_ex, t.a_ex) for t in tables], k=int(k), rho_c=rho_c, jump_down_s=s_p, rho_bracket=bracket,
-                   lift_c=lift_c, lift_c_per_point=lift_per)
+                   lift_c=lift_c, lift_c_per_point=lift_per, v_resolution=min(v_resolution, 0.0999))
     if mx:
         law.mono_x, law.mono_y, law.mono_groups = np.array(mx), np.array(my), np.array(mg, dtype=int)
         sd = law.mono_x.std(axis=0)
@@ -680,6 +702,7 @@ def law_json(law: DriftLaw) -> str:
         "s_up_shift": law.s_up_shift, "loo_s_up": law.loo_s_up,
         "mono_x": law.mono_x.tolist(), "mono_y": law.mono_y.tolist(), "mono_std": law.mono_std.tolist(),
         "mono_groups": law.mono_groups.tolist(), "lift_c": law.lift_c, "lift_c_per_point": law.lift_c_per_point,
+        "v_resolution": law.v_resolution,
     }
     return json.dumps(d)
 
@@ -702,7 +725,7 @@ def load_drift_law(path: Union[str, os.PathLike]) -> DriftLaw:
         raise ValueError(f"invalid parameter `law`: {path} uses the features {d.get('features')}, this version {list(FEATURES)}")
     # The scalars the core checks too (predictor::DriftLaw::from_json_str), with its bounds.
     for key, default, ok, rule in (("rho_c", 0.0, lambda x: x >= 0, ">= 0"), ("jump_down_s", 0.0, lambda x: 0 <= x <= 0.5, "in [0, 0.5]"),
-                                   ("lift_c", 1.0, lambda x: 0 < x <= 2, "in (0, 2]")):
+                                   ("lift_c", 1.0, lambda x: 0 < x <= 2, "in (0, 2]"), ("v_resolution", 0.0, lambda x: 0 <= x < 0.1, "in [0, 0.1)")):
         x = d.get(key, default)
         if not (isinstance(x, (int, float)) and math.isfinite(x) and ok(x)):
             raise ValueError(f"invalid parameter `law`: {path} has {key} = {x!r}, must be finite and {rule}")
@@ -718,6 +741,7 @@ def load_drift_law(path: Union[str, os.PathLike]) -> DriftLaw:
         mono_x=arr(d.get("mono_x", [])).reshape(-1, 2), mono_y=arr(d.get("mono_y", [])),
         mono_std=arr(d.get("mono_std", [1.0, 1.0])), mono_groups=np.asarray(d.get("mono_groups", []), dtype=int),
         lift_c=float(d.get("lift_c", 1.0)), lift_c_per_point=d.get("lift_c_per_point", []),
+        v_resolution=float(d.get("v_resolution", 0.0)),
     )
 
 

@@ -27,7 +27,7 @@ import json
 import math
 import os
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Dict, List, Optional, Sequence, Tuple, Union
 
@@ -103,6 +103,20 @@ class Prediction:
     f_ex: float = 0.0
     a_ex: float = 0.0
     s0: float = 0.3
+    robust: Optional[bool] = None
+    """Whether the behaviour and the final s (within ROBUST_DS = 0.02; not for a relaxation
+    oscillation, whose final s is the cycle's phase) stay the same when V is
+    shifted by ± the law's ``v_resolution`` (the median standard error of its training V)
+    wherever the slider can move; None without a law resolution or with ``robustness=False``.
+    On the FS map, robust predictions agree far more often than the others
+    (docs/superslow/validation_b_map.txt)."""
+    shifted: List[Tuple[str, float]] = field(default_factory=list)
+    """(behaviour, final s) under V − v_resolution and V + v_resolution."""
+
+
+ROBUST_DS = 0.02
+"""Largest change of the final s under V ± v_resolution for which a prediction counts as robust
+(the issue's tolerance of a run's final s, §4.3; the core's ``predictor::ROBUST_DS``)."""
 
 
 def _stretch_low(s: np.ndarray, s_up: Optional[float], shift: float, lo: float) -> np.ndarray:
@@ -256,6 +270,7 @@ def predict(
     source: str = "hb",
     build_up: Union[str, float] = "auto",
     v_dead: Optional[float] = None,
+    robustness: bool = True,
 ) -> Prediction:
     """Predict the behaviour of one operating point with the reduced super-slow model (issue 17).
 
@@ -285,6 +300,8 @@ def predict(
             the manifold.
         v_dead: dead band of V [1/s] (:func:`dead_band`; default none). Measured, not adopted:
             see docs/superslow/validation_c_levers.txt.
+        robustness: with a law that has a ``v_resolution``, also run the slow flow with V shifted
+            by ± that much and set ``Prediction.robust`` (two more slow flows; default True).
 
     Returns:
         :class:`Prediction` with s(t), Â(t), the events, the classifier's behaviour and the
@@ -340,8 +357,18 @@ def predict(
     t2 = time.perf_counter()
     r = _core.slow_flow(tuple(low), tuple(high), low_ends_in_fold=lf, high_ends_in_fold=hf, s0=s0, t_end_s=t_end,
                         build_up_s=float(min(t_build, t_end)))
-    t3 = time.perf_counter()
     cls = json.loads(r["classification"])
+    robust, shifted = None, []
+    if robustness and source == "hb" and isinstance(drift, DriftLaw) and drift.v_resolution > 0:
+        for dv in (-drift.v_resolution, drift.v_resolution):
+            lo2, hi2, lf2, hf2, _ = slow_model(mf, drift.shifted(dv), s_dn=s_dn, v_dead=v_dead)
+            r2 = _core.slow_flow(tuple(lo2), tuple(hi2), low_ends_in_fold=lf2, high_ends_in_fold=hf2, s0=s0, t_end_s=t_end,
+                                 build_up_s=float(min(t_build, t_end)))
+            shifted.append((json.loads(r2["classification"])["behaviour"], float(r2["s_final"])))
+        # A relaxation oscillation's final s is the cycle's phase at t_end: only its behaviour counts.
+        cycle = cls["behaviour"] == "relaxation_oscillation"
+        robust = all(b == cls["behaviour"] and (cycle or abs(sf - float(r["s_final"])) <= ROBUST_DS) for b, sf in shifted)
+    t3 = time.perf_counter()
     warnings = list(r["warnings"])
     if info.get("note"):
         warnings.insert(0, info["note"])
@@ -355,7 +382,7 @@ def predict(
         amplitude_final=float(r["amplitude_final_h"]), s_up=info["s_up"], s_dn=info["s_dn"], s_dn_source=info["s_dn_source"],
         features=info["features"], extrapolated=bool(info["extrapolated"]), warnings=warnings,
         timings_s={"manifold": t1 - t0, "drift": t2 - t1, "slow_flow": t3 - t2}, build_up_s=float(min(t_build, t_end)), f_ex=f_ex, a_ex=a_ex, s0=s0,
-        monostable=bool(info.get("monostable", False)),
+        monostable=bool(info.get("monostable", False)), robust=robust, shifted=shifted,
     )
 
 

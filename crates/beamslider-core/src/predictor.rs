@@ -29,7 +29,7 @@ use std::time::Instant;
 use serde::Deserialize;
 
 use crate::beam::Beam;
-use crate::classify::Criteria;
+use crate::classify::{Behaviour, Criteria};
 use crate::error::{Error, Result};
 use crate::map::{Job, MapConfig, MapOutcome, MapPoint, MapResults, MapRow, MapRunOptions, Progress};
 use crate::params::Params;
@@ -74,6 +74,8 @@ struct LawFile {
     rho_c: f64,
     #[serde(default)]
     jump_down_s: f64,
+    #[serde(default)]
+    v_resolution: f64,
 }
 
 fn one() -> f64 {
@@ -127,6 +129,10 @@ pub struct DriftLaw {
     /// when > 0 the high branch ends at s_p if ρ(s_p) ≤ ρ_c, else it does not end ([`law_s_dn`]);
     /// 0 (law files without it): the first s where ρ(s) < ρ_c.
     pub jump_down_s: f64,
+    /// Resolution of V [1/s]: the median standard error of the training rows' V (0: unknown).
+    /// [`predict_point`] re-runs the slow flow with V shifted by ± this much to tell a robust
+    /// prediction from one that hinges on V within its measurement error ([`ROBUST_DS`]).
+    pub v_resolution: f64,
     /// Fingerprint of the samples (FNV-1a over the bits of k, the samples and the scaling):
     /// written to a predicted map's header and compared on resume.
     pub fingerprint: String,
@@ -234,7 +240,30 @@ impl DriftLaw {
             hash.add(x[1]);
             hash.add(if *y { 1.0 } else { 0.0 });
         }
-        Ok(DriftLaw { k: f.k, low, high, mean, std, lo, hi, points, s_up_shift: f.s_up_shift, mono, mono_std, lift_c: f.lift_c, rho_c: f.rho_c, jump_down_s: f.jump_down_s, fingerprint: format!("{:016x}", hash.0) })
+        if !(f.v_resolution.is_finite() && (0.0..0.1).contains(&f.v_resolution)) {
+            return Err(Error::invalid("law", "v_resolution", "must be finite, 0 <= v_resolution < 0.1 1/s"));
+        }
+        if f.v_resolution != 0.0 {
+            hash.add(f.v_resolution);
+        }
+        Ok(DriftLaw {
+            k: f.k,
+            low,
+            high,
+            mean,
+            std,
+            lo,
+            hi,
+            points,
+            s_up_shift: f.s_up_shift,
+            mono,
+            mono_std,
+            lift_c: f.lift_c,
+            rho_c: f.rho_c,
+            jump_down_s: f.jump_down_s,
+            v_resolution: f.v_resolution,
+            fingerprint: format!("{:016x}", hash.0),
+        })
     }
 
     /// Read a law file.
@@ -500,13 +529,21 @@ pub struct PredictOptions {
     pub build_up_s: Option<f64>,
     /// Classification thresholds.
     pub criteria: Criteria,
+    /// Also run the slow flow with V shifted by ± the law's `v_resolution` and report whether
+    /// the prediction is robust ([`PointPrediction::robust`]; default true).
+    pub robustness: bool,
 }
 
 impl Default for PredictOptions {
     fn default() -> Self {
-        PredictOptions { hb: HbOptions::default(), nodes: 121, build_up_s: None, criteria: Criteria::default() }
+        PredictOptions { hb: HbOptions::default(), nodes: 121, build_up_s: None, criteria: Criteria::default(), robustness: true }
     }
 }
+
+/// Largest change of the final s [–] under V ± `v_resolution` for which a prediction counts as
+/// robust (the issue's tolerance of the final s of a run, §4.3; not applied to a relaxation
+/// oscillation, whose final s is the cycle's phase at t_end).
+pub const ROBUST_DS: f64 = 0.02;
 
 /// Result of [`predict_point`].
 #[derive(Debug, Clone)]
@@ -528,6 +565,13 @@ pub struct PointPrediction {
     pub monostable: bool,
     /// Wall times [s]: manifold, drift evaluation, slow flow.
     pub timings_s: [f64; 3],
+    /// Whether the behaviour and the final s (within [`ROBUST_DS`]) stay the same when V is
+    /// shifted by ± the law's `v_resolution` at every node that can move (Λ_g ≥ Λ_c); None when
+    /// the law has no resolution or [`PredictOptions::robustness`] is off.
+    pub robust: Option<bool>,
+    /// The behaviours and final s under V − v_resolution and V + v_resolution (empty when
+    /// `robust` is None).
+    pub shifted: Vec<(Behaviour, f64)>,
 }
 
 fn linspace(a: f64, z: f64, n: usize) -> Vec<f64> {
@@ -600,6 +644,15 @@ pub fn slow_model(params: &Params, manifold: &HbManifold, law: &DriftLaw, f_ex_h
 
 /// [`slow_model`] with the beam of [`beam_for`] built once by the caller.
 pub fn slow_model_with(params: &Params, beam: &Beam, manifold: &HbManifold, law: &DriftLaw, f_ex_hz: f64, a_ex: f64, nodes: usize) -> Result<(SlowModel, bool)> {
+    slow_model_masked(params, beam, manifold, law, f_ex_hz, a_ex, nodes).map(|(m, x, _)| (m, x))
+}
+
+/// Per branch (low, high) of a [`SlowModel`]: whether the node can move (Λ_g ≥ Λ_c).
+type Moving = [Vec<bool>; 2];
+
+/// [`slow_model_with`], also returning which nodes can move ([`Moving`]).
+fn slow_model_masked(params: &Params, beam: &Beam, manifold: &HbManifold, law: &DriftLaw, f_ex_hz: f64, a_ex: f64, nodes: usize) -> Result<(SlowModel, bool, Moving)> {
+    let mut moving: Moving = [Vec::new(), Vec::new()];
     let mut extrapolated = law.outside_points(f_ex_hz, a_ex);
     let mut model = SlowModel { low_ends_in_fold: manifold.s_up.is_some(), ..SlowModel::default() };
     let s_dn = manifold.s_dn.or_else(|| law_s_dn(manifold, f_ex_hz, a_ex, law.rho_c, law.jump_down_s, params.thickness_m));
@@ -625,6 +678,7 @@ pub fn slow_model_with(params: &Params, beam: &Beam, manifold: &HbManifold, law:
             br.amplitude_h.push(f.amplitude_h);
             br.v_per_s.push(v);
         }
+        moving[usize::from(high)] = feats.iter().map(|f| f.lift_off >= law.lift_c).collect();
         if high {
             model.high = br;
         } else {
@@ -648,23 +702,28 @@ pub fn slow_model_with(params: &Params, beam: &Beam, manifold: &HbManifold, law:
     }
     model.high_ends_in_fold = s_dn.is_some() && !model.high.s.is_empty();
     if !model.low.s.is_empty() && law.monostable(manifold) {
-        monostable_low(params, beam, manifold, law, f_ex_hz, a_ex, &mut model)?;
+        let low_moving = monostable_low(params, beam, manifold, law, f_ex_hz, a_ex, &mut model)?;
+        moving = [low_moving.into_iter().chain(moving[0].iter().copied()).collect(), Vec::new()];
+        if model.low.s.len() != moving[0].len() {
+            moving[0] = model.low.s.iter().map(|_| true).collect();
+        }
     }
-    Ok((model, extrapolated))
+    Ok((model, extrapolated, moving))
 }
 
 /// The single low branch of a monostable point ([`DriftLaw::monostable`]): below the (possibly
 /// shifted) fold s_up′ the low branch continues along the HB branch that reaches the clamping, on
 /// [`MONO_NODES`] nodes s_min + (s_up′ − s_min)·i/MONO_NODES, with the amplitude capped at the low
 /// branch's amplitude at the fold (no jump) and V from the law's low-branch samples; no high branch.
-fn monostable_low(params: &Params, beam: &Beam, manifold: &HbManifold, law: &DriftLaw, f_ex_hz: f64, a_ex: f64, model: &mut SlowModel) -> Result<()> {
+/// Returns which of the prepended nodes can move (Λ_g ≥ Λ_c).
+fn monostable_low(params: &Params, beam: &Beam, manifold: &HbManifold, law: &DriftLaw, f_ex_hz: f64, a_ex: f64, model: &mut SlowModel) -> Result<Vec<bool>> {
     let (su, a_su) = (model.low.s[0], model.low.amplitude_h[0]);
     let lo = if manifold.high.is_empty() { su } else { manifold.high.s.iter().copied().fold(f64::INFINITY, f64::min) };
     model.high = SlowBranch::default();
     model.low_ends_in_fold = false;
     model.high_ends_in_fold = false;
     if !(lo < su) {
-        return Ok(());
+        return Ok(Vec::new());
     }
     let s: Vec<f64> = (0..MONO_NODES).map(|i| lo + (su - lo) * i as f64 / MONO_NODES as f64).collect();
     let feats = features_with(params, beam, manifold, f_ex_hz, a_ex, true, &s)?;
@@ -681,7 +740,20 @@ fn monostable_low(params: &Params, beam: &Beam, manifold: &HbManifold, law: &Dri
     br.amplitude_h.extend_from_slice(&model.low.amplitude_h);
     br.v_per_s.extend_from_slice(&model.low.v_per_s);
     model.low = br;
-    Ok(())
+    Ok(feats.iter().map(|f| f.lift_off >= law.lift_c).collect())
+}
+
+/// `model` with V + `dv` at the nodes that can move.
+fn shifted_model(model: &SlowModel, moving: &Moving, dv: f64) -> SlowModel {
+    let mut m = model.clone();
+    for (br, mv) in [(&mut m.low, &moving[0]), (&mut m.high, &moving[1])] {
+        for (i, v) in br.v_per_s.iter_mut().enumerate() {
+            if mv.get(i).copied().unwrap_or(true) {
+                *v += dv;
+            }
+        }
+    }
+    m
 }
 
 /// Predict one operating point with the reduced model (issue 17 §3.3): HB manifold, V from the
@@ -704,7 +776,7 @@ pub fn predict_point_with(params: &Params, beam: &Beam, law: &DriftLaw, f_ex_hz:
     let t0 = Instant::now();
     let manifold = hb_manifold(params, f_ex_hz, a_ex, &opts.hb)?;
     let t1 = Instant::now();
-    let (model, extrapolated) = slow_model_with(params, beam, &manifold, law, f_ex_hz, a_ex, opts.nodes)?;
+    let (model, extrapolated, moving) = slow_model_masked(params, beam, &manifold, law, f_ex_hz, a_ex, opts.nodes)?;
     let t2 = Instant::now();
     let build_up = match opts.build_up_s {
         Some(t) => t,
@@ -715,6 +787,18 @@ pub fn predict_point_with(params: &Params, beam: &Beam, law: &DriftLaw, f_ex_hz:
     };
     let fo = SlowFlowOptions { t_end_s, criteria: opts.criteria.clone(), build_up_s: build_up.min(t_end_s), ..SlowFlowOptions::default() };
     let flow = slow_flow(&model, s0, &fo)?;
+    let mut shifted = Vec::new();
+    let mut robust = None;
+    if opts.robustness && law.v_resolution > 0.0 {
+        for dv in [-law.v_resolution, law.v_resolution] {
+            let f = slow_flow(&shifted_model(&model, &moving, dv), s0, &fo)?;
+            shifted.push((f.classification.behaviour, f.s_final));
+        }
+        let b = flow.classification.behaviour;
+        // A relaxation oscillation's final s is the cycle's phase at t_end: only its behaviour counts.
+        let cycle = b == Behaviour::RelaxationOscillation;
+        robust = Some(shifted.iter().all(|&(bs, sf)| bs == b && (cycle || (sf - flow.s_final).abs() <= ROBUST_DS)));
+    }
     let t3 = Instant::now();
     Ok(PointPrediction {
         s_up: model.s_up(),
@@ -729,6 +813,8 @@ pub fn predict_point_with(params: &Params, beam: &Beam, law: &DriftLaw, f_ex_hz:
         extrapolated,
         model,
         timings_s: [(t1 - t0).as_secs_f64(), (t2 - t1).as_secs_f64(), (t3 - t2).as_secs_f64()],
+        robust,
+        shifted,
     })
 }
 
@@ -751,6 +837,11 @@ pub fn predicted_row(index: usize, f_ex_hz: f64, a_ex: f64, s0: f64, t_end_s: f6
     extra.insert("extrapolated".into(), serde_json::Value::Bool(p.extrapolated));
     extra.insert("monostable".into(), serde_json::Value::Bool(p.monostable));
     extra.insert("s_dn_source".into(), serde_json::Value::String(p.s_dn_source.into()));
+    extra.insert("robust".into(), p.robust.map_or(serde_json::Value::Null, serde_json::Value::Bool));
+    if !p.shifted.is_empty() {
+        let alt: Vec<serde_json::Value> = p.shifted.iter().map(|(b, s)| serde_json::json!([b.name(), s])).collect();
+        extra.insert("shifted".into(), serde_json::Value::Array(alt));
+    }
     let point = MapPoint { index, f_ex_hz, a_ex_m_s2: a_ex, s0 };
     let mut row = MapRow::from_classification(&point, t_end_s, STATUS_PREDICTED, c, Counters::default(), wall_s, None);
     row.extra = extra;
@@ -906,5 +997,24 @@ mod tests {
             let e = DriftLaw::from_json_str(&with(bad)).unwrap_err().to_string();
             assert!(e.contains("jump_down_s"), "{e}");
         }
+    }
+
+    #[test]
+    fn v_resolution_is_read_checked_and_shifts_only_moving_nodes() {
+        let with = |x: &str| law_text(2).replacen("\"kind\"", &format!("\"v_resolution\": {x}, \"kind\""), 1);
+        let law = DriftLaw::from_json_str(&with("0.0003")).unwrap();
+        assert_eq!(law.v_resolution, 0.0003);
+        assert_ne!(law.fingerprint, DriftLaw::from_json_str(&law_text(2)).unwrap().fingerprint);
+        for bad in ["-0.001", "0.5"] {
+            let e = DriftLaw::from_json_str(&with(bad)).unwrap_err().to_string();
+            assert!(e.contains("v_resolution"), "{e}");
+        }
+        let br = |v: Vec<f64>| SlowBranch { s: (0..v.len()).map(|i| 0.1 * i as f64).collect(), amplitude_h: vec![0.5; v.len()], v_per_s: v };
+        let model = SlowModel { low: br(vec![0.0, -1e-3, -2e-3]), high: br(vec![0.0, 0.0, 1e-3]), ..SlowModel::default() };
+        let moving: Moving = [vec![false, true, true], vec![false, true, true]];
+        let m = shifted_model(&model, &moving, 1e-4);
+        assert_eq!(m.low.v_per_s, vec![0.0, -1e-3 + 1e-4, -2e-3 + 1e-4]);
+        assert_eq!(m.high.v_per_s, vec![0.0, 1e-4, 1e-3 + 1e-4]);
+        assert_eq!(m.low.s, model.low.s);
     }
 }
