@@ -159,6 +159,16 @@ def test_predict_cli(tmp_path):
     assert js["behaviour"] and js["timings_s"]["slow_flow"] < 1.0
     assert main(args) != 0  # refuses to overwrite
     assert main(args + ["--force"]) == 0
+    assert js["robust"] is None  # a table (b1) has no resolution
+    # The committed default law: the JSON says whether V ± its resolution changes the prediction.
+    from pathlib import Path
+
+    law = Path(__file__).resolve().parents[1] / "docs" / "superslow" / "law.json"
+    for f_, want in (("124", True), ("112", False)):
+        assert main(["predict", "--f-ex", f_, "--a-ex", "14" if f_ == "124" else "10", "--law", str(law), "--out", str(tmp_path / "l")]) == 0
+    js = {f_: json.loads((tmp_path / "l" / name).read_text()) for f_, name in (("124", "predict_124Hz_14ms2_s0_0p3.json"), ("112", "predict_112Hz_10ms2_s0_0p3.json"))}
+    assert js["124"]["robust"] is True and js["112"]["robust"] is False
+    assert len(js["112"]["shifted"]) == 2 and {d["behaviour"] for d in js["112"]["shifted"]} != {js["112"]["behaviour"]}
 
 
 def test_drift_table_cli(tmp_path):

@@ -97,6 +97,7 @@ def cmd_predict(args: argparse.Namespace) -> int:
         "drift": args.drift or args.law, "behaviour": r.behaviour, "s_final": r.s_final, "amplitude_final_h": r.amplitude_final,
         "events": [{"kind": k, "t_s": t, "s": s} for k, t, s in r.events], "s_up": r.s_up, "s_dn": r.s_dn,
         "s_dn_source": r.s_dn_source, "extrapolated": r.extrapolated, "monostable": r.monostable, "warnings": r.warnings,
+        "robust": r.robust, "shifted": [{"behaviour": b, "s_final": s} for b, s in r.shifted],
         "classification": r.classification, "timings_s": r.timings_s, "params_toml": p.toml_text(),
     })
     drew = figure(_draw_prediction, r, out / f"{stem}.png")
@@ -104,7 +105,9 @@ def cmd_predict(args: argparse.Namespace) -> int:
         print(f"beamslider: warning: {w_}", file=sys.stderr)
     print(f"predict {r.f_ex:g} Hz, {r.a_ex:g} m/s², s0 = {r.s0:g}: {r.behaviour}, s_final = {r.s_final:.4f}, "
           f"Â_final = {r.amplitude_final:.3f} h ({1e3 * sum(r.timings_s.values()):.1f} ms)"
-          + ("; monostable (the law's vote: no jump-up, a single low branch)" if r.monostable else ""))
+          + ("; monostable (the law's vote: no jump-up, a single low branch)" if r.monostable else "")
+          + ("" if r.robust is None else "; robust (V ± its resolution gives the same)" if r.robust else
+             "; NOT robust: V ± its resolution gives " + ", ".join(f"{b} at s = {s:.3f}" for b, s in r.shifted) + " (check with an FS run)"))
     return print_written(out, stem, drew)
 
 
