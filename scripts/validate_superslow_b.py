@@ -463,18 +463,25 @@ def _figure_maps(grid_ref, preds, f_ex, a_ex, names):
         return
     colours = ["0.6", "tab:green", "tab:blue", "tab:orange", "tab:red", "tab:purple", "k"]
     cmap = ListedColormap(colours)
-    panels = [("FS model (120 s)", grid_ref)] + [(f"predictor {k}", {q: v["behaviour"] for q, v in p.items()}) for k, p in preds.items()]
+    panels = [("FS model (120 s)", grid_ref, {})] + [(f"predictor {k}", {q: v["behaviour"] for q, v in p.items()},
+                                                    {q: v.get("robust") for q, v in p.items()}) for k, p in preds.items()]
     fig, axes = plt.subplots(1, len(panels), figsize=(4.2 * len(panels), 3.8), sharey=True)
-    for ax, (title, src) in zip(axes, panels):
+    for ax, (title, src, robust) in zip(axes, panels):
         z = np.array([[names.index(src[(f, a)]) for f in f_ex] for a in a_ex])
         ax.imshow(z, origin="lower", cmap=cmap, vmin=-0.5, vmax=6.5, aspect="auto",
                   extent=(f_ex[0] - 1, f_ex[-1] + 1, a_ex[0] - 1, a_ex[-1] + 1))
+        # Predictions that V ± the law's resolution changes (robust False): a white cross.
+        weak = [q for q, r in robust.items() if r is False]
+        if weak:
+            ax.scatter([q[0] for q in weak], [q[1] for q in weak], marker="x", s=18, c="w", linewidths=1.0)
         agree = sum(src[q] == grid_ref[q] for q in grid_ref)
         ax.set_title(title if title.startswith("FS") else f"{title}: {agree}/{len(grid_ref)}", fontsize=10)
         ax.set_xlabel("f_ex [Hz]")
     axes[0].set_ylabel("a_ex [m/s²]")
     handles = [plt.Rectangle((0, 0), 1, 1, color=c) for c in colours]
     fig.legend(handles, names, loc="lower center", ncol=7, fontsize=8)
+    if any(v.get("robust") is False for p in preds.values() for v in p.values()):
+        fig.text(0.995, 0.005, "×: not robust (V ± the law's resolution changes the prediction)", ha="right", va="bottom", fontsize=7)
     fig.tight_layout(rect=(0, 0.08, 1, 1))
     fig.savefig(OUT / "map_predicted_vs_fs.png", dpi=110)
     plt.close(fig)
