@@ -370,8 +370,14 @@ fn run_predicted_map_command(cfg: &MapConfig, law_path: &std::path::Path, out: &
     std::fs::write(out.join("map.txt"), &table).with_context(|| format!("cannot write {}", out.join("map.txt").display()))?;
     print!("{table}");
     let extrapolated = outcome.rows.iter().filter(|r| r.extra.get("extrapolated").and_then(|v| v.as_bool()).unwrap_or(false)).count();
+    let weak = outcome.rows.iter().filter(|r| r.extra.get("robust").and_then(|v| v.as_bool()) == Some(false)).count();
+    let robustness = if law.v_resolution > 0.0 {
+        format!("; {weak} not robust (V ± {:.1e} 1/s changes the behaviour or the final s; key `robust` in the rows)", law.v_resolution)
+    } else {
+        String::new()
+    };
     eprintln!(
-        "{} points predicted by the drift law {} (trained on {} operating points): {} computed in {:.2} s, {} from the results file; {} outside the law's training range; wrote {}",
+        "{} points predicted by the drift law {} (trained on {} operating points): {} computed in {:.2} s, {} from the results file; {} outside the law's training range{}; wrote {}",
         outcome.rows.len(),
         law_path.display(),
         law.points.len(),
@@ -379,6 +385,7 @@ fn run_predicted_map_command(cfg: &MapConfig, law_path: &std::path::Path, out: &
         t0.elapsed().as_secs_f64(),
         outcome.resumed,
         extrapolated,
+        robustness,
         results.display()
     );
     let failed: Vec<&MapRow> = outcome.rows.iter().filter(|r| r.status == map::STATUS_ERROR).collect();
