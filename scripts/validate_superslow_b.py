@@ -235,6 +235,46 @@ def stage_runs():
     (OUT / "validation_b_runs.txt").write_text("\n".join(lines) + "\n", encoding="utf-8")
     print("\n".join(lines))
     del fs
+    _figure_runs(law_all)
+
+
+# Seed Figs. 6f, 8, 9 and 12 (issue 17 §5.2–5.4): the FS run and the slow flow of the default law.
+FIGURE_RUNS = [((124.0, 14.0), 0.3, "signature move"), ((126.0, 10.0), 0.3, "relaxation oscillation"), ((124.0, 6.0), 0.3, "self-damping"),
+               ((104.0, 14.0), 0.3, "trivial adaption"), ((106.0, 10.0), 0.4, "signature move from s0 = 0.4")]
+
+
+def _figure_runs(law):
+    """s(t) and Â(t) of 120-s FS runs against the slow flow of the default law (b2), with the
+    predicted jump-up (▲) and jump-down (▼) events."""
+    try:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        return
+    h = Parameters().thickness_m
+    fig, axes = plt.subplots(2, len(FIGURE_RUNS), figsize=(3.6 * len(FIGURE_RUNS), 5.4), sharex=True)
+    for col, ((f, a), s0, name) in enumerate(FIGURE_RUNS):
+        fs = simulate(f_ex=f, a_ex=a, s0=s0, t_end=120.0, record_every=20)
+        r = predict(f_ex=f, a_ex=a, s0=s0, drift=law)
+        ax_s, ax_a = axes[0, col], axes[1, col]
+        ax_s.plot(fs.t, fs.s, color="0.55", lw=1.0, label="FS model")
+        ax_s.plot(r.t, r.s, color="k", lw=1.2, label="slow flow (b2 law)")
+        ax_a.plot(fs.t, fs.display_envelope() / h, color="0.55", lw=1.0)
+        ax_a.plot(r.t, r.amplitude, color="k", lw=1.2)
+        for kind, te, se in r.events:
+            if kind in ("jump_up", "jump_down"):
+                ax_s.plot([te], [se], marker="^" if kind == "jump_up" else "v", color="tab:red" if kind == "jump_up" else "tab:blue", ms=5, ls="none")
+        robust = "" if r.robust is None else (", robust" if r.robust else ", not robust")
+        ax_s.set_title(f"({f:g} Hz, {a:g} m/s²): {name}\npredicted: {r.behaviour.replace('_', ' ')}{robust}", fontsize=8)
+        ax_a.set_xlabel("t [s]")
+    axes[0, 0].set_ylabel("s")
+    axes[1, 0].set_ylabel("Â = |w(4L/7)|/h")
+    axes[0, 0].legend(fontsize=7, loc="best")
+    fig.tight_layout()
+    fig.savefig(OUT / "runs_predicted_vs_fs.png", dpi=110)
+    plt.close(fig)
 
 
 def _figure_signature(r, f, a):
