@@ -520,7 +520,8 @@ pub fn features_with(params: &Params, beam: &Beam, manifold: &HbManifold, f_ex_h
 /// Settings of [`predict_point`].
 #[derive(Debug, Clone, PartialEq)]
 pub struct PredictOptions {
-    /// Layer (a) settings (modes, D_eff, ...).
+    /// Layer (a) settings (modes, D_eff, ...; default: `low_branch_only`, the predictor uses no
+    /// middle branch).
     pub hb: HbOptions,
     /// Nodes per branch (default 121, as the Python package).
     pub nodes: usize,
@@ -536,7 +537,7 @@ pub struct PredictOptions {
 
 impl Default for PredictOptions {
     fn default() -> Self {
-        PredictOptions { hb: HbOptions::default(), nodes: 121, build_up_s: None, criteria: Criteria::default(), robustness: true }
+        PredictOptions { hb: HbOptions { low_branch_only: true, ..HbOptions::default() }, nodes: 121, build_up_s: None, criteria: Criteria::default(), robustness: true }
     }
 }
 

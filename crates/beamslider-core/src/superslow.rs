@@ -69,6 +69,10 @@ pub struct HbOptions {
     /// Static sag under the slider's weight m·g at x = sL (issue §2.5.3; gravity acts on the
     /// slider only, MODEL.md §1): adds the zeroth harmonic Q₀ (default false).
     pub static_sag: bool,
+    /// End the downward run at its first fold (s_up): the low branch, s_up and the high branch
+    /// are the same, the middle (unstable) branch and later folds are left out (default false;
+    /// the predictor uses it, about a third fewer continuation steps).
+    pub low_branch_only: bool,
 }
 
 impl Default for HbOptions {
@@ -83,6 +87,7 @@ impl Default for HbOptions {
             max_step: 0.05,
             sample_on_grid: false,
             static_sag: false,
+            low_branch_only: false,
         }
     }
 }
@@ -653,6 +658,8 @@ struct Continuation<'a> {
     max_steps: usize,
     h_max: f64,
     h_min: f64,
+    /// Stop (complete) right after the first fold.
+    stop_at_fold: bool,
 }
 
 impl Continuation<'_> {
@@ -808,6 +815,10 @@ impl Continuation<'_> {
                     run.points.push((ym.clone(), true));
                     run.folds.push(ym);
                 }
+                if self.stop_at_fold {
+                    run.complete = true;
+                    return run;
+                }
             }
             run.points.push((c.y.clone(), st));
             y = c.y;
@@ -822,7 +833,7 @@ impl Continuation<'_> {
 /// (the lowest-amplitude solution reached from rest).
 fn solve_from_rest(sys: &HbSystem, s: f64, opts: &HbOptions) -> Result<DVector<f64>> {
     let n2 = sys.nx;
-    let cont = Continuation { sys, par: Param::Load { s }, max_steps: opts.max_steps, h_max: opts.max_step * 5.0, h_min: 1e-10 };
+    let cont = Continuation { sys, par: Param::Load { s }, max_steps: opts.max_steps, h_max: opts.max_step * 5.0, h_min: 1e-10, stop_at_fold: false };
     let y0 = DVector::zeros(n2 + 1);
     let run = cont.trace(y0, 1.0, -1.0, 1.0);
     if !run.complete {
@@ -882,7 +893,7 @@ pub fn hb_manifold(params: &Params, f_ex_hz: f64, a_ex: f64, opts: &HbOptions) -
     }
     let (s_lo, s_hi) = (grid[0], grid[grid.len() - 1]);
     let n2 = sys.nx;
-    let cont = Continuation { sys: &sys, par: Param::S { load: 1.0 }, max_steps: opts.max_steps, h_max: opts.max_step, h_min: 1e-10 };
+    let cont = Continuation { sys: &sys, par: Param::S { load: 1.0 }, max_steps: opts.max_steps, h_max: opts.max_step, h_min: 1e-10, stop_at_fold: false };
     let mut out = HbManifold {
         s_range: (s_lo, s_hi),
         n_modes: sys.n,
@@ -893,7 +904,7 @@ pub fn hb_manifold(params: &Params, f_ex_hz: f64, a_ex: f64, opts: &HbOptions) -
     let y_lo = solve_from_rest(&sys, s_lo, opts)?;
     let up = cont.trace(y_lo, 1.0, s_lo, s_hi);
     let y_hi = solve_from_rest(&sys, s_hi, opts)?;
-    let down = cont.trace(y_hi, -1.0, s_lo, s_hi);
+    let down = Continuation { stop_at_fold: opts.low_branch_only, ..cont }.trace(y_hi, -1.0, s_lo, s_hi);
     out.steps = up.steps + down.steps;
     for (name, run) in [("upward", &up), ("downward", &down)] {
         if !run.complete {

@@ -333,3 +333,24 @@ fn bad_inputs_are_errors_naming_the_argument() {
     let a2 = hb_manifold(&p2, 124.0, 14.0, &o).unwrap().high.amplitude_at(0.5);
     assert!(a2.is_none_or(|a| a < a0));
 }
+
+/// `low_branch_only` (the predictor's setting) ends the downward run at its first fold: the
+/// stable branches and s_up, s_dn are those of the full manifold, bit for bit, in fewer steps.
+#[test]
+fn low_branch_only_keeps_the_stable_branches_bitwise() {
+    let p = Params::default();
+    for (f, a) in [(124.0, 14.0), (124.0, 6.0), (104.0, 14.0), (100.0, 4.0), (130.0, 16.0)] {
+        let full = hb_manifold(&p, f, a, &opts(5)).unwrap();
+        let short = hb_manifold(&p, f, a, &HbOptions { low_branch_only: true, ..opts(5) }).unwrap();
+        assert!(short.warnings.is_empty(), "{:?}", short.warnings);
+        assert_eq!(short.low, full.low, "({f}, {a})");
+        assert_eq!(short.high, full.high, "({f}, {a})");
+        assert_eq!((short.s_up, short.s_dn), (full.s_up, full.s_dn), "({f}, {a})");
+        assert_eq!(short.s_res, full.s_res);
+        if full.s_up.is_some() {
+            assert!(short.steps < full.steps, "({f}, {a}): {} vs {} steps", short.steps, full.steps);
+        } else {
+            assert_eq!(short.steps, full.steps);
+        }
+    }
+}

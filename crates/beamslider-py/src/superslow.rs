@@ -51,7 +51,7 @@ pub fn hb_manifold<'py>(
     static_sag: bool,
 ) -> PyResult<Bound<'py, PyDict>> {
     let params = parse_params(params_toml)?;
-    let opts = HbOptions { n_modes, harmonics, d_eff, omega1_factor, s: s_values, max_steps, max_step, sample_on_grid, static_sag };
+    let opts = HbOptions { n_modes, harmonics, d_eff, omega1_factor, s: s_values, max_steps, max_step, sample_on_grid, static_sag, low_branch_only: false };
     let m = py.detach(|| guarded(|| core_hb(&params, f_ex_hz, a_ex_m_s2, &opts)))?;
     let d = PyDict::new(py);
     d.set_item("high", branch_dict(py, &m.high)?)?;
@@ -322,7 +322,7 @@ pub fn hb_features<'py>(py: Python<'py>, params_toml: &str, f_ex_hz: f64, a_ex_m
 pub fn predict_point(py: Python<'_>, params_toml: &str, law_json: &str, f_ex_hz: f64, a_ex_m_s2: f64, s0: f64, t_end_s: f64, n_modes: usize, d_eff: Option<f64>) -> PyResult<String> {
     let params = parse_params(params_toml)?;
     let law = parse_law(law_json)?;
-    let opts = predictor::PredictOptions { hb: HbOptions { n_modes, d_eff, ..HbOptions::default() }, ..predictor::PredictOptions::default() };
+    let opts = predictor::PredictOptions { hb: HbOptions { n_modes, d_eff, ..predictor::PredictOptions::default().hb }, ..predictor::PredictOptions::default() };
     py.detach(|| {
         guarded(|| {
             let t0 = std::time::Instant::now();
@@ -354,7 +354,7 @@ pub fn predicted_map(
     crate::check_threads(threads)?;
     let cfg = guarded(|| MapConfig::from_toml_str(config_toml))?;
     let law = parse_law(law_json)?;
-    let popts = predictor::PredictOptions { hb: HbOptions { n_modes, d_eff, ..HbOptions::default() }, ..predictor::PredictOptions::default() };
+    let popts = predictor::PredictOptions { hb: HbOptions { n_modes, d_eff, ..predictor::PredictOptions::default().hb }, ..predictor::PredictOptions::default() };
     let opts = MapRunOptions { out, resume, threads, extend: false };
     let cancel = std::sync::atomic::AtomicBool::new(false);
     let done = std::sync::atomic::AtomicUsize::new(0);
