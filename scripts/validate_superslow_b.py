@@ -555,17 +555,20 @@ def stage_speed(training="cheap", training_set="12 points"):
     from beamslider import _core
 
     pts = [(124.0, 14.0), (126.0, 10.0), (104.0, 14.0)]
-    lines = [f"§4.5  Speed (this machine, shared by other jobs; CPU = user + system time of this process, all its threads)"]
+    lines = [f"§4.5  Speed (this machine, shared by other jobs; CPU = user + system time of this process, all its threads); core prediction = "
+             "_core.predict_point from Python, parsing the law file on each call, with the robustness check; the core alone: "
+             "cargo bench -p beamslider-core --bench predict"]
     law_all = load_drift_law(OUT / "law.json")
     text = _law_text(law_all)
     fs_wall, fs_cpu, pr_wall = [], [], []
     for f, a in pts:
-        ta, td, tf = [], [], []
+        ta, td, tf, tr = [], [], [], []
         for _ in range(5):
             r = predict(f_ex=f, a_ex=a, drift=law_all)
             ta.append(r.timings_s["manifold"])
             td.append(r.timings_s["drift"])
             tf.append(r.timings_s["slow_flow"])
+            tr.append(r.timings_s["robustness"])
         tc = []
         for _ in range(5):
             t0 = time.perf_counter()
@@ -577,7 +580,7 @@ def stage_speed(training="cheap", training_set="12 points"):
         fs_cpu.append(_cpu() - c0)
         pr_wall.append(min(tc))
         lines.append(f"({f:g}, {a:g}): core prediction {1e3 * min(tc):.2f} ms (Python path: manifold {1e3 * min(ta):.2f} ms, V {1e3 * min(td):.2f} ms, "
-                     f"slow flow + classifier {1e3 * min(tf):.3f} ms); FS 120-s run {fs_wall[-1]:.2f} s wall, {fs_cpu[-1]:.2f} s CPU "
+                     f"slow flow + classifier {1e3 * min(tf):.3f} ms, robustness check {1e3 * min(tr):.2f} ms); FS 120-s run {fs_wall[-1]:.2f} s wall, {fs_cpu[-1]:.2f} s CPU "
                      f"→ {fs_wall[-1] / min(tc):.0f}× per point")
     pts_train = {"12 points": TRAINING, "6 points": [(124.0, 14.0), (104.0, 14.0), (126.0, 10.0), (124.0, 6.0), (110.0, 8.0), (116.0, 12.0)]}[training_set]
     # Training tables from scratch (removed first), timed.

@@ -95,7 +95,8 @@ class Prediction:
     warnings: List[str]
     """Extrapolation, degenerate cycles, ..."""
     timings_s: Dict[str, float]
-    """Wall times: manifold (a), drift evaluation, slow flow [s]."""
+    """Wall times: manifold (a), drift evaluation, slow flow, robustness check (two more drift
+    evaluations and slow flows) [s]."""
     build_up_s: float = 0.0
     """Build-up time used [s] (s = s0 until then)."""
     monostable: bool = False
@@ -357,6 +358,7 @@ def predict(
     t2 = time.perf_counter()
     r = _core.slow_flow(tuple(low), tuple(high), low_ends_in_fold=lf, high_ends_in_fold=hf, s0=s0, t_end_s=t_end,
                         build_up_s=float(min(t_build, t_end)))
+    t3 = time.perf_counter()
     cls = json.loads(r["classification"])
     robust, shifted = None, []
     if robustness and source == "hb" and isinstance(drift, DriftLaw) and drift.v_resolution > 0:
@@ -368,7 +370,7 @@ def predict(
         # A relaxation oscillation's final s is the cycle's phase at t_end: only its behaviour counts.
         cycle = cls["behaviour"] == "relaxation_oscillation"
         robust = all(b == cls["behaviour"] and (cycle or abs(sf - float(r["s_final"])) <= ROBUST_DS) for b, sf in shifted)
-    t3 = time.perf_counter()
+    t4 = time.perf_counter()
     warnings = list(r["warnings"])
     if info.get("note"):
         warnings.insert(0, info["note"])
@@ -381,7 +383,7 @@ def predict(
         behaviour=cls["behaviour"], classification=cls, s_final=float(r["s_final"]),
         amplitude_final=float(r["amplitude_final_h"]), s_up=info["s_up"], s_dn=info["s_dn"], s_dn_source=info["s_dn_source"],
         features=info["features"], extrapolated=bool(info["extrapolated"]), warnings=warnings,
-        timings_s={"manifold": t1 - t0, "drift": t2 - t1, "slow_flow": t3 - t2}, build_up_s=float(min(t_build, t_end)), f_ex=f_ex, a_ex=a_ex, s0=s0,
+        timings_s={"manifold": t1 - t0, "drift": t2 - t1, "slow_flow": t3 - t2, "robustness": t4 - t3}, build_up_s=float(min(t_build, t_end)), f_ex=f_ex, a_ex=a_ex, s0=s0,
         monostable=bool(info.get("monostable", False)), robust=robust, shifted=shifted,
     )
 
