@@ -405,9 +405,7 @@ def _on_high_branch(table: DriftTable, manifold, s: np.ndarray) -> np.ndarray:
     """Per row of ``table.branch_rows('H')`` (sorted by s, half coordinate): whether the PCS
     amplitude is at least ON_BRANCH_RATIO of the HB high branch's at that s (True outside the
     HB branch's s-range, where the row is dropped anyway)."""
-    m = table.branch == "H"
-    sh = table.s[m]
-    amp = table.amplitude[m][np.argsort(np.where(sh > 0.5, 1.0 - sh, sh))]
+    amp = table.branch_amplitude("H")
     hs, ha = np.asarray(manifold.high.s, dtype=float), np.asarray(manifold.high.amplitude, dtype=float)
     o = np.argsort(hs)
     a_hb = np.interp(s, hs[o], ha[o])

@@ -47,16 +47,24 @@ class DriftTable:
     path: Optional[str] = None
     """The file, if any."""
 
+    def _branch_order(self, branch: str) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(row mask of the branch, its rows' half coordinate, the order sorting it)."""
+        m = self.branch == branch
+        s = self.s[m]
+        half = np.where(s > 0.5, 1.0 - s, s)
+        return m, half, np.argsort(half)
+
     def branch_rows(self, branch: str) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(s, V, se) of one branch sorted by s, in the half coordinate s' = min(s, 1 − s) with V
         towards the centre positive."""
-        m = self.branch == branch
-        s, v, e = self.s[m], self.v[m], self.v_se[m]
-        far = s > 0.5
-        s = np.where(far, 1.0 - s, s)
-        v = np.where(far, -v, v)
-        o = np.argsort(s)
-        return s[o], v[o], e[o]
+        m, s, o = self._branch_order(branch)
+        v = np.where(self.s[m] > 0.5, -self.v[m], self.v[m])
+        return s[o], v[o], self.v_se[m][o]
+
+    def branch_amplitude(self, branch: str) -> np.ndarray:
+        """Â [h] of one branch's rows, in the order of :meth:`branch_rows`."""
+        m, _, o = self._branch_order(branch)
+        return self.amplitude[m][o]
 
     s_up_pcs: Optional[float] = None
     """Jump-up position of the PCS down sweep: midpoint between its last low-branch s and the s

@@ -705,9 +705,6 @@ fn slow_model_masked(params: &Params, beam: &Beam, manifold: &HbManifold, law: &
     if !model.low.s.is_empty() && law.monostable(manifold) {
         let low_moving = monostable_low(params, beam, manifold, law, f_ex_hz, a_ex, &mut model)?;
         moving = [low_moving.into_iter().chain(moving[0].iter().copied()).collect(), Vec::new()];
-        if model.low.s.len() != moving[0].len() {
-            moving[0] = model.low.s.iter().map(|_| true).collect();
-        }
     }
     Ok((model, extrapolated, moving))
 }
@@ -987,29 +984,30 @@ mod tests {
         assert!(matches!(e, Error::Io { .. }));
     }
 
+    /// A law file with the scalar `key` = `good` reads, changes the fingerprint, and each of `bad`
+    /// is refused with an error naming `key`.
+    fn scalar_is_read_and_checked(key: &str, good: &str, bad: &[&str]) -> DriftLaw {
+        let with = |x: &str| law_text(2).replacen("\"kind\"", &format!("\"{key}\": {x}, \"kind\""), 1);
+        let law = DriftLaw::from_json_str(&with(good)).unwrap();
+        assert_ne!(law.fingerprint, DriftLaw::from_json_str(&law_text(2)).unwrap().fingerprint);
+        for b in bad {
+            let e = DriftLaw::from_json_str(&with(b)).unwrap_err().to_string();
+            assert!(e.contains(key), "{e}");
+        }
+        law
+    }
+
     #[test]
     fn jump_down_position_is_read_and_checked() {
-        let with = |x: &str| law_text(2).replacen("\"kind\"", &format!("\"jump_down_s\": {x}, \"kind\""), 1);
-        let law = DriftLaw::from_json_str(&with("0.32")).unwrap();
+        let law = scalar_is_read_and_checked("jump_down_s", "0.32", &["0.7", "-0.1"]);
         assert_eq!(law.jump_down_s, 0.32);
-        assert_ne!(law.fingerprint, DriftLaw::from_json_str(&law_text(2)).unwrap().fingerprint);
         assert_eq!(DriftLaw::from_json_str(&law_text(2)).unwrap().jump_down_s, 0.0);
-        for bad in ["0.7", "-0.1"] {
-            let e = DriftLaw::from_json_str(&with(bad)).unwrap_err().to_string();
-            assert!(e.contains("jump_down_s"), "{e}");
-        }
     }
 
     #[test]
     fn v_resolution_is_read_checked_and_shifts_only_moving_nodes() {
-        let with = |x: &str| law_text(2).replacen("\"kind\"", &format!("\"v_resolution\": {x}, \"kind\""), 1);
-        let law = DriftLaw::from_json_str(&with("0.0003")).unwrap();
+        let law = scalar_is_read_and_checked("v_resolution", "0.0003", &["-0.001", "0.5"]);
         assert_eq!(law.v_resolution, 0.0003);
-        assert_ne!(law.fingerprint, DriftLaw::from_json_str(&law_text(2)).unwrap().fingerprint);
-        for bad in ["-0.001", "0.5"] {
-            let e = DriftLaw::from_json_str(&with(bad)).unwrap_err().to_string();
-            assert!(e.contains("v_resolution"), "{e}");
-        }
         let br = |v: Vec<f64>| SlowBranch { s: (0..v.len()).map(|i| 0.1 * i as f64).collect(), amplitude_h: vec![0.5; v.len()], v_per_s: v };
         let model = SlowModel { low: br(vec![0.0, -1e-3, -2e-3]), high: br(vec![0.0, 0.0, 1e-3]), ..SlowModel::default() };
         let moving: Moving = [vec![false, true, true], vec![false, true, true]];
