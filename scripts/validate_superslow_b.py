@@ -12,6 +12,7 @@ Not part of the fast test suite (PCS drift tables take minutes per operating poi
     python scripts/validate_superslow_b.py fs_ensemble # the FS map against FS runs from s0 ± 0.001, 0.002
     python scripts/validate_superslow_b.py stops       # narrow PCS zeros of V_H at the FS stops; refined laws
     python scripts/validate_superslow_b.py cheap_settings  # training-table settings near the speed bar
+    python scripts/validate_superslow_b.py build_up    # the build-up time of a run from rest: PCS-measured, and map-wide jump-up times
     python scripts/validate_superslow_b.py all
 
 Everything is written to docs/superslow/ (validation_b*.txt, figures, drift/*.jsonl, law.json).
@@ -1083,9 +1084,72 @@ def _score_agreeing(rows, ref):
     return st, ph, np.asarray(e)
 
 
+def stage_build_up():
+    """How long a run from rest waits before its slider drifts (the slow flow's ``build_up``):
+    measured in PCS runs from rest at s0 = 0.3 (x_C(t) = L V (t − t_d) fitted on t ≥ 3τ,
+    τ = 1/(DΩ)), and the first jump-up time of the whole FS map against the default law's slow
+    flow for several build-up times. No law or default is changed by this stage."""
+    p = Parameters()
+    tau = lambda f: 1.0 / (p.damping_ratio * 2 * np.pi * f)  # noqa: E731
+    lines = ["Build-up time of a run from rest (issue 17 §4.3: jump-up time ±30 %); τ = 1/(D Ω) = 1.26 s at 126 Hz",
+             "", "1. PCS runs from rest at s = 0.3, 7τ, x_C(t) fitted as L V (t − t_d) on t ≥ 3τ (the training points)",
+             f"{'point':>12} {'V [1/s]':>10} {'t_d [s]':>8} {'t_d/τ':>6}"]
+    ratios = []
+    for f, a in TRAINING:
+        r = simulate(p, f_ex=f, a_ex=a, s0=0.3, t_end=7 * tau(f), model="pcs", record_every=50)
+        t, x = np.asarray(r.t), np.asarray(r.x_c) / p.length_m
+        m = t >= 3 * tau(f)
+        v, c = np.polyfit(t[m], x[m], 1)
+        td = -c / v
+        ratios.append(td / tau(f))
+        lines.append(f"{f'({f:g}, {a:g})':>12} {v:10.2e} {td:8.2f} {td / tau(f):6.2f}")
+    lines.append(f"median t_d/τ = {np.median(ratios):.2f} (range {min(ratios):.2f} … {max(ratios):.2f}): the PCS slider drifts at once; "
+                 "the transient's overshoot makes up for the envelope's build-up")
+    lines += ["", "2. s(t) from rest, FS against PCS at s0 = 0.3 (the PCS slider's x_C/L added to s0)"]
+    for f, a in [(124.0, 14.0), (126.0, 10.0)]:
+        fs = simulate(p, f_ex=f, a_ex=a, s0=0.3, t_end=10.0, model="fs", record_every=50)
+        pc = simulate(p, f_ex=f, a_ex=a, s0=0.3, t_end=10.0, model="pcs", record_every=50)
+        idx = [int(np.searchsorted(fs.t, x)) for x in np.arange(0.0, 10.01, 1.0)]
+        lines.append(f"({f:g}, {a:g})  t   " + " ".join(f"{fs.t[i]:6.1f}" for i in idx))
+        lines.append("            FS  " + " ".join(f"{fs.s[i]:6.3f}" for i in idx))
+        lines.append("            PCS " + " ".join(f"{0.3 + pc.x_c[i] / p.length_m:6.3f}" for i in idx))
+    law = load_drift_law(OUT / "law.json")
+    ref = read_map(ROOT / "docs" / "operating_map.jsonl")
+    R = _first_by_point(ref)
+    lines += ["", "3. First jump-up time, default law's slow flow against the FS map (points where both jump up), and the map (§4.4)",
+              f"{'build-up':>22} | {'n':>3} {'median |err|':>12} {'within ±30 %':>12} {'median err a ≤ 10':>17} {'a > 10':>7} | "
+              f"{'strict':>7} final s p50  p90 | (124, 14) (126, 10) (106, 10; s0 0.4)"]
+    fs_runs = {(124.0, 14.0, 0.3): 8.6, (126.0, 10.0, 0.3): 7.6, (106.0, 10.0, 0.4): 17.8}
+    variants = [("3τ (the default)", 3.0), ("1.5τ (V ∝ Â²)", 1.5), ("τ (V ∝ Â)", 1.0), (f"PCS-measured {np.median(ratios):.2f}τ", max(np.median(ratios), 0.0))]
+    for name, k in variants:
+        errs, lo, hi, agree, fe = [], [], [], 0, []
+        for key, i in R.items():
+            f, a = key
+            pr = predict(f_ex=f, a_ex=a, s0=0.3, drift=law, build_up=k * tau(f))
+            b = ref["behaviour"][i]
+            agree += pr.behaviour == b
+            if pr.behaviour == b and ref["steady"][i] and np.isfinite(ref["s_final"][i]):
+                fe.append(abs(pr.s_final - ref["s_final"][i]))
+            ju = [e for e in pr.events if e[0] == "jump_up"]
+            t_fs = ref["jump_up_t_s"][i]
+            if ju and t_fs is not None and len(t_fs):
+                e = ju[0][1] / t_fs[0] - 1
+                errs.append(e)
+                (lo if a <= 10 else hi).append(e)
+        rep = []
+        for (f, a, s0), t_fs in fs_runs.items():
+            ju = [e for e in predict(f_ex=f, a_ex=a, s0=s0, drift=law, build_up=k * tau(f)).events if e[0] == "jump_up"]
+            rep.append(f"{ju[0][1] / t_fs - 1:+.0%}" if ju else "none")
+        errs = np.asarray(errs)
+        lines.append(f"{name:>22} | {len(errs):3d} {np.median(np.abs(errs)):12.2f} {int(np.sum(np.abs(errs) <= 0.3)):12d} {np.median(lo):+17.2f} {np.median(hi):+7.2f} | "
+                     f"{agree:3d}/112 {np.median(fe):.4f} {np.percentile(fe, 90):.4f} | {rep[0]:>9} {rep[1]:>9} {rep[2]:>9}")
+        print(lines[-1], flush=True)
+    (OUT / "validation_c_build_up.txt").write_text("\n".join(lines) + "\n", encoding="utf-8")
+
+
 if __name__ == "__main__":
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("stage", choices=["tables", "map_tables", "slopes", "runs", "map", "speed", "levers", "features", "training_sets", "fs_ensemble", "stops", "cheap_settings", "all"])
+    ap.add_argument("stage", choices=["tables", "map_tables", "slopes", "runs", "map", "speed", "levers", "features", "training_sets", "fs_ensemble", "stops", "cheap_settings", "build_up", "all"])
     ap.add_argument("--points", help="tables: only these points, e.g. 124:14,126:10")
     ap.add_argument("--training", default="cheap", choices=["coarse", "cheap"], help="speed: training table settings (timed from scratch)")
     ap.add_argument("--training-set", default="12 points", choices=["12 points", "6 points"], help="speed: training points")
@@ -1106,6 +1170,7 @@ if __name__ == "__main__":
     if args.stage in ("speed", "all"):
         stage_speed(args.training, args.training_set)
     single = {"levers": stage_levers, "features": stage_features, "training_sets": stage_training_sets,
-              "fs_ensemble": stage_fs_ensemble, "stops": stage_stops, "cheap_settings": stage_cheap_settings}
+              "fs_ensemble": stage_fs_ensemble, "stops": stage_stops, "cheap_settings": stage_cheap_settings,
+              "build_up": stage_build_up}
     if args.stage in single:
         single[args.stage]()
