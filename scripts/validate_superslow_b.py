@@ -13,6 +13,7 @@ Not part of the fast test suite (PCS drift tables take minutes per operating poi
     python scripts/validate_superslow_b.py stops       # narrow PCS zeros of V_H at the FS stops; refined laws
     python scripts/validate_superslow_b.py cheap_settings  # training-table settings near the speed bar
     python scripts/validate_superslow_b.py build_up    # the build-up time of a run from rest: PCS-measured, and map-wide jump-up times
+    python scripts/validate_superslow_b.py ramp        # how fast a PCS sweep may move s and still find the folds
     python scripts/validate_superslow_b.py all
 
 Everything is written to docs/superslow/ (validation_b*.txt, figures, drift/*.jsonl, law.json).
@@ -1147,9 +1148,37 @@ def stage_build_up():
     (OUT / "validation_c_build_up.txt").write_text("\n".join(lines) + "\n", encoding="utf-8")
 
 
+RAMP_VARIANTS = [dict(ds=0.005, settle_periods=10, first_settle_periods=200, window_s=0.1, sub_windows=2),
+                 dict(ds=0.005, settle_periods=40, first_settle_periods=200, window_s=0.1, sub_windows=2),
+                 dict(ds=0.005, settle_periods=120, first_settle_periods=200, window_s=0.1, sub_windows=2),
+                 dict(CHEAP["cheap"])]
+
+
+def stage_ramp():
+    """How fast a PCS sweep may move s and still find the folds of the fine tables: the jump
+    positions of sweeps at several ramp rates Δs / (settle + window) against the default law's
+    tables (Δs 0.01, 100 settling periods, 2-s windows: 0.0036 1/s). Bounds the training cost."""
+    lines = ["PCS sweep ramp rate against the jump positions (s_up: down sweep leaves L; s_dn: up sweep leaves H)",
+             f"{'point':>10} {'settings':>44} {'ramp [1/s]':>10} {'s_up':>7} {'s_dn':>7} {'CPU [s]':>8}"]
+    fmt = lambda x: "none" if x is None else f"{x:.4f}"  # noqa: E731
+    for f, a in [(124.0, 14.0), (126.0, 10.0)]:
+        fine = read_drift_table(table_path(f, a))
+        per = TABLE_OPTS["settle_periods"] / f + TABLE_OPTS["window_s"]
+        lines.append(f"{f'({f:g}, {a:g})':>10} {'default tables (committed)':>44} {TABLE_OPTS['ds'] / per:10.4f} {fmt(fine.s_up_pcs):>7} {fmt(fine.s_dn_pcs):>7} {'':>8}")
+        for o in RAMP_VARIANTS:
+            c0 = _cpu()
+            t = drift_table(f_ex=f, a_ex=a, **o)
+            cpu = _cpu() - c0
+            ramp = o["ds"] / (o["settle_periods"] / f + o["window_s"])
+            name = f"Δs {o['ds']:g}, {o['settle_periods']} periods, {o['window_s']:g}-s windows"
+            lines.append(f"{'':>10} {name:>44} {ramp:10.4f} {fmt(t.s_up_pcs):>7} {fmt(t.s_dn_pcs):>7} {cpu:8.2f}")
+            print(lines[-1], flush=True)
+    (OUT / "validation_c_ramp.txt").write_text("\n".join(lines) + "\n", encoding="utf-8")
+
+
 if __name__ == "__main__":
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("stage", choices=["tables", "map_tables", "slopes", "runs", "map", "speed", "levers", "features", "training_sets", "fs_ensemble", "stops", "cheap_settings", "build_up", "all"])
+    ap.add_argument("stage", choices=["tables", "map_tables", "slopes", "runs", "map", "speed", "levers", "features", "training_sets", "fs_ensemble", "stops", "cheap_settings", "build_up", "ramp", "all"])
     ap.add_argument("--points", help="tables: only these points, e.g. 124:14,126:10")
     ap.add_argument("--training", default="cheap", choices=["coarse", "cheap"], help="speed: training table settings (timed from scratch)")
     ap.add_argument("--training-set", default="12 points", choices=["12 points", "6 points"], help="speed: training points")
@@ -1171,6 +1200,6 @@ if __name__ == "__main__":
         stage_speed(args.training, args.training_set)
     single = {"levers": stage_levers, "features": stage_features, "training_sets": stage_training_sets,
               "fs_ensemble": stage_fs_ensemble, "stops": stage_stops, "cheap_settings": stage_cheap_settings,
-              "build_up": stage_build_up}
+              "build_up": stage_build_up, "ramp": stage_ramp}
     if args.stage in single:
         single[args.stage]()
