@@ -420,6 +420,7 @@ def stage_map():
     law_c = fit_drift_law(tables, jump_down_tables=extra)
     t_fit = time.perf_counter() - t0
     save_drift_law(law_c, OUT / "law.json")
+    save_drift_law(law_c, ROOT / "python" / "beamslider" / "data" / "default_law.json")  # the package's built-in law
     ref = read_map(ROOT / "docs" / "operating_map.jsonl")
     f_ex = sorted(set(float(x) for x in ref["f_ex_hz"]))
     a_ex = sorted(set(float(x) for x in ref["a_ex_m_s2"]))

@@ -171,6 +171,32 @@ def test_predict_cli(tmp_path):
     assert len(js["112"]["shifted"]) == 2 and {d["behaviour"] for d in js["112"]["shifted"]} != {js["112"]["behaviour"]}
 
 
+def test_builtin_default_law_is_the_committed_law_and_needs_no_file(tmp_path, capsys):
+    """The package ships docs/superslow/law.json; predict and `beamslider predict` use it when no
+    drift is given, and say so when the parameters are not the ones it was fitted at."""
+    from pathlib import Path
+
+    from beamslider.cli import main
+    from beamslider.drift_law import DEFAULT_LAW_PATH
+    from beamslider.slowflow import default_drift_law, load_drift_law, predict
+
+    committed = Path(__file__).resolve().parents[1] / "docs" / "superslow" / "law.json"
+    assert DEFAULT_LAW_PATH.read_bytes() == committed.read_bytes()  # refit the law: copy it to python/beamslider/data
+    assert default_drift_law().points == load_drift_law(committed).points
+    a = predict(f_ex=124, a_ex=14)
+    b = predict(f_ex=124, a_ex=14, drift=load_drift_law(committed))
+    assert (a.behaviour, a.s_final, a.events) == (b.behaviour, b.s_final, b.events) and a.warnings == b.warnings == []
+    c = predict(Parameters(friction_coefficient=0.3), f_ex=124, a_ex=14)
+    assert any("built-in drift law was fitted at the default parameters" in w for w in c.warnings)
+    assert main(["predict", "--f-ex", "124", "--a-ex", "14", "--out", str(tmp_path)]) == 0
+    js = json.loads((tmp_path / "predict_124Hz_14ms2_s0_0p3.json").read_text())
+    assert js["drift"] == "built-in default law" and js["behaviour"] == a.behaviour and js["s_final"] == a.s_final
+    (tmp_path / "p.toml").write_text("friction_coefficient = 0.3\n")
+    capsys.readouterr()
+    assert main(["predict", "--params", str(tmp_path / "p.toml"), "--out", str(tmp_path / "mu"), "--no-progress"]) == 0
+    assert "fitted at the default parameters" in capsys.readouterr().err
+
+
 def test_drift_table_cli(tmp_path):
     from beamslider.cli import main
 

@@ -711,6 +711,18 @@ def save_drift_law(law: DriftLaw, path: Union[str, os.PathLike]) -> None:
     Path(path).write_text(law_json(law), encoding="utf-8")
 
 
+DEFAULT_LAW_PATH = Path(__file__).resolve().parent / "data" / "default_law.json"
+"""The package's copy of the default law (docs/superslow/law.json of the repository: 12 PCS training
+tables and 4 jump-down tables at the default parameters, scripts/validate_superslow_b.py)."""
+
+
+def default_drift_law() -> DriftLaw:
+    """The built-in default drift law (b2), fitted at the default parameters (the paper's
+    prototype): what :func:`beamslider.slowflow.predict` and ``beamslider predict`` use when no
+    drift is given. For other parameters, fit a law of their own (:func:`fit_drift_law`)."""
+    return load_drift_law(DEFAULT_LAW_PATH)
+
+
 def load_drift_law(path: Union[str, os.PathLike]) -> DriftLaw:
     """Read a law written by :func:`save_drift_law` (ValueError for a file that is not one)."""
     try:

@@ -37,7 +37,7 @@ from . import _core
 from .params import Parameters, resolve
 from .simulate import _number
 from .drift_law import (FEATURES, DriftLaw, _manifold_for, _modes, features, fit_drift_law, mono_features,  # noqa: F401
-                        law_json, load_drift_law, refine_jump_down, save_drift_law)
+                        default_drift_law, law_json, load_drift_law, refine_jump_down, save_drift_law)
 from .drift_pcs import DriftTable, drift_table, drift_tables, read_drift_table  # noqa: F401
 
 __all__ = [
@@ -49,6 +49,7 @@ __all__ = [
     "read_drift_table",
     "features",
     "fit_drift_law",
+    "default_drift_law",
     "refine_jump_down",
     "predict",
     "slow_model",
@@ -263,7 +264,7 @@ def predict(
     a_ex: float,
     s0: float = 0.3,
     t_end: float = 120.0,
-    drift,
+    drift=None,
     s_dn: str = "auto",
     n_modes: int = 5,
     d_eff: Optional[float] = None,
@@ -283,7 +284,9 @@ def predict(
         t_end: duration [s].
         drift: a :class:`DriftTable` of this operating point (b1) or a fitted :class:`DriftLaw`
             (b2). A law used outside its training range is reported (``extrapolated``, a warning),
-            never silently.
+            never silently. ``None`` (default): the built-in default law
+            (:func:`default_drift_law`, fitted at the default parameters; with other parameters
+            a warning says so).
         s_dn: source of the jump-down position: 'hb' (the HB manifold's own; none with single-term
             HB), 'table' (the PCS sweep of a DriftTable), 'law' (the HB manifold's own, else
             learnt from the PCS tables by a fitted DriftLaw: where the forcing ratio
@@ -316,6 +319,12 @@ def predict(
         raise ValueError(f"invalid parameter `s0` = {s0}: must lie on the beam, {lo:.4f} <= s0 <= {1 - lo:.4f}")
     if not (t_end > 0):
         raise ValueError(f"invalid parameter `t_end` = {t_end}: must be > 0")
+    builtin_note = None
+    if drift is None:
+        drift = default_drift_law()
+        if p != Parameters():
+            builtin_note = ("the built-in drift law was fitted at the default parameters; these differ, so fit a law "
+                            "of their own (fit_drift_law) before trusting the prediction")
     if not isinstance(drift, (DriftTable, DriftLaw)):
         raise ValueError("invalid parameter `drift`: a DriftTable (b1) or a DriftLaw (b2, fit_drift_law)")
     if isinstance(drift, DriftTable) and (abs(drift.f_ex - f_ex) > 1e-9 or abs(drift.a_ex - a_ex) > 1e-9):
@@ -377,6 +386,8 @@ def predict(
     if info["extrapolated"]:
         pts = ", ".join(f"({f:g}, {a:g})" for f, a in drift.points)
         warnings.insert(0, f"drift law used outside its training range (trained on {pts}): V extrapolated from the nearest samples")
+    if builtin_note:
+        warnings.insert(0, builtin_note)
     return Prediction(
         t=np.asarray(r["t_s"]), s=np.asarray(r["s"]), amplitude=np.asarray(r["amplitude_h"]),
         branch=np.where(np.asarray(r["branch"]) == 1, "H", "L"), events=[tuple(e) for e in r["events"]],

@@ -42,9 +42,11 @@ def add_parser(sub: Any) -> None:
     add_operating_point(sp, positive_level=True)
     sp.add_argument("--s0", type=positive(float), default=0.3, metavar="S0", help="initial slider position (0.3)")
     sp.add_argument("--t-end", type=positive(float), default=120.0, metavar="S", help="duration (120)")
-    g = sp.add_mutually_exclusive_group(required=True)
+    g = sp.add_mutually_exclusive_group()
     g.add_argument("--drift", metavar="JSONL", help="drift table of this operating point (beamslider drift-table)")
-    g.add_argument("--law", metavar="JSON", help="fitted drift law (beamslider.superslow.fit_drift_law(...).save)")
+    g.add_argument("--law", metavar="JSON", help="fitted drift law (beamslider.superslow.fit_drift_law(...).save); "
+                                                 "neither --drift nor --law: the built-in default law, fitted at the "
+                                                 "default parameters")
     sp.add_argument("--s-dn", choices=["auto", "hb", "table", "law", "none"], default="auto",
                     help="jump-down position: from the HB manifold (hb), from the PCS table (table, with --drift), "
                          "the HB manifold's else the law's forcing-ratio rule (law, with --law), or none; "
@@ -82,7 +84,7 @@ def cmd_predict(args: argparse.Namespace) -> int:
     stem = f"predict_{fmt(args.f_ex)}Hz_{fmt(args.a_ex)}ms2_s0_{fmt(args.s0)}"
     plan_outputs(args, [f"{stem}.{ext}" for ext in ("csv", "json", "png")])
     try:
-        drift = read_drift_table(args.drift) if args.drift else load_drift_law(args.law)
+        drift = read_drift_table(args.drift) if args.drift else load_drift_law(args.law) if args.law else None
     except FileNotFoundError as e:
         raise UserError(f"cannot read {e.filename}: no such file") from None
     r = predict(p, f_ex=args.f_ex, a_ex=args.a_ex, s0=args.s0, t_end=args.t_end, drift=drift, s_dn=args.s_dn, d_eff=args.d_eff)
@@ -94,7 +96,7 @@ def cmd_predict(args: argparse.Namespace) -> int:
             w.writerow([f"{row[0]:.6g}", f"{row[1]:.10g}", f"{row[2]:.10g}", row[3]])
     write_json(out / f"{stem}.json", {
         "kind": "prediction", "f_ex_hz": r.f_ex, "a_ex_m_s2": r.a_ex, "s0": r.s0, "t_end_s": args.t_end,
-        "drift": args.drift or args.law, "behaviour": r.behaviour, "s_final": r.s_final, "amplitude_final_h": r.amplitude_final,
+        "drift": args.drift or args.law or "built-in default law", "behaviour": r.behaviour, "s_final": r.s_final, "amplitude_final_h": r.amplitude_final,
         "events": [{"kind": k, "t_s": t, "s": s} for k, t, s in r.events], "s_up": r.s_up, "s_dn": r.s_dn,
         "s_dn_source": r.s_dn_source, "extrapolated": r.extrapolated, "monostable": r.monostable, "warnings": r.warnings,
         "robust": r.robust, "shifted": [{"behaviour": b, "s_final": s} for b, s in r.shifted],
