@@ -340,6 +340,7 @@ from .slowflow import (  # noqa: E402
     DriftLaw,
     DriftTable,
     Prediction,
+    default_drift_law,
     drift_table,
     features,
     fit_drift_law,
