@@ -178,7 +178,7 @@ def test_builtin_default_law_is_the_committed_law_and_needs_no_file(tmp_path, ca
 
     from beamslider.cli import main
     from beamslider.drift_law import DEFAULT_LAW_PATH
-    from beamslider.slowflow import default_drift_law, load_drift_law, predict
+    from beamslider.slowflow import default_drift_law, load_drift_law, predict, predicted_map
 
     committed = Path(__file__).resolve().parents[1] / "docs" / "superslow" / "law.json"
     assert DEFAULT_LAW_PATH.read_bytes() == committed.read_bytes()  # refit the law: copy it to python/beamslider/data
@@ -195,6 +195,10 @@ def test_builtin_default_law_is_the_committed_law_and_needs_no_file(tmp_path, ca
     capsys.readouterr()
     assert main(["predict", "--params", str(tmp_path / "p.toml"), "--out", str(tmp_path / "mu"), "--no-progress"]) == 0
     assert "fitted at the default parameters" in capsys.readouterr().err
+    rows = predicted_map(f_ex=[124.0], a_ex=[14.0])
+    assert rows[0]["behaviour"] == a.behaviour and rows[0]["s_final"] == pytest.approx(a.s_final, abs=1e-9)
+    with pytest.warns(UserWarning, match="fitted at the default parameters"):
+        predicted_map(Parameters(friction_coefficient=0.3), f_ex=[124.0], a_ex=[14.0])
 
 
 def test_drift_table_cli(tmp_path):

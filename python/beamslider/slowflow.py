@@ -323,8 +323,7 @@ def predict(
     if drift is None:
         drift = default_drift_law()
         if p != Parameters():
-            builtin_note = ("the built-in drift law was fitted at the default parameters; these differ, so fit a law "
-                            "of their own (fit_drift_law) before trusting the prediction")
+            builtin_note = BUILTIN_LAW_NOTE
     if not isinstance(drift, (DriftTable, DriftLaw)):
         raise ValueError("invalid parameter `drift`: a DriftTable (b1) or a DriftLaw (b2, fit_drift_law)")
     if isinstance(drift, DriftTable) and (abs(drift.f_ex - f_ex) > 1e-9 or abs(drift.a_ex - a_ex) > 1e-9):
@@ -399,10 +398,23 @@ def predict(
     )
 
 
+BUILTIN_LAW_NOTE = ("the built-in drift law was fitted at the default parameters; these differ, so fit a law of "
+                    "their own (fit_drift_law) before trusting the prediction")
+
+
+def _default_law_for(p: Parameters) -> DriftLaw:
+    """The built-in law, with a warning (UserWarning) when ``p`` are not the defaults it was fitted at."""
+    if p != Parameters():
+        import warnings
+
+        warnings.warn(BUILTIN_LAW_NOTE, stacklevel=3)
+    return default_drift_law()
+
+
 def predicted_map(
     params: Optional[Parameters] = None,
     *,
-    drift: DriftLaw,
+    drift: Optional[DriftLaw] = None,
     f_ex: Sequence[float],
     a_ex: Sequence[float],
     s0: float = 0.3,
@@ -427,10 +439,12 @@ def predicted_map(
     rows go to ``out/map.jsonl`` with the predictor in its header; an existing file is refused
     (``FileExistsError``) unless ``force`` (replaced) or ``resume`` (its points are kept; it must
     hold the same law and settings). ``s_dn='none'`` is evaluated in Python (:func:`predict`) and
-    cannot be written (``out`` must be None)."""
+    cannot be written (``out`` must be None). ``drift=None``: the built-in default law
+    (:func:`default_drift_law`; a warning if ``params`` are not the defaults it was fitted at)."""
     from .maps import map_config_toml
 
     p = resolve(params)
+    drift = _default_law_for(p) if drift is None else drift
     if s_dn not in ("hb", "law", "none"):
         raise ValueError(f"invalid parameter `s_dn` = {s_dn!r}: one of 'hb', 'law', 'none'")
     if not isinstance(drift, DriftLaw):
