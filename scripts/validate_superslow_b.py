@@ -36,18 +36,21 @@ from beamslider import Parameters, read_map, simulate  # noqa: E402
 from beamslider.slowflow import (drift_table, drift_tables, fit_drift_law, load_drift_law, predict, predicted_map,  # noqa: E402
                                  read_drift_table, refine_jump_down, save_drift_law)
 from beamslider.superslow import hb_manifold  # noqa: E402
-from beamslider.drift_law import MONO_RISE_H  # noqa: E402
+from beamslider.drift_law import (LAW_JUMP_DOWN_CANDIDATES, LAW_JUMP_DOWN_N, LAW_TABLE_SETTINGS,  # noqa: E402
+                                  LAW_TRAINING_POINTS, MONO_RISE_H)
 
 OUT = ROOT / "docs" / "superslow"
 DRIFT = OUT / "drift"
 # The four representative points of MODEL.md §8, (106, 10) for the start-position pair, (124, 8)
 # of seed Fig. 4b, then points spread over the map for the transferable law (b2).
+# The default law's recipe lives in the package (beamslider.drift_law.LAW_*; `beamslider fit-law`).
 REPRESENTATIVE = [(124.0, 14.0), (104.0, 14.0), (126.0, 10.0), (124.0, 6.0), (106.0, 10.0)]
-TRAINING = REPRESENTATIVE + [(124.0, 8.0), (116.0, 12.0), (110.0, 8.0), (120.0, 6.0), (130.0, 12.0), (114.0, 4.0), (100.0, 10.0)]
+TRAINING = list(LAW_TRAINING_POINTS)
+assert TRAINING[:len(REPRESENTATIVE)] == REPRESENTATIVE
 
 
 # Table settings of the validation (issue §3.1: Δs 0.01–0.02, ≥ 40 settling periods, window ≥ 1 s).
-TABLE_OPTS = dict(ds=0.01, settle_periods=100, window_s=2.0)
+TABLE_OPTS = dict(LAW_TABLE_SETTINGS)
 
 
 def table_path(f, a):
@@ -105,9 +108,9 @@ def available_tables():
 # The default law's jump-down bracket (fit_drift_law's bracket rule): JUMP_DOWN_N tables added by
 # bisection in the layer-(a) forcing ratio ρ(s_p) among the map's grid points (refine_jump_down;
 # chosen by layer (a) and the PCS tables only), same settings as the training tables.
-JUMP_DOWN_N = 4
+JUMP_DOWN_N = LAW_JUMP_DOWN_N
 JUMP_DOWN_DIR = DRIFT / "jump_down"
-MAP_GRID = [(float(f), float(a)) for f in range(100, 131, 2) for a in range(4, 17, 2)]
+MAP_GRID = list(LAW_JUMP_DOWN_CANDIDATES)
 
 
 def jump_down_tables(tables, out=JUMP_DOWN_DIR, **settings):

@@ -201,6 +201,45 @@ def test_builtin_default_law_is_the_committed_law_and_needs_no_file(tmp_path, ca
         predicted_map(Parameters(friction_coefficient=0.3), f_ex=[124.0], a_ex=[14.0])
 
 
+def test_fit_law_cli_and_predicted_map_cli(tmp_path, capsys):
+    """`beamslider fit-law` computes the tables, narrows the jump-down bracket, fits and writes a
+    law that `predict --law` and `map --predictor` use; it refuses to overwrite, resumes bitwise,
+    and refuses bad points. Cheap table settings: this checks the plumbing, not the law."""
+    from beamslider.cli import main
+
+    out = tmp_path / "fit"
+    args = ["fit-law", "--points", "124:14,126:10,104:14", "--ds", "0.05", "--settle-periods", "10",
+            "--first-settle-periods", "50", "--window-s", "0.1", "--jump-down-n", "1", "--candidates-f-ex", "120:126:2",
+            "--candidates-a-ex", "8:12:2", "--out", str(out), "--no-progress"]
+    assert main(args) == 0
+    law = load_drift_law(out / "law.json")
+    assert law.points == [(124.0, 14.0), (126.0, 10.0), (104.0, 14.0)]
+    assert len(list((out / "drift").glob("drift_*.jsonl"))) == 3 and len(list((out / "drift" / "jump_down").glob("*.jsonl"))) == 1
+    from beamslider.cli.predict import _law_content
+
+    first = _law_content(out / "law.json")
+    capsys.readouterr()
+    assert main(args) != 0 and "--resume continues it" in capsys.readouterr().err
+    assert main(args + ["--resume"]) == 0 and _law_content(out / "law.json") == first  # nothing recomputed differs
+    assert main(args[:-3] + ["--out", str(tmp_path / "bad"), "--points", "124:x"]) != 0
+    assert main(["fit-law", "--points", "124:14", "--out", str(tmp_path / "one")]) != 0
+    assert main(["predict", "--law", str(out / "law.json"), "--out", str(tmp_path / "p")]) == 0
+    # The map by the predictor: the fitted law, and the built-in one (= the core's predicted map).
+    assert main(["map", "--predictor", str(out / "law.json"), "--f-ex", "120,126", "--a-ex", "8,12",
+                 "--out", str(tmp_path / "m1"), "--no-progress"]) == 0
+    from beamslider import read_map
+
+    m1 = read_map(tmp_path / "m1")
+    assert list(m1["status"]) == ["predicted"] * 4 and "predicted, t_end = 120 s" in (tmp_path / "m1" / "map.txt").read_text()
+    assert main(["map", "--predictor", "default", "--f-ex", "124", "--a-ex", "14", "--out", str(tmp_path / "m2")]) == 0
+    assert read_map(tmp_path / "m2")["behaviour"][0] == predict(f_ex=124, a_ex=14).behaviour
+    capsys.readouterr()
+    assert main(["map", "--predictor", "default", "--f-ex", "124", "--a-ex", "14", "--out", str(tmp_path / "m2")]) != 0
+    assert "--resume continues it" in capsys.readouterr().err
+    assert main(["map", "--predictor", "default", "--s0", "0.3,0.4", "--out", str(tmp_path / "m3")]) != 0
+    assert main(["map", "--predictor", str(tmp_path / "missing.json"), "--out", str(tmp_path / "m4")]) != 0
+
+
 def test_drift_table_cli(tmp_path):
     from beamslider.cli import main
 

@@ -711,6 +711,17 @@ def save_drift_law(law: DriftLaw, path: Union[str, os.PathLike]) -> None:
     Path(path).write_text(law_json(law), encoding="utf-8")
 
 
+# The recipe of the default law (scripts/validate_superslow_b.py; `beamslider fit-law` defaults):
+# the four representative points of docs/model.md §8, (106, 10) of the start-position pair, then
+# points spread over the map; the table settings; the jump-down bisection over the map's grid.
+LAW_TRAINING_POINTS: Tuple[Tuple[float, float], ...] = (
+    (124.0, 14.0), (104.0, 14.0), (126.0, 10.0), (124.0, 6.0), (106.0, 10.0), (124.0, 8.0), (116.0, 12.0),
+    (110.0, 8.0), (120.0, 6.0), (130.0, 12.0), (114.0, 4.0), (100.0, 10.0))
+LAW_TABLE_SETTINGS: Dict[str, float] = {"ds": 0.01, "settle_periods": 100, "window_s": 2.0}
+LAW_JUMP_DOWN_N = 4
+LAW_JUMP_DOWN_CANDIDATES: Tuple[Tuple[float, float], ...] = tuple(
+    (float(f), float(a)) for f in range(100, 131, 2) for a in range(4, 17, 2))
+
 DEFAULT_LAW_PATH = Path(__file__).resolve().parent / "data" / "default_law.json"
 """The package's copy of the default law (docs/superslow/law.json of the repository: 12 PCS training
 tables and 4 jump-down tables at the default parameters, scripts/validate_superslow_b.py)."""

@@ -359,22 +359,24 @@ def operating_map(params: Optional[Parameters] = None, *, f_ex: Any, a_ex: Any, 
 
 def failures(table: Dict[str, np.ndarray]) -> List[str]:
     """One line per grid point whose run did not complete (status ``left_beam``, ``diverged`` or
-    ``error``), with its inputs and the reason."""
+    ``error``), with its inputs and the reason (a predicted map's ``predicted`` rows are done)."""
     return [f"#{table['index'][i]} f_ex = {table['f_ex_hz'][i]:g} Hz, a_ex = {table['a_ex_m_s2'][i]:g} m/s^2, "
             f"s0 = {table['s0'][i]:g}: {table['status'][i]}: {table['reason'][i]}"
-            for i in np.flatnonzero(table["status"] != "completed")]
+            for i in np.flatnonzero((table["status"] != "completed") & (table["status"] != "predicted"))]
 
 
 def t_end_text(table: Dict[str, np.ndarray], s0: Optional[float] = None) -> str:
-    """``t_end = 120 s``, or for an extended map ``t_end = 120 s (settled points kept from 60 s)``."""
-    m = table["status"] == "completed"
+    """``t_end = 120 s``, or for an extended map ``t_end = 120 s (settled points kept from 60 s)``;
+    ``predicted, t_end = 120 s`` for a map of the reduced predictor."""
+    predicted = bool(np.any(table["status"] == "predicted"))
+    m = (table["status"] == "completed") | (table["status"] == "predicted")
     if s0 is not None:
         m &= table["s0"] == s0
     if not m.any():
         return "t_end = -"
     lo, hi = float(table["t_end_s"][m].min()), float(table["t_end_s"][m].max())
     if lo == hi:
-        return f"t_end = {round(hi, 3):g} s"
+        return f"{'predicted, ' if predicted else ''}t_end = {round(hi, 3):g} s"
     return f"t_end = {round(hi, 3):g} s (settled points kept from {round(lo, 3):g} s)"
 
 

@@ -89,11 +89,12 @@ def positive(kind):
     return parse
 
 
-def add_common(sp: argparse.ArgumentParser, *, model_options: bool = True, window: bool = True) -> None:
-    """--out, --progress/--no-progress, --window (``window``: only where an envelope is drawn)
-    and (``model_options``) --params, --dt, --solver."""
-    sp.add_argument("--out", default=DEFAULT_OUT, metavar="DIR",
-                    help=f"output folder for CSV/JSON/PNG (default ./{DEFAULT_OUT})")
+def add_common(sp: argparse.ArgumentParser, *, model_options: bool = True, window: bool = True,
+               out: str = DEFAULT_OUT) -> None:
+    """--out (default ``out``), --progress/--no-progress, --window (``window``: only where an
+    envelope is drawn) and (``model_options``) --params, --dt, --solver."""
+    sp.add_argument("--out", default=out, metavar="DIR",
+                    help=f"output folder for CSV/JSON/PNG (default ./{out})")
     sp.add_argument("--progress", dest="progress", action="store_true", default=None,
                     help="progress bars even when standard error is not a terminal (default: only on a terminal)")
     sp.add_argument("--no-progress", dest="progress", action="store_false", help="no progress bars")

@@ -10,6 +10,7 @@ from pathlib import Path
 from typing import Any
 
 from .. import _toml
+from ..params import Parameters
 from ._common import EXIT_FAULT, UserError, add_common, axis_values, figure, out_dir, params_from_args, positive
 
 
@@ -38,6 +39,10 @@ def add_parser(sub: Any) -> None:
     sp.add_argument("--scheduler-file", metavar="FILE", help="run on the Dask cluster of this scheduler file "
                     "(dask scheduler --scheduler-file FILE)")
     sp.add_argument("--chunk-size", type=positive(int), default=8, metavar="N", help="points per Dask task (8)")
+    sp.add_argument("--predictor", metavar="LAW",
+                    help="predict the map with the reduced super-slow model instead of FS runs (milliseconds per "
+                         "point): a drift law file (beamslider fit-law) or 'default' (the built-in law, fitted at "
+                         "the default parameters); one s0, same results format")
     add_common(sp, window=False)
     sp.set_defaults(func=cmd_map)
 
@@ -83,9 +88,12 @@ def cmd_map(args: argparse.Namespace) -> int:
     if args.scheduler and args.scheduler_file:
         raise UserError("give --scheduler or --scheduler-file, not both")
     t0 = time.perf_counter()
-    table = run_map_config(config, out=out, resume=args.resume, threads=args.threads, progress=args.progress,
-                           extend=extend, scheduler=args.scheduler, scheduler_file=args.scheduler_file,
-                           chunk_size=args.chunk_size)
+    if args.predictor:
+        table = _predicted(args, out)
+    else:
+        table = run_map_config(config, out=out, resume=args.resume, threads=args.threads, progress=args.progress,
+                               extend=extend, scheduler=args.scheduler, scheduler_file=args.scheduler_file,
+                               chunk_size=args.chunk_size)
     wall = time.perf_counter() - t0
     txt = text_table(table)
     (out / "map.txt").write_text(txt, encoding="utf-8")
@@ -95,8 +103,13 @@ def cmd_map(args: argparse.Namespace) -> int:
         pngs = []
     print(txt, end="")
     print(f"{len(table['index'])} points in {wall:.1f} s")
-    for path in [out / RESULTS_FILE, out / "map.toml", out / "map.txt", *pngs]:
+    for path in [out / RESULTS_FILE, *([] if args.predictor else [out / "map.toml"]), out / "map.txt", *pngs]:
         print(f"wrote {path}")
+    if args.predictor:
+        robust = [r for r in table.get("robust", []) if r is not None]
+        if robust and not all(robust):
+            print(f"{sum(1 for r in robust if not r)} of {len(robust)} predictions are not robust (V ± the law's "
+                  "resolution changes them): check those points with FS runs")
     failed = failures(table)
     if failed:
         print(f"beamslider: {len(failed)} of {len(table['index'])} points failed (the others are done):", file=sys.stderr)
@@ -104,3 +117,36 @@ def cmd_map(args: argparse.Namespace) -> int:
             print(f"  {line}", file=sys.stderr)
         return EXIT_FAULT
     return 0
+
+
+def _predicted(args: argparse.Namespace, out: Path) -> Any:
+    """The map by the reduced predictor (``--predictor``): the grid of --f-ex/--a-ex/--s0/--t-end/--params."""
+    from ..maps import rows_to_table
+    from ..slowflow import load_drift_law, predicted_map
+
+    if args.config or args.extend_to is not None or args.scheduler or args.scheduler_file:
+        raise UserError("--predictor takes the grid from --f-ex/--a-ex/--s0/--t-end/--params (not --config, "
+                        "--extend-to or a scheduler): a predicted map runs here, in milliseconds per point")
+    s0 = axis_values("--s0", "0.3" if args.s0 is None else args.s0)
+    if len(s0) != 1:
+        raise UserError("--predictor: one s0 per map (run it once per s0)")
+    try:
+        law = None if args.predictor == "default" else load_drift_law(args.predictor)
+    except FileNotFoundError:
+        raise UserError(f"{args.predictor}: no such file (give a law written by beamslider fit-law, or 'default')") from None
+    p = params_from_args(args)
+    if law is None and p != Parameters():
+        print("beamslider: warning: the built-in drift law was fitted at the default parameters; these differ, "
+              "so fit a law of their own (beamslider fit-law) before trusting the map", file=sys.stderr)
+        from ..drift_law import default_drift_law
+
+        law = default_drift_law()
+    if (out / "map.jsonl").exists() and not args.resume:
+        raise UserError(f"{out / 'map.jsonl'} exists: --resume continues it, or choose another --out")
+    rows = predicted_map(p, drift=law, f_ex=axis_values("--f-ex", "100:130:2" if args.f_ex is None else args.f_ex),
+                         a_ex=axis_values("--a-ex", "4:16:2" if args.a_ex is None else args.a_ex), s0=s0[0],
+                         t_end=args.t_end if args.t_end is not None else 120.0, out=out, resume=args.resume,
+                         threads=args.threads)
+    table = rows_to_table(rows)
+    table["robust"] = [r.get("robust") for r in sorted(rows, key=lambda r: r["index"])]
+    return table

@@ -1,24 +1,32 @@
-"""``beamslider drift-table`` and ``beamslider predict``: the reduced super-slow predictor (issue 17,
-layer (b)): the drift velocity V(s, branch) measured in PCS sweeps, and the prediction of one
-operating point from the HB manifold, a drift law and the slow flow."""
+"""``beamslider drift-table``, ``beamslider fit-law`` and ``beamslider predict``: the reduced
+super-slow predictor (issue 17, layer (b)): the drift velocity V(s, branch) measured in PCS sweeps,
+the transferable drift law fitted on the tables of several operating points, and the prediction of
+one operating point from the HB manifold, a drift law and the slow flow."""
 
 from __future__ import annotations
 
 import argparse
 import csv
+import math
 import sys
 import time
 from pathlib import Path
-from typing import Any
+from typing import Any, List, Tuple
 
-from ..slowflow import drift_table, load_drift_law, predict, read_drift_table
+from ..drift_law import LAW_JUMP_DOWN_N, LAW_TABLE_SETTINGS, LAW_TRAINING_POINTS
+from ..params import Parameters
+from ..slowflow import (drift_table, drift_tables, fit_drift_law, load_drift_law, predict, read_drift_table,
+                        refine_jump_down, save_drift_law)
 from ._manifold import add_operating_point
-from ._common import (UserError, add_common, add_force, figure, fmt, out_dir, params_from_args, plan_outputs,
-                      positive, print_written, write_json)
+from ._common import (DEFAULT_OUT, UserError, add_common, add_force, axis_values, figure, fmt, out_dir, params_from_args,
+                      plan_outputs, positive, print_written, write_json)
+
+DEFAULT_LAW_OUT = f"{DEFAULT_OUT}/law"
+"""Where ``beamslider fit-law`` writes by default (law.json and drift/)."""
 
 
 def add_parser(sub: Any) -> None:
-    """Register ``drift-table`` and ``predict``."""
+    """Register ``drift-table``, ``fit-law`` and ``predict``."""
     sp = sub.add_parser(
         "drift-table", help="drift velocity V(s, branch) from PCS sweeps (layer b1; minutes)",
         description="Measure the super-slow drift velocity V(s, branch) of the slider's centre of mass in "
@@ -33,6 +41,37 @@ def add_parser(sub: Any) -> None:
     add_common(sp, window=False)
     add_force(sp)
     sp.set_defaults(func=cmd_drift_table)
+
+    sp = sub.add_parser(
+        "fit-law", help="fit the transferable drift law (b2) on PCS tables of several points (minutes)",
+        description="Compute the PCS drift tables of the training points (both sweeps each, two tables at a time, "
+                    "resumable), narrow the law's jump-down bracket by bisection over candidate points "
+                    "(refine_jump_down), fit the drift law and write DIR/law.json, with the tables under "
+                    "DIR/drift/. The defaults are the recipe of the built-in law; with --params a law for "
+                    "another beam or slider. Use it with beamslider predict --law DIR/law.json and "
+                    "beamslider map --predictor DIR/law.json.")
+    sp.add_argument("--points", metavar="F:A,...",
+                    help="training points as f_ex:a_ex pairs (default: the built-in law's 12, "
+                         + ",".join(f"{f:g}:{a:g}" for f, a in LAW_TRAINING_POINTS) + ")")
+    sp.add_argument("--candidates-f-ex", default="100:130:2", metavar="GRID",
+                    help="frequencies of the jump-down bisection's candidate points (100:130:2)")
+    sp.add_argument("--candidates-a-ex", default="4:16:2", metavar="GRID",
+                    help="levels of the jump-down bisection's candidate points (4:16:2)")
+    sp.add_argument("--jump-down-n", type=int, default=LAW_JUMP_DOWN_N, metavar="N",
+                    help=f"jump-down tables added by bisection ({LAW_JUMP_DOWN_N}; 0: none)")
+    sp.add_argument("--ds", type=positive(float), default=LAW_TABLE_SETTINGS["ds"], metavar="DS",
+                    help=f"s step of the sweeps ({LAW_TABLE_SETTINGS['ds']:g})")
+    sp.add_argument("--window-s", type=positive(float), default=LAW_TABLE_SETTINGS["window_s"], metavar="S",
+                    help=f"record window per s ({LAW_TABLE_SETTINGS['window_s']:g})")
+    sp.add_argument("--settle-periods", type=positive(int), default=LAW_TABLE_SETTINGS["settle_periods"], metavar="K",
+                    help=f"settling periods per s ({LAW_TABLE_SETTINGS['settle_periods']})")
+    sp.add_argument("--first-settle-periods", type=positive(int), default=400, metavar="K",
+                    help="settling periods at the first s of a sweep, from rest (400)")
+    sp.add_argument("--threads", "-j", type=positive(int), metavar="N", help="tables computed at a time (default: one per core)")
+    sp.add_argument("--resume", action="store_true", help="continue the tables in --out (same settings) and refit")
+    add_common(sp, window=False, out=DEFAULT_LAW_OUT)
+    add_force(sp)
+    sp.set_defaults(func=cmd_fit_law)
 
     sp = sub.add_parser(
         "predict", help="reduced super-slow predictor: behaviour and final s of one operating point (milliseconds)",
@@ -76,6 +115,84 @@ def cmd_drift_table(args: argparse.Namespace) -> int:
     print(f"drift table {args.f_ex:g} Hz, {args.a_ex:g} m/s²: {len(t.s)} rows ({t.computed} computed, {wall:.1f} s); "
           f"PCS s_up = {show(s_up)}, s_dn = {show(s_dn)}")
     print(f"wrote {path}")
+    return 0
+
+
+def _points(text: str) -> List[Tuple[float, float]]:
+    pts = []
+    for item in text.split(","):
+        f, sep, a = item.strip().partition(":")
+        try:
+            pt = (float(f), float(a))
+        except ValueError:
+            pt = None
+        if not sep or pt is None or not all(math.isfinite(v) and v > 0 for v in pt):
+            raise UserError(f"--points: {item.strip()!r} is not f_ex:a_ex with two positive numbers (e.g. 124:14)")
+        pts.append(pt)
+    if len(set(pts)) != len(pts):
+        raise UserError("--points: a training point is given twice")
+    return pts
+
+
+def _law_content(path: Path) -> Any:
+    """A law file without its fit time (the rest is deterministic)."""
+    import json
+
+    d = json.loads(path.read_text(encoding="utf-8"))
+    d.pop("fit_time_s", None)
+    return d
+
+
+def cmd_fit_law(args: argparse.Namespace) -> int:
+    from ..drift_law import DEFAULT_LAW_PATH
+
+    p = params_from_args(args)
+    pts = _points(args.points) if args.points else list(LAW_TRAINING_POINTS)
+    if len(pts) < 2:
+        raise UserError("--points: at least two training points (the law is validated leaving one out)")
+    if args.jump_down_n < 0:
+        raise UserError(f"--jump-down-n {args.jump_down_n}: must be >= 0")
+    cand = [(f, a) for f in axis_values("--candidates-f-ex", args.candidates_f_ex)
+            for a in axis_values("--candidates-a-ex", args.candidates_a_ex)]
+    out = Path(args.out)
+    law_path, drift_dir = out / "law.json", out / "drift"
+    jd_dir = drift_dir / "jump_down"
+    if args.resume and args.force:
+        raise UserError("give --resume or --force, not both")
+    ours = [law_path, *drift_dir.glob("drift_*.jsonl"), *jd_dir.glob("drift_*.jsonl")] if out.exists() else []
+    ours = [f for f in ours if f.exists()]
+    if ours and not (args.resume or args.force):
+        raise UserError(f"{out} holds an earlier fit ({len(ours)} files, e.g. {ours[0]}): --resume continues it, "
+                        "--force starts again")
+    if args.force:
+        for f in ours:
+            f.unlink()
+    settings = dict(ds=args.ds, settle_periods=args.settle_periods, first_settle_periods=args.first_settle_periods,
+                    window_s=args.window_s)
+    progress = sys.stderr.isatty() if args.progress is None else args.progress
+    t0, c0 = time.perf_counter(), time.process_time()
+    tabs = drift_tables(p, points=pts, out=drift_dir, resume=args.resume, threads=args.threads, progress=progress, **settings)
+    extra = refine_jump_down(tabs, candidates=cand, n=args.jump_down_n, params=p, out=jd_dir, threads=args.threads,
+                             progress=progress, **settings) if args.jump_down_n else []
+    law = fit_drift_law(tabs, params=p, jump_down_tables=extra)
+    tmp = law_path.with_name(law_path.name + ".tmp")
+    save_drift_law(law, tmp)
+    tmp.replace(law_path)
+    wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+    lo = law.loo
+    br = law.rho_bracket or {}
+    print(f"drift law from {len(tabs)} tables + {len(extra)} jump-down tables in {wall:.1f} s ({cpu:.1f} s CPU)"
+          + (f"; added {', '.join(f'({t.f_ex:g}, {t.a_ex:g})' for t in extra)}" if extra else ""))
+    print(f"leave one point out: V error {lo['ratio']:.3f} of the typical |V| (L {lo['rms_error_L'] / lo['typical_v_L']:.3f}, "
+          f"H {lo['rms_error_H'] / lo['typical_v_H']:.3f})")
+    print(f"s_up shift {law.s_up_shift:+.4f}, lift-off threshold Λ_c {law.lift_c:.3f}, "
+          + (f"jump-down at s_p = {law.jump_down_s:.3f} where ρ ≤ ρ_c = {law.rho_c:.5f}" if law.rho_c > 0 else "no jump-down learnt")
+          + (f" (bracket {br['lo']:.5f} … {br['hi']:.5f})" if br.get("lo") is not None and br.get("hi") is not None else "")
+          + f", V resolution {law.v_resolution:.2e} 1/s")
+    if p == Parameters() and _law_content(law_path) == _law_content(DEFAULT_LAW_PATH):
+        print("(the built-in default law: the same samples and constants)")
+    print(f"wrote {law_path} (tables in {drift_dir}); use it: beamslider predict --law {law_path}, "
+          f"beamslider map --predictor {law_path}")
     return 0
 
 
