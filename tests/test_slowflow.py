@@ -96,7 +96,7 @@ def test_predict_rejects_bad_input():
     with pytest.raises(ValueError, match="drift"):
         predict(f_ex=124, a_ex=12, s0=0.3, drift=t)
     with pytest.raises(ValueError, match="drift"):
-        predict(f_ex=124, a_ex=14, s0=0.3, drift=None)
+        predict(f_ex=124, a_ex=14, s0=0.3, drift="law.json")  # a path is not a law (None: the built-in law)
     with pytest.raises(ValueError, match="s_dn"):
         predict(f_ex=124, a_ex=14, s0=0.3, drift=t, s_dn="pcs")
 
