@@ -176,7 +176,7 @@ class DesignConfig:
             raise ValueError(f"invalid parameter `evaluator` = {self.evaluator!r}: must be one of {', '.join(EVALUATORS)}")
         if self.evaluator == "predictor" and not self.drift_law:
             raise ValueError("invalid parameter `drift_law`: the predictor evaluator needs a fitted drift law "
-                             "(a JSON file written by beamslider.superslow.save_drift_law)")
+                             "(a JSON file written by `beamslider fit-law` or beamslider.superslow.save_drift_law)")
         if self.evaluator == "predictor" and len(self.s0) != 1:
             raise ValueError("invalid parameter `band.s0`: the predictor evaluator takes one s0")
         self.seed = _int("seed", self.seed, 0)
