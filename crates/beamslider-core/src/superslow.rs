@@ -37,7 +37,9 @@
 #[path = "superslow_mhb.rs"]
 mod mhb;
 
-use nalgebra::{DMatrix, DVector};
+use std::cell::RefCell;
+
+use nalgebra::{DMatrix, DVector, DVectorView};
 
 use crate::beam::Beam;
 use crate::error::{Error, Result};
@@ -436,134 +438,176 @@ impl HbSystem {
     /// Scaled residual r = R/f_ref and (optionally) the scaled Jacobian [∂r/∂x | ∂r/∂p] of the
     /// unknowns y = (Re Q/q_ref, Im Q/q_ref, p), p = s or the load factor.
     fn eval(&self, y: &DVector<f64>, par: Param, want_j: bool) -> (DVector<f64>, DMatrix<f64>) {
+        let mut w = EvalWork::new(self);
+        self.eval_into(y, par, want_j, &mut w);
+        (w.r, if want_j { w.j } else { DMatrix::zeros(0, 0) })
+    }
+
+    /// [`HbSystem::eval`] into the buffers of `w` (`w.r`, and `w.j` when `want_j`), without
+    /// allocating (single-term HB).
+    fn eval_into(&self, y: &DVector<f64>, par: Param, want_j: bool, w: &mut EvalWork) {
         if let Some(m) = &self.mhb {
-            return m.eval(self, y, par, want_j);
+            let (r, j) = m.eval(self, y, par, want_j);
+            w.r = r;
+            if want_j {
+                w.j = j;
+            }
+            return;
         }
-        let n = self.n;
+        // The default five modes with N as a constant (unrolled loops, no bounds checks).
+        match self.n {
+            5 => self.eval_single(5, y, par, want_j, w),
+            n => self.eval_single(n, y, par, want_j, w),
+        }
+    }
+
+    /// Body of [`HbSystem::eval_into`] for single-term HB with N = `n` (= self.n). Matrices are
+    /// read column-major as slices ((r, c) of an n-row matrix at c·n + r).
+    #[inline(always)]
+    fn eval_single(&self, n: usize, y: &DVector<f64>, par: Param, want_j: bool, w: &mut EvalWork) {
         let (s, load) = match par {
             Param::S { load } => (y[2 * n], load),
             Param::Load { s } => (s, y[2 * n]),
         };
         let q = self.q_ref;
-        let u = DVector::from_fn(n, |i, _| y[i] * q);
-        let v = DVector::from_fn(n, |i, _| y[n + i] * q);
+        for i in 0..n {
+            w.u[i] = y[i] * q;
+            w.v[i] = y[n + i] * q;
+        }
         let x = s * self.length;
-        let mut phi = DVector::zeros(n);
-        let mut dphi = DVector::zeros(n);
-        let mut ddphi = DVector::zeros(n);
-        self.beam.shapes_exact(x, phi.as_mut_slice(), dphi.as_mut_slice(), ddphi.as_mut_slice());
+        self.beam.shapes_exact(x, w.phi.as_mut_slice(), w.dphi.as_mut_slice(), w.ddphi.as_mut_slice());
         let om2 = self.omega_ex * self.omega_ex;
+        let lam = &self.lam.as_slice()[..n * n];
+        let kmat = &self.kmat.as_slice()[..n * n];
+        let (gamma, e_diag) = (&self.gamma.as_slice()[..n], &self.e_diag[..n]);
+        let EvalWork { u, v, phi, dphi, ddphi, gamma_s, ku, kv, zu, zv, z, r, j } = w;
+        let (phi, dphi, ddphi) = (&phi.as_slice()[..n], &dphi.as_slice()[..n], &ddphi.as_slice()[..n]);
         // Z = Λ − Ω² M(s).
-        let mut z = self.lam.clone();
+        let z = &mut z.as_mut_slice()[..n * n];
         for c in 0..n {
             for r in 0..n {
                 let mrc = self.mass * phi[r] * phi[c] + self.j_g * dphi[r] * dphi[c] + if r == c { 1.0 } else { 0.0 };
-                z[(r, c)] -= om2 * mrc;
+                z[c * n + r] = lam[c * n + r] - om2 * mrc;
             }
         }
-        let gamma_s = &self.gamma + self.mass * &phi;
-        let ku = &self.kmat * &u;
-        let kv = &self.kmat * &v;
-        let a = u.dot(&ku);
-        let b = v.dot(&kv);
-        let p = u.dot(&kv);
-        let c = self.k_ax / 8.0;
-        let mut r = DVector::zeros(2 * n);
-        let zu = &z * &u;
-        let zv = &z * &v;
+        let gamma_s = &mut gamma_s.as_mut_slice()[..n];
         for i in 0..n {
-            r[i] = zu[i] - self.e_diag[i] * v[i] + c * ((3.0 * a + b) * ku[i] + 2.0 * p * kv[i])
-                - load * gamma_s[i] * self.a_ex;
-            r[n + i] = zv[i] + self.e_diag[i] * u[i] + c * (2.0 * p * ku[i] + (a + 3.0 * b) * kv[i]);
+            gamma_s[i] = gamma[i] + self.mass * phi[i];
+        }
+        matvec(kmat, u.as_slice(), ku.as_mut_slice(), n);
+        matvec(kmat, v.as_slice(), kv.as_mut_slice(), n);
+        let a = u.dot(ku);
+        let b = v.dot(kv);
+        let p = u.dot(kv);
+        let c = self.k_ax / 8.0;
+        matvec(z, u.as_slice(), zu.as_mut_slice(), n);
+        matvec(z, v.as_slice(), zv.as_mut_slice(), n);
+        let (us, vs) = (&u.as_slice()[..n], &v.as_slice()[..n]);
+        let (ku, kv, zu, zv) = (&ku.as_slice()[..n], &kv.as_slice()[..n], &zu.as_slice()[..n], &zv.as_slice()[..n]);
+        let rs = &mut r.as_mut_slice()[..2 * n];
+        for i in 0..n {
+            rs[i] = zu[i] - e_diag[i] * vs[i] + c * ((3.0 * a + b) * ku[i] + 2.0 * p * kv[i]) - load * gamma_s[i] * self.a_ex;
+            rs[n + i] = zv[i] + e_diag[i] * us[i] + c * (2.0 * p * ku[i] + (a + 3.0 * b) * kv[i]);
         }
         let (wr, wi) = match &self.d2 {
             Some((kappa, pm)) => {
-                let wr = pm.iter().zip(u.iter()).map(|(a, b)| a * b).sum::<f64>();
-                let wi = pm.iter().zip(v.iter()).map(|(a, b)| a * b).sum::<f64>();
+                let wr = pm.iter().zip(us).map(|(a, b)| a * b).sum::<f64>();
+                let wi = pm.iter().zip(vs).map(|(a, b)| a * b).sum::<f64>();
                 for i in 0..n {
-                    r[i] += kappa[i] * (2.0 * wr * wi * u[i] - (3.0 * wr * wr + wi * wi) * v[i]);
-                    r[n + i] += kappa[i] * ((wr * wr + 3.0 * wi * wi) * u[i] - 2.0 * wr * wi * v[i]);
+                    rs[i] += kappa[i] * (2.0 * wr * wi * us[i] - (3.0 * wr * wr + wi * wi) * vs[i]);
+                    rs[n + i] += kappa[i] * ((wr * wr + 3.0 * wi * wi) * us[i] - 2.0 * wr * wi * vs[i]);
                 }
                 (wr, wi)
             }
             None => (0.0, 0.0),
         };
-        r /= self.f_ref;
-        if !want_j {
-            return (r, DMatrix::zeros(0, 0));
+        for x in rs.iter_mut() {
+            *x /= self.f_ref;
         }
-        let mut j = DMatrix::zeros(2 * n, 2 * n + 1);
+        if !want_j {
+            return;
+        }
+        // J: 2N rows, 2N + 1 columns, (row, col) at col·2N + row.
+        let m = 2 * n;
+        let j = &mut j.as_mut_slice()[..m * (m + 1)];
         for col in 0..n {
             for row in 0..n {
-                let kk = self.kmat[(row, col)];
-                let juu = z[(row, col)] + c * ((3.0 * a + b) * kk + 6.0 * ku[row] * ku[col] + 2.0 * kv[row] * kv[col]);
+                let (kk, zz) = (kmat[col * n + row], z[col * n + row]);
+                let juu = zz + c * ((3.0 * a + b) * kk + 6.0 * ku[row] * ku[col] + 2.0 * kv[row] * kv[col]);
                 let juv = c * (2.0 * ku[row] * kv[col] + 2.0 * kv[row] * ku[col] + 2.0 * p * kk);
-                let jvv = z[(row, col)] + c * (2.0 * ku[row] * ku[col] + (a + 3.0 * b) * kk + 6.0 * kv[row] * kv[col]);
-                j[(row, col)] = juu;
-                j[(row, n + col)] = juv;
-                j[(n + row, col)] = juv;
-                j[(n + row, n + col)] = jvv;
+                let jvv = zz + c * (2.0 * ku[row] * ku[col] + (a + 3.0 * b) * kk + 6.0 * kv[row] * kv[col]);
+                j[col * m + row] = juu;
+                j[(n + col) * m + row] = juv;
+                j[col * m + n + row] = juv;
+                j[(n + col) * m + n + row] = jvv;
             }
-            j[(col, n + col)] -= self.e_diag[col];
-            j[(n + col, col)] += self.e_diag[col];
+            j[(n + col) * m + col] -= e_diag[col];
+            j[col * m + n + col] += e_diag[col];
         }
         if let Some((kappa, pm)) = &self.d2 {
             for row in 0..n {
                 let k = kappa[row];
-                let (ur, vr) = (u[row], v[row]);
+                let (ur, vr) = (us[row], vs[row]);
                 for col in 0..n {
                     let pj = pm[col];
                     let dl = if row == col { 1.0 } else { 0.0 };
-                    j[(row, col)] += k * (2.0 * wi * pj * ur + 2.0 * wr * wi * dl - 6.0 * wr * pj * vr);
-                    j[(row, n + col)] += k * (2.0 * wr * pj * ur - 2.0 * wi * pj * vr - (3.0 * wr * wr + wi * wi) * dl);
-                    j[(n + row, col)] += k * (2.0 * wr * pj * ur + (wr * wr + 3.0 * wi * wi) * dl - 2.0 * wi * pj * vr);
-                    j[(n + row, n + col)] += k * (6.0 * wi * pj * ur - 2.0 * wr * pj * vr - 2.0 * wr * wi * dl);
+                    j[col * m + row] += k * (2.0 * wi * pj * ur + 2.0 * wr * wi * dl - 6.0 * wr * pj * vr);
+                    j[(n + col) * m + row] += k * (2.0 * wr * pj * ur - 2.0 * wi * pj * vr - (3.0 * wr * wr + wi * wi) * dl);
+                    j[col * m + n + row] += k * (2.0 * wr * pj * ur + (wr * wr + 3.0 * wi * wi) * dl - 2.0 * wi * pj * vr);
+                    j[(n + col) * m + n + row] += k * (6.0 * wi * pj * ur - 2.0 * wr * pj * vr - 2.0 * wr * wi * dl);
                 }
             }
         }
         // Unknowns are x = u/q: ∂/∂x = q ∂/∂u; residual scaled by 1/f_ref.
         let sx = q / self.f_ref;
-        for col in 0..2 * n {
-            for row in 0..2 * n {
-                j[(row, col)] *= sx;
-            }
+        for x in &mut j[..m * m] {
+            *x *= sx;
         }
         // Parameter column.
+        let jp = &mut j[m * m..];
         match par {
             Param::S { load } => {
                 let l = self.length;
-                // dM/ds w = L[m(Φ′(Φ·w) + Φ(Φ′·w)) + J_G(Φ″(Φ′·w) + Φ′(Φ″·w))].
-                let dm = |w: &DVector<f64>| -> DVector<f64> {
-                    let (pw, dw, ddw) = (phi.dot(w), dphi.dot(w), ddphi.dot(w));
-                    (self.mass * (&dphi * pw + &phi * dw) + self.j_g * (&ddphi * dw + &dphi * ddw)) * l
+                // dM/ds w = L[m(Φ′(Φ·w) + Φ(Φ′·w)) + J_G(Φ″(Φ′·w) + Φ′(Φ″·w))], for w = u and v.
+                let dot = |a: &[f64], b: &[f64]| DVectorView::from_slice(a, n).dot(&DVectorView::from_slice(b, n));
+                let (pu, du, ddu) = (dot(phi, us), dot(dphi, us), dot(ddphi, us));
+                let (pv, dv, ddv) = (dot(phi, vs), dot(dphi, vs), dot(ddphi, vs));
+                let dm = |i: usize, pw: f64, dw: f64, ddw: f64| {
+                    (self.mass * (dphi[i] * pw + phi[i] * dw) + self.j_g * (ddphi[i] * dw + dphi[i] * ddw)) * l
                 };
-                let dmu = dm(&u);
-                let dmv = dm(&v);
                 for i in 0..n {
-                    j[(i, 2 * n)] = (-om2 * dmu[i] - load * l * self.mass * dphi[i] * self.a_ex) / self.f_ref;
-                    j[(n + i, 2 * n)] = -om2 * dmv[i] / self.f_ref;
+                    let (dmu, dmv) = (dm(i, pu, du, ddu), dm(i, pv, dv, ddv));
+                    jp[i] = (-om2 * dmu - load * l * self.mass * dphi[i] * self.a_ex) / self.f_ref;
+                    jp[n + i] = -om2 * dmv / self.f_ref;
                 }
             }
             Param::Load { .. } => {
                 for i in 0..n {
-                    j[(i, 2 * n)] = -gamma_s[i] * self.a_ex / self.f_ref;
-                    j[(n + i, 2 * n)] = 0.0;
+                    jp[i] = -gamma_s[i] * self.a_ex / self.f_ref;
+                    jp[n + i] = 0.0;
                 }
             }
         }
-        (r, j)
     }
 
     /// Newton at fixed parameter (the last entry of y).
     fn newton_fixed(&self, y0: &DVector<f64>, par: Param) -> Option<DVector<f64>> {
         let n2 = self.nx;
         let mut y = y0.clone();
+        let mut w = EvalWork::new(self);
+        let mut lu = LuWork::new(n2);
+        let mut dx = DVector::zeros(n2);
         // At a fold (singular Jacobian) Newton converges only linearly: allow many iterations
         // and accept a small residual.
         for _ in 0..60 {
-            let (r, j) = self.eval(&y, par, true);
-            let jx = j.columns(0, n2).into_owned();
-            let dx = jx.lu().solve(&(-&r))?;
+            self.eval_into(&y, par, true, &mut w);
+            lu.a.copy_from(&w.j.columns(0, n2));
+            for i in 0..n2 {
+                dx[i] = -w.r[i];
+            }
+            if !lu.factor_solve(&mut dx) {
+                return None;
+            }
             if !dx.iter().all(|d| d.is_finite()) {
                 return None;
             }
@@ -574,8 +618,8 @@ impl HbSystem {
                 return Some(y);
             }
         }
-        let (r, _) = self.eval(&y, par, false);
-        (r.amax() <= 1e-10).then_some(y)
+        self.eval_into(&y, par, false, &mut w);
+        (w.r.amax() <= 1e-10).then_some(y)
     }
 
     /// Complex amplitude of w(4L/7) (scaled) of the unknowns y.
@@ -619,9 +663,8 @@ impl HbSystem {
     /// Lowest natural angular frequency of (Λ, M(s)) [rad/s].
     pub fn linear_frequency(&self, s: f64) -> f64 {
         let m = self.mass_matrix(s);
-        let Some(ch) = m.clone().cholesky() else { return f64::NAN };
-        let l = ch.l();
-        let Some(li) = l.clone().try_inverse() else { return f64::NAN };
+        let Some(ch) = m.cholesky() else { return f64::NAN };
+        let Some(li) = ch.l().try_inverse() else { return f64::NAN };
         let a = &li * &self.lam * li.transpose();
         let a = (&a + a.transpose()) * 0.5;
         a.symmetric_eigenvalues().min().max(0.0).sqrt()
@@ -634,6 +677,209 @@ enum Param {
     S { load: f64 },
     /// Continuation parameter: load factor at fixed s.
     Load { s: f64 },
+}
+
+/// Buffers of [`HbSystem::eval_into`]: the residual `r`, the Jacobian `j` and the intermediates.
+struct EvalWork {
+    u: DVector<f64>,
+    v: DVector<f64>,
+    phi: DVector<f64>,
+    dphi: DVector<f64>,
+    ddphi: DVector<f64>,
+    gamma_s: DVector<f64>,
+    ku: DVector<f64>,
+    kv: DVector<f64>,
+    zu: DVector<f64>,
+    zv: DVector<f64>,
+    z: DMatrix<f64>,
+    r: DVector<f64>,
+    j: DMatrix<f64>,
+}
+
+impl EvalWork {
+    fn new(sys: &HbSystem) -> EvalWork {
+        let (n, nx) = (sys.n, sys.nx);
+        let vn = || DVector::zeros(n);
+        EvalWork {
+            u: vn(),
+            v: vn(),
+            phi: vn(),
+            dphi: vn(),
+            ddphi: vn(),
+            gamma_s: vn(),
+            ku: vn(),
+            kv: vn(),
+            zu: vn(),
+            zv: vn(),
+            z: DMatrix::zeros(n, n),
+            r: DVector::zeros(nx),
+            j: DMatrix::zeros(nx, nx + 1),
+        }
+    }
+}
+
+/// LU factorisation with partial pivoting, in place on a reused square matrix `a`: the operations
+/// of nalgebra's `LU::new`, `solve` and `determinant` in the same order (pivot = the first entry
+/// of largest modulus, multipliers scaled by the pivot's reciprocal, a zero pivot column skipped,
+/// the same triangular solves), so the results are bitwise equal, without allocating.
+struct LuWork {
+    a: DMatrix<f64>,
+    swaps: Vec<(usize, usize)>,
+}
+
+impl LuWork {
+    fn new(d: usize) -> LuWork {
+        LuWork { a: DMatrix::zeros(d, d), swaps: Vec::with_capacity(d) }
+    }
+
+    /// a = [j; borderᵀ] (j with one row fewer than a).
+    fn load_bordered(&mut self, j: &DMatrix<f64>, border: &DVector<f64>) {
+        let d = self.a.nrows();
+        for ((col, jc), b) in self.a.as_mut_slice().chunks_exact_mut(d).zip(j.as_slice().chunks_exact(d - 1)).zip(border.iter()) {
+            col[..d - 1].copy_from_slice(jc);
+            col[d - 1] = *b;
+        }
+    }
+
+    /// Factorise `a` in place (L below the diagonal with a unit diagonal, U on and above it).
+    fn factor(&mut self) {
+        let d = self.a.nrows();
+        let a = self.a.as_mut_slice();
+        // The sizes of the default five modes as constants (unrolled loops).
+        match d {
+            10 => lu_factor(a, 10, &mut self.swaps),
+            11 => lu_factor(a, 11, &mut self.swaps),
+            d => lu_factor(a, d, &mut self.swaps),
+        }
+    }
+
+    /// Determinant of the factorised matrix.
+    fn determinant(&self) -> f64 {
+        let mut det = 1.0;
+        for i in 0..self.a.nrows() {
+            det *= self.a[(i, i)];
+        }
+        det * if self.swaps.len().is_multiple_of(2) { 1.0 } else { -1.0 }
+    }
+
+    /// Solve with the factorised matrix, b overwritten by the solution; false on a zero pivot.
+    fn solve(&self, b: &mut DVector<f64>) -> bool {
+        for &(i, p) in &self.swaps {
+            b.swap_rows(i, p);
+        }
+        let (a, b) = (self.a.as_slice(), b.as_mut_slice());
+        match self.a.nrows() {
+            10 => lu_solve(a, 10, b),
+            11 => lu_solve(a, 11, b),
+            d => lu_solve(a, d, b),
+        }
+    }
+
+    fn factor_solve(&mut self, b: &mut DVector<f64>) -> bool {
+        self.factor();
+        self.solve(b)
+    }
+}
+
+/// out = a·x for the n×n column-major `a`, summed as nalgebra's matrix–vector product (column
+/// by column: out = a₀x₀, then out += aⱼxⱼ), so bitwise equal to it.
+#[inline(always)]
+fn matvec(a: &[f64], x: &[f64], out: &mut [f64], n: usize) {
+    let (a, x, out) = (&a[..n * n], &x[..n], &mut out[..n]);
+    for (o, aij) in out.iter_mut().zip(&a[..n]) {
+        *o = aij * x[0];
+    }
+    for (col, xj) in a.chunks_exact(n).zip(x).skip(1) {
+        for (o, aij) in out.iter_mut().zip(col) {
+            *o += aij * xj;
+        }
+    }
+}
+
+/// Body of [`LuWork::factor`] on the column-major d×d `a` ((r, c) at c·d + r).
+#[inline(always)]
+fn lu_factor(a: &mut [f64], d: usize, swaps: &mut Vec<(usize, usize)>) {
+    let a = &mut a[..d * d];
+    swaps.clear();
+    for i in 0..d {
+        let col = &a[i * d..(i + 1) * d];
+        let (mut piv, mut max) = (i, col[i].abs());
+        for (r, x) in col.iter().enumerate().skip(i + 1) {
+            if x.abs() > max {
+                (piv, max) = (r, x.abs());
+            }
+        }
+        let diag = col[piv];
+        if diag == 0.0 {
+            continue;
+        }
+        if piv != i {
+            swaps.push((i, piv));
+            for c in 0..d {
+                a.swap(c * d + i, c * d + piv);
+            }
+        }
+        let inv_diag = 1.0 / diag;
+        for x in &mut a[i * d + i + 1..(i + 1) * d] {
+            *x *= inv_diag;
+        }
+        let (left, right) = a.split_at_mut((i + 1) * d);
+        let coeffs = &left[i * d + i + 1..];
+        for col in right.chunks_exact_mut(d) {
+            let p = col[i];
+            for (y, l) in col[i + 1..].iter_mut().zip(coeffs) {
+                *y += -p * l;
+            }
+        }
+    }
+}
+
+/// Triangular solves of [`LuWork::solve`] (rows of b already permuted).
+#[inline(always)]
+fn lu_solve(a: &[f64], d: usize, b: &mut [f64]) -> bool {
+    let (a, b) = (&a[..d * d], &mut b[..d]);
+    for i in 0..d - 1 {
+        let coeff = b[i];
+        for (y, l) in b[i + 1..].iter_mut().zip(&a[i * d + i + 1..(i + 1) * d]) {
+            *y += -coeff * l;
+        }
+    }
+    for i in (0..d).rev() {
+        let diag = a[i * d + i];
+        if diag == 0.0 {
+            return false;
+        }
+        let coeff = b[i] / diag;
+        b[i] = coeff;
+        for (y, u) in b[..i].iter_mut().zip(&a[i * d..i * d + i]) {
+            *y += -coeff * u;
+        }
+    }
+    true
+}
+
+/// Reused buffers of one continuation.
+struct ContWork {
+    eval: EvalWork,
+    /// The bordered (nx + 1)-square systems of the corrector and the tangent.
+    bordered: LuWork,
+    /// ∂R/∂x alone (stability).
+    jx: LuWork,
+    rhs: DVector<f64>,
+    diff: DVector<f64>,
+}
+
+impl ContWork {
+    fn new(sys: &HbSystem) -> RefCell<ContWork> {
+        let d = sys.nx + 1;
+        RefCell::new(ContWork {
+            eval: EvalWork::new(sys),
+            bordered: LuWork::new(d),
+            jx: LuWork::new(sys.nx),
+            rhs: DVector::zeros(d),
+            diff: DVector::zeros(d),
+        })
+    }
 }
 
 struct Corrected {
@@ -660,6 +906,7 @@ struct Continuation<'a> {
     h_min: f64,
     /// Stop (complete) right after the first fold.
     stop_at_fold: bool,
+    work: RefCell<ContWork>,
 }
 
 impl Continuation<'_> {
@@ -677,22 +924,28 @@ impl Continuation<'_> {
     fn newton(&self, start: &DVector<f64>, y_pred: &DVector<f64>, t: &DVector<f64>, max_iter: usize, tol: f64) -> Option<Corrected> {
         let d = self.dim();
         let mut y = start.clone();
+        let ws = &mut *self.work.borrow_mut();
         for it in 0..max_iter {
-            let (r, j) = self.sys.eval(&y, self.par, true);
-            let mut a = DMatrix::zeros(d, d);
-            a.rows_mut(0, d - 1).copy_from(&j);
-            a.row_mut(d - 1).copy_from(&t.transpose());
-            let mut rhs = DVector::zeros(d);
-            rhs.rows_mut(0, d - 1).copy_from(&(-&r));
-            rhs[d - 1] = -t.dot(&(&y - y_pred));
-            let dy = a.lu().solve(&rhs)?;
+            self.sys.eval_into(&y, self.par, true, &mut ws.eval);
+            ws.bordered.load_bordered(&ws.eval.j, t);
+            for i in 0..d - 1 {
+                ws.rhs[i] = -ws.eval.r[i];
+            }
+            for i in 0..d {
+                ws.diff[i] = y[i] - y_pred[i];
+            }
+            ws.rhs[d - 1] = -t.dot(&ws.diff);
+            if !ws.bordered.factor_solve(&mut ws.rhs) {
+                return None;
+            }
+            let dy = &ws.rhs;
             if !dy.iter().all(|v| v.is_finite()) {
                 return None;
             }
-            y += &dy;
+            y += dy;
             if dy.amax() <= tol * (1.0 + y.amax()) {
-                let (_, j) = self.sys.eval(&y, self.par, true);
-                return Some(Corrected { y, j, iters: it + 1 });
+                self.sys.eval_into(&y, self.par, true, &mut ws.eval);
+                return Some(Corrected { y, j: ws.eval.j.clone(), iters: it + 1 });
             }
         }
         None
@@ -702,17 +955,21 @@ impl Continuation<'_> {
     /// same factorisation (Cramer: t_p = det(∂R/∂x)/det[J; borderᵀ] before normalising).
     fn tangent_stable(&self, j: &DMatrix<f64>, border: &DVector<f64>) -> Option<(DVector<f64>, bool)> {
         let d = self.dim();
-        let mut a = DMatrix::zeros(d, d);
-        a.rows_mut(0, d - 1).copy_from(j);
-        a.row_mut(d - 1).copy_from(&border.transpose());
-        let mut e = DVector::zeros(d);
-        e[d - 1] = 1.0;
-        let lu = a.lu();
+        let lu = &mut self.work.borrow_mut().bordered;
+        lu.load_bordered(j, border);
+        lu.factor();
         let det_a = lu.determinant();
-        let t = lu.solve(&e)?;
+        let mut t = DVector::zeros(d);
+        t[d - 1] = 1.0;
+        if !lu.solve(&mut t) {
+            return None;
+        }
         let nrm = t.norm();
         let stable = t[d - 1] * det_a > 0.0;
-        (nrm.is_finite() && nrm > 0.0).then(|| (t / nrm, stable))
+        (nrm.is_finite() && nrm > 0.0).then(|| {
+            t /= nrm;
+            (t, stable)
+        })
     }
 
     fn tangent(&self, j: &DMatrix<f64>, border: &DVector<f64>) -> Option<DVector<f64>> {
@@ -720,8 +977,10 @@ impl Continuation<'_> {
     }
 
     fn stable(&self, j: &DMatrix<f64>) -> bool {
-        let n2 = self.sys.nx;
-        j.columns(0, n2).into_owned().lu().determinant() > 0.0
+        let lu = &mut self.work.borrow_mut().jx;
+        lu.a.copy_from(&j.columns(0, self.sys.nx));
+        lu.factor();
+        lu.determinant() > 0.0
     }
 
     /// Fold between (ya, ta) and yb: zero of the tangent's parameter component along the
@@ -833,7 +1092,7 @@ impl Continuation<'_> {
 /// (the lowest-amplitude solution reached from rest).
 fn solve_from_rest(sys: &HbSystem, s: f64, opts: &HbOptions) -> Result<DVector<f64>> {
     let n2 = sys.nx;
-    let cont = Continuation { sys, par: Param::Load { s }, max_steps: opts.max_steps, h_max: opts.max_step * 5.0, h_min: 1e-10, stop_at_fold: false };
+    let cont = Continuation { sys, par: Param::Load { s }, max_steps: opts.max_steps, h_max: opts.max_step * 5.0, h_min: 1e-10, stop_at_fold: false, work: ContWork::new(sys) };
     let y0 = DVector::zeros(n2 + 1);
     let run = cont.trace(y0, 1.0, -1.0, 1.0);
     if !run.complete {
@@ -893,7 +1152,7 @@ pub fn hb_manifold(params: &Params, f_ex_hz: f64, a_ex: f64, opts: &HbOptions) -
     }
     let (s_lo, s_hi) = (grid[0], grid[grid.len() - 1]);
     let n2 = sys.nx;
-    let cont = Continuation { sys: &sys, par: Param::S { load: 1.0 }, max_steps: opts.max_steps, h_max: opts.max_step, h_min: 1e-10, stop_at_fold: false };
+    let cont = Continuation { sys: &sys, par: Param::S { load: 1.0 }, max_steps: opts.max_steps, h_max: opts.max_step, h_min: 1e-10, stop_at_fold: false, work: ContWork::new(&sys) };
     let mut out = HbManifold {
         s_range: (s_lo, s_hi),
         n_modes: sys.n,
@@ -1360,6 +1619,52 @@ mod tests {
         assert!(brent(|_| f64::NAN, -1.0, 1.0, 1e-12, 100).is_err());
         // Cap: never loops forever.
         assert!(brent(|x| x.powi(3), -1.0, 2.0, 0.0, 3).is_err());
+    }
+
+    #[test]
+    fn lu_work_and_matvec_are_bitwise_nalgebra() {
+        // Pseudo-random matrices of the sizes in use (10, 11) and others, some singular (a zero
+        // column, a repeated row): factors, determinant and solution equal nalgebra's LU bit for
+        // bit, and `matvec` equals nalgebra's matrix–vector product.
+        let mut seed = 0x2545_f491_4f6c_dd1du64;
+        let mut rnd = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+        };
+        let bits = |m: &[f64]| m.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        for d in [1, 2, 3, 5, 7, 10, 11, 12, 21] {
+            for case in 0..12 {
+                let mut m = DMatrix::from_fn(d, d, |_, _| rnd());
+                if d > 1 && case == 1 {
+                    m.column_mut(d / 2).fill(0.0);
+                }
+                if d > 1 && case == 2 {
+                    let r = m.row(0).into_owned();
+                    m.row_mut(d - 1).copy_from(&r);
+                }
+                let b = DVector::from_fn(d, |_, _| rnd());
+                let reference = m.clone().lu();
+                let mut lu = LuWork::new(d);
+                lu.a.copy_from(&m);
+                lu.factor();
+                let mut l = lu.a.lower_triangle();
+                l.fill_diagonal(1.0);
+                assert_eq!(bits(l.as_slice()), bits(reference.l().as_slice()), "L, d = {d}, case {case}");
+                assert_eq!(bits(lu.a.upper_triangle().as_slice()), bits(reference.u().as_slice()), "U, d = {d}, case {case}");
+                assert_eq!(lu.determinant().to_bits(), reference.determinant().to_bits(), "det, d = {d}, case {case}");
+                let mut x = b.clone();
+                let solved = lu.solve(&mut x);
+                match reference.solve(&b) {
+                    Some(xr) => assert!(solved && bits(x.as_slice()) == bits(xr.as_slice()), "solve, d = {d}, case {case}"),
+                    None => assert!(!solved, "solve, d = {d}, case {case}"),
+                }
+                let mut y = DVector::zeros(d);
+                matvec(m.as_slice(), b.as_slice(), y.as_mut_slice(), d);
+                assert_eq!(bits(y.as_slice()), bits((&m * &b).as_slice()), "matvec, d = {d}, case {case}");
+            }
+        }
     }
 
     #[test]
