@@ -183,8 +183,9 @@ def cmd_fit_law(args: argparse.Namespace) -> int:
     br = law.rho_bracket or {}
     print(f"drift law from {len(tabs)} tables + {len(extra)} jump-down tables in {wall:.1f} s ({cpu:.1f} s CPU)"
           + (f"; added {', '.join(f'({t.f_ex:g}, {t.a_ex:g})' for t in extra)}" if extra else ""))
-    print(f"leave one point out: V error {lo['ratio']:.3f} of the typical |V| (L {lo['rms_error_L'] / lo['typical_v_L']:.3f}, "
-          f"H {lo['rms_error_H'] / lo['typical_v_H']:.3f})")
+    rel = lambda e, t: e / t if t > 0 else float("nan")  # noqa: E731  (a branch without rows: no typical |V|)
+    print(f"leave one point out: V error {lo['ratio']:.3f} of the typical |V| (L {rel(lo['rms_error_L'], lo['typical_v_L']):.3f}, "
+          f"H {rel(lo['rms_error_H'], lo['typical_v_H']):.3f})")
     print(f"s_up shift {law.s_up_shift:+.4f}, lift-off threshold Λ_c {law.lift_c:.3f}, "
           + (f"jump-down at s_p = {law.jump_down_s:.3f} where ρ ≤ ρ_c = {law.rho_c:.5f}" if law.rho_c > 0 else "no jump-down learnt")
           + (f" (bracket {br['lo']:.5f} … {br['hi']:.5f})" if br.get("lo") is not None and br.get("hi") is not None else "")
