@@ -321,9 +321,7 @@ def predict(
         raise ValueError(f"invalid parameter `t_end` = {t_end}: must be > 0")
     builtin_note = None
     if drift is None:
-        drift = default_drift_law()
-        if p != Parameters():
-            builtin_note = BUILTIN_LAW_NOTE
+        drift, builtin_note = builtin_law(p)
     if not isinstance(drift, (DriftTable, DriftLaw)):
         raise ValueError("invalid parameter `drift`: a DriftTable (b1) or a DriftLaw (b2, fit_drift_law)")
     if isinstance(drift, DriftTable) and (abs(drift.f_ex - f_ex) > 1e-9 or abs(drift.a_ex - a_ex) > 1e-9):
@@ -402,13 +400,19 @@ BUILTIN_LAW_NOTE = ("the built-in drift law was fitted at the default parameters
                     "their own (fit_drift_law) before trusting the prediction")
 
 
+def builtin_law(p: Parameters) -> Tuple[DriftLaw, Optional[str]]:
+    """The built-in law and, when ``p`` are not the defaults it was fitted at, the note that says so."""
+    return default_drift_law(), (None if p == Parameters() else BUILTIN_LAW_NOTE)
+
+
 def _default_law_for(p: Parameters) -> DriftLaw:
-    """The built-in law, with a warning (UserWarning) when ``p`` are not the defaults it was fitted at."""
-    if p != Parameters():
+    """The built-in law, with a UserWarning when ``p`` are not the defaults it was fitted at."""
+    law, note = builtin_law(p)
+    if note:
         import warnings
 
-        warnings.warn(BUILTIN_LAW_NOTE, stacklevel=3)
-    return default_drift_law()
+        warnings.warn(note, stacklevel=3)
+    return law
 
 
 def predicted_map(

@@ -10,7 +10,6 @@ from pathlib import Path
 from typing import Any
 
 from .. import _toml
-from ..params import Parameters
 from ._common import EXIT_FAULT, UserError, add_common, axis_values, figure, out_dir, params_from_args, positive
 
 
@@ -122,7 +121,7 @@ def cmd_map(args: argparse.Namespace) -> int:
 def _predicted(args: argparse.Namespace, out: Path) -> Any:
     """The map by the reduced predictor (``--predictor``): the grid of --f-ex/--a-ex/--s0/--t-end/--params."""
     from ..maps import rows_to_table
-    from ..slowflow import load_drift_law, predicted_map
+    from ..slowflow import builtin_law, load_drift_law, predicted_map
 
     if args.config or args.extend_to is not None or args.scheduler or args.scheduler_file:
         raise UserError("--predictor takes the grid from --f-ex/--a-ex/--s0/--t-end/--params (not --config, "
@@ -135,12 +134,10 @@ def _predicted(args: argparse.Namespace, out: Path) -> Any:
     except FileNotFoundError:
         raise UserError(f"{args.predictor}: no such file (give a law written by beamslider fit-law, or 'default')") from None
     p = params_from_args(args)
-    if law is None and p != Parameters():
-        print("beamslider: warning: the built-in drift law was fitted at the default parameters; these differ, "
-              "so fit a law of their own (beamslider fit-law) before trusting the map", file=sys.stderr)
-        from ..drift_law import default_drift_law
-
-        law = default_drift_law()
+    if law is None:
+        law, note = builtin_law(p)
+        if note:
+            print(f"beamslider: warning: {note}", file=sys.stderr)
     if (out / "map.jsonl").exists() and not args.resume:
         raise UserError(f"{out / 'map.jsonl'} exists: --resume continues it, or choose another --out")
     rows = predicted_map(p, drift=law, f_ex=axis_values("--f-ex", "100:130:2" if args.f_ex is None else args.f_ex),
