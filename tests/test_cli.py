@@ -1,6 +1,7 @@
 """The ``beamslider`` command in a subprocess: real CSV/JSON/PNG files, one-line user errors."""
 
 import json
+import os
 
 import numpy as np
 import pytest
@@ -112,3 +113,21 @@ def test_user_errors_are_one_line_without_traceback(tmp_path):
     _user_error(run_cli("manifold", "--manifold-s", "a:b", cwd=tmp_path), "--manifold-s")
     _user_error(run_cli("plot", cwd=tmp_path), "nothing to plot")
     assert not (tmp_path / "beamslider-out" / "fs_124Hz_14ms2_s0_0p3.png").exists()
+
+
+def test_closed_pipe_exits_quietly(tmp_path):
+    """`beamslider predict ... | head` where the reader has gone before the line is written: no
+    "error: Broken pipe" on stderr, the status of a tool killed by SIGPIPE (141), and the files are
+    written all the same."""
+    import subprocess
+
+    from conftest import cli_command
+
+    env = dict(os.environ, MPLBACKEND="Agg")
+    p = subprocess.Popen([*cli_command(), "predict", "--f-ex", "124", "--a-ex", "14", "--out", "o"], cwd=tmp_path,
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env)
+    p.stdout.close()  # the reader is gone before anything is written
+    err = p.stderr.read().decode()
+    assert p.wait(timeout=120) == 141, err
+    assert "Broken pipe" not in err and "Traceback" not in err, err
+    assert (tmp_path / "o" / "predict_124Hz_14ms2_s0_0p3.json").exists()

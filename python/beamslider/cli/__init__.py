@@ -23,6 +23,7 @@ Layout (imports run one way only: this file → subcommand modules → shared he
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import warnings
 from typing import Optional, Sequence
@@ -77,13 +78,25 @@ def build_parser(command: Optional[str] = None) -> argparse.ArgumentParser:
     return ap
 
 
+EXIT_BROKEN_PIPE = 141
+"""Exit status when standard output is a pipe whose reader has closed it (128 + SIGPIPE, as a shell reports a
+tool killed by it)."""
+
+
 def main(argv: Optional[Sequence[str]] = None) -> int:
     """Entry point of the ``beamslider`` console script."""
     words = list(sys.argv[1:] if argv is None else argv)
     args = build_parser(words[0] if words else None).parse_args(words)
     warnings.simplefilter("ignore", RuntimeWarning)  # run faults are reported by the commands
     try:
-        return args.func(args)
+        code = args.func(args)
+        sys.stdout.flush()  # a closed pipe shows here, not at interpreter exit
+        return code
+    except BrokenPipeError:
+        # `beamslider ... | head`: the reader has gone. Exit quietly, as a tool killed by SIGPIPE
+        # does (status 128 + 13), and send what is left to /dev/null so the exit flush is silent.
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return EXIT_BROKEN_PIPE
     except KeyboardInterrupt:
         print("beamslider: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
