@@ -9,6 +9,7 @@
 #
 #   BEAMSLIDER_TEST_PYTHONS="/path/to/python3.9 /path/to/python3.13"   choose the interpreters
 #   BEAMSLIDER_REQUIRE_PYTHONS=1   fail unless both 3.9 and 3.13 are found (set by .ci/run)
+#   BEAMSLIDER_TEST_WORKERS=N      pytest-xdist workers (default 2, the cores of this project's machine)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -63,5 +64,7 @@ for py in "${PYTHONS[@]}"; do
   [ "$py" = "${PYTHONS[${#PYTHONS[@]}-1]}" ] || marks="not slow and not heavy"
   echo "scripts/test.sh: pytest on Python $ver ($venv), -m '$marks'"
   # Run from a neutral directory so that the installed package (not ./python) is imported.
-  (cd tests && "../$venv/bin/python" -m pytest -q -p no:cacheprovider -m "$marks" .)
+  # Two pytest-xdist workers (BEAMSLIDER_TEST_WORKERS); the README's examples stay on one, in order.
+  (cd tests && "../$venv/bin/python" -m pytest -q -p no:cacheprovider -m "$marks" \
+     -n "${BEAMSLIDER_TEST_WORKERS:-2}" --dist loadgroup .)
 done

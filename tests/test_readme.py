@@ -20,6 +20,9 @@ from typing import List, Tuple
 
 import pytest
 
+# The blocks build on each other: under pytest-xdist (scripts/test.sh) they stay on one worker, in order.
+pytestmark = pytest.mark.xdist_group("readme")
+
 ROOT = Path(__file__).resolve().parent.parent
 README = ROOT / "README.md"
 MARK = "<!-- runnable -->"
