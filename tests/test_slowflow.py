@@ -620,3 +620,15 @@ def test_robustness_flag_from_the_law_resolution(tmp_path):
     (tmp_path / "bad.json").write_text(json.dumps(d))
     with pytest.raises(ValueError, match="v_resolution"):
         load_drift_law(tmp_path / "bad.json")
+
+
+@pytest.mark.parametrize("f_ex, a_ex", [(60.0, 1.0), (80.0, 0.5)])
+def test_no_lift_off_anywhere_is_inactivity_without_a_hang(f_ex, a_ex):
+    """Issue 17 §7: Λ_g < 1 everywhere (a weak excitation) with the built-in law: the slider stays at
+    s0, no event, the classifier says inactivity; the law's extrapolation is reported. (Below the
+    first resonance: with the hardening high branch, 100 Hz has Λ_g up to 7 even at 0.05 m/s².)"""
+    r = predict(f_ex=f_ex, a_ex=a_ex, s0=0.3)
+    lift = np.concatenate([r.features[b]["lift_off"] for b in r.features])
+    assert lift.size and np.all(lift < 1.0), lift.max()
+    assert r.behaviour == "inactivity" and r.events == [] and np.all(r.s == 0.3)
+    assert r.extrapolated and any("outside its training range" in w for w in r.warnings)
