@@ -75,11 +75,19 @@ def test_predict_signature_move_on_the_hb_manifold():
     m = hb_manifold(f_ex=124, a_ex=14)
     r = predict(f_ex=124, a_ex=14, s0=0.3, drift=t, manifold=m, build_up=0)
     assert r.behaviour == "signature_move", r.classification["reason"]
-    # Default: the flow starts after 3 envelope time constants 3/(D Ω) of the build-up from rest.
+    # Default: the build-up from rest lasts 3 envelope time constants 3/(D Ω); the slider drifts
+    # from t = 0 and reaches the fold after it (6.2 s > 3.85 s), so the jump time is unchanged.
     r2 = predict(f_ex=124, a_ex=14, s0=0.3, drift=t, manifold=m)
     t_b = 3 / (0.001 * 2 * np.pi * 124)
     assert r2.build_up_s == pytest.approx(t_b)
-    assert r2.events[0][1] == pytest.approx((0.3 - m.s_up) / 0.005 + t_b, rel=1e-9)
+    assert r2.events[0][1] == pytest.approx((0.3 - m.s_up) / 0.005, rel=1e-9)
+    # Held (the rule before): s stays at s0 until the build-up is over.
+    r3 = predict(f_ex=124, a_ex=14, s0=0.3, drift=t, manifold=m, build_up_drift=False)
+    assert r3.events[0][1] == pytest.approx((0.3 - m.s_up) / 0.005 + t_b, rel=1e-9)
+    # A fold reached within the build-up: the jump waits for its end.
+    t_fast = _synthetic_table(124, 14, lambda s: -0.02 + 0 * s, lambda s: 0.05 * (0.42 - s))
+    r4 = predict(f_ex=124, a_ex=14, s0=0.3, drift=t_fast, manifold=m)
+    assert r4.events[0][0] == "jump_up" and r4.events[0][1] == pytest.approx(t_b, rel=1e-9)
     kinds = [e[0] for e in r.events]
     assert kinds[0] == "jump_up"
     assert abs(r.events[0][2] - m.s_up) < 1e-9
@@ -632,3 +640,27 @@ def test_no_lift_off_anywhere_is_inactivity_without_a_hang(f_ex, a_ex):
     assert lift.size and np.all(lift < 1.0), lift.max()
     assert r.behaviour == "inactivity" and r.events == [] and np.all(r.s == 0.3)
     assert r.extrapolated and any("outside its training range" in w for w in r.warnings)
+
+
+def test_low_branch_rows_are_paired_as_the_slow_flow_stretches_the_branch():
+    """A low-branch row of a table whose down sweep jumps up at s_up(PCS) below the HB fold takes
+    the features of the HB position that the slow flow's stretch (fold moved onto s_up(PCS)) moves
+    to its s; rows between the two folds (where the PCS drift slows before the jump) are kept."""
+    from beamslider.drift_law import FEATURES, _training_samples, low_branch_position
+
+    mf = hb_manifold(f_ex=124, a_ex=14)
+    su, z = mf.s_up, float(np.max(mf.low.s))
+    t = _synthetic_table(124, 14, lambda s: -0.01 + 0 * s, lambda s: 0.01 + 0 * s)
+    t.s_up_pcs = su - 0.015
+    x = _training_samples(t, mf)["L"][0]
+    s_feat = x[:, FEATURES.index("s")]
+    s_rows = t.branch_rows("L")[0]
+    s_rows = s_rows[s_rows >= t.s_up_pcs]
+    assert np.any(s_rows < su)  # rows below the HB fold, dropped by the pairing before
+    assert np.allclose(s_feat, low_branch_position(s_rows, su, t.s_up_pcs, z)) and np.all(s_feat >= su - 1e-12)
+    # The stretch of beamslider.slowflow.slow_model / the core (fold onto s_up(PCS)) maps them back.
+    assert np.allclose(z - (z - s_feat) * (z - t.s_up_pcs) / (z - su), s_rows)
+    # Without a PCS jump-up the rows keep their own s (the pairing before).
+    t.s_up_pcs = None
+    s_all = t.branch_rows("L")[0]
+    assert np.allclose(_training_samples(t, mf)["L"][0][:, FEATURES.index("s")], s_all[s_all >= np.min(mf.low.s)])

@@ -412,9 +412,25 @@ def _on_high_branch(table: DriftTable, manifold, s: np.ndarray) -> np.ndarray:
     return ~(amp < ON_BRANCH_RATIO * a_hb)
 
 
+def low_branch_position(s, s_up_hb: float, s_fold: float, z: float):
+    """The position on the HB low branch that the slow flow pairs with the position ``s`` of a low
+    branch whose fold sits at ``s_fold`` instead of the HB fold ``s_up_hb``: the inverse of the
+    linear stretch of the slow model (:func:`beamslider.slowflow.slow_model`, the core's
+    ``slow_model``), s_hb = z − (z − s)(z − s_up_hb)/(z − s_fold), with z the branch's upper end."""
+    s = np.asarray(s, dtype=float)
+    return z - (z - s) * (z - s_up_hb) / (z - s_fold)
+
+
 def _training_samples(table: DriftTable, manifold) -> Dict[str, Tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]]:
     """Per branch: the law inputs, V, Λ_g and the standard error of V of the table's rows that
-    lie on the HB branch (on the high branch also in amplitude, :func:`_on_high_branch`)."""
+    lie on the HB branch (on the high branch also in amplitude, :func:`_on_high_branch`).
+
+    A low-branch row is paired with the HB low branch as the slow flow reads it: the prediction
+    stretches the HB low branch so that its fold sits at the (shifted) PCS fold, so a row of a
+    table whose down sweep jumps up at s_up(PCS) takes the features of the HB position that the
+    stretch onto s_up(PCS) moves to its s (:func:`low_branch_position`). Without it the rows
+    between the PCS fold and the HB fold (where the PCS drift slows down before the jump) would
+    be dropped or paired with the wrong amplitude."""
     out = {}
     for br in ("L", "H"):
         s, v, se = table.branch_rows(br)
@@ -423,6 +439,10 @@ def _training_samples(table: DriftTable, manifold) -> Dict[str, Tuple[np.ndarray
             out[br] = (np.zeros((0, len(FEATURES))), np.zeros(0), np.zeros(0), np.zeros(0))
             continue
         lo, hi = float(np.min(b.s)), float(np.max(b.s))
+        if br == "L" and manifold.s_up is not None and table.s_up_pcs is not None and table.s_up_pcs < hi:
+            keep = s >= table.s_up_pcs
+            s, v, se = s[keep], v[keep], se[keep]
+            s = low_branch_position(s, float(manifold.s_up), float(table.s_up_pcs), hi)
         m = (s >= lo) & (s <= hi)
         if br == "H":
             m &= _on_high_branch(table, manifold, s)

@@ -271,6 +271,7 @@ def predict(
     manifold=None,
     source: str = "hb",
     build_up: Union[str, float] = "auto",
+    build_up_drift: bool = True,
     v_dead: Optional[float] = None,
     robustness: bool = True,
 ) -> Prediction:
@@ -298,10 +299,12 @@ def predict(
         source: 'hb' — branches, Â and s_up from the HB manifold (layer (a)), V from ``drift``;
             'table' — everything from the PCS drift table (b1 only: its rows' Â and V, its sweeps'
             jump positions for s_up and s_dn; no layer (a)).
-        build_up: time [s] the beam needs from rest to vibrate on the manifold; s stays at s0
-            and Â ramps up meanwhile. 'auto': three envelope time constants 3/(D Ω) of the
-            first mode (D = d_eff or the parameters' damping ratio; 3.9 s at 124 Hz); 0: start on
-            the manifold.
+        build_up: time [s] the beam needs from rest to vibrate on the manifold; Â ramps up
+            meanwhile. 'auto': three envelope time constants 3/(D Ω) of the first mode (D = d_eff
+            or the parameters' damping ratio; 3.9 s at 124 Hz); 0: start on the manifold.
+        build_up_drift: True (default): the slider drifts from t = 0 (PCS and FS runs from rest
+            drift at once, docs/superslow/validation_c_build_up.txt) and a jump at a fold waits
+            until the build-up is over; False: s stays at s0 during the build-up (the rule before).
         v_dead: dead band of V [1/s] (:func:`dead_band`; default none). Measured, not adopted:
             see docs/superslow/validation_c_levers.txt.
         robustness: with a law that has a ``v_resolution``, also run the slow flow with V shifted
@@ -363,7 +366,7 @@ def predict(
                     "s_dn_source": "table" if hf else "none", "note": note}
     t2 = time.perf_counter()
     r = _core.slow_flow(tuple(low), tuple(high), low_ends_in_fold=lf, high_ends_in_fold=hf, s0=s0, t_end_s=t_end,
-                        build_up_s=float(min(t_build, t_end)))
+                        build_up_s=float(min(t_build, t_end)), build_up_drift=bool(build_up_drift))
     t3 = time.perf_counter()
     cls = json.loads(r["classification"])
     robust, shifted = None, []
@@ -371,7 +374,7 @@ def predict(
         for dv in (-drift.v_resolution, drift.v_resolution):
             lo2, hi2, lf2, hf2, _ = slow_model(mf, drift.shifted(dv), s_dn=s_dn, v_dead=v_dead)
             r2 = _core.slow_flow(tuple(lo2), tuple(hi2), low_ends_in_fold=lf2, high_ends_in_fold=hf2, s0=s0, t_end_s=t_end,
-                                 build_up_s=float(min(t_build, t_end)))
+                                 build_up_s=float(min(t_build, t_end)), build_up_drift=bool(build_up_drift))
             shifted.append((json.loads(r2["classification"])["behaviour"], float(r2["s_final"])))
         # A relaxation oscillation's final s is the cycle's phase at t_end: only its behaviour counts.
         cycle = cls["behaviour"] == "relaxation_oscillation"

@@ -20,8 +20,10 @@
 //! over √(sub_windows). With `mirror` the sweeps run at 1 − s (the far half; by symmetry
 //! V(1 − s) = −V(s)).
 //!
-//! A sweep **leaves its branch** when the window amplitude Â (mean |Hilbert(w(4L/7))|/h) changes
-//! between consecutive s by a factor > 2 and by > 0.2 h (the classifier's jump thresholds): the
+//! A sweep **leaves its branch** when the window amplitude Â (mean |Hilbert(w(4L/7))|/h) rises
+//! (down sweep) or falls (up sweep) against that of a row within Δs = 0.02 before it by a factor
+//! > 2 and by > 0.2 h (the classifier's jump thresholds; [`leaves_branch`]; a jump may take two or
+//! more steps of a fine grid): the
 //! row is written with the new branch label (its `jump` flag set) and the sweep stops there — the
 //! rest of the new branch is covered by the other sweep. Readers keep one row per (s, branch),
 //! preferring the sweep native to the branch (down for L, up for H).
@@ -383,9 +385,12 @@ fn sweep(
         Sweep::Down => BranchLabel::L,
         Sweep::Up => BranchLabel::H,
     };
-    let (mut state, mut prev_amp, start) = match rows.last() {
-        Some(r) => (State::from(&r.state), Some(r.amplitude_h), r.index + 1),
-        None => (model.initial_state_pcs(excitation)?, None, 0),
+    // (s, Â) of the sweep's rows so far: a jump is looked for against all of them within
+    // JUMP_LOOKBACK_S (a resumed sweep has them from its rows).
+    let mut history: Vec<(f64, f64)> = rows.iter().map(|r| (r.s, r.amplitude_h)).collect();
+    let (mut state, start) = match rows.last() {
+        Some(r) => (State::from(&r.state), r.index + 1),
+        None => (model.initial_state_pcs(excitation)?, 0),
     };
     for (i, &s_grid) in grid.iter().enumerate().skip(start) {
         if cancel.load(Ordering::Relaxed) {
@@ -394,16 +399,12 @@ fn sweep(
         let s = if opts.mirror { 1.0 - s_grid } else { s_grid };
         let settle = if i == 0 { opts.first_settle_periods } else { opts.settle_periods };
         let (v, se, sub, amp, t_win, win, next) = measure(model, excitation, opts, s, settle, &state, cancel)?;
-        let mut jump = false;
-        if let Some(a0) = prev_amp {
-            let (hi, lo) = (amp.max(a0), amp.min(a0));
-            if hi > 2.0 * lo && hi - lo > 0.2 {
-                jump = true;
-                branch = match branch {
-                    BranchLabel::L => BranchLabel::H,
-                    BranchLabel::H => BranchLabel::L,
-                };
-            }
+        let jump = leaves_branch(&history, s, amp, dir == Sweep::Down);
+        if jump {
+            branch = match branch {
+                BranchLabel::L => BranchLabel::H,
+                BranchLabel::H => BranchLabel::L,
+            };
         }
         let row = DriftRow {
             sweep: dir,
@@ -425,9 +426,29 @@ fn sweep(
             break;
         }
         state = next;
-        prev_amp = Some(amp);
+        history.push((s, amp));
     }
     Ok(rows)
+}
+
+/// How far back in s [-] a sweep looks for the amplitude change of a jump: on a fine grid (Δs
+/// 0.0025) the jump is spread over the few steps the beam needs to reach the other branch.
+pub const JUMP_LOOKBACK_S: f64 = 0.02;
+
+/// Whether a row at `s` with window amplitude `amp` [h] has left the branch of the rows before it
+/// (`history`: (s, Â) in sweep order): Â lies above (`rising`: the down sweep, which can only
+/// leave the low branch upwards) or below (the up sweep, which can only leave the high branch
+/// downwards) that of a row within [`JUMP_LOOKBACK_S`] by a factor > 2 and by > 0.2 h (the
+/// classifier's jump thresholds), and always the row before. On the Δs = 0.01 grid of the default
+/// tables that is the last two rows. (The up sweep's steep rise from the clamping onto the high
+/// branch is no jump.)
+pub fn leaves_branch(history: &[(f64, f64)], s: f64, amp: f64, rising: bool) -> bool {
+    // The row before always counts (a coarse grid's step may exceed the look-back).
+    let n = history.iter().rev().skip(1).take_while(|(s0, _)| (s - s0).abs() <= JUMP_LOOKBACK_S + 1e-9).count() + 1;
+    history.iter().rev().take(n).any(|&(_, a0)| {
+        let (hi, lo) = if rising { (amp, a0) } else { (a0, amp) };
+        hi > 2.0 * lo && hi - lo > 0.2
+    })
 }
 
 type Measured = (f64, f64, Vec<f64>, f64, f64, f64, State);
@@ -477,5 +498,45 @@ fn check(status: &Status, s: f64) -> Result<()> {
         Status::Completed => Ok(()),
         Status::Interrupted { t_s } => Err(Error::Interrupted { t_s: *t_s }),
         other => Err(Error::Numerical(format!("drift table at s = {s}: {}", other.message()))),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::leaves_branch;
+
+    #[test]
+    fn a_jump_spread_over_two_steps_is_found() {
+        // The (124 Hz, 8 m/s²) down sweep of the default law's tables (Δs 0.01): 0.052 h, then
+        // 0.216 h (× 4.2 but only +0.164 h), then 0.288 h: +0.236 h against the row two steps back.
+        let h = [(0.2657, 0.044), (0.2557, 0.052)];
+        assert!(!leaves_branch(&h, 0.2457, 0.216, true));
+        let h2 = [(0.2657, 0.044), (0.2557, 0.052), (0.2457, 0.216)];
+        assert!(leaves_branch(&h2, 0.2357, 0.288, true));
+        // One step, both thresholds: found (the rule before): a rise in the down sweep, a fall in
+        // the up sweep.
+        assert!(leaves_branch(&[(0.30, 0.05)], 0.29, 0.6, true));
+        assert!(leaves_branch(&[(0.30, 1.0)], 0.31, 0.3, false));
+    }
+
+    #[test]
+    fn only_the_direction_that_leaves_the_sweep_s_branch_counts() {
+        // The up sweep rising from the clamping onto the high branch ((124 Hz, 8 m/s²): 0.1 h at
+        // s = 0.226, 0.35 h at 0.246) stays on it; the down sweep cannot jump down.
+        assert!(!leaves_branch(&[(0.226, 0.10), (0.236, 0.2)], 0.246, 0.35, false));
+        assert!(leaves_branch(&[(0.226, 0.10), (0.236, 0.2)], 0.246, 0.35, true));
+        assert!(!leaves_branch(&[(0.30, 1.0)], 0.29, 0.3, true));
+    }
+
+    #[test]
+    fn gradual_change_and_old_rows_are_no_jump() {
+        // The low branch rising towards its fold on a fine grid: ×2 over 0.02 but < 0.2 h.
+        let h: Vec<(f64, f64)> = (0..9).map(|i| (0.284 - 0.0025 * i as f64, 0.078 + 0.0095 * i as f64)).collect();
+        assert!(!leaves_branch(&h, 0.2615, 0.16, true));
+        // A low row more than 0.02 away does not count.
+        assert!(!leaves_branch(&[(0.33, 0.05), (0.32, 0.30)], 0.305, 0.31, true));
+        assert!(!leaves_branch(&[], 0.3, 1.0, true));
+        // A coarse grid (Δs 0.05 > the look-back): the row before still counts.
+        assert!(leaves_branch(&[(0.186, 0.076), (0.236, 0.418)], 0.286, 0.097, false));
     }
 }

@@ -528,6 +528,10 @@ pub struct PredictOptions {
     /// Build-up time [s]; None: three envelope time constants 3/(DΩ) (D = d_eff or the
     /// parameters' damping ratio), as `beamslider.slowflow.predict`.
     pub build_up_s: Option<f64>,
+    /// During the build-up the slider drifts from t = 0 and only a jump waits for its end (the
+    /// PCS and FS runs from rest drift at once; the envelope needs the build-up before the beam can
+    /// settle on the other branch); false: s stays at s₀ until then (the rule before). Default true.
+    pub build_up_drift: bool,
     /// Classification thresholds.
     pub criteria: Criteria,
     /// Also run the slow flow with V shifted by ± the law's `v_resolution` and report whether
@@ -537,7 +541,7 @@ pub struct PredictOptions {
 
 impl Default for PredictOptions {
     fn default() -> Self {
-        PredictOptions { hb: HbOptions { low_branch_only: true, ..HbOptions::default() }, nodes: 121, build_up_s: None, criteria: Criteria::default(), robustness: true }
+        PredictOptions { hb: HbOptions { low_branch_only: true, ..HbOptions::default() }, nodes: 121, build_up_s: None, build_up_drift: true, criteria: Criteria::default(), robustness: true }
     }
 }
 
@@ -783,7 +787,7 @@ pub fn predict_point_with(params: &Params, beam: &Beam, law: &DriftLaw, f_ex_hz:
             if d > 0.0 { 3.0 / (d * 2.0 * std::f64::consts::PI * f_ex_hz) } else { 0.0 }
         }
     };
-    let fo = SlowFlowOptions { t_end_s, criteria: opts.criteria.clone(), build_up_s: build_up.min(t_end_s), ..SlowFlowOptions::default() };
+    let fo = SlowFlowOptions { t_end_s, criteria: opts.criteria.clone(), build_up_s: build_up.min(t_end_s), build_up_drift: opts.build_up_drift, ..SlowFlowOptions::default() };
     let flow = slow_flow(&model, s0, &fo)?;
     let mut shifted = Vec::new();
     let mut robust = None;
@@ -857,6 +861,7 @@ pub fn header_value(law: &DriftLaw, opts: &PredictOptions) -> serde_json::Value 
         "d_eff": opts.hb.d_eff,
         "s_dn": if law.rho_c > 0.0 { "law" } else { "hb" },
         "nodes": opts.nodes,
+        "build_up": if opts.build_up_drift { "drift" } else { "hold" },
     })
 }
 

@@ -153,11 +153,15 @@ pub struct SlowFlowOptions {
     /// vibrates on the manifold; until then s stays at s₀ and Â(t) = Â(s₀)(1 − e^{−3t/t_b})
     /// (default 0: the flow starts on the manifold).
     pub build_up_s: f64,
+    /// During the build-up the slider already drifts (as PCS and FS runs from rest show), but a
+    /// jump at a fold waits until the envelope has built up (t ≥ `build_up_s`): the slider rests
+    /// at the fold until then. Default false: s stays at s₀ during the build-up.
+    pub build_up_drift: bool,
 }
 
 impl Default for SlowFlowOptions {
     fn default() -> Self {
-        SlowFlowOptions { t_end_s: 120.0, dt_out_s: 0.2, smooth_s: 1.0, criteria: Criteria::default(), max_events: 100_000, build_up_s: 0.0 }
+        SlowFlowOptions { t_end_s: 120.0, dt_out_s: 0.2, smooth_s: 1.0, criteria: Criteria::default(), max_events: 100_000, build_up_s: 0.0, build_up_drift: false }
     }
 }
 
@@ -271,8 +275,8 @@ pub fn slow_flow(model: &SlowModel, s0: f64, opts: &SlowFlowOptions) -> Result<P
     let mut segs: Vec<Segment> = Vec::new();
     let t_end = opts.t_end_s;
     let t_b = opts.build_up_s.min(t_end);
-    let (mut t, mut s, mut beta) = (t_b, sp0, start);
-    if t_b > 0.0 {
+    let (mut t, mut s, mut beta) = (if opts.build_up_drift { 0.0 } else { t_b }, sp0, start);
+    if t_b > 0.0 && !opts.build_up_drift {
         segs.push(Segment { t_a: 0.0, t_b, s_a: sp0, b: 0.0, z: sp0, v: 0.0, branch: start });
     }
     let mut zero_time_events = 0usize;
@@ -301,6 +305,12 @@ pub fn slow_flow(model: &SlowModel, s0: f64, opts: &SlowFlowOptions) -> Result<P
                 events.push(Event { kind: EventKind::Wall, t_s: t, s: glob(s) });
                 segs.push(rest(t, s, beta));
                 break;
+            }
+            if t < t_b {
+                // The envelope is still building up: the jump waits at the fold.
+                segs.push(Segment { t_a: t, t_b, s_a: s, b: 0.0, z: s, v: 0.0, branch: beta });
+                t = t_b;
+                continue;
             }
             let (kind, to) = if beta == BranchLabel::L { (EventKind::JumpUp, BranchLabel::H) } else { (EventKind::JumpDown, BranchLabel::L) };
             events.push(Event { kind, t_s: t, s: glob(s) });

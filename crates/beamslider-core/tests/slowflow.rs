@@ -193,3 +193,24 @@ fn build_up_delays_the_flow_and_ramps_the_amplitude() {
     assert_eq!(p.classification.behaviour, Behaviour::SignatureMove);
     assert!(slow_flow(&m, 0.35, &SlowFlowOptions { build_up_s: f64::NAN, ..SlowFlowOptions::default() }).is_err());
 }
+
+#[test]
+fn drifting_build_up_moves_at_once_and_a_jump_waits_for_its_end() {
+    let m = model(|_| -0.005, |s| 0.1 * (0.4 - s), None);
+    // The fold is reached after the build-up: the jump comes at 0.1/0.005 = 20 s, as without one.
+    let o = SlowFlowOptions { build_up_s: 4.0, build_up_drift: true, ..SlowFlowOptions::default() };
+    let p = slow_flow(&m, 0.35, &o).unwrap();
+    assert!((p.events[0].t_s - 20.0).abs() < 1e-9, "jump up at 20 s, got {}", p.events[0].t_s);
+    assert!((p.s[10] - (0.35 - 0.005 * 2.0)).abs() < 1e-12, "s(2 s) = {}", p.s[10]); // moving during the build-up
+    assert!((p.amplitude_h[10] - 0.1 * (1.0 - (-1.5f64).exp())).abs() < 1e-12); // Â still ramps up
+    // The fold is reached at 0.01/0.005 = 2 s, within the build-up of 10 s: the slider waits there.
+    let o = SlowFlowOptions { build_up_s: 10.0, build_up_drift: true, ..SlowFlowOptions::default() };
+    let p = slow_flow(&m, 0.26, &o).unwrap();
+    assert_eq!(kinds(&p), vec![EventKind::JumpUp, EventKind::Equilibrium]);
+    assert!((p.events[0].t_s - 10.0).abs() < 1e-9 && (p.events[0].s - 0.25).abs() < 1e-12, "{:?}", p.events[0]);
+    assert!((p.s[25] - 0.25).abs() < 1e-12 && p.branch[25] == BranchLabel::L, "at the fold, on L, at t = 5 s");
+    assert!(p.t_s.iter().zip(&p.branch).all(|(t, b)| *t < 10.0 - 1e-9 && *b == BranchLabel::L || *t > 10.0 - 1e-9));
+    // Without drift the same start rests until 10 s and jumps at 12 s.
+    let p = slow_flow(&m, 0.26, &SlowFlowOptions { build_up_s: 10.0, ..SlowFlowOptions::default() }).unwrap();
+    assert!((p.events[0].t_s - 12.0).abs() < 1e-9, "{:?}", p.events[0]);
+}

@@ -220,7 +220,7 @@ pub fn read_drift_table(py: Python<'_>, path: std::path::PathBuf) -> PyResult<(S
 /// `s_final`, `amplitude_final_h`, `branch_final`, `branch_initial` ("L"/"H"),
 /// `classification` (JSON text), `warnings`.
 #[pyfunction]
-#[pyo3(signature = (low, high, *, low_ends_in_fold, high_ends_in_fold, s0, t_end_s=120.0, dt_out_s=0.2, smooth_s=1.0, build_up_s=0.0, criteria_json=None))]
+#[pyo3(signature = (low, high, *, low_ends_in_fold, high_ends_in_fold, s0, t_end_s=120.0, dt_out_s=0.2, smooth_s=1.0, build_up_s=0.0, build_up_drift=false, criteria_json=None))]
 #[allow(clippy::too_many_arguments, clippy::type_complexity)]
 pub fn slow_flow<'py>(
     py: Python<'py>,
@@ -233,6 +233,7 @@ pub fn slow_flow<'py>(
     dt_out_s: f64,
     smooth_s: f64,
     build_up_s: f64,
+    build_up_drift: bool,
     criteria_json: Option<&str>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let criteria: Criteria = match criteria_json {
@@ -241,7 +242,7 @@ pub fn slow_flow<'py>(
     };
     let mk = |b: (Vec<f64>, Vec<f64>, Vec<f64>)| SlowBranch { s: b.0, amplitude_h: b.1, v_per_s: b.2 };
     let model = SlowModel { low: mk(low), high: mk(high), low_ends_in_fold, high_ends_in_fold };
-    let opts = SlowFlowOptions { t_end_s, dt_out_s, smooth_s, criteria, build_up_s, ..SlowFlowOptions::default() };
+    let opts = SlowFlowOptions { t_end_s, dt_out_s, smooth_s, criteria, build_up_s, build_up_drift, ..SlowFlowOptions::default() };
     let p = py.detach(|| guarded(|| core_slow_flow(&model, s0, &opts)))?;
     let lab = |b: BranchLabel| if b == BranchLabel::L { "L" } else { "H" };
     let d = PyDict::new(py);
