@@ -14,6 +14,7 @@ Not part of the fast test suite (PCS drift tables take minutes per operating poi
     python scripts/validate_superslow_b.py cheap_settings  # training-table settings near the speed bar
     python scripts/validate_superslow_b.py build_up    # the build-up time of a run from rest: PCS-measured, and map-wide jump-up times
     python scripts/validate_superslow_b.py ramp        # how fast a PCS sweep may move s and still find the folds
+    python scripts/validate_superslow_b.py fold        # the drift just before the fold (Δs 0.0025 PCS sweeps)
     python scripts/validate_superslow_b.py all
 
 Everything is written to docs/superslow/ (validation_b*.txt, figures, drift/*.jsonl, law.json).
@@ -1125,13 +1126,16 @@ def stage_build_up():
               f"{'build-up':>22} | {'n':>3} {'median |err|':>12} {'within ±30 %':>12} {'median err a ≤ 10':>17} {'a > 10':>7} | "
               f"{'strict':>7} final s p50  p90 | jump-up time b2 / PCS table alone: (124, 14), (126, 10), (106, 10; s0 0.4)"]
     fs_runs = {(124.0, 14.0, 0.3): 8.6, (126.0, 10.0, 0.3): 7.6, (106.0, 10.0, 0.4): 17.8}
-    variants = [("3τ (the default)", 3.0), ("1.5τ (V ∝ Â²)", 1.5), ("τ (V ∝ Â)", 1.0), ("0.5τ (by the 3 runs)", 0.5),
-                (f"PCS-measured {np.median(ratios):.2f}τ", max(np.median(ratios), 0.0))]
-    for name, k in variants:
+    # The slider drifts from t = 0 and a jump waits for the build-up (build_up_drift, the default);
+    # "held": s stays at s0 during the build-up (the rule before).
+    variants = [("3τ (the default)", 3.0, True), ("1.5τ", 1.5, True), ("τ", 1.0, True), ("0.5τ", 0.5, True),
+                (f"PCS-measured {np.median(ratios):.2f}τ", max(np.median(ratios), 0.0), True),
+                ("3τ held (before)", 3.0, False), ("1.5τ held", 1.5, False), ("0.5τ held", 0.5, False)]
+    for name, k, drifting in variants:
         errs, lo, hi, agree, fe = [], [], [], 0, []
         for key, i in R.items():
             f, a = key
-            pr = predict(f_ex=f, a_ex=a, s0=0.3, drift=law, build_up=k * tau(f))
+            pr = predict(f_ex=f, a_ex=a, s0=0.3, drift=law, build_up=k * tau(f), build_up_drift=drifting)
             b = ref["behaviour"][i]
             agree += pr.behaviour == b
             if pr.behaviour == b and ref["steady"][i] and np.isfinite(ref["s_final"][i]):
@@ -1146,7 +1150,7 @@ def stage_build_up():
         for (f, a, s0), t_fs in fs_runs.items():
             got = []
             for kw in (dict(drift=law), dict(drift=read_drift_table(table_path(f, a)), s_dn="table", source="table")):
-                ju = [e for e in predict(f_ex=f, a_ex=a, s0=s0, build_up=k * tau(f), **kw).events if e[0] == "jump_up"]
+                ju = [e for e in predict(f_ex=f, a_ex=a, s0=s0, build_up=k * tau(f), build_up_drift=drifting, **kw).events if e[0] == "jump_up"]
                 got.append(f"{ju[0][1] / t_fs - 1:+.0%}" if ju else "none")
             rep.append(" / ".join(got))
         errs = np.asarray(errs)
@@ -1154,6 +1158,45 @@ def stage_build_up():
                      f"{agree:3d}/112 {np.median(fe):.4f} {np.percentile(fe, 90):.4f} | {rep[0]:>11} {rep[1]:>11} {rep[2]:>11}")
         print(lines[-1], flush=True)
     (OUT / "validation_c_build_up.txt").write_text("\n".join(lines) + "\n", encoding="utf-8")
+
+
+def stage_fold():
+    """The drift just before the fold: PCS down sweeps with Δs = 0.0025 from s0 to the jump-up at
+    the three representative points with a jump-up, their V_L beside the s(t) slopes of the FS run,
+    and the time the table's own flow takes from s0 to its fold with no build-up delay against
+    the FS jump-up time. Not used by the law (its tables have Δs = 0.01)."""
+    fs4 = read_map(ROOT / "docs" / "operating_map_s0.4.jsonl")
+    ref = read_map(ROOT / "docs" / "operating_map.jsonl")
+    lines = ["Drift on the low branch just before the fold (Δs = 0.0025 PCS down sweeps from s0; LAW_TABLE_SETTINGS otherwise)",
+             "V_L [1e-3 1/s] ± standard error; FS: slope of s(t) of the FS run from rest over the 1 s around its passage through that s (before its jump)"]
+    for f, a, s0 in [(124.0, 14.0, 0.3), (126.0, 10.0, 0.3), (106.0, 10.0, 0.4)]:
+        m = hb_manifold(f_ex=f, a_ex=a)
+        lo = round((m.s_up - 0.03) / 0.0025) * 0.0025
+        grid = np.round(np.arange(lo, s0 + 1e-9, 0.0025), 6)
+        t = drift_table(f_ex=f, a_ex=a, s=grid, settle_periods=TABLE_OPTS["settle_periods"], window_s=TABLE_OPTS["window_s"])
+        sl, vl, se = t.branch_rows("L")
+        fs = simulate(f_ex=f, a_ex=a, s0=s0, t_end=25.0, record_every=20)
+        r = ref if s0 == 0.3 else fs4
+        i = [k for k in range(len(r["f_ex_hz"])) if r["f_ex_hz"][k] == f and r["a_ex_m_s2"][k] == a][0]
+        t_up = r["jump_up_t_s"][i][0]
+        k_up = int(np.searchsorted(fs.t, t_up))
+        lines += ["", f"({f:g}, {a:g}), s0 = {s0}: PCS fold (Δs 0.0025) {t.s_up_pcs:.4f}, HB fold {m.s_up:.4f}, FS jump-up at {t_up:.1f} s"]
+        for x, v, e in zip(sl, vl, se):
+            if x < t.s_up_pcs:
+                continue
+            # FS slope where the FS run (before its jump) passes x
+            k = int(np.argmin(np.abs(fs.s[:k_up] - x))) if k_up > 0 else 0
+            a0 = int(np.searchsorted(fs.t, fs.t[k] - 0.5))
+            a1 = min(int(np.searchsorted(fs.t, fs.t[k] + 0.5)), len(fs.t) - 1)
+            vfs = (fs.s[a1] - fs.s[a0]) / (fs.t[a1] - fs.t[a0]) if a1 > a0 else float("nan")
+            near = abs(fs.s[k] - x) < 0.002
+            lines.append(f"   s = {x:.4f}  V_L {1e3 * v:+6.2f} ± {1e3 * e:4.2f}   FS {('%+6.2f' % (1e3 * vfs)) if near else '     —'}")
+        ss = np.linspace(t.s_up_pcs, s0, 20001)
+        vv = np.interp(ss, sl, vl)
+        t_flow = float(np.sum(0.5 * (1 / np.abs(vv[1:]) + 1 / np.abs(vv[:-1])) * np.diff(ss)))
+        lines.append(f"   flow of this table from s0 to its fold, no delay: {t_flow:.1f} s against FS {t_up:.1f} s ({t_flow / t_up - 1:+.0%})")
+        print("\n".join(lines[-3:]), flush=True)
+    (OUT / "validation_c_fold.txt").write_text("\n".join(lines) + "\n", encoding="utf-8")
 
 
 RAMP_VARIANTS = [dict(ds=0.005, settle_periods=10, first_settle_periods=200, window_s=0.1, sub_windows=2),
@@ -1186,7 +1229,7 @@ def stage_ramp():
 
 if __name__ == "__main__":
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("stage", choices=["tables", "map_tables", "slopes", "runs", "map", "speed", "levers", "features", "training_sets", "fs_ensemble", "stops", "cheap_settings", "build_up", "ramp", "all"])
+    ap.add_argument("stage", choices=["tables", "map_tables", "slopes", "runs", "map", "speed", "levers", "features", "training_sets", "fs_ensemble", "stops", "cheap_settings", "build_up", "ramp", "fold", "all"])
     ap.add_argument("--points", help="tables: only these points, e.g. 124:14,126:10")
     ap.add_argument("--training", default="cheap", choices=["coarse", "cheap"], help="speed: training table settings (timed from scratch)")
     ap.add_argument("--training-set", default="12 points", choices=["12 points", "6 points"], help="speed: training points")
@@ -1208,6 +1251,6 @@ if __name__ == "__main__":
         stage_speed(args.training, args.training_set)
     single = {"levers": stage_levers, "features": stage_features, "training_sets": stage_training_sets,
               "fs_ensemble": stage_fs_ensemble, "stops": stage_stops, "cheap_settings": stage_cheap_settings,
-              "build_up": stage_build_up, "ramp": stage_ramp}
+              "build_up": stage_build_up, "ramp": stage_ramp, "fold": stage_fold}
     if args.stage in single:
         single[args.stage]()
