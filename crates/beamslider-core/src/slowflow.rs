@@ -150,8 +150,8 @@ pub struct SlowFlowOptions {
     /// Cap on events (jumps) before the flow is stopped with a warning.
     pub max_events: usize,
     /// Build-up time [s]: a run from rest needs a few envelope time constants before the beam
-    /// vibrates on the manifold; until then s stays at s₀ and Â(t) = Â(s₀)(1 − e^{−3t/t_b})
-    /// (default 0: the flow starts on the manifold).
+    /// vibrates on the manifold; until then Â(t) is the manifold's Â times (1 − e^{−3t/t_b}) and s
+    /// stays at s₀ (or drifts, with `build_up_drift`) (default 0: the flow starts on the manifold).
     pub build_up_s: f64,
     /// During the build-up the slider already drifts (as PCS and FS runs from rest show), but a
     /// jump at a fold waits until the envelope has built up (t ≥ `build_up_s`): the slider rests
