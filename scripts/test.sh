@@ -64,7 +64,7 @@ for py in "${PYTHONS[@]}"; do
   [ "$py" = "${PYTHONS[${#PYTHONS[@]}-1]}" ] || marks="not slow and not heavy"
   echo "scripts/test.sh: pytest on Python $ver ($venv), -m '$marks'"
   # Run from a neutral directory so that the installed package (not ./python) is imported.
-  # Two pytest-xdist workers (BEAMSLIDER_TEST_WORKERS); the README's examples stay on one, in order.
+  # Two pytest-xdist workers (BEAMSLIDER_TEST_WORKERS); the README's examples are one test.
   (cd tests && "../$venv/bin/python" -m pytest -q -p no:cacheprovider -m "$marks" \
-     -n "${BEAMSLIDER_TEST_WORKERS:-2}" --dist loadgroup .)
+     -n "${BEAMSLIDER_TEST_WORKERS:-2}" .)
 done

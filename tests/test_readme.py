@@ -20,9 +20,6 @@ from typing import List, Tuple
 
 import pytest
 
-# The blocks build on each other: under pytest-xdist (scripts/test.sh) they stay on one worker, in order.
-pytestmark = pytest.mark.xdist_group("readme")
-
 ROOT = Path(__file__).resolve().parent.parent
 README = ROOT / "README.md"
 MARK = "<!-- runnable -->"
@@ -83,12 +80,14 @@ def run_block(lang: str, code: str, cwd: Path, line: int) -> subprocess.Complete
     return subprocess.run(cmd, cwd=cwd, env=env, capture_output=True, text=True, timeout=TIMEOUT_S)
 
 
-@pytest.mark.parametrize("line,lang,code", BLOCKS, ids=[f"README.md:{b[0]}" for b in BLOCKS])
-def test_readme_example(line, lang, code, workdir):
-    t0 = time.perf_counter()
-    r = run_block(lang, code, workdir, line)
-    wall = time.perf_counter() - t0
-    assert r.returncode == 0, (
-        f"README.md:{line}: the {lang} example failed (exit {r.returncode}, {wall:.1f} s)\n"
-        f"--- code ---\n{code}--- stdout ---\n{r.stdout[-3000:]}--- stderr ---\n{r.stderr[-3000:]}"
-    )
+def test_readme_examples_in_order(workdir):
+    """All blocks in one test, in the README's order, in one folder: they build on each other, and
+    one test cannot be split between pytest-xdist workers (scripts/test.sh runs two)."""
+    for line, lang, code in BLOCKS:
+        t0 = time.perf_counter()
+        r = run_block(lang, code, workdir, line)
+        wall = time.perf_counter() - t0
+        assert r.returncode == 0, (
+            f"README.md:{line}: the {lang} example failed (exit {r.returncode}, {wall:.1f} s)\n"
+            f"--- code ---\n{code}--- stdout ---\n{r.stdout[-3000:]}--- stderr ---\n{r.stderr[-3000:]}"
+        )
