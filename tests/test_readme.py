@@ -5,7 +5,7 @@ has it). Shell blocks run under ``bash -e -o pipefail``; ``pip install ...`` lin
 (the package under test is already installed). A block fails the test when it exits non-zero.
 
 Blocks build on each other (``beamslider plot`` re-plots what ``beamslider simulate`` wrote), so
-run the whole file rather than one block with ``-k``.
+they run as one test, which a pytest-xdist worker cannot split.
 """
 
 from __future__ import annotations
@@ -53,11 +53,10 @@ def runnable_blocks(text: str) -> List[Tuple[int, str, str]]:
 BLOCKS = runnable_blocks(README.read_text(encoding="utf-8"))
 
 
-@pytest.fixture(scope="module")
-def workdir(tmp_path_factory):
-    d = tmp_path_factory.mktemp("readme")
-    (d / "examples").symlink_to(ROOT / "examples", target_is_directory=True)
-    return d
+@pytest.fixture
+def workdir(tmp_path):
+    (tmp_path / "examples").symlink_to(ROOT / "examples", target_is_directory=True)
+    return tmp_path
 
 
 def test_readme_has_runnable_examples():

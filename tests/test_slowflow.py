@@ -646,7 +646,7 @@ def test_low_branch_rows_are_paired_as_the_slow_flow_stretches_the_branch():
     """A low-branch row of a table whose down sweep jumps up at s_up(PCS) below the HB fold takes
     the features of the HB position that the slow flow's stretch (fold moved onto s_up(PCS)) moves
     to its s; rows between the two folds (where the PCS drift slows before the jump) are kept."""
-    from beamslider.drift_law import FEATURES, _training_samples, low_branch_position
+    from beamslider.drift_law import FEATURES, _training_samples, move_fold
 
     mf = hb_manifold(f_ex=124, a_ex=14)
     su, z = mf.s_up, float(np.max(mf.low.s))
@@ -657,7 +657,7 @@ def test_low_branch_rows_are_paired_as_the_slow_flow_stretches_the_branch():
     s_rows = t.branch_rows("L")[0]
     s_rows = s_rows[s_rows >= t.s_up_pcs]
     assert np.any(s_rows < su)  # rows below the HB fold, dropped by the pairing before
-    assert np.allclose(s_feat, low_branch_position(s_rows, su, t.s_up_pcs, z)) and np.all(s_feat >= su - 1e-12)
+    assert np.allclose(s_feat, move_fold(s_rows, z, t.s_up_pcs, su)) and np.all(s_feat >= su - 1e-12)
     # The stretch of beamslider.slowflow.slow_model / the core (fold onto s_up(PCS)) maps them back.
     assert np.allclose(z - (z - s_feat) * (z - t.s_up_pcs) / (z - su), s_rows)
     # Without a PCS jump-up the rows keep their own s (the pairing before).

@@ -412,13 +412,14 @@ def _on_high_branch(table: DriftTable, manifold, s: np.ndarray) -> np.ndarray:
     return ~(amp < ON_BRANCH_RATIO * a_hb)
 
 
-def low_branch_position(s, s_up_hb: float, s_fold: float, z: float):
-    """The position on the HB low branch that the slow flow pairs with the position ``s`` of a low
-    branch whose fold sits at ``s_fold`` instead of the HB fold ``s_up_hb``: the inverse of the
-    linear stretch of the slow model (:func:`beamslider.slowflow.slow_model`, the core's
-    ``slow_model``), s_hb = z − (z − s)(z − s_up_hb)/(z − s_fold), with z the branch's upper end."""
+def move_fold(s, z: float, fold: float, new_fold: float):
+    """The linear stretch of a low branch that keeps its upper end z and moves its fold from
+    ``fold`` to ``new_fold``: s′ = z − (z − s)(z − new_fold)/(z − fold). The slow model stretches
+    the HB low branch onto the shifted fold with it (:func:`beamslider.slowflow.slow_model`, the
+    core's ``slow_model``); the training pairs a PCS row with the HB position by its inverse,
+    ``move_fold(s, z, s_up_pcs, s_up_hb)``."""
     s = np.asarray(s, dtype=float)
-    return z - (z - s) * (z - s_up_hb) / (z - s_fold)
+    return z - (z - s) * (z - new_fold) / (z - fold)
 
 
 def _training_samples(table: DriftTable, manifold) -> Dict[str, Tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]]:
@@ -428,7 +429,7 @@ def _training_samples(table: DriftTable, manifold) -> Dict[str, Tuple[np.ndarray
     A low-branch row is paired with the HB low branch as the slow flow reads it: the prediction
     stretches the HB low branch so that its fold sits at the (shifted) PCS fold, so a row of a
     table whose down sweep jumps up at s_up(PCS) takes the features of the HB position that the
-    stretch onto s_up(PCS) moves to its s (:func:`low_branch_position`). Without it the rows
+    stretch onto s_up(PCS) moves to its s (:func:`move_fold`). Without it the rows
     between the PCS fold and the HB fold (where the PCS drift slows down before the jump) would
     be dropped or paired with the wrong amplitude."""
     out = {}
@@ -442,7 +443,7 @@ def _training_samples(table: DriftTable, manifold) -> Dict[str, Tuple[np.ndarray
         if br == "L" and manifold.s_up is not None and table.s_up_pcs is not None and table.s_up_pcs < hi:
             keep = s >= table.s_up_pcs
             s, v, se = s[keep], v[keep], se[keep]
-            s = low_branch_position(s, float(manifold.s_up), float(table.s_up_pcs), hi)
+            s = move_fold(s, hi, float(table.s_up_pcs), float(manifold.s_up))
         m = (s >= lo) & (s <= hi)
         if br == "H":
             m &= _on_high_branch(table, manifold, s)

@@ -37,7 +37,7 @@ from . import _core
 from .params import Parameters, resolve
 from .simulate import _number
 from .drift_law import (FEATURES, DriftLaw, _manifold_for, _modes, features, fit_drift_law, mono_features,  # noqa: F401
-                        default_drift_law, law_json, load_drift_law, refine_jump_down, save_drift_law)
+                        default_drift_law, law_json, load_drift_law, move_fold, refine_jump_down, save_drift_law)
 from .drift_pcs import DriftTable, drift_table, drift_tables, read_drift_table  # noqa: F401
 
 __all__ = [
@@ -131,7 +131,7 @@ def _stretch_low(s: np.ndarray, s_up: Optional[float], shift: float, lo: float) 
     target = max(s_up + shift, lo)
     if not (z > s_up and z > target):
         return s
-    return z - (z - s) * (z - target) / (z - s_up)
+    return move_fold(s, z, s_up, target)
 
 
 def dead_band(v: np.ndarray, v_dead: float) -> np.ndarray:

@@ -21,9 +21,9 @@
 //! V(1 − s) = −V(s)).
 //!
 //! A sweep **leaves its branch** when the window amplitude Â (mean |Hilbert(w(4L/7))|/h) rises
-//! (down sweep) or falls (up sweep) against that of a row within Δs = 0.02 before it by a factor
-//! > 2 and by > 0.2 h (the classifier's jump thresholds; [`leaves_branch`]; a jump may take two or
-//! more steps of a fine grid): the
+//! (down sweep) or falls (up sweep) against that of a row within Δs = 0.02 before it by a
+//! factor > 2 and by > 0.2 h (the classifier's jump thresholds; [`leaves_branch`]; a jump may take
+//! two or more steps of a fine grid): the
 //! row is written with the new branch label (its `jump` flag set) and the sweep stops there — the
 //! rest of the new branch is covered by the other sweep. Readers keep one row per (s, branch),
 //! preferring the sweep native to the branch (down for L, up for H).
@@ -444,8 +444,7 @@ pub const JUMP_LOOKBACK_S: f64 = 0.02;
 /// branch is no jump.)
 pub fn leaves_branch(history: &[(f64, f64)], s: f64, amp: f64, rising: bool) -> bool {
     // The row before always counts (a coarse grid's step may exceed the look-back).
-    let n = history.iter().rev().skip(1).take_while(|(s0, _)| (s - s0).abs() <= JUMP_LOOKBACK_S + 1e-9).count() + 1;
-    history.iter().rev().take(n).any(|&(_, a0)| {
+    history.iter().rev().enumerate().take_while(|&(i, &(s0, _))| i == 0 || (s - s0).abs() <= JUMP_LOOKBACK_S + 1e-9).any(|(_, &(_, a0))| {
         let (hi, lo) = if rising { (amp, a0) } else { (a0, amp) };
         hi > 2.0 * lo && hi - lo > 0.2
     })
