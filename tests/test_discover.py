@@ -86,7 +86,7 @@ def test_slider_level_friction_is_named_and_bracketed(tmp_path):
                                       out_dir=tmp_path / "data", seed=3, s0_offset=S0_OFFSET)
     runs = [bs.read_measurement(p) for p in paths]
     assert runs[0].f_ex == 110 and runs[1].a_ex == 6 and runs[0].s0 == 0.3
-    # Two candidates keep this fast; all seven: scripts/discover_table.py (docs/discover/table.md).
+    # Two candidates keep this fast; all seven: scripts/repro/discover_table.py (docs/discover/table.md).
     d = dc.discover(measured=runs, baseline=bs.Parameters(), effects=["friction_coefficient", "clearance"])
     assert d.verdict == "named" and d.named_effects == ["friction_coefficient"], dc.verdict_line(d)
     p = d.parameters["friction_coefficient"]
@@ -183,7 +183,7 @@ def test_relevance_thresholds_are_declared():
 
 def test_detuning_effect_scales_the_natural_frequency():
     p = bs.Parameters()
-    q = dc._realise(p, {"natural_frequency_detuning": 0.98})
+    q = dc.realise_effects(p, {"natural_frequency_detuning": 0.98})
     f0, f1 = dc.beam_surrogate(p), dc.beam_surrogate(q)
     assert f1["f0_hz"] / f0["f0_hz"] == pytest.approx(0.98, rel=1e-6)
     assert f1["b_star"] == pytest.approx(f0["b_star"], rel=1e-6)
@@ -207,8 +207,8 @@ def test_out_of_library_slider_effect_is_unexplained(tmp_path):
 @pytest.mark.slow
 def test_detuning_is_named_among_all_slider_candidates(tmp_path):
     """The issue's case: the natural frequency 2 % lower hidden; with every slider-level candidate
-    the detuning is named (scripts/discover_table.py: c = 0.9787 ± 0.0012, gap 5.81 -> 0.71)."""
-    truth = dc._realise(bs.Parameters(), {"natural_frequency_detuning": 0.98})
+    the detuning is named (scripts/repro/discover_table.py: c = 0.9787 ± 0.0012, gap 5.81 -> 0.71)."""
+    truth = dc.realise_effects(bs.Parameters(), {"natural_frequency_detuning": 0.98})
     paths = dc.synthesize_slider_runs(truth, operating_points=[(110, 10, 0.3), (124, 6, 0.3)], duration_s=15,
                                       out_dir=tmp_path / "data", seed=3, s0_offset=S0_OFFSET)
     d = dc.discover(measured=[bs.read_measurement(p) for p in paths], baseline=bs.Parameters(), max_effects=1)
@@ -299,7 +299,7 @@ def test_hidden_tilt_is_named(tmp_path):
 
 
 OUT_OF_LIBRARY = {
-    "natural_frequency_detuning": lambda: dc._realise(bs.Parameters(), {"natural_frequency_detuning": 0.98}),
+    "natural_frequency_detuning": lambda: dc.realise_effects(bs.Parameters(), {"natural_frequency_detuning": 0.98}),
     "tilt": lambda: bs.Parameters(tilt_rad=0.01),
 }
 
@@ -413,7 +413,7 @@ def test_turning_point_is_not_biased_by_noise():
 
 
 def test_delta_chi2_interval_of_a_scan():
-    from beamslider.discover.naming import _interval
+    from beamslider.discover.fitting import _interval
 
     x = np.linspace(0.0, 2.0, 41)
     best, lo, hi = _interval(x, (x - 1.0) ** 2 / 0.1 ** 2 + 3.0)
@@ -433,7 +433,8 @@ def test_naming_rule_compares_the_gap_beyond_the_noise():
     adequate fit with chi2 = 13.5 leaves a noise-inclusive gap of 0.98 (> 0.3 x 2.07, the old
     rule rejected it) but nothing beyond the noise; a fit with chi2 = 27 is adequate but leaves
     1.0 beyond the noise (> 0.3 x 1.81); gap_ratio is configurable."""
-    from beamslider.discover.naming import _excess, _judge
+    from beamslider.discover.fitting import excess as _excess
+    from beamslider.discover.naming import _judge
 
     base = bs.Parameters()
     n, chi2_0 = 14, 60.0
@@ -470,7 +471,7 @@ def test_pooled_model_spread():
     """The model spread pools the ensemble's variance (4 dof) with the scatter of the last scan
     level about a quadratic trend (4 dof): a smooth trend adds nothing, roughness adds its variance."""
     from beamslider.discover.models import Ensemble
-    from beamslider.discover.naming import _pooled_spread
+    from beamslider.discover.fitting import pooled_spread as _pooled_spread
 
     ens = Ensemble({"a": 1.0, "b": 2.0}, {"a": 0.1, "b": 0.0}, 5, {})
     smooth = [{"a": 1.0 + 0.3 * j + 0.01 * j * j, "b": 2.0} for j in range(7)]
@@ -539,7 +540,7 @@ def test_restitution_is_named_with_the_issues_60_s_runs(tmp_path):
 def test_rough_profile_widens_the_interval():
     """A χ² scan that scatters about a parabola (single runs of a chaotic objective) gets an interval
     widened by twice the scatter, which covers the parabola's minimum; a smooth one is unchanged."""
-    from beamslider.discover.naming import _interval, _roughness
+    from beamslider.discover.fitting import _interval, _roughness
 
     x = np.linspace(0.2, 0.4, 21)
     smooth = (x - 0.3) ** 2 / 0.01 ** 2
@@ -610,7 +611,7 @@ def test_chi2_charges_an_unpredicted_mode_its_expectation_and_penalty():
     """χ² with modes: where no run of the model is in the data's mode, each mode feature counts 1
     (its expectation) and the mode costs 2 log((R + 1/2)/(1/2)); in the data's mode the features
     count their z², plus the penalty of the mode's rarity; other features are unchanged."""
-    from beamslider.discover.naming import _chi2_terms
+    from beamslider.discover.fitting import _chi2_terms
 
     names = ["speed_early@x", "s_final@x", "amplitude_final_h@x"]
     y = np.array([-0.005, 0.26, 0.16])

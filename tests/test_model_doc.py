@@ -59,11 +59,11 @@ def test_python_defaults_equal_the_rust_defaults():
 
 
 def test_generated_table_is_up_to_date():
-    spec = importlib.util.spec_from_file_location("gen_model_params", ROOT / "scripts" / "gen_model_params.py")
+    spec = importlib.util.spec_from_file_location("gen_model_params", ROOT / "scripts" / "tooling" / "gen_model_params.py")
     gen = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(gen)
     text = _doc()
-    assert gen.render(text) == text, "run python3 scripts/gen_model_params.py"
+    assert gen.render(text) == text, "run python3 scripts/tooling/gen_model_params.py"
 
 
 def _accepts(name: str, value) -> bool:

@@ -26,7 +26,7 @@ def test_sample_file_reads_with_its_operating_point():
 def test_sample_readme_states_the_hidden_parameter():
     text = (ROOT / "examples" / "data" / "README.md").read_text(encoding="utf-8")
     assert "friction_coefficient` = 0.26" in text and "10.18419/darus-2883" in text
-    script = (ROOT / "scripts" / "make_sample_data.py").read_text(encoding="utf-8")
+    script = (ROOT / "scripts" / "tooling" / "make_sample_data.py").read_text(encoding="utf-8")
     assert "Parameters(friction_coefficient=0.26)" in script
 
 

@@ -242,7 +242,7 @@ import sys
 from beamslider.cli import COMMANDS, build_parser
 build_parser("simulate")
 heavy = ("scipy", "matplotlib", "dask", "distributed", "pyarrow", "beamslider.discover", "beamslider.maps",
-         "beamslider.enma", "beamslider.superslow", "beamslider.study", "beamslider.slowflow")
+         "beamslider.enma", "beamslider.superslow", "beamslider.study")
 print(sorted(m for m in sys.modules if m.split(".")[0] in heavy or m.startswith(heavy)))
 full = build_parser()
 names = set(next(a for a in full._subparsers._group_actions).choices)

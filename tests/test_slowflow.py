@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 from beamslider import Parameters
-from beamslider.slowflow import (DriftTable, drift_table, features, fit_drift_law, load_drift_law, predict,
-                                 predicted_map, read_drift_table, save_drift_law)
-from beamslider.superslow import hb_manifold
+from beamslider.maps import predicted_map
+from beamslider.superslow import (DriftTable, drift_table, features, fit_drift_law, hb_manifold, load_drift_law, predict,
+                                  read_drift_table, save_drift_law)
 
 SHORT = dict(settle_periods=5, first_settle_periods=20, window_s=0.1, sub_windows=2)
 
@@ -171,7 +171,7 @@ def test_predict_cli(tmp_path):
     # The committed default law: the JSON says whether V ± its resolution changes the prediction.
     from pathlib import Path
 
-    law = Path(__file__).resolve().parents[1] / "docs" / "superslow" / "law.json"
+    law = Path(__file__).resolve().parents[1] / "python" / "beamslider" / "data" / "default_law.json"
     for f_, want in (("124", True), ("112", False)):
         assert main(["predict", "--f-ex", f_, "--a-ex", "14" if f_ == "124" else "10", "--law", str(law), "--out", str(tmp_path / "l")]) == 0
     js = {f_: json.loads((tmp_path / "l" / name).read_text()) for f_, name in (("124", "predict_124Hz_14ms2_s0_0p3.json"), ("112", "predict_112Hz_10ms2_s0_0p3.json"))}
@@ -180,16 +180,16 @@ def test_predict_cli(tmp_path):
 
 
 def test_builtin_default_law_is_the_committed_law_and_needs_no_file(tmp_path, capsys):
-    """The package ships docs/superslow/law.json; predict and `beamslider predict` use it when no
+    """The package ships python/beamslider/data/default_law.json; predict and `beamslider predict` use it when no
     drift is given, and say so when the parameters are not the ones it was fitted at."""
     from pathlib import Path
 
     from beamslider.cli import main
-    from beamslider.drift_law import DEFAULT_LAW_PATH
-    from beamslider.slowflow import default_drift_law, load_drift_law, predict, predicted_map
+    from beamslider.maps import predicted_map
+    from beamslider.superslow import DEFAULT_LAW_PATH, default_drift_law, load_drift_law, predict
 
-    committed = Path(__file__).resolve().parents[1] / "docs" / "superslow" / "law.json"
-    assert DEFAULT_LAW_PATH.read_bytes() == committed.read_bytes()  # refit the law: copy it to python/beamslider/data
+    committed = Path(__file__).resolve().parents[1] / "python" / "beamslider" / "data" / "default_law.json"
+    assert DEFAULT_LAW_PATH.resolve() == committed.resolve()
     assert default_drift_law().points == load_drift_law(committed).points
     a = predict(f_ex=124, a_ex=14)
     b = predict(f_ex=124, a_ex=14, drift=load_drift_law(committed))
@@ -274,7 +274,7 @@ def test_core_evaluates_the_law_as_python(tmp_path):
     law file: V and the extrapolation flag equal; the core's features (exact mode shapes) against
     the Python ones (interpolated mode table); whole predictions equal in behaviour and final s."""
     from beamslider import _core
-    from beamslider.drift_law import _x, law_json
+    from beamslider.superslow import law_inputs as _x, law_json
 
     law = _realistic_law()
     text = law_json(law)
@@ -328,7 +328,7 @@ def test_monostable_vote_is_the_nearest_training_point():
     """The vote (ln Â_L(s_up), s_up): a law whose tables are labelled bistable (a PCS s_up) except
     one monostable point answers each training point's own label in sample, and leave one out the
     label of the nearest other point; monostable_vote=False or a manifold without fold: False."""
-    from beamslider.drift_law import _mono_x
+    from beamslider.superslow import monostable_inputs as _mono_x
 
     pts = ((124, 14), (124, 6), (110, 8))
     tables = []
@@ -399,7 +399,7 @@ def load_drift_law_text(law):
 
 
 def law_json_text(law):
-    from beamslider.drift_law import law_json
+    from beamslider.superslow import law_json
 
     return law_json(law)
 
@@ -409,7 +409,7 @@ def test_jump_down_from_the_forcing_ratio():
     checked against ρ recomputed by hand from the manifold's own arrays; none below min ρ; the
     core (predict_point) and Python agree on the jump-down position and the behaviour."""
     from beamslider import _core
-    from beamslider.drift_law import forcing_ratio, law_json, s_dn_forcing_ratio
+    from beamslider.superslow import forcing_ratio, law_json, s_dn_forcing_ratio
 
     m = hb_manifold(f_ex=124, a_ex=8)
     h = Parameters().thickness_m
@@ -446,7 +446,7 @@ def test_learnt_lift_off_threshold_and_monostable_label():
     """Λ_c: where a table's drift towards the clamping ends (two or more rows at rest below it),
     in Λ_g of the HB branch reaching the clamping; the law is zero below Λ_c. The monostable label
     needs a down sweep that stays below MONO_RISE_H on the clamping side of the HB fold."""
-    from beamslider.drift_law import MONO_RISE_H, learn_lift_off_threshold
+    from beamslider.superslow import MONO_RISE_H, learn_lift_off_threshold
 
     s_stop = 0.15
     t = _synthetic_table(124, 6, lambda s: np.where(s < s_stop, 0.0, -0.006), lambda s: np.where(s < s_stop, 0.0, -0.006))
@@ -485,7 +485,7 @@ def test_jump_down_bracket_locates_the_boundary_between_ending_and_passing_branc
     from forcing_ratio; the high branch then ends at s_p exactly where ρ(s_p) ≤ ρ_c (Python and
     core alike); jump_down_tables move the bracket without entering V; 'median' is the old rule."""
     from beamslider import _core
-    from beamslider.drift_law import forcing_ratio, jump_down_bracket, law_json, refine_jump_down
+    from beamslider.superslow import forcing_ratio, jump_down_bracket, law_json, refine_jump_down
 
     ends = [(124, 8), (126, 10)]
     passes = [(124, 14), (120, 12)]
@@ -555,7 +555,8 @@ def test_high_branch_samples_must_be_on_the_high_branch():
     high-branch sample where HB's high branch is high, while (110, 8) keeps every row in range."""
     from pathlib import Path
 
-    from beamslider.drift_law import ON_BRANCH_RATIO, _training_samples
+    from beamslider.superslow import ON_BRANCH_RATIO
+    from beamslider.superslow.fit import _training_samples
 
     m = hb_manifold(f_ex=124, a_ex=14)
     hs, ha = np.asarray(m.high.s), np.asarray(m.high.amplitude)
@@ -593,7 +594,7 @@ def test_robustness_flag_from_the_law_resolution(tmp_path):
     law without a resolution gives None, and the resolution is the median standard error of the
     training rows and survives the JSON round trip."""
     from beamslider import _core
-    from beamslider.drift_law import law_json
+    from beamslider.superslow import law_json
 
     def law_with(v_high, se):
         tables = [_synthetic_table(f_, a_, lambda s: -0.004 + 0 * s, v_high) for f_, a_ in ((124, 14), (120, 12), (126, 10))]
@@ -646,7 +647,8 @@ def test_low_branch_rows_are_paired_as_the_slow_flow_stretches_the_branch():
     """A low-branch row of a table whose down sweep jumps up at s_up(PCS) below the HB fold takes
     the features of the HB position that the slow flow's stretch (fold moved onto s_up(PCS)) moves
     to its s; rows between the two folds (where the PCS drift slows before the jump) are kept."""
-    from beamslider.drift_law import FEATURES, _training_samples, move_fold
+    from beamslider.superslow import FEATURES, move_fold
+    from beamslider.superslow.fit import _training_samples
 
     mf = hb_manifold(f_ex=124, a_ex=14)
     su, z = mf.s_up, float(np.max(mf.low.s))
@@ -658,7 +660,7 @@ def test_low_branch_rows_are_paired_as_the_slow_flow_stretches_the_branch():
     s_rows = s_rows[s_rows >= t.s_up_pcs]
     assert np.any(s_rows < su)  # rows below the HB fold, dropped by the pairing before
     assert np.allclose(s_feat, move_fold(s_rows, z, t.s_up_pcs, su)) and np.all(s_feat >= su - 1e-12)
-    # The stretch of beamslider.slowflow.slow_model / the core (fold onto s_up(PCS)) maps them back.
+    # The stretch of beamslider.superslow.slow_model / the core (fold onto s_up(PCS)) maps them back.
     assert np.allclose(z - (z - s_feat) * (z - t.s_up_pcs) / (z - su), s_rows)
     # Without a PCS jump-up the rows keep their own s (the pairing before).
     t.s_up_pcs = None

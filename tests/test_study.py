@@ -14,7 +14,7 @@ from beamslider import Parameters, _core
 from beamslider.cli import main as cli_main
 from beamslider.study import (RESULTS_FILE, StudyConfig, Uncertain, aggregate, detune, read_results, read_study,
                               run_study, sample, sobol_indices, plot_behaviour_probability, plot_sensitivity)
-from beamslider.study.sampling import _saltelli_matrices
+from beamslider.study.config import _saltelli_matrices
 
 MU = Uncertain("friction_coefficient", "uniform", low=0.22, high=0.31)
 FREQ = Uncertain("natural_frequency_factor", "uniform", low=0.95, high=1.05)

@@ -87,3 +87,11 @@ def run_chunks(client: Any, func: Callable[..., List[str]], chunks: Sequence[tup
     finally:
         for fut in list(futures):
             fut.cancel()
+
+
+def run_study_chunk(map_toml: str, chunk: List[Tuple[int, str, float, float, float, float]],
+                    threads: Optional[int]) -> List[str]:
+    """A Dask task of a study or a design run: one chunk of points through the Rust core (rayon, interpreter released)."""
+    from beamslider import _core as core
+
+    return core.run_study_chunk(map_toml, chunk, threads=threads)

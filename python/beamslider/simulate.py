@@ -6,18 +6,18 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import os
-import sys
 import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable, Dict, Iterator, Optional, Sequence, Tuple, Union
+from typing import Any, Callable, Dict, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
 from . import _core
 from .params import Parameters, resolve
-from .trajectory import (COLUMNS, MAX_INT, MEMORY_FRACTION, _check_memory, _check_out, _gb,  # noqa: F401
-                         _number, _positive_int, available_memory, read_trajectory, recorded_size)
+from ._util import MAX_INT, number, positive_int, progress_bar  # noqa: F401 (MAX_INT: part of this module's face)
+from .trajectory import (COLUMNS, MEMORY_FRACTION, available_memory, check_memory, check_out,  # noqa: F401
+                         read_trajectory, recorded_size)
 
 MODELS = ("fs", "pcs", "beam")
 
@@ -176,42 +176,6 @@ class ManifoldResult:
     """Parameters of the runs."""
 
 
-@contextlib.contextmanager
-def _progress_bar(enabled: Optional[bool], total: float, desc: str, unit: str) -> Iterator[Optional[Callable[[float, float], None]]]:
-    """A tqdm bar driven by the core's monitor callback ``(done, total)``; None when disabled.
-    ``enabled=None``: on only when standard error is a terminal (no carriage-return frames in logs)."""
-    if enabled is None:
-        enabled = _stderr_is_terminal()
-    if not enabled:
-        yield None
-        return
-    from tqdm.auto import tqdm
-
-    bar = tqdm(total=round(total, 6), desc=desc, unit=unit, leave=True, dynamic_ncols=True,
-               bar_format="{l_bar}{bar}| " + ("{n:.0f}/{total:.0f} " if unit == "pts" else "{n:.2f}/{total:.2f} ")
-               + unit + " [{elapsed}<{remaining}]")
-
-    def update(done: float, _total: float) -> None:
-        step = round(done, 6) - bar.n
-        if step > 0:
-            bar.update(step)
-
-    try:
-        yield update
-    except BaseException:
-        bar.leave = False  # an error message follows; do not leave a stale bar above it
-        raise
-    finally:
-        bar.close()
-
-
-def _stderr_is_terminal() -> bool:
-    try:
-        return sys.stderr is not None and sys.stderr.isatty()
-    except (AttributeError, ValueError):
-        return False
-
-
 def simulate(
     params: Optional[Parameters] = None,
     *,
@@ -272,10 +236,10 @@ def simulate(
         raise ValueError(f"invalid parameter `model` = {model!r}: must be one of {', '.join(map(repr, MODELS))}")
     if model != "pcs" and s_pcs is not None:
         raise ValueError("invalid parameter `s_pcs`: only used with model=\"pcs\"")
-    f_ex, a_ex, s0 = _number("f_ex", f_ex), _number("a_ex", a_ex), _number("s0", s0)
-    s_pcs_value = None if model != "pcs" else (s0 if s_pcs is None else _number("s_pcs", s_pcs))
-    record_every = _positive_int("record_every", record_every)
-    t_end = _number("t_end", t_end)
+    f_ex, a_ex, s0 = number("f_ex", f_ex), number("a_ex", a_ex), number("s0", s0)
+    s_pcs_value = None if model != "pcs" else (s0 if s_pcs is None else number("s_pcs", s_pcs))
+    record_every = positive_int("record_every", record_every)
+    t_end = number("t_end", t_end)
     if not (np.isfinite(t_end) and t_end >= 0):
         raise ValueError(f"invalid parameter `t_end` = {t_end!r}: the duration (duration_s) must be finite and >= 0 s")
     steps = int(_core.recorded_rows(t_end, p.dt_s, 1)) - 1
@@ -289,9 +253,9 @@ def simulate(
         _core.simulate(p.toml_text(), f_ex_hz=float(f_ex), a_ex_m_s2=float(a_ex), s0=float(s0), t_end_s=0.0,
                        model=model, s_pcs=s_pcs_value, record_every=1)
         return None  # type: ignore[return-value]
-    target = _check_out(out, overwrite)
+    target = check_out(out, overwrite)
     if target is None:
-        _check_memory(t_end, p.dt_s, record_every, max_memory)
+        check_memory(t_end, p.dt_s, record_every, max_memory)
     stream = target
     if target is not None and target.suffix.lower() == ".parquet":
         stream = target.with_name(f".{target.name}.partial-{os.getpid()}.npz")
@@ -321,7 +285,7 @@ def simulate(
 
 def _run(p: Parameters, progress: Optional[bool], out: Optional[Path], *, f_ex: float, a_ex: float, s0: float,
          t_end: float, model: str, s_pcs: Optional[float], record_every: int, window: float = 1.0) -> Dict[str, Any]:
-    with _progress_bar(progress, t_end, f"{model.upper()} {f_ex:g} Hz {a_ex:g} m/s²", "s") as cb:
+    with progress_bar(progress, t_end, f"{model.upper()} {f_ex:g} Hz {a_ex:g} m/s²", "s") as cb:
         res = _core.simulate(p.toml_text(), f_ex_hz=f_ex, a_ex_m_s2=a_ex, s0=s0, t_end_s=t_end, model=model,
                              s_pcs=s_pcs, record_every=record_every, progress=cb,
                              out=None if out is None else str(out), window_s=window, columns=PIXEL_COLUMNS)
@@ -403,17 +367,17 @@ def super_slow_manifold(
     another thread stop a manifold computed in the background (``KeyboardInterrupt`` is raised).
     """
     p = resolve(params)
-    f_ex, a_ex = _number("f_ex", f_ex), _number("a_ex", a_ex)
+    f_ex, a_ex = number("f_ex", f_ex), number("a_ex", a_ex)
     grid = manifold_grid(p) if s is None else np.atleast_1d(np.asarray(s, dtype=float))
     if grid.ndim != 1 or grid.size == 0:
         raise ValueError("invalid parameter `s`: need a non-empty 1-D sequence of slider positions")
     if grid.size > 1 and np.any(np.diff(grid) <= 0):
         raise ValueError("invalid parameter `s`: slider positions must be strictly increasing")
-    periods = _positive_int("periods", periods)
-    record = _positive_int("record", record)
+    periods = positive_int("periods", periods)
+    record = positive_int("record", record)
     if record > periods:
         raise ValueError(f"invalid parameter `record` = {record}: must lie in 1..=periods ({periods})")
-    with _progress_bar(progress, 2 * grid.size, f"manifold {f_ex:g} Hz {a_ex:g} m/s²", "pts") as bar:
+    with progress_bar(progress, 2 * grid.size, f"manifold {f_ex:g} Hz {a_ex:g} m/s²", "pts") as bar:
         cb = bar if _stop is None else _stoppable(bar, _stop)
         out = _core.super_slow_manifold(
             p.toml_text(),

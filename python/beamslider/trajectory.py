@@ -14,6 +14,7 @@ from typing import Any, Dict, Iterator, Mapping, Optional, Union
 import numpy as np
 
 from . import _core
+from ._util import number
 
 COLUMNS = ("t_s", "w_4L7_m", "s", "xC_m", "zC_m", "beta_rad")
 """Recorded channels of :func:`beamslider.simulate`, under the core's names (CSV header, ``.npz`` members)."""
@@ -37,7 +38,7 @@ class ParquetDependencyError(ImportError):
     """A Parquet file was asked for but pyarrow (the extra ``parquet``) is not installed."""
 
 
-def _pyarrow() -> Any:
+def require_pyarrow() -> Any:
     try:
         import pyarrow
         import pyarrow.parquet  # noqa: F401
@@ -46,34 +47,6 @@ def _pyarrow() -> Any:
             f"Parquet trajectories need pyarrow, which is not installed: {PARQUET_HINT} (or pip install pyarrow)"
         ) from e
     return pyarrow
-
-
-MAX_INT = 2**63 - 1
-"""Largest integer argument the core takes (counts such as ``record_every``)."""
-
-
-def _number(name: str, value: Any) -> float:
-    """A real number argument as float; anything else is a ``ValueError`` naming the argument."""
-    if isinstance(value, (str, bytes, bool, np.bool_)):
-        raise ValueError(f"invalid parameter `{name}` = {value!r}: must be a number")
-    try:
-        return float(value)
-    except (TypeError, ValueError):
-        raise ValueError(f"invalid parameter `{name}` = {value!r}: must be a number") from None
-
-
-def _positive_int(name: str, value: Any) -> int:
-    if isinstance(value, (str, bytes, bool, np.bool_)):
-        raise ValueError(f"invalid parameter `{name}` = {value!r}: must be an integer >= 1")
-    try:
-        v = int(value)
-    except (TypeError, ValueError, OverflowError):
-        raise ValueError(f"invalid parameter `{name}` = {value!r}: must be an integer >= 1") from None
-    if v != value or v < 1:
-        raise ValueError(f"invalid parameter `{name}` = {value!r}: must be an integer >= 1")
-    if v > MAX_INT:
-        raise ValueError(f"invalid parameter `{name}` = {value!r}: must be an integer in 1..={MAX_INT}")
-    return v
 
 
 def available_memory() -> int:
@@ -119,7 +92,7 @@ def recorded_size(t_end: float, *, dt: float, record_every: int, channels: int =
     return int(_core.recorded_rows(float(t_end), float(dt), int(record_every))) * channels * 8
 
 
-def _check_out(out: Any, overwrite: bool) -> Optional[Path]:
+def check_out(out: Any, overwrite: bool) -> Optional[Path]:
     if out is None:
         return None
     if not isinstance(out, (str, os.PathLike)):
@@ -128,7 +101,7 @@ def _check_out(out: Any, overwrite: bool) -> Optional[Path]:
     if target.suffix.lower() not in FORMATS:
         raise ValueError(f"invalid parameter `out` = {str(out)!r}: the file name must end in .npz, .csv or .parquet")
     if target.suffix.lower() == ".parquet":
-        _pyarrow()
+        require_pyarrow()
     if target.exists() and not overwrite:
         raise ValueError(f"invalid parameter `out` = {str(out)!r}: the file exists (pass overwrite=True to replace it)")
     if not target.parent.is_dir():
@@ -136,13 +109,13 @@ def _check_out(out: Any, overwrite: bool) -> Optional[Path]:
     return target
 
 
-def _check_memory(t_end: float, dt: float, record_every: int, max_memory: Optional[float]) -> None:
+def check_memory(t_end: float, dt: float, record_every: int, max_memory: Optional[float]) -> None:
     """Refuse, before the run, an in-memory recording larger than ``max_memory``."""
     need = recorded_size(t_end, dt=dt, record_every=record_every)
     if max_memory is None:
         limit, what = MEMORY_FRACTION * available_memory(), f"half of the available memory ({_gb(available_memory())})"
     else:
-        limit = _number("max_memory", max_memory)
+        limit = number("max_memory", max_memory)
         if not limit > 0:
             raise ValueError(f"invalid parameter `max_memory` = {max_memory!r}: must be > 0 (bytes)")
         what = f"max_memory = {_gb(limit)}"
@@ -201,7 +174,7 @@ class _LazyColumns(Mapping):
 
 class _ParquetColumns(_LazyColumns):
     def __init__(self, path: Path) -> None:
-        _pyarrow()
+        require_pyarrow()
         import pyarrow.parquet as pq
 
         try:
@@ -261,7 +234,7 @@ def write_parquet_from_npz(npz: Path, target: Path) -> None:
     """Copy the columns of a streamed ``.npz`` into a Parquet file, ``CHUNK_ROWS`` rows (one row
     group) at a time, read with plain reads (not memory-mapped: bounded resident memory).
     Written under a temporary name and renamed when complete."""
-    pa = _pyarrow()
+    pa = require_pyarrow()
     import pyarrow.parquet as pq
 
     members = _npz_members(npz)

@@ -348,7 +348,7 @@ fn run_map_command(cfg: &MapConfig, out: &std::path::Path, threads: Option<usize
 
 fn run_predicted_map_command(cfg: &MapConfig, law_path: &std::path::Path, out: &std::path::Path, threads: Option<usize>, resume: bool, quiet: bool) -> Result<ExitCode> {
     use std::sync::atomic::AtomicBool;
-    let law = predictor::DriftLaw::from_file(law_path).with_context(|| format!("cannot use the drift law {}", law_path.display()))?;
+    let law = superslow::law::DriftLaw::from_file(law_path).with_context(|| format!("cannot use the drift law {}", law_path.display()))?;
     let results = out.join(map::RESULTS_FILE);
     let opts = MapRunOptions { out: Some(results.clone()), resume, threads, extend: false };
     // The checks of `map::preflight` (with the predictor's header) are made by the core before it
@@ -363,7 +363,7 @@ fn run_predicted_map_command(cfg: &MapConfig, law_path: &std::path::Path, out: &
     };
     let cancel = AtomicBool::new(false);
     let t0 = std::time::Instant::now();
-    let outcome = predictor::run_predicted_map(cfg, &law, &predictor::PredictOptions::default(), &opts, &cancel, &progress)?;
+    let outcome = superslow::predict::run_predicted_map(cfg, &law, &superslow::predict::PredictOptions::default(), &opts, &cancel, &progress)?;
     bar.finish_and_clear();
     std::fs::write(out.join("map.toml"), cfg.to_toml_string()).with_context(|| format!("cannot write {}", out.join("map.toml").display()))?;
     let table = map::text_table(&outcome.rows);
@@ -388,7 +388,7 @@ fn run_predicted_map_command(cfg: &MapConfig, law_path: &std::path::Path, out: &
         robustness,
         results.display()
     );
-    let failed: Vec<&MapRow> = outcome.rows.iter().filter(|r| r.status == map::STATUS_ERROR).collect();
+    let failed: Vec<&MapRow> = outcome.rows.iter().filter(|r| r.status == results::STATUS_ERROR).collect();
     if failed.is_empty() {
         return Ok(ExitCode::SUCCESS);
     }

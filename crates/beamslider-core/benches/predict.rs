@@ -1,7 +1,7 @@
 //! `predict`: wall time of the reduced super-slow predictor (issue 17 §4.5) per operating point,
 //! one thread, split into layer (a) (the HB manifold), the slow model (features + V from the drift
 //! law on the nodes) and the slow flow with the classifier; plus the whole 7 × 16 map point by
-//! point. The law is `docs/superslow/law.json` (the default law).
+//! point. The law is `python/beamslider/data/default_law.json` (the default law).
 //!
 //! cargo bench -p beamslider-core --bench predict [-- --reps 50]
 //!
@@ -9,8 +9,9 @@
 
 use std::time::Instant;
 
-use beamslider_core::predictor::{DriftLaw, PredictOptions, beam_for, predict_point_with, slow_model_with};
-use beamslider_core::slowflow::{SlowFlowOptions, slow_flow};
+use beamslider_core::superslow::law::{DriftLaw, beam_for};
+use beamslider_core::superslow::predict::{PredictOptions, predict_point_with, slow_model_with};
+use beamslider_core::superslow::slowflow::{SlowFlowOptions, slow_flow};
 use beamslider_core::*;
 
 fn median(mut v: Vec<f64>) -> f64 {
@@ -21,8 +22,8 @@ fn median(mut v: Vec<f64>) -> f64 {
 fn main() {
     let args: Vec<String> = std::env::args().collect();
     let reps = args.iter().position(|a| a == "--reps").and_then(|i| args.get(i + 1)).and_then(|v| v.parse().ok()).unwrap_or(30usize);
-    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../docs/superslow/law.json");
-    let law = DriftLaw::from_file(&root).expect("docs/superslow/law.json");
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../python/beamslider/data/default_law.json");
+    let law = DriftLaw::from_file(&root).expect("python/beamslider/data/default_law.json");
     let params = Params::default();
     let opts = PredictOptions::default();
     let beam = beam_for(&params, opts.hb.n_modes).unwrap();

@@ -1,7 +1,7 @@
 //! Bounded-time random-mutation fuzzer of the core's file readers (cargo-fuzz needs a nightly
 //! toolchain; this runs on stable): the TOML parameter loader (`Params::from_toml_str`, then
 //! `Model::new` on what it accepts), the map configuration (`MapConfig::from_toml_str`, then its
-//! grid points) and the map results reader used by `--resume` (`map::read_results`).
+//! grid points) and the map results reader used by `--resume` (`results::read_results`).
 //!
 //! Each input is a valid seed mutated a few times (byte flips, insertions of interesting tokens
 //! such as `nan`, `1e400`, `-1`, quotes and brackets, deletions, duplications, truncation, splices
@@ -18,7 +18,8 @@ use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
-use beamslider_core::map::{MapConfig, read_results};
+use beamslider_core::map::MapConfig;
+use beamslider_core::results::read_results;
 use beamslider_core::{Model, Params};
 
 struct Rng(u64);

@@ -1,7 +1,7 @@
 //! Floating-point kernels of the time loop.
 //!
 //! Every product-sum of the step uses the fused multiply-add a·b + c (one rounding). In the
-//! AVX2 + FMA build of the time loop ([`crate::simulation`]) it is a single instruction; in the
+//! AVX2 + FMA build of the time loop (module `dynamics::simulation`) it is a single instruction; in the
 //! generic build it is libm's correctly rounded `fma`. Both round identically, so the two builds
 //! give bitwise the same results.
 

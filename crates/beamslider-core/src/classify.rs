@@ -70,7 +70,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
-use crate::signal::envelope;
+pub use crate::signal::envelope_stream::SuperSlow;
 
 /// The behaviour types of MODEL.md §8.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, PartialOrd, Ord)]
@@ -216,38 +216,6 @@ impl Default for Criteria {
             low_h: 0.05,
             relax_min_cycles: 2,
         }
-    }
-}
-
-/// The super-slow signals of one run, sampled uniformly.
-#[derive(Debug, Clone, PartialEq)]
-pub struct SuperSlow {
-    /// Time of the first sample [s].
-    pub t0_s: f64,
-    /// Sample spacing [s].
-    pub dt_s: f64,
-    /// Slider position s = x_C/L.
-    pub s: Vec<f64>,
-    /// Super-slow amplitude of w(4L/7) in units of h.
-    pub amplitude_h: Vec<f64>,
-}
-
-impl SuperSlow {
-    /// From a recorded displacement w(4L/7) [m] and s, sampled every `dt_s`: A = 1-s (`window_s`)
-    /// moving average of |Hilbert(w)|, divided by the thickness `h_m` (MODEL.md §7).
-    pub fn from_displacement(t0_s: f64, dt_s: f64, w_m: &[f64], s: &[f64], h_m: f64, window_s: f64) -> Result<SuperSlow> {
-        if w_m.len() != s.len() {
-            return Err(Error::invalid("w", w_m.len(), "w and s must have the same length"));
-        }
-        if !(dt_s.is_finite() && dt_s > 0.0) {
-            return Err(Error::invalid("dt_s", dt_s, "must be finite and > 0"));
-        }
-        let amplitude_h = envelope(w_m, dt_s, window_s).into_iter().map(|a| a / h_m).collect();
-        Ok(SuperSlow { t0_s, dt_s, s: s.to_vec(), amplitude_h })
-    }
-
-    fn t(&self, i: usize) -> f64 {
-        self.t0_s + i as f64 * self.dt_s
     }
 }
 

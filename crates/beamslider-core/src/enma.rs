@@ -26,8 +26,8 @@ use nalgebra::{SMatrix, SVector};
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
-use crate::simulation::{Model, Monitor, POLL_EVERY};
-use crate::stepper::beam_integrator;
+use crate::dynamics::simulation::{Model, Monitor, POLL_EVERY};
+use crate::dynamics::beam_only::beam_integrator;
 
 /// Number of response points x = L/6 … 5L/6 (the paper's multi-point vibrometer).
 pub const N_POINTS: usize = 5;
@@ -441,8 +441,8 @@ pub fn backbone_rad_s(model: &Model, amplitude_h: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::record::NullRecorder;
-    use crate::simulation::{Excitation, RunOptions, SliderModel, State};
+    use crate::dynamics::record::NullRecorder;
+    use crate::dynamics::simulation::{Excitation, RunOptions, SliderModel, State};
     use crate::Params;
 
     /// The ENMA integrator at a fixed frequency is the stepper's beam-only model (same scheme,

@@ -3,55 +3,47 @@
 //! (modal reduction) carrying a rigid slider in frictional, unilateral contact, integrated with
 //! Moreau's midpoint time-stepping scheme.
 //!
-//! Modules follow the physics: [`params`] (§1), [`beam`] and [`excitation`] (§2), [`slider`] (§3), [`contact`]
-//! (§4), [`solver`] and [`stepper`] (§5), [`simulation`] and [`manifold`] (§6), [`record`] and
-//! [`signal`], [`envelope_stream`], [`output`] and [`overview`] (§7), [`classify`], [`map`] and [`study`] (§8) on the one batch [`runner`], [`enma`] (§9); [`superslow`]: the super-slow
-//! manifold by harmonic balance (issue 17, layer (a)); [`drift`] and [`slowflow`]: the drift law
-//! from the PCS model and the slow flow (issue 17, layer (b)); [`predictor`]: the fitted drift law
-//! evaluated in the core and predicted operating maps (issue 17, b2).
+//! Modules, in layers (a module uses only those above it in this list):
+//!
+//! - [`arith`] (numeric kernels), [`error`], [`params`] (§1);
+//! - [`physics`]: beam and its modal basis, excitation (§2), slider (§3), contact (§4);
+//! - [`dynamics`]: contact solvers and the stepper (§5), runs, recorders and the batch runner (§6.1);
+//! - [`signal`]: filters, the streamed super-slow signals, trajectory files, the run overview (§7);
+//! - [`classify`]: the behaviour of a run (§8);
+//! - [`results`]: the JSON-lines results files of maps and studies (§8);
+//! - [`map`] and [`study`]: operating maps and studies (§8); [`manifold`] (§6.2), [`enma`] (§9);
+//! - [`superslow`]: the harmonic-balance manifold, the drift law, the slow flow and predicted
+//!   maps (§6.3–§6.4).
 #![warn(missing_docs)]
 
 mod arith;
-pub mod beam;
 pub mod classify;
-pub mod contact;
-pub mod drift;
+pub mod dynamics;
 pub mod enma;
 pub mod error;
-pub mod excitation;
 pub mod manifold;
-pub mod lock;
 pub mod map;
-pub mod output;
-pub mod overview;
 pub mod params;
-pub mod predictor;
-pub mod record;
-pub mod runner;
+pub mod physics;
+pub mod results;
 pub mod signal;
-pub mod envelope_stream;
-pub mod simulation;
-pub mod slider;
-pub mod slowflow;
-pub mod solver;
-pub mod stepper;
 pub mod study;
 pub mod superslow;
 
-pub use beam::Beam;
-pub use enma::{EnmaOptions, EnmaPoint, EnmaResult, virtual_enma};
-pub use manifold::{Branch, Manifold, ManifoldOptions, super_slow_manifold};
-pub use error::{Error, Result};
-pub use params::{ContactSolver, Params};
-pub use lock::ResultsLock;
-pub use output::{FileRecorder, Format, recorded_bytes, recorded_rows};
-pub use overview::{Overview, OverviewRecorder};
-pub use record::{ColumnRecorder, Channel, CsvRecorder, MemoryRecorder, NullRecorder, Recorder, Tee};
-pub use simulation::{
-    CancelFlag, Checkpoint, Excitation, Model, Monitor, RunOptions, RunSummary, SliderModel, State,
-    Status, set_simd,
-};
-pub use stepper::{Counters, StepperMemory};
-pub use superslow::{ClosedFormN1, Fold, HbBranch, HbManifold, HbOptions, HbSystem, closed_form_n1, hb_manifold};
 pub use classify::{Behaviour, Classification, Criteria, SuperSlow, classify};
+pub use dynamics::record::{Channel, ColumnRecorder, CsvRecorder, MemoryRecorder, NullRecorder, Recorder, Tee};
+pub use dynamics::simulation::{
+    CancelFlag, Checkpoint, Excitation, Model, Monitor, RunOptions, RunSummary, SliderModel, State, Status,
+    set_simd,
+};
+pub use dynamics::stepper::{Counters, StepperMemory};
+pub use enma::{EnmaOptions, EnmaPoint, EnmaResult, virtual_enma};
+pub use error::{Error, Result};
+pub use manifold::{Branch, Manifold, ManifoldOptions, super_slow_manifold};
 pub use map::{Axis, Grid, MapConfig, MapOutcome, MapPoint, MapRow, MapRunOptions, run_map};
+pub use params::{ContactSolver, Params};
+pub use physics::beam::Beam;
+pub use results::ResultsLock;
+pub use signal::output::{FileRecorder, Format, recorded_bytes, recorded_rows};
+pub use signal::overview::{Overview, OverviewRecorder};
+pub use superslow::{ClosedFormN1, Fold, HbBranch, HbManifold, HbOptions, HbSystem, closed_form_n1, hb_manifold};

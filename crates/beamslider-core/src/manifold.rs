@@ -3,16 +3,16 @@
 //! upwards and downwards from the same initial state. The two sweeps are independent, so they run
 //! on two threads (the results do not depend on it: each sweep is sequential, and the counters
 //! are sums and maxima); the calling thread polls the caller's monitor meanwhile
-//! ([`crate::runner::watched`]).
+//! ([`crate::dynamics::runner::watched`]).
 
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
 use crate::error::{Error, Result};
-use crate::runner;
-use crate::record::{Channel, MemoryRecorder, NullRecorder};
+use crate::dynamics::runner;
+use crate::dynamics::record::{Channel, MemoryRecorder, NullRecorder};
 use crate::signal::hilbert_envelope;
-use crate::simulation::{Excitation, Model, Monitor, RunOptions, SliderModel, State, Status};
-use crate::stepper::Counters;
+use crate::dynamics::simulation::{Excitation, Model, Monitor, RunOptions, SliderModel, State, Status};
+use crate::dynamics::stepper::Counters;
 
 /// Settings of the continuation.
 #[derive(Debug, Clone, PartialEq)]

@@ -1,7 +1,7 @@
 //! Uncertainty studies (MODEL.md §8): chunks of independent free-slider runs, each point with its
 //! own parameter set, operating point (f_ex, a_ex, s₀) and duration, run from rest and classified
 //! exactly as a point of an operating map ([`crate::map::run_point`]), so a study row is bitwise
-//! the map row of the same inputs. The points run on the one batch runner ([`crate::runner`]).
+//! the map row of the same inputs. The points run on the one batch runner ([`crate::dynamics::runner`]).
 //!
 //! The study's results file ([`StudyResults`]) is a map results file whose header also holds the
 //! study's configuration and whose rows also hold their sample, operating point and parameter
@@ -17,11 +17,11 @@ use std::sync::atomic::AtomicBool;
 use rayon::prelude::*;
 
 use crate::error::{Error, Result};
-use crate::lock::ResultsLock;
 use crate::map::{self, MapConfig, MapPoint, MapRow};
+use crate::results::{self, ResultsLock};
 use crate::params::Params;
-use crate::runner::{run_batch, with_threads};
-use crate::simulation::Model;
+use crate::dynamics::runner::{run_batch, with_threads};
+use crate::dynamics::simulation::Model;
 
 /// One point of a study: its own parameters, operating point and duration.
 #[derive(Debug, Clone, PartialEq)]
@@ -136,27 +136,27 @@ impl StudyResults {
         let Some(path) = path else {
             return Ok(out);
         };
-        let header = map::header_line_with(&cfg.settings(), Some(&study));
+        let header = results::header_line_with(&cfg.settings(), Some(&study));
         let exists = path.exists() && std::fs::metadata(path).map(|m| m.len() > 0).unwrap_or(false);
         if exists && !resume {
             return Err(Error::invalid("out", path.display(), "the results file exists: resume it, or choose another output"));
         }
         if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-            std::fs::create_dir_all(dir).map_err(|e| map::io_err(dir, e))?;
+            std::fs::create_dir_all(dir).map_err(|e| results::io_err(dir, e))?;
         }
         // One writer per results file: a second one fails here, naming the holder's PID.
         let lock = ResultsLock::acquire(path)?;
-        let mut old = if exists { map::read_results(path)? } else { map::ResultsFile::default() };
-        if old.settings.is_some() && (old.version != map::FORMAT_VERSION || old.settings != Some(cfg.settings()) || old.study.as_ref() != Some(&study)) {
+        let mut old = if exists { results::read_results(path)? } else { results::ResultsFile::default() };
+        if old.settings.is_some() && (old.version != results::FORMAT_VERSION || old.settings != Some(cfg.settings()) || old.study.as_ref() != Some(&study)) {
             return Err(Error::invalid("resume", path.display(), "the results file was written by another study configuration"));
         }
         if !exists {
-            OpenOptions::new().create(true).truncate(true).write(true).open(path).map_err(|e| map::io_err(path, e))?;
+            OpenOptions::new().create(true).truncate(true).write(true).open(path).map_err(|e| results::io_err(path, e))?;
         }
         // O_APPEND: each row lands at the end in one write.
-        let mut f = map::open_append(path, old.good_len)?;
+        let mut f = results::open_append(path, old.good_len)?;
         if old.settings.is_none() {
-            map::write_line(&mut f, path, &header)?;
+            results::write_line(&mut f, path, &header)?;
         }
         for row in std::mem::take(&mut old.rows) {
             let ok = out.info.get(&row.index).is_some_and(|i| {
@@ -182,7 +182,7 @@ impl StudyResults {
         row.extra.insert("point".into(), info.point.into());
         row.extra.insert("params".into(), info.params.clone());
         if let Some((f, path, _)) = &mut self.file {
-            map::write_line(f, path, &row.to_json())?;
+            results::write_line(f, path, &row.to_json())?;
         }
         self.rows.insert(row.index, row);
         Ok(true)

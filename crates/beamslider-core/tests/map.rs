@@ -2,7 +2,8 @@
 
 use std::sync::atomic::AtomicBool;
 
-use beamslider_core::map::{self, MapConfig, MapRow, MapRunOptions, read_results, run_map};
+use beamslider_core::map::{self, MapConfig, MapRow, MapRunOptions, run_map};
+use beamslider_core::results::{self, read_results};
 
 fn small(duration: f64) -> MapConfig {
     MapConfig::from_toml_str(&format!(
@@ -199,7 +200,7 @@ fn extended_map_rows_are_bitwise_those_of_the_longer_map() {
     // The file reads back to the extended rows (later rows replace earlier ones).
     let back = read_results(&path).unwrap();
     assert_eq!(back.settings.unwrap().duration_s, 6.0);
-    let mut rows = map::latest(back.rows.clone());
+    let mut rows = results::latest(back.rows.clone());
     rows.sort_by_key(|r| r.index);
     assert_eq!(canon(&rows), a);
     // Nothing left to extend: a second call re-runs nothing.

@@ -3,8 +3,8 @@
 //! coexistence, V ≡ 0).
 
 use beamslider_core::Behaviour;
-use beamslider_core::drift::BranchLabel;
-use beamslider_core::slowflow::{EventKind, SlowBranch, SlowFlowOptions, SlowModel, slow_flow};
+use beamslider_core::superslow::drift::BranchLabel;
+use beamslider_core::superslow::slowflow::{EventKind, SlowBranch, SlowFlowOptions, SlowModel, slow_flow};
 
 const S_MIN: f64 = 0.036;
 
@@ -27,7 +27,7 @@ fn model(v_low: impl Fn(f64) -> f64, v_high: impl Fn(f64) -> f64, s_dn: Option<f
     }
 }
 
-fn kinds(p: &beamslider_core::slowflow::Prediction) -> Vec<EventKind> {
+fn kinds(p: &beamslider_core::superslow::slowflow::Prediction) -> Vec<EventKind> {
     p.events.iter().map(|e| e.kind).collect()
 }
 

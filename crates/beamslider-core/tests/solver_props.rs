@@ -7,7 +7,7 @@
 //! 2-contact problems the exact solver is compared with an independent exact enumeration of all
 //! contact modes (open / stick / slide ±), each mode a dense linear system solved by nalgebra.
 
-use beamslider_core::solver::{ContactMode, DIM, LocalProblem, MAX_CLOSED, exact, gauss_seidel};
+use beamslider_core::dynamics::solver::{ContactMode, DIM, LocalProblem, MAX_CLOSED, exact, gauss_seidel};
 use nalgebra::{DMatrix, DVector};
 use proptest::prelude::*;
 

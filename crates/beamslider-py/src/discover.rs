@@ -1,6 +1,6 @@
 //! Free-slider runs of the discrepancy workflow (`python/beamslider/discover/`), binding side: the
 //! runs of one or more χ² evaluations as one batch through the core's runner
-//! ([`beamslider_core::runner::run_batch`]: rayon workers, bitwise independent of the thread
+//! ([`beamslider_core::dynamics::runner::run_batch`]: rayon workers, bitwise independent of the thread
 //! count), with the interpreter released, Ctrl-C and an optional per-run callback polled from the
 //! calling thread. Each job returns what the slider-level features need, reduced in the worker:
 //! t, s = x_C/L and the super-slow amplitude A = envelope(w(4L/7), 1 s)/h (docs/model.md §7),
@@ -12,7 +12,7 @@ use std::sync::atomic::AtomicBool;
 
 use beamslider_core::{
     CancelFlag, Channel, ColumnRecorder, Error, Excitation, Model, Params, Recorder, RunOptions, SliderModel, Status,
-    runner, signal,
+    dynamics::runner, signal,
 };
 use numpy::IntoPyArray;
 use pyo3::exceptions::{PyKeyboardInterrupt, PyValueError};

@@ -15,7 +15,7 @@ mod enma;
 use beamslider_core::{
     Criteria, MapConfig, MapRow, MapRunOptions, SuperSlow,
     Channel, ColumnRecorder, Error, Excitation, FileRecorder, ManifoldOptions, Model, Monitor, OverviewRecorder, Params, Recorder,
-    RunOptions, Tee, SliderModel, Status, runner, signal,
+    RunOptions, Tee, SliderModel, Status, dynamics::runner, signal,
 };
 use numpy::{IntoPyArray, PyArray1, PyReadonlyArray1};
 use pyo3::exceptions::{PyBlockingIOError, PyException, PyKeyboardInterrupt, PyOSError, PyValueError};
@@ -426,7 +426,7 @@ fn super_slow_signals<'py>(
     window_s: f64,
 ) -> PyResult<(f64, f64, Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<f64>>)> {
     let (w, s) = (w.as_slice()?.to_vec(), s.as_slice()?.to_vec());
-    let x = py.detach(|| guarded(|| beamslider_core::envelope_stream::EnvelopeStream::of_series(&w, &s, dt_s, thickness_m, window_s)))?;
+    let x = py.detach(|| guarded(|| beamslider_core::signal::envelope_stream::EnvelopeStream::of_series(&w, &s, dt_s, thickness_m, window_s)))?;
     Ok((x.t0_s, x.dt_s, x.s.into_pyarray(py), x.amplitude_h.into_pyarray(py)))
 }
 
@@ -490,7 +490,7 @@ fn check_map(py: Python<'_>, config_toml: &str, out: Option<std::path::PathBuf>,
 /// whether the last line was truncated).
 #[pyfunction]
 fn read_map_results(py: Python<'_>, path: std::path::PathBuf) -> PyResult<(Option<String>, Vec<String>, bool)> {
-    let r = py.detach(|| guarded(|| beamslider_core::map::read_results(&path)))?;
+    let r = py.detach(|| guarded(|| beamslider_core::results::read_results(&path)))?;
     let settings = r.settings.map(|s| serde_json::to_string(&s).unwrap_or_default());
     Ok((settings, r.rows.iter().map(MapRow::to_json).collect(), r.truncated))
 }
@@ -499,7 +499,7 @@ fn read_map_results(py: Python<'_>, path: std::path::PathBuf) -> PyResult<(Optio
 #[pymodule]
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("SimulationError", m.py().get_type::<SimulationError>())?;
-    m.add("RESULTS_FORMAT_VERSION", beamslider_core::map::FORMAT_VERSION)?;
+    m.add("RESULTS_FORMAT_VERSION", beamslider_core::results::FORMAT_VERSION)?;
     m.add("MAX_AXIS_VALUES", beamslider_core::map::MAX_POINTS)?;
     m.add_function(wrap_pyfunction!(default_params, m)?)?;
     m.add_function(wrap_pyfunction!(params_from_toml, m)?)?;

@@ -133,7 +133,7 @@ impl PyStudyResults {
 /// all their keys, byte length of the complete part, whether the last line was truncated).
 #[pyfunction]
 fn read_results_file(py: Python<'_>, path: std::path::PathBuf) -> PyResult<(Option<String>, Vec<String>, u64, bool)> {
-    let r = py.detach(|| guarded(|| beamslider_core::map::read_results(&path)))?;
+    let r = py.detach(|| guarded(|| beamslider_core::results::read_results(&path)))?;
     let header = r.header_json();
     Ok((header, r.rows.iter().map(MapRow::to_json).collect(), r.good_len, r.truncated))
 }

@@ -1,10 +1,11 @@
 //! Binding of layer (a) of issue 17 (`beamslider_core::superslow`): the harmonic-balance
 //! super-slow manifold, its N = 1 closed form and the single-mode backbone. Types and errors only.
 
-use beamslider_core::drift::{BranchLabel, DriftOptions, drift_table_pcs as core_drift};
-use beamslider_core::slowflow::{EventKind, SlowBranch, SlowFlowOptions, SlowModel, slow_flow as core_slow_flow};
+use beamslider_core::superslow::drift::{BranchLabel, DriftOptions, drift_table_pcs as core_drift};
+use beamslider_core::superslow::slowflow::{EventKind, SlowBranch, SlowFlowOptions, SlowModel, slow_flow as core_slow_flow};
 use beamslider_core::superslow::{HbBranch, HbOptions, HbSystem, closed_form_n1_scaled, hb_manifold as core_hb};
-use beamslider_core::predictor::{self, DriftLaw};
+use beamslider_core::superslow::{law, predict};
+use beamslider_core::superslow::law::DriftLaw;
 use beamslider_core::{Criteria, Excitation, MapConfig, MapRow, MapRunOptions, Model};
 use numpy::IntoPyArray;
 use pyo3::prelude::*;
@@ -132,7 +133,7 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     Ok(())
 }
 
-/// Drift table V(s, branch) from the PCS model (issue 17 §3.1; `beamslider_core::drift`). Returns
+/// Drift table V(s, branch) from the PCS model (issue 17 §3.1; `beamslider_core::superslow::drift`). Returns
 /// (header JSON, rows as JSON texts in production order, rows computed now). Rows are appended
 /// to `out` as produced; `resume` continues an existing file with the same settings.
 /// `progress(done, total)` is called from the calling thread; Ctrl-C stops both sweeps (rows
@@ -209,12 +210,12 @@ pub fn drift_table_pcs(
 /// Read a drift-table file: (header JSON, rows as JSON texts; a truncated last line is dropped).
 #[pyfunction]
 pub fn read_drift_table(py: Python<'_>, path: std::path::PathBuf) -> PyResult<(String, Vec<String>)> {
-    let (h, rows) = py.detach(|| guarded(|| beamslider_core::drift::read_drift_table(&path)))?;
+    let (h, rows) = py.detach(|| guarded(|| beamslider_core::superslow::drift::read_drift_table(&path)))?;
     let js = |e: serde_json::Error| crate::SimulationError::new_err(format!("internal error: {e}"));
     Ok((serde_json::to_string(&h).map_err(js)?, rows.iter().map(|r| serde_json::to_string(r).map_err(js)).collect::<PyResult<Vec<_>>>()?))
 }
 
-/// Slow flow (issue 17 §3.3; `beamslider_core::slowflow`) on branches given by their nodes
+/// Slow flow (issue 17 §3.3; `beamslider_core::superslow::slowflow`) on branches given by their nodes
 /// (half coordinate s′ ∈ (0, ½], increasing): `low` / `high` = (s, amplitude_h, v_per_s). Returns a
 /// dict: `t_s`, `s`, `amplitude_h`, `branch` (0 = L, 1 = H), `events` (list of (kind, t_s, s)),
 /// `s_final`, `amplitude_final_h`, `branch_final`, `branch_initial` ("L"/"H"),
@@ -277,8 +278,8 @@ fn parse_law(law_json: &str) -> PyResult<DriftLaw> {
 #[pyo3(signature = (law_json, *, high, x, lift_off))]
 pub fn drift_law_evaluate(law_json: &str, high: bool, x: Vec<Vec<f64>>, lift_off: Vec<f64>) -> PyResult<(Vec<f64>, Vec<bool>)> {
     let law = parse_law(law_json)?;
-    if x.len() != lift_off.len() || x.iter().any(|r| r.len() != predictor::NF) {
-        return Err(pyo3::exceptions::PyValueError::new_err(format!("invalid parameter `x`: rows of {} features, one lift_off per row", predictor::NF)));
+    if x.len() != lift_off.len() || x.iter().any(|r| r.len() != law::NF) {
+        return Err(pyo3::exceptions::PyValueError::new_err(format!("invalid parameter `x`: rows of {} features, one lift_off per row", law::NF)));
     }
     let (mut v, mut out) = (Vec::with_capacity(x.len()), Vec::with_capacity(x.len()));
     for (r, &l) in x.iter().zip(&lift_off) {
@@ -300,11 +301,11 @@ pub fn hb_features<'py>(py: Python<'py>, params_toml: &str, f_ex_hz: f64, a_ex_m
     let f = py.detach(|| {
         guarded(|| {
             let m = core_hb(&params, f_ex_hz, a_ex_m_s2, &opts)?;
-            predictor::features(&params, &m, f_ex_hz, a_ex_m_s2, high, &s)
+            law::features(&params, &m, f_ex_hz, a_ex_m_s2, high, &s)
         })
     })?;
     let d = PyDict::new(py);
-    let col = |g: fn(&predictor::Features) -> f64| f.iter().map(g).collect::<Vec<f64>>();
+    let col = |g: fn(&law::Features) -> f64| f.iter().map(g).collect::<Vec<f64>>();
     d.set_item("lift_off", col(|x| x.lift_off).into_pyarray(py))?;
     d.set_item("slope_gap", col(|x| x.slope_gap).into_pyarray(py))?;
     d.set_item("f_slope", col(|x| x.f_slope).into_pyarray(py))?;
@@ -323,12 +324,12 @@ pub fn hb_features<'py>(py: Python<'py>, params_toml: &str, f_ex_hz: f64, a_ex_m
 pub fn predict_point(py: Python<'_>, params_toml: &str, law_json: &str, f_ex_hz: f64, a_ex_m_s2: f64, s0: f64, t_end_s: f64, n_modes: usize, d_eff: Option<f64>) -> PyResult<String> {
     let params = parse_params(params_toml)?;
     let law = parse_law(law_json)?;
-    let opts = predictor::PredictOptions { hb: HbOptions { n_modes, d_eff, ..predictor::PredictOptions::default().hb }, ..predictor::PredictOptions::default() };
+    let opts = predict::PredictOptions { hb: HbOptions { n_modes, d_eff, ..predict::PredictOptions::default().hb }, ..predict::PredictOptions::default() };
     py.detach(|| {
         guarded(|| {
             let t0 = std::time::Instant::now();
-            let p = predictor::predict_point(&params, &law, f_ex_hz, a_ex_m_s2, s0, t_end_s, &opts)?;
-            Ok(predictor::predicted_row(0, f_ex_hz, a_ex_m_s2, s0, t_end_s, &p, t0.elapsed().as_secs_f64()).to_json())
+            let p = predict::predict_point(&params, &law, f_ex_hz, a_ex_m_s2, s0, t_end_s, &opts)?;
+            Ok(predict::predicted_row(0, f_ex_hz, a_ex_m_s2, s0, t_end_s, &p, t0.elapsed().as_secs_f64()).to_json())
         })
     })
 }
@@ -355,7 +356,7 @@ pub fn predicted_map(
     crate::check_threads(threads)?;
     let cfg = guarded(|| MapConfig::from_toml_str(config_toml))?;
     let law = parse_law(law_json)?;
-    let popts = predictor::PredictOptions { hb: HbOptions { n_modes, d_eff, ..predictor::PredictOptions::default().hb }, ..predictor::PredictOptions::default() };
+    let popts = predict::PredictOptions { hb: HbOptions { n_modes, d_eff, ..predict::PredictOptions::default().hb }, ..predict::PredictOptions::default() };
     let opts = MapRunOptions { out, resume, threads, extend: false };
     let cancel = std::sync::atomic::AtomicBool::new(false);
     let done = std::sync::atomic::AtomicUsize::new(0);
@@ -368,7 +369,7 @@ pub fn predicted_map(
         }
     };
     let prog = |n: usize, _t: usize, _r: &MapRow| done.store(n, std::sync::atomic::Ordering::Relaxed);
-    let outcome = crate::detached(py, &cancel, 100, || predictor::run_predicted_map(&cfg, &law, &popts, &opts, &cancel, &prog), &poll)?;
+    let outcome = crate::detached(py, &cancel, 100, || predict::run_predicted_map(&cfg, &law, &popts, &opts, &cancel, &prog), &poll)?;
     poll(py)?;
     if outcome.cancelled || cancel.load(std::sync::atomic::Ordering::Relaxed) {
         return Err(pyo3::exceptions::PyKeyboardInterrupt::new_err("map interrupted"));

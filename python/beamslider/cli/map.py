@@ -120,8 +120,8 @@ def cmd_map(args: argparse.Namespace) -> int:
 
 def _predicted(args: argparse.Namespace, out: Path) -> Any:
     """The map by the reduced predictor (``--predictor``): the grid of --f-ex/--a-ex/--s0/--t-end/--params."""
-    from ..maps import rows_to_table
-    from ..slowflow import builtin_law, load_drift_law, predicted_map
+    from ..maps import predicted_map, rows_to_table
+    from ..superslow import builtin_law, load_drift_law
 
     if args.config or args.extend_to is not None or args.scheduler or args.scheduler_file:
         raise UserError("--predictor takes the grid from --f-ex/--a-ex/--s0/--t-end/--params (not --config, "

@@ -13,10 +13,9 @@ import time
 from pathlib import Path
 from typing import Any, List, Tuple
 
-from ..drift_law import LAW_JUMP_DOWN_N, LAW_TABLE_SETTINGS, LAW_TRAINING_POINTS
 from ..params import Parameters
-from ..slowflow import (drift_table, drift_tables, fit_drift_law, load_drift_law, predict, read_drift_table,
-                        refine_jump_down, save_drift_law)
+from ..superslow import (DEFAULT_LAW_PATH, LAW_JUMP_DOWN_N, LAW_TABLE_SETTINGS, LAW_TRAINING_POINTS, drift_table, drift_tables,
+                         fit_drift_law, load_drift_law, predict, read_drift_table, refine_jump_down, save_drift_law)
 from ._manifold import add_operating_point
 from ._common import (DEFAULT_OUT, UserError, add_common, add_force, axis_values, figure, fmt, out_dir, params_from_args,
                       plan_outputs, positive, print_written, write_json)
@@ -144,8 +143,6 @@ def _law_content(path: Path) -> Any:
 
 
 def cmd_fit_law(args: argparse.Namespace) -> int:
-    from ..drift_law import DEFAULT_LAW_PATH
-
     p = params_from_args(args)
     pts = _points(args.points) if args.points else list(LAW_TRAINING_POINTS)
     if len(pts) < 2:

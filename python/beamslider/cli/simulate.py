@@ -92,9 +92,9 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     if with_manifold and args.manifold_kind == "pcs":
         check_manifold_args(args)
     if args.format == "parquet":
-        from ..trajectory import _pyarrow
+        from ..trajectory import require_pyarrow
 
-        _pyarrow()  # the extra named before anything is written
+        require_pyarrow()  # the extra named before anything is written
     data_name = f"{stem}.{args.format}"
     plan_outputs(args, [data_name, f"{stem}.json", f"{stem}.png"] + ([man_name] if man_name else []))
     out = out_dir(args)

@@ -1,4 +1,4 @@
-"""Slider design optimisation for broadband self-adaption (issue 21).
+"""Slider design optimisation for broadband self-adaption (docs/model.md §8 for the classifier it scores with).
 
 A designer chooses the slider (and clamping) that adapts to high vibration over the widest band
 of excitation frequencies. :func:`optimise` searches the design variables of a

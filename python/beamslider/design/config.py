@@ -15,14 +15,14 @@ import numpy as np
 from .. import _toml
 from ..maps import map_config_dict
 from ..params import Parameters
-from ..study.config import Uncertain
+from ..study.config import Uncertain, sample
 
 RESULTS_FILE = "design.jsonl"
 """Name of the results file inside a design run's output folder."""
 
 EVALUATORS = ("fs", "predictor")
 """``fs``: free-slider runs through the core's batch runner; ``predictor``: the reduced super-slow
-predictor (:func:`beamslider.slowflow.predicted_map`), best designs re-checked with FS."""
+predictor (:func:`beamslider.maps.predicted_map`), best designs re-checked with FS."""
 
 OBJECTIVES = ("bandwidth", "harvest")
 ROBUST = ("none", "mean", "quantile")
@@ -281,8 +281,6 @@ class DesignConfig:
         design only) when the objective is not robust."""
         if self.robust == "none" or not self.uncertain:
             return [{}]
-        from ..study.sampling import sample
-
         arr = sample(self.uncertain, self.sampling_method, self.samples, seed=self.sampling_seed)
         names = [u.name for u in self.uncertain]
         return [{n: float(v) for n, v in zip(names, row)} for row in arr]
@@ -291,8 +289,6 @@ class DesignConfig:
         """The uncertain sample regardless of ``robust`` (for the robust re-check); [] without uncertain inputs."""
         if not self.uncertain:
             return []
-        from ..study.sampling import sample
-
         arr = sample(self.uncertain, self.sampling_method, self.samples, seed=self.sampling_seed)
         names = [u.name for u in self.uncertain]
         return [{n: float(v) for n, v in zip(names, row)} for row in arr]

@@ -129,7 +129,7 @@ class _Search:
 
     def _run_fs(self, todo: List[Tuple[str, np.ndarray, Parameters, List[Parameters]]], mode: str, t_end: float,
                 samples: List[Dict[str, float]], desc: str, out: Dict[str, Dict[str, Any]]) -> None:
-        from ..simulate import _progress_bar
+        from .._util import progress_bar
 
         ops = self.c.operating_points()
         map_toml = self.c.map_toml()  # record_every, dt, criteria (each run brings its own duration)
@@ -148,7 +148,7 @@ class _Search:
         start = [time.perf_counter()] * len(todo)
         done = [0]
 
-        with _progress_bar(self.progress, len(chunk), desc, "pts") as bar:
+        with progress_bar(self.progress, len(chunk), desc, "pts") as bar:
             def on_rows(rows: List[str]) -> None:
                 for text in rows:
                     r = json.loads(text)
@@ -170,26 +170,26 @@ class _Search:
             if self.client is None:
                 _core.run_study_chunk(map_toml, chunk, threads=self.threads, on_rows=on_rows)
             else:
-                from .._dask import run_chunks
-                from ..study.run import _run_chunk
+                from .._dask import run_chunks, run_study_chunk
 
                 size = self.c.chunk_size
                 chunks = [(map_toml, chunk[i:i + size], self.task_threads) for i in range(0, len(chunk), size)]
-                run_chunks(self.client, _run_chunk, chunks, tag="design" + map_toml + json.dumps([t[0] for t in todo]),
+                run_chunks(self.client, run_study_chunk, chunks, tag="design" + map_toml + json.dumps([t[0] for t in todo]),
                            on_rows=on_rows)
         if any(m != 0 for m in missing):  # pragma: no cover - the runner returns every row or raises
             raise RuntimeError("design batch: runs missing")
 
     def _run_predictor(self, todo: List[Tuple[str, np.ndarray, Parameters, List[Parameters]]], mode: str, t_end: float,
                        samples: List[Dict[str, float]], desc: str, out: Dict[str, Dict[str, Any]]) -> None:
-        from ..simulate import _progress_bar
-        from ..slowflow import load_drift_law, predicted_map
+        from .._util import progress_bar
+        from ..maps import predicted_map
+        from ..superslow import load_drift_law
 
         if self._law is None:
             self._law = load_drift_law(self.c.drift_law)
         total = len(todo) * len(samples) * len(self.c.operating_points())
         done = 0
-        with _progress_bar(self.progress, total, desc, "pts") as bar:
+        with progress_bar(self.progress, total, desc, "pts") as bar:
             for k, x, p, plist in todo:
                 t0 = time.perf_counter()
                 pts_all = []

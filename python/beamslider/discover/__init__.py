@@ -43,11 +43,12 @@ public name is re-exported here.
 from __future__ import annotations
 
 from .features import DESCRIPTIONS, enma_features, Feature, FLOORS, slider_features
-from .effects import _realise, Effect, EFFECTS  # noqa: F401 (_realise: used by tests and scripts)
+from .effects import realise_effects, Effect, EFFECTS
 from .models import beam_surrogate, measured_slider_features, model_slider_features, OperatingPoint, simulated_enma_features
-from .naming import CandidateFit, discover, Discovery, GAP_MEASURE, SIGNIFICANCE
+from .fitting import CandidateFit, Discovery, GAP_MEASURE, SIGNIFICANCE
+from .naming import discover
 from .synthesize import synthesize_enma, synthesize_slider_runs
-from .report import _fmt, verdict_line, write_report  # noqa: F401
+from .report import fmt_value, verdict_line, write_report
 from .separability import separability, slider_sensitivities
 
 __all__ = [
@@ -55,4 +56,5 @@ __all__ = [
     "enma_features", "Feature", "FLOORS", "GAP_MEASURE", "measured_slider_features", "model_slider_features",
     "OperatingPoint", "SIGNIFICANCE", "simulated_enma_features", "slider_features", "synthesize_enma",
     "synthesize_slider_runs", "write_report", "verdict_line", "separability", "slider_sensitivities",
+    "realise_effects", "fmt_value",
 ]

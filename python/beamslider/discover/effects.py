@@ -170,11 +170,11 @@ def _with(p: Parameters, **changes: Any) -> Parameters:
     return Parameters(**{**p.to_dict(), **changes})
 
 
-def _apply(p: Parameters, effects: Sequence[Effect], u: Sequence[float]) -> Parameters:
-    return _realise(p, {e.name: e.value(float(x), p) for e, x in zip(effects, u)})
+def apply_effects(p: Parameters, effects: Sequence[Effect], u: Sequence[float]) -> Parameters:
+    return realise_effects(p, {e.name: e.value(float(x), p) for e, x in zip(effects, u)})
 
 
-def _realise(p: Parameters, values: Dict[str, float]) -> Parameters:
+def realise_effects(p: Parameters, values: Dict[str, float]) -> Parameters:
     """``p`` with the effects' parameters set to ``values`` (by effect name); virtual parameters
     (a natural-frequency factor) are realised last, relative to the other changes."""
     real = {EFFECTS[n].field: v for n, v in values.items() if EFFECTS[n].realise is None}

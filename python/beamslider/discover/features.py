@@ -53,7 +53,7 @@ def _floor(name: str, value: float, stderr: float) -> float:
     return float(max(stderr if math.isfinite(stderr) else 0.0, fl))
 
 
-def _feature(name: str, value: float, stderr: float) -> Feature:
+def make_feature(name: str, value: float, stderr: float) -> Feature:
     unit, desc = DESCRIPTIONS.get(name.split("@")[0], ("", ""))
     return Feature(name, float(value), _floor(name, value, stderr), unit, desc)
 
@@ -78,8 +78,8 @@ def enma_features(data: EnmaData, *, low_amplitude_h: float = 0.3) -> Dict[str, 
     fit = enma.fit_backbone(data)
     w0 = math.sqrt(fit.omega2)
     out = {
-        "f0_hz": _feature("f0_hz", fit.linear_frequency_hz, fit.linear_frequency_stderr_hz),
-        "b_star": _feature("b_star", fit.b_star, fit.b_star_stderr),
+        "f0_hz": make_feature("f0_hz", fit.linear_frequency_hz, fit.linear_frequency_stderr_hz),
+        "b_star": make_feature("b_star", fit.b_star, fit.b_star_stderr),
     }
     d = np.asarray(data.damping_ratio, dtype=float)
     ok = np.isfinite(d)
@@ -87,8 +87,8 @@ def enma_features(data: EnmaData, *, low_amplitude_h: float = 0.3) -> Dict[str, 
         # D~(a~) w~/w = D0 + D2 a~^2: the estimate refers to the phase-resonant frequency.
         y = d[ok] * (2 * math.pi * data.frequency_hz[ok]) / w0
         c, se = _linear_fit(data.amplitude_h[ok] ** 2, y)
-        out["damping_0"] = _feature("damping_0", c[0], se[0])
-        out["damping_2"] = _feature("damping_2", c[1], se[1])
+        out["damping_0"] = make_feature("damping_0", c[0], se[0])
+        out["damping_2"] = make_feature("damping_2", c[1], se[1])
     sh = np.asarray(data.shape, dtype=float)
     good = np.all(np.isfinite(sh), axis=1)
     if good.any():
@@ -99,7 +99,7 @@ def enma_features(data: EnmaData, *, low_amplitude_h: float = 0.3) -> Dict[str, 
         for name, (i, j) in (("shape_L6", (0, 4)), ("shape_L3", (1, 3))):
             v = 0.5 * (sh[low, i] + sh[low, j])
             se = float(np.std(v, ddof=1) / math.sqrt(len(v))) if len(v) > 1 else 0.0
-            out[name] = _feature(name, float(np.mean(v)), se)
+            out[name] = make_feature(name, float(np.mean(v)), se)
     return out
 
 
@@ -125,7 +125,7 @@ def slider_features(t: np.ndarray, s: np.ndarray, amplitude_h: np.ndarray, *, ta
 
     def add(name: str, value: float, se: float) -> None:
         if math.isfinite(value):
-            out[f"{name}@{tag}"] = _feature(f"{name}@{tag}", value, se)
+            out[f"{name}@{tag}"] = make_feature(f"{name}@{tag}", value, se)
 
     early = (t >= 0.5) & (t <= min(5.0, t_end))
     add("speed_early", *_ls_slope(t[early], s[early]))

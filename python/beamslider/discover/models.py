@@ -15,7 +15,7 @@ from .. import _core, enma
 from ..enma import EnmaData
 from ..measurement import DISPLACEMENT_DETREND_S, Measurement
 from ..params import Parameters
-from .features import Feature, _feature, enma_features, slider_features
+from .features import Feature, make_feature, enma_features, slider_features
 
 
 _X5 = [1 / 6, 1 / 3, 1 / 2, 2 / 3, 5 / 6]
@@ -32,7 +32,7 @@ def beam_surrogate(params: Parameters) -> Dict[str, float]:
                 shape_L6=0.5 * (psi[0] + psi[4]) / psi[2], shape_L3=0.5 * (psi[1] + psi[3]) / psi[2])
 
 
-def _levels_for(data: EnmaData, params: Parameters) -> List[float]:
+def levels_for(data: EnmaData, params: Parameters) -> List[float]:
     lv = np.asarray(data.level_m_s2, dtype=float)
     if np.all(np.isfinite(lv)) and len(lv):
         return sorted(set(float(x) for x in lv))
@@ -99,11 +99,11 @@ def measured_slider_features(runs: Sequence[Measurement]) -> Tuple[Dict[str, Fea
             vals = np.array([p[name].value for p in per if name in p])
             ses = np.array([p[name].stderr for p in per if name in p])
             scatter = float(np.std(vals, ddof=1) / math.sqrt(len(vals))) if len(vals) > 1 else 0.0
-            feats[name] = _feature(name, float(np.mean(vals)), math.hypot(float(np.mean(ses)), scatter))
+            feats[name] = make_feature(name, float(np.mean(vals)), math.hypot(float(np.mean(ses)), scatter))
     return feats, behaviours, ops
 
 
-def _simulate_ops(params: Parameters, ops: Sequence[OperatingPoint], *, s0_shift: float = 0.0):
+def simulate_ops(params: Parameters, ops: Sequence[OperatingPoint], *, s0_shift: float = 0.0):
     """Full-resolution runs at the operating points (the synthesiser's truth runs)."""
     from ..simulate import simulate
 

@@ -13,8 +13,8 @@ import numpy as np
 from .. import enma
 from ..enma import EnmaData
 from .effects import EFFECTS
-from .models import OperatingPoint, _simulate_ops
-from .naming import Discovery, GAP_EXCESS_MEASURE, GAP_MEASURE
+from .models import OperatingPoint, simulate_ops
+from .fitting import Discovery, GAP_EXCESS_MEASURE, GAP_MEASURE
 
 PathLike = Union[str, "os.PathLike[str]"]
 
@@ -68,8 +68,8 @@ def write_report(d: Discovery, out_dir: PathLike) -> List[Path]:
     if runs_d:
         ms = runs_d
         ops = [OperatingPoint(m.f_ex, m.a_ex, m.s0, float(m.t[-1])) for m in ms]
-        base_runs = _simulate_ops(d.baseline, ops)
-        upd_runs = _simulate_ops(d.updated, ops)
+        base_runs = simulate_ops(d.baseline, ops)
+        upd_runs = simulate_ops(d.updated, ops)
         fig, axs = plt.subplots(1, len(ms), figsize=(5.5 * len(ms), 4), constrained_layout=True, squeeze=False)
         for ax, m, rb, ru, op in zip(axs[0], ms, base_runs, upd_runs, ops):
             ax.plot(m.t, m.s, color="0.4", lw=0.8, label="measured")
@@ -93,8 +93,8 @@ def write_report(d: Discovery, out_dir: PathLike) -> List[Path]:
 def verdict_line(d: Discovery) -> str:
     """The verdict in one line (the CLI prints it)."""
     if d.verdict == "named":
-        what = ", ".join(f"{e} ({d.parameters[e]['field']} = {_fmt(d.parameters[e]['value'])} ± "
-                         f"{_fmt(d.parameters[e]['stderr'])}, baseline {_fmt(d.parameters[e]['baseline'])})"
+        what = ", ".join(f"{e} ({d.parameters[e]['field']} = {fmt_value(d.parameters[e]['value'])} ± "
+                         f"{fmt_value(d.parameters[e]['stderr'])}, baseline {fmt_value(d.parameters[e]['baseline'])})"
                          for e in d.named_effects)
         return (f"named {what}; gap {d.gap_before:.3g} -> {d.gap_after:.3g} "
                 f"(beyond the noise {d.gap_excess_before:.3g} -> {d.gap_excess_after:.3g})")
@@ -111,7 +111,7 @@ def verdict_line(d: Discovery) -> str:
     return f"none (the baseline fits: gap {d.gap_before:.3g})"
 
 
-def _fmt(v: Any) -> str:
+def fmt_value(v: Any) -> str:
     if isinstance(v, float):
         return "inf" if math.isinf(v) else f"{v:.5g}"
     return str(v)
@@ -132,8 +132,8 @@ def _markdown(d: Discovery, figs: Sequence[str]) -> str:
     if d.parameters:
         lines += ["| effect | parameter | fitted | ± std. error | baseline |", "|---|---|---|---|---|"]
         for e, p in d.parameters.items():
-            lines.append(f"| {e} | {p['field']} [{p['unit']}] | {_fmt(p['value'])} | {_fmt(p['stderr'])} | "
-                         f"{_fmt(p['baseline'])} |")
+            lines.append(f"| {e} | {p['field']} [{p['unit']}] | {fmt_value(p['value'])} | {fmt_value(p['stderr'])} | "
+                         f"{fmt_value(p['baseline'])} |")
         lines.append("")
         rough = {e: p["chi2_roughness"] for e, p in d.parameters.items() if p.get("chi2_roughness", 0.0) > 1.0}
         if rough:
@@ -149,15 +149,15 @@ def _markdown(d: Discovery, figs: Sequence[str]) -> str:
     if d.rejected:
         lines += ["Not named (best first):", ""]
         for r in d.rejected[:8]:
-            vals = ", ".join(f"{EFFECTS[e].field} = {_fmt(r['values'][e])}" for e in r["effects"])
+            vals = ", ".join(f"{EFFECTS[e].field} = {fmt_value(r['values'][e])}" for e in r["effects"])
             lines.append(f"- {' + '.join(r['effects'])} ({vals}; chi2 = {r['chi2']:.3g}): " + "; ".join(r["reasons"]))
         lines.append("")
     lines += ["| feature | measured | ± | baseline (model spread) | updated (model spread) | z before | z after |",
               "|---|---|---|---|---|---|---|"]
     for k, f in d.features.items():
         sb, su = f.get("model_spread_baseline", 0.0), f.get("model_spread_updated", 0.0)
-        lines.append(f"| {k} | {_fmt(f['measured'])} | {_fmt(f['uncertainty'])} | {_fmt(f['baseline'])} "
-                     f"({_fmt(sb)}) | {_fmt(f['updated'])} ({_fmt(su)}) | {f['z_before']:+.2f} | {f['z_after']:+.2f} |")
+        lines.append(f"| {k} | {fmt_value(f['measured'])} | {fmt_value(f['uncertainty'])} | {fmt_value(f['baseline'])} "
+                     f"({fmt_value(sb)}) | {fmt_value(f['updated'])} ({fmt_value(su)}) | {f['z_before']:+.2f} | {f['z_after']:+.2f} |")
     if d.behaviours:
         lines += ["", "Behaviour types: " + "; ".join(f"{k}: {v}" for k, v in d.behaviours.items())]
     if d.modes:
@@ -167,7 +167,7 @@ def _markdown(d: Discovery, figs: Sequence[str]) -> str:
             for t, m in d.modes.items())]
     lines += ["", "Candidates (chi2, dof, adequate at 99 %):", ""]
     for c in sorted(d.candidates, key=lambda c: (len(c.effects), c.chi2)):
-        vals = ", ".join(f"{EFFECTS[e].field} = {_fmt(c.values[e])}" for e in c.effects)
+        vals = ", ".join(f"{EFFECTS[e].field} = {fmt_value(c.values[e])}" for e in c.effects)
         lines.append(f"- {' + '.join(c.effects)}: chi2 = {c.chi2:.3g}, dof {c.dof}, "
                      f"{'adequate' if c.adequate else 'not adequate'} ({vals})")
     lines += ["", f"Criterion: {d.criterion}.", "", f"Run time: {d.runtime_s:.1f} s.", ""]

@@ -11,7 +11,7 @@ from typing import Any, Dict, List, Optional, Sequence, Tuple
 import numpy as np
 
 from ..params import Parameters, resolve
-from .effects import EFFECTS, Effect, _realise
+from .effects import EFFECTS, Effect, realise_effects
 from .._core import SimulationError
 from .models import OperatingPoint, batch_slider_features
 
@@ -34,7 +34,7 @@ def slider_sensitivities(effects: Sequence[str], baseline: Optional[Parameters],
     :func:`discover`) — when each effect moves by ``steps`` relevance thresholds from the
     baseline (one FS run per effect and point)."""
     base = resolve(baseline)
-    models = [base, base, base] + [_realise(base, {n: _bumped(EFFECTS[n], base, steps)}) for n in effects]
+    models = [base, base, base] + [realise_effects(base, {n: _bumped(EFFECTS[n], base, steps)}) for n in effects]
     # All runs as one batch of the core's parallel runner.
     res = batch_slider_features(models, ops, s0_shifts=[0.0, -0.002, 0.002] + [0.0] * len(effects))
     if res[0] is None:

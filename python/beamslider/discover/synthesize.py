@@ -13,7 +13,7 @@ from .. import _core, enma
 from ..enma import EnmaData
 from ..measurement import write_measurement
 from ..params import Parameters, resolve
-from .models import OperatingPoint, _simulate_ops
+from .models import OperatingPoint, simulate_ops
 
 PathLike = Union[str, "os.PathLike[str]"]
 
@@ -54,7 +54,7 @@ def synthesize_slider_runs(truth: Optional[Parameters] = None, *, operating_poin
     sim_ops = [OperatingPoint(f, a, s0 + float(s0_offset), duration_s) for f, a, s0 in operating_points]
     rng = np.random.default_rng(seed)
     paths = []
-    for op, r in zip(ops, _simulate_ops(p, sim_ops)):
+    for op, r in zip(ops, simulate_ops(p, sim_ops)):
         if not r.completed:
             raise _core.SimulationError(f"truth run at {op.tag} stopped: {r.message}")
         t = r.t

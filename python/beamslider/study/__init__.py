@@ -41,32 +41,23 @@ The package is split by concern: :mod:`.config` (the configuration and its TOML)
 (designs and the list of runs), :mod:`.results` (the results file), :mod:`.run` (local and Dask
 execution), :mod:`.statistics` (aggregation), :mod:`.plots` (figures) and :mod:`.outputs` (the
 summary files). Everything public is re-exported here; the subcommand ``beamslider study`` lives in
-:mod:`beamslider.cli.study` (``add_cli``/``cmd_study`` are still reachable here, imported on first
-use so that this package does not import the command line).
+:mod:`beamslider.cli.study` (the library does not import the command line).
 """
 
 from .config import (DISTRIBUTIONS, FORMAT_VERSION, METHODS, OUTPUTS, RESULTS_FILE, VIRTUAL, StudyConfig, Uncertain,
-                     read_config)
+                     read_config, sample)
 from .plots import plot_behaviour_probability, plot_sensitivity
 from .results import read_results
 from .run import run_study
-from .sampling import StudyPoint, apply_sample, detune, sample, study_points
+from .sampling import StudyPoint, apply_sample, detune, study_points
 from .statistics import PointSummary, StudyResult, aggregate, read_study, sobol_indices
 from .outputs import EXAMPLE_CONFIG, write_outputs
 
 __all__ = [
     "DISTRIBUTIONS", "EXAMPLE_CONFIG", "FORMAT_VERSION", "METHODS", "OUTPUTS", "RESULTS_FILE", "VIRTUAL",
     "PointSummary", "StudyConfig", "StudyPoint", "StudyResult", "Uncertain",
-    "add_cli", "aggregate", "apply_sample", "cmd_study", "detune", "plot_behaviour_probability", "plot_sensitivity",
+    "aggregate", "apply_sample", "detune", "plot_behaviour_probability", "plot_sensitivity",
     "read_config", "read_results", "read_study", "run_study", "sample", "sobol_indices", "study_points",
     "write_outputs",
 ]
 
-
-def __getattr__(name: str):
-    """``add_cli`` and ``cmd_study``: the ``beamslider study`` subcommand (beamslider.cli.study)."""
-    if name in ("add_cli", "cmd_study"):
-        from ..cli import study as _cli_study
-
-        return getattr(_cli_study, name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -6,7 +6,7 @@ import dataclasses
 import math
 import os
 from dataclasses import dataclass, field
-from typing import Any, Dict, List, Optional, Tuple, Union
+from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
@@ -276,9 +276,47 @@ class StudyConfig:
 
     def design(self) -> np.ndarray:
         """The samples of the uncertain inputs: array (n_samples, D), deterministic given ``seed``."""
-        from .sampling import sample
-
         return sample(self.uncertain, self.method, self.samples, seed=self.seed)
+
+
+def _saltelli_matrices(d: int, n: int, seed: int) -> Tuple[np.ndarray, np.ndarray]:
+    from scipy.stats import qmc
+
+    base = qmc.Sobol(d=2 * d, scramble=True, seed=seed).random(n)
+    return base[:, :d], base[:, d:]
+
+
+def sample(uncertain: Sequence[Uncertain], method: str, samples: int, *, seed: int = 0) -> np.ndarray:
+    """Samples of the uncertain inputs, shape (n, D).
+
+    ``lhs``: ``samples`` points of a Latin hypercube (scipy.stats.qmc.LatinHypercube); ``sobol``:
+    the first ``samples`` points of a scrambled Sobol' sequence; ``saltelli``: N = ``samples``
+    base points in the order A, B, AB_1, …, AB_D (N (D + 2) rows); ``grid``: all combinations of
+    the levels (``samples`` is ignored). Probabilities are mapped through each distribution's
+    inverse CDF."""
+    from scipy.stats import qmc
+
+    d = len(uncertain)
+    if method == "grid":
+        levels = [u.grid_levels() for u in uncertain]
+        mesh = np.meshgrid(*levels, indexing="ij")
+        return np.column_stack([m.ravel() for m in mesh])
+    if method == "lhs":
+        u = qmc.LatinHypercube(d=d, seed=seed).random(samples)
+    elif method == "sobol":
+        u = qmc.Sobol(d=d, scramble=True, seed=seed).random(samples)
+    elif method == "saltelli":
+        a, b = _saltelli_matrices(d, samples, seed)
+        blocks = [a, b]
+        for i in range(d):
+            ab = a.copy()
+            ab[:, i] = b[:, i]
+            blocks.append(ab)
+        u = np.vstack(blocks)
+    else:
+        raise ValueError(f"invalid sampling method {method!r}: must be one of {', '.join(METHODS)}")
+    u = np.clip(u, 1e-12, 1 - 1e-12)
+    return np.column_stack([unc.ppf(u[:, i]) for i, unc in enumerate(uncertain)])
 
 
 def _axis_values(name: str, v: Any) -> List[float]:

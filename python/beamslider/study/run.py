@@ -5,23 +5,16 @@ from __future__ import annotations
 import json
 import os
 from pathlib import Path
-from typing import Any, Callable, List, Optional, Tuple, Union
+from typing import Any, Callable, List, Optional, Union
 
 import numpy as np
 
 from .. import _core
+from .._util import progress_bar
 from .config import RESULTS_FILE, StudyConfig, read_config
 from .results import open_results
 from .sampling import StudyPoint, study_points
 from .statistics import StudyResult, aggregate
-
-
-def _run_chunk(map_toml: str, chunk: List[Tuple[int, str, float, float, float, float]],
-               threads: Optional[int]) -> List[str]:
-    """A Dask task: one chunk of points through the Rust core (rayon, interpreter released)."""
-    from beamslider import _core as core
-
-    return core.run_study_chunk(map_toml, chunk, threads=threads)
 
 
 def _chunks(todo: List[StudyPoint], size: int) -> List[List[StudyPoint]]:
@@ -31,14 +24,14 @@ def _chunks(todo: List[StudyPoint], size: int) -> List[List[StudyPoint]]:
 def _run_dask(client: Any, map_toml: str, todo: List[StudyPoint], writer: Any, *, chunk_size: int,
               task_threads: Optional[int], max_retries: int, on_chunk: Optional[Callable[[int, int], None]],
               tick: Callable[[], None]) -> None:
-    from .._dask import run_chunks
+    from .._dask import run_chunks, run_study_chunk
 
     def on_rows(rows: List[str]) -> None:
         writer.add(rows)
         tick()
 
     chunks = [(map_toml, [p.chunk_tuple() for p in ch], task_threads) for ch in _chunks(todo, chunk_size)]
-    run_chunks(client, _run_chunk, chunks, tag="study" + map_toml, on_rows=on_rows, max_retries=max_retries,
+    run_chunks(client, run_study_chunk, chunks, tag="study" + map_toml, on_rows=on_rows, max_retries=max_retries,
                on_chunk=on_chunk)
 
 
@@ -62,8 +55,6 @@ def run_study(config: Union[StudyConfig, str, "os.PathLike[str]"], *, out: Optio
     times on top of Dask's own retries). ``on_chunk(done, total)`` is called after each finished
     chunk (Dask). Ctrl-C stops the study keeping the finished points (``KeyboardInterrupt``).
     """
-    from ..simulate import _progress_bar
-
     if not isinstance(config, StudyConfig):
         config = read_config(config)
     if threads is not None and (isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) or threads < 1):
@@ -91,8 +82,6 @@ def run_study(config: Union[StudyConfig, str, "os.PathLike[str]"], *, out: Optio
 def _run_study(config: StudyConfig, map_toml: str, points: List[StudyPoint], by_index: dict, *, out: Any,
                resume: bool, client: Any, threads: Optional[int], size: int, task_threads: Optional[int],
                max_retries: int, progress: Any, on_chunk: Any) -> "StudyResult":
-    from ..simulate import _progress_bar
-
     if out is not None:
         folder = Path(out)
         folder.mkdir(parents=True, exist_ok=True)
@@ -102,7 +91,7 @@ def _run_study(config: StudyConfig, map_toml: str, points: List[StudyPoint], by_
         writer = open_results(config, points, None, False)
     todo = [p for p in points if p.index not in writer]
     try:
-        with _progress_bar(progress, len(points), "study", "pts") as cb:
+        with progress_bar(progress, len(points), "study", "pts") as cb:
             def tick() -> None:
                 if cb is not None:
                     cb(len(writer), len(points))

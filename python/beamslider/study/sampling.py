@@ -4,52 +4,10 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Dict, List, Sequence, Tuple
-
-import numpy as np
+from typing import Dict, List, Tuple
 
 from ..params import Parameters
-from .config import METHODS, VIRTUAL, StudyConfig, Uncertain
-
-
-def _saltelli_matrices(d: int, n: int, seed: int) -> Tuple[np.ndarray, np.ndarray]:
-    from scipy.stats import qmc
-
-    base = qmc.Sobol(d=2 * d, scramble=True, seed=seed).random(n)
-    return base[:, :d], base[:, d:]
-
-
-def sample(uncertain: Sequence[Uncertain], method: str, samples: int, *, seed: int = 0) -> np.ndarray:
-    """Samples of the uncertain inputs, shape (n, D).
-
-    ``lhs``: ``samples`` points of a Latin hypercube (scipy.stats.qmc.LatinHypercube); ``sobol``:
-    the first ``samples`` points of a scrambled Sobol' sequence; ``saltelli``: N = ``samples``
-    base points in the order A, B, AB_1, …, AB_D (N (D + 2) rows); ``grid``: all combinations of
-    the levels (``samples`` is ignored). Probabilities are mapped through each distribution's
-    inverse CDF."""
-    from scipy.stats import qmc
-
-    d = len(uncertain)
-    if method == "grid":
-        levels = [u.grid_levels() for u in uncertain]
-        mesh = np.meshgrid(*levels, indexing="ij")
-        return np.column_stack([m.ravel() for m in mesh])
-    if method == "lhs":
-        u = qmc.LatinHypercube(d=d, seed=seed).random(samples)
-    elif method == "sobol":
-        u = qmc.Sobol(d=d, scramble=True, seed=seed).random(samples)
-    elif method == "saltelli":
-        a, b = _saltelli_matrices(d, samples, seed)
-        blocks = [a, b]
-        for i in range(d):
-            ab = a.copy()
-            ab[:, i] = b[:, i]
-            blocks.append(ab)
-        u = np.vstack(blocks)
-    else:
-        raise ValueError(f"invalid sampling method {method!r}: must be one of {', '.join(METHODS)}")
-    u = np.clip(u, 1e-12, 1 - 1e-12)
-    return np.column_stack([unc.ppf(u[:, i]) for i, unc in enumerate(uncertain)])
+from .config import VIRTUAL, StudyConfig
 
 
 def apply_sample(params: Parameters, values: Dict[str, float]) -> Parameters:

@@ -1,0 +1,10 @@
+//! The JSON-lines results files of operating maps and studies (docs/model.md §8): row schema, header, reading and resuming, appending, and the writer's lock.
+
+mod file;
+pub mod lock;
+mod row;
+
+pub use file::{FORMAT_VERSION, READABLE_VERSIONS, ResultsFile, Settings, latest, read_results};
+pub(crate) use file::{header_line_predictor, header_line_with, io_err, open_append, write_line};
+pub use lock::ResultsLock;
+pub use row::{EndState, MapPoint, MapRow, STATUS_ERROR, STATUS_PREDICTED};

@@ -1,0 +1,533 @@
+//! The reduced model of one operating point (docs/model.md §6.3: layer (a) + drift law + slow
+//! flow + the map classifier) and a predicted operating map written through the map results
+//! writer ([`crate::map::MapResults`]).
+//!
+//! * [`predict_point`] — nodes on each branch, V from the law, [`crate::superslow::slowflow::slow_flow`]
+//!   and its classification; [`run_predicted_map`] — every point of a map configuration.
+//!
+//! Closed form: the manifold and the features (layer (a)). Fitted: V (the law's samples are PCS
+//! drift tables of the training points).
+
+
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Instant;
+
+use super::branch::{HbManifold, HbOptions};
+use super::continuation::hb_manifold;
+use super::law::{DriftLaw, Features, MONO_NODES, beam_for, features_with};
+use super::slowflow::{EventKind, Prediction, SlowBranch, SlowFlowOptions, SlowModel, slow_flow};
+use crate::classify::{Behaviour, Criteria};
+use crate::dynamics::runner::run_batch;
+use crate::dynamics::stepper::Counters;
+use crate::error::{Error, Result};
+use crate::map::{Job, MapConfig, MapOutcome, MapPoint, MapResults, MapRow, MapRunOptions, Progress};
+use crate::params::Params;
+use crate::physics::beam::Beam;
+pub use crate::results::STATUS_PREDICTED;
+
+/// Settings of [`predict_point`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct PredictOptions {
+    /// Layer (a) settings (modes, D_eff, ...; default: `low_branch_only`, the predictor uses no
+    /// middle branch).
+    pub hb: HbOptions,
+    /// Nodes per branch (default 121, as the Python package).
+    pub nodes: usize,
+    /// Build-up time [s]; None: three envelope time constants 3/(DΩ) (D = d_eff or the
+    /// parameters' damping ratio), as `beamslider.slowflow.predict`.
+    pub build_up_s: Option<f64>,
+    /// During the build-up the slider drifts from t = 0 and only a jump waits for its end (the
+    /// PCS and FS runs from rest drift at once; the envelope needs the build-up before the beam can
+    /// settle on the other branch); false: s stays at s₀ until then (the rule before). Default true.
+    pub build_up_drift: bool,
+    /// Classification thresholds.
+    pub criteria: Criteria,
+    /// Also run the slow flow with V shifted by ± the law's `v_resolution` and report whether
+    /// the prediction is robust ([`PointPrediction::robust`]; default true).
+    pub robustness: bool,
+}
+
+impl Default for PredictOptions {
+    fn default() -> Self {
+        PredictOptions { hb: HbOptions { low_branch_only: true, ..HbOptions::default() }, nodes: 121, build_up_s: None, build_up_drift: true, criteria: Criteria::default(), robustness: true }
+    }
+}
+
+/// Largest change of the final s [–] under V ± `v_resolution` for which a prediction counts as
+/// robust (the tolerance on the final s of a run; not applied to a relaxation
+/// oscillation, whose final s is the cycle's phase at t_end).
+pub const ROBUST_DS: f64 = 0.02;
+
+/// Result of [`predict_point`].
+#[derive(Debug, Clone)]
+pub struct PointPrediction {
+    /// The slow flow and its classification.
+    pub flow: Prediction,
+    /// Some node with lift-off lies outside the law's training range.
+    pub extrapolated: bool,
+    /// The reduced model (nodes, Â, V).
+    pub model: SlowModel,
+    /// Jump-up position used.
+    pub s_up: Option<f64>,
+    /// Where s_dn comes from: "hb" (the HB manifold's own fold), "law" (the law's forcing-ratio
+    /// rule, used when the manifold has none) or "none".
+    pub s_dn_source: &'static str,
+    /// Jump-down position used (the HB manifold's own, else the law's).
+    pub s_dn: Option<f64>,
+    /// The law's monostability vote said: a single low branch ([`DriftLaw::monostable`]).
+    pub monostable: bool,
+    /// Wall times [s]: manifold, drift evaluation, slow flow.
+    pub timings_s: [f64; 3],
+    /// Whether the behaviour and the final s (within [`ROBUST_DS`]) stay the same when V is
+    /// shifted by ± the law's `v_resolution` at every node that can move (Λ_g ≥ Λ_c); None when
+    /// the law has no resolution or [`PredictOptions::robustness`] is off.
+    pub robust: Option<bool>,
+    /// The behaviours and final s under V − v_resolution and V + v_resolution (empty when
+    /// `robust` is None).
+    pub shifted: Vec<(Behaviour, f64)>,
+}
+
+fn linspace(a: f64, z: f64, n: usize) -> Vec<f64> {
+    if n < 2 {
+        return vec![a];
+    }
+    let step = (z - a) / (n - 1) as f64;
+    let mut v: Vec<f64> = (0..n).map(|i| a + i as f64 * step).collect();
+    v[n - 1] = z;
+    v
+}
+
+/// Smallest s at which [`law_s_dn`] looks for the end of the high branch.
+pub const S_DN_MIN: f64 = 0.2;
+
+/// Jump-down position from the forcing ratio ρ(s) = a_ex / (Ω² Â_H(s) h) on the HB high branch
+/// (docs/model.md §6.4: single-mode HB ends the high branch where Â_H reaches the damping-limited peak
+/// F/(2DωΩ), where ρ is proportional to the damping; the nonsmooth model's effective damping is
+/// learnt as ρ_c): the first s ≥ [`S_DN_MIN`] where ρ(s) < ρ_c, linearly interpolated between the
+/// branch's points; None if it never falls below ρ_c or ρ_c = 0 (as `drift_law.s_dn_forcing_ratio`).
+/// With `s_p` > 0 (the law's `jump_down_s`: the PCS high branches end at one position) the high
+/// branch ends at s_p if ρ(s_p) ≤ ρ_c (Â_H interpolated linearly; None if the branch does not
+/// reach s_p), else it does not end.
+pub fn law_s_dn(manifold: &HbManifold, f_ex_hz: f64, a_ex: f64, rho_c: f64, s_p: f64, thickness_m: f64) -> Option<f64> {
+    let hb = &manifold.high;
+    if hb.s.is_empty() || !(rho_c > 0.0) {
+        return None;
+    }
+    let mut idx: Vec<usize> = (0..hb.s.len()).collect();
+    idx.sort_by(|&i, &j| hb.s[i].total_cmp(&hb.s[j]));
+    let omega = 2.0 * std::f64::consts::PI * f_ex_hz;
+    let rho = |i: usize| a_ex / (omega * omega * hb.amplitude_h[i] * thickness_m);
+    if s_p > 0.0 {
+        for w in 1..idx.len() {
+            let (i0, i1) = (idx[w - 1], idx[w]);
+            let (s0, s1) = (hb.s[i0], hb.s[i1]);
+            if s0 <= s_p && s_p <= s1 {
+                let t = if s1 > s0 { (s_p - s0) / (s1 - s0) } else { 0.0 };
+                let amp = hb.amplitude_h[i0] + t * (hb.amplitude_h[i1] - hb.amplitude_h[i0]);
+                let r = a_ex / (omega * omega * amp * thickness_m);
+                return if r <= rho_c { Some(s_p) } else { None };
+            }
+        }
+        return None;
+    }
+    for w in 1..idx.len() {
+        let (i0, i1) = (idx[w - 1], idx[w]);
+        let (s0, s1) = (hb.s[i0], hb.s[i1]);
+        let r1 = rho(i1);
+        if s1 < S_DN_MIN || !(r1 < rho_c) {
+            continue;
+        }
+        let r0 = rho(i0);
+        if s0 >= S_DN_MIN && r0 >= rho_c && r0 != r1 {
+            return Some(s0 + (s1 - s0) * (r0 - rho_c) / (r0 - r1));
+        }
+        return Some(s1);
+    }
+    None
+}
+
+/// The reduced model of one operating point from its HB manifold and a law: each branch
+/// sampled at `nodes` points over its s-range (the high branch up to the HB manifold's s_dn, else
+/// the law's, [`law_s_dn`]), Â and V there.
+/// Returns the model and whether the law extrapolated.
+pub fn slow_model(params: &Params, manifold: &HbManifold, law: &DriftLaw, f_ex_hz: f64, a_ex: f64, nodes: usize) -> Result<(SlowModel, bool)> {
+    let beam = beam_for(params, manifold.n_modes)?;
+    slow_model_with(params, &beam, manifold, law, f_ex_hz, a_ex, nodes)
+}
+
+/// [`slow_model`] with the beam of [`beam_for`] built once by the caller.
+pub fn slow_model_with(params: &Params, beam: &Beam, manifold: &HbManifold, law: &DriftLaw, f_ex_hz: f64, a_ex: f64, nodes: usize) -> Result<(SlowModel, bool)> {
+    slow_model_masked(params, beam, manifold, law, f_ex_hz, a_ex, nodes).map(|(m, x, _)| (m, x))
+}
+
+/// Per branch (low, high) of a [`SlowModel`]: whether the node can move (Λ_g ≥ Λ_c).
+type Moving = [Vec<bool>; 2];
+
+/// [`slow_model_with`], also returning which nodes can move ([`Moving`]).
+fn slow_model_masked(params: &Params, beam: &Beam, manifold: &HbManifold, law: &DriftLaw, f_ex_hz: f64, a_ex: f64, nodes: usize) -> Result<(SlowModel, bool, Moving)> {
+    let mut moving: Moving = [Vec::new(), Vec::new()];
+    let mut extrapolated = law.outside_points(f_ex_hz, a_ex);
+    let mut model = SlowModel { low_ends_in_fold: manifold.s_up.is_some(), ..SlowModel::default() };
+    let s_dn = manifold.s_dn.or_else(|| law_s_dn(manifold, f_ex_hz, a_ex, law.rho_c, law.jump_down_s, params.thickness_m));
+    for high in [false, true] {
+        let b = if high { &manifold.high } else { &manifold.low };
+        if b.is_empty() {
+            continue;
+        }
+        let a = b.s.iter().copied().fold(f64::INFINITY, f64::min);
+        let mut z = b.s.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        if high && let Some(sd) = s_dn {
+            z = z.min(sd);
+        }
+        if z <= a {
+            continue;
+        }
+        let s = linspace(a, z, nodes.max(2));
+        let feats = features_with(params, beam, manifold, f_ex_hz, a_ex, high, &s)?;
+        let mut br = SlowBranch { s: s.clone(), amplitude_h: Vec::with_capacity(s.len()), v_per_s: Vec::with_capacity(s.len()) };
+        for f in &feats {
+            let (v, outside) = law.evaluate(high, &f.x(), f.lift_off);
+            extrapolated |= outside && f.lift_off >= law.lift_c;
+            br.amplitude_h.push(f.amplitude_h);
+            br.v_per_s.push(v);
+        }
+        moving[usize::from(high)] = feats.iter().map(|f| f.lift_off >= law.lift_c).collect();
+        if high {
+            model.high = br;
+        } else {
+            // The learnt s_up correction: the fold moves from s_up to s_up + shift, the branch
+            // stretched linearly towards its upper end z (Â and V those of the HB node):
+            // s′ = z − (z − s)(z − s_up′)/(z − s_up).
+            if let Some(su) = manifold.s_up
+                && law.s_up_shift != 0.0
+                && br.s.len() >= 2
+            {
+                let z = br.s[br.s.len() - 1];
+                let target = (su + law.s_up_shift).max(manifold.s_range.0);
+                if z > su && z > target {
+                    for x in br.s.iter_mut() {
+                        *x = z - (z - *x) * (z - target) / (z - su);
+                    }
+                }
+            }
+            model.low = br;
+        }
+    }
+    model.high_ends_in_fold = s_dn.is_some() && !model.high.s.is_empty();
+    if !model.low.s.is_empty() && law.monostable(manifold) {
+        let low_moving = monostable_low(params, beam, manifold, law, f_ex_hz, a_ex, &mut model)?;
+        moving = [low_moving.into_iter().chain(moving[0].iter().copied()).collect(), Vec::new()];
+    }
+    Ok((model, extrapolated, moving))
+}
+
+/// The single low branch of a monostable point ([`DriftLaw::monostable`]): below the (possibly
+/// shifted) fold s_up′ the low branch continues along the HB branch that reaches the clamping, on
+/// [`MONO_NODES`] nodes s_min + (s_up′ − s_min)·i/MONO_NODES, with the amplitude capped at the low
+/// branch's amplitude at the fold (no jump) and V from the law's low-branch samples; no high branch.
+/// Returns which of the prepended nodes can move (Λ_g ≥ Λ_c).
+fn monostable_low(params: &Params, beam: &Beam, manifold: &HbManifold, law: &DriftLaw, f_ex_hz: f64, a_ex: f64, model: &mut SlowModel) -> Result<Vec<bool>> {
+    let (su, a_su) = (model.low.s[0], model.low.amplitude_h[0]);
+    let lo = if manifold.high.is_empty() { su } else { manifold.high.s.iter().copied().fold(f64::INFINITY, f64::min) };
+    model.high = SlowBranch::default();
+    model.low_ends_in_fold = false;
+    model.high_ends_in_fold = false;
+    if !(lo < su) {
+        return Ok(Vec::new());
+    }
+    let s: Vec<f64> = (0..MONO_NODES).map(|i| lo + (su - lo) * i as f64 / MONO_NODES as f64).collect();
+    let feats = features_with(params, beam, manifold, f_ex_hz, a_ex, true, &s)?;
+    let a_max = manifold.high.amplitude_h.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let mut br = SlowBranch { s: s.clone(), amplitude_h: Vec::with_capacity(s.len() + model.low.s.len()), v_per_s: Vec::with_capacity(s.len() + model.low.s.len()) };
+    for f in &feats {
+        let amp = f.amplitude_h.min(a_su);
+        let capped = Features { amp_rel: amp / a_max, amplitude_h: amp, ..*f };
+        let (v, _) = law.evaluate(false, &capped.x(), f.lift_off);
+        br.amplitude_h.push(amp);
+        br.v_per_s.push(v);
+    }
+    br.s.extend_from_slice(&model.low.s);
+    br.amplitude_h.extend_from_slice(&model.low.amplitude_h);
+    br.v_per_s.extend_from_slice(&model.low.v_per_s);
+    model.low = br;
+    Ok(feats.iter().map(|f| f.lift_off >= law.lift_c).collect())
+}
+
+/// `model` with V + `dv` at the nodes that can move.
+fn shifted_model(model: &SlowModel, moving: &Moving, dv: f64) -> SlowModel {
+    let mut m = model.clone();
+    for (br, mv) in [(&mut m.low, &moving[0]), (&mut m.high, &moving[1])] {
+        for (i, v) in br.v_per_s.iter_mut().enumerate() {
+            if mv.get(i).copied().unwrap_or(true) {
+                *v += dv;
+            }
+        }
+    }
+    m
+}
+
+/// Predict one operating point with the reduced model (docs/model.md §6.3): HB manifold, V from the
+/// law, slow flow from s₀ for `t_end_s` seconds, classified by the map classifier unchanged.
+pub fn predict_point(params: &Params, law: &DriftLaw, f_ex_hz: f64, a_ex: f64, s0: f64, t_end_s: f64, opts: &PredictOptions) -> Result<PointPrediction> {
+    let beam = beam_for(params, opts.hb.n_modes)?;
+    predict_point_with(params, &beam, law, f_ex_hz, a_ex, s0, t_end_s, opts)
+}
+
+/// [`predict_point`] with the beam of [`beam_for`] (`opts.hb.n_modes` modes) built once by the caller.
+#[allow(clippy::too_many_arguments)]
+pub fn predict_point_with(params: &Params, beam: &Beam, law: &DriftLaw, f_ex_hz: f64, a_ex: f64, s0: f64, t_end_s: f64, opts: &PredictOptions) -> Result<PointPrediction> {
+    let lo = params.s_min();
+    if !(s0.is_finite() && s0 >= lo - 1e-12 && s0 <= 1.0 - lo + 1e-12) {
+        return Err(Error::invalid("s0", s0, &format!("must lie on the beam, {lo:.4} <= s0 <= {:.4}", 1.0 - lo)));
+    }
+    if !(t_end_s.is_finite() && t_end_s > 0.0) {
+        return Err(Error::invalid("t_end", t_end_s, "must be > 0"));
+    }
+    let t0 = Instant::now();
+    let manifold = hb_manifold(params, f_ex_hz, a_ex, &opts.hb)?;
+    let t1 = Instant::now();
+    let (model, extrapolated, moving) = slow_model_masked(params, beam, &manifold, law, f_ex_hz, a_ex, opts.nodes)?;
+    let t2 = Instant::now();
+    let build_up = match opts.build_up_s {
+        Some(t) => t,
+        None => {
+            let d = opts.hb.d_eff.unwrap_or(params.damping_ratio);
+            if d > 0.0 { 3.0 / (d * 2.0 * std::f64::consts::PI * f_ex_hz) } else { 0.0 }
+        }
+    };
+    let fo = SlowFlowOptions { t_end_s, criteria: opts.criteria.clone(), build_up_s: build_up.min(t_end_s), build_up_drift: opts.build_up_drift, ..SlowFlowOptions::default() };
+    let flow = slow_flow(&model, s0, &fo)?;
+    let mut shifted = Vec::new();
+    let mut robust = None;
+    if opts.robustness && law.v_resolution > 0.0 {
+        for dv in [-law.v_resolution, law.v_resolution] {
+            let f = slow_flow(&shifted_model(&model, &moving, dv), s0, &fo)?;
+            shifted.push((f.classification.behaviour, f.s_final));
+        }
+        let b = flow.classification.behaviour;
+        // A relaxation oscillation's final s is the cycle's phase at t_end: only its behaviour counts.
+        let cycle = b == Behaviour::RelaxationOscillation;
+        robust = Some(shifted.iter().all(|&(bs, sf)| bs == b && (cycle || (sf - flow.s_final).abs() <= ROBUST_DS)));
+    }
+    let t3 = Instant::now();
+    Ok(PointPrediction {
+        s_up: model.s_up(),
+        s_dn: model.s_dn(),
+        s_dn_source: match (model.s_dn(), manifold.s_dn) {
+            (None, _) => "none",
+            (Some(_), Some(_)) => "hb",
+            (Some(_), None) => "law",
+        },
+        monostable: law.monostable(&manifold),
+        flow,
+        extrapolated,
+        model,
+        timings_s: [(t1 - t0).as_secs_f64(), (t2 - t1).as_secs_f64(), (t3 - t2).as_secs_f64()],
+        robust,
+        shifted,
+    })
+}
+
+fn event_name(k: EventKind) -> &'static str {
+    match k {
+        EventKind::JumpUp => "jump_up",
+        EventKind::JumpDown => "jump_down",
+        EventKind::Equilibrium => "equilibrium",
+        EventKind::Wall => "wall",
+    }
+}
+
+/// A predicted map row (the FS map's row format; status `predicted`, zero counters; the extra
+/// keys `events`, `extrapolated`, `s_dn_source`).
+pub fn predicted_row(index: usize, f_ex_hz: f64, a_ex: f64, s0: f64, t_end_s: f64, p: &PointPrediction, wall_s: f64) -> MapRow {
+    let c = &p.flow.classification;
+    let mut extra = serde_json::Map::new();
+    let events: Vec<serde_json::Value> = p.flow.events.iter().map(|e| serde_json::json!([event_name(e.kind), e.t_s, e.s])).collect();
+    extra.insert("events".into(), serde_json::Value::Array(events));
+    extra.insert("extrapolated".into(), serde_json::Value::Bool(p.extrapolated));
+    extra.insert("monostable".into(), serde_json::Value::Bool(p.monostable));
+    extra.insert("s_dn_source".into(), serde_json::Value::String(p.s_dn_source.into()));
+    extra.insert("robust".into(), p.robust.map_or(serde_json::Value::Null, serde_json::Value::Bool));
+    if !p.shifted.is_empty() {
+        let alt: Vec<serde_json::Value> = p.shifted.iter().map(|(b, s)| serde_json::json!([b.name(), s])).collect();
+        extra.insert("shifted".into(), serde_json::Value::Array(alt));
+    }
+    let point = MapPoint { index, f_ex_hz, a_ex_m_s2: a_ex, s0 };
+    let mut row = MapRow::from_classification(&point, t_end_s, STATUS_PREDICTED, c, Counters::default(), wall_s, None);
+    row.extra = extra;
+    row
+}
+
+/// The predictor's description in a predicted map's header (compared on resume).
+pub fn header_value(law: &DriftLaw, opts: &PredictOptions) -> serde_json::Value {
+    serde_json::json!({
+        "kind": "drift_law_knn",
+        "law_fingerprint": law.fingerprint,
+        "law_points": law.points.iter().map(|p| [p.0, p.1]).collect::<Vec<_>>(),
+        "k": law.k,
+        "n_modes": opts.hb.n_modes,
+        "d_eff": opts.hb.d_eff,
+        "s_dn": if law.rho_c > 0.0 { "law" } else { "hb" },
+        "nodes": opts.nodes,
+        "build_up": if opts.build_up_drift { "drift" } else { "hold" },
+    })
+}
+
+/// Predict every point of `cfg`'s grid with the law (in parallel, `opts.threads` workers),
+/// appending each row to the results file as the FS maps do ([`MapResults`]: lock, resume,
+/// header; the header also holds the predictor, [`header_value`]). A failed point becomes a row
+/// with status `error`; `cancel` stops the map keeping the finished rows.
+pub fn run_predicted_map(cfg: &MapConfig, law: &DriftLaw, popts: &PredictOptions, opts: &MapRunOptions, cancel: &AtomicBool, progress: Progress<'_>) -> Result<MapOutcome> {
+    if opts.extend {
+        return Err(Error::invalid("extend_to", cfg.duration_s, "a predicted map is not extended (predict it for the longer duration)"));
+    }
+    let mut popts = popts.clone();
+    popts.criteria = cfg.criteria.clone();
+    let params = cfg.effective_params();
+    let header = header_value(law, &popts);
+    params.validate()?;
+    let beam = beam_for(&params, popts.hb.n_modes)?;
+    let mut results = MapResults::open_predicted(cfg, opts, &header)?;
+    let jobs = std::mem::take(&mut results.jobs);
+    let total = results.total;
+    let t_end = cfg.duration_s;
+    run_batch(
+        &jobs,
+        opts.threads,
+        cancel,
+        |job: &Job| {
+            if cancel.load(Ordering::Relaxed) {
+                return Ok(None);
+            }
+            let p = *job.point();
+            let t0 = Instant::now();
+            let row = match predict_point_with(&params, &beam, law, p.f_ex_hz, p.a_ex_m_s2, p.s0, t_end, &popts) {
+                Ok(pr) => predicted_row(p.index, p.f_ex_hz, p.a_ex_m_s2, p.s0, t_end, &pr, t0.elapsed().as_secs_f64()),
+                Err(e) => crate::map::error_row(&p, &e.to_string(), t0),
+            };
+            Ok(Some(row))
+        },
+        |row: &MapRow| {
+            results.append(row.clone())?;
+            if let Some(last) = results.rows.last() {
+                progress(results.rows.len(), total, last);
+            }
+            Ok(())
+        },
+    )?;
+    Ok(results.finish())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::superslow::law::{FEATURES, NF, nearest};
+
+    proptest::proptest! {
+        /// The sweep finds the same k nearest distances as a brute-force search (ties may pick
+        /// other rows at an equal distance), in ascending order.
+        #[test]
+        fn nearest_matches_brute_force(pts in proptest::collection::vec((-3.0f64..3.0, -3.0f64..3.0), 1..60),
+                                       q in (-4.0f64..4.0, -4.0f64..4.0), k in 1usize..8, coarse in proptest::bool::ANY) {
+            // `coarse`: coordinates on a grid of 0.5, so that ties occur.
+            let r = |x: f64| if coarse { (2.0 * x).round() / 2.0 } else { x };
+            let mut z: Vec<[f64; NF]> = pts.iter().map(|&(a, b)| [r(a), r(b)]).collect();
+            z.sort_by(|a, b| a[NF - 1].total_cmp(&b[NF - 1]));
+            let q = [r(q.0), r(q.1)];
+            let got = nearest(&z, &q, k);
+            let mut all: Vec<f64> = z.iter().map(|p| (0..NF).map(|i| (p[i] - q[i]).powi(2)).sum()).collect();
+            all.sort_by(f64::total_cmp);
+            proptest::prop_assert_eq!(got.len(), k.min(z.len()));
+            for (n, &(d2, j)) in got.iter().enumerate() {
+                proptest::prop_assert_eq!(d2, all[n]);
+                let dj: f64 = (0..NF).map(|i| (z[j][i] - q[i]).powi(2)).sum();
+                proptest::prop_assert_eq!(dj, d2);
+            }
+            let mut js: Vec<usize> = got.iter().map(|e| e.1).collect();
+            js.sort_unstable();
+            js.dedup();
+            proptest::prop_assert_eq!(js.len(), got.len());
+        }
+    }
+
+    fn law_text(k: usize) -> String {
+        serde_json::json!({
+            "kind": "beamslider drift law", "version": 1, "features": FEATURES, "k": k,
+            "x": {"L": [[0.0, 0.0], [1.0, 0.0]], "H": [[0.0, 1.0]]},
+            "v": {"L": [1.0, 3.0], "H": [-2.0]},
+            "mean": [0.0, 0.0], "std": [1.0, 1.0],
+            "lo": [0.0, 0.0], "hi": [1.0, 1.0], "points": [[124.0, 14.0], [120.0, 10.0]]
+        })
+        .to_string()
+    }
+
+    #[test]
+    fn knn_is_inverse_distance_weighted_and_zero_without_lift_off() {
+        let law = DriftLaw::from_json_str(&law_text(2)).unwrap();
+        // Distances 0.25 and 0.75: weights 4 and 4/3 → (4·1 + 4/3·3)/(16/3) = 1.5.
+        let (v, out) = law.evaluate(false, &[0.25, 0.0], 2.0);
+        assert!((v - 1.5).abs() < 1e-12 && !out);
+        let (v, _) = law.evaluate(false, &[0.25, 0.0], 0.9);
+        assert_eq!(v, 0.0);
+        let (v, out) = law.evaluate(true, &[5.0, 0.0], 2.0);
+        assert_eq!(v, -2.0);
+        assert!(out);
+    }
+
+    #[test]
+    fn operating_points_outside_the_training_box_are_reported() {
+        let law = DriftLaw::from_json_str(&law_text(2)).unwrap();
+        assert!(!law.outside_points(122.0, 12.0) && !law.outside_points(124.0, 10.0));
+        assert!(law.outside_points(118.0, 12.0) && law.outside_points(122.0, 16.0));
+    }
+
+    #[test]
+    fn bad_law_files_are_clear_errors() {
+        for bad in ["", "{}", "[1, 2]", r#"{"kind": "other"}"#] {
+            assert!(DriftLaw::from_json_str(bad).is_err(), "{bad}");
+        }
+        let wrong_features = law_text(2).replace("amp_rel", "slope_mu");
+        let e = DriftLaw::from_json_str(&wrong_features).unwrap_err().to_string();
+        assert!(e.contains("features"), "{e}");
+        let zero_k = law_text(0);
+        assert!(DriftLaw::from_json_str(&zero_k).is_err());
+        let short = law_text(1).replace("\"L\":[1.0,3.0]", "\"L\":[1.0]");
+        assert_ne!(short, law_text(1));
+        assert!(DriftLaw::from_json_str(&short).is_err());
+        let e = DriftLaw::from_file("/nonexistent/law.json").unwrap_err();
+        assert!(matches!(e, Error::Io { .. }));
+    }
+
+    /// A law file with the scalar `key` = `good` reads, changes the fingerprint, and each of `bad`
+    /// is refused with an error naming `key`.
+    fn scalar_is_read_and_checked(key: &str, good: &str, bad: &[&str]) -> DriftLaw {
+        let with = |x: &str| law_text(2).replacen("\"kind\"", &format!("\"{key}\": {x}, \"kind\""), 1);
+        let law = DriftLaw::from_json_str(&with(good)).unwrap();
+        assert_ne!(law.fingerprint, DriftLaw::from_json_str(&law_text(2)).unwrap().fingerprint);
+        for b in bad {
+            let e = DriftLaw::from_json_str(&with(b)).unwrap_err().to_string();
+            assert!(e.contains(key), "{e}");
+        }
+        law
+    }
+
+    #[test]
+    fn jump_down_position_is_read_and_checked() {
+        let law = scalar_is_read_and_checked("jump_down_s", "0.32", &["0.7", "-0.1"]);
+        assert_eq!(law.jump_down_s, 0.32);
+        assert_eq!(DriftLaw::from_json_str(&law_text(2)).unwrap().jump_down_s, 0.0);
+    }
+
+    #[test]
+    fn v_resolution_is_read_checked_and_shifts_only_moving_nodes() {
+        let law = scalar_is_read_and_checked("v_resolution", "0.0003", &["-0.001", "0.5"]);
+        assert_eq!(law.v_resolution, 0.0003);
+        let br = |v: Vec<f64>| SlowBranch { s: (0..v.len()).map(|i| 0.1 * i as f64).collect(), amplitude_h: vec![0.5; v.len()], v_per_s: v };
+        let model = SlowModel { low: br(vec![0.0, -1e-3, -2e-3]), high: br(vec![0.0, 0.0, 1e-3]), ..SlowModel::default() };
+        let moving: Moving = [vec![false, true, true], vec![false, true, true]];
+        let m = shifted_model(&model, &moving, 1e-4);
+        assert_eq!(m.low.v_per_s, vec![0.0, -1e-3 + 1e-4, -2e-3 + 1e-4]);
+        assert_eq!(m.high.v_per_s, vec![0.0, 1e-4, 1e-3 + 1e-4]);
+        assert_eq!(m.low.s, model.low.s);
+    }
+}

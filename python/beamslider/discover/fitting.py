@@ -1,0 +1,520 @@
+"""Fitting the candidate effects for naming the missing effect: weighted least-squares fits of a
+candidate or a set, the χ² criterion with mode conditioning, profile-likelihood intervals and
+forward selection by likelihood-ratio tests (see the package docstring); the search is :mod:`.naming`."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple
+
+import numpy as np
+
+from .. import _core
+from .._json import json_safe as _json_safe
+from ..params import Parameters
+from .effects import Effect, apply_effects, realise_effects
+from .features import Feature
+from .models import MODE_MIN_DOF, Ensemble, Modes, data_modes, is_mode_feature, mode_penalty, run_mode, tag_of
+
+
+SIGNIFICANCE = 0.01
+
+
+MODE_CONDITIONING = True
+"""Slider level: compare the features that depend on the state a run ends in
+(:data:`.models.MODE_FEATURES`) only with model runs in the data's mode, and charge the mode's
+rarity as a likelihood term (:func:`_chi2_terms`). False: one Gaussian over all runs."""
+
+
+# --- features -------------------------------------------------------------------------------------
+
+@dataclass
+class CandidateFit:
+    """One candidate set fitted to the measured features."""
+
+    effects: Tuple[str, ...]
+    values: Dict[str, float]
+    stderrs: Dict[str, float]
+    chi2: float
+    dof: int
+    adequate: bool
+    bic: float
+    predicted: Dict[str, float] = field(default_factory=dict)
+    """Slider level: the features of the fitted model, mean of its ensemble of runs."""
+    model_spread: Dict[str, float] = field(default_factory=dict)
+    """Slider level: their spread over the ensemble (:data:`.models.ENSEMBLE_S0_SHIFTS`)."""
+    intervals: Dict[str, Tuple[float, float]] = field(default_factory=dict)
+    """Slider level: the Δχ² = 1 interval of each parameter from its profile scan."""
+    roughness: Dict[str, float] = field(default_factory=dict)
+    """Slider level: scatter of the single-run χ² about a parabola near the minimum
+    (:func:`_roughness`); the interval's threshold is χ²_min + 1 + 2·roughness."""
+
+
+@dataclass
+class Discovery:
+    """Outcome of :func:`discover` (see :func:`write_report`)."""
+
+    level: str
+    named_effects: List[str]
+    parameters: Dict[str, Dict[str, Any]]
+    features: Dict[str, Dict[str, Any]]
+    gap_before: float
+    gap_after: float
+    chi2_before: float
+    candidates: List[CandidateFit]
+    criterion: str
+    baseline: Parameters
+    updated: Parameters
+    behaviours: Dict[str, Dict[str, str]] = field(default_factory=dict)
+    alternatives: List[Tuple[str, ...]] = field(default_factory=list)
+    data: Any = None
+    runtime_s: float = 0.0
+    verdict: str = "none"
+    """``named`` (an effect set passed the naming rule), ``unexplained`` (the baseline does not fit
+    and no candidate set passes), ``none`` (the baseline fits the data)."""
+    rejected: List[Dict[str, Any]] = field(default_factory=list)
+    """Fitted candidate sets not named, each with the reasons."""
+    features_off: List[Dict[str, Any]] = field(default_factory=list)
+    """Features still off after the update (|z| > 2), largest first."""
+    gap_ratio: float = 0.3
+    gap_excess_before: float = 0.0
+    """Gap beyond the noise before: sqrt(max(χ²₀ − n, 0)/n) (:data:`GAP_EXCESS_MEASURE`)."""
+    gap_excess_after: float = 0.0
+    """The same after the update: sqrt(max(χ² − (n − k), 0)/n)."""
+    modes: Dict[str, Dict[str, Any]] = field(default_factory=dict)
+    """Slider level, per operating point: the data's mode (:func:`.models.run_mode`: ends high,
+    has a turning point) and how many of the baseline's and the updated model's ensemble runs end
+    in it (:data:`MODE_CONDITIONING`)."""
+
+    def to_json(self) -> Dict[str, Any]:
+        return _json_safe(dict(
+            verdict=self.verdict, level=self.level, named_effects=self.named_effects, parameters=self.parameters,
+            rejected=self.rejected, features_off=self.features_off, gap_ratio=self.gap_ratio,
+            gap_before=self.gap_before, gap_after=self.gap_after, gap_measure=GAP_MEASURE,
+            gap_excess_before=self.gap_excess_before, gap_excess_after=self.gap_excess_after,
+            gap_excess_measure=GAP_EXCESS_MEASURE,
+            chi2_before=self.chi2_before, criterion=self.criterion, features=self.features,
+            behaviours=self.behaviours, alternatives=[list(a) for a in self.alternatives],
+            candidates=[dict(effects=list(c.effects), values=c.values, stderrs=c.stderrs, chi2=c.chi2, dof=c.dof,
+                             adequate=c.adequate, bic=c.bic, intervals=c.intervals, chi2_roughness=c.roughness)
+                        for c in self.candidates],
+            modes=self.modes, baseline=self.baseline.to_dict(), updated=self.updated.to_dict(), runtime_s=self.runtime_s))
+
+
+GAP_MEASURE = ("RMS over the features of (model - measured) / uncertainty (measurement and, slider level, "
+               "the model's spread over its ensemble of runs), sqrt(chi2 / n); slider level, chi2 includes the "
+               "mode terms (end-state features compared within the data's mode)")
+
+
+GAP_EXCESS_MEASURE = ("gap beyond the noise: sqrt(max(chi2 - E[chi2], 0) / n), E[chi2] = n for the baseline "
+                      "and n - k for a model with k fitted parameters; the naming rule compares these")
+
+
+def excess(chi2: float, dof: int, n: int) -> float:
+    """Gap beyond the noise: sqrt(max(χ² − dof, 0)/n) (:data:`GAP_EXCESS_MEASURE`)."""
+    return math.sqrt(max(chi2 - dof, 0.0) / max(n, 1))
+
+
+def chi2_quantile(dof: int) -> float:
+    from scipy.stats import chi2
+
+    return float(chi2.ppf(1 - SIGNIFICANCE, max(dof, 1)))
+
+
+def sigma(f: Feature, spread: float, runs: int) -> float:
+    """Uncertainty of (model − measured) for a model feature that is the mean of ``runs`` runs whose
+    spread is ``spread`` (runs = 0: no model spread): the measured value is one draw of the truth's
+    spread, the model's mean has spread²/runs."""
+    return math.sqrt(f.stderr ** 2 + (spread ** 2 * (1 + 1 / runs) if runs > 0 else 0.0))
+
+
+def _mode_terms(model: Dict[str, float], modes: Optional[Modes], counts: Optional[Dict[str, int]],
+                runs: int) -> Tuple[set, float]:
+    """The operating points (tags) whose mode features the model cannot predict (none of its runs
+    ends in the data's mode, :func:`.models.run_mode`), and the sum of the mode penalties
+    (:func:`.models.mode_penalty`). ``counts``: per tag, how many of the model's ``runs`` runs are
+    in the data's mode (an ensemble); None: ``model`` is one run, whose own mode decides."""
+    unpredicted, pen = set(), 0.0
+    for tag, md in (modes or {}).items():
+        if md is None:
+            continue
+        if counts is not None and tag in counts:
+            k, r = counts[tag], max(runs, 1)
+        else:
+            k, r = (1 if run_mode(model, tag) == md else 0), 1
+        if k == 0:
+            unpredicted.add(tag)
+        pen += mode_penalty(k, r)
+    return unpredicted, pen
+
+
+def _chi2_terms(model: Optional[Dict[str, float]], names: Sequence[str], y: np.ndarray, sig: np.ndarray,
+                modes: Optional[Modes] = None, counts: Optional[Dict[str, int]] = None, runs: int = 1) -> float:
+    """χ² of the measured features ``names`` (values ``y``, uncertainties ``sig``) against
+    ``model``: Σ z² (a feature the model lacks counts as 5σ), where a mode feature of an
+    operating point the model cannot predict in the data's mode counts as its expectation, 1,
+    plus the mode penalties (:func:`_mode_terms`): the likelihood of bimodal features is that of
+    the data's mode times that of the features within it."""
+    if model is None:
+        return math.inf
+    unpredicted, pen = _mode_terms(model, modes, counts, runs)
+    total = pen
+    for k, yk, sk in zip(names, y, sig):
+        if tag_of(k) in unpredicted and is_mode_feature(k):
+            total += 1.0
+        elif k in model and math.isfinite(model[k]):
+            total += ((model[k] - yk) / sk) ** 2
+        else:
+            total += 25.0
+    return float(total)
+
+
+def missing_z(name: str, counts: Optional[Dict[str, int]]) -> float:
+    """z of a feature an ensemble lacks: 1 (its expectation) for a mode feature of an operating
+    point where none of its runs is in the data's mode, 5 otherwise (:func:`_chi2_terms`)."""
+    tag = tag_of(name)
+    return 1.0 if counts and tag in counts and counts[tag] == 0 and is_mode_feature(name) else 5.0
+
+
+def gap_of(model: Dict[str, float], meas: Dict[str, Feature], spread: Optional[Dict[str, float]] = None,
+         runs: int = 0, modes: Optional[Modes] = None, counts: Optional[Dict[str, int]] = None) -> Tuple[float, float]:
+    """(RMS gap sqrt(χ²/n), χ²) of ``model`` against the measured features (:func:`_chi2_terms`;
+    ``spread``/``runs``: the model's ensemble, :func:`sigma`; ``modes``/``counts``: the data's
+    modes and the ensemble's runs in them)."""
+    sp = spread or {}
+    names = list(meas)
+    if not names:
+        return 0.0, 0.0
+    y = np.array([meas[k].value for k in names])
+    sig = np.array([sigma(meas[k], sp.get(k, 0.0), runs) for k in names])
+    chi2 = _chi2_terms(model, names, y, sig, modes, counts, max(runs, 1))
+    return float(math.sqrt(chi2 / len(names))), chi2
+
+
+def fit_candidate(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str, Feature],
+                   model_fn: Callable[[Parameters], Dict[str, float]], *, diff_step: Optional[float],
+                   max_nfev: int) -> CandidateFit:
+    from scipy.optimize import least_squares
+
+    names = [k for k in meas]
+    sig = np.array([meas[k].stderr for k in names])
+    y = np.array([meas[k].value for k in names])
+    penalty = 1e3
+
+    def resid(u: np.ndarray) -> np.ndarray:
+        try:
+            m = model_fn(apply_effects(baseline, effects, u))
+        except (ValueError, _core.SimulationError):
+            return np.full(len(names), penalty)
+        r = np.array([(m.get(k, math.nan) - yk) / sk for k, yk, sk in zip(names, y, sig)])
+        return np.where(np.isfinite(r), r, penalty)
+
+    lo = np.array([e.lower for e in effects])
+    hi = np.array([e.upper for e in effects])
+    starts = [np.clip([e.variable(e.baseline_value(baseline), baseline) for e in effects], lo, hi)]
+    starts.append(lo + 0.1 * (hi - lo))
+    best = None
+    for x0 in starts:
+        kw = dict(bounds=(lo, hi), x_scale=np.maximum(hi - lo, 1e-12) * 0.05, max_nfev=max_nfev)
+        if diff_step is not None:
+            kw["diff_step"] = diff_step
+        r = least_squares(resid, x0, **kw)
+        if best is None or r.cost < best.cost:
+            best = r
+    assert best is not None
+    chi2 = float(2 * best.cost)
+    n, k = len(names), len(effects)
+    J = best.jac
+    try:
+        cov_u = np.linalg.pinv(J.T @ J)
+        se_u = np.sqrt(np.maximum(np.diag(cov_u), 0.0))
+    except np.linalg.LinAlgError:
+        se_u = np.full(k, math.inf)
+    values, stderrs = {}, {}
+    for e, u, su in zip(effects, best.x, se_u):
+        v = e.value(u, baseline)
+        values[e.name] = v
+        if e.kind == "compliance":
+            stderrs[e.name] = abs(e.scale(baseline) / u ** 2) * su if u > 0 else math.inf
+        else:
+            stderrs[e.name] = abs(e.scale(baseline)) * su
+    dof = n - k
+    return CandidateFit(tuple(e.name for e in effects), values, stderrs, chi2, dof,
+                        chi2 <= chi2_quantile(dof), chi2 + k * math.log(max(n, 2)))
+
+
+ModelMany = Callable[[List[Parameters]], List[Optional[Dict[str, float]]]]
+"""Model features of several parameter sets at once (None for a failed model): one batch of runs."""
+
+
+def _one_at_a_time(model_fn: Callable[[Parameters], Dict[str, float]]) -> ModelMany:
+    def many(ps: List[Parameters]) -> List[Optional[Dict[str, float]]]:
+        out: List[Optional[Dict[str, float]]] = []
+        for p in ps:
+            try:
+                out.append(model_fn(p))
+            except (ValueError, _core.SimulationError):
+                out.append(None)
+        return out
+    return many
+
+
+def _stderr_of(e: Effect, u: float, su: float, baseline: Parameters) -> float:
+    """Standard error of the parameter value from that of its fit variable u (delta method)."""
+    if not math.isfinite(su):
+        return math.inf
+    if e.kind == "compliance":
+        return abs(e.scale(baseline) / u ** 2) * su if u > 0 else math.inf
+    return abs(e.scale(baseline)) * su
+
+
+EnsembleMany = Callable[[List[Parameters], List[Optional[Dict[str, float]]]], List[Optional[Ensemble]]]
+"""Ensembles (:func:`.models.ensemble_slider_features`) of several parameter sets whose unshifted
+runs' features are given: one batch of the remaining runs."""
+
+
+def _roughness(xs: np.ndarray, fs: np.ndarray) -> float:
+    """Scatter of single-run χ² values about a quadratic in x: the residual RMS of a least-squares
+    parabola through the points (at least 5 distinct x, 4 residual degrees of freedom
+    with 7), 0 with fewer. Where the locomotion is chaotic in the parameter (restitution), runs at
+    neighbouring values differ by Δχ² of several units although the data cannot tell them apart."""
+    xs, fs = np.asarray(xs, dtype=float), np.asarray(fs, dtype=float)
+    ok = np.isfinite(fs)
+    xs, fs = xs[ok], fs[ok]
+    if np.unique(np.round(xs, 12)).size < 5:
+        return 0.0
+    ss, dof = _parabola_scatter(xs, fs)
+    return math.sqrt(ss / dof)
+
+
+def _parabola_scatter(x: np.ndarray, v: np.ndarray) -> Tuple[float, int]:
+    """Sum of squared residuals of v about a least-squares parabola in x, and their degrees of
+    freedom (len − 3): what a quadratic trend leaves unexplained (the roughness)."""
+    t = (x - x.mean()) / max(float(np.ptp(x)), 1e-300)
+    r = v - np.polyval(np.polyfit(t, v, 2), t)
+    return float(r @ r), len(x) - 3
+
+
+def _interval(xs: np.ndarray, fs: np.ndarray, rough: float = 0.0) -> Tuple[float, float, float]:
+    """Minimum of a scanned profile χ²(x) and its Δχ² = 1 interval: the outermost scan points with
+    χ² ≤ χ²_min + 1, extended to where the profile crosses χ²_min + 1 by interpolation in
+    sqrt(χ² − χ²_min) (the scan's ends if it does not cross). For a rough profile (single-run χ²
+    scattering by ``rough`` about a smooth one, :func:`_roughness`) the threshold is
+    χ²_min + 1 + 2·rough: the scan points that the scatter cannot tell from the minimum."""
+    order = np.argsort(xs)
+    xs, fs = xs[order], fs[order]
+    ok = np.isfinite(fs)
+    if not ok.any():
+        return math.nan, -math.inf, math.inf
+    j = int(np.nanargmin(np.where(ok, fs, np.inf)))
+    delta = 1.0 + 2.0 * max(float(rough), 0.0)
+    level = fs[j] + delta
+    inside = np.flatnonzero(ok & (fs <= level))
+    lo_i, hi_i = int(inside[0]), int(inside[-1])
+
+    def cross(i_in: int, i_out: int) -> float:
+        # Interpolated in sqrt(χ² − χ²_min), linear in x for a parabolic profile: exact for a
+        # parabola however coarse the scan (linear in χ² would shrink the interval by the
+        # ratio of the scan step to the interval).
+        if not np.isfinite(fs[i_out]):
+            return float(xs[i_out])
+        r_in, r_out = math.sqrt(max(fs[i_in] - fs[j], 0.0)), math.sqrt(max(fs[i_out] - fs[j], 0.0))
+        w = (math.sqrt(delta) - r_in) / (r_out - r_in)
+        return float(xs[i_in] + w * (xs[i_out] - xs[i_in]))
+
+    lo = cross(lo_i, lo_i - 1) if lo_i > 0 else float(xs[0])
+    hi = cross(hi_i, hi_i + 1) if hi_i < len(xs) - 1 else float(xs[-1])
+    return float(xs[j]), lo, hi
+
+
+def pooled_spread(ens: Ensemble, levels: Sequence[Sequence[Optional[Dict[str, float]]]],
+                   names: Sequence[str], modes: Optional[Modes] = None) -> Dict[str, float]:
+    """The model's spread of each feature at the fitted point, pooled from two measurements of the
+    same thing — its sensitivity to what the data cannot resolve: the variance over the ensemble
+    of runs (R − 1 degrees of freedom) and the scatter about a quadratic trend of the single runs
+    of the last refinement level of each profile scan (7 points, 4 degrees of freedom; the trend is
+    what the data resolve, the scatter the roughness). Five runs alone give an unstable estimate
+    (4 degrees of freedom: at μ = 0.26, 60 s, the final amplitude at 126 Hz spreads by 0.002 over
+    the ensemble, by 0.007 over nine perturbations). ``modes``: the data's modes; a mode feature's
+    spread comes from the runs in the data's mode only, or, with fewer than
+    :data:`.models.MODE_MIN_DOF` degrees of freedom, is the ensemble's spread over all runs."""
+    out: Dict[str, float] = {}
+    for k in names:
+        ss, dof = 0.0, 0
+        tag = tag_of(k)
+        md = (modes or {}).get(tag) if tag is not None and is_mode_feature(k) else None
+        if md is not None and tag in ens.mode_counts:
+            runs = ens.mode_counts[tag]
+            if k in ens.mode_spread and runs > 1:
+                ss += ens.mode_spread[k] ** 2 * (runs - 1)
+                dof += runs - 1
+        elif k in ens.spread and ens.runs > 1:
+            ss += ens.spread[k] ** 2 * (ens.runs - 1)
+            dof += ens.runs - 1
+        for pts in levels:
+            xs = np.array([j for j, m in enumerate(pts) if m is not None and k in m and math.isfinite(m[k])
+                           and (md is None or run_mode(m, tag) == md)], dtype=float)
+            if len(xs) >= 5:
+                v = np.array([pts[int(j)][k] for j in xs])  # type: ignore[index]
+                ss_k, dof_k = _parabola_scatter(xs, v)
+                ss += ss_k
+                dof += dof_k
+        if md is not None and tag in ens.mode_counts and dof < MODE_MIN_DOF:
+            out[k] = ens.spread.get(k, 0.0)  # too few runs in the data's mode: the spread over all runs
+        else:
+            out[k] = math.sqrt(ss / dof) if dof > 0 else 0.0
+    return out
+
+
+def profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str, Feature],
+                 model_fn: Optional[Callable[[Parameters], Dict[str, float]]] = None, *, grid_n: int = 9,
+                 refine: int = 2, model_many: Optional[ModelMany] = None,
+                 ensemble_many: Optional[EnsembleMany] = None, spread0: Optional[Dict[str, float]] = None,
+                 fixed: Optional[Dict[str, float]] = None) -> CandidateFit:
+    """Fit for expensive, rough objectives (slider level). Per effect (one coordinate pass): a grid
+    scan of χ² over its search range (``grid_n`` points, one batch of runs), then ``refine``
+    levels of 7 points spanning ± one step around the best so far (each one batch; the step
+    shrinks 3× per level). The model's sensitivity to what the data cannot resolve enters every
+    χ² as a spread of the features (σ² = σ_meas² + 2·spread² for one run against one measured
+    draw): ``spread0`` (the baseline's) at first, then that of an ensemble of runs
+    (``ensemble_many``) at the best coarse point, and at the end that of the ensemble at the
+    fitted point, whose mean gives the fit's χ² (σ² = σ_meas² + (1 + 1/R)·spread²). Standard
+    error: half the Δχ² = 1 interval of the rescored profile scan (:func:`_interval`), widened
+    by the scatter of the last refinement level's χ² about a parabola (:func:`_roughness`)
+    where the objective is rough.
+    ``fixed``: values of further effects held (the joint fit's beam-level part)."""
+    many = model_many if model_many is not None else _one_at_a_time(model_fn)  # type: ignore[arg-type]
+    names = list(meas)
+    se = np.array([meas[k].stderr for k in names])
+    y = np.array([meas[k].value for k in names])
+    cache: Dict[Tuple[float, ...], Optional[Dict[str, float]]] = {}
+    fixed = dict(fixed or {})
+    spread = dict(spread0 or {})
+    modes = data_modes(meas) if MODE_CONDITIONING else None
+
+    def sig_single() -> np.ndarray:
+        return np.sqrt(se ** 2 + 2 * np.array([spread.get(k, 0.0) for k in names]) ** 2)
+
+    def chi2_from(m: Optional[Dict[str, float]], sig: np.ndarray, counts: Optional[Dict[str, int]] = None,
+                  runs: int = 1) -> float:
+        return _chi2_terms(m, names, y, sig, modes, counts, runs)
+
+    def key_of(u: np.ndarray) -> Tuple[float, ...]:
+        return tuple(round(float(v), 12) for v in u)
+
+    def params_of(u: np.ndarray) -> Parameters:
+        vals = dict(fixed)
+        vals.update({e.name: e.value(float(x), baseline) for e, x in zip(effects, u)})
+        return realise_effects(baseline, vals)
+
+    def evaluate(us: List[np.ndarray]) -> None:
+        todo: Dict[Tuple[float, ...], Parameters] = {}
+        for u in us:
+            key = key_of(u)
+            if key not in cache and key not in todo:
+                try:
+                    todo[key] = params_of(u)
+                except ValueError:
+                    cache[key] = None
+        if todo:
+            for key, m in zip(todo, many(list(todo.values()))):
+                cache[key] = m
+
+    def chi2(u: np.ndarray) -> float:
+        return chi2_from(cache[key_of(u)], sig_single())
+
+    def ensemble_at(u: np.ndarray) -> Optional[Ensemble]:
+        if ensemble_many is None or cache.get(key_of(u)) is None:
+            return None
+        return ensemble_many([params_of(u)], [cache[key_of(u)]])[0]
+
+    u = np.array([np.clip(e.variable(e.baseline_value(baseline), baseline), e.lower, e.upper) for e in effects])
+    samples: List[List[np.ndarray]] = [[] for _ in effects]
+    last: List[List[np.ndarray]] = [[] for _ in effects]
+    for i, e in enumerate(effects):
+        lo, hi = e.search if math.isfinite(e.search[0]) else (e.lower, e.upper)
+        at = lambda x: np.where(np.arange(len(u)) == i, x, u)  # noqa: E731
+        grid = list(np.linspace(lo, hi, grid_n))
+        evaluate([at(g) for g in grid])
+        xs = list(grid)
+        step = (hi - lo) / max(grid_n - 1, 1)
+        x_best = min(xs, key=lambda x: chi2(at(x)))
+        if i == 0:
+            ens = ensemble_at(at(x_best))
+            if ens is not None:
+                spread.update(ens.spread)
+                x_best = min(xs, key=lambda x: chi2(at(x)))
+        fine = []
+        for _ in range(refine):
+            fine = [x for x in np.linspace(x_best - step, x_best + step, 7) if lo <= x <= hi]
+            evaluate([at(x) for x in fine])
+            xs += fine
+            x_best = min(xs, key=lambda x: chi2(at(x)))
+            step /= 3
+        u[i] = x_best
+        samples[i] = [at(x) for x in xs]
+        last[i] = [at(x) for x in fine]
+    ens = ensemble_at(u)
+    n, k = len(names), len(effects) + len(fixed)
+    predicted: Dict[str, float] = {}
+    if ens is not None:
+        spread.update(pooled_spread(ens, [[cache[key_of(p)] for p in pts] for pts in last], names, modes))
+        predicted = dict(ens.mean)
+        sig_e = np.sqrt(se ** 2 + (1 + 1 / ens.runs) * np.array([spread.get(kk, 0.0) for kk in names]) ** 2)
+        best_chi2 = chi2_from(ens.mean, sig_e, ens.mode_counts, ens.runs)
+    else:
+        best_chi2 = chi2(u)
+        predicted = dict(cache[key_of(u)] or {})
+    values, stderrs, intervals = dict(fixed), {}, {}
+    roughness: Dict[str, float] = {}
+    for i, e in enumerate(effects):
+        xs = np.array([p[i] for p in samples[i]])
+        fs = np.array([chi2(p) for p in samples[i]])
+        rough = _roughness(np.array([p[i] for p in last[i]]), np.array([chi2(p) for p in last[i]]))
+        _, lo_u, hi_u = _interval(xs, fs, rough)
+        roughness[e.name] = rough
+        su = (hi_u - lo_u) / 2 if math.isfinite(lo_u) and math.isfinite(hi_u) else math.inf
+        values[e.name] = e.value(u[i], baseline)
+        stderrs[e.name] = _stderr_of(e, u[i], su, baseline)
+        ends = sorted((e.value(lo_u, baseline), e.value(hi_u, baseline))) if math.isfinite(su) else [-math.inf, math.inf]
+        intervals[e.name] = (ends[0], ends[1])
+    names_all = tuple(list(fixed) + [e.name for e in effects])
+    return CandidateFit(names_all, values, stderrs, best_chi2, n - k, best_chi2 <= chi2_quantile(n - k),
+                        best_chi2 + k * math.log(max(n, 2)), predicted,
+                        {kk: spread.get(kk, 0.0) for kk in names}, intervals, roughness)
+
+
+def lrt_threshold(df: int, m: int) -> float:
+    """Likelihood-ratio threshold for adding ``df`` effects chosen as the best of ``m`` candidate
+    sets: the (1 − α/m) quantile of χ²(df) (Bonferroni for picking the best of m)."""
+    from scipy.stats import chi2
+
+    return float(chi2.isf(SIGNIFICANCE / max(m, 1), max(df, 1)))
+
+
+def select(fits: List[CandidateFit], chi2_0: float, n: int) -> Tuple[Optional[CandidateFit], List[Tuple[str, ...]]]:
+    """Nothing if the baseline is adequate; else forward selection by likelihood-ratio tests: the
+    best single effect must beat the baseline, and the best larger set containing the current
+    choice must beat it, by more than :func:`lrt_threshold` (99 %, corrected for the number of
+    sets the best was picked from)."""
+    if chi2_0 <= chi2_quantile(n) or not fits:
+        return None, []
+    by_size: Dict[int, List[CandidateFit]] = {}
+    for f in fits:
+        by_size.setdefault(len(f.effects), []).append(f)
+    best: Optional[CandidateFit] = None
+    best_chi2, best_k = chi2_0, 0
+    for k in sorted(by_size):
+        pool = [c for c in by_size[k] if best is None or set(best.effects) <= set(c.effects)]
+        if not pool:
+            continue
+        top = min(pool, key=lambda c: c.chi2)
+        if best_chi2 - top.chi2 > lrt_threshold(k - best_k, len(pool)):
+            best, best_chi2, best_k = top, top.chi2, k
+        else:
+            break
+    if best is None:
+        return None, []
+    alts = [c.effects for c in by_size[len(best.effects)] if c.effects != best.effects and c.chi2 - best.chi2 < 2.0]
+    return best, alts

@@ -1,0 +1,335 @@
+"""Operating maps: the behaviour classification and the maps themselves — free-slider runs by the core (locally or on Dask) or predicted by the slow flow (docs/model.md §8, the paper's Fig. 11).
+
+A map started by ``beamslider map``, ``beamslider-batch map`` or :func:`operating_map` can be
+resumed by any of them (same configuration, same results file).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+import os
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Dict, List, Optional, Sequence, Union
+
+import numpy as np
+
+from .. import _core, _toml
+from .._util import progress_bar
+from ..params import Parameters, resolve
+from ..simulate import SimulationResult
+from ..superslow import DriftLaw, builtin_law, law_json, predict
+from .config import MIN_CLASSIFY_S, RESULTS_FILE, criteria_toml, map_config_toml
+from .read import rows_to_table
+
+__all__ = ["Classification", "classify", "classify_result", "operating_map", "predicted_map", "run_map_config",
+           "super_slow_signals"]
+
+
+@dataclass
+class Classification:
+    """Behaviour of one run and the features behind it (see ``beamslider-core``'s ``classify``)."""
+
+    behaviour: str
+    """One of :data:`BEHAVIOURS`."""
+    reason: str
+    """Why (for ``undetermined``: why no behaviour fits)."""
+    features: Dict[str, Any] = field(default_factory=dict)
+    """s_initial, s_final, amplitude_final_h, amplitude_initial_h, amplitude_max_h, s_min, s_max,
+    net_travel, travel_to_centre, turn_s, turn_t_s (NaN when no turning point), jump_up_t_s,
+    jump_down_t_s, steady, phase (the phase reached at the end, e.g. ``steady_high`` or, for
+    ``not_settled``, ``high_towards_centre``)."""
+
+
+def classify(t: Any, s: Any, amplitude_h: Any, *, criteria: Optional[Dict[str, float]] = None) -> Classification:
+    """Classify super-slow signals: uniformly sampled times ``t`` [s], slider position ``s`` and
+    amplitude ``amplitude_h`` (1-s moving average of |Hilbert(w(4L/7))| divided by h). ``criteria``
+    overrides thresholds of the core (keys as in the ``[criteria]`` table of a map config)."""
+    t = np.ascontiguousarray(t, dtype=float)
+    s = np.ascontiguousarray(s, dtype=float)
+    a = np.ascontiguousarray(amplitude_h, dtype=float)
+    if not (t.ndim == s.ndim == a.ndim == 1 and len(t) == len(s) == len(a)):
+        raise ValueError("t, s and amplitude_h must be 1-D arrays of the same length")
+    if len(t) < 3:
+        raise ValueError(f"invalid parameter `t`: {len(t)} samples; need at least three (and at least "
+                         f"{MIN_CLASSIFY_S:g} s of signal)")
+    steps = np.diff(t)
+    dt = float(np.median(steps))
+    if not (np.all(np.isfinite(t)) and dt > 0 and np.all(np.abs(steps - dt) <= 1e-6 * max(dt, abs(float(t[-1]))))):
+        raise ValueError("invalid parameter `t`: the samples must be uniformly spaced and increasing")
+    if t[-1] - t[0] < MIN_CLASSIFY_S:
+        raise ValueError(f"invalid parameter `t`: the signals span {t[-1] - t[0]:g} s; the classification needs at least "
+                         f"{MIN_CLASSIFY_S:g} s (the amplitude's moving-average window)")
+    c = json.loads(_core.classify(s, a, dt, t0_s=float(t[0]), criteria_toml=criteria_toml(criteria)))
+    behaviour, reason = c.pop("behaviour"), c.pop("reason")
+    for k in ("turn_s", "turn_t_s"):
+        c[k] = float("nan") if c.get(k) is None else c[k]
+    return Classification(behaviour=behaviour, reason=reason, features=c)
+
+
+def super_slow_signals(result: SimulationResult, *, window: float = 1.0):
+    """The super-slow signals a map classifies (core module ``envelope_stream``): times of 0.2-s
+    bins, s averaged per bin, and A = ``window``-second moving average of the binned |analytic
+    signal| of w(4L/7) (FIR Hilbert transformer) in units of h. Returns (t, s, A)."""
+    if len(result.t) < 2:
+        raise ValueError("the run has fewer than two samples")
+    t0, dt, s, a = _core.super_slow_signals(np.ascontiguousarray(result.w, dtype=float),
+                                           np.ascontiguousarray(result.s, dtype=float),
+                                           float(result.dt_record), result.params.thickness_m, float(window))
+    s = np.asarray(s)
+    return float(result.t[0]) + t0 + dt * np.arange(len(s)), s, np.asarray(a)
+
+
+def classify_result(result: SimulationResult, *, window: float = 1.0,
+                    criteria: Optional[Dict[str, float]] = None) -> Classification:
+    """Classify a free-slider run of :func:`beamslider.simulate` by its phases, from the same
+    super-slow signals as a map point (:func:`super_slow_signals`): the label of a run from rest
+    equals the map's label of that point for the same duration and recording interval."""
+    if result.model != "fs":
+        raise ValueError(f"classification needs a free-slider run (model 'fs'), got {result.model!r}")
+    t, s, amp = super_slow_signals(result, window=window)
+    return classify(t, s, amp, criteria=criteria)
+
+
+def _map_chunk(config_toml: str, jobs: List[tuple], threads: int) -> List[str]:
+    """A Dask task of a map: one chunk of jobs through the Rust core (rayon, interpreter released)."""
+    from beamslider import _core as core
+
+    return core.run_map_chunk(config_toml, jobs, threads=threads)
+
+
+def run_map_config(config_toml: str, *, out: Optional[Union[str, Path]] = None, resume: bool = False,
+                   threads: Optional[int] = None, progress: Optional[bool] = False, extend: bool = False,
+                   report: bool = True, scheduler: Any = None, scheduler_file: Optional[str] = None,
+                   chunk_size: int = 8, task_threads: int = 1, max_retries: int = 3) -> Dict[str, np.ndarray]:
+    """Run a map from configuration TOML text (see :func:`map_config_toml`); ``out`` is the output
+    folder (results appended to ``out/map.jsonl`` point by point, the configuration written to
+    ``out/map.toml``). ``extend``: the map in ``out`` was run for a shorter duration; continue its
+    not-settled points from their saved end states to the configuration's duration (the count
+    is printed when ``report``). ``scheduler`` / ``scheduler_file``: run the points on a Dask
+    cluster in chunks of ``chunk_size`` (see :func:`operating_map`)."""
+    canonical, f, a, s = _core.map_config(config_toml)
+    total = len(f) * len(a) * len(s)
+    if threads is not None and (not isinstance(threads, (int, np.integer)) or isinstance(threads, bool) or threads < 1
+                                or threads > 65536):
+        raise ValueError(f"invalid parameter `threads` = {threads!r}: must be an integer in 1..=65536")
+    for name, v in (("chunk_size", chunk_size), ("task_threads", task_threads)):
+        if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or not 1 <= v <= 1_000_000:
+            raise ValueError(f"invalid parameter `{name}` = {v!r}: must be an integer >= 1")
+    results = None
+    if extend and out is None:
+        raise ValueError("invalid parameter `extend_to`: needs `out`, the folder of the map to extend")
+    client, own = None, False
+    if scheduler is not None or scheduler_file is not None:
+        from .._dask import connect
+
+        client, own = connect(scheduler, scheduler_file)  # before any file is written
+    try:
+        if out is not None:
+            folder = Path(out)
+            results = folder / RESULTS_FILE
+            # Everything the run would refuse is refused before map.toml is (over)written.
+            _core.check_map(config_toml, out=results, resume=resume, extend=extend)
+            folder.mkdir(parents=True, exist_ok=True)
+        # Takes the results file's lock (a second writer fails here), writes the header.
+        run = _core.MapRun(config_toml, out=results, resume=resume, extend=extend)
+        try:
+            if out is not None:
+                (Path(out) / "map.toml").write_text(canonical, encoding="utf-8")
+            with progress_bar(progress, total, "map", "pts") as bar:
+                if client is None:
+                    run.run_local(threads=None if threads is None else int(threads), progress=bar)
+                else:
+                    from .._dask import run_chunks
+
+                    jobs = run.jobs()
+                    chunks = [(config_toml, jobs[i:i + chunk_size], int(task_threads))
+                              for i in range(0, len(jobs), chunk_size)]
+
+                    def on_rows(rows: List[str]) -> None:
+                        run.append(rows)
+                        if bar is not None:
+                            bar(run.done, total)
+
+                    run_chunks(client, _map_chunk, chunks, tag="map" + canonical, on_rows=on_rows,
+                               max_retries=max_retries)
+            rows, extended = run.finish()
+        finally:
+            run.close()
+    finally:
+        if own:
+            client.close()
+    table = rows_to_table([json.loads(r) for r in rows])
+    if report and (extend or extended):
+        t_end = float(_toml.loads(canonical)["duration_s"])
+        print(f"re-ran {extended} not-settled or undetermined of {len(table['index'])} points from their saved end states "
+              f"to t_end = {t_end:g} s")
+    return table
+
+
+def operating_map(params: Optional[Parameters] = None, *, f_ex: Any, a_ex: Any, s0: Any = 0.3,
+                  t_end: float = 120.0, threads: Optional[int] = None, out: Optional[Union[str, Path]] = None,
+                  resume: bool = False, record_every: int = 20, criteria: Optional[Dict[str, float]] = None,
+                  progress: Optional[bool] = False, extend_to: Optional[float] = None, scheduler: Any = None,
+                  scheduler_file: Optional[str] = None, chunk_size: int = 8,
+                  predictor: Optional[Any] = None) -> Dict[str, np.ndarray]:
+    """Operating map (docs/model.md §8): the behaviour of the free slider at every (f_ex, a_ex, s0) of the
+    grid, each point a ``t_end``-second run from rest classified by the core, in parallel on
+    ``threads`` threads (default: one per core).
+
+    ``out``: output folder; each finished point is appended to ``out/map.jsonl`` at once, and with
+    ``resume=True`` the points already there are skipped (a map started by ``beamslider map`` or
+    ``beamslider-batch map`` with the same settings can be resumed, and vice versa). Ctrl-C stops
+    the map (``KeyboardInterrupt``) keeping the finished points.
+
+    ``extend_to``: extend the map in ``out`` (run for ``t_end`` seconds) to ``extend_to`` seconds:
+    the points that had not settled (``not_settled``) or got no behaviour (``undetermined``) continue from the end states saved in the
+    results file — each continued row is bitwise the row of a ``extend_to``-second run from rest,
+    but for the wall time — and the settled points keep their rows; the number of re-run points
+    is printed. An interrupted extension is finished by the same call.
+
+    ``scheduler`` (an address such as ``"tcp://10.0.0.5:8786"`` or a ``distributed.Client``) or
+    ``scheduler_file`` (written by ``dask scheduler --scheduler-file``): run the points on a Dask
+    cluster, ``chunk_size`` points per task; the scheduler is contacted before any file is
+    written, the results file, its lock and ``resume`` are the same, and every row is bitwise
+    the row of the local map (but ``wall_time_s``). A chunk lost with its worker is re-run.
+
+    Only one process may write a map folder at a time: a second one fails at once
+    (``BlockingIOError`` naming the folder and the holder's PID).
+
+    ``predictor``: a fitted drift law (:func:`beamslider.superslow.fit_drift_law`): the map is
+    predicted by the reduced super-slow model instead of FS runs (milliseconds per point; one s0;
+    same results format and writer, ``resume`` as for FS maps, see
+    :func:`predicted_map`).
+
+    Returns a dict of numpy arrays, one entry per grid point in grid order (s0 slowest, then a_ex,
+    f_ex fastest): see :func:`rows_to_table`.
+    """
+    if predictor is not None:
+        s0s = np.atleast_1d(np.asarray(s0, dtype=float))
+        if s0s.size != 1 or extend_to is not None:
+            raise ValueError("invalid parameter `predictor`: takes one s0 and no extend_to")
+        if scheduler is not None or scheduler_file is not None:
+            raise ValueError("invalid parameter `predictor`: a predicted map runs locally (milliseconds per point), not on a scheduler")
+        rows = predicted_map(params, drift=predictor, f_ex=[float(v) for v in np.atleast_1d(f_ex)],
+                             a_ex=[float(v) for v in np.atleast_1d(a_ex)], s0=float(s0s[0]), t_end=float(t_end), out=out,
+                             resume=resume, threads=threads)
+        return rows_to_table(rows)
+    if extend_to is not None:
+        try:
+            te = float(extend_to)
+        except (TypeError, ValueError):
+            raise ValueError(f"invalid parameter `extend_to` = {extend_to!r}: give a number of seconds") from None
+        if not (np.isfinite(te) and te > float(t_end)):
+            raise ValueError(f"invalid parameter `extend_to` = {extend_to!r}: must exceed the map's t_end ({float(t_end):g} s)")
+        if out is None:
+            raise ValueError("invalid parameter `extend_to`: needs `out`, the folder of the map to extend")
+        results = Path(out) / RESULTS_FILE
+        if not results.exists():
+            raise ValueError(f"invalid parameter `extend_to`: no map to extend in {out} ({RESULTS_FILE} missing)")
+        settings, _rows, _trunc = _core.read_map_results(results)
+        done = json.loads(settings)["duration_s"] if settings else None
+        if done not in (float(t_end), te):
+            raise ValueError(f"invalid parameter `t_end` = {t_end!r}: the map in {out} was run for {done} s")
+        cfg = map_config_toml(params, f_ex=f_ex, a_ex=a_ex, s0=s0, t_end=te, record_every=record_every,
+                              criteria=criteria)
+        return run_map_config(cfg, out=out, threads=threads, progress=progress, extend=True, scheduler=scheduler,
+                              scheduler_file=scheduler_file, chunk_size=chunk_size)
+    cfg = map_config_toml(params, f_ex=f_ex, a_ex=a_ex, s0=s0, t_end=t_end, record_every=record_every,
+                          criteria=criteria)
+    return run_map_config(cfg, out=out, resume=resume, threads=threads, progress=progress, scheduler=scheduler,
+                          scheduler_file=scheduler_file, chunk_size=chunk_size)
+
+
+def _default_law_for(p: Parameters) -> DriftLaw:
+    """The built-in law, with a UserWarning when ``p`` are not the defaults it was fitted at."""
+    law, note = builtin_law(p)
+    if note:
+        import warnings
+
+        warnings.warn(note, stacklevel=3)
+    return law
+
+
+def predicted_map(
+    params: Optional[Parameters] = None,
+    *,
+    drift: Optional[DriftLaw] = None,
+    f_ex: Sequence[float],
+    a_ex: Sequence[float],
+    s0: float = 0.3,
+    t_end: float = 120.0,
+    s_dn: str = "law",
+    d_eff: Optional[float] = None,
+    n_modes: int = 5,
+    out: Union[str, os.PathLike, None] = None,
+    force: bool = False,
+    resume: bool = False,
+    threads: Optional[int] = None,
+) -> List[dict]:
+    """An operating map by the reduced predictor (docs/model.md §8) with a fitted law (b2): one row per
+    (f_ex, a_ex) in the results format of the FS maps (``map.jsonl`` version 2; ``status`` is
+    ``predicted``, counters are zero, no end state; extra keys ``events``, ``extrapolated``,
+    ``s_dn_source``).
+
+    ``s_dn='law'`` (the default: the HB manifold's jump-down, else the law's, :meth:`DriftLaw.s_dn`)
+    and ``'hb'`` (the HB manifold's own only) are computed by the core (manifold, law, slow flow and classifier
+    in Rust, ``threads`` threads, the interpreter released, Ctrl-C stops it) and written by the
+    core's map results writer, as ``beamslider-batch map --predictor``: with ``out`` (a folder) the
+    rows go to ``out/map.jsonl`` with the predictor in its header; an existing file is refused
+    (``FileExistsError``) unless ``force`` (replaced) or ``resume`` (its points are kept; it must
+    hold the same law and settings). ``s_dn='none'`` is evaluated in Python (:func:`beamslider.superslow.predict`) and
+    cannot be written (``out`` must be None). ``drift=None``: the built-in default law
+    (:func:`beamslider.superslow.default_drift_law`; a warning if ``params`` are not the defaults it was fitted at)."""
+    p = resolve(params)
+    drift = _default_law_for(p) if drift is None else drift
+    if s_dn not in ("hb", "law", "none"):
+        raise ValueError(f"invalid parameter `s_dn` = {s_dn!r}: one of 'hb', 'law', 'none'")
+    if not isinstance(drift, DriftLaw):
+        raise ValueError("invalid parameter `drift`: a fitted DriftLaw (fit_drift_law / load_drift_law)")
+    if s_dn == "none":
+        if out is not None:
+            raise ValueError(f"invalid parameter `out`: a map with s_dn={s_dn!r} is evaluated in Python and not written (the core writes s_dn='law' and 'hb')")
+        return _predicted_rows_python(p, drift, f_ex, a_ex, s0, t_end, s_dn, d_eff, n_modes)
+    path = None
+    if out is not None:
+        path = Path(out) / "map.jsonl"
+        if path.exists() and not (force or resume):
+            raise FileExistsError(f"{path} exists: pass force=True to overwrite or resume=True to continue it")
+        if path.exists() and force and not resume:
+            path.unlink()
+    cfg = map_config_toml(p, f_ex=[float(v) for v in f_ex], a_ex=[float(v) for v in a_ex], s0=float(s0), t_end=float(t_end))
+    law = drift if s_dn == "law" else dataclasses.replace(drift, rho_c=0.0, _trees={})
+    rows = _core.predicted_map(cfg, law_json(law), out=None if path is None else str(path), resume=bool(resume),
+                               threads=threads, n_modes=int(n_modes), d_eff=d_eff)
+    return [json.loads(r) for r in rows]
+
+
+def _predicted_rows_python(p, drift, f_ex, a_ex, s0, t_end, s_dn, d_eff, n_modes) -> List[dict]:
+    rows = []
+    k = 0
+    for a in a_ex:
+        for f in f_ex:
+            t0 = time.perf_counter()
+            r = predict(p, f_ex=float(f), a_ex=float(a), s0=s0, t_end=t_end, drift=drift, s_dn=s_dn, d_eff=d_eff, n_modes=n_modes)
+            wall = time.perf_counter() - t0
+            c = dict(r.classification)
+            row = {"index": k, "f_ex_hz": float(f), "a_ex_m_s2": float(a), "s0": float(s0), "t_end_s": float(t_end),
+                   "status": "predicted", **{key: c.get(key) for key in (
+                       "behaviour", "reason", "s_final", "amplitude_final_h", "amplitude_initial_h", "amplitude_max_h", "s_min",
+                       "s_max", "net_travel", "travel_to_centre", "turn_s", "turn_t_s", "jump_up_t_s", "jump_down_t_s",
+                       "steady", "phase")},
+                   "counters": {"steps": 0, "contact_steps": 0, "closed_histogram": [0, 0, 0, 0, 0], "solver_iterations": 0,
+                                "max_iterations": 0, "cap_hits": 0, "first_guess_hits": 0, "linear_solves": 0,
+                                "enumerations": 0, "fallbacks": 0},
+                   "wall_time_s": wall, "events": [list(e) for e in r.events], "extrapolated": r.extrapolated,
+                   "s_dn_source": r.s_dn_source}
+            for key in ("turn_s", "turn_t_s"):
+                if row[key] is not None and not math.isfinite(row[key]):
+                    row[key] = None
+            rows.append(row)
+            k += 1
+    return rows

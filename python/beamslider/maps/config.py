@@ -1,0 +1,89 @@
+"""Operating maps: the behaviour vocabulary and the map configuration (the same TOML ``beamslider-batch map --config`` reads; docs/model.md §8)."""
+
+from __future__ import annotations
+
+from typing import Any, Dict, List, Optional
+
+import numpy as np
+
+from .. import _core, _toml
+from ..params import Parameters, resolve
+
+__all__ = ["BEHAVIOURS", "LABELS", "LETTERS", "MIN_CLASSIFY_S", "RESULTS_FILE", "criteria_toml", "default_map_config",
+           "map_config_dict", "map_config_toml"]
+
+
+RESULTS_FILE = "map.jsonl"
+"""Name of the results file inside a map's output folder."""
+
+
+BEHAVIOURS = ("inactivity", "trivial_adaption", "signature_move", "relaxation_oscillation", "self_damping",
+              "not_settled", "undetermined")
+"""Behaviour names as written in results files (docs/model.md §8), in legend order."""
+
+
+LETTERS = {"inactivity": "I", "trivial_adaption": "T", "signature_move": "S", "relaxation_oscillation": "R",
+           "self_damping": "D", "not_settled": "N", "undetermined": "?"}
+"""One letter per behaviour for text tables."""
+
+
+LABELS = {"inactivity": "inactivity", "trivial_adaption": "trivial adaption", "signature_move": "signature move",
+          "relaxation_oscillation": "relaxation oscillation", "self_damping": "self-damping",
+          "not_settled": "not settled", "undetermined": "undetermined"}
+
+
+MIN_CLASSIFY_S = 1.0
+"""Shortest signal :func:`classify` accepts [s] (the 1-s moving average of the amplitude)."""
+
+
+def _number(name: str, v: Any) -> Any:
+    """A number for a TOML value (int stays int; bools and non-numbers are a ValueError naming ``name``)."""
+    if isinstance(v, (bool, np.bool_)):
+        raise ValueError(f"invalid parameter `{name}` = {v!r}: expected a number")
+    if isinstance(v, (int, np.integer)):
+        return int(v)
+    try:
+        return float(v)
+    except (TypeError, ValueError):
+        raise ValueError(f"invalid parameter `{name}` = {v!r}: expected a number") from None
+
+
+def criteria_toml(criteria: Optional[Dict[str, float]]) -> Optional[str]:
+    if not criteria:
+        return None
+    return _toml.dumps({str(k): _number(f"criteria.{k}", v) for k, v in criteria.items()})
+
+
+def map_config_dict(params: Optional[Parameters] = None, *, f_ex: Any, a_ex: Any, s0: Any = 0.3,
+                    t_end: float = 120.0, record_every: int = 20, dt_s: Optional[float] = None,
+                    criteria: Optional[Dict[str, float]] = None) -> Dict[str, Any]:
+    """The tables of a map configuration (see :func:`map_config_toml`)."""
+    d: Dict[str, Any] = {"duration_s": float(t_end), "record_every": int(record_every)}
+    if dt_s is not None:
+        d["dt_s"] = float(dt_s)
+    d["grid"] = {key: _axis(name, values) for key, name, values in
+                 (("f_ex_hz", "f_ex", f_ex), ("a_ex_m_s2", "a_ex", a_ex), ("s0", "s0", s0))}
+    d["params"] = _toml.loads(resolve(params).toml_text())
+    if criteria:
+        d["criteria"] = {str(k): _number(f"criteria.{k}", v) for k, v in criteria.items()}
+    return d
+
+
+def _axis(name: str, values: Any) -> List[float]:
+    arr = np.atleast_1d(np.asarray(values, dtype=float))
+    if arr.ndim != 1 or arr.size == 0:
+        raise ValueError(f"invalid parameter `{name}`: give a number or a non-empty 1-D sequence")
+    return [float(v) for v in arr]
+
+
+def map_config_toml(params: Optional[Parameters] = None, *, f_ex: Any, a_ex: Any, s0: Any = 0.3,
+                    t_end: float = 120.0, record_every: int = 20,
+                    criteria: Optional[Dict[str, float]] = None) -> str:
+    """The map configuration as TOML (the format of ``beamslider-batch map --config``)."""
+    return _toml.dumps(map_config_dict(params, f_ex=f_ex, a_ex=a_ex, s0=s0, t_end=t_end,
+                                         record_every=record_every, criteria=criteria))
+
+
+def default_map_config() -> str:
+    """The paper's map (f_ex = 100, 102, …, 130 Hz, a_ex = 4, 6, …, 16 m/s², s0 = 0.3, 120 s) as TOML."""
+    return _core.default_map_config()

@@ -1,0 +1,108 @@
+"""Operating maps: reading the results file (JSON lines, ``<out>/map.jsonl``) into numpy arrays and its text summaries (docs/model.md §8)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any, Dict, List, Optional, Sequence, Union
+
+import numpy as np
+
+from .. import _core
+from .config import BEHAVIOURS, LABELS, LETTERS, RESULTS_FILE
+
+__all__ = ["failures", "read_map", "rows_to_table", "t_end_text", "text_table"]
+
+
+_SCALARS = ("index", "f_ex_hz", "a_ex_m_s2", "s0", "t_end_s", "s_final", "amplitude_final_h", "amplitude_initial_h",
+            "amplitude_max_h", "s_min", "s_max", "net_travel", "travel_to_centre", "turn_s", "turn_t_s",
+            "wall_time_s")
+
+
+def rows_to_table(rows: Sequence[Dict[str, Any]]) -> Dict[str, np.ndarray]:
+    """Map rows (dicts as in the results file) as a dict of numpy arrays: the scalar features
+    (float; NaN for a missing turning point), ``behaviour``, ``reason``, ``status``, ``phase`` (str),
+    ``has_end_state`` (bool: the run can be continued by ``extend_to``),
+    ``steady`` (bool), ``jump_up_t_s``/``jump_down_t_s`` (object arrays of lists) and the solver
+    counters as ``counters_<name>`` (int)."""
+    rows = sorted(rows, key=lambda r: r["index"])
+    out: Dict[str, np.ndarray] = {}
+    for k in _SCALARS:
+        out[k] = np.array([np.nan if r.get(k) is None else r[k] for r in rows], dtype=float)
+    out["index"] = out["index"].astype(int)
+    for k in ("behaviour", "reason", "status", "phase"):
+        out[k] = np.array([r.get(k, "") for r in rows], dtype=object).astype(str) if rows else np.array([], dtype=str)
+    out["has_end_state"] = np.array(["end" in r for r in rows], dtype=bool)
+    out["steady"] = np.array([bool(r["steady"]) for r in rows], dtype=bool)
+    for k in ("jump_up_t_s", "jump_down_t_s"):
+        arr = np.empty(len(rows), dtype=object)
+        for i, r in enumerate(rows):
+            arr[i] = list(r[k])
+        out[k] = arr
+    names = list(rows[0]["counters"]) if rows else []
+    for n in names:
+        if n == "closed_histogram":
+            out["counters_closed_histogram"] = np.array([r["counters"][n] for r in rows], dtype=np.int64)
+        else:
+            out[f"counters_{n}"] = np.array([r["counters"][n] for r in rows], dtype=np.int64)
+    return out
+
+
+def read_map(path: Union[str, Path]) -> Dict[str, np.ndarray]:
+    """Read a map's results (``map.jsonl`` or its folder) into the table of :func:`operating_map`.
+    A truncated last line (a map killed while writing) is ignored; of an extended map the latest
+    row of each point is read."""
+    path = Path(path)
+    if path.is_dir():
+        path = path / RESULTS_FILE
+    _settings, rows, _truncated = _core.read_map_results(path)
+    latest: Dict[tuple, Dict[str, Any]] = {}
+    for r in map(json.loads, rows):  # a later row of a point (an extended run) replaces the earlier
+        latest.pop((r["f_ex_hz"], r["a_ex_m_s2"], r["s0"]), None)
+        latest[(r["f_ex_hz"], r["a_ex_m_s2"], r["s0"])] = r
+    return rows_to_table(list(latest.values()))
+
+
+def failures(table: Dict[str, np.ndarray]) -> List[str]:
+    """One line per grid point whose run did not complete (status ``left_beam``, ``diverged`` or
+    ``error``), with its inputs and the reason (a predicted map's ``predicted`` rows are done)."""
+    return [f"#{table['index'][i]} f_ex = {table['f_ex_hz'][i]:g} Hz, a_ex = {table['a_ex_m_s2'][i]:g} m/s^2, "
+            f"s0 = {table['s0'][i]:g}: {table['status'][i]}: {table['reason'][i]}"
+            for i in np.flatnonzero((table["status"] != "completed") & (table["status"] != "predicted"))]
+
+
+def t_end_text(table: Dict[str, np.ndarray], s0: Optional[float] = None) -> str:
+    """``t_end = 120 s``, or for an extended map ``t_end = 120 s (settled points kept from 60 s)``;
+    ``predicted, t_end = 120 s`` for a map of the reduced predictor."""
+    predicted = bool(np.any(table["status"] == "predicted"))
+    m = (table["status"] == "completed") | (table["status"] == "predicted")
+    if s0 is not None:
+        m &= table["s0"] == s0
+    if not m.any():
+        return "t_end = -"
+    lo, hi = float(table["t_end_s"][m].min()), float(table["t_end_s"][m].max())
+    if lo == hi:
+        return f"{'predicted, ' if predicted else ''}t_end = {round(hi, 3):g} s"
+    return f"t_end = {round(hi, 3):g} s (settled points kept from {round(lo, 3):g} s)"
+
+
+def text_table(table: Dict[str, np.ndarray], s0: Optional[float] = None) -> str:
+    """The map as text: per s0 a header with s0 and t_end, rows a_ex (highest first), columns
+    f_ex, one letter per behaviour (:data:`LETTERS`; ``.`` = not run)."""
+    s0s = sorted(set(table["s0"].tolist())) if s0 is None else [s0]
+    out = []
+    for s in s0s:
+        m = table["s0"] == s
+        fs = sorted(set(table["f_ex_hz"][m].tolist()))
+        as_ = sorted(set(table["a_ex_m_s2"][m].tolist()), reverse=True)
+        out.append(f"s0 = {s:g}, {t_end_text(table, s)}; rows a_ex [m/s^2], columns f_ex [Hz]; "
+                   + ", ".join(f"{LETTERS[b]} {LABELS[b]}" for b in BEHAVIOURS))
+        corner = "a\\f"
+        out.append(f"{corner:>6} " + "".join(f"{f:>4g}" for f in fs))
+        for a in as_:
+            cells = []
+            for f in fs:
+                k = np.flatnonzero(m & (table["f_ex_hz"] == f) & (table["a_ex_m_s2"] == a))
+                cells.append(f"{LETTERS.get(table['behaviour'][k[0]], '?') if len(k) else '.':>4}")
+            out.append(f"{a:>6g} " + "".join(cells))
+    return "\n".join(out) + "\n"

@@ -1,0 +1,425 @@
+"""The transferable drift law (docs/model.md §8's super-slow layer): the local features computed from the HB
+manifold (Λ_g, θ̂/θ_gap, f_slope, s − s_res, Â/max Â_H, branch), the fitted law (distance-weighted
+k-nearest neighbours in standardised feature space, per branch; V = 0 where Λ_g < Λ_c; odd symmetry
+by construction), its JSON file and the built-in default law. Fitting: :mod:`beamslider.superslow.fit`."""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Dict, List, Optional, Sequence, Tuple, Union
+
+import numpy as np
+
+from .. import _core
+from ..params import Parameters
+
+
+__all__ = ["BUILTIN_LAW_NOTE", "DEFAULT_LAW_PATH", "DriftLaw", "FEATURES", "LAW_JUMP_DOWN_CANDIDATES",
+           "LAW_JUMP_DOWN_N", "LAW_TABLE_SETTINGS", "LAW_TRAINING_POINTS", "S_DN_MIN", "builtin_law",
+           "default_drift_law", "features", "forcing_ratio", "law_inputs", "law_json", "load_drift_law",
+           "mono_features", "monostable_inputs", "move_fold", "s_dn_forcing_ratio", "save_drift_law"]
+
+
+# ---------------------------------------------------------------------------------------------
+# Local features from the HB manifold
+
+
+_BEAM_CACHE: Dict[tuple, tuple] = {}
+
+
+def _modes(p: Parameters, n_modes: int, s: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
+    """Φ(s) [kg^-½] and Φ'(s) [kg^-½ m^-1] of the first n_modes modes at positions s: linear
+    interpolation in a table of the exact mode shapes on 4001 points of [0, 1] (the slope by a
+    central difference, step 1e-6 L), computed once per parameter set."""
+    import dataclasses
+
+    key = (repr(p), int(n_modes))
+    if key not in _BEAM_CACHE:
+        q = dataclasses.replace(p, n_modes=int(n_modes))
+        g = np.linspace(0.0, 1.0, 4001)
+        h = 1e-6
+        xs = np.concatenate([g, np.clip(g - h, 0, 1), np.clip(g + h, 0, 1)])
+        d = _core.beam_properties(q.toml_text(), [float(v) for v in xs])
+        phi = np.asarray(d["phi"], dtype=float)
+        n = g.size
+        f0, fm, fp = phi[:, :n], phi[:, n:2 * n], phi[:, 2 * n:]
+        step = (np.clip(g + h, 0, 1) - np.clip(g - h, 0, 1)) * p.length_m
+        if len(_BEAM_CACHE) > 16:
+            _BEAM_CACHE.clear()
+        _BEAM_CACHE[key] = (g, f0, (fp - fm) / step)
+    g, f0, df = _BEAM_CACHE[key]
+    phi = np.stack([np.interp(s, g, f0[k]) for k in range(f0.shape[0])], axis=1)
+    dphi = np.stack([np.interp(s, g, df[k]) for k in range(df.shape[0])], axis=1)
+    return phi, dphi
+
+
+def features(manifold, branch: str, s: Sequence[float]) -> Dict[str, np.ndarray]:
+    """Local features of issue 17 §3.2 on one branch of a layer-(a) manifold at positions s
+    (half coordinate, within the branch): Q is interpolated linearly between the branch's
+    continuation points.
+
+    Returns a dict of arrays: ``lift_off`` Λ_g = Ω²|ŵ_abs|/g with ŵ_abs = a_ex/Ω² + Φ(s)ᵀQ;
+    ``slope_gap`` θ̂/θ_gap with θ̂ = |Φ'(s)ᵀQ|, θ_gap = (R − h)/B; ``slope_mu`` θ̂/μ; ``f_slope``
+    = −(Ω²/2g) Re[ŵ_abs conj(Φ'(s)ᵀQ)]; ``a_ex_g`` = a_ex/g; ``amplitude`` Â; ``ds_res`` =
+    s − s_res (the first linear-resonance position of layer (a), 0.5 if there is none);
+    ``amp_rel`` = Â / max Â of the high branch; ``s`` = s.
+    """
+    p = manifold.params
+    b = manifold.high if branch == "H" else manifold.low
+    s = np.atleast_1d(np.asarray(s, dtype=float))
+    if len(b) == 0:
+        raise ValueError(f"invalid parameter `branch` = {branch!r}: the manifold has no such branch")
+    o = np.argsort(b.s)
+    bs, bq = b.s[o], b.q[o]
+    q = np.stack([np.interp(s, bs, bq[:, k].real) + 1j * np.interp(s, bs, bq[:, k].imag) for k in range(bq.shape[1])], axis=1)
+    phi, dphi = _modes(p, bq.shape[1], s)
+    omega = 2 * math.pi * manifold.f_ex
+    g = p.gravity_m_s2
+    w_abs = manifold.a_ex / omega**2 + np.sum(phi * q, axis=1)
+    theta = np.sum(dphi * q, axis=1)
+    theta_gap = (p.gap_ratio * p.thickness_m - p.thickness_m) / p.contact_spacing_m
+    return {
+        "lift_off": omega**2 * np.abs(w_abs) / g,
+        "slope_gap": np.abs(theta) / theta_gap,
+        "slope_mu": np.abs(theta) / p.friction_coefficient,
+        "f_slope": -(omega**2 / (2 * g)) * np.real(w_abs * np.conj(theta)),
+        "a_ex_g": np.full(s.shape, manifold.a_ex / g),
+        "amplitude": np.interp(s, bs, b.amplitude[o]),
+        "ds_res": s - (float(manifold.s_res[0]) if len(manifold.s_res) else 0.5),
+        "amp_rel": np.interp(s, bs, b.amplitude[o]) / (float(np.max(manifold.high.amplitude)) if len(manifold.high) else 1.0),
+        "s": s.copy(),
+    }
+
+
+# The regression inputs (standardised): the relative amplitude Â/max Â_H and the position s.
+# Chosen by leave-one-operating-point-out validation on the 12 training tables
+# (docs/superslow/validation_b_features.txt, scripts/repro/validate_superslow_b.py features): the
+# issue's list (log Λ_g, θ̂/θ_gap, f_slope, a_ex/g, Â) gave a V error of 0.68 × typical |V|,
+# (log Λ_g, θ̂/θ_gap, f_slope, s − s_res, Â/max Â_H) 0.52 ×, (Â/max Â_H, s) 0.46 × (k = 4) and
+# the most training points predicted right leave one out. Why s: the PCS high branch's stable
+# zeros of V (where the FS slider stops) sit at nearly the same s across the map (0.33 from
+# 110 to 130 Hz, 0.35–0.38 below), which no amplitude- or slope-only feature locates. Λ_g enters
+# through the constraint V = 0 where Λ_g < Λ_c.
+FEATURES = ("amp_rel", "s")
+
+
+def law_inputs(feat: Dict[str, np.ndarray]) -> np.ndarray:
+    """The law's input matrix of a feature dict: one row per position, one column per name of FEATURES."""
+    cols = []
+    for name in FEATURES:
+        cols.append(np.log(np.maximum(feat["lift_off"], 1e-12)) if name == "log_lift_off" else np.asarray(feat[name], dtype=float))
+    return np.stack(cols, axis=1)
+
+
+@dataclass
+class DriftLaw:
+    """A fitted transferable drift law (layer (b2)): V = 0 where Λ_g < Λ_c (``lift_c``), otherwise the
+    distance-weighted mean of the k nearest training samples of the same branch in standardised
+    feature space (odd symmetry: evaluated in the half coordinate)."""
+
+    x: Dict[str, np.ndarray]
+    """Training features per branch ('L', 'H'), shape (n, len(FEATURES))."""
+    v: Dict[str, np.ndarray]
+    """Training V (towards the centre positive) per branch [1/s]."""
+    groups: Dict[str, np.ndarray]
+    """Operating-point index of each training sample per branch."""
+    mean: np.ndarray
+    """Feature means (standardisation)."""
+    std: np.ndarray
+    """Feature standard deviations."""
+    lo: np.ndarray
+    """Training range of the features (min)."""
+    hi: np.ndarray
+    """Training range of the features (max)."""
+    points: List[Tuple[float, float]]
+    """Training operating points (f_ex, a_ex)."""
+    k: int = 4
+    """Neighbours."""
+    loo: Dict[str, float] = field(default_factory=dict)
+    """Leave-one-operating-point-out errors: RMS error of V, typical |V| (RMS), their ratio,
+    per branch and overall."""
+    loo_per_point: List[dict] = field(default_factory=list)
+    """Per held-out operating point: RMS error and typical |V|."""
+    fit_time_s: float = 0.0
+    """Wall time of the fit (including the layer-(a) manifolds of the training points) [s]."""
+    rho_c: float = 0.0
+    """Forcing ratio at which the PCS high branch ends (s_dn="law", :meth:`s_dn`): the median over
+    the training tables with a PCS jump-down of ρ(s_dn) = a_ex / (Ω² Â_H(s_dn) h) (0: none has one)."""
+    loo_s_dn: List[dict] = field(default_factory=list)
+    """Leave-one-point-out s_dn of the law against the PCS tables' s_dn."""
+    jump_down_s: float = 0.0
+    """Position s_p at which the PCS high branches end (the bracket rule): the high branch ends
+    there if ρ(s_p) ≤ ``rho_c``, else not at all (:func:`s_dn_forcing_ratio`); 0: the first s
+    where ρ(s) < ``rho_c`` (the median rule, and law files written before)."""
+    rho_bracket: dict = field(default_factory=dict)
+    """How ``rho_c`` was learnt (:func:`jump_down_bracket`): the rule ('bracket' or 'median'), the
+    position s_p of the PCS jump-downs, and the bracket (lo, hi) of ρ(s_p) between the tables whose
+    high branch ends there and those whose high branch passes it."""
+    s_up_shift: float = 0.0
+    """Learnt correction of the HB jump-up position (the low branch's fold moved by it): the
+    median of s_up(PCS) − s_up(HB) over the training tables with both (0: none)."""
+    loo_s_up: List[dict] = field(default_factory=list)
+    """Per training point: s_up of HB, of the PCS table, and HB + the shift fitted without it."""
+    mono_x: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
+    """Per training point with an HB fold: (ln Â_L at the fold [h], s_up of HB) (the inputs of
+    the monostability vote, :meth:`monostable`)."""
+    mono_y: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    """1 where that point's PCS down sweep shows no jump-up and stays low (below MONO_RISE_H on the
+    clamping side of the HB fold: a single, low branch), else 0."""
+    mono_std: np.ndarray = field(default_factory=lambda: np.ones(2))
+    """Standardisation of ``mono_x``."""
+    mono_groups: np.ndarray = field(default_factory=lambda: np.zeros(0, int))
+    """Training-point index of each monostability sample."""
+    lift_c: float = 1.0
+    """Lift-off threshold Λ_c: V = 0 where Λ_g < Λ_c. 1 is the issue's constraint (no lift-off
+    below it); :func:`fit_drift_law` learns it from the tables (:func:`learn_lift_off_threshold`)."""
+    lift_c_per_point: List[dict] = field(default_factory=list)
+    """The tables' own Λ_c values (where their clampward drift ends), the median of which is ``lift_c``."""
+    v_resolution: float = 0.0
+    """Resolution of V [1/s]: the median standard error (four sub-windows) of the training rows'
+    V. :func:`beamslider.superslow.predict` re-runs the slow flow with V shifted by ± this much and
+    reports whether the prediction stays the same (``Prediction.robust``); 0: not checked."""
+    v_offset: float = 0.0
+    """Added to V wherever Λ_g ≥ Λ_c (0; the robustness check's shifted copies, :meth:`shifted`)."""
+    _trees: dict = field(default_factory=dict, repr=False, compare=False)
+
+    def monostable(self, manifold, exclude_group: Optional[int] = None) -> bool:
+        """Whether the operating point has a single (low) branch in the nonsmooth model although
+        single-term HB with the slider rigidly attached has a fold: the label of the nearest
+        training point in standardised (ln Â_L(s_up), s_up) of the HB manifold (the low
+        branch's amplitude at its fold and the fold's position), the label being "the PCS
+        down sweep shows no jump-up and stays low" (``mono_y``). False without an HB fold or
+        without samples."""
+        x = monostable_inputs(manifold)
+        keep = self.mono_groups != exclude_group if exclude_group is not None else np.ones(self.mono_y.size, bool)
+        if x is None or not keep.any():
+            return False
+        d = np.sum(((self.mono_x[keep] - x) / self.mono_std) ** 2, axis=1)
+        return bool(self.mono_y[keep][int(np.argmin(d))] > 0.5)
+
+    def evaluate(self, branch: str, feat: Dict[str, np.ndarray], exclude_group: Optional[int] = None) -> Tuple[np.ndarray, np.ndarray]:
+        """V at the given features (half coordinate, towards the centre positive) and a flag per
+        point: True where a feature lies outside the training range (extrapolation)."""
+        return self._evaluate_x(branch, law_inputs(feat), np.asarray(feat["lift_off"]), exclude_group)
+
+    def shifted(self, dv: float) -> "DriftLaw":
+        """A copy whose V is larger by ``dv`` [1/s] wherever Λ_g ≥ Λ_c (the robustness check)."""
+        import copy
+
+        c = copy.copy(self)
+        c.v_offset = self.v_offset + float(dv)
+        return c
+
+    def outside_points(self, f_ex: float, a_ex: float) -> bool:
+        """True where (f_ex, a_ex) lies outside the box of the training operating points (the
+        law's inputs, Â/max Â_H and s, are bounded everywhere, so the operating point itself is
+        the range that a law can be used outside of)."""
+        if not self.points:
+            return False
+        f = [p[0] for p in self.points]
+        a = [p[1] for p in self.points]
+        return not (min(f) - 1e-9 <= f_ex <= max(f) + 1e-9 and min(a) - 1e-9 <= a_ex <= max(a) + 1e-9)
+
+    def s_dn(self, manifold, rho_c: Optional[float] = None, s_p: Optional[float] = None) -> Optional[float]:
+        """Jump-down position learnt from the PCS tables (s_dn="law"; :func:`s_dn_forcing_ratio`
+        with the law's ``rho_c`` and ``jump_down_s``, or the ones given)."""
+        rc = self.rho_c if rho_c is None else rho_c
+        sp = self.jump_down_s if s_p is None else s_p
+        return s_dn_forcing_ratio(manifold, rc, sp) if rc > 0 else None
+
+    def _evaluate_x(self, branch, x, lift_off, exclude_group=None):
+        from scipy.spatial import cKDTree
+
+        key = (branch, exclude_group)
+        if key not in self._trees:
+            xt, vt = self.x[branch], self.v[branch]
+            if exclude_group is not None:
+                keep = self.groups[branch] != exclude_group
+                xt, vt = xt[keep], vt[keep]
+            self._trees[key] = (cKDTree((xt - self.mean) / self.std) if xt.shape[0] else None, vt)
+        tree, vt = self._trees[key]
+        out = np.zeros(x.shape[0])
+        if tree is None:
+            return out, np.ones(x.shape[0], dtype=bool)
+        k = min(self.k, vt.size)
+        dk, idx = tree.query((x - self.mean) / self.std, k=k)
+        dk, idx = dk.reshape(x.shape[0], k), idx.reshape(x.shape[0], k)
+        w = 1.0 / np.maximum(dk, 1e-6)
+        out = (w * vt[idx]).sum(axis=1) / w.sum(axis=1)
+        if self.v_offset:
+            out = out + self.v_offset
+        out[lift_off < self.lift_c] = 0.0
+        outside = np.any((x < self.lo - 1e-9) | (x > self.hi + 1e-9), axis=1)
+        return out, outside
+
+
+def mono_features(manifold, s: Sequence[float], a_cap: float) -> Dict[str, np.ndarray]:
+    """Features on the single low branch of a monostable point below the HB fold: those of the
+    HB branch that reaches the clamping, with the amplitude capped at ``a_cap`` (the low branch's
+    amplitude at the fold) in ``amplitude`` and ``amp_rel``."""
+    f = features(manifold, "H", s)
+    amp = np.minimum(f["amplitude"], a_cap)
+    f["amp_rel"] = amp / float(np.max(manifold.high.amplitude))
+    f["amplitude"] = amp
+    return f
+
+
+def _fold_amplitude(manifold) -> float:
+    lo = manifold.low
+    return float(lo.amplitude[int(np.argmin(lo.s))])
+
+
+def monostable_inputs(manifold) -> Optional[np.ndarray]:
+    """(ln Â_L at the HB fold, s_up) or None without a fold."""
+    lo = manifold.low
+    if manifold.s_up is None or len(lo) == 0:
+        return None
+    return np.array([math.log(max(_fold_amplitude(manifold), 1e-12)), float(manifold.s_up)])
+
+
+S_DN_MIN = 0.2
+"""Smallest s at which :func:`s_dn_forcing_ratio` looks for the end of the high branch."""
+
+
+def forcing_ratio(manifold, s: Sequence[float]) -> np.ndarray:
+    """ρ(s) = a_ex / (Ω² Â_H(s) h) on the HB high branch: the base acceleration over the beam's
+    acceleration amplitude at x = 4L/7, the inverse of the dynamic amplification (NaN where the
+    branch does not exist). Single-mode HB (issue §2.2) ends the high branch where Â_H(s) reaches
+    the damping-limited peak F(s)/(2DωΩ), F = (γ + mφ(s)) a_ex: there ρ is proportional to the
+    damping ratio D. The nonsmooth model's high branch ends at a ρ set by its effective damping
+    (the slider's impacts), learnt from the PCS tables as ``DriftLaw.rho_c``."""
+    s = np.asarray(s, dtype=float)
+    amp = manifold.high.amplitude_at(s) if len(manifold.high) else np.full(s.shape, np.nan)
+    omega = 2 * math.pi * manifold.f_ex
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return manifold.a_ex / (omega ** 2 * amp * manifold.params.thickness_m)
+
+
+def s_dn_forcing_ratio(manifold, rho_c: float, s_p: float = 0.0) -> Optional[float]:
+    """Jump-down position from the forcing ratio (issue §2.2's end of the high branch with the
+    effective damping of the nonsmooth model): the first s ≥ S_DN_MIN on the HB high branch where
+    ρ(s) (:func:`forcing_ratio`) falls below ``rho_c``, linearly interpolated between the branch's
+    points; None where it never does (the high branch reaches the centre). With ``s_p`` > 0 (the
+    PCS high branches end at one position, :func:`jump_down_bracket`): s_p if ρ(s_p) ≤ ``rho_c``,
+    else None (also when the branch does not reach s_p)."""
+    hb = manifold.high
+    if len(hb) == 0 or not rho_c > 0:
+        return None
+    s = np.sort(np.asarray(hb.s, dtype=float))
+    if s_p > 0:
+        if not (s[0] <= s_p <= s[-1]):
+            return None
+        return float(s_p) if float(forcing_ratio(manifold, [s_p])[0]) <= rho_c else None
+    r = forcing_ratio(manifold, s)
+    for i in range(1, s.size):
+        if s[i] < S_DN_MIN or not (r[i] < rho_c):
+            continue
+        if s[i - 1] >= S_DN_MIN and r[i - 1] >= rho_c and r[i - 1] != r[i]:
+            return float(s[i - 1] + (s[i] - s[i - 1]) * (r[i - 1] - rho_c) / (r[i - 1] - r[i]))
+        return float(s[i])
+    return None
+
+
+def move_fold(s, z: float, fold: float, new_fold: float):
+    """The linear stretch of a low branch that keeps its upper end z and moves its fold from
+    ``fold`` to ``new_fold``: s′ = z − (z − s)(z − new_fold)/(z − fold). The slow model stretches
+    the HB low branch onto the shifted fold with it (:func:`beamslider.superslow.slow_model`, the
+    core's ``slow_model``); the training pairs a PCS row with the HB position by its inverse,
+    ``move_fold(s, z, s_up_pcs, s_up_hb)``."""
+    s = np.asarray(s, dtype=float)
+    return z - (z - s) * (z - new_fold) / (z - fold)
+
+
+def law_json(law: DriftLaw) -> str:
+    """The law file's JSON text (what :func:`save_drift_law` writes; read by the core,
+    ``beamslider-batch map --predictor``)."""
+    d = {
+        "kind": "beamslider drift law", "version": 1, "features": list(FEATURES), "k": law.k,
+        "x": {b: law.x[b].tolist() for b in law.x}, "v": {b: law.v[b].tolist() for b in law.v},
+        "groups": {b: law.groups[b].tolist() for b in law.groups}, "mean": law.mean.tolist(), "std": law.std.tolist(),
+        "lo": law.lo.tolist(), "hi": law.hi.tolist(), "points": [list(p) for p in law.points], "loo": law.loo,
+        "loo_per_point": law.loo_per_point, "fit_time_s": law.fit_time_s,
+        "rho_c": law.rho_c, "jump_down_s": law.jump_down_s, "rho_bracket": law.rho_bracket, "loo_s_dn": law.loo_s_dn,
+        "s_up_shift": law.s_up_shift, "loo_s_up": law.loo_s_up,
+        "mono_x": law.mono_x.tolist(), "mono_y": law.mono_y.tolist(), "mono_std": law.mono_std.tolist(),
+        "mono_groups": law.mono_groups.tolist(), "lift_c": law.lift_c, "lift_c_per_point": law.lift_c_per_point,
+        "v_resolution": law.v_resolution,
+    }
+    return json.dumps(d)
+
+
+def save_drift_law(law: DriftLaw, path: Union[str, os.PathLike]) -> None:
+    """Write a fitted law as JSON (training samples included; read back by :func:`load_drift_law`
+    and by the core: ``beamslider-batch map --predictor``)."""
+    Path(path).write_text(law_json(law), encoding="utf-8")
+
+
+# The recipe of the default law (scripts/repro/validate_superslow_b.py; `beamslider fit-law` defaults):
+# the four representative points of docs/model.md §8, (106, 10) of the start-position pair, then
+# points spread over the map; the table settings; the jump-down bisection over the map's grid.
+LAW_TRAINING_POINTS: Tuple[Tuple[float, float], ...] = (
+    (124.0, 14.0), (104.0, 14.0), (126.0, 10.0), (124.0, 6.0), (106.0, 10.0), (124.0, 8.0), (116.0, 12.0),
+    (110.0, 8.0), (120.0, 6.0), (130.0, 12.0), (114.0, 4.0), (100.0, 10.0))
+LAW_TABLE_SETTINGS: Dict[str, float] = {"ds": 0.01, "settle_periods": 100, "window_s": 2.0}
+LAW_JUMP_DOWN_N = 4
+LAW_JUMP_DOWN_CANDIDATES: Tuple[Tuple[float, float], ...] = tuple(
+    (float(f), float(a)) for f in range(100, 131, 2) for a in range(4, 17, 2))
+
+DEFAULT_LAW_PATH = Path(__file__).resolve().parent.parent / "data" / "default_law.json"
+"""The default law (the one copy, python/beamslider/data/default_law.json: 12 PCS training tables and 4
+jump-down tables at the default parameters, the recipe of ``beamslider fit-law``'s defaults)."""
+
+
+def default_drift_law() -> DriftLaw:
+    """The built-in default drift law (b2), fitted at the default parameters (the paper's
+    prototype): what :func:`beamslider.superslow.predict` and ``beamslider predict`` use when no
+    drift is given. For other parameters, fit a law of their own (:func:`fit_drift_law`)."""
+    return load_drift_law(DEFAULT_LAW_PATH)
+
+
+BUILTIN_LAW_NOTE = ("the built-in drift law was fitted at the default parameters; these differ, so fit a law of "
+                    "their own (fit_drift_law) before trusting the prediction")
+
+
+def builtin_law(p: Parameters) -> Tuple[DriftLaw, Optional[str]]:
+    """The built-in law and, when ``p`` are not the defaults it was fitted at, the note that says so."""
+    return default_drift_law(), (None if p == Parameters() else BUILTIN_LAW_NOTE)
+
+
+def load_drift_law(path: Union[str, os.PathLike]) -> DriftLaw:
+    """Read a law written by :func:`save_drift_law` (ValueError for a file that is not one)."""
+    try:
+        d = json.loads(Path(path).read_text(encoding="utf-8"))
+    except json.JSONDecodeError as e:
+        raise ValueError(f"invalid parameter `law`: {path} is not a beamslider drift law file ({e})") from None
+    if not isinstance(d, dict) or d.get("kind") != "beamslider drift law":
+        raise ValueError(f"invalid parameter `law`: {path} is not a beamslider drift law file")
+    if list(d.get("features", [])) != list(FEATURES):
+        raise ValueError(f"invalid parameter `law`: {path} uses the features {d.get('features')}, this version {list(FEATURES)}")
+    # The scalars the core checks too (predictor::DriftLaw::from_json_str), with its bounds.
+    for key, default, ok, rule in (("rho_c", 0.0, lambda x: x >= 0, ">= 0"), ("jump_down_s", 0.0, lambda x: 0 <= x <= 0.5, "in [0, 0.5]"),
+                                   ("lift_c", 1.0, lambda x: 0 < x <= 2, "in (0, 2]"), ("v_resolution", 0.0, lambda x: 0 <= x < 0.1, "in [0, 0.1)")):
+        x = d.get(key, default)
+        if not (isinstance(x, (int, float)) and math.isfinite(x) and ok(x)):
+            raise ValueError(f"invalid parameter `law`: {path} has {key} = {x!r}, must be finite and {rule}")
+    arr = lambda v: np.asarray(v, dtype=float)  # noqa: E731
+    n = len(FEATURES)
+    return DriftLaw(
+        x={b: arr(v).reshape(-1, n) for b, v in d["x"].items()}, v={b: arr(v) for b, v in d["v"].items()},
+        groups={b: np.asarray(v, dtype=int) for b, v in d["groups"].items()}, mean=arr(d["mean"]), std=arr(d["std"]),
+        lo=arr(d["lo"]), hi=arr(d["hi"]), points=[tuple(p) for p in d["points"]], k=int(d["k"]), loo=d.get("loo", {}),
+        loo_per_point=d.get("loo_per_point", []), fit_time_s=float(d.get("fit_time_s", 0.0)),
+        rho_c=float(d.get("rho_c", 0.0)), jump_down_s=float(d.get("jump_down_s", 0.0)), rho_bracket=d.get("rho_bracket", {}), loo_s_dn=d.get("loo_s_dn", []),
+        s_up_shift=float(d.get("s_up_shift", 0.0)), loo_s_up=d.get("loo_s_up", []),
+        mono_x=arr(d.get("mono_x", [])).reshape(-1, 2), mono_y=arr(d.get("mono_y", [])),
+        mono_std=arr(d.get("mono_std", [1.0, 1.0])), mono_groups=np.asarray(d.get("mono_groups", []), dtype=int),
+        lift_c=float(d.get("lift_c", 1.0)), lift_c_per_point=d.get("lift_c_per_point", []),
+        v_resolution=float(d.get("v_resolution", 0.0)),
+    )
+
+
+DriftLaw.save = save_drift_law  # type: ignore[attr-defined]
