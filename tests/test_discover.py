@@ -86,7 +86,7 @@ def test_slider_level_friction_is_named_and_bracketed(tmp_path):
                                       out_dir=tmp_path / "data", seed=3, s0_offset=S0_OFFSET)
     runs = [bs.read_measurement(p) for p in paths]
     assert runs[0].f_ex == 110 and runs[1].a_ex == 6 and runs[0].s0 == 0.3
-    # Two candidates keep this fast; all seven: scripts/repro/discover_table.py (docs/discover/table.md).
+    # Two candidates keep this fast; all seven: scripts/repro/discover_table.py (docs/results/discover/table.md).
     d = dc.discover(measured=runs, baseline=bs.Parameters(), effects=["friction_coefficient", "clearance"])
     assert d.verdict == "named" and d.named_effects == ["friction_coefficient"], dc.verdict_line(d)
     p = d.parameters["friction_coefficient"]
@@ -512,7 +512,7 @@ def test_in_library_slider_effect_is_named_alone(effect, tmp_path):
 def test_restitution_is_not_named_where_the_runs_do_not_resolve_it(tmp_path):
     """The impacts' restitution 0.5 -> 0.7 (4 x its relevance threshold) leaves every feature of the
     15-s runs within the noise at (110, 10) and (124, 6): the workflow says 'none' instead of
-    naming restitution or anything else (docs/discover/table.md, the separability table)."""
+    naming restitution or anything else (docs/results/discover/table.md, the separability table)."""
     d = dc.discover(measured=_runs(bs.Parameters(restitution=0.7), tmp_path), baseline=bs.Parameters(),
                     effects=["restitution", "friction_coefficient"])
     assert d.verdict == "none" and d.named_effects == [], dc.verdict_line(d)
@@ -634,7 +634,7 @@ def test_negligible_change_is_none_without_the_inverse_crime(mu, tmp_path):
     truth started S0_OFFSET off s0: 'none'. With 0.203, the run at (126 Hz, 10 m/s²) ends low in
     its relaxation cycle, which two of 17 nearby starts of the prototype do; compared within that
     mode, the baseline fits. A single Gaussian over the ensemble named a tilt of 3.3 mrad here
-    (docs/discover/table.md)."""
+    (docs/results/discover/table.md)."""
     slider = [n for n, e in dc.EFFECTS.items() if e.level == "slider"]
     paths = dc.synthesize_slider_runs(bs.Parameters(friction_coefficient=mu),
                                       operating_points=[(104, 14, 0.3), (126, 10, 0.3), (124, 14, 0.3)],

@@ -574,7 +574,7 @@ def test_high_branch_samples_must_be_on_the_high_branch():
     in_range = (tab.s[up] >= hs.min()) & (tab.s[up] <= hs.max())
     assert vh.size == int(np.sum(in_range & ~low)) and not np.any(vh == -0.5)
     assert np.all((x[:, 1] <= 0.3) | (x[:, 1] >= 0.4))
-    drift = Path(__file__).resolve().parents[1] / "docs" / "superslow" / "drift"
+    drift = Path(__file__).resolve().parents[1] / "docs" / "results" / "superslow" / "drift"
     mono = read_drift_table(drift / "drift_114Hz_4ms2.jsonl")
     mm = hb_manifold(f_ex=114, a_ex=4)
     xs, _, _, _ = _training_samples(mono, mm)["H"]

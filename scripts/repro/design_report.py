@@ -1,7 +1,7 @@
-"""Table of a design run's evaluations for docs/design/README.md: every FS re-check and the
+"""Table of a design run's evaluations for docs/validation/design.md: every FS re-check and the
 predictor-vs-FS disagreement at the prototype and the best designs.
 
-    python scripts/repro/design_report.py docs/design/fs docs/design/predictor
+    python scripts/repro/design_report.py docs/results/design/fs docs/results/design/predictor
 """
 
 import sys

@@ -3,7 +3,7 @@
 chi2(mu) of synthetic mu = 0.26 data on a fine grid, and the spread of the features under
 perturbations the data cannot resolve (s0 by +-0.001, +-0.002; mu by +-2e-4, +-5e-4).
 
-Usage:  python3 scripts/repro/discover_sensitivity.py [--duration 60] [--threads 2] [--out docs/discover/sensitivity.md]
+Usage:  python3 scripts/repro/discover_sensitivity.py [--duration 60] [--threads 2] [--out docs/results/discover/sensitivity.md]
 
 Data: `synthesize_slider_runs` of mu = 0.26 at the issue's three points (104, 14), (126, 10),
 (124, 14) m/s^2, s0 = 0.3, s noise 0.001, seed 3; the model runs go through the core's batch runner
@@ -31,7 +31,7 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--duration", type=float, default=60.0)
     ap.add_argument("--threads", type=int, default=None)
-    ap.add_argument("--out", type=Path, default=Path("docs/discover/sensitivity.md"))
+    ap.add_argument("--out", type=Path, default=Path("docs/results/discover/sensitivity.md"))
     ap.add_argument("--force", action="store_true", help="overwrite --out")
     a = ap.parse_args()
     if a.out.exists() and not a.force:

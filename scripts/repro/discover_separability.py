@@ -2,7 +2,7 @@
 """Issue 20: separability of the slider-level candidates at the paper's operating points, and the
 recommended extra point for each pair the data cannot tell apart.
 
-Usage:  python3 scripts/repro/discover_separability.py [--duration 15] [--out docs/discover/separability.md]
+Usage:  python3 scripts/repro/discover_separability.py [--duration 15] [--out docs/results/discover/separability.md]
 
 Signatures: change of every slider feature (units of its uncertainty) when the effect moves
 by 5 relevance thresholds from the prototype (beamslider.discover.separability); data points: the
@@ -26,7 +26,7 @@ GRID = [(f, a, 0.3) for f in (104.0, 110.0, 116.0, 122.0, 128.0) for a in (6.0, 
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--duration", type=float, default=15.0)
-    ap.add_argument("--out", type=Path, default=Path("docs/discover/separability.md"))
+    ap.add_argument("--out", type=Path, default=Path("docs/results/discover/separability.md"))
     args = ap.parse_args()
     t0 = time.perf_counter()
     rows = dc.separability(operating_points=OPS, duration_s=args.duration, grid=GRID)

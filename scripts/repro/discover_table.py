@@ -3,7 +3,7 @@
 slider-level data synthesised from a truth model (in-library and out-of-library effects, a
 negligible change, the baseline itself).
 
-Usage:  python3 scripts/repro/discover_table.py [--duration 60] [--out docs/discover/table.md] [--cases a,b] [--rows-only] [--s0-offset 0.0015]
+Usage:  python3 scripts/repro/discover_table.py [--duration 60] [--out docs/results/discover/table.md] [--cases a,b] [--rows-only] [--s0-offset 0.0015]
                                           [--ops "104,14,0.3;126,10,0.3;124,14,0.3"] [--max-effects 1]
 
 Data: `synthesize_slider_runs` of the truth at the operating points (default: the issue's three,
@@ -63,7 +63,7 @@ def main() -> int:
     ap.add_argument("--duration", type=float, default=60.0)
     ap.add_argument("--ops", default=";".join(",".join(f"{v:g}" for v in op) for op in OPS))
     ap.add_argument("--max-effects", type=int, default=1)
-    ap.add_argument("--out", type=Path, default=Path("docs/discover/table.md"))
+    ap.add_argument("--out", type=Path, default=Path("docs/results/discover/table.md"))
     ap.add_argument("--cases", default=",".join(CASES))
     ap.add_argument("--force", action="store_true", help="overwrite --out")
     ap.add_argument("--rows-only", action="store_true", help="print the table rows only, --out is not written")

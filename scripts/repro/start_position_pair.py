@@ -3,7 +3,7 @@
 (f_ex = 100, 102, …, 130 Hz × a_ex = 4, 6, …, 16 m/s², 120 s) from s0 = 0.3 and from s0 = 0.4,
 side by side, with the points whose behaviour changes with s0 outlined.
 
-Usage:  python3 scripts/repro/start_position_pair.py [--work DIR] [--out docs] [--threads N] [--t-end 120]
+Usage:  python3 scripts/repro/start_position_pair.py [--work DIR] [--out docs/results] [--threads N] [--t-end 120]
 Needs the installed package (pip install . or maturin develop --release). The two maps run in
 DIR/s0_0.3 and DIR/s0_0.4 (resumable: run the script again after a kill). Writes into --out:
 operating_map.{jsonl,txt,png} (s0 = 0.3, the paper's map), operating_map_s0.4.{jsonl,txt,png} and
@@ -42,7 +42,7 @@ def summary(table, s0: float) -> str:
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--work", default="start-position-work", help="folder for the resumable map runs")
-    ap.add_argument("--out", default="docs", help="folder for the figures, tables and results (docs)")
+    ap.add_argument("--out", default="docs/results", help="folder for the figures, tables and results (docs/results)")
     ap.add_argument("--threads", type=int, default=None, help="worker threads (default: one per core)")
     ap.add_argument("--t-end", type=float, default=120.0, help="simulated time per point [s] (120)")
     args = ap.parse_args()

@@ -72,7 +72,7 @@ def manifold_turning_points() -> str:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--out", default="docs/study")
+    ap.add_argument("--out", default="docs/results/study")
     ap.add_argument("-j", "--threads", type=int)
     ap.add_argument("--scheduler")
     ap.add_argument("--only", nargs="*", help="run only these studies")

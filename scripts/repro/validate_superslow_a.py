@@ -1,6 +1,6 @@
 """Validation of layer (a) of issue 17 (the harmonic-balance super-slow manifold).
 
-Produces, into docs/superslow/:
+Produces, into docs/results/superslow/:
 - validation_a.txt: the tables of issue §4.1 (HB against the project's PCS manifold, 100 periods
   per step, Δs = 0.0025) and §4.6 (ω₁ ± 5 % at (124 Hz, 14 m/s²)), the D_eff calibration;
 - fig4_overlay.png: seed Fig. 4 (124 Hz, 14 and 8 m/s²) — PCS sweeps with HB N = 1, 2, 5 and
@@ -28,7 +28,7 @@ import beamslider
 from beamslider import Parameters
 from beamslider.superslow import closed_form_n1, hb_manifold
 
-OUT = Path(__file__).resolve().parents[2] / "docs" / "superslow"
+OUT = Path(__file__).resolve().parents[2] / "docs" / "results" / "superslow"
 POINTS = [(124, 14), (124, 8), (126, 10), (124, 6), (104, 14), (106, 10)]
 DS = 0.0025
 S_TARGET_DN = 0.32  # seed §3.3: N = 5 PCS high branch at (124 Hz, 8 m/s²) ends near s = 0.32
@@ -246,7 +246,7 @@ def main() -> int:
     fig.suptitle("Super-slow manifold: harmonic balance (lines; dotted = unstable) over PCS sweeps (markers)")
     fig.tight_layout()
     fig.savefig(OUT / "fig4_overlay.png", dpi=130)
-    say("Figure: docs/superslow/fig4_overlay.png")
+    say("Figure: docs/results/superslow/fig4_overlay.png")
     (OUT / "validation_a.txt").write_text("\n".join(LINES) + "\n", encoding="utf-8")
     return 0
 
@@ -351,7 +351,7 @@ def options() -> int:
     fig.suptitle("HB options (multi-harmonic H, static sag; thin = unstable) over PCS sweeps (markers)")
     fig.tight_layout()
     fig.savefig(OUT / "fig4_overlay_options.png", dpi=130)
-    say("Figure: docs/superslow/fig4_overlay_options.png")
+    say("Figure: docs/results/superslow/fig4_overlay_options.png")
     (OUT / "validation_a_options.txt").write_text("\n".join(LINES) + "\n", encoding="utf-8")
     return 0
 

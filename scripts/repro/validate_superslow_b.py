@@ -2,10 +2,10 @@
 
 Not part of the fast test suite (PCS drift tables take minutes per operating point).
 
-    python scripts/repro/validate_superslow_b.py tables      # PCS drift tables (resumable) -> docs/superslow/drift/
+    python scripts/repro/validate_superslow_b.py tables      # PCS drift tables (resumable) -> docs/results/superslow/drift/
     python scripts/repro/validate_superslow_b.py slopes      # §4.2: V from PCS against s(t) slopes of short FS runs
     python scripts/repro/validate_superslow_b.py runs        # §4.3: representative runs (b1 tables and b2 LOO law)
-    python scripts/repro/validate_superslow_b.py map         # §4.4: predicted map (b2) against docs/operating_map.jsonl
+    python scripts/repro/validate_superslow_b.py map         # §4.4: predicted map (b2) against docs/results/operating_map.jsonl
     python scripts/repro/validate_superslow_b.py speed       # §4.5: timings
     python scripts/repro/validate_superslow_b.py features    # choice of the b2 law's inputs (leave one point out)
     python scripts/repro/validate_superslow_b.py training_sets  # the b2 map for several training sets (lattices)
@@ -17,7 +17,7 @@ Not part of the fast test suite (PCS drift tables take minutes per operating poi
     python scripts/repro/validate_superslow_b.py fold        # the drift just before the fold (Δs 0.0025 PCS sweeps)
     python scripts/repro/validate_superslow_b.py all
 
-Everything is written to docs/superslow/ (validation_b*.txt, figures, drift/*.jsonl, law.json).
+Everything is written to docs/results/superslow/ (validation_b*.txt, figures, drift/*.jsonl, law.json).
 """
 
 from __future__ import annotations
@@ -40,7 +40,7 @@ from beamslider.superslow import (drift_table, drift_tables, fit_drift_law, hb_m
 from beamslider.superslow import (LAW_JUMP_DOWN_CANDIDATES, LAW_JUMP_DOWN_N, LAW_TABLE_SETTINGS,  # noqa: E402
                                   LAW_TRAINING_POINTS, MONO_RISE_H)
 
-OUT = ROOT / "docs" / "superslow"
+OUT = ROOT / "docs" / "results" / "superslow"
 DRIFT = OUT / "drift"
 # The four representative points of MODEL.md §8, (106, 10) for the start-position pair, (124, 8)
 # of seed Fig. 4b, then points spread over the map for the transferable law (b2).
@@ -82,7 +82,7 @@ MAP_TABLE_OPTS = dict(ds=0.02, settle_periods=40, window_s=1.0)
 
 def stage_map_tables():
     """b1 drift tables at every point of the map (resumable; for the b1 map of §4.4)."""
-    ref = read_map(ROOT / "docs" / "operating_map.jsonl")
+    ref = read_map(ROOT / "docs" / "results" / "operating_map.jsonl")
     MAP_DRIFT.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
     n = 0
@@ -196,15 +196,15 @@ def _fmt(x, nd=4):
 
 def stage_runs():
     """§4.3: representative runs, b1 (own PCS table) and b2 (law fitted without this point)."""
-    fs = {(r_f, r_a): i for i, (r_f, r_a) in enumerate(zip(*[read_map(ROOT / "docs" / "operating_map.jsonl")[k] for k in ("f_ex_hz", "a_ex_m_s2")]))}
-    ref03 = read_map(ROOT / "docs" / "operating_map.jsonl")
-    ref04 = read_map(ROOT / "docs" / "operating_map_s0.4.jsonl")
+    fs = {(r_f, r_a): i for i, (r_f, r_a) in enumerate(zip(*[read_map(ROOT / "docs" / "results" / "operating_map.jsonl")[k] for k in ("f_ex_hz", "a_ex_m_s2")]))}
+    ref03 = read_map(ROOT / "docs" / "results" / "operating_map.jsonl")
+    ref04 = read_map(ROOT / "docs" / "results" / "operating_map_s0.4.jsonl")
     law_all, tables, extra = default_law()
     lines = ["§4.3  Representative runs: predictor against the FS map rows (120 s)",
              "b1: V from the point's own PCS drift table (Δs 0.01, 100 settling periods, 2-s windows) on the HB N = 5 manifold, s_dn from the table; "
              "PCS: table alone (its Â, V, s_up, s_dn); b2: the default law fitted on all training points (python/beamslider/data/default_law.json); b2-LOO: the law fitted "
              "on the other training points (leave one out); both with the learnt jump-down (s_dn='law': the bracket rule with the jump-down tables), Λ_c and monostable vote",
-             "FS columns from docs/operating_map.jsonl (s0 = 0.3) and docs/operating_map_s0.4.jsonl: t_up = first jump-up time, turn = turning point s, T = mean jump-up interval",
+             "FS columns from docs/results/operating_map.jsonl (s0 = 0.3) and docs/results/operating_map_s0.4.jsonl: t_up = first jump-up time, turn = turning point s, T = mean jump-up interval",
              f"{'point':>11} {'s0':>4} {'src':>6} | {'FS behaviour':>22} {'pred behaviour':>22} | {'FS s_f':>6} {'pr s_f':>6} | "
              f"{'FS t_up':>7} {'pr t_up':>7} | {'FS turn':>7} {'pr s_up':>7} | {'FS s-range':>13} {'pr s-range':>13} | {'FS T':>5} {'pr T':>5}"]
     for (f, a), s0 in [(pt, 0.3) for pt in REPRESENTATIVE] + [((106.0, 10.0), 0.4)]:
@@ -425,7 +425,7 @@ def stage_map():
     t_fit = time.perf_counter() - t0
     save_drift_law(law_c, OUT / "law.json")
     save_drift_law(law_c, ROOT / "python" / "beamslider" / "data" / "default_law.json")  # the package's built-in law
-    ref = read_map(ROOT / "docs" / "operating_map.jsonl")
+    ref = read_map(ROOT / "docs" / "results" / "operating_map.jsonl")
     f_ex = sorted(set(float(x) for x in ref["f_ex_hz"]))
     a_ex = sorted(set(float(x) for x in ref["a_ex_m_s2"]))
     t0 = time.perf_counter()
@@ -436,7 +436,7 @@ def stage_map():
     grid_ref = {(float(ref["f_ex_hz"][i]), float(ref["a_ex_m_s2"][i])): ref["behaviour"][i] for i in range(len(ref["f_ex_hz"]))}
     train = {(t.f_ex, t.a_ex) for t in tables}
     n = len(grid_ref)
-    lines = [f"§4.4  Whole map (7 × 16, s0 = 0.3, 120 s) against the FS map docs/operating_map.jsonl",
+    lines = [f"§4.4  Whole map (7 × 16, s0 = 0.3, 120 s) against the FS map docs/results/operating_map.jsonl",
              f"b2 law: kNN (k = {law_c.k}) on features {', '.join(law_features())}, fitted on {len(tables)} PCS tables "
              + ", ".join(f"({f:g}, {a:g})" for f, a in sorted(train))
              + f"; leave-one-point-out V error {law_c.loo['rms_error']:.5f} 1/s = {law_c.loo['ratio']:.2f} × typical |V| ({law_c.loo['typical_v']:.5f} 1/s)",
@@ -606,7 +606,7 @@ def stage_speed(training="cheap", training_set="12 points"):
     c0, t0 = _cpu(), time.perf_counter()
     law = fit_drift_law(tabs, jump_down_tables=extra)
     fit_wall, fit_cpu = time.perf_counter() - t0, _cpu() - c0
-    ref = read_map(ROOT / "docs" / "operating_map.jsonl")
+    ref = read_map(ROOT / "docs" / "results" / "operating_map.jsonl")
     f_ex = sorted(set(float(x) for x in ref["f_ex_hz"]))
     a_ex = sorted(set(float(x) for x in ref["a_ex_m_s2"]))
     c0, t0 = _cpu(), time.perf_counter()
@@ -626,7 +626,7 @@ def stage_speed(training="cheap", training_set="12 points"):
         f"whole map including training: predictor {tot_wall:.2f} s wall, {tot_cpu:.2f} s CPU → {fs_map_wall / tot_wall:.1f}× (wall), "
         f"{fs_map_cpu / tot_cpu:.1f}× (CPU) (bar 20×)",
     ]
-    # The same with the default law's own training tables (TABLE_OPTS, docs/superslow/drift):
+    # The same with the default law's own training tables (TABLE_OPTS, docs/results/superslow/drift):
     # recomputed into a temporary folder (rows bitwise those committed), two tables at a time.
     with tempfile.TemporaryDirectory() as tmp:
         c0, t0 = _cpu(), time.perf_counter()
@@ -640,7 +640,7 @@ def stage_speed(training="cheap", training_set="12 points"):
     rest_wall, rest_cpu = time.perf_counter() - t0, _cpu() - c0
     st_f, ph_f, _ = _score({(r["f_ex_hz"], r["a_ex_m_s2"]): r for r in rows_f}, ref, None)
     lines += [
-        f"with the default law's training tables ({len(TRAINING)} × {TABLE_OPTS} + {len(extra_f)} jump-down tables; rows bitwise equal to docs/superslow/drift: {same}): "
+        f"with the default law's training tables ({len(TRAINING)} × {TABLE_OPTS} + {len(extra_f)} jump-down tables; rows bitwise equal to docs/results/superslow/drift: {same}): "
         f"tables {fine_wall:.1f} s wall, {fine_cpu:.1f} s CPU; fit + map {rest_wall:.2f} s wall; agreement {st_f}/{n} strict, {ph_f}/{n} phase; "
         f"whole map including training {fs_map_wall / (fine_wall + rest_wall):.1f}× (wall), {fs_map_cpu / (fine_cpu + rest_cpu):.1f}× (CPU)",
     ]
@@ -657,7 +657,7 @@ def _law_text(law):
 # §4.4/4.5 levers (issue 17 part c): cheaper training tables and the learnt s_up correction.
 # Training table settings compared (all with both sweeps over [s_min, 0.5]):
 CHEAP = {
-    "fine": dict(ds=0.01, settle_periods=100, window_s=2.0),  # TABLE_OPTS (docs/superslow/drift)
+    "fine": dict(ds=0.01, settle_periods=100, window_s=2.0),  # TABLE_OPTS (docs/results/superslow/drift)
     "coarse": dict(ds=0.02, settle_periods=40, window_s=1.0),  # the issue's b1 sweep
     "cheap": dict(ds=0.02, settle_periods=20, first_settle_periods=200, window_s=0.5),
 }
@@ -710,13 +710,13 @@ def _loo_map(tables, f_ex, a_ex, shift, k=4):
 def stage_levers():
     """Agreement and final-s error of the b2 map for training-table settings, training sets and
     the s_up correction, with the training points predicted leave-one-out; training cost."""
-    ref = read_map(ROOT / "docs" / "operating_map.jsonl")
+    ref = read_map(ROOT / "docs" / "results" / "operating_map.jsonl")
     f_ex = sorted(set(float(x) for x in ref["f_ex_hz"]))
     a_ex = sorted(set(float(x) for x in ref["a_ex_m_s2"]))
     names = ["inactivity", "trivial_adaption", "signature_move", "relaxation_oscillation", "self_damping", "not_settled", "undetermined"]
     sets = {"12 points": TRAINING,
             "6 points": [(124.0, 14.0), (104.0, 14.0), (126.0, 10.0), (124.0, 6.0), (110.0, 8.0), (116.0, 12.0)]}
-    lines = ["§4.4 levers: b2 map (s0 = 0.3, 120 s) against docs/operating_map.jsonl; training points predicted leave one out",
+    lines = ["§4.4 levers: b2 map (s0 = 0.3, 120 s) against docs/results/operating_map.jsonl; training points predicted leave one out",
              f"{'tables':>7} {'training':>10} {'s_up shift':>10} | {'strict':>12} {'phase':>12} | {'final-s median':>14} {'90th pct':>8} {'n':>4} | {'tables wall [s]':>15}"]
     for kind in ("fine", "coarse", "cheap"):
         for sname, pts in sets.items():
@@ -767,7 +767,7 @@ def stage_features():
     import beamslider.superslow as dl
 
     tables = available_tables()
-    ref = read_map(ROOT / "docs" / "operating_map.jsonl")
+    ref = read_map(ROOT / "docs" / "results" / "operating_map.jsonl")
     f_ex = sorted(set(float(x) for x in ref["f_ex_hz"]))
     a_ex = sorted(set(float(x) for x in ref["a_ex_m_s2"]))
     names = ["inactivity", "trivial_adaption", "signature_move", "relaxation_oscillation", "self_damping", "not_settled", "undetermined"]
@@ -824,11 +824,11 @@ LATTICE_DRIFT = Path("/tmp/beamslider_drift_lattices")  # re-computable tables (
 def stage_training_sets():
     """Map agreement and final-s error of the b2 law for several training sets (tables with
     TABLE_OPTS, resumable under LATTICE_DRIFT; the default set's tables are read from
-    docs/superslow/drift), in sample and leave one point out, and for the union of all; then the
+    docs/results/superslow/drift), in sample and leave one point out, and for the union of all; then the
     high-branch drift of the PCS tables at 110 Hz, where the FS runs stop at 0.38 and the law at 0.33."""
     import shutil
 
-    ref = read_map(ROOT / "docs" / "operating_map.jsonl")
+    ref = read_map(ROOT / "docs" / "results" / "operating_map.jsonl")
     f_ex = sorted(set(float(x) for x in ref["f_ex_hz"]))
     a_ex = sorted(set(float(x) for x in ref["a_ex_m_s2"]))
     LATTICE_DRIFT.mkdir(parents=True, exist_ok=True)
@@ -850,7 +850,7 @@ def stage_training_sets():
              if r["behaviour"] == ref["behaviour"][grid[k]] and ref["steady"][grid[k]]]
         return np.asarray(e)
 
-    lines = ["§4.4 training sets: b2 map (s0 = 0.3, 120 s) against docs/operating_map.jsonl, the law fitted on the PCS tables "
+    lines = ["§4.4 training sets: b2 map (s0 = 0.3, 120 s) against docs/results/operating_map.jsonl, the law fitted on the PCS tables "
              f"of each set ({TABLE_OPTS}); LOO = each training point on the map predicted by the law fitted without it",
              "final s: over the agreeing points steady in FS (the §4.4 measure)",
              f"{'training set':>40} {'pts':>3} | {'strict':>7} {'LOO':>7} | {'final-s median':>14} {'90th pct':>8} {'n':>3}"]
@@ -899,10 +899,10 @@ def _first_by_point(m):
 def stage_fs_ensemble():
     """The FS map at s0 = 0.3 against FS runs started 0.001 and 0.002 off it (same grid, 120 s):
     the agreement and final-s error the FS model itself reaches, the ceiling of any reduced model;
-    then the predictor's map (docs/superslow/predicted_map) against that ensemble."""
+    then the predictor's map (docs/results/superslow/predicted_map) against that ensemble."""
     from beamslider import operating_map
 
-    ref = read_map(ROOT / "docs" / "operating_map.jsonl")
+    ref = read_map(ROOT / "docs" / "results" / "operating_map.jsonl")
     f_ex = sorted(set(float(x) for x in ref["f_ex_hz"]))
     a_ex = sorted(set(float(x) for x in ref["a_ex_m_s2"]))
     had = len(read_map(FS_ENSEMBLE / "map.jsonl")["f_ex_hz"]) if (FS_ENSEMBLE / "map.jsonl").exists() else 0
@@ -938,13 +938,13 @@ def stage_fs_ensemble():
     spread = np.asarray(spread)
     n_pred = sum(pred["behaviour"][P[k]] == ref["behaviour"][i] for k, i in R.items())
     lines = [
-        "§4.4 FS reproducibility: the FS map (s0 = 0.3, docs/operating_map.jsonl) against FS runs from s0 = "
+        "§4.4 FS reproducibility: the FS map (s0 = 0.3, docs/results/operating_map.jsonl) against FS runs from s0 = "
         + ", ".join(f"{x:g}" for x in ENSEMBLE_S0) + f" (same grid, 120 s; {len(ens['f_ex_hz'])} runs; "
         + (f"{ran} run in this call, {wall:.0f} s wall on 2 threads)" if ran else f"read back from {FS_ENSEMBLE})"),
         f"FS vs FS: behaviour agrees in {sum(agree)}/{len(agree)} runs = {100 * np.mean(agree):.1f} %; "
         f"all four perturbed runs agree with the map at {n_pt}/112 points",
         f"FS vs FS final s over agreeing runs steady in the map (n = {len(err)}): median {np.median(err):.4f}, 90th percentile {np.percentile(err, 90):.4f}",
-        f"predictor (docs/superslow/predicted_map, the default law): agrees with the FS map at {n_pred}/112, with the majority of the five FS runs at {maj}/112, "
+        f"predictor (docs/results/superslow/predicted_map, the default law): agrees with the FS map at {n_pred}/112, with the majority of the five FS runs at {maj}/112, "
         f"with at least one of them at {any_}/112",
         f"predictor final s over points agreeing with the map, steady in FS (n = {len(e_map)}): against the map median {np.median(e_map):.4f}, "
         f"90th percentile {np.percentile(e_map, 90):.4f}; against the median of the FS runs of that behaviour {np.median(e_med):.4f} / {np.percentile(e_med, 90):.4f}",
@@ -990,7 +990,7 @@ def stage_stops():
 
     lines = ["§4.4 final s: narrow zeros of the PCS high-branch drift where the FS runs stop (TABLE_OPTS settle/window, Δs 0.0025 in the window)"]
     STOP_TABLES.mkdir(parents=True, exist_ok=True)
-    ref = read_map(ROOT / "docs" / "operating_map.jsonl")
+    ref = read_map(ROOT / "docs" / "results" / "operating_map.jsonl")
     R = _first_by_point(ref)
     for f, a, lo, hi in STOP_WINDOWS:
         s = np.unique(np.round(np.concatenate([np.arange(0.04, lo, 0.02), np.arange(lo, hi + 1e-9, 0.0025), np.arange(hi, 0.5001, 0.02)]), 5))
@@ -1055,7 +1055,7 @@ def stage_cheap_settings():
     the FS map's measured wall time: does any reach the 80 % bar at ≥ 20× robustly?"""
     import tempfile
 
-    ref = read_map(ROOT / "docs" / "operating_map.jsonl")
+    ref = read_map(ROOT / "docs" / "results" / "operating_map.jsonl")
     f_ex = sorted(set(float(x) for x in ref["f_ex_hz"]))
     a_ex = sorted(set(float(x) for x in ref["a_ex_m_s2"]))
     fs_wall, _ = _fs_map_time(f_ex, a_ex)
@@ -1120,7 +1120,7 @@ def stage_build_up():
         lines.append("            FS  " + " ".join(f"{fs.s[i]:6.3f}" for i in idx))
         lines.append("            PCS " + " ".join(f"{0.3 + pc.x_c[i] / p.length_m:6.3f}" for i in idx))
     law = load_drift_law(OUT / "law.json")
-    ref = read_map(ROOT / "docs" / "operating_map.jsonl")
+    ref = read_map(ROOT / "docs" / "results" / "operating_map.jsonl")
     R = _first_by_point(ref)
     lines += ["", "3. First jump-up time, default law's slow flow against the FS map (points where both jump up), and the map (§4.4)",
               f"{'build-up':>22} | {'n':>3} {'median |err|':>12} {'within ±30 %':>12} {'median err a ≤ 10':>17} {'a > 10':>7} | "
@@ -1165,8 +1165,8 @@ def stage_fold():
     the three representative points with a jump-up, their V_L beside the s(t) slopes of the FS run,
     and the time the table's own flow takes from s0 to its fold with no build-up delay against
     the FS jump-up time. Not used by the law (its tables have Δs = 0.01)."""
-    fs4 = read_map(ROOT / "docs" / "operating_map_s0.4.jsonl")
-    ref = read_map(ROOT / "docs" / "operating_map.jsonl")
+    fs4 = read_map(ROOT / "docs" / "results" / "operating_map_s0.4.jsonl")
+    ref = read_map(ROOT / "docs" / "results" / "operating_map.jsonl")
     lines = ["Drift on the low branch just before the fold (Δs = 0.0025 PCS down sweeps from s0; LAW_TABLE_SETTINGS otherwise)",
              "V_L [1e-3 1/s] ± standard error; FS: slope of s(t) of the FS run from rest over the 1 s around its passage through that s (before its jump)"]
     for f, a, s0 in [(124.0, 14.0, 0.3), (126.0, 10.0, 0.3), (106.0, 10.0, 0.4)]:

@@ -48,7 +48,7 @@ class Effect:
     relevance_kind: str = "abs"
     relevance_floor: float = 0.0
     relevance_reason: str = ""
-    """Why this threshold (docs/discover.md)."""
+    """Why this threshold (docs/results/discover.md)."""
     realise: Optional[Callable[[Parameters, float], Dict[str, float]]] = None
     """For a virtual parameter (not a field of :class:`Parameters`, e.g. the natural-frequency
     factor): the field values that realise the value; its baseline value is 1."""

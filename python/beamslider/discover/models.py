@@ -157,7 +157,7 @@ def batch_slider_features(params_list: Sequence[Parameters], ops: Sequence[Opera
 ENSEMBLE_S0_SHIFTS = (0.0, -0.002, -0.001, 0.001, 0.002)
 """Shifts of s0 of the runs of a model's ensemble (:func:`ensemble_slider_features`): perturbations
 the data cannot resolve. After 60 s the final state at (124 Hz, 14 m/s²) and (126, 10) depends on
-them as much as on a change of μ by 2e-4 (measured: docs/discover/sensitivity.md)."""
+them as much as on a change of μ by 2e-4 (measured: docs/results/discover/sensitivity.md)."""
 
 
 HIGH_FINAL_H = 0.3
@@ -168,7 +168,7 @@ MODE_FEATURES = ("speed_late", "s_final", "amplitude_final_h", "s_turning")
 """Features that depend on the state a run ends in (its mode, :func:`run_mode`): the jump-up time
 and the phase of a relaxation cycle at the end of a run change with perturbations the data
 cannot resolve (at (124 Hz, 14 m/s²) with μ = 0.26, one start of 17 within ±0.004 of s0 has not
-jumped up after 60 s: docs/discover/table.md), so these features are bimodal across a model's
+jumped up after 60 s: docs/results/discover/table.md), so these features are bimodal across a model's
 ensemble. They are compared only with runs in the data's mode; ``speed_early`` is not."""
 
 

@@ -46,7 +46,7 @@ def synthesize_slider_runs(truth: Optional[Parameters] = None, *, operating_poin
     by hand is never exactly where the label says). With 0 the model run at exactly the truth
     repeats the data's realisation of the chaotic locomotion, which no real measurement allows (the
     "inverse crime" of synthetic tests): a scan point on the truth then scores far better than its
-    neighbours (docs/discover/table.md)."""
+    neighbours (docs/results/discover/table.md)."""
     p = resolve(truth)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
