@@ -129,7 +129,7 @@ def _write(path, text):
     return path
 
 
-# --- issue 20: the naming rule can say "unexplained" ---------------------------------------------
+# --- the naming rule can say "unexplained" ---------------------------------------------
 
 BEAM_WITHOUT_PRELOAD = ["rotational_clamping_compliance", "axial_clamping_compliance", "amplitude_dependent_damping"]
 
@@ -206,7 +206,7 @@ def test_out_of_library_slider_effect_is_unexplained(tmp_path):
 
 @pytest.mark.slow
 def test_detuning_is_named_among_all_slider_candidates(tmp_path):
-    """The issue's case: the natural frequency 2 % lower hidden; with every slider-level candidate
+    """The reference case: the natural frequency 2 % lower hidden; with every slider-level candidate
     the detuning is named (scripts/repro/discover_table.py: c = 0.9787 ± 0.0012, gap 5.81 -> 0.71)."""
     truth = dc.realise_effects(bs.Parameters(), {"natural_frequency_detuning": 0.98})
     paths = dc.synthesize_slider_runs(truth, operating_points=[(110, 10, 0.3), (124, 6, 0.3)], duration_s=15,
@@ -234,7 +234,7 @@ def test_separability_rows_and_recommendation():
             assert (rec["f_ex"], rec["a_ex"], rec["s0"]) in grid and rec["separation"] >= 0
 
 
-# --- issue 20, second part: tilt, the core's batch runner, joint fit, out-of-library cases ---------
+# --- tilt, the core's batch runner, joint fit, out-of-library cases ---------
 
 
 def test_tilt_parameter_round_trips_and_is_validated(tmp_path):
@@ -321,7 +321,7 @@ def test_out_of_library_effects_are_unexplained(truth, tmp_path):
 def test_out_of_library_com_offset_is_unexplained_with_the_issues_runs(tmp_path):
     """A centre-of-mass offset of 5.5 mm with friction and clearance as the candidates. The two 15-s
     runs of the tests above do not tell it from friction: with the truth started S0_OFFSET off s0,
-    mu = 0.161 fits them adequately (chi2 14.4 <= 18.5) and would be named. The issue's three 60-s
+    mu = 0.161 fits them adequately (chi2 14.4 <= 18.5) and would be named. The three reference 60-s
     runs do: friction cannot fit them (not adequate), the verdict is 'unexplained'."""
     paths = dc.synthesize_slider_runs(bs.Parameters(com_offset_m=5.5e-3),
                                       operating_points=[(104, 14, 0.3), (126, 10, 0.3), (124, 14, 0.3)],
@@ -374,7 +374,7 @@ def test_cli_takes_enma_and_measured_together(tmp_path):
     assert len([line for line in r.stdout.splitlines() if line.startswith("verdict: ")]) == 1
 
 
-# --- issue 20, third part: the data model of the slider features, the gap beyond the noise ---------
+# --- the data model of the slider features, the gap beyond the noise ---------
 
 
 def test_model_and_measured_features_agree_on_noise_free_data(tmp_path):
@@ -452,7 +452,7 @@ def test_naming_rule_compares_the_gap_beyond_the_noise():
 
 @pytest.mark.slow
 def test_friction_is_named_with_the_issues_60_s_runs(tmp_path):
-    """The issue's runs (60 s at (104, 14), (126, 10), (124, 14), s0 = 0.3) with mu = 0.26 hidden,
+    """The reference runs (60 s at (104, 14), (126, 10), (124, 14), s0 = 0.3) with mu = 0.26 hidden,
     truth started S0_OFFSET off s0, all slider-level candidates: friction named, within two
     standard errors. At (124, 14) that run has not jumped up after 60 s, which none of the five
     ensemble runs of any candidate does (one start in 17 near s0 at mu = 0.26): the
@@ -497,7 +497,7 @@ IN_LIBRARY = {  # hidden truth (3-7 x the relevance threshold) -> (effect, param
 @pytest.mark.heavy
 @pytest.mark.parametrize("effect", sorted(IN_LIBRARY))
 def test_in_library_slider_effect_is_named_alone(effect, tmp_path):
-    """Issue 20: each slider-level effect hidden (15-s runs at (110, 10) and (124, 6), sensor
+    """Each slider-level effect hidden (15-s runs at (110, 10) and (124, 6), sensor
     noise) with itself and friction as candidates: it alone is named, within two standard errors
     of the truth (friction and tilt: the tests above; detuning: the slow test)."""
     changes, field, true = IN_LIBRARY[effect]
@@ -520,7 +520,7 @@ def test_restitution_is_not_named_where_the_runs_do_not_resolve_it(tmp_path):
 
 @pytest.mark.slow
 def test_restitution_is_named_with_the_issues_60_s_runs(tmp_path):
-    """Issue 20: restitution 0.3 (baseline 0.5) hidden in the issue's three 60-s runs, the truth runs
+    """Restitution 0.3 (baseline 0.5) hidden in the three reference 60-s runs, the truth runs
     started S0_OFFSET off the named s0, all slider-level candidates: restitution alone is named,
     within two standard errors of the truth. Its χ² is rough in ε (runs at neighbouring values
     differ by Δχ² of several units), so the stated error includes that scatter (_roughness):
@@ -630,7 +630,7 @@ def test_chi2_charges_an_unpredicted_mode_its_expectation_and_penalty():
 @pytest.mark.heavy
 @pytest.mark.parametrize("mu", [0.203, 0.2])
 def test_negligible_change_is_none_without_the_inverse_crime(mu, tmp_path):
-    """μ = 0.203 (below its 0.01 threshold) and the prototype itself in the issue's three 60-s runs,
+    """μ = 0.203 (below its 0.01 threshold) and the prototype itself in the three reference 60-s runs,
     truth started S0_OFFSET off s0: 'none'. With 0.203, the run at (126 Hz, 10 m/s²) ends low in
     its relaxation cycle, which two of 17 nearby starts of the prototype do; compared within that
     mode, the baseline fits. A single Gaussian over the ensemble named a tilt of 3.3 mrad here

@@ -166,7 +166,7 @@ def _same_rows(a, b, idx):
 
 
 def test_extend_to_continues_only_not_settled_points_bitwise(tmp_path, capsys):
-    """Issue 15: a 3-s map extended to 6 s re-runs only its not-settled points, from their saved
+    """Extending a map in time (docs/classify.md): a 3-s map extended to 6 s re-runs only its not-settled points, from their saved
     end states, and each re-run row is the row of the 6-s map (but the wall time)."""
     # Windows of 1 s: with the default ones (15 s, drift over 30 s) no 3-s run is settled.
     grid = dict(f_ex=[100.0, 120.0, 124.0], a_ex=[4.0, 14.0], s0=[0.3, 0.7],

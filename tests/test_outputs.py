@@ -92,7 +92,7 @@ def test_figure_of_a_diverged_run_says_so(tmp_path):
 
 
 def test_default_overlay_is_the_hb_manifold_and_plot_reads_it_back(tmp_path):
-    """Issue 18: the default overlay of panel (c) is the harmonic-balance manifold (milliseconds),
+    """The default overlay of panel (c) is the harmonic-balance manifold (milliseconds),
     written as hb_manifold_<f>Hz_<a>ms2_N5.csv; `beamslider plot` draws it again from that file."""
     r = run_cli("simulate", "--t-end", "0.2", "--no-progress", "--out", "o", cwd=tmp_path)
     assert r.returncode == 0, r.stderr

@@ -1,4 +1,4 @@
-"""Issue 18: bounded memory and streamed outputs, one writer per results file, maps on Dask, bad inputs."""
+"""Bounded memory and streamed outputs, one writer per results file, maps on Dask, bad inputs."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Layer (b) of issue 17: PCS drift tables (resume, mirror symmetry), the slow flow on the HB
+"""Layer (b), docs/model.md §6.3: PCS drift tables (resume, mirror symmetry), the slow flow on the HB
 manifold with synthetic drift, the fitted law's constraints, the predict CLI."""
 
 import json
@@ -46,7 +46,7 @@ def test_drift_table_resumes_bitwise(tmp_path):
 
 
 def test_drift_table_mirror_symmetry():
-    """V(1 − s) = −V(s) (issue §3.1) on generated tables: the far half is an independent PCS run."""
+    """V(1 − s) = −V(s) (docs/model.md §6.3) on generated tables: the far half is an independent PCS run."""
     near = drift_table(f_ex=124, a_ex=14, s=[0.3, 0.4], settle_periods=10, first_settle_periods=40, window_s=0.2, sub_windows=4)
     far = drift_table(f_ex=124, a_ex=14, s=[0.3, 0.4], settle_periods=10, first_settle_periods=40, window_s=0.2, sub_windows=4,
                       mirror=True)
@@ -633,7 +633,7 @@ def test_robustness_flag_from_the_law_resolution(tmp_path):
 
 @pytest.mark.parametrize("f_ex, a_ex", [(60.0, 1.0), (80.0, 0.5)])
 def test_no_lift_off_anywhere_is_inactivity_without_a_hang(f_ex, a_ex):
-    """Issue 17 §7: Λ_g < 1 everywhere (a weak excitation) with the built-in law: the slider stays at
+    """Λ_g < 1 everywhere (a weak excitation) with the built-in law: the slider stays at
     s0, no event, the classifier says inactivity; the law's extrapolation is reported. (Below the
     first resonance: with the hardening high branch, 100 Hz has Λ_g up to 7 even at 0.05 m/s².)"""
     r = predict(f_ex=f_ex, a_ex=a_ex, s0=0.3)

@@ -1,4 +1,4 @@
-"""beamslider.superslow: the harmonic-balance super-slow manifold (issue 17, layer (a)). Fast."""
+"""beamslider.superslow: the harmonic-balance super-slow manifold (docs/model.md §6.4). Fast."""
 
 import math
 
@@ -32,7 +32,7 @@ def test_manifold_fields_units_and_branches():
         assert np.all(np.isfinite(b.amplitude)) and np.all(b.amplitude > 0)
     assert m.high.stable.all() and m.low.stable.all()
     assert m.s_up is not None and 0.1 < m.s_up < 0.45
-    assert m.s_dn is None  # issue 17 §8: single-term HB keeps the high branch to the centre
+    assert m.s_dn is None  # docs/model.md §6.4: single-term HB keeps the high branch to the centre
     # High branch above the low branch where both exist; amplitude within the paper's range.
     s = np.linspace(m.s_up + 0.01, 0.5, 10)
     assert np.all(m.high.amplitude_at(s) > m.low.amplitude_at(s))

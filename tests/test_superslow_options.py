@@ -1,4 +1,4 @@
-"""Layer-(a) options of issue 17: multi-harmonic HB (§2.5.2) and static sag (§2.5.3). Fast."""
+"""Layer-(a) options, docs/model.md §6.4: multi-harmonic HB and static sag. Fast."""
 
 import json
 

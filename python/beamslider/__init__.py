@@ -7,7 +7,7 @@ Python face:
 - :func:`simulate` — free-slider / pseudo-constrained / beam-only runs (§5–6);
 - :func:`super_slow_manifold` — PCS continuation of the super-slow manifold (§6);
 - :func:`hb_manifold` (:mod:`beamslider.superslow`) — the same manifold by harmonic balance in
-  milliseconds (issue 17, layer (a));
+  milliseconds (docs/model.md §6.4);
 - :func:`envelope` — |Hilbert| plus moving average (§7);
 - :func:`read_measurement` — the published measured data set (§7);
 - :func:`operating_map`, :func:`classify` — operating maps and behaviour classification (§8);

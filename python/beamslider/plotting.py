@@ -171,7 +171,7 @@ def plot_operating_point(
         ax_a.plot(x0, a0, "o", color=color, ms=6, mfc="white", zorder=5)
         ax_a.plot(x1, a1, "o", color=color, ms=6, zorder=5)
     if manifold is not None and hasattr(manifold, "high"):
-        # harmonic-balance manifold (issue 17 layer (a)): amplitudes already in units of h
+        # harmonic-balance manifold (docs/model.md §6.4): amplitudes already in units of h
         n = getattr(manifold, "n_modes", 0)
         tag = f"HB manifold (N = {n})" if n else "HB manifold"
         for name, color, style in (("high", UP_COLOR, "--"), ("low", DOWN_COLOR, "--"), ("middle", "0.45", ":")):

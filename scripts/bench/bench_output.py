@@ -1,4 +1,4 @@
-"""Benchmark of issue 18: the CLI's `simulate` end to end against the bare core run of the same
+"""Benchmark of the CLI's `simulate` end to end against the bare core run of the same
 duration (record_every 1 and 10; target: CLI <= 2x core), the peak memory of a streamed 600-s
 run (NPZ and Parquet), and a map on a LocalCluster of 2 workers against the local map.
 
@@ -9,7 +9,7 @@ run (NPZ and Parquet), and a map on a LocalCluster of 2 workers against the loca
 channels at the same record_every, no file, no figure). "CLI" is what the README's main command
 does, timed as a subprocess: `beamslider simulate --t-end T --record-every K --out DIR`, i.e.
 interpreter start, imports, the run streamed to NPZ by Rust, the harmonic-balance manifold (the
-default overlay since issue 18's last step) and the figure (the default), JSON and CSV files; the
+default overlay) and the figure (the default), JSON and CSV files; the
 same with `--manifold pcs` (the PCS continuation overlay, the earlier default) and with
 `--no-manifold`. Figures are
 medians of `--repeat` runs (CLI and core alternating); the load average is printed before and

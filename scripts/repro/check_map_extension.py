@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Compare a map extended in time with the same map run from rest (issue 15).
+"""Compare a map extended in time with the same map run from rest (docs/classify.md, "Extending a map in time").
 
 Usage:  python3 scripts/repro/check_map_extension.py EXTENDED_DIR FRESH_DIR [--out FILE]
 

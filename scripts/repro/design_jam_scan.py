@@ -1,5 +1,5 @@
 """Where does the slider jam? FS runs of the prototype with a tighter opening R/h at a few
-operating points of the design band (issue 21: the R/h constraint). Prints one line per run:
+operating points of the design band (the R/h constraint of the design search). Prints one line per run:
 R/h, f_ex, a_ex, behaviour, slider travel s_max - s_min, final amplitude.
 
     python scripts/repro/design_jam_scan.py [--t-end 40] [--threads 1]

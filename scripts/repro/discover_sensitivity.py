@@ -5,7 +5,7 @@ perturbations the data cannot resolve (s0 by +-0.001, +-0.002; mu by +-2e-4, +-5
 
 Usage:  python3 scripts/repro/discover_sensitivity.py [--duration 60] [--threads 2] [--out docs/results/discover/sensitivity.md]
 
-Data: `synthesize_slider_runs` of mu = 0.26 at the issue's three points (104, 14), (126, 10),
+Data: `synthesize_slider_runs` of mu = 0.26 at the three reference points (104, 14), (126, 10),
 (124, 14) m/s^2, s0 = 0.3, s noise 0.001, seed 3; the model runs go through the core's batch runner
 (the features of `beamslider.discover`, measurement uncertainties only, no model spread).
 """

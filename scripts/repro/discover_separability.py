@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Issue 20: separability of the slider-level candidates at the paper's operating points, and the
+"""Separability of the slider-level candidates at the paper's operating points, and the
 recommended extra point for each pair the data cannot tell apart.
 
 Usage:  python3 scripts/repro/discover_separability.py [--duration 15] [--out docs/results/discover/separability.md]

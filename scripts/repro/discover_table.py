@@ -1,12 +1,12 @@
 #!/usr/bin/env python3
-"""Issue 20's table: hidden truth -> verdict, fitted values, gap before -> after, wall time, for
+"""The discover table: hidden truth -> verdict, fitted values, gap before -> after, wall time, for
 slider-level data synthesised from a truth model (in-library and out-of-library effects, a
 negligible change, the baseline itself).
 
 Usage:  python3 scripts/repro/discover_table.py [--duration 60] [--out docs/results/discover/table.md] [--cases a,b] [--rows-only] [--s0-offset 0.0015]
                                           [--ops "104,14,0.3;126,10,0.3;124,14,0.3"] [--max-effects 1]
 
-Data: `synthesize_slider_runs` of the truth at the operating points (default: the issue's three,
+Data: `synthesize_slider_runs` of the truth at the operating points (default: the three reference points,
 s noise 0.001, seed 3); baseline: the prototype; candidates: all slider-level effects, or all but
 the hidden one ("out of library"). Single effects by default (max_effects = 1). The runs of each
 chi2 evaluation go through the core's parallel runner; the wall time of each discover is measured

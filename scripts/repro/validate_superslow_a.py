@@ -1,7 +1,7 @@
-"""Validation of layer (a) of issue 17 (the harmonic-balance super-slow manifold).
+"""Validation of layer (a), docs/model.md §6.4 (the harmonic-balance super-slow manifold).
 
 Produces, into docs/results/superslow/:
-- validation_a.txt: the tables of issue §4.1 (HB against the project's PCS manifold, 100 periods
+- validation_a.txt: the validation tables (HB against the project's PCS manifold, 100 periods
   per step, Δs = 0.0025) and §4.6 (ω₁ ± 5 % at (124 Hz, 14 m/s²)), the D_eff calibration;
 - fig4_overlay.png: seed Fig. 4 (124 Hz, 14 and 8 m/s²) — PCS sweeps with HB N = 1, 2, 5 and
   N = 5 with D_eff overlaid;
@@ -10,7 +10,7 @@ Produces, into docs/results/superslow/:
 Not part of the fast test suite; PCS sweeps take seconds to minutes each:
     nohup python scripts/repro/validate_superslow_a.py > /tmp/validate_a.log 2>&1 &
 
-Subcommand ``options`` (issue §2.5.2 multi-harmonic HB, §2.5.3 static sag; uses the cached PCS
+Subcommand ``options`` (multi-harmonic HB and static sag, docs/model.md §6.4; uses the cached PCS
 CSVs, seconds): writes validation_a_options.txt (the §4.1 table for H = 1, 3, 5 and the static
 sag, N = 5, with the cost per manifold) and fig4_overlay_options.png:
     python scripts/repro/validate_superslow_a.py options
@@ -131,7 +131,7 @@ def calibrate_d_eff():
 
 def main() -> int:
     OUT.mkdir(parents=True, exist_ok=True)
-    say("Layer (a) of issue 17: harmonic-balance super-slow manifold against the PCS manifold")
+    say("Harmonic-balance super-slow manifold against the PCS manifold")
     say(f"beamslider {beamslider.__version__}; PCS: 100 periods per step, last 25 averaged, Δs = {DS}, N = 5")
     say("")
     d_eff = calibrate_d_eff()
@@ -169,7 +169,7 @@ def main() -> int:
                 f"{fmt(dsu):>7} {fmt(m.s_dn):>7} | {100 * err:>18.2f}% {n:>3}")
             summary.append((f, a, label, m.s_up, su_p, dsu, m.s_dn, sd_p, err))
         say("")
-    say("Targets (issue §4.1): RMS ≤ 5 % with N = 5; |s_up(HB) − s_up(PCS)| ≤ 0.02 with N = 5.")
+    say("Targets: RMS ≤ 5 % with N = 5; |s_up(HB) − s_up(PCS)| ≤ 0.02 with N = 5.")
     n5 = [r for r in summary if r[2] == "N=5"]
     ok_rms = sum(1 for r in n5 if np.isfinite(r[8]) and r[8] <= 0.05)
     ok_sup = sum(1 for r in n5 if r[5] is not None and r[5] <= 0.02)
@@ -270,7 +270,7 @@ def options() -> int:
     """§4.1 with the layer-(a) options multi-harmonic HB and static sag (N = 5)."""
     OUT.mkdir(parents=True, exist_ok=True)
     LINES.clear()
-    say("Layer (a) options of issue 17 §2.5.2 (multi-harmonic HB: odd harmonics up to H) and §2.5.3 (static sag")
+    say("Options of the harmonic-balance manifold, docs/model.md §6.4 (multi-harmonic HB: odd harmonics up to H) and static sag (")
     say("under the slider's weight; with it all harmonics 0..H), N = 5, against the PCS manifold (N = 5, 100 periods")
     say(f"per step, Δs = {DS}). beamslider {beamslider.__version__}. Command: python scripts/repro/validate_superslow_a.py options")
     say("")

@@ -1,4 +1,4 @@
-"""Validation of layer (b) of issue 17 (§4.2–4.5): drift law, slow flow and the predicted map.
+"""Validation of layer (b), docs/model.md §6.3: drift law, slow flow and the predicted map.
 
 Not part of the fast test suite (PCS drift tables take minutes per operating point).
 
@@ -50,7 +50,7 @@ TRAINING = list(LAW_TRAINING_POINTS)
 assert TRAINING[:len(REPRESENTATIVE)] == REPRESENTATIVE
 
 
-# Table settings of the validation (issue §3.1: Δs 0.01–0.02, ≥ 40 settling periods, window ≥ 1 s).
+# Table settings of the validation (docs/model.md §6.3: Δs 0.01–0.02, ≥ 40 settling periods, window ≥ 1 s).
 TABLE_OPTS = dict(LAW_TABLE_SETTINGS)
 
 
@@ -76,7 +76,7 @@ def stage_tables(points=None):
 
 
 MAP_DRIFT = Path("/tmp/beamslider_drift_map")  # 112 tables (~8 MB): not committed
-# The per-point b1 tables of the map: the issue's coarse sweep (Δs 0.02, 40 settling periods, 1-s window).
+# The per-point b1 tables of the map: the coarse sweep (Δs 0.02, 40 settling periods, 1-s window).
 MAP_TABLE_OPTS = dict(ds=0.02, settle_periods=40, window_s=1.0)
 
 
@@ -244,7 +244,7 @@ def stage_runs():
     _figure_runs(law_all)
 
 
-# Seed Figs. 6f, 8, 9 and 12 (issue 17 §5.2–5.4): the FS run and the slow flow of the default law.
+# Seed Figs. 6f, 8, 9 and 12 : the FS run and the slow flow of the default law.
 FIGURE_RUNS = [((124.0, 14.0), 0.3, "signature move"), ((126.0, 10.0), 0.3, "relaxation oscillation"), ((124.0, 6.0), 0.3, "self-damping"),
                ((104.0, 14.0), 0.3, "trivial adaption"), ((106.0, 10.0), 0.4, "signature move from s0 = 0.4")]
 
@@ -447,7 +447,7 @@ def stage_map():
              f"- s_up shift (median s_up(PCS) − s_up(HB)): {law_c.s_up_shift:+.4f}; leave one out: "
              + "; ".join(f"({r['f_ex']:g}, {r['a_ex']:g}) HB {_fmt(r['s_up_hb'], 3)} PCS {_fmt(r['s_up_pcs'], 3)} corrected {_fmt(r['s_up_corrected_loo'], 3)}" for r in law_c.loo_s_up),
              f"- lift-off threshold Λ_c = {law_c.lift_c:.3f} (median of the tables where the clampward drift ends: "
-             + ", ".join(f"({r['f_ex']:g}, {r['a_ex']:g}) {r['lift_c']:.3f}" for r in law_c.lift_c_per_point) + "; the issue's constraint is Λ_c = 1)",
+             + ", ".join(f"({r['f_ex']:g}, {r['a_ex']:g}) {r['lift_c']:.3f}" for r in law_c.lift_c_per_point) + "; the rigid-attachment constraint is Λ_c = 1)",
              f"- jump-down: the PCS high branches end at s_p = {law_c.jump_down_s:.4f} (median of the tables' jump-downs) where the forcing ratio "
              f"ρ(s_p) = a_ex/(Ω² Â_H(s_p) h) ≤ ρ_c = {law_c.rho_c:.5f}, the geometric midpoint of the bracket "
              f"({law_c.rho_bracket.get('lo') or 0:.5f}, {law_c.rho_bracket.get('hi') or 0:.5f}) between the tables whose high branch ends there and those "
@@ -468,7 +468,7 @@ def stage_map():
                             ("the jump-down bracket without the jump-down tables", "law", {}),
                             ("the median jump-down rule (before)", "law", {"jump_down": "median"}),
                             ("without the learnt jump-down (s_dn='hb')", "hb", {}),
-                            ("with Λ_c = 1 (the issue's constraint)", "law", {"lift_off_threshold": 1.0, "jump_down_tables": extra}),
+                            ("with Λ_c = 1 (the rigid-attachment constraint)", "law", {"lift_off_threshold": 1.0, "jump_down_tables": extra}),
                             ("without the s_up shift", "law", {"s_up_correction": False, "jump_down_tables": extra}),
                             ("without the monostable vote", "law", {"monostable_vote": False, "jump_down_tables": extra}),
                             ("none of the four (s_dn='hb', Λ_c = 1, no shift, no vote)", "hb",
@@ -654,11 +654,11 @@ def _law_text(law):
     return law_json(law)
 
 
-# §4.4/4.5 levers (issue 17 part c): cheaper training tables and the learnt s_up correction.
+# §4.4/4.5 levers : cheaper training tables and the learnt s_up correction.
 # Training table settings compared (all with both sweeps over [s_min, 0.5]):
 CHEAP = {
     "fine": dict(ds=0.01, settle_periods=100, window_s=2.0),  # TABLE_OPTS (docs/results/superslow/drift)
-    "coarse": dict(ds=0.02, settle_periods=40, window_s=1.0),  # the issue's b1 sweep
+    "coarse": dict(ds=0.02, settle_periods=40, window_s=1.0),  # the coarse b1 sweep
     "cheap": dict(ds=0.02, settle_periods=20, first_settle_periods=200, window_s=0.5),
 }
 LEVERS = Path("/tmp/beamslider_drift_levers")  # re-computable tables (not committed)
@@ -752,7 +752,7 @@ def stage_levers():
     (OUT / "validation_c_levers.txt").write_text("\n".join(lines) + "\n", encoding="utf-8")
 
 
-# Candidate input sets of the b2 law: the issue's list, last version's, and sets with the position s.
+# Candidate input sets of the b2 law: the first candidate list, last version's, and sets with the position s.
 FEATURE_SETS = [("log_lift_off", "slope_gap", "f_slope", "a_ex_g", "amplitude"),
                 ("log_lift_off", "slope_gap", "f_slope", "ds_res", "amp_rel"),
                 ("amp_rel", "s"), ("log_lift_off", "amp_rel", "s"), ("log_lift_off", "s"),
@@ -778,7 +778,7 @@ def stage_features():
         return {"behaviour": r.behaviour, "reason": c["reason"], "s_final": c["s_final"], "steady": c["steady"]}
 
     saved = dl.FEATURES
-    lines = ["Choice of the b2 law's inputs (issue 17 §3.2), leave one operating point out on the "
+    lines = ["Choice of the b2 law's inputs (docs/model.md §6.3), leave one operating point out on the "
              f"{len(tables)} training tables ({', '.join(f'({t.f_ex:g}, {t.a_ex:g})' for t in tables)}), s_up correction and monostability vote on (the defaults).",
              "Selection: V error and training points right (LOO). The map columns (all 112 points, training points LOO) are the test.",
              f"{'inputs':>52} {'k':>2} | {'V err/|V| all':>13} {'L':>6} {'H':>6} | {'training LOO':>12} | {'map strict':>10} {'phase':>6} {'final-s med':>11} {'p90':>6}"]
@@ -880,7 +880,7 @@ def stage_training_sets():
     print("\n".join(lines[-4:]))
 
 
-# FS reproducibility (issue 17 §4.4): how far the FS map itself moves when s0 moves by 1–2 mm/L.
+# FS reproducibility : how far the FS map itself moves when s0 moves by 1–2 mm/L.
 FS_ENSEMBLE = Path("/tmp/beamslider_fs_ensemble")  # 448 FS runs (~3 min on 2 cores): not committed
 ENSEMBLE_S0 = [0.298, 0.299, 0.301, 0.302]
 
@@ -966,7 +966,7 @@ def stage_fs_ensemble():
     print("\n".join(lines))
 
 
-# Narrow zeros of the PCS high-branch drift where the FS runs stop (issue 17 §4.4 final s).
+# Narrow zeros of the PCS high-branch drift where the FS runs stop (final s).
 STOP_WINDOWS = [(110.0, 10.0, 0.36, 0.40), (108.0, 10.0, 0.37, 0.45), (112.0, 10.0, 0.37, 0.40), (114.0, 12.0, 0.37, 0.40),
                 (116.0, 12.0, 0.37, 0.40),
                 # the pocket near s = 0.335 (where the FS runs at 116–130 Hz stop, and at 110 Hz linger)
@@ -1097,7 +1097,7 @@ def stage_build_up():
     flow for several build-up times. No law or default is changed by this stage."""
     p = Parameters()
     tau = lambda f: 1.0 / (p.damping_ratio * 2 * np.pi * f)  # noqa: E731
-    lines = ["Build-up time of a run from rest (issue 17 §4.3: jump-up time ±30 %); τ = 1/(D Ω) = 1.26 s at 126 Hz",
+    lines = ["Build-up time of a run from rest (target: jump-up time within ±30 %); τ = 1/(D Ω) = 1.26 s at 126 Hz",
              "", "1. PCS runs from rest at s = 0.3, 7τ, x_C(t) fitted as L V (t − t_d) on t ≥ 3τ (the training points)",
              f"{'point':>12} {'V [1/s]':>10} {'t_d [s]':>8} {'t_d/τ':>6}"]
     ratios = []

@@ -129,7 +129,7 @@ enum Command {
         /// Print the default configuration (the paper's map) as TOML and exit.
         #[arg(long)]
         print_config: bool,
-        /// Predict the map with the reduced super-slow model (issue 17, b2) and this drift law
+        /// Predict the map with the reduced super-slow model (docs/model.md §6.3, the fitted law) and this drift law
         /// (JSON, written by `beamslider.slowflow.fit_drift_law(...).save(path)`) instead of FS
         /// runs: milliseconds per point, the same results format (status `predicted`).
         #[arg(long, value_name = "LAW.json")]

@@ -1,5 +1,5 @@
 //! `beamslider-batch map --predictor LAW.json`: a map predicted by the reduced super-slow model
-//! (issue 17) through the map results writer: header, resume, refusals, clear errors.
+//! (docs/model.md §6.3) through the map results writer: header, resume, refusals, clear errors.
 
 use std::process::Stdio;
 

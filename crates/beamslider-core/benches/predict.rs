@@ -1,4 +1,4 @@
-//! `predict`: wall time of the reduced super-slow predictor (issue 17 §4.5) per operating point,
+//! `predict`: wall time of the reduced super-slow predictor (docs/model.md §6.3) per operating point,
 //! one thread, split into layer (a) (the HB manifold), the slow model (features + V from the drift
 //! law on the nodes) and the slow flow with the classifier; plus the whole 7 × 16 map point by
 //! point. The law is `python/beamslider/data/default_law.json` (the default law).

@@ -1,4 +1,4 @@
-//! Speed of layer (a) of issue 17 (§2.4 targets, one core): the N = 1 closed form over 201 s
+//! Speed of the harmonic-balance manifold (docs/model.md §6.4; one core): the N = 1 closed form over 201 s
 //! values (≤ 0.2 ms) and the N = 5 continuation of both branches (≤ 5 ms).
 //!
 //! `cargo run --release -p beamslider-core --example hb_speed` prints medians over repeated runs.

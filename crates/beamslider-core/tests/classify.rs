@@ -229,7 +229,7 @@ fn not_settled_names_the_phase_reached() {
 }
 
 /// The runs of the paper's maps that passed the range rule at 60 s but changed their label by
-/// 120 s (issue 15): a steady drift of s by 0.006–0.024 per 30 s, or a rising amplitude, within
+/// 120 s (docs/classify.md, "Why the drift rule"): a steady drift of s by 0.006–0.024 per 30 s, or a rising amplitude, within
 /// the ranges of the final 15 s (|Δs| < 0.03, ΔA < 30 %). Each must be not settled; the same
 /// signals without the drift, or with half the threshold's drift, are settled.
 #[test]

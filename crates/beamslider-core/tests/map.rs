@@ -167,7 +167,7 @@ fn grids_that_are_typing_errors_are_refused() {
     }
 }
 
-/// Issue 15: a 3-s map extended to 6 s continues exactly its not-settled points from their saved
+/// Extending a map in time (docs/classify.md): a 3-s map extended to 6 s continues exactly its not-settled points from their saved
 /// end states; each continued row is bitwise the row of the 6-s map (all fields but the wall
 /// time), the settled rows are kept, and only the not-settled points are re-run.
 #[test]

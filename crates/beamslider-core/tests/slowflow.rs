@@ -1,4 +1,4 @@
-//! Layer (b) of issue 17 (§3.3, §7): the slow-flow event logic on synthetic drift laws and
+//! The slow flow of docs/model.md §6.3: the slow-flow event logic on synthetic drift laws and
 //! manifolds, one case per behaviour, and the degenerate inputs (folds at grid points, empty
 //! coexistence, V ≡ 0).
 

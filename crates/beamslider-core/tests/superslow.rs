@@ -1,4 +1,4 @@
-//! Layer (a) of issue 17 (§7): the HB super-slow manifold against its closed forms.
+//! The harmonic-balance manifold of docs/model.md §6.4: the HB super-slow manifold against its closed forms.
 
 use beamslider_core::superslow::{HbOptions, HbSystem, closed_form_n1, default_grid, hb_manifold};
 use beamslider_core::{Beam, Error, Params};
@@ -286,7 +286,7 @@ fn branches_folds_and_stability_are_consistent() {
     let p = Params::default();
     let m = hb_manifold(&p, 124.0, 14.0, &opts(5)).unwrap();
     let s_up = m.s_up.expect("jump-up at (124, 14)");
-    assert!(m.s_dn.is_none(), "single-term HB: the high branch reaches the centre (issue §8)");
+    assert!(m.s_dn.is_none(), "single-term HB: the high branch reaches the centre (docs/model.md §6.4)");
     assert!(s_up > 0.1 && s_up < 0.45, "{s_up}");
     assert!(m.low.stable.iter().all(|&b| b) && m.high.stable.iter().all(|&b| b));
     assert!(m.middle.stable.iter().skip(1).take(m.middle.len().saturating_sub(2)).all(|&b| !b), "middle unstable");

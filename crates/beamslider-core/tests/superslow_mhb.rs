@@ -1,4 +1,4 @@
-//! Multi-harmonic HB and static sag (issue 17 §2.5.2, §2.5.3; module `superslow_mhb`).
+//! Multi-harmonic HB and static sag (docs/model.md §6.4; module `superslow_mhb`).
 
 use beamslider_core::Params;
 use beamslider_core::superslow::{HbOptions, HbSystem, hb_manifold};

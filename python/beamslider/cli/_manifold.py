@@ -1,6 +1,6 @@
 """The super-slow manifold options shared by ``simulate``, ``compare`` and ``manifold``
 (--manifold hb|pcs|none, --manifold-periods/-record/-s) and the manifold run they ask for: the
-harmonic-balance manifold by default (issue 17 layer (a)), the PCS one of docs/model.md §6 on request."""
+harmonic-balance manifold by default (docs/model.md §6.4), the PCS one of docs/model.md §6 on request."""
 
 from __future__ import annotations
 
@@ -17,7 +17,7 @@ from ._files import (DEFAULT_MANIFOLD_RECORD, hb_manifold_file_stem, manifold_fi
 
 
 MANIFOLD_KINDS = ("hb", "pcs", "none")
-"""What ``simulate`` and ``compare`` overlay on panel (c): the harmonic-balance manifold (issue 17
+"""What ``simulate`` and ``compare`` overlay on panel (c): the harmonic-balance manifold (docs/model.md §6.4
 layer (a), milliseconds; the default), the PCS manifold by continuation (docs/model.md §6; about as
 much CPU as the run itself), or nothing."""
 

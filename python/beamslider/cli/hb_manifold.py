@@ -1,4 +1,4 @@
-"""``beamslider hb-manifold``: the super-slow manifold by harmonic balance (issue 17, layer (a))
+"""``beamslider hb-manifold``: the super-slow manifold by harmonic balance (docs/model.md §6.4)
 written as CSV + JSON + figure."""
 
 from __future__ import annotations

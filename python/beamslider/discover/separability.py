@@ -1,4 +1,4 @@
-"""Identifiability of slider-level candidates (issue 20 §4): linearised signatures of each effect
+"""Identifiability of slider-level candidates (docs/guide/discrepancy.md, "Identifiability"): linearised signatures of each effect
 in units of the feature uncertainties, their correlations, and for an inseparable pair the
 operating point whose predicted features differ most."""
 
