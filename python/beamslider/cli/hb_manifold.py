@@ -20,7 +20,7 @@ def add_parser(sub: Any) -> None:
         "hb-manifold", help="super-slow manifold by harmonic balance (milliseconds; slider rigidly attached)",
         description="Compute the super-slow manifold by N-mode harmonic balance (single-term by default) with the slider "
                     "rigidly attached (pseudo-arclength continuation, folds, stability) and write "
-                    "hb_manifold_<f>Hz_<a>ms2.csv/.json/.png.")
+                    "hb_manifold_<f>Hz_<a>ms2_N<n>.csv/.json/.png (plus _Deff<D>, _H<H>, _sag for those options).")
     add_operating_point(sp, positive_level=True)
     sp.add_argument("--n-modes", type=positive(int), default=5, metavar="N", help="retained beam modes (5)")
     sp.add_argument("--d-eff", type=float, metavar="D", help="equivalent damping ratio of all modes (default: params)")

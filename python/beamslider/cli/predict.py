@@ -1,5 +1,5 @@
 """``beamslider drift-table``, ``beamslider fit-law`` and ``beamslider predict``: the reduced
-super-slow predictor (issue 17, layer (b)): the drift velocity V(s, branch) measured in PCS sweeps,
+super-slow predictor (docs/model.md §6.3): the drift velocity V(s, branch) measured in PCS sweeps,
 the transferable drift law fitted on the tables of several operating points, and the prediction of
 one operating point from the HB manifold, a drift law and the slow flow."""
 
@@ -74,7 +74,7 @@ def add_parser(sub: Any) -> None:
 
     sp = sub.add_parser(
         "predict", help="reduced super-slow predictor: behaviour and final s of one operating point (milliseconds)",
-        description="Predict one operating point with the reduced model of issue 17: HB manifold (layer a), a drift "
+        description="Predict one operating point with the reduced model of docs/model.md §6.3: HB manifold (layer a), a drift "
                     "law (a PCS drift table of this point, or a fitted law) and the slow flow with jump events, "
                     "classified by the operating-map classifier. Writes predict_<f>Hz_<a>ms2_s0_<s0>.csv/.json/.png.")
     add_operating_point(sp, positive_level=True)
@@ -201,7 +201,7 @@ def cmd_predict(args: argparse.Namespace) -> int:
     try:
         drift = read_drift_table(args.drift) if args.drift else load_drift_law(args.law) if args.law else None
     except FileNotFoundError as e:
-        raise UserError(f"cannot read {e.filename}: no such file") from None
+        raise UserError(f"cannot read {e.filename or args.drift or args.law}: no such file") from None
     import scipy.spatial  # noqa: F401  (the law's kNN; imported here so that the printed time is the prediction's)
 
     r = predict(p, f_ex=args.f_ex, a_ex=args.a_ex, s0=args.s0, t_end=args.t_end, drift=drift, s_dn=args.s_dn, d_eff=args.d_eff)
