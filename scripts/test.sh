@@ -1,24 +1,39 @@
 #!/usr/bin/env bash
-# All tests: the Rust workspace (cargo test), then the Python package with pytest on the oldest
-# and the newest supported Python (3.9 and 3.13) where they are found, else on python3.
+# The tests.
 #
-# The extension is built once, as one abi3 wheel (valid for every CPython >= 3.9), and installed
-# with its test dependencies into one virtual environment per Python under target/test-venvs/
-# (re-used by later runs). Installs what it needs; a fresh machine needs only the toolchains.
-# The tests marked `heavy` (the discover fits, ~5 min) run on the last (newest) Python only.
+#   bash scripts/test.sh          the fast check: the Rust tests (cargo test), then the fast pytest
+#                                 suite (not `slow`, not `heavy`) on one Python (python3)
+#   bash scripts/test.sh --full   the full matrix (.ci/run): pytest on Python 3.9 and 3.13, the
+#                                 `heavy` tests on the newest; fails unless both are found
+#
+# The Rust core is compiled once, in the ci-wheel profile of Cargo.toml (release code generation
+# without link-time optimisation), for both the cargo tests and the abi3 wheel (valid for every
+# CPython >= 3.9), so the two builds share the compiled dependencies. While Cargo compiles, a
+# virtual environment per Python (target/test-venvs/, re-used by later runs) gets the test
+# dependencies. Installs what it needs; a fresh machine needs only the toolchains.
 #
 #   BEAMSLIDER_TEST_PYTHONS="/path/to/python3.9 /path/to/python3.13"   choose the interpreters
-#   BEAMSLIDER_REQUIRE_PYTHONS=1   fail unless both 3.9 and 3.13 are found (set by .ci/run)
+#   BEAMSLIDER_REQUIRE_PYTHONS=1   (--full) fail unless both 3.9 and 3.13 are found
 #   BEAMSLIDER_TEST_WORKERS=N      pytest-xdist workers (default 2, the cores of this project's machine)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-cargo test --workspace
-[ -f pyproject.toml ] || exit 0
+FULL=0
+for arg in "$@"; do
+  case "$arg" in
+    --full) FULL=1 ;;
+    -h|--help) sed -n '2,17p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    *) echo "scripts/test.sh: unknown option $arg (--full, --help)" >&2; exit 2 ;;
+  esac
+done
+[ "$FULL" = 1 ] && BEAMSLIDER_REQUIRE_PYTHONS=${BEAMSLIDER_REQUIRE_PYTHONS:-1}
+PROFILE=ci-wheel
+T0=$(date +%s)
+stamp() { echo "scripts/test.sh: [$(( $(date +%s) - T0 )) s] $*"; }
 
 find_python() {  # newest patch release of Python $1 on PATH or under pyenv
   local v=$1 c found=""
-  if command -v "python$v" >/dev/null 2>&1; then found=$(command -v "python$v"); fi
+  if command -v "python$v" >/dev/null 2>&1 && "python$v" -c '' >/dev/null 2>&1; then found=$(command -v "python$v"); fi
   for c in "${PYENV_ROOT:-$HOME/.pyenv}/versions/$v".*/bin/python; do
     [ -x "$c" ] && found=$c
   done
@@ -27,7 +42,7 @@ find_python() {  # newest patch release of Python $1 on PATH or under pyenv
 
 if [ -n "${BEAMSLIDER_TEST_PYTHONS:-}" ]; then
   read -r -a PYTHONS <<<"$BEAMSLIDER_TEST_PYTHONS"
-else
+elif [ "$FULL" = 1 ]; then
   PYTHONS=()
   for v in 3.9 3.13; do
     p=$(find_python "$v")
@@ -36,35 +51,91 @@ else
     elif [ -n "${BEAMSLIDER_REQUIRE_PYTHONS:-}" ]; then
       echo "scripts/test.sh: Python $v not found (on PATH as python$v or under pyenv)" >&2
       exit 1
-    else
-      echo "scripts/test.sh: Python $v not found; testing with the ones found" >&2
     fi
   done
-  [ ${#PYTHONS[@]} -gt 0 ] || PYTHONS=(python3)
+else
+  PYTHONS=(python3)
 fi
 
-# One abi3 wheel, built by pip through maturin (as `pip install .`, but with the lighter
-# ci-wheel profile of Cargo.toml: no LTO, parallel code generation).
-WHEELS=target/test-wheels
-rm -rf "$WHEELS"
-MATURIN_PEP517_ARGS="--profile ci-wheel" "${PYTHONS[0]}" -m pip wheel --no-deps --disable-pip-version-check --quiet --wheel-dir "$WHEELS" .
-WHEEL=$(ls "$WHEELS"/beamslider-*.whl)
-echo "scripts/test.sh: built $(basename "$WHEEL")"
+# The test dependencies of the package (pyproject.toml, extra "test"), without the package itself.
+test_requirements() {
+  "$1" - <<'PY'
+import ast, re
+text = open("pyproject.toml", encoding="utf-8").read()
+def arrays(section, names=None):  # name = [ ... ] entries of a TOML table (arrays of strings, over lines)
+    body = text.split(section, 1)[1].split("\n[", 1)[0].splitlines()
+    out, i = {}, 0
+    while i < len(body):
+        m = re.match(r"^(\w+) = (\[.*)$", body[i])
+        i += 1
+        if m and (names is None or m.group(1) in names):
+            chunk = m.group(2)
+            while True:
+                try:
+                    out[m.group(1)] = ast.literal_eval(chunk)
+                    break
+                except SyntaxError:
+                    chunk += "\n" + body[i]
+                    i += 1
+    return out
+deps = arrays("[project]\n", {"dependencies"})["dependencies"]
+extras = arrays("[project.optional-dependencies]")
+def expand(reqs):
+    for r in reqs:
+        m = re.match(r"beamslider\[([\w,]+)\]", r)
+        if m:
+            for e in m.group(1).split(","):
+                yield from expand(extras[e])
+        else:
+            yield r
+print("\n".join(dict.fromkeys([*deps, *expand(extras["test"])])))
+PY
+}
 
+# 1. In the background: one virtual environment per Python with the test dependencies.
+mkdir -p target/test-venvs
+VENV_PIDS=()
 for py in "${PYTHONS[@]}"; do
   ver=$("$py" -c 'import sys; print("%d.%d" % sys.version_info[:2])')
   venv=target/test-venvs/py$ver
-  [ -x "$venv/bin/python" ] || "$py" -m venv "$venv"
-  "$venv/bin/python" -m pip install --quiet --disable-pip-version-check "$WHEEL[test]"
+  (
+    [ -x "$venv/bin/python" ] || "$py" -m venv "$venv"
+    test_requirements "$venv/bin/python" > "$venv/requirements-test.txt"
+    "$venv/bin/python" -m pip install --quiet --disable-pip-version-check -r "$venv/requirements-test.txt"
+  ) > "target/test-venvs/py$ver.log" 2>&1 &
+  VENV_PIDS+=($!)
+done
+
+# 2. The Rust tests, in the wheel's profile.
+cargo test --workspace --profile "$PROFILE"
+stamp "cargo test passed"
+[ -f pyproject.toml ] || exit 0
+
+# 3. One abi3 wheel, built by pip through maturin (as `pip install .`) in the same profile: the
+#    dependencies and the core are already compiled.
+WHEELS=target/test-wheels
+rm -rf "$WHEELS"
+MATURIN_PEP517_ARGS="--profile $PROFILE" "${PYTHONS[0]}" -m pip wheel --no-deps --disable-pip-version-check --quiet --wheel-dir "$WHEELS" .
+WHEEL=$(ls "$WHEELS"/beamslider-*.whl)
+stamp "built $(basename "$WHEEL")"
+
+# 4. pytest, per Python.
+for i in "${!PYTHONS[@]}"; do
+  py=${PYTHONS[$i]}
+  ver=$("$py" -c 'import sys; print("%d.%d" % sys.version_info[:2])')
+  venv=target/test-venvs/py$ver
+  if ! wait "${VENV_PIDS[$i]}"; then
+    cat "target/test-venvs/py$ver.log" >&2
+    echo "scripts/test.sh: installing the test dependencies into $venv failed" >&2
+    exit 1
+  fi
   # Same version number as an earlier build: replace the package itself.
   "$venv/bin/python" -m pip install --quiet --disable-pip-version-check --force-reinstall --no-deps "$WHEEL"
-  # The heavy tests (discover fits of synthetic runs: pure Python on the core, about 5 minutes)
-  # run on the newest Python only; every other test runs on each.
-  marks="not slow"
-  [ "$py" = "${PYTHONS[${#PYTHONS[@]}-1]}" ] || marks="not slow and not heavy"
-  echo "scripts/test.sh: pytest on Python $ver ($venv), -m '$marks'"
+  marks="not slow and not heavy"
+  if [ "$FULL" = 1 ] && [ "$i" = $(( ${#PYTHONS[@]} - 1 )) ]; then marks="not slow"; fi
+  stamp "pytest on Python $ver ($venv), -m '$marks'"
   # Run from a neutral directory so that the installed package (not ./python) is imported.
-  # Two pytest-xdist workers (BEAMSLIDER_TEST_WORKERS); the README's examples are one test.
   (cd tests && "../$venv/bin/python" -m pytest -q -p no:cacheprovider -m "$marks" \
      -n "${BEAMSLIDER_TEST_WORKERS:-2}" .)
 done
+stamp "all tests passed"

@@ -14,6 +14,16 @@ import numpy as np
 import pytest
 
 REPO = Path(__file__).resolve().parent.parent
+
+# Hypothesis keeps no example database (it would write tests/.hypothesis/): a test run leaves
+# nothing behind in the tree.
+try:
+    from hypothesis import settings as _hyp_settings
+
+    _hyp_settings.register_profile("beamslider", database=None)
+    _hyp_settings.load_profile("beamslider")
+except ImportError:  # hypothesis is part of the extra "test"; without it those tests are skipped
+    pass
 GOLDEN_DIR = REPO / "crates" / "beamslider-core" / "tests" / "data"
 
 

@@ -1,11 +1,16 @@
-"""The README's examples are tests: every fenced ``sh`` or ``python`` block preceded by the line
-``<!-- runnable -->`` is run, in the order of the README, in one fresh temporary working directory
-that holds only a link to the repository's ``examples/`` folder (as a user in the root of a clone
-has it). Shell blocks run under ``bash -e -o pipefail``; ``pip install ...`` lines are skipped
-(the package under test is already installed). A block fails the test when it exits non-zero.
+"""The README's and the user guide's examples are tests.
 
-Blocks build on each other (``beamslider plot`` re-plots what ``beamslider simulate`` wrote), so
-they run as one test, which a pytest-xdist worker cannot split.
+Every fenced ``sh`` or ``python`` block of README.md, docs/getting-started.md, the user guide
+(docs/guide/*.md) and docs/cluster.md runs, page by page, in the order of the page, in one fresh
+temporary working directory per page that holds only a link to the repository's ``examples/``
+folder (as a user in the root of a clone has it). A block that is not to be run says why in the
+line before it: ``<!-- not-run: REASON -->`` (an installation step, the long form of a runnable
+short form given beside it, a cluster address, a Rust build). Shell blocks run under
+``bash -e -o pipefail``; ``pip install ...`` lines are skipped (the package under test is already
+installed). A block fails the test when it exits non-zero.
+
+The blocks of one page build on each other (``beamslider plot`` re-plots what ``beamslider
+simulate`` wrote), so a page is one test; pytest-xdist runs pages in parallel.
 """
 
 from __future__ import annotations
@@ -21,36 +26,51 @@ from typing import List, Tuple
 import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
-README = ROOT / "README.md"
-MARK = "<!-- runnable -->"
+PAGES = [ROOT / "README.md", ROOT / "docs" / "getting-started.md", ROOT / "docs" / "cluster.md",
+         *sorted((ROOT / "docs" / "guide").glob("*.md"))]
+NOT_RUN = re.compile(r"^<!-- not-run: (\S.*\S) -->$")
+RUNNABLE = "<!-- runnable -->"  # the default; kept as an explicit marker where a page wants one
 TIMEOUT_S = 900
 
 SHELL_PRELUDE = """\
-pip() { echo "(README test: skipped: pip $*)"; }
+pip() { echo "(documentation test: skipped: pip $*)"; }
 """
 
 
-def runnable_blocks(text: str) -> List[Tuple[int, str, str]]:
-    """(line number, language, code) of each marked block."""
-    lines = text.splitlines()
+def code_blocks(path: Path) -> List[Tuple[int, str, str, str]]:
+    """(line number, language, code, reason not to run or "") of each ``sh``/``python`` block."""
+    lines = path.read_text(encoding="utf-8").splitlines()
     blocks = []
     i = 0
     while i < len(lines):
-        if lines[i].strip() == MARK:
-            j = i + 1
-            m = re.match(r"^```(\w+)\s*$", lines[j].strip()) if j < len(lines) else None
-            if m is None or m.group(1) not in ("sh", "python"):
-                raise ValueError(f"README.md:{i + 1}: {MARK} must be followed by a ```sh or ```python fence")
-            k = j + 1
-            while k < len(lines) and lines[k].strip() != "```":
-                k += 1
-            blocks.append((j + 1, m.group(1), "\n".join(lines[j + 1:k]) + "\n"))
-            i = k
-        i += 1
+        m = re.match(r"^```(\w*)\s*$", lines[i].strip()) if lines[i].startswith("```") else None
+        if m is None:
+            i += 1
+            continue
+        k = i + 1
+        while k < len(lines) and lines[k].strip() != "```":
+            k += 1
+        lang = m.group(1)
+        if lang in ("sh", "bash", "python"):
+            before = lines[i - 1].strip() if i > 0 else ""
+            skip = NOT_RUN.match(before)
+            if before.startswith("<!--") and not skip and before != RUNNABLE:
+                raise ValueError(f"{path.name}:{i}: unknown marker {before!r} (use {RUNNABLE} or <!-- not-run: REASON -->)")
+            blocks.append((i + 2, "python" if lang == "python" else "sh", "\n".join(lines[i + 1:k]) + "\n",
+                           skip.group(1) if skip else ""))
+        i = k + 1
     return blocks
 
 
-BLOCKS = runnable_blocks(README.read_text(encoding="utf-8"))
+def test_pages_have_runnable_examples():
+    for page in PAGES:
+        assert page.exists(), page
+    readme = code_blocks(ROOT / "README.md")
+    langs = [b[1] for b in readme if not b[3]]
+    assert langs.count("sh") >= 2 and langs.count("python") >= 1, readme
+    for page in PAGES:
+        for line, lang, code, reason in code_blocks(page):
+            assert reason or code.strip(), f"{page.name}:{line}: empty block"
 
 
 @pytest.fixture
@@ -59,34 +79,31 @@ def workdir(tmp_path):
     return tmp_path
 
 
-def test_readme_has_runnable_examples():
-    langs = [b[1] for b in BLOCKS]
-    assert langs.count("sh") >= 2 and langs.count("python") >= 1, BLOCKS
-
-
-def run_block(lang: str, code: str, cwd: Path, line: int) -> subprocess.CompletedProcess:
+def run_block(lang: str, code: str, cwd: Path, name: str) -> subprocess.CompletedProcess:
     env = dict(os.environ)
     env["PATH"] = os.path.dirname(sys.executable) + os.pathsep + env.get("PATH", "")
     env["MPLBACKEND"] = "Agg"
     if lang == "python":
-        script = cwd / f"readme_line{line}.py"
+        script = cwd / f"{name}.py"
         script.write_text(code, encoding="utf-8")
         cmd = [sys.executable, script.name]
     else:
-        script = cwd / f"readme_line{line}.sh"
+        script = cwd / f"{name}.sh"
         script.write_text(SHELL_PRELUDE + code, encoding="utf-8")
         cmd = ["bash", "-e", "-o", "pipefail", script.name]
     return subprocess.run(cmd, cwd=cwd, env=env, capture_output=True, text=True, timeout=TIMEOUT_S)
 
 
-def test_readme_examples_in_order(workdir):
-    """All blocks in one test, in the README's order, in one folder: they build on each other, and
-    one test cannot be split between pytest-xdist workers (scripts/test.sh runs two)."""
-    for line, lang, code in BLOCKS:
+@pytest.mark.parametrize("page", PAGES, ids=lambda p: str(p.relative_to(ROOT)))
+def test_page_examples_in_order(page, workdir):
+    """All blocks of one page in one test, in the page's order, in one folder."""
+    for line, lang, code, reason in code_blocks(page):
+        if reason:
+            continue
         t0 = time.perf_counter()
-        r = run_block(lang, code, workdir, line)
+        r = run_block(lang, code, workdir, f"{page.stem}_line{line}")
         wall = time.perf_counter() - t0
         assert r.returncode == 0, (
-            f"README.md:{line}: the {lang} example failed (exit {r.returncode}, {wall:.1f} s)\n"
+            f"{page.relative_to(ROOT)}:{line}: the {lang} example failed (exit {r.returncode}, {wall:.1f} s)\n"
             f"--- code ---\n{code}--- stdout ---\n{r.stdout[-3000:]}--- stderr ---\n{r.stderr[-3000:]}"
         )

@@ -31,7 +31,7 @@ def main() -> int:
     t0 = time.perf_counter()
     rows = dc.separability(operating_points=OPS, duration_s=args.duration, grid=GRID)
     wall = time.perf_counter() - t0
-    lines = [f"Separability of the slider-level candidates from {len(OPS)} runs of {args.duration:g} s at {OPS} "
+    lines = ["# Separability of the slider-level candidates", "", f"Separability of the slider-level candidates from {len(OPS)} runs of {args.duration:g} s at {OPS} "
              f"(scripts/repro/discover_separability.py, {wall:.0f} s). cos: angle between the two effects' feature "
              f"signatures; norm: size of each signature (5 relevance thresholds, features in units of their "
              f"resolution floors); separable if |cos| <= 0.95 and both norms >= 2.", "",

@@ -18,7 +18,7 @@ fn help_lists_simulate() {
 
 #[test]
 fn simulate_writes_csv_with_header() {
-    let dir = std::env::temp_dir().join(format!("bsb-{}", std::process::id()));
+    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("bsb-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let out = dir.join("run.csv");
     let st = bin()
@@ -51,7 +51,7 @@ fn simulate_writes_csv_with_header() {
 
 #[test]
 fn bad_input_gives_clear_error_and_nonzero_exit() {
-    let dir = std::env::temp_dir().join(format!("bsb-bad-{}", std::process::id()));
+    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("bsb-bad-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let pfile = dir.join("bad.toml");
     std::fs::write(&pfile, "gap_ratio = 0.9\n").unwrap();

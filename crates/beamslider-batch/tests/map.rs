@@ -8,7 +8,7 @@ use common::{bin, rows};
 
 #[test]
 fn killed_map_resumes_without_loss_or_duplicates() {
-    let dir = std::env::temp_dir().join(format!("bsb-map-{}", std::process::id()));
+    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("bsb-map-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
     let cfg = dir.join("map.toml");
@@ -74,7 +74,7 @@ fn print_config_is_the_papers_map() {
 /// DIR/map.toml), prints how many it re-ran, and refuses T ≤ the map's duration.
 #[test]
 fn extend_to_reruns_the_not_settled_points() {
-    let dir = std::env::temp_dir().join(format!("bsb-extend-{}", std::process::id()));
+    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("bsb-extend-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
     let cfg = dir.join("c.toml");

@@ -18,7 +18,7 @@ const LAW: &str = r#"{"kind": "beamslider drift law", "version": 1,
 
 #[test]
 fn predicted_map_writes_resumes_and_refuses() {
-    let dir = std::env::temp_dir().join(format!("bsb-predictor-{}", std::process::id()));
+    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("bsb-predictor-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
     let law = dir.join("law.json");
@@ -56,7 +56,7 @@ fn predicted_map_writes_resumes_and_refuses() {
 
 #[test]
 fn bad_or_missing_law_is_a_one_line_error() {
-    let dir = std::env::temp_dir().join(format!("bsb-predictor-bad-{}", std::process::id()));
+    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("bsb-predictor-bad-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
     let bad = dir.join("bad.json");

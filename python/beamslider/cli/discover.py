@@ -48,7 +48,7 @@ def add_parser(sub: Any) -> None:
     sp.add_argument("--s0-offset", type=_s0_offset, default=0.0, metavar="DS",
                     help="slider: the truth runs start DS off the s0 their files name, as a slider placed by hand "
                          "is; without it the model at exactly the truth repeats the data's chaotic realisation "
-                         "(0; e.g. 0.0015, |DS| <= 0.05)")
+                         "(0; e.g. 0.0015, abs(DS) <= 0.05)")
     add_common(sp, model_options=False, window=False)
     sp.set_defaults(func=cmd_synthesize)
 
@@ -59,7 +59,7 @@ def _s0_offset(text: str) -> float:
     except ValueError:
         raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
     if not (math.isfinite(v) and abs(v) <= 0.05):
-        raise argparse.ArgumentTypeError(f"{text!r}: must be finite with |DS| <= 0.05")
+        raise argparse.ArgumentTypeError(f"{text!r}: must be finite with abs(DS) <= 0.05")
     return v
 
 
