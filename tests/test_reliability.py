@@ -1,4 +1,4 @@
-"""Reliability (README, section Reliability): bad input tried on purpose against the Python API,
+"""Reliability (docs/guide/reliability.md): bad input tried on purpose against the Python API,
 the ``beamslider`` command and the file readers; faults (blow-up, solver cap, failing map
 points, SIGTERM/SIGINT during a map); property tests of the readers (hypothesis); determinism.
 

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Bounded-time fuzzing of the file readers (README, section Reliability):
+# Bounded-time fuzzing of the file readers (docs/guide/reliability.md):
 #   Rust:   TOML parameters, map configuration, map results (JSON lines, --resume)
 #           -> crates/beamslider-core/examples/fuzz_readers.rs
 #   Python: measured files (beamslider.read_measurement), parameter TOML, the CSV readers of

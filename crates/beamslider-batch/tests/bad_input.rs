@@ -1,4 +1,4 @@
-//! Bad input to `beamslider-batch`, tried on purpose (README, section Reliability): every case
+//! Bad input to `beamslider-batch`, tried on purpose (docs/guide/reliability.md): every case
 //! must exit non-zero with a message naming the field, file or line, print no panic or
 //! backtrace, and overwrite nothing. Faults: a blow-up stops with a status and the time, solver
 //! cap hits are reported, a map with failing points finishes the others and lists the failures,
