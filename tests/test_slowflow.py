@@ -194,19 +194,21 @@ def test_builtin_default_law_is_the_committed_law_and_needs_no_file(tmp_path, ca
     a = predict(f_ex=124, a_ex=14)
     b = predict(f_ex=124, a_ex=14, drift=load_drift_law(committed))
     assert (a.behaviour, a.s_final, a.events) == (b.behaviour, b.s_final, b.events) and a.warnings == b.warnings == []
-    c = predict(Parameters(friction_coefficient=0.3), f_ex=124, a_ex=14)
-    assert any("built-in drift law was fitted at the default parameters" in w for w in c.warnings)
+    c = predict(Parameters(friction_coefficient=0.3), f_ex=124, a_ex=14)  # inside the design box: blended, no warning
+    assert c.warnings == [] and not c.extrapolated
+    c = predict(Parameters(friction_coefficient=0.5), f_ex=124, a_ex=14)  # outside it: said, and extrapolated
+    assert any("does not cover these parameters" in w and "friction_coefficient" in w for w in c.warnings) and c.extrapolated
     assert main(["predict", "--f-ex", "124", "--a-ex", "14", "--out", str(tmp_path)]) == 0
     js = json.loads((tmp_path / "predict_124Hz_14ms2_s0_0p3.json").read_text())
     assert js["drift"] == "built-in default law" and js["behaviour"] == a.behaviour and js["s_final"] == a.s_final
-    (tmp_path / "p.toml").write_text("friction_coefficient = 0.3\n")
+    (tmp_path / "p.toml").write_text("friction_coefficient = 0.5\n")
     capsys.readouterr()
     assert main(["predict", "--params", str(tmp_path / "p.toml"), "--out", str(tmp_path / "mu"), "--no-progress"]) == 0
-    assert "fitted at the default parameters" in capsys.readouterr().err
+    assert "does not cover these parameters" in capsys.readouterr().err
     rows = predicted_map(f_ex=[124.0], a_ex=[14.0])
     assert rows[0]["behaviour"] == a.behaviour and rows[0]["s_final"] == pytest.approx(a.s_final, abs=1e-9)
-    with pytest.warns(UserWarning, match="fitted at the default parameters"):
-        predicted_map(Parameters(friction_coefficient=0.3), f_ex=[124.0], a_ex=[14.0])
+    with pytest.warns(UserWarning, match="does not cover these parameters"):
+        predicted_map(Parameters(friction_coefficient=0.5), f_ex=[124.0], a_ex=[14.0])
 
 
 def test_fit_law_cli_and_predicted_map_cli(tmp_path, capsys):

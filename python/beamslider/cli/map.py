@@ -121,7 +121,7 @@ def cmd_map(args: argparse.Namespace) -> int:
 def _predicted(args: argparse.Namespace, out: Path) -> Any:
     """The map by the reduced predictor (``--predictor``): the grid of --f-ex/--a-ex/--s0/--t-end/--params."""
     from ..maps import predicted_map, rows_to_table
-    from ..superslow import builtin_law, load_drift_law
+    from ..superslow import DesignLaw, builtin_law, load_law
 
     if args.config or args.extend_to is not None or args.scheduler or args.scheduler_file:
         raise UserError("--predictor takes the grid from --f-ex/--a-ex/--s0/--t-end/--params (not --config, "
@@ -130,12 +130,12 @@ def _predicted(args: argparse.Namespace, out: Path) -> Any:
     if len(s0) != 1:
         raise UserError("--predictor: one s0 per map (run it once per s0)")
     try:
-        law = None if args.predictor == "default" else load_drift_law(args.predictor)
+        law = None if args.predictor == "default" else load_law(args.predictor)
     except FileNotFoundError:
         raise UserError(f"{args.predictor}: no such file (give a law written by beamslider fit-law, or 'default')") from None
     p = params_from_args(args)
-    if law is None:
-        law, note = builtin_law(p)
+    if law is None or isinstance(law, DesignLaw):
+        law, note = builtin_law(p) if law is None else law.law_for(p)
         if note:
             print(f"beamslider: warning: {note}", file=sys.stderr)
     if (out / "map.jsonl").exists() and not args.resume:

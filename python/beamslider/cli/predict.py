@@ -14,8 +14,9 @@ from pathlib import Path
 from typing import Any, List, Tuple
 
 from ..params import Parameters
-from ..superslow import (DEFAULT_LAW_PATH, LAW_JUMP_DOWN_N, LAW_TABLE_SETTINGS, LAW_TRAINING_POINTS, drift_table, drift_tables,
-                         fit_drift_law, load_drift_law, predict, read_drift_table, refine_jump_down, save_drift_law)
+from ..superslow import (DEFAULT_LAW_PATH, design_coordinates, design_params, design_sample, fit_design_law,
+                         load_drift_law, save_design_law, LAW_JUMP_DOWN_N, LAW_TABLE_SETTINGS, LAW_TRAINING_POINTS, drift_table, drift_tables,
+                         fit_drift_law, load_law, predict, read_drift_table, refine_jump_down, save_drift_law)
 from ._manifold import add_operating_point
 from ._common import (DEFAULT_OUT, UserError, add_common, add_force, axis_values, figure, fmt, out_dir, params_from_args,
                       plan_outputs, positive, print_written, write_json)
@@ -67,6 +68,10 @@ def add_parser(sub: Any) -> None:
     sp.add_argument("--first-settle-periods", type=positive(int), default=400, metavar="K",
                     help="settling periods at the first s of a sweep, from rest (400)")
     sp.add_argument("--threads", "-j", type=positive(int), metavar="N", help="tables computed at a time (default: one per core)")
+    sp.add_argument("--design", type=int, default=0, metavar="N",
+                    help="a design law (docs/model.md §6.5): fit the law of the prototype (--params) and of N designs "
+                         "drawn over the design box, and blend them (DIR/design_law.json; the built-in law: N = 64)")
+    sp.add_argument("--design-seed", type=int, default=0, metavar="S", help="seed of the designs' Sobol' sequence (0)")
     sp.add_argument("--resume", action="store_true", help="continue the tables in --out (same settings) and refit")
     add_common(sp, window=False, out=DEFAULT_LAW_OUT)
     add_force(sp)
@@ -149,15 +154,16 @@ def cmd_fit_law(args: argparse.Namespace) -> int:
         raise UserError("--points: at least two training points (the law is validated leaving one out)")
     if args.jump_down_n < 0:
         raise UserError(f"--jump-down-n {args.jump_down_n}: must be >= 0")
+    if args.design < 0 or args.design == 1 or args.design > 4096:
+        raise UserError(f"--design {args.design}: 0 (one law) or 2 to 4096 designs")
     cand = [(f, a) for f in axis_values("--candidates-f-ex", args.candidates_f_ex)
             for a in axis_values("--candidates-a-ex", args.candidates_a_ex)]
     out = Path(args.out)
-    law_path, drift_dir = out / "law.json", out / "drift"
-    jd_dir = drift_dir / "jump_down"
     if args.resume and args.force:
         raise UserError("give --resume or --force, not both")
-    ours = [law_path, *drift_dir.glob("drift_*.jsonl"), *jd_dir.glob("drift_*.jsonl")] if out.exists() else []
-    ours = [f for f in ours if f.exists()]
+    ours = [f for pat in ("law.json", "design_law.json", "drift/**/drift_*.jsonl", "designs/**/*")
+            for f in out.glob(pat)] if out.exists() else []
+    ours = [f for f in ours if f.is_file()]
     if ours and not (args.resume or args.force):
         raise UserError(f"{out} holds an earlier fit ({len(ours)} files, e.g. {ours[0]}): --resume continues it, "
                         "--force starts again")
@@ -168,13 +174,9 @@ def cmd_fit_law(args: argparse.Namespace) -> int:
                     window_s=args.window_s)
     progress = sys.stderr.isatty() if args.progress is None else args.progress
     t0, c0 = time.perf_counter(), time.process_time()
-    tabs = drift_tables(p, points=pts, out=drift_dir, resume=args.resume, threads=args.threads, progress=progress, **settings)
-    extra = refine_jump_down(tabs, candidates=cand, n=args.jump_down_n, params=p, out=jd_dir, threads=args.threads,
-                             progress=progress, **settings) if args.jump_down_n else []
-    law = fit_drift_law(tabs, params=p, jump_down_tables=extra)
-    tmp = law_path.with_name(law_path.name + ".tmp")
-    save_drift_law(law, tmp)
-    tmp.replace(law_path)
+    if args.design:
+        return _fit_design(args, p, pts, cand, settings, progress, out, t0, c0)
+    law, tabs, extra = _fit_one(args, p, pts, cand, settings, progress, out)
     wall, cpu = time.perf_counter() - t0, time.process_time() - c0
     lo = law.loo
     br = law.rho_bracket or {}
@@ -187,10 +189,51 @@ def cmd_fit_law(args: argparse.Namespace) -> int:
           + (f"jump-down at s_p = {law.jump_down_s:.3f} where ρ ≤ ρ_c = {law.rho_c:.5f}" if law.rho_c > 0 else "no jump-down learnt")
           + (f" (bracket {br['lo']:.5f} … {br['hi']:.5f})" if br.get("lo") is not None and br.get("hi") is not None else "")
           + f", V resolution {law.v_resolution:.2e} 1/s")
+    law_path = out / "law.json"
     if p == Parameters() and _law_content(law_path) == _law_content(DEFAULT_LAW_PATH):
         print("(the built-in default law: the same samples and constants)")
-    print(f"wrote {law_path} (tables in {drift_dir}); use it: beamslider predict --law {law_path}, "
+    print(f"wrote {law_path} (tables in {out / 'drift'}); use it: beamslider predict --law {law_path}, "
           f"beamslider map --predictor {law_path}")
+    return 0
+
+
+def _fit_one(args, p, pts, cand, settings, progress, out):
+    """The law of one parameter set by the recipe (tables, jump-down bisection, fit) into out/law.json."""
+    law_path, drift_dir = out / "law.json", out / "drift"
+    tabs = drift_tables(p, points=pts, out=drift_dir, resume=args.resume, threads=args.threads, progress=progress, **settings)
+    extra = refine_jump_down(tabs, candidates=cand, n=args.jump_down_n, params=p, out=drift_dir / "jump_down",
+                             threads=args.threads, progress=progress, **settings) if args.jump_down_n else []
+    law = fit_drift_law(tabs, params=p, jump_down_tables=extra)
+    tmp = law_path.with_name(law_path.name + ".tmp")
+    save_drift_law(law, tmp)
+    tmp.replace(law_path)
+    return law, tabs, extra
+
+
+def _fit_design(args, p, pts, cand, settings, progress, out, t0, c0) -> int:
+    """``fit-law --design N``: the prototype's law and those of N designs over the box, blended."""
+    designs = [design_coordinates(p, p)] + design_sample(args.design, seed=args.design_seed)
+    laws = []
+    for i, x in enumerate(designs):
+        d = out / "designs" / ("prototype" if i == 0 else f"design_{i - 1:03d}")
+        d.mkdir(parents=True, exist_ok=True)
+        q = p if i == 0 else design_params(x, p)
+        (d / "params.toml").write_text(q.toml_text(), encoding="utf-8")
+        if args.resume and (d / "law.json").exists():
+            laws.append(load_drift_law(d / "law.json"))
+            continue
+        laws.append(_fit_one(args, q, pts, cand, settings, progress, d)[0])
+        print(f"design {i}/{len(designs) - 1}: {d / 'law.json'} ({time.perf_counter() - t0:.0f} s)", flush=True)
+    law = fit_design_law(designs, laws, base=p)
+    path = out / "design_law.json"
+    tmp = path.with_name(path.name + ".tmp")
+    save_design_law(law, tmp)
+    tmp.replace(path)
+    wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+    print(f"design law from {len(laws)} designs in {wall:.1f} s ({cpu:.1f} s CPU); leave one design out: V error "
+          f"{law.loo['ratio']:.3f} of the typical |V|; length scales "
+          + ", ".join(f"{c.name} {s:g}" for c, s in zip(law.box, law.scales)))
+    print(f"wrote {path}; use it: beamslider predict --law {path}, beamslider map --predictor {path}")
     return 0
 
 
@@ -199,7 +242,7 @@ def cmd_predict(args: argparse.Namespace) -> int:
     stem = f"predict_{fmt(args.f_ex)}Hz_{fmt(args.a_ex)}ms2_s0_{fmt(args.s0)}"
     plan_outputs(args, [f"{stem}.{ext}" for ext in ("csv", "json", "png")])
     try:
-        drift = read_drift_table(args.drift) if args.drift else load_drift_law(args.law) if args.law else None
+        drift = read_drift_table(args.drift) if args.drift else load_law(args.law) if args.law else None
     except FileNotFoundError as e:
         raise UserError(f"cannot read {e.filename or args.drift or args.law}: no such file") from None
     import scipy.spatial  # noqa: F401  (the law's kNN; imported here so that the printed time is the prediction's)

@@ -33,7 +33,7 @@ _NOT_CONTINUOUS = ("n_modes", "solver_max_iter", "contact_solver")
 
 EXAMPLE_TOML = """\
 # beamslider design configuration (beamslider design --print-config)
-evaluator = "fs"                 # fs | predictor (then give drift_law = "law.json")
+evaluator = "fs"                 # fs | predictor (drift_law = "default", the built-in design law, or a law file)
 seed = 1                         # the optimiser's seed: same seed, same designs, same result
 
 [design]                         # design variables: a Parameters field = [low, high]
@@ -175,8 +175,8 @@ class DesignConfig:
         if self.evaluator not in EVALUATORS:
             raise ValueError(f"invalid parameter `evaluator` = {self.evaluator!r}: must be one of {', '.join(EVALUATORS)}")
         if self.evaluator == "predictor" and not self.drift_law:
-            raise ValueError("invalid parameter `drift_law`: the predictor evaluator needs a fitted drift law "
-                             "(a JSON file written by `beamslider fit-law` or beamslider.superslow.save_drift_law)")
+            raise ValueError("invalid parameter `drift_law`: the predictor evaluator needs a drift law: \"default\" "
+                             "(the built-in design law) or a JSON file written by `beamslider fit-law`")
         if self.evaluator == "predictor" and len(self.s0) != 1:
             raise ValueError("invalid parameter `band.s0`: the predictor evaluator takes one s0")
         self.seed = _int("seed", self.seed, 0)

@@ -72,6 +72,8 @@ class _Search:
         """The maximised value of a record (bandwidth + weight · harvest, or harvest)."""
         if not rec["feasible"]:
             return -INFEASIBLE_ENERGY
+        if rec.get("extrapolated"):  # outside what the predictor's law covers: unknown, not good
+            return -0.5 * INFEASIBLE_ENERGY
         if self.c.maximise == "harvest":
             return float(rec["harvest"])
         return float(rec["bandwidth_hz"] + self.c.harvest_weight_hz * rec["harvest"])
@@ -95,6 +97,7 @@ class _Search:
             rec.update(self._aggregate(mode, per))
             rec["samples"] = per
             rec["moved"] = any(slider_moved(p) for p in (points or []))
+            rec["extrapolated"] = any(bool(q.get("extrapolated")) for p in (points or []) for q in p)
             rec["runs"] = sum(len(p) for p in (points or []))
         rec["score"] = self.score(rec)
         return rec
@@ -183,10 +186,10 @@ class _Search:
                        samples: List[Dict[str, float]], desc: str, out: Dict[str, Dict[str, Any]]) -> None:
         from .._util import progress_bar
         from ..maps import predicted_map
-        from ..superslow import load_drift_law
+        from ..superslow import default_law, load_law
 
         if self._law is None:
-            self._law = load_drift_law(self.c.drift_law)
+            self._law = default_law() if self.c.drift_law == "default" else load_law(self.c.drift_law)
         total = len(todo) * len(samples) * len(self.c.operating_points())
         done = 0
         with progress_bar(self.progress, total, desc, "pts") as bar:
@@ -198,7 +201,8 @@ class _Search:
                     for s0 in self.c.s0:
                         rows = predicted_map(ps, drift=self._law, f_ex=self.c.f_ex_hz(), a_ex=self.c.a_ex_m_s2, s0=s0,
                                              t_end=t_end)
-                        pts += [{key: r.get(key) for key in _POINT_KEYS} for r in rows]
+                        pts += [{**{key: r.get(key) for key in _POINT_KEYS}, "extrapolated": bool(r.get("extrapolated"))}
+                                for r in rows]
                     pts_all.append(pts)
                     done += len(pts)
                     self.runs_now += len(pts)

@@ -21,7 +21,7 @@ from .. import _core, _toml
 from .._util import progress_bar
 from ..params import Parameters, resolve
 from ..simulate import SimulationResult
-from ..superslow import DriftLaw, builtin_law, law_json, predict
+from ..superslow import DesignLaw, DriftLaw, builtin_law, law_json, predict
 from .config import MIN_CLASSIFY_S, RESULTS_FILE, criteria_toml, map_config_toml
 from .read import rows_to_table
 
@@ -244,9 +244,14 @@ def operating_map(params: Optional[Parameters] = None, *, f_ex: Any, a_ex: Any, 
                           scheduler_file=scheduler_file, chunk_size=chunk_size)
 
 
-def _default_law_for(p: Parameters) -> DriftLaw:
-    """The built-in law, with a UserWarning when ``p`` are not the defaults it was fitted at."""
-    law, note = builtin_law(p)
+def _law_for(p: Parameters, drift: Union[DriftLaw, DesignLaw, None]) -> DriftLaw:
+    """The law for ``p``: the built-in design law's or the given design law's blend for ``p`` (a
+    UserWarning when ``p`` lie outside what it covers), or ``drift`` itself."""
+    if isinstance(drift, DriftLaw):
+        return drift
+    if drift is not None and not isinstance(drift, DesignLaw):
+        raise ValueError("invalid parameter `drift`: a fitted DriftLaw or DesignLaw (beamslider.superslow.load_law)")
+    law, note = builtin_law(p) if drift is None else drift.law_for(p)
     if note:
         import warnings
 
@@ -257,7 +262,7 @@ def _default_law_for(p: Parameters) -> DriftLaw:
 def predicted_map(
     params: Optional[Parameters] = None,
     *,
-    drift: Optional[DriftLaw] = None,
+    drift: Union[DriftLaw, DesignLaw, None] = None,
     f_ex: Sequence[float],
     a_ex: Sequence[float],
     s0: float = 0.3,
@@ -282,10 +287,11 @@ def predicted_map(
     rows go to ``out/map.jsonl`` with the predictor in its header; an existing file is refused
     (``FileExistsError``) unless ``force`` (replaced) or ``resume`` (its points are kept; it must
     hold the same law and settings). ``s_dn='none'`` is evaluated in Python (:func:`beamslider.superslow.predict`) and
-    cannot be written (``out`` must be None). ``drift=None``: the built-in default law
-    (:func:`beamslider.superslow.default_drift_law`; a warning if ``params`` are not the defaults it was fitted at)."""
+    cannot be written (``out`` must be None). ``drift``: a :class:`DriftLaw`, or a :class:`DesignLaw`
+    blended for ``params`` (docs/model.md §6.5; a warning when they lie outside what it covers, and
+    every row ``extrapolated``); None: the built-in design law (:func:`beamslider.superslow.default_law`)."""
     p = resolve(params)
-    drift = _default_law_for(p) if drift is None else drift
+    drift = _law_for(p, drift)
     if s_dn not in ("hb", "law", "none"):
         raise ValueError(f"invalid parameter `s_dn` = {s_dn!r}: one of 'hb', 'law', 'none'")
     if not isinstance(drift, DriftLaw):

@@ -18,8 +18,8 @@ from .. import _core
 from ..params import Parameters
 
 
-__all__ = ["BUILTIN_LAW_NOTE", "DEFAULT_LAW_PATH", "DriftLaw", "FEATURES", "LAW_JUMP_DOWN_CANDIDATES",
-           "LAW_JUMP_DOWN_N", "LAW_TABLE_SETTINGS", "LAW_TRAINING_POINTS", "S_DN_MIN", "builtin_law",
+__all__ = ["DEFAULT_LAW_PATH", "DriftLaw", "FEATURES", "LAW_JUMP_DOWN_CANDIDATES",
+           "LAW_JUMP_DOWN_N", "LAW_TABLE_SETTINGS", "LAW_TRAINING_POINTS", "S_DN_MIN",
            "default_drift_law", "features", "forcing_ratio", "law_inputs", "law_json", "load_drift_law",
            "mono_features", "monostable_inputs", "move_fold", "s_dn_forcing_ratio", "save_drift_law"]
 
@@ -185,6 +185,9 @@ class DriftLaw:
     reports whether the prediction stays the same (``Prediction.robust``); 0: not checked."""
     v_offset: float = 0.0
     """Added to V wherever Λ_g ≥ Λ_c (0; the robustness check's shifted copies, :meth:`shifted`)."""
+    outside_design: List[str] = field(default_factory=list)
+    """Why the design this law was blended for lies outside what its design law covers
+    (:meth:`beamslider.superslow.DesignLaw.law_for`); every prediction with it is ``extrapolated``."""
     _trees: dict = field(default_factory=dict, repr=False, compare=False)
 
     def monostable(self, manifold, exclude_group: Optional[int] = None) -> bool:
@@ -334,9 +337,9 @@ def move_fold(s, z: float, fold: float, new_fold: float):
     return z - (z - s) * (z - new_fold) / (z - fold)
 
 
-def law_json(law: DriftLaw) -> str:
-    """The law file's JSON text (what :func:`save_drift_law` writes; read by the core,
-    ``beamslider-batch map --predictor``)."""
+def law_dict(law: DriftLaw, *, compact: bool = False) -> dict:
+    """The law file's content (:func:`law_json`). ``compact``: only what an evaluation reads (no
+    leave-one-out reports, groups or fit time), as stored inside a design law."""
     d = {
         "kind": "beamslider drift law", "version": 1, "features": list(FEATURES), "k": law.k,
         "x": {b: law.x[b].tolist() for b in law.x}, "v": {b: law.v[b].tolist() for b in law.v},
@@ -349,7 +352,19 @@ def law_json(law: DriftLaw) -> str:
         "mono_groups": law.mono_groups.tolist(), "lift_c": law.lift_c, "lift_c_per_point": law.lift_c_per_point,
         "v_resolution": law.v_resolution,
     }
-    return json.dumps(d)
+    if law.outside_design:
+        d["outside_design"] = list(law.outside_design)
+    if compact:
+        for key in ("groups", "loo", "loo_per_point", "fit_time_s", "rho_bracket", "loo_s_dn", "loo_s_up", "mono_groups",
+                    "lift_c_per_point"):
+            d.pop(key)
+    return d
+
+
+def law_json(law: DriftLaw) -> str:
+    """The law file's JSON text (what :func:`save_drift_law` writes; read by the core,
+    ``beamslider-batch map --predictor``)."""
+    return json.dumps(law_dict(law))
 
 
 def save_drift_law(law: DriftLaw, path: Union[str, os.PathLike]) -> None:
@@ -381,45 +396,51 @@ def default_drift_law() -> DriftLaw:
     return load_drift_law(DEFAULT_LAW_PATH)
 
 
-BUILTIN_LAW_NOTE = ("the built-in drift law was fitted at the default parameters; these differ, so fit a law of "
-                    "their own (fit_drift_law) before trusting the prediction")
-
-
-def builtin_law(p: Parameters) -> Tuple[DriftLaw, Optional[str]]:
-    """The built-in law and, when ``p`` are not the defaults it was fitted at, the note that says so."""
-    return default_drift_law(), (None if p == Parameters() else BUILTIN_LAW_NOTE)
-
-
 def load_drift_law(path: Union[str, os.PathLike]) -> DriftLaw:
-    """Read a law written by :func:`save_drift_law` (ValueError for a file that is not one)."""
+    """Read a law written by :func:`save_drift_law` (ValueError for a file that is not one; a design
+    law is read by :func:`beamslider.superslow.load_law`)."""
     try:
         d = json.loads(Path(path).read_text(encoding="utf-8"))
     except json.JSONDecodeError as e:
         raise ValueError(f"invalid parameter `law`: {path} is not a beamslider drift law file ({e})") from None
+    return law_from_dict(d, str(path))
+
+
+def law_from_dict(d: dict, source: str = "the law") -> DriftLaw:
+    """A :class:`DriftLaw` from a law file's content (ValueError naming ``source`` and the key for a
+    malformed one)."""
     if not isinstance(d, dict) or d.get("kind") != "beamslider drift law":
-        raise ValueError(f"invalid parameter `law`: {path} is not a beamslider drift law file")
+        raise ValueError(f"invalid parameter `law`: {source} is not a beamslider drift law file")
     if list(d.get("features", [])) != list(FEATURES):
-        raise ValueError(f"invalid parameter `law`: {path} uses the features {d.get('features')}, this version {list(FEATURES)}")
-    # The scalars the core checks too (predictor::DriftLaw::from_json_str), with its bounds.
+        raise ValueError(f"invalid parameter `law`: {source} uses the features {d.get('features')}, this version {list(FEATURES)}")
+    # The scalars the core checks too (superslow::law::DriftLaw::from_json_str), with its bounds.
     for key, default, ok, rule in (("rho_c", 0.0, lambda x: x >= 0, ">= 0"), ("jump_down_s", 0.0, lambda x: 0 <= x <= 0.5, "in [0, 0.5]"),
                                    ("lift_c", 1.0, lambda x: 0 < x <= 2, "in (0, 2]"), ("v_resolution", 0.0, lambda x: 0 <= x < 0.1, "in [0, 0.1)")):
         x = d.get(key, default)
         if not (isinstance(x, (int, float)) and math.isfinite(x) and ok(x)):
-            raise ValueError(f"invalid parameter `law`: {path} has {key} = {x!r}, must be finite and {rule}")
+            raise ValueError(f"invalid parameter `law`: {source} has {key} = {x!r}, must be finite and {rule}")
+    for key in ("x", "v", "mean", "std", "lo", "hi", "points", "k"):
+        if key not in d:
+            raise ValueError(f"invalid parameter `law`: {source} lacks `{key}`")
     arr = lambda v: np.asarray(v, dtype=float)  # noqa: E731
     n = len(FEATURES)
-    return DriftLaw(
-        x={b: arr(v).reshape(-1, n) for b, v in d["x"].items()}, v={b: arr(v) for b, v in d["v"].items()},
-        groups={b: np.asarray(v, dtype=int) for b, v in d["groups"].items()}, mean=arr(d["mean"]), std=arr(d["std"]),
-        lo=arr(d["lo"]), hi=arr(d["hi"]), points=[tuple(p) for p in d["points"]], k=int(d["k"]), loo=d.get("loo", {}),
-        loo_per_point=d.get("loo_per_point", []), fit_time_s=float(d.get("fit_time_s", 0.0)),
-        rho_c=float(d.get("rho_c", 0.0)), jump_down_s=float(d.get("jump_down_s", 0.0)), rho_bracket=d.get("rho_bracket", {}), loo_s_dn=d.get("loo_s_dn", []),
-        s_up_shift=float(d.get("s_up_shift", 0.0)), loo_s_up=d.get("loo_s_up", []),
-        mono_x=arr(d.get("mono_x", [])).reshape(-1, 2), mono_y=arr(d.get("mono_y", [])),
-        mono_std=arr(d.get("mono_std", [1.0, 1.0])), mono_groups=np.asarray(d.get("mono_groups", []), dtype=int),
-        lift_c=float(d.get("lift_c", 1.0)), lift_c_per_point=d.get("lift_c_per_point", []),
-        v_resolution=float(d.get("v_resolution", 0.0)),
-    )
+    try:
+        x = {b: arr(v).reshape(-1, n) for b, v in d["x"].items()}
+        v = {b: arr(v) for b, v in d["v"].items()}
+        groups = {b: np.asarray(d.get("groups", {}).get(b, np.zeros(v[b].size)), dtype=int) for b in v}
+        return DriftLaw(
+            x=x, v=v, groups=groups, mean=arr(d["mean"]), std=arr(d["std"]),
+            lo=arr(d["lo"]), hi=arr(d["hi"]), points=[tuple(p) for p in d["points"]], k=int(d["k"]), loo=d.get("loo", {}),
+            loo_per_point=d.get("loo_per_point", []), fit_time_s=float(d.get("fit_time_s", 0.0)),
+            rho_c=float(d.get("rho_c", 0.0)), jump_down_s=float(d.get("jump_down_s", 0.0)), rho_bracket=d.get("rho_bracket", {}), loo_s_dn=d.get("loo_s_dn", []),
+            s_up_shift=float(d.get("s_up_shift", 0.0)), loo_s_up=d.get("loo_s_up", []),
+            mono_x=arr(d.get("mono_x", [])).reshape(-1, 2), mono_y=arr(d.get("mono_y", [])),
+            mono_std=arr(d.get("mono_std", [1.0, 1.0])), mono_groups=np.asarray(d.get("mono_groups", [0] * len(d.get("mono_y", []))), dtype=int),
+            lift_c=float(d.get("lift_c", 1.0)), lift_c_per_point=d.get("lift_c_per_point", []),
+            v_resolution=float(d.get("v_resolution", 0.0)), outside_design=[str(r) for r in d.get("outside_design", [])],
+        )
+    except (AttributeError, TypeError, ValueError) as e:
+        raise ValueError(f"invalid parameter `law`: {source} is malformed ({e})") from None
 
 
 DriftLaw.save = save_drift_law  # type: ignore[attr-defined]

@@ -17,7 +17,8 @@ import numpy as np
 from .. import _core
 from .._util import number
 from ..params import Parameters, resolve
-from .law import DriftLaw, builtin_law, features, mono_features, move_fold
+from .design_law import DesignLaw, builtin_law
+from .law import DriftLaw, features, mono_features, move_fold
 from .manifold import hb_manifold
 from .tables import DriftTable
 
@@ -147,7 +148,8 @@ def slow_model(manifold, drift, *, s_dn: str = "auto", nodes: int = 121, v_dead:
             s_dn_v = drift.s_dn(manifold)
         else:
             s_dn = "hb"
-    info = {"extrapolated": isinstance(drift, DriftLaw) and drift.outside_points(manifold.f_ex, manifold.a_ex),
+    info = {"extrapolated": isinstance(drift, DriftLaw) and (bool(drift.outside_design)
+                                                             or drift.outside_points(manifold.f_ex, manifold.a_ex)),
             "features": {}, "s_up": s_up, "s_dn": s_dn_v, "s_dn_source": s_dn if s_dn_v is not None else "none"}
     out = {}
     for br in ("L", "H"):
@@ -251,11 +253,11 @@ def predict(
         a_ex: base-acceleration amplitude [m/s^2].
         s0: initial slider position, within [B/(2L), 1 − B/(2L)].
         t_end: duration [s].
-        drift: a :class:`DriftTable` of this operating point (b1) or a fitted :class:`DriftLaw`
-            (b2). A law used outside its training range is reported (``extrapolated``, a warning),
-            never silently. ``None`` (default): the built-in default law
-            (:func:`default_drift_law`, fitted at the default parameters; with other parameters
-            a warning says so).
+        drift: a :class:`DriftTable` of this operating point (b1), a fitted :class:`DriftLaw`
+            (b2) or a :class:`DesignLaw` (blended for ``params``, docs/model.md §6.5). A law used
+            outside its training range or design box is reported (``extrapolated``, a warning),
+            never silently. ``None`` (default): the built-in design law (:func:`default_law`; at
+            the prototype the default law itself).
         s_dn: source of the jump-down position: 'hb' (the HB manifold's own; none with single-term
             HB), 'table' (the PCS sweep of a DriftTable), 'law' (the HB manifold's own, else
             learnt from the PCS tables by a fitted DriftLaw: where the forcing ratio
@@ -293,8 +295,10 @@ def predict(
     builtin_note = None
     if drift is None:
         drift, builtin_note = builtin_law(p)
+    elif isinstance(drift, DesignLaw):
+        drift, builtin_note = drift.law_for(p)
     if not isinstance(drift, (DriftTable, DriftLaw)):
-        raise ValueError("invalid parameter `drift`: a DriftTable (b1) or a DriftLaw (b2, fit_drift_law)")
+        raise ValueError("invalid parameter `drift`: a DriftTable (b1), a DriftLaw (b2, fit_drift_law) or a DesignLaw")
     if isinstance(drift, DriftTable) and (abs(drift.f_ex - f_ex) > 1e-9 or abs(drift.a_ex - a_ex) > 1e-9):
         raise ValueError(f"invalid parameter `drift`: the table is for ({drift.f_ex:g} Hz, {drift.a_ex:g} m/s²), not ({f_ex:g}, {a_ex:g})")
     if source not in ("hb", "table"):
@@ -351,7 +355,7 @@ def predict(
     warnings = list(r["warnings"])
     if info.get("note"):
         warnings.insert(0, info["note"])
-    if info["extrapolated"]:
+    if info["extrapolated"] and not (isinstance(drift, DriftLaw) and drift.outside_design):
         pts = ", ".join(f"({f:g}, {a:g})" for f, a in drift.points)
         warnings.insert(0, f"drift law used outside its training range (trained on {pts}): V extrapolated from the nearest samples")
     if builtin_note:

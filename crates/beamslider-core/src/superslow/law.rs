@@ -62,6 +62,8 @@ pub(super) struct LawFile {
     pub(super) jump_down_s: f64,
     #[serde(default)]
     pub(super) v_resolution: f64,
+    #[serde(default)]
+    pub(super) outside_design: Vec<String>,
 }
 
 pub(super) fn one() -> f64 {
@@ -119,6 +121,9 @@ pub struct DriftLaw {
     /// [`predict_point`] re-runs the slow flow with V shifted by ± this much to tell a robust
     /// prediction from one that hinges on V within its measurement error ([`ROBUST_DS`]).
     pub v_resolution: f64,
+    /// Why the design this law was blended for lies outside its design law's box (docs/model.md
+    /// §6.5; empty inside): every prediction with the law is then extrapolated.
+    pub outside_design: Vec<String>,
     /// Fingerprint of the samples (FNV-1a over the bits of k, the samples and the scaling):
     /// written to a predicted map's header and compared on resume.
     pub fingerprint: String,
@@ -248,6 +253,7 @@ impl DriftLaw {
             rho_c: f.rho_c,
             jump_down_s: f.jump_down_s,
             v_resolution: f.v_resolution,
+            outside_design: f.outside_design,
             fingerprint: format!("{:016x}", hash.0),
         })
     }

@@ -166,7 +166,7 @@ type Moving = [Vec<bool>; 2];
 /// [`slow_model_with`], also returning which nodes can move ([`Moving`]).
 fn slow_model_masked(params: &Params, beam: &Beam, manifold: &HbManifold, law: &DriftLaw, f_ex_hz: f64, a_ex: f64, nodes: usize) -> Result<(SlowModel, bool, Moving)> {
     let mut moving: Moving = [Vec::new(), Vec::new()];
-    let mut extrapolated = law.outside_points(f_ex_hz, a_ex);
+    let mut extrapolated = !law.outside_design.is_empty() || law.outside_points(f_ex_hz, a_ex);
     let mut model = SlowModel { low_ends_in_fold: manifold.s_up.is_some(), ..SlowModel::default() };
     let s_dn = manifold.s_dn.or_else(|| law_s_dn(manifold, f_ex_hz, a_ex, law.rho_c, law.jump_down_s, params.thickness_m));
     for high in [false, true] {
