@@ -41,6 +41,7 @@ source_suffix = {".rst": "restructuredtext", ".md": "markdown"}
 root_doc = "index"
 exclude_patterns = [
     "_build",
+    "api/_data",
     "Thumbs.db",
     ".DS_Store",
     "gallery/*.ipynb",
@@ -89,6 +90,35 @@ sphinx_gallery_conf = {
 os.environ.setdefault("MPLBACKEND", "Agg")
 
 
+# The API pages document each module's functions and classes with automodule (which follows
+# __all__); the constants of __all__ autodoc does not pick up by itself, so each page includes a
+# list of them generated here from __all__ at every build (docs/api/_data/, not committed).
+API_MODULES = {"beamslider": "beamslider", "superslow": "beamslider.superslow", "maps": "beamslider.maps",
+               "study": "beamslider.study", "design": "beamslider.design", "enma": "beamslider.enma",
+               "discover": "beamslider.discover", "cli": "beamslider.cli", "plotting": "beamslider.plotting"}
+
+
+def _write_constant_lists() -> None:
+    import importlib
+    import inspect
+
+    out = Path(__file__).resolve().parent / "api" / "_data"
+    out.mkdir(exist_ok=True)
+    for page, modname in API_MODULES.items():
+        mod = importlib.import_module(modname)
+        names = [n for n in getattr(mod, "__all__", [])
+                 if not any(f(getattr(mod, n)) for f in (inspect.isclass, inspect.isroutine, inspect.ismodule))]
+        text = ""
+        if names:
+            text = "Constants\n---------\n\n" + "".join(f".. autodata:: {modname}.{n}\n   :no-value:\n\n" for n in names)
+        path = out / f"{page}.rst"
+        if not path.exists() or path.read_text(encoding="utf-8") != text:
+            path.write_text(text, encoding="utf-8")
+
+
+_write_constant_lists()
+
+
 def _escape_bars(app, what, name, obj, options, lines):
     """Docstrings write |x| for absolute values and norms; in reStructuredText a pair of bars is a
     substitution reference. Escape them (no docstring of the package uses substitutions)."""
@@ -97,5 +127,16 @@ def _escape_bars(app, what, name, obj, options, lines):
             lines[i] = line.replace("\\|", "|").replace("|", "\\|")
 
 
+def _describe_constants(app, what, name, obj, options, lines):
+    """A constant without a doc comment would show its type's docstring (dict, tuple, ...): show
+    its type and, when short, its value instead."""
+    own = (getattr(obj, "__doc__", None) or "").strip().splitlines()
+    first = next((ln.strip() for ln in lines if ln.strip()), None)
+    if what in ("data", "attribute") and own and first == own[0].strip():
+        text = repr(obj)
+        lines[:] = [f"``{type(obj).__name__}``" + (f": ``{text}``" if len(text) <= 100 and "`" not in text else "")]
+
+
 def setup(app):
+    app.connect("autodoc-process-docstring", _describe_constants, priority=300)
     app.connect("autodoc-process-docstring", _escape_bars, priority=400)
