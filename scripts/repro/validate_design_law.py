@@ -9,6 +9,10 @@ under --work) and the predicted map with the design law (the built-in one unless
 adaption bandwidth per level (beamslider.design.objectives, a_min 0.3 h) and the behaviour
 agreement over the 32 points. The paper's map at the prototype (docs/results/operating_map.jsonl) is
 predicted too. Writes heldout.txt, heldout.json and heldout.png under --out.
+
+With --own-laws DIR (DIR/design_<i>/law.json, each fitted at that held-out design by
+`beamslider fit-law --params`), the same maps are also predicted with each design's own law: the
+ceiling of any transfer (diagnostics only; these laws are never used in fitting).
 """
 
 from __future__ import annotations
@@ -57,6 +61,7 @@ def main() -> None:
     ap.add_argument("--work", default="validation-out/design_law", help="FS maps of the held-out designs (resumable)")
     ap.add_argument("--law", help="a design law file (default: the built-in one)")
     ap.add_argument("--out", default=str(ROOT / "docs" / "results" / "design_law"))
+    ap.add_argument("--own-laws", help="folder with design_<i>/law.json: each held-out design's own law (the ceiling)")
     a = ap.parse_args()
     law = load_law(a.law) if a.law else default_law()
     work, out = Path(a.work), Path(a.out)
@@ -71,9 +76,15 @@ def main() -> None:
         pr = {(r["f_ex_hz"], r["a_ex_m_s2"]): r for r in predicted_map(p, drift=law, f_ex=F, a_ex=A, s0=0.3, t_end=120.0)}
         bf, bp = bands(fs), bands(pr)
         agree = sum(_label(fs[k]) == _label(pr[k]) for k in fs)
+        own = None
+        if a.own_laws and (Path(a.own_laws) / f"design_{i}" / "law.json").exists():
+            ol = load_law(Path(a.own_laws) / f"design_{i}" / "law.json")
+            po = {(r["f_ex_hz"], r["a_ex_m_s2"]): r for r in predicted_map(p, drift=ol, f_ex=F, a_ex=A, s0=0.3, t_end=120.0)}
+            own = {"bandwidth_hz": bands(po), "mean_hz": float(np.mean(bands(po))),
+                   "agree": sum(_label(fs[k]) == _label(po[k]) for k in fs)}
         res.append({"design": i, "x": x, "fs_bandwidth_hz": bf, "predicted_bandwidth_hz": bp,
                     "fs_mean_hz": float(np.mean(bf)), "predicted_mean_hz": float(np.mean(bp)), "agree": agree,
-                    "points": len(fs), "extrapolated": any(bool(r.get("extrapolated")) for r in pr.values()),
+                    "points": len(fs), "own_law": own, "extrapolated": any(bool(r.get("extrapolated")) for r in pr.values()),
                     "fs": {f"{k[0]:g},{k[1]:g}": _label(v) for k, v in fs.items()},
                     "predicted": {f"{k[0]:g},{k[1]:g}": _label(v) for k, v in pr.items()}})
     paper = _rows(ROOT / "docs" / "results" / "operating_map.jsonl")
@@ -98,6 +109,12 @@ def main() -> None:
                      f"{abs(r['fs_mean_hz'] - r['predicted_mean_hz']):5.1f} | {r['agree']}/{r['points']}"
                      + ("  (extrapolated)" if r["extrapolated"] else ""))
     lines.append(f"within 3 Hz: {within}/{len(res)}; behaviour agreement {100 * agree:.0f} % over {sum(r['points'] for r in res)} points")
+    if all(r["own_law"] for r in res):
+        w_own = sum(abs(r["fs_mean_hz"] - r["own_law"]["mean_hz"]) <= 3.0 for r in res)
+        ag_own = sum(r["own_law"]["agree"] for r in res) / sum(r["points"] for r in res)
+        lines.append("ceiling, each design's own law (fit-law at the held-out design; diagnostics only): mean bandwidth "
+                     + ", ".join(f"{r['own_law']['mean_hz']:.1f}" for r in res)
+                     + f" Hz; within 3 Hz: {w_own}/{len(res)}; behaviour agreement {100 * ag_own:.0f} %")
     lines.append(f"paper's map at the prototype (docs/results/operating_map.jsonl, s0 0.3, 120 s): {paper_agree}/{len(paper)} agree")
     labels = sorted({v for r in res for v in list(r["fs"].values()) + list(r["predicted"].values())})
     lines.append("confusion over the held-out points (rows FS, columns predicted): " + ", ".join(labels))
