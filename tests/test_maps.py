@@ -357,3 +357,17 @@ def test_start_position_example_106hz_10ms2():
     assert list(t["behaviour"]) == ["trivial_adaption", "signature_move"], list(t["reason"])
     # The run from 0.4 ends nearer the clamping than it started: net travel is a feature only.
     assert t["net_travel"][1] < 0
+
+
+def test_papers_map_at_120_s_as_xarray():
+    """The committed paper's map (docs/operating_map.jsonl, s0 = 0.3, 120 s, format 3): the
+    creeping trivial adaptions (100, 14) and (102, 6) are labelled with settled = false, the
+    signature move at (124, 14) is settled (docs/operating_map_extension.txt)."""
+    pytest.importorskip("xarray")
+    ds = read_map(Path(__file__).parent.parent / "docs" / "operating_map.jsonl").to_xarray()
+    assert ds.behaviour.sel(f_ex_hz=124, a_ex_m_s2=14).item() == "signature_move"
+    assert bool(ds.settled.sel(f_ex_hz=124, a_ex_m_s2=14).item())
+    for f, a in ((100, 14), (102, 6)):
+        assert ds.behaviour.sel(f_ex_hz=f, a_ex_m_s2=a).item() == "trivial_adaption"
+        assert not bool(ds.settled.sel(f_ex_hz=f, a_ex_m_s2=a).item())
+        assert float(ds.drift_s.sel(f_ex_hz=f, a_ex_m_s2=a).item()) > 0.005
