@@ -173,7 +173,8 @@ def test_extend_to_continues_only_not_settled_points_bitwise(tmp_path, capsys):
                 criteria={"steady_window_s": 1.0, "steady_drift_window_s": 1.0})
     long = beamslider.operating_map(**grid, t_end=6.0, threads=2)
     short = beamslider.operating_map(**grid, t_end=3.0, threads=2, out=tmp_path / "m")
-    open_ = np.isin(short["behaviour"], ["not_settled", "undetermined"])  # both are continued
+    # Continued: settled = false (not_settled, or a behaviour still creeping) and undetermined.
+    open_ = ~short["settled"] | np.isin(short["behaviour"], ["not_settled", "undetermined"])
     unsettled = np.flatnonzero(open_)
     settled = np.flatnonzero(~open_)
     assert len(unsettled) and len(settled), short["behaviour"]
@@ -181,7 +182,7 @@ def test_extend_to_continues_only_not_settled_points_bitwise(tmp_path, capsys):
     capsys.readouterr()
     ext = beamslider.operating_map(**grid, t_end=3.0, threads=2, out=tmp_path / "m", extend_to=6.0)
     printed = capsys.readouterr().out
-    assert f"re-ran {len(unsettled)} not-settled or undetermined of 12 points" in printed, printed
+    assert f"re-ran {len(unsettled)} of 12 points (settled = false, or undetermined)" in printed, printed
     _same_rows(ext, long, unsettled)
     _same_rows(ext, short, settled)
     assert (ext["t_end_s"][unsettled] == 6.0).all() and (ext["t_end_s"][settled] == 3.0).all()
@@ -190,8 +191,113 @@ def test_extend_to_continues_only_not_settled_points_bitwise(tmp_path, capsys):
     assert "t_end = 6 s (settled points kept from 3 s)" in text_table(ext)
     # Repeating the call (e.g. after a Ctrl-C) re-runs nothing more.
     again = beamslider.operating_map(**grid, t_end=3.0, threads=2, out=tmp_path / "m", extend_to=6.0)
-    assert "re-ran 0 not-settled or undetermined" in capsys.readouterr().out
+    assert "re-ran 0 of 12 points" in capsys.readouterr().out
     _same(again, ext)
+
+
+def _map_file(path, rows, version=3, duration=120.0):
+    """A results file with the paper's settings and the given rows (dicts without end states)."""
+    settings = json.loads(beamslider._core.read_map_results(Path(__file__).parent.parent / "docs" / "results" / "operating_map.jsonl")[0])
+    settings["duration_s"] = duration
+    path.write_text("\n".join([json.dumps({"beamslider_map": version, "settings": settings})]
+                              + [json.dumps(r) for r in rows]) + "\n", encoding="utf-8")
+    return path
+
+
+def _rows(grid, version=3):
+    """Rows of a small map without end states: behaviour by position, one of them not settled."""
+    out = []
+    for i, (f, a, s0) in enumerate(grid):
+        b = beamslider.maps.BEHAVIOURS[i % 5]
+        r = {"index": i, "f_ex_hz": f, "a_ex_m_s2": a, "s0": s0, "t_end_s": 120.0, "status": "completed",
+             "behaviour": b, "reason": f"r{i}", "s_final": 0.3 + 0.001 * i, "amplitude_final_h": 0.5,
+             "amplitude_initial_h": 0.1, "amplitude_max_h": 0.9, "s_min": 0.2, "s_max": 0.4, "net_travel": 0.01,
+             "travel_to_centre": 0.01, "turn_s": None, "turn_t_s": None, "jump_up_t_s": [1.0 * i], "jump_down_t_s": [],
+             "steady": i != 1, "phase": "steady_high",
+             "counters": {"steps": i, "contact_steps": 0, "closed_histogram": [i, 0, 0, 0, 0], "solver_iterations": 0,
+                          "max_iterations": 0, "cap_hits": 0, "first_guess_hits": 0, "linear_solves": 0,
+                          "enumerations": 0, "fallbacks": 0}, "wall_time_s": 0.5}
+        if version >= 3:
+            r.update(settled=i != 1, drift_s=0.001 * i, drift_a_h=-0.002 * i)
+        out.append(r)
+    return out
+
+
+GRID3 = [(f, a, 0.3) for a in (12.0, 14.0) for f in (122.0, 124.0, 126.0)]
+
+
+def test_map_as_pandas_and_xarray_round_trip(tmp_path):
+    """A map reads as a DataFrame that round-trips the file's rows and as an xarray Dataset over
+    (f_ex_hz, a_ex_m_s2, s0) with the behaviour as a categorical variable (docs/model.md §8)."""
+    pd = pytest.importorskip("pandas")
+    xr = pytest.importorskip("xarray")
+    rows = _rows(GRID3)
+    t = read_map(_map_file(tmp_path / "map.jsonl", rows))
+    df = t.to_pandas()
+    assert isinstance(df, pd.DataFrame) and len(df) == len(rows)
+    assert list(df["behaviour"].cat.categories) == list(beamslider.maps.BEHAVIOURS)
+    for r, (_, d) in zip(rows, df.iterrows()):
+        for k, v in r.items():
+            if k == "counters":
+                assert d["counters_steps"] == v["steps"] and list(d["counters_closed_histogram"]) == v["closed_histogram"]
+            elif k in ("turn_s", "turn_t_s"):
+                assert np.isnan(d[k]) and v is None
+            elif k in ("jump_up_t_s", "jump_down_t_s"):
+                assert list(d[k]) == v
+            else:
+                assert d[k] == v, k
+    ds = t.to_xarray()
+    assert isinstance(ds, xr.Dataset)
+    assert ds["behaviour"].dims == ("f_ex_hz", "a_ex_m_s2", "s0")
+    assert ds.behaviour.sel(f_ex_hz=124, a_ex_m_s2=14).item() == rows[4]["behaviour"]
+    assert ds.behaviour_code.sel(f_ex_hz=124, a_ex_m_s2=14, s0=0.3).item() == beamslider.maps.BEHAVIOURS.index(rows[4]["behaviour"])
+    assert ds["behaviour"].attrs["categories"].split() == list(beamslider.maps.BEHAVIOURS)
+    assert not bool(ds.settled.sel(f_ex_hz=124, a_ex_m_s2=12).item())
+    assert float(ds.drift_s.sel(f_ex_hz=126, a_ex_m_s2=14).item()) == rows[5]["drift_s"]
+    # NetCDF in one call (scipy's writer), and back.
+    ds.drop_vars([k for k in ds.data_vars if ds[k].dtype == object]).to_netcdf(tmp_path / "map.nc")
+    back = xr.open_dataset(tmp_path / "map.nc")
+    np.testing.assert_array_equal(back.behaviour_code.values, ds.behaviour_code.values)
+    back.close()
+    # A partial grid: the missing point is NaN / empty / code -1.
+    part = read_map(_map_file(tmp_path / "part.jsonl", rows[:5])).to_xarray()
+    assert part.behaviour_code.sel(f_ex_hz=126, a_ex_m_s2=14).item() == -1
+    assert np.isnan(part.s_final.sel(f_ex_hz=126, a_ex_m_s2=14).item())
+
+
+def test_table_conversions_without_pandas_or_xarray_name_the_extra(tmp_path, monkeypatch):
+    from beamslider.design import DesignRecords
+
+    t = read_map(_map_file(tmp_path / "map.jsonl", _rows(GRID3)))
+    monkeypatch.setitem(sys.modules, "pandas", None)
+    monkeypatch.setitem(sys.modules, "xarray", None)
+    with pytest.raises(ImportError, match=r"beamslider\[pandas\]"):
+        t.to_pandas()
+    with pytest.raises(ImportError, match=r"beamslider\[xarray\]"):
+        t.to_xarray()
+    with pytest.raises(ImportError, match=r"beamslider\[pandas\]"):
+        DesignRecords([{"x": [1.0]}]).to_pandas()
+    # The dict of arrays needs neither.
+    assert t["behaviour"][0] == "inactivity"
+
+
+def test_unsettled_rows_are_marked_and_version_2_rows_derive_the_flag(tmp_path):
+    """A behaviour reached but not settled is marked `*` in the text table and hollow in the
+    figure; a version-2 file (no flag) reads with settled = steady (docs/model.md §8)."""
+    t = read_map(_map_file(tmp_path / "v3.jsonl", _rows(GRID3)))
+    assert t["settled"].tolist() == [True, False, True, True, True, True]
+    txt = text_table(t)
+    assert "T*" in txt and txt.count("*") == 2, txt  # the cell and the legend
+    assert "* reached, not yet settled" in txt
+    np.testing.assert_array_equal(beamslider.maps.marked_unsettled(t), [False, True, False, False, False, False])
+    v2 = read_map(_map_file(tmp_path / "v2.jsonl", _rows(GRID3, version=2), version=2))
+    np.testing.assert_array_equal(v2["settled"], t["settled"])
+    assert np.isnan(v2["drift_s"]).all()
+    pytest.importorskip("matplotlib")
+    fig = plot_operating_map(t)
+    ax = fig.axes[0]
+    frames = [p for p in ax.patches if p.get_facecolor()[3] == 0 and p.get_linewidth() == 2.5]
+    assert len(frames) == 1  # one hollow cell
 
 
 def test_extend_to_bad_input_is_a_value_error(tmp_path):
@@ -224,7 +330,7 @@ def test_cli_map_extend_to(tmp_path):
     assert "t_end = 2 s" in (tmp_path / "map.txt").read_text()
     r = run_cli("map", "--extend-to", "3", "--no-progress", "--out", str(tmp_path), cwd=tmp_path)
     assert r.returncode == 0, r.stderr
-    assert "re-ran" in r.stdout and "not-settled" in r.stdout, r.stdout
+    assert "re-ran" in r.stdout and "settled = false" in r.stdout, r.stdout
     assert "t_end = 3 s" in (tmp_path / "map.txt").read_text()
     r = run_cli("map", "--extend-to", "3", "--no-progress", "--out", str(tmp_path), cwd=tmp_path)
     assert r.returncode == 1 and "extend-to" in r.stderr
@@ -251,3 +357,17 @@ def test_start_position_example_106hz_10ms2():
     assert list(t["behaviour"]) == ["trivial_adaption", "signature_move"], list(t["reason"])
     # The run from 0.4 ends nearer the clamping than it started: net travel is a feature only.
     assert t["net_travel"][1] < 0
+
+
+def test_papers_map_at_120_s_as_xarray():
+    """The committed paper's map (docs/results/operating_map.jsonl, s0 = 0.3, 120 s, format 3): the
+    creeping trivial adaptions (100, 14) and (102, 6) are labelled with settled = false, the
+    signature move at (124, 14) is settled (docs/results/operating_map_extension.txt)."""
+    pytest.importorskip("xarray")
+    ds = read_map(Path(__file__).parent.parent / "docs" / "results" / "operating_map.jsonl").to_xarray()
+    assert ds.behaviour.sel(f_ex_hz=124, a_ex_m_s2=14).item() == "signature_move"
+    assert bool(ds.settled.sel(f_ex_hz=124, a_ex_m_s2=14).item())
+    for f, a in ((100, 14), (102, 6)):
+        assert ds.behaviour.sel(f_ex_hz=f, a_ex_m_s2=a).item() == "trivial_adaption"
+        assert not bool(ds.settled.sel(f_ex_hz=f, a_ex_m_s2=a).item())
+        assert float(ds.drift_s.sel(f_ex_hz=f, a_ex_m_s2=a).item()) > 0.005

@@ -325,7 +325,7 @@ fn run_map_command(cfg: &MapConfig, out: &std::path::Path, threads: Option<usize
     std::fs::write(out.join("map.txt"), &table).with_context(|| format!("cannot write {}", out.join("map.txt").display()))?;
     print!("{table}");
     if extend || outcome.extended > 0 {
-        eprintln!("re-ran {} not-settled or undetermined points from their saved end states to t = {} s", outcome.extended, cfg.duration_s);
+        eprintln!("re-ran {} points (settled = false, or undetermined) from their saved end states to t = {} s", outcome.extended, cfg.duration_s);
     }
     eprintln!(
         "{} points: {} computed in {:.1} s, {} from the results file; wrote {}",

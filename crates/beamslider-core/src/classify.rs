@@ -262,6 +262,24 @@ pub struct Classification {
     /// window (see the reason for the behaviour it is a phase of).
     #[serde(default)]
     pub phase: String,
+    /// Whether the behaviour is final (docs/model.md §8, "Settled"): the steady state reached
+    /// (`steady`), or for a relaxation oscillation at least [`Criteria::relax_min_cycles`]
+    /// cycles. False for `not_settled`, and for a trivial adaption, signature move or
+    /// self-damping whose phases are complete but whose slider or amplitude still drifts at the
+    /// end of the run (see `drift_s`, `drift_a_h`).
+    #[serde(default)]
+    pub settled: bool,
+    /// Change of s across the final drift window ([`Criteria::steady_drift_window_s`]) along its
+    /// least-squares line (positive = towards larger s).
+    #[serde(default = "nan")]
+    pub drift_s: f64,
+    /// Change of A [h] across the final drift window along its least-squares line.
+    #[serde(default = "nan")]
+    pub drift_a_h: f64,
+}
+
+fn nan() -> f64 {
+    f64::NAN
 }
 
 fn centre_distance(s: f64) -> f64 {
@@ -383,9 +401,9 @@ pub fn classify(x: &SuperSlow, c: &Criteria) -> Result<Classification> {
     let drift_s = fitted_change(&x.s[n - nd..]);
     let a_drift = &x.amplitude_h[n - nd..];
     let trend_a = fitted_change(a_drift);
-    let steady = duration >= c.steady_window_s
-        && st_hi - st_lo < c.steady_s
-        && at_hi - at_lo < c.steady_rel * a_final + c.steady_abs_h
+    // The ranges of the final window hold: at most creeping (docs/classify.md, "Settled").
+    let in_range = duration >= c.steady_window_s && st_hi - st_lo < c.steady_s && at_hi - at_lo < c.steady_rel * a_final + c.steady_abs_h;
+    let steady = in_range
         && drift_s.abs() < c.steady_drift_s
         && trend_a.abs() < c.steady_trend_rel * mean(a_drift) + c.steady_trend_abs_h;
     let still = x.s.iter().all(|s| (s - s0).abs() <= c.still_s);
@@ -446,6 +464,9 @@ pub fn classify(x: &SuperSlow, c: &Criteria) -> Result<Classification> {
         jump_down_t_s: jump_down.clone(),
         steady,
         phase: String::new(),
+        settled: false,
+        drift_s,
+        drift_a_h: trend_a,
     };
     let travel = |d: f64| {
         if d >= c.steady_drift_s {
@@ -456,17 +477,72 @@ pub fn classify(x: &SuperSlow, c: &Criteria) -> Result<Classification> {
             "still"
         }
     };
-    let (b, phase, reason): (Behaviour, String, String) = if still && steady {
-        (Behaviour::Inactivity, "still".into(), format!("no travel: the slider stays within {} of s0", c.still_s))
+    // The behaviour by the level at the end and the phases (rules 4–6), whether or not the run
+    // has settled; `steady_*` names the final phase of a settled run.
+    let steady_word = if steady { "steady " } else { "" };
+    let by_level = || -> (Behaviour, &'static str, String) {
+        if a_final >= c.high_h {
+            let dip = sp0 - sp.iter().copied().fold(f64::INFINITY, f64::min);
+            if !jump_down.is_empty() {
+                (Behaviour::Undetermined, "steady_high", format!("high final level {a_final:.2} h, but the high branch was lost once (jump down at t = {:.1} s) and regained without recurrence", jump_down[0]))
+            } else if let Some(&tj) = jump_up.first() {
+                // Phase 1: the low branch up to the jump; phase 2: after the jump, back towards the
+                // centre from the closest approach to the clamping around the jump.
+                let ij = (((tj - x.t0_s) / x.dt_s).round().max(0.0) as usize).min(n - 1);
+                let k = ((c.jump_window_s / x.dt_s).round() as usize).max(1);
+                let d1 = sp_at(tj) - sp0;
+                let low_after = sp[ij.saturating_sub(k)..].iter().copied().fold(f64::INFINITY, f64::min);
+                let back = sp_final - low_after;
+                let how = match turn {
+                    Some(_) => format!("turning point at s = {:.3} (t = {:.1} s)", out.turn_s, out.turn_t_s),
+                    None => "no turning point".into(),
+                };
+                if d1 > c.still_s {
+                    (Behaviour::Undetermined, "steady_high", format!("jump up at t = {tj:.1} s after a low-branch phase towards the centre ({d1:+.3}), high final level {a_final:.2} h: neither signature move (phase 1 towards the clamping) nor trivial adaption (no jump)"))
+                } else if back <= c.turn_s {
+                    (Behaviour::Undetermined, "steady_high", format!("jump up at t = {tj:.1} s to a high final level {a_final:.2} h, but no high-branch phase back towards the centre ({back:+.3})"))
+                } else {
+                    let p1 = if d1 < -c.still_s { format!("low branch towards the clamping ({d1:+.3})") } else { format!("low branch, slider stuck ({d1:+.3})") };
+                    (Behaviour::SignatureMove, "steady_high", format!("phases: {p1}, jump up at t = {tj:.1} s, {how}, high branch back towards the centre ({back:+.3}), {steady_word}high level {a_final:.2} h"))
+                }
+            } else if (sp_final - sp0).abs() > c.still_s {
+                let side = if sp_final > sp0 { "towards the centre" } else { "towards the clamping, from a start nearer the centre than the final position" };
+                let dip_note = if dip > c.still_s && sp_final > sp0 { format!(" after a first dip of {dip:.3} towards the clamping") } else { String::new() };
+                (Behaviour::TrivialAdaption, "steady_high", format!("high level {a_final:.2} h reached without a jump, travelling {side} ({:+.3}){dip_note}", sp_final - sp0))
+            } else {
+                (Behaviour::Undetermined, "steady_high", format!("high final level {a_final:.2} h without a jump and without net travel"))
+            }
+        } else if a_final < c.low_h {
+            let side = if sp_final < sp0 { "towards the clamping" } else { "towards the centre" };
+            // The last phase: since the last jump (a lost high branch, or the transient jump up of
+            // the paper's Fig. 9), reported as a feature.
+            let last = match events.last() {
+                Some(&(t, up)) => {
+                    let d = sp_final - sp_at(t);
+                    format!(", since the jump {} at t = {t:.1} s {} ({d:+.3})", if up { "up" } else { "down" }, if d < 0.0 { "towards the clamping" } else { "towards the centre" })
+                }
+                None => String::new(),
+            };
+            (Behaviour::SelfDamping, "steady_low", format!("travelled {side} ({:+.3}{last}) to a {steady_word}low, harmonic level {a_final:.3} h", sp_final - sp0))
+        } else {
+            (Behaviour::Undetermined, "steady_intermediate", format!("final level {a_final:.3} h between the low ({}) and high ({}) thresholds", c.low_h, c.high_h))
+        }
+    };
+    let (b, phase, reason, settled): (Behaviour, String, String, bool) = if still && steady {
+        (Behaviour::Inactivity, "still".into(), format!("no travel: the slider stays within {} of s0", c.still_s), true)
     } else if cycles >= c.relax_min_cycles || (jump_down.len() >= 2 && !steady) {
         (
             Behaviour::RelaxationOscillation,
             "cycling".into(),
             format!("recurring jump up / jump down: {} cycles ({} up, {} down); s between {s_min:.3} and {s_max:.3}", cycles, jump_up.len(), jump_down.len()),
+            cycles >= c.relax_min_cycles,
         )
-    } else if !steady {
-        // The phase reached when the run ended: branch (from the jumps, else the level) and the
-        // travel over the final window.
+    } else if steady {
+        let (b, phase, reason) = by_level();
+        (b, phase.into(), reason, true)
+    } else {
+        // Not settled: the phase reached when the run ended: branch (from the jumps, else the
+        // level) and the travel over the final drift window.
         let (branch, since) = match events.last() {
             Some(&(t, true)) => ("high", format!(" after the jump up at t = {t:.1} s")),
             Some(&(t, false)) => ("low", format!(" after the jump down at t = {t:.1} s")),
@@ -479,78 +555,46 @@ pub fn classify(x: &SuperSlow, c: &Criteria) -> Result<Classification> {
         // of steady_drift_s or more is travel; the end points alone are noisy).
         let d = if mirrored { -drift_s } else { drift_s };
         let tr = travel(d);
-        let of = match (branch, tr, events.last().map(|e| e.1)) {
-            ("low", "towards_clamping", None) => "phase 1 of a signature move or of self-damping",
-            ("high", "towards_centre", Some(true)) => "phase 2 of a signature move",
-            ("high", "towards_clamping", Some(true)) => "phase 2 of self-damping (or a high branch not yet turned)",
-            (_, "towards_centre", None) => "phase 1 of a trivial adaption",
-            (_, "still", _) => "no drift of s, but s or the amplitude still varies",
-            _ => "no phase of a single behaviour",
-        };
         let what = match tr {
             "towards_centre" => "moving towards the centre",
             "towards_clamping" => "moving towards the clamping",
             _ => "nearly still",
         };
-        (
-            Behaviour::NotSettled,
-            format!("{branch}_{tr}"),
-            format!(
-                "not settled at t = {:.1} s: {branch} {}{since}, {what} ({:+.4} in the last {} s, A {:+.3} h): {of}",
-                x.t(n - 1),
-                if events.is_empty() { "level" } else { "branch" },
-                drift_s,
-                (nd - 1) as f64 * x.dt_s,
-                trend_a
-            ),
-        )
-    } else if a_final >= c.high_h {
-        let dip = sp0 - sp.iter().copied().fold(f64::INFINITY, f64::min);
-        if !jump_down.is_empty() {
-            (Behaviour::Undetermined, "steady_high".into(), format!("high final level {a_final:.2} h, but the high branch was lost once (jump down at t = {:.1} s) and regained without recurrence", jump_down[0]))
-        } else if let Some(&tj) = jump_up.first() {
-            // Phase 1: the low branch up to the jump; phase 2: after the jump, back towards the
-            // centre from the closest approach to the clamping around the jump.
-            let ij = (((tj - x.t0_s) / x.dt_s).round().max(0.0) as usize).min(n - 1);
-            let k = ((c.jump_window_s / x.dt_s).round() as usize).max(1);
-            let d1 = sp_at(tj) - sp0;
-            let low_after = sp[ij.saturating_sub(k)..].iter().copied().fold(f64::INFINITY, f64::min);
-            let back = sp_final - low_after;
-            let how = match turn {
-                Some(_) => format!("turning point at s = {:.3} (t = {:.1} s)", out.turn_s, out.turn_t_s),
-                None => "no turning point".into(),
-            };
-            if d1 > c.still_s {
-                (Behaviour::Undetermined, "steady_high".into(), format!("jump up at t = {tj:.1} s after a low-branch phase towards the centre ({d1:+.3}), high final level {a_final:.2} h: neither signature move (phase 1 towards the clamping) nor trivial adaption (no jump)"))
-            } else if back <= c.turn_s {
-                (Behaviour::Undetermined, "steady_high".into(), format!("jump up at t = {tj:.1} s to a high final level {a_final:.2} h, but no high-branch phase back towards the centre ({back:+.3})"))
-            } else {
-                let p1 = if d1 < -c.still_s { format!("low branch towards the clamping ({d1:+.3})") } else { format!("low branch, slider stuck ({d1:+.3})") };
-                (Behaviour::SignatureMove, "steady_high".into(), format!("phases: {p1}, jump up at t = {tj:.1} s, {how}, high branch back towards the centre ({back:+.3}), steady high level {a_final:.2} h"))
-            }
-        } else if (sp_final - sp0).abs() > c.still_s {
-            let side = if sp_final > sp0 { "towards the centre" } else { "towards the clamping, from a start nearer the centre than the final position" };
-            let dip_note = if dip > c.still_s && sp_final > sp0 { format!(" after a first dip of {dip:.3} towards the clamping") } else { String::new() };
-            (Behaviour::TrivialAdaption, "steady_high".into(), format!("high level {a_final:.2} h reached without a jump, travelling {side} ({:+.3}){dip_note}", sp_final - sp0))
-        } else {
-            (Behaviour::Undetermined, "steady_high".into(), format!("high final level {a_final:.2} h without a jump and without net travel"))
-        }
-    } else if a_final < c.low_h {
-        let side = if sp_final < sp0 { "towards the clamping" } else { "towards the centre" };
-        // The last phase: since the last jump (a lost high branch, or the transient jump up of
-        // the paper's Fig. 9), reported as a feature.
-        let last = match events.last() {
-            Some(&(t, up)) => {
-                let d = sp_final - sp_at(t);
-                format!(", since the jump {} at t = {t:.1} s {} ({d:+.3})", if up { "up" } else { "down" }, if d < 0.0 { "towards the clamping" } else { "towards the centre" })
-            }
-            None => String::new(),
+        let drift_text = format!("{what} ({:+.4} in the last {} s, A {:+.3} h)", drift_s, (nd - 1) as f64 * x.dt_s, trend_a);
+        // A run at its final level whose phases already make a behaviour keeps it, unsettled,
+        // while it only creeps (the ranges of the final window hold, the drift rule fails) the
+        // way of its last phase: a trivial adaption on towards its final position, a signature
+        // move not back towards the clamping, a self-damping slider that has travelled to a low,
+        // harmonic level.
+        let (cand, _, cand_reason) = by_level();
+        let keeps = in_range
+            && match cand {
+            Behaviour::TrivialAdaption => d * (sp_final - sp0).signum() > -c.steady_drift_s,
+            Behaviour::SignatureMove => d > -c.steady_drift_s,
+            Behaviour::SelfDamping => !still,
+            _ => false,
         };
-        (Behaviour::SelfDamping, "steady_low".into(), format!("travelled {side} ({:+.3}{last}) to a steady low, harmonic level {a_final:.3} h", sp_final - sp0))
-    } else {
-        (Behaviour::Undetermined, "steady_intermediate".into(), format!("final level {a_final:.3} h between the low ({}) and high ({}) thresholds", c.low_h, c.high_h))
+        if keeps {
+            (cand, format!("{branch}_{tr}"), format!("{cand_reason}; not settled at t = {:.1} s: {drift_text}", x.t(n - 1)), false)
+        } else {
+            let of = match (branch, tr, events.last().map(|e| e.1)) {
+                ("low", "towards_clamping", None) => "phase 1 of a signature move or of self-damping",
+                ("high", "towards_centre", Some(true)) => "phase 2 of a signature move",
+                ("high", "towards_clamping", Some(true)) => "phase 2 of self-damping (or a high branch not yet turned)",
+                (_, "towards_centre", None) => "phase 1 of a trivial adaption",
+                (_, "still", _) => "no drift of s, but s or the amplitude still varies",
+                _ => "no phase of a single behaviour",
+            };
+            (
+                Behaviour::NotSettled,
+                format!("{branch}_{tr}"),
+                format!("not settled at t = {:.1} s: {branch} {}{since}, {drift_text}: {of}", x.t(n - 1), if events.is_empty() { "level" } else { "branch" }),
+                false,
+            )
+        }
     };
     out.behaviour = b;
+    out.settled = settled;
     out.phase = phase;
     out.reason = reason;
     Ok(out)

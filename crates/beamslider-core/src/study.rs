@@ -147,7 +147,10 @@ impl StudyResults {
         // One writer per results file: a second one fails here, naming the holder's PID.
         let lock = ResultsLock::acquire(path)?;
         let mut old = if exists { results::read_results(path)? } else { results::ResultsFile::default() };
-        if old.settings.is_some() && (old.version != results::FORMAT_VERSION || old.settings != Some(cfg.settings()) || old.study.as_ref() != Some(&study)) {
+        if old.settings.is_some() && old.version != results::FORMAT_VERSION {
+            return Err(Error::invalid("resume", path.display(), &format!("the results file has format version {} (rows without the settled flag, no end states to reclassify); this version resumes only version {} studies: start a new study", old.version, results::FORMAT_VERSION)));
+        }
+        if old.settings.is_some() && (old.settings != Some(cfg.settings()) || old.study.as_ref() != Some(&study)) {
             return Err(Error::invalid("resume", path.display(), "the results file was written by another study configuration"));
         }
         if !exists {

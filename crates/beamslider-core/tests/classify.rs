@@ -238,25 +238,36 @@ fn slow_drift_is_not_settled() {
     // High level, s creeping towards the centre by 0.006 per 15 s (as (106 Hz, 6 m/s²) at 60 s).
     let creep = |rate: f64| signals(move |t| 0.3 + 0.07 * (1.0 - (-t / 10.0).exp()) + rate * t, |t| build_up(t, 0.2 + 0.6 * (1.0 - (-t / 10.0).exp())));
     let x = creep(0.006 / 15.0);
+    // The high level is reached without a jump: a trivial adaption, not settled (docs/model.md
+    // §8: the flag, not the label, says that it still creeps), with its drift.
     let r = classify(&x, &c).unwrap();
-    assert_eq!(r.behaviour, Behaviour::NotSettled, "{}", r.reason);
+    assert_eq!(r.behaviour, Behaviour::TrivialAdaption, "{}", r.reason);
+    assert!(!r.settled && !r.steady, "{}", r.reason);
     assert_eq!(r.phase, "high_towards_centre", "{}", r.reason);
-    assert!(r.reason.contains("phase 1 of a trivial adaption"), "{}", r.reason);
+    assert!(r.reason.contains("not settled") && r.reason.contains("moving towards the centre"), "{}", r.reason);
+    assert!((r.drift_s - 0.006 / 15.0 * (c.steady_drift_window_s - DT)).abs() < 1e-3, "{}", r.drift_s);
     // The range rule alone would have passed it.
     let old = Criteria { steady_drift_s: f64::INFINITY, steady_trend_rel: f64::INFINITY, ..Criteria::default() };
     assert!(0.006 / 15.0 * c.steady_drift_window_s > 2.0 * c.steady_drift_s);
-    assert_eq!(classify(&x, &old).unwrap().behaviour, Behaviour::TrivialAdaption);
+    let ro = classify(&x, &old).unwrap();
+    assert_eq!((ro.behaviour, ro.settled), (Behaviour::TrivialAdaption, true));
     // Without the creep (and with a creep of half the threshold): settled, trivial adaption.
     for rate in [0.0, 0.5 * c.steady_drift_s / c.steady_drift_window_s] {
         let r = classify(&creep(rate), &c).unwrap();
         assert_eq!(r.behaviour, Behaviour::TrivialAdaption, "rate {rate}: {}", r.reason);
-        assert!(r.steady);
+        assert!(r.steady && r.settled);
+        assert_eq!(r.phase, "steady_high");
     }
     // Mirrored (start on the far half): the same.
     let xm = creep(0.006 / 15.0);
     let xm = SuperSlow { s: xm.s.iter().map(|s| 1.0 - s).collect(), ..xm };
     let r = classify(&xm, &c).unwrap();
-    assert_eq!((r.behaviour, r.phase.as_str()), (Behaviour::NotSettled, "high_towards_centre"), "{}", r.reason);
+    assert_eq!((r.behaviour, r.phase.as_str(), r.settled), (Behaviour::TrivialAdaption, "high_towards_centre", false), "{}", r.reason);
+    // Creeping back, against its travel (towards the clamping): not the way of a trivial
+    // adaption, not settled.
+    let back = signals(|t| 0.3 + 0.07 * (1.0 - (-t / 10.0).exp()) - 0.006 / 15.0 * (t - 60.0).max(0.0), |t| build_up(t, 0.2 + 0.6 * (1.0 - (-t / 10.0).exp())));
+    let r = classify(&back, &c).unwrap();
+    assert_eq!((r.behaviour, r.phase.as_str()), (Behaviour::NotSettled, "high_towards_clamping"), "{}", r.reason);
 
     // Amplitude still rising by 16 % per 30 s at an intermediate level, s nearly still (as
     // (102 Hz, 4 m/s²) at 60 s): not settled, not "undetermined: level between the thresholds".
@@ -267,19 +278,53 @@ fn slow_drift_is_not_settled() {
     assert_eq!(classify(&x, &old).unwrap().behaviour, Behaviour::Undetermined);
 
     // Low level, slider creeping towards the clamping by 0.01 per 15 s (as (120 Hz, 6 m/s²) from
-    // s0 = 0.4 at 60 s): not self-damping yet.
+    // s0 = 0.4 at 60 s): it has travelled to a low, harmonic level: self-damping, not settled.
     let x = signals(|t| ramp(t, 0.0, 40.0, 0.4, 0.39) - 0.01 / 15.0 * (t - 40.0).max(0.0), |t| build_up(t, 0.03));
     let r = classify(&x, &c).unwrap();
-    assert_eq!((r.behaviour, r.phase.as_str()), (Behaviour::NotSettled, "low_towards_clamping"), "{}", r.reason);
+    assert_eq!((r.behaviour, r.phase.as_str(), r.settled), (Behaviour::SelfDamping, "low_towards_clamping", false), "{}", r.reason);
+    assert!(r.drift_s < -c.steady_drift_s && r.reason.contains("not settled"), "{}", r.reason);
+    // The same creep at a level between the thresholds (the low branch of a signature move's
+    // phase 1, 0.08 h): no final level reached, not settled.
+    let x = signals(|t| ramp(t, 0.0, 40.0, 0.4, 0.39) - 0.01 / 15.0 * (t - 40.0).max(0.0), |t| build_up(t, 0.08));
+    let r = classify(&x, &c).unwrap();
+    assert_eq!((r.behaviour, r.phase.as_str(), r.settled), (Behaviour::NotSettled, "low_towards_clamping", false), "{}", r.reason);
     // Within 0.01 of s0 all the time but creeping away at the end (as (130 Hz, 8 m/s²) from 0.4
     // at 60 s): not inactivity.
     let x = signals(|t| 0.4 + 0.006 / 15.0 * (t - 96.0).max(0.0), |t| build_up(t, 0.03));
     let r = classify(&x, &c).unwrap();
-    assert_eq!(r.behaviour, Behaviour::NotSettled, "{}", r.reason);
+    assert_eq!((r.behaviour, r.settled), (Behaviour::NotSettled, false), "{}", r.reason);
     assert_eq!(classify(&x, &old).unwrap().behaviour, Behaviour::Inactivity);
     // Settled low level after the creep stopped: self-damping.
     let x = signals(|t| ramp(t, 0.0, 90.0, 0.4, 0.25), |t| build_up(t, 0.03) - ramp(t, 30.0, 90.0, 0.0, 0.02));
-    assert_eq!(classify(&x, &c).unwrap().behaviour, Behaviour::SelfDamping);
+    let r = classify(&x, &c).unwrap();
+    assert_eq!((r.behaviour, r.settled, r.phase.as_str()), (Behaviour::SelfDamping, true, "steady_low"));
+}
+
+/// The flag `settled` (docs/model.md §8): true for every settled behaviour and for a relaxation
+/// oscillation of `relax_min_cycles` cycles; false for `not_settled`; a signature move that has
+/// jumped up and turned back is kept while it creeps on towards the centre, not while it creeps
+/// back towards the clamping.
+#[test]
+fn settled_flag_and_drift() {
+    let c = Criteria::default();
+    let x = signals(|t| signature(t).0, |t| signature(t).1);
+    let r = decide(&x);
+    assert!(r.settled && r.steady && r.drift_s.abs() < 1e-9 && r.drift_a_h.abs() < 1e-9, "{r:?}");
+    let x = signals(|t| relaxation(t).0, |t| relaxation(t).1.min(build_up(t, 2.0)));
+    let r = decide(&x);
+    assert_eq!((r.behaviour, r.settled), (Behaviour::RelaxationOscillation, true));
+    assert!(!r.steady);
+    // Signature move, then the high level creeping on towards the centre by 0.007 per 30 s.
+    let sig_creep = |rate: f64| signals(move |t| signature(t).0 + rate * (t - 60.0).max(0.0), |t| signature(t).1);
+    let r = classify(&sig_creep(0.007 / 30.0), &c).unwrap();
+    assert_eq!((r.behaviour, r.settled, r.phase.as_str()), (Behaviour::SignatureMove, false, "high_towards_centre"), "{}", r.reason);
+    assert!((r.drift_s - 0.007).abs() < 5e-4, "{}", r.drift_s);
+    // … and creeping back towards the clamping: not settled.
+    let r = classify(&sig_creep(-0.007 / 30.0), &c).unwrap();
+    assert_eq!((r.behaviour, r.settled, r.phase.as_str()), (Behaviour::NotSettled, false, "high_towards_clamping"), "{}", r.reason);
+    // Phase 2 while s still moves fast (0.04 per 15 s, more than the range of the final window): not settled.
+    let r = classify(&signals(|t| if t < 8.0 { ramp(t, 0.0, 8.0, 0.3, 0.258) } else { ramp(t, 8.0, 120.0, 0.258, 0.55) }, |t| signature(t).1), &c).unwrap();
+    assert_eq!((r.behaviour, r.settled), (Behaviour::NotSettled, false), "{}", r.reason);
 }
 
 #[test]
@@ -312,6 +357,7 @@ fn representative_operating_points() {
         let r = run_point(&model, &cfg, &p, &cancel).unwrap().unwrap();
         eprintln!("{f} Hz {a} m/s2: {} ({}), s_final {:.3}, A_final {:.3} h", r.behaviour, r.reason, r.s_final, r.amplitude_final_h);
         assert_eq!(r.behaviour, want, "{f} Hz, {a} m/s2: {}", r.reason);
+        assert!(r.settled, "{f} Hz, {a} m/s2: {}", r.reason);
         match want {
             // MODEL.md §8 / fast-solver results: final s 0.331, 0.369; self-damping 0.097, 0.01–0.02 h.
             Behaviour::SignatureMove => assert!((r.s_final - 0.331).abs() < 0.01),
@@ -337,5 +383,6 @@ fn start_position_example_106hz_10ms2() {
         let r = run_point(&model, &cfg, &p, &cancel).unwrap().unwrap();
         eprintln!("106 Hz 10 m/s2 s0 {s0}: {} ({}), s_final {:.3}, net travel {:+.3}", r.behaviour, r.reason, r.s_final, r.net_travel);
         assert_eq!(r.behaviour, want, "s0 = {s0}: {}", r.reason);
+        assert!(r.settled, "s0 = {s0}: {}", r.reason);
     }
 }

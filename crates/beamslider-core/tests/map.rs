@@ -181,7 +181,8 @@ fn extended_map_rows_are_bitwise_those_of_the_longer_map() {
     let long = run_map(&cfg(6.0), &MapRunOptions { out: None, resume: false, threads: Some(2), extend: false }, &cancel, &none).unwrap();
     let path = dir.join("map.jsonl");
     let short = run_map(&cfg(3.0), &MapRunOptions { out: Some(path.clone()), resume: false, threads: Some(2), extend: false }, &cancel, &none).unwrap();
-    let unsettled: Vec<usize> = short.rows.iter().filter(|r| matches!(r.behaviour, beamslider_core::Behaviour::NotSettled | beamslider_core::Behaviour::Undetermined)).map(|r| r.index).collect();
+    // Continued: every row with settled = false, and the undetermined ones.
+    let unsettled: Vec<usize> = short.rows.iter().filter(|r| !r.settled || matches!(r.behaviour, beamslider_core::Behaviour::NotSettled | beamslider_core::Behaviour::Undetermined)).map(|r| r.index).collect();
     assert!(!unsettled.is_empty() && unsettled.len() < short.rows.len(), "need both kinds: {:?}", short.rows.iter().map(|r| r.behaviour).collect::<Vec<_>>());
     assert!(short.rows.iter().all(|r| r.end.is_some()));
     // Extend: only the not-settled points run.
@@ -212,6 +213,92 @@ fn extended_map_rows_are_bitwise_those_of_the_longer_map() {
     let e = run_map(&cfg(6.0), &MapRunOptions { out: Some(dir.join("none.jsonl")), resume: false, threads: Some(2), extend: true }, &cancel, &none).unwrap_err().to_string();
     assert!(e.contains("extend_to"), "{e}");
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A results file of format version 2 (rows without `settled` and the drifts, labels of the
+/// rules before the flag) reads back with `settled` derived from `steady`, and resumes and extends
+/// after an upgrade to version 3: every completed row is reclassified from the signals of its
+/// end state, bitwise the row of a version-3 map (docs/model.md §8).
+#[test]
+fn version_2_files_read_back_resume_and_extend() {
+    use beamslider_core::Behaviour;
+    let cancel = AtomicBool::new(false);
+    let dir = tmp("v2");
+    let grid = "[grid]\nf_ex_hz = [100.0, 120.0, 124.0]\na_ex_m_s2 = [4.0, 14.0]\ns0 = [0.3, 0.7]\n\
+                [criteria]\nsteady_window_s = 1.0\nsteady_drift_window_s = 1.0\n";
+    let cfg = |d: f64| MapConfig::from_toml_str(&format!("duration_s = {d}\n{grid}")).unwrap();
+    let v3 = dir.join("v3.jsonl");
+    let short = run_map(&cfg(3.0), &MapRunOptions { out: Some(v3.clone()), resume: false, threads: Some(2), extend: false }, &cancel, &none).unwrap();
+    assert_eq!(read_results(&v3).unwrap().version, 3);
+    // The same map as version 2 wrote it: no flag, no drifts, a behaviour that has not settled
+    // labelled not_settled.
+    let text = std::fs::read_to_string(&v3).unwrap();
+    let mut lines = text.lines();
+    let mut v2 = lines.next().unwrap().replacen("\"beamslider_map\":3", "\"beamslider_map\":2", 1);
+    v2.push('\n');
+    for l in lines {
+        let mut v: serde_json::Value = serde_json::from_str(l).unwrap();
+        let o = v.as_object_mut().unwrap();
+        let settled = o.remove("settled").unwrap().as_bool().unwrap();
+        o.remove("drift_s");
+        o.remove("drift_a_h");
+        if !settled && o["behaviour"] != "relaxation_oscillation" {
+            o.insert("behaviour".into(), "not_settled".into());
+        }
+        v2.push_str(&v.to_string());
+        v2.push('\n');
+    }
+    let old = read_results(&v3).unwrap().rows;
+    for name in ["resume.jsonl", "extend.jsonl"] {
+        std::fs::write(dir.join(name), &v2).unwrap();
+    }
+    let back = read_results(&dir.join("resume.jsonl")).unwrap();
+    assert_eq!(back.version, 2);
+    for (b, o) in back.rows.iter().zip(&old) {
+        assert_eq!(b.settled, o.settled, "point {}", o.index);
+        assert!(b.drift_s.is_nan());
+    }
+    // Resume: nothing to compute; the file is rewritten as version 3 with the rows of the
+    // version-3 map.
+    let o = run_map(&cfg(3.0), &MapRunOptions { out: Some(dir.join("resume.jsonl")), resume: true, threads: Some(2), extend: false }, &cancel, &none).unwrap();
+    assert_eq!((o.resumed, o.computed), (short.rows.len(), 0));
+    assert_eq!(canon(&o.rows), canon(&short.rows));
+    let up = read_results(&dir.join("resume.jsonl")).unwrap();
+    assert_eq!(up.version, 3);
+    let mut rows = up.rows;
+    rows.sort_by_key(|r| r.index);
+    assert_eq!(canon(&rows), canon(&short.rows));
+    // Extend: the same rows as the extension of the version-3 file.
+    let a = run_map(&cfg(6.0), &MapRunOptions { out: Some(dir.join("extend.jsonl")), resume: false, threads: Some(2), extend: true }, &cancel, &none).unwrap();
+    let b = run_map(&cfg(6.0), &MapRunOptions { out: Some(v3.clone()), resume: false, threads: Some(2), extend: true }, &cancel, &none).unwrap();
+    assert_eq!(a.extended, b.extended);
+    assert_eq!(canon(&a.rows), canon(&b.rows));
+    assert!(a.extended > 0);
+    assert!(a.rows.iter().all(|r| r.settled || r.behaviour == Behaviour::NotSettled || r.t_end_s == 6.0));
+    // Version 1 is read, never resumed.
+    let v1 = v2.replacen("\"beamslider_map\":2", "\"beamslider_map\":1", 1);
+    std::fs::write(dir.join("v1.jsonl"), &v1).unwrap();
+    let e = run_map(&cfg(3.0), &MapRunOptions { out: Some(dir.join("v1.jsonl")), resume: true, threads: Some(2), extend: false }, &cancel, &none).unwrap_err().to_string();
+    assert!(e.contains("format version 1"), "{e}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The text table marks a behaviour reached but not settled with `*`.
+#[test]
+fn text_table_marks_unsettled_rows() {
+    let cfg = small(2.0);
+    let cancel = AtomicBool::new(false);
+    let mut o = run_map(&cfg, &MapRunOptions::default(), &cancel, &none).unwrap();
+    for r in &mut o.rows {
+        r.behaviour = beamslider_core::Behaviour::TrivialAdaption;
+        r.settled = true;
+    }
+    o.rows[0].settled = false;
+    let t = map::text_table(&o.rows);
+    assert_eq!(t.matches("T*").count(), 1, "{t}");
+    assert!(t.contains("* reached, not yet settled"), "{t}");
+    o.rows[0].behaviour = beamslider_core::Behaviour::NotSettled;
+    assert_eq!(map::text_table(&o.rows).matches('*').count(), 1);
 }
 
 /// The checkpointed run continued with `run_from` is bitwise the run that never stopped.

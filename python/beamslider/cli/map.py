@@ -30,7 +30,7 @@ def add_parser(sub: Any) -> None:
     sp.add_argument("--threads", "-j", type=positive(int), metavar="N", help="worker threads (default: one per core)")
     sp.add_argument("--resume", action="store_true", help="continue the map in --out, skipping finished points")
     sp.add_argument("--extend-to", type=positive(float), metavar="T",
-                    help="extend the map in --out to T seconds: continue its not-settled and undetermined points from their saved end "
+                    help="extend the map in --out to T seconds: continue its points with settled = false and its undetermined points from their saved end "
                          "states (bitwise the T-second runs), keep the settled ones; prints the number re-run")
     sp.add_argument("--print-config", action="store_true", help="print the map configuration (TOML) and exit")
     sp.add_argument("--scheduler", metavar="ADDRESS",

@@ -27,11 +27,11 @@ from .objectives import (ADAPTIVE, adaption_bandwidth, adapted_intervals, harves
                          sample_objectives)
 from .optimise import optimise
 from .plots import plot_amplitude, plot_maps, plot_pareto, write_outputs
-from .results import DesignResult, pareto_front, read_design_file
+from .results import DesignRecords, DesignResult, pareto_front, read_design_file, read_designs
 
 __all__ = [
-    "ADAPTIVE", "EVALUATORS", "EXAMPLE_TOML", "RESULTS_FILE", "DesignConfig", "DesignResult", "Variable",
+    "ADAPTIVE", "EVALUATORS", "EXAMPLE_TOML", "RESULTS_FILE", "DesignConfig", "DesignRecords", "DesignResult", "Variable",
     "adaption_bandwidth", "adapted_intervals", "harvestable_level", "optimise", "pareto_front", "plot_amplitude",
-    "plot_maps", "plot_pareto", "read_config", "read_design_file", "robust_value", "sample_objectives",
+    "plot_maps", "plot_pareto", "read_config", "read_design_file", "read_designs", "robust_value", "sample_objectives",
     "write_outputs",
 ]

@@ -54,6 +54,29 @@ def read_design_file(path: Union[str, Path]) -> tuple:
     return header, records, good
 
 
+class DesignRecords(list):
+    """The evaluated designs of a ``design.jsonl`` (dicts), with :meth:`to_pandas`."""
+
+    header: Optional[Dict[str, Any]] = None
+
+    def to_pandas(self) -> Any:
+        """A pandas DataFrame, one row per evaluated design (extra ``pandas``): nested keys
+        flattened to ``variables.<name>``, ``params.<name>``, …; ``samples`` (the classified points of
+        each sample) stays a column of lists."""
+        from ..tables import records_frame
+
+        return records_frame(list(self), "DesignRecords.to_pandas")
+
+
+def read_designs(path: Union[str, Path]) -> DesignRecords:
+    """The evaluated designs of a design run's results file (``design.jsonl`` or its folder), in
+    file order, with ``.to_pandas()``; the header is the attribute ``header``."""
+    header, records, _good = read_design_file(path)
+    out = DesignRecords(records)
+    out.header = header
+    return out
+
+
 class DesignWriter:
     """The results of a design run, in memory and (``path`` given) in the file: ``add(record)``
     appends one line at once, ``get(key)`` returns a finished evaluation. ``resume=False`` refuses
@@ -177,6 +200,10 @@ class DesignResult:
     """Designs evaluated by this call (not read back from a resumed file)."""
     runs_now: int = 0
     """Single runs (FS or predicted points) done by this call."""
+
+    def to_pandas(self) -> Any:
+        """Every evaluated design as a pandas DataFrame (see :meth:`DesignRecords.to_pandas`)."""
+        return DesignRecords(self.records).to_pandas()
 
     def summary(self) -> Dict[str, Any]:
         """Plain-data summary (``summary.json``)."""

@@ -13,11 +13,11 @@ from .compute import (Classification, classify, classify_result, operating_map, 
 from .config import (BEHAVIOURS, LABELS, LETTERS, MIN_CLASSIFY_S, RESULTS_FILE, criteria_toml, default_map_config,
                      map_config_dict, map_config_toml)
 from .draw import COLOURS, changed_with_s0, plot_operating_map
-from .read import failures, read_map, rows_to_table, t_end_text, text_table
+from .read import failures, marked_unsettled, read_map, rows_to_table, t_end_text, text_table
 
 __all__ = [
     "BEHAVIOURS", "COLOURS", "LABELS", "LETTERS", "MIN_CLASSIFY_S", "RESULTS_FILE",
     "Classification", "changed_with_s0", "classify", "classify_result", "criteria_toml", "default_map_config",
-    "failures", "map_config_dict", "map_config_toml", "operating_map", "plot_operating_map", "predicted_map",
+    "failures", "map_config_dict", "marked_unsettled", "map_config_toml", "operating_map", "plot_operating_map", "predicted_map",
     "read_map", "rows_to_table", "run_map_config", "super_slow_signals", "t_end_text", "text_table",
 ]

@@ -23,6 +23,7 @@ from ..params import Parameters, resolve
 from ..simulate import SimulationResult
 from ..superslow import DesignLaw, DriftLaw, builtin_law, law_json, predict
 from .config import MIN_CLASSIFY_S, RESULTS_FILE, criteria_toml, map_config_toml
+from ..tables import MapTable, RowList
 from .read import rows_to_table
 
 __all__ = ["Classification", "classify", "classify_result", "operating_map", "predicted_map", "run_map_config",
@@ -41,7 +42,9 @@ class Classification:
     """s_initial, s_final, amplitude_final_h, amplitude_initial_h, amplitude_max_h, s_min, s_max,
     net_travel, travel_to_centre, turn_s, turn_t_s (NaN when no turning point), jump_up_t_s,
     jump_down_t_s, steady, phase (the phase reached at the end, e.g. ``steady_high`` or, for
-    ``not_settled``, ``high_towards_centre``)."""
+    a run that has not settled, ``high_towards_centre``), settled (the behaviour is final; false
+    for ``not_settled`` and for a behaviour reached whose run still creeps), drift_s and drift_a_h
+    (change of s and A along their least-squares lines over the final drift window)."""
 
 
 def classify(t: Any, s: Any, amplitude_h: Any, *, criteria: Optional[Dict[str, float]] = None) -> Classification:
@@ -65,7 +68,7 @@ def classify(t: Any, s: Any, amplitude_h: Any, *, criteria: Optional[Dict[str, f
                          f"{MIN_CLASSIFY_S:g} s (the amplitude's moving-average window)")
     c = json.loads(_core.classify(s, a, dt, t0_s=float(t[0]), criteria_toml=criteria_toml(criteria)))
     behaviour, reason = c.pop("behaviour"), c.pop("reason")
-    for k in ("turn_s", "turn_t_s"):
+    for k in ("turn_s", "turn_t_s", "drift_s", "drift_a_h"):
         c[k] = float("nan") if c.get(k) is None else c[k]
     return Classification(behaviour=behaviour, reason=reason, features=c)
 
@@ -104,12 +107,12 @@ def _map_chunk(config_toml: str, jobs: List[tuple], threads: int) -> List[str]:
 def run_map_config(config_toml: str, *, out: Optional[Union[str, Path]] = None, resume: bool = False,
                    threads: Optional[int] = None, progress: Optional[bool] = False, extend: bool = False,
                    report: bool = True, scheduler: Any = None, scheduler_file: Optional[str] = None,
-                   chunk_size: int = 8, task_threads: int = 1, max_retries: int = 3) -> Dict[str, np.ndarray]:
+                   chunk_size: int = 8, task_threads: int = 1, max_retries: int = 3) -> MapTable:
     """Run a map from configuration TOML text (see :func:`map_config_toml`); ``out`` is the output
     folder (results appended to ``out/map.jsonl`` point by point, the configuration written to
     ``out/map.toml``). ``extend``: the map in ``out`` was run for a shorter duration; continue its
-    not-settled points from their saved end states to the configuration's duration (the count
-    is printed when ``report``). ``scheduler`` / ``scheduler_file``: run the points on a Dask
+    points with ``settled`` false and its undetermined points from their saved end states to the
+    configuration's duration (the count is printed when ``report``). ``scheduler`` / ``scheduler_file``: run the points on a Dask
     cluster in chunks of ``chunk_size`` (see :func:`operating_map`)."""
     canonical, f, a, s = _core.map_config(config_toml)
     total = len(f) * len(a) * len(s)
@@ -165,8 +168,8 @@ def run_map_config(config_toml: str, *, out: Optional[Union[str, Path]] = None, 
     table = rows_to_table([json.loads(r) for r in rows])
     if report and (extend or extended):
         t_end = float(_toml.loads(canonical)["duration_s"])
-        print(f"re-ran {extended} not-settled or undetermined of {len(table['index'])} points from their saved end states "
-              f"to t_end = {t_end:g} s")
+        print(f"re-ran {extended} of {len(table['index'])} points (settled = false, or undetermined) from their saved end "
+              f"states to t_end = {t_end:g} s")
     return table
 
 
@@ -175,7 +178,7 @@ def operating_map(params: Optional[Parameters] = None, *, f_ex: Any, a_ex: Any, 
                   resume: bool = False, record_every: int = 20, criteria: Optional[Dict[str, float]] = None,
                   progress: Optional[bool] = False, extend_to: Optional[float] = None, scheduler: Any = None,
                   scheduler_file: Optional[str] = None, chunk_size: int = 8,
-                  predictor: Optional[Any] = None) -> Dict[str, np.ndarray]:
+                  predictor: Optional[Any] = None) -> MapTable:
     """Operating map (docs/model.md §8): the behaviour of the free slider at every (f_ex, a_ex, s0) of the
     grid, each point a ``t_end``-second run from rest classified by the core, in parallel on
     ``threads`` threads (default: one per core).
@@ -186,7 +189,8 @@ def operating_map(params: Optional[Parameters] = None, *, f_ex: Any, a_ex: Any, 
     the map (``KeyboardInterrupt``) keeping the finished points.
 
     ``extend_to``: extend the map in ``out`` (run for ``t_end`` seconds) to ``extend_to`` seconds:
-    the points that had not settled (``not_settled``) or got no behaviour (``undetermined``) continue from the end states saved in the
+    the points that have not settled (``settled`` false: ``not_settled``, or a behaviour reached
+    whose run still creeps) or got no behaviour (``undetermined``) continue from the end states saved in the
     results file — each continued row is bitwise the row of a ``extend_to``-second run from rest,
     but for the wall time — and the settled points keep their rows; the number of re-run points
     is printed. An interrupted extension is finished by the same call.
@@ -205,8 +209,9 @@ def operating_map(params: Optional[Parameters] = None, *, f_ex: Any, a_ex: Any, 
     same results format and writer, ``resume`` as for FS maps, see
     :func:`predicted_map`).
 
-    Returns a dict of numpy arrays, one entry per grid point in grid order (s0 slowest, then a_ex,
-    f_ex fastest): see :func:`rows_to_table`.
+    Returns a :class:`~beamslider.tables.MapTable`: a dict of numpy arrays, one entry per grid
+    point in grid order (s0 slowest, then a_ex, f_ex fastest; see :func:`rows_to_table`), with
+    ``.to_pandas()`` (a DataFrame) and ``.to_xarray()`` (a Dataset over f_ex_hz, a_ex_m_s2, s0).
     """
     if predictor is not None:
         s0s = np.atleast_1d(np.asarray(s0, dtype=float))
@@ -274,11 +279,12 @@ def predicted_map(
     force: bool = False,
     resume: bool = False,
     threads: Optional[int] = None,
-) -> List[dict]:
+) -> RowList:
     """An operating map by the reduced predictor (docs/model.md §8) with a fitted law (b2): one row per
-    (f_ex, a_ex) in the results format of the FS maps (``map.jsonl`` version 2; ``status`` is
+    (f_ex, a_ex) in the results format of the FS maps (``map.jsonl`` version 3; ``status`` is
     ``predicted``, counters are zero, no end state; extra keys ``events``, ``extrapolated``,
-    ``s_dn_source``).
+    ``s_dn_source``), as a :class:`~beamslider.tables.RowList` (a list of dicts with
+    ``.to_pandas()``, ``.to_xarray()`` and ``.table()``).
 
     ``s_dn='law'`` (the default: the HB manifold's jump-down, else the law's, :meth:`DriftLaw.s_dn`)
     and ``'hb'`` (the HB manifold's own only) are computed by the core (manifold, law, slow flow and classifier
@@ -299,7 +305,7 @@ def predicted_map(
     if s_dn == "none":
         if out is not None:
             raise ValueError(f"invalid parameter `out`: a map with s_dn={s_dn!r} is evaluated in Python and not written (the core writes s_dn='law' and 'hb')")
-        return _predicted_rows_python(p, drift, f_ex, a_ex, s0, t_end, s_dn, d_eff, n_modes)
+        return RowList(_predicted_rows_python(p, drift, f_ex, a_ex, s0, t_end, s_dn, d_eff, n_modes))
     path = None
     if out is not None:
         path = Path(out) / "map.jsonl"
@@ -311,7 +317,7 @@ def predicted_map(
     law = drift if s_dn == "law" else dataclasses.replace(drift, rho_c=0.0, _trees={})
     rows = _core.predicted_map(cfg, law_json(law), out=None if path is None else str(path), resume=bool(resume),
                                threads=threads, n_modes=int(n_modes), d_eff=d_eff)
-    return [json.loads(r) for r in rows]
+    return RowList(json.loads(r) for r in rows)
 
 
 def _predicted_rows_python(p, drift, f_ex, a_ex, s0, t_end, s_dn, d_eff, n_modes) -> List[dict]:
@@ -327,13 +333,13 @@ def _predicted_rows_python(p, drift, f_ex, a_ex, s0, t_end, s_dn, d_eff, n_modes
                    "status": "predicted", **{key: c.get(key) for key in (
                        "behaviour", "reason", "s_final", "amplitude_final_h", "amplitude_initial_h", "amplitude_max_h", "s_min",
                        "s_max", "net_travel", "travel_to_centre", "turn_s", "turn_t_s", "jump_up_t_s", "jump_down_t_s",
-                       "steady", "phase")},
+                       "steady", "phase", "settled", "drift_s", "drift_a_h")},
                    "counters": {"steps": 0, "contact_steps": 0, "closed_histogram": [0, 0, 0, 0, 0], "solver_iterations": 0,
                                 "max_iterations": 0, "cap_hits": 0, "first_guess_hits": 0, "linear_solves": 0,
                                 "enumerations": 0, "fallbacks": 0},
                    "wall_time_s": wall, "events": [list(e) for e in r.events], "extrapolated": r.extrapolated,
                    "s_dn_source": r.s_dn_source}
-            for key in ("turn_s", "turn_t_s"):
+            for key in ("turn_s", "turn_t_s", "drift_s", "drift_a_h"):
                 if row[key] is not None and not math.isfinite(row[key]):
                     row[key] = None
             rows.append(row)

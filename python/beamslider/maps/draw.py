@@ -8,7 +8,7 @@ from typing import Any, Dict, List, Optional, Sequence, Union
 import numpy as np
 
 from .config import BEHAVIOURS, LABELS
-from .read import t_end_text
+from .read import marked_unsettled, t_end_text
 
 __all__ = ["COLOURS", "changed_with_s0", "plot_operating_map"]
 
@@ -42,12 +42,17 @@ def _panel(ax: Any, table: Dict[str, np.ndarray], s0: float, title: Optional[str
     dfs = np.diff(fs).min() if len(fs) > 1 else 1.0
     das = np.diff(as_).min() if len(as_) > 1 else 1.0
     present = set()
+    hollow = marked_unsettled(table)
     for i in np.flatnonzero(m):
         b = str(table["behaviour"][i])
         present.add(b)
         f, a = table["f_ex_hz"][i], table["a_ex_m_s2"][i]
-        ax.add_patch(Rectangle((f - dfs / 2, a - das / 2), dfs, das, facecolor=COLOURS.get(b, "w"),
+        ax.add_patch(Rectangle((f - dfs / 2, a - das / 2), dfs, das, facecolor="w" if hollow[i] else COLOURS.get(b, "w"),
                                edgecolor="k", linewidth=0.4, hatch=_HATCH.get(b)))
+        if hollow[i]:  # reached, not yet settled: a hollow cell in the behaviour's colour
+            present.add("unsettled")
+            ax.add_patch(Rectangle((f - dfs / 2 + 0.12 * dfs, a - das / 2 + 0.12 * das), 0.76 * dfs, 0.76 * das,
+                                   facecolor="none", edgecolor=COLOURS.get(b, "k"), linewidth=2.5))
     for f, a in marks:
         ax.add_patch(Rectangle((f - dfs / 2 + 0.06 * dfs, a - das / 2 + 0.06 * das), 0.88 * dfs, 0.88 * das,
                                facecolor="none", edgecolor="k", linewidth=2.0))
@@ -68,7 +73,8 @@ def plot_operating_map(table: Dict[str, np.ndarray], *, s0: Optional[float] = No
                        mark_changes: bool = False) -> Any:
     """Categorical map of the behaviours over (f_ex, a_ex) with a legend, like the paper's Fig. 11
     (one cell per grid point; cells not run are left blank, undetermined cells hatched, not-settled
-    cells dotted). The title gives s0 and t_end. A map over several s0 draws one panel per s0
+    cells dotted, a behaviour reached but not yet settled (``settled`` false) hollow: a white cell
+    framed in the behaviour's colour). The title gives s0 and t_end. A map over several s0 draws one panel per s0
     (unless ``s0`` picks one); ``mark_changes`` outlines the points whose behaviour changes with
     s0 (the paper's start-position example, Fig. 12). Returns the figure; writes it to ``path``
     when given."""
@@ -100,6 +106,8 @@ def plot_operating_map(table: Dict[str, np.ndarray], *, s0: Optional[float] = No
         fig.suptitle(title)
     handles = [Patch(facecolor=COLOURS[b], edgecolor="k", label=LABELS[b], hatch=_HATCH.get(b))
                for b in BEHAVIOURS if b not in _HATCH or b in present]
+    if "unsettled" in present:
+        handles.append(Patch(facecolor="w", edgecolor="0.4", linewidth=2.5, label="hollow: reached, not yet settled"))
     if marks:
         handles.append(Patch(facecolor="none", edgecolor="k", linewidth=2.0, label="changes with $s_0$"))
     axes[-1].legend(handles=handles, loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False, fontsize=9)

@@ -9,24 +9,38 @@ from typing import Any, Dict, List, Optional, Sequence, Union
 import numpy as np
 
 from .. import _core
+from ..tables import MapTable
 from .config import BEHAVIOURS, LABELS, LETTERS, RESULTS_FILE
 
-__all__ = ["failures", "read_map", "rows_to_table", "t_end_text", "text_table"]
+__all__ = ["failures", "marked_unsettled", "read_map", "rows_to_table", "t_end_text", "text_table"]
 
 
 _SCALARS = ("index", "f_ex_hz", "a_ex_m_s2", "s0", "t_end_s", "s_final", "amplitude_final_h", "amplitude_initial_h",
             "amplitude_max_h", "s_min", "s_max", "net_travel", "travel_to_centre", "turn_s", "turn_t_s",
-            "wall_time_s")
+            "drift_s", "drift_a_h", "wall_time_s")
 
 
-def rows_to_table(rows: Sequence[Dict[str, Any]]) -> Dict[str, np.ndarray]:
-    """Map rows (dicts as in the results file) as a dict of numpy arrays: the scalar features
-    (float; NaN for a missing turning point), ``behaviour``, ``reason``, ``status``, ``phase`` (str),
-    ``has_end_state`` (bool: the run can be continued by ``extend_to``),
-    ``steady`` (bool), ``jump_up_t_s``/``jump_down_t_s`` (object arrays of lists) and the solver
-    counters as ``counters_<name>`` (int)."""
+def _settled(r: Dict[str, Any]) -> bool:
+    """A row's ``settled`` flag; a row without it (format version 2, not read by the core) is
+    settled when steady, a relaxation oscillation counts as settled (docs/model.md §8)."""
+    if "settled" in r:
+        return bool(r["settled"])
+    if r.get("behaviour") == "not_settled":
+        return False
+    return bool(r.get("steady")) or r.get("behaviour") == "relaxation_oscillation"
+
+
+def rows_to_table(rows: Sequence[Dict[str, Any]]) -> MapTable:
+    """Map rows (dicts as in the results file) as a :class:`~beamslider.tables.MapTable` (a dict of
+    numpy arrays with ``to_pandas()`` and ``to_xarray()``): the scalar features (float; NaN for a
+    missing turning point or drift), ``behaviour``, ``reason``, ``status``, ``phase`` (str),
+    ``has_end_state`` (bool: the run can be continued by ``extend_to``), ``steady`` and
+    ``settled`` (bool: the behaviour is final; false while the run still creeps, docs/model.md
+    §8), ``drift_s`` / ``drift_a_h`` (change of s and A over the final drift window),
+    ``jump_up_t_s``/``jump_down_t_s`` (object arrays of lists) and the solver counters as
+    ``counters_<name>`` (int)."""
     rows = sorted(rows, key=lambda r: r["index"])
-    out: Dict[str, np.ndarray] = {}
+    out = MapTable()
     for k in _SCALARS:
         out[k] = np.array([np.nan if r.get(k) is None else r[k] for r in rows], dtype=float)
     out["index"] = out["index"].astype(int)
@@ -34,6 +48,7 @@ def rows_to_table(rows: Sequence[Dict[str, Any]]) -> Dict[str, np.ndarray]:
         out[k] = np.array([r.get(k, "") for r in rows], dtype=object).astype(str) if rows else np.array([], dtype=str)
     out["has_end_state"] = np.array(["end" in r for r in rows], dtype=bool)
     out["steady"] = np.array([bool(r["steady"]) for r in rows], dtype=bool)
+    out["settled"] = np.array([_settled(r) for r in rows], dtype=bool)
     for k in ("jump_up_t_s", "jump_down_t_s"):
         arr = np.empty(len(rows), dtype=object)
         for i, r in enumerate(rows):
@@ -48,10 +63,11 @@ def rows_to_table(rows: Sequence[Dict[str, Any]]) -> Dict[str, np.ndarray]:
     return out
 
 
-def read_map(path: Union[str, Path]) -> Dict[str, np.ndarray]:
-    """Read a map's results (``map.jsonl`` or its folder) into the table of :func:`operating_map`.
-    A truncated last line (a map killed while writing) is ignored; of an extended map the latest
-    row of each point is read."""
+def read_map(path: Union[str, Path]) -> MapTable:
+    """Read a map's results (``map.jsonl`` or its folder) into the table of :func:`operating_map`
+    (``.to_pandas()``, ``.to_xarray()``). A truncated last line (a map killed while writing) is
+    ignored; of an extended map the latest row of each point is read. A version-2 file (without
+    ``settled``) reads with ``settled`` derived from ``steady`` (docs/model.md §8)."""
     path = Path(path)
     if path.is_dir():
         path = path / RESULTS_FILE
@@ -86,9 +102,20 @@ def t_end_text(table: Dict[str, np.ndarray], s0: Optional[float] = None) -> str:
     return f"t_end = {round(hi, 3):g} s (settled points kept from {round(lo, 3):g} s)"
 
 
+def marked_unsettled(table: Dict[str, np.ndarray]) -> np.ndarray:
+    """Points whose behaviour is reached but has not settled (``settled`` false, not
+    ``not_settled``, a completed or predicted run): drawn hollow, marked ``*`` in the text table."""
+    n = len(table["behaviour"])
+    settled = table.get("settled", np.ones(n, dtype=bool))
+    done = (table["status"] == "completed") | (table["status"] == "predicted")
+    return ~np.asarray(settled, dtype=bool) & (table["behaviour"] != "not_settled") & done
+
+
 def text_table(table: Dict[str, np.ndarray], s0: Optional[float] = None) -> str:
     """The map as text: per s0 a header with s0 and t_end, rows a_ex (highest first), columns
-    f_ex, one letter per behaviour (:data:`LETTERS`; ``.`` = not run)."""
+    f_ex, one letter per behaviour (:data:`LETTERS`; ``.`` = not run), followed by ``*`` when the
+    behaviour is reached but not yet settled (:func:`marked_unsettled`)."""
+    star = marked_unsettled(table)
     s0s = sorted(set(table["s0"].tolist())) if s0 is None else [s0]
     out = []
     for s in s0s:
@@ -96,13 +123,14 @@ def text_table(table: Dict[str, np.ndarray], s0: Optional[float] = None) -> str:
         fs = sorted(set(table["f_ex_hz"][m].tolist()))
         as_ = sorted(set(table["a_ex_m_s2"][m].tolist()), reverse=True)
         out.append(f"s0 = {s:g}, {t_end_text(table, s)}; rows a_ex [m/s^2], columns f_ex [Hz]; "
-                   + ", ".join(f"{LETTERS[b]} {LABELS[b]}" for b in BEHAVIOURS))
+                   + ", ".join(f"{LETTERS[b]} {LABELS[b]}" for b in BEHAVIOURS) + ", . not run; * reached, not yet settled")
         corner = "a\\f"
         out.append(f"{corner:>6} " + "".join(f"{f:>4g}" for f in fs))
         for a in as_:
             cells = []
             for f in fs:
                 k = np.flatnonzero(m & (table["f_ex_hz"] == f) & (table["a_ex_m_s2"] == a))
-                cells.append(f"{LETTERS.get(table['behaviour'][k[0]], '?') if len(k) else '.':>4}")
+                cell = (LETTERS.get(table['behaviour'][k[0]], '?') + ("*" if star[k[0]] else "")) if len(k) else "."
+                cells.append(f"{cell:>4}")
             out.append(f"{a:>6g} " + "".join(cells))
     return "\n".join(out) + "\n"

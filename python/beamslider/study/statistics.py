@@ -10,6 +10,7 @@ from typing import Any, Dict, List, Sequence, Tuple, Union
 import numpy as np
 
 from ..maps import BEHAVIOURS, LETTERS, rows_to_table
+from ..tables import SampleTable
 from .config import OUTPUTS, StudyConfig
 from .results import read_results
 from .._json import json_safe as _json_safe
@@ -42,11 +43,17 @@ class StudyResult:
     """Outcome of :func:`run_study` / :func:`aggregate`."""
 
     config: StudyConfig
-    table: Dict[str, np.ndarray]
+    table: SampleTable
     """One entry per run, sorted by index: the map row columns (:func:`maps.rows_to_table`) plus
-    ``sample``, ``point`` and ``param_<name>`` for each uncertain input."""
+    ``sample``, ``point`` and ``param_<name>`` for each uncertain input (a dict of numpy arrays;
+    ``.to_pandas()`` or :meth:`to_pandas` gives a DataFrame)."""
     points: List[PointSummary]
     """One summary per operating point, in map order."""
+
+    def to_pandas(self) -> Any:
+        """The runs as a pandas DataFrame, one row per sample and operating point (extra
+        ``pandas``; ``behaviour`` categorical)."""
+        return self.table.to_pandas()
 
     def summary_dict(self) -> Dict[str, Any]:
         """JSON-ready summary (no rows)."""
@@ -111,7 +118,7 @@ def _spearman(x: np.ndarray, y: np.ndarray) -> float:
 def aggregate(config: StudyConfig, rows: Sequence[Dict[str, Any]]) -> StudyResult:
     """Summaries per operating point from the study's rows (as in the results file)."""
     rows = sorted(rows, key=lambda r: r["index"])
-    table = rows_to_table(rows)
+    table = SampleTable(rows_to_table(rows))
     table["sample"] = np.array([r["sample"] for r in rows], dtype=int)
     table["point"] = np.array([r["point"] for r in rows], dtype=int)
     for name in config.names:

@@ -10,7 +10,7 @@
 //! kill is cut off first). Every point is computed independently from the same inputs, so the rows
 //! do not depend on the number of threads (bitwise, apart from `wall_time_s`).
 //!
-//! Results file: line 1 is a header `{"beamslider_map": 2, "settings": {...}}` with everything
+//! Results file: line 1 is a header `{"beamslider_map": 3, "settings": {...}}` with everything
 //! that decides a row besides the grid point (parameters, duration, recording interval,
 //! classification thresholds); resuming with different settings is an error. Each further line
 //! is one [`MapRow`]; a later row of the same point replaces an earlier one (extension).
@@ -18,7 +18,8 @@
 //! Every completed row carries its run's end state ([`EndState`]: the state, the step index, the
 //! stepper's memory and the super-slow signals so far, [`crate::signal::envelope_stream`]). A map can
 //! therefore be **extended in time** ([`MapRunOptions::extend`]): the points that had not
-//! settled ([`crate::classify::Behaviour::NotSettled`]) or got no behaviour ([`crate::classify::Behaviour::Undetermined`]) continue from their saved end states to the new duration,
+//! settled (`settled` false: [`crate::classify::Behaviour::NotSettled`], or a behaviour still
+//! creeping) or got no behaviour ([`crate::classify::Behaviour::Undetermined`]) continue from their saved end states to the new duration,
 //! bitwise as if they had run there from the start; settled points keep their rows. Memory per
 //! point in flight: the binned super-slow signals and a few hundred raw samples.
 
@@ -28,5 +29,5 @@ mod table;
 
 pub use crate::results::{EndState, MapPoint, MapRow};
 pub use config::{Axis, DEFAULT_RECORD_EVERY, Grid, MAX_POINTS, MapConfig, RESULTS_FILE};
-pub use run::{Job, MapOutcome, MapResults, MapRunOptions, Progress, continue_point, error_row, preflight, run_job, run_jobs, run_map, run_point};
-pub use table::text_table;
+pub use run::{Job, MapOutcome, MapResults, MapRunOptions, Progress, continue_point, error_row, preflight, run_job, run_jobs, run_map, run_point, upgrade_row};
+pub use table::{marked_unsettled, text_table};

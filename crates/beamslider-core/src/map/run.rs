@@ -79,6 +79,7 @@ fn finish_point(model: &Model, cfg: &MapConfig, p: &MapPoint, status: Status, co
             c.behaviour = Behaviour::Undetermined;
             c.reason = status.message();
             c.phase = "failed".into();
+            c.settled = false;
         }
         c
     } else if status != Status::Completed {
@@ -110,6 +111,9 @@ fn no_classification(p: &MapPoint, reason: String) -> Classification {
         jump_down_t_s: vec![],
         steady: false,
         phase: "failed".into(),
+        settled: false,
+        drift_s: f64::NAN,
+        drift_a_h: f64::NAN,
     }
 }
 
@@ -248,7 +252,7 @@ fn existing_results(cfg: &MapConfig, opts: &MapRunOptions, path: &Path, predicto
 /// equal but for a duration ≤ the new one, and end states saved for the not-settled points).
 fn check_settings(cfg: &MapConfig, opts: &MapRunOptions, path: &Path, old: &ResultsFile, predictor: Option<&serde_json::Value>) -> Result<()> {
     let new = cfg.settings();
-    if old.settings.is_some() && old.version != FORMAT_VERSION {
+    if old.settings.is_some() && old.version < 2 {
         let what = if opts.extend { "extend_to" } else { "resume" };
         return Err(Error::invalid(what, path.display(), &format!("the results file has format version {} (rows classified by older rules, no end states); start a new map", old.version)));
     }
@@ -267,7 +271,7 @@ fn check_settings(cfg: &MapConfig, opts: &MapRunOptions, path: &Path, old: &Resu
         if s.duration_s > new.duration_s {
             return Err(Error::invalid("extend_to", new.duration_s, &format!("must exceed the map's t_end ({} s)", s.duration_s)));
         }
-        if let Some(r) = old.rows.iter().find(|r| matches!(r.behaviour, Behaviour::NotSettled | Behaviour::Undetermined) && r.status == Status::Completed.name() && r.end.is_none()) {
+        if let Some(r) = old.rows.iter().find(|r| (!r.settled || matches!(r.behaviour, Behaviour::NotSettled | Behaviour::Undetermined)) && r.status == Status::Completed.name() && r.end.is_none()) {
             return Err(Error::invalid("extend_to", path.display(), &format!("point #{} (f_ex = {} Hz, a_ex = {} m/s^2, s0 = {}) has no saved end state", r.index, r.f_ex_hz, r.a_ex_m_s2, r.s0)));
         }
         return Ok(());
@@ -284,6 +288,25 @@ fn check_settings(cfg: &MapConfig, opts: &MapRunOptions, path: &Path, old: &Resu
         return Err(Error::invalid("resume", path.display(), what));
     }
     Ok(())
+}
+
+/// A row of a version-2 results file as this version writes it: a completed row with an end
+/// state is reclassified from the super-slow signals saved in it (the classification depends on
+/// these signals and the criteria only, so the row is bitwise the one a run of this version
+/// writes, but for the wall time); a row without (a failed run, a predicted point) keeps its
+/// fields, with `settled` as read ([`MapRow::derive_settled`]).
+pub fn upgrade_row(cfg: &MapConfig, thickness_m: f64, row: &MapRow) -> Result<MapRow> {
+    let Some(end) = row.end.as_ref().filter(|_| row.status == Status::Completed.name()) else {
+        return Ok(row.clone());
+    };
+    let x = end.signals.super_slow(thickness_m, 1.0);
+    if x.s.len() < 2 {
+        return Ok(row.clone());
+    }
+    let c = classify(&x, &cfg.criteria)?;
+    let mut out = MapRow::from_classification(&row.point(), row.t_end_s, &row.status, &c, row.counters, row.wall_time_s, row.end.clone());
+    out.extra = row.extra.clone();
+    Ok(out)
 }
 
 /// The results of a map being run: the rows kept from an existing results file, the jobs still
@@ -338,14 +361,18 @@ impl MapResults {
                 let old = existing_results(cfg, opts, path, predictor)?;
                 let exists = old.is_some();
                 if let Some(old) = old
-                    && old.settings.as_ref().is_some_and(|s| *s != settings)
+                    && old.settings.as_ref().is_some_and(|s| *s != settings || old.version != FORMAT_VERSION)
                 {
-                    // Extension: the header takes the new duration. Write the new file beside the
-                    // old one and swap them, so that a kill loses nothing.
+                    // Extension: the header takes the new duration; an older format (version 2)
+                    // is upgraded, its rows reclassified from their end states
+                    // ([`upgrade_row`]). Write the new file beside the old one and swap them, so
+                    // that a kill loses nothing.
                     let tmp = path.with_extension("jsonl.extend-tmp");
                     let mut text = header_line_predictor(&settings, predictor);
                     text.push('\n');
+                    let thickness = cfg.effective_params().thickness_m;
                     for r in &latest(old.rows) {
+                        let r = if old.version == FORMAT_VERSION { r.clone() } else { upgrade_row(cfg, thickness, r)? };
                         text.push_str(&r.to_json());
                         text.push('\n');
                     }

@@ -21,8 +21,15 @@ fn round3(x: f64) -> f64 {
     (x * 1000.0).round() / 1000.0
 }
 
+/// Whether the table marks the row as not yet settled: a behaviour reached (not `not_settled`)
+/// by a completed or predicted run with `settled` false (docs/model.md §8).
+pub fn marked_unsettled(r: &MapRow) -> bool {
+    !r.settled && r.behaviour != crate::classify::Behaviour::NotSettled && (r.status == Status::Completed.name() || r.status == STATUS_PREDICTED)
+}
+
 /// The map as text: one row per a_ex (highest first, as in the paper's figure), one column per
-/// f_ex, one letter per behaviour ([`Behaviour::letter`]); one block per s₀.
+/// f_ex, one letter per behaviour ([`Behaviour::letter`]), followed by `*` when the behaviour is
+/// reached but has not settled ([`marked_unsettled`]); one block per s₀.
 pub fn text_table(rows: &[MapRow]) -> String {
     use std::fmt::Write as _;
     let mut s0s: Vec<f64> = rows.iter().map(|r| r.s0).collect();
@@ -39,7 +46,7 @@ pub fn text_table(rows: &[MapRow]) -> String {
         as_.dedup();
         let _ = writeln!(
             out,
-            "s0 = {s0}, {}; rows a_ex [m/s^2], columns f_ex [Hz]; I inactivity, T trivial adaption, S signature move, R relaxation oscillation, D self-damping, N not settled, ? undetermined, . not run",
+            "s0 = {s0}, {}; rows a_ex [m/s^2], columns f_ex [Hz]; I inactivity, T trivial adaption, S signature move, R relaxation oscillation, D self-damping, N not settled, ? undetermined, . not run; * reached, not yet settled",
             t_end_text(&sub)
         );
         let _ = write!(out, "{:>6} ", "a\\f");
@@ -50,7 +57,7 @@ pub fn text_table(rows: &[MapRow]) -> String {
         for a in as_.iter().rev() {
             let _ = write!(out, "{:>6} ", format!("{a}"));
             for f in &fs {
-                let c = sub.iter().find(|r| r.f_ex_hz == *f && r.a_ex_m_s2 == *a).map_or('.', |r| r.behaviour.letter());
+                let c = sub.iter().find(|r| r.f_ex_hz == *f && r.a_ex_m_s2 == *a).map_or(".".to_string(), |r| format!("{}{}", r.behaviour.letter(), if marked_unsettled(r) { "*" } else { "" }));
                 let _ = write!(out, "{c:>4}");
             }
             out.push('\n');

@@ -12,11 +12,15 @@ use super::row::MapRow;
 use crate::classify::Criteria;
 use crate::error::{Error, Result};
 
-/// Version written in the results file's header.
-pub const FORMAT_VERSION: u32 = 2;
-/// Versions this build reads (version 1: rows classified by the rules before the phases, without
-/// end states; read for display, never resumed or extended).
-pub const READABLE_VERSIONS: [u32; 2] = [1, 2];
+/// Version written in the results file's header (3: rows carry `settled`, `drift_s` and
+/// `drift_a_h`, docs/model.md §8).
+pub const FORMAT_VERSION: u32 = 3;
+/// Versions this build reads. Version 1: rows classified by the rules before the phases, without
+/// end states; read for display, never resumed or extended. Version 2: rows without the
+/// `settled` flag and the drifts; read with `settled` derived from `steady`
+/// ([`MapRow::derive_settled`]); a map resumed or extended is first upgraded to version 3, each
+/// completed row reclassified from the signals of its end state (docs/model.md §8).
+pub const READABLE_VERSIONS: [u32; 3] = [1, 2, 3];
 
 
 /// What decides a row besides the grid point: written to the results header, compared on resume.
@@ -137,6 +141,12 @@ pub fn read_results(path: &Path) -> Result<ResultsFile> {
             out.good_len += n as u64;
         } else {
             pending_bad = Some(lineno);
+        }
+    }
+    if out.version < 3 {
+        let cycles = out.settings.as_ref().map_or(crate::classify::Criteria::default().relax_min_cycles, |s| s.criteria.relax_min_cycles);
+        for r in &mut out.rows {
+            r.derive_settled(cycles);
         }
     }
     if let Some(bad) = pending_bad {

@@ -90,6 +90,18 @@ pub struct MapRow {
     /// Phase reached at the end of the run (see [`Classification::phase`]).
     #[serde(default)]
     pub phase: String,
+    /// Whether the behaviour is final ([`Classification::settled`]); a row of a version-2 file
+    /// (without the key) reads as settled when steady, or a relaxation oscillation of
+    /// `relax_min_cycles` cycles (see [`MapRow::derive_settled`]).
+    #[serde(default)]
+    pub settled: bool,
+    /// Change of s across the final drift window along its least-squares line (null when unknown:
+    /// failed runs, version-2 rows).
+    #[serde(default = "nan", deserialize_with = "nan_if_null")]
+    pub drift_s: f64,
+    /// Change of A [h] across the final drift window along its least-squares line.
+    #[serde(default = "nan", deserialize_with = "nan_if_null")]
+    pub drift_a_h: f64,
     /// Solver counters (without `max_residual`).
     pub counters: Counters,
     /// Wall time of the point [s] (the only field that differs between identical runs).
@@ -188,6 +200,10 @@ fn nan_if_null<'de, D: serde::Deserializer<'de>>(d: D) -> std::result::Result<f6
     Ok(Option::<f64>::deserialize(d)?.unwrap_or(f64::NAN))
 }
 
+fn nan() -> f64 {
+    f64::NAN
+}
+
 fn finite(x: f64) -> Option<f64> {
     x.is_finite().then_some(x)
 }
@@ -223,6 +239,9 @@ impl MapRow {
             jump_down_t_s: c.jump_down_t_s.clone(),
             steady: c.steady,
             phase: c.phase.clone(),
+            settled: c.settled,
+            drift_s: c.drift_s,
+            drift_a_h: c.drift_a_h,
             counters,
             wall_time_s: wall,
             end,
@@ -239,11 +258,32 @@ impl MapRow {
         (self.f_ex_hz.to_bits(), self.a_ex_m_s2.to_bits(), self.s0.to_bits())
     }
 
-    /// A completed row without a behaviour (not settled, or undetermined: settled at a level
-    /// between the thresholds, which a longer run may still leave) with an end state before
-    /// `t_end_s`: continued by an extension.
+    /// A completed row that has not settled (`settled` false: `not_settled`, or a behaviour still
+    /// creeping) or is undetermined (settled at a level between the thresholds, which a longer
+    /// run may still leave), with an end state before `t_end_s`: continued by an extension.
     pub fn continuable(&self, t_end_s: f64) -> bool {
-        matches!(self.behaviour, Behaviour::NotSettled | Behaviour::Undetermined) && self.status == Status::Completed.name() && self.end.is_some() && self.t_end_s < t_end_s
+        (!self.settled || matches!(self.behaviour, Behaviour::NotSettled | Behaviour::Undetermined)) && self.status == Status::Completed.name() && self.end.is_some() && self.t_end_s < t_end_s
+    }
+
+    /// The `settled` flag of a row written before the flag existed (format version 2): settled
+    /// when steady, or a relaxation oscillation with at least `relax_min_cycles` jump-up →
+    /// jump-down cycles in its jump times (the rule of [`Classification::settled`]).
+    pub fn derive_settled(&mut self, relax_min_cycles: usize) {
+        let mut events: Vec<(f64, bool)> = self.jump_up_t_s.iter().map(|&t| (t, true)).chain(self.jump_down_t_s.iter().map(|&t| (t, false))).collect();
+        events.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let (mut cycles, mut last_up) = (0, false);
+        for (_, up) in events {
+            if up {
+                last_up = true;
+            } else if std::mem::take(&mut last_up) {
+                cycles += 1;
+            }
+        }
+        self.settled = match self.behaviour {
+            Behaviour::NotSettled => false,
+            Behaviour::RelaxationOscillation => self.steady || cycles >= relax_min_cycles,
+            _ => self.steady && self.status == Status::Completed.name(),
+        };
     }
 
     pub(crate) fn point(&self) -> MapPoint {
