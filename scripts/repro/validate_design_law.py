@@ -70,8 +70,8 @@ def main() -> None:
     for i, x in enumerate(heldout_designs()):
         p = design_params(x)
         d = work / f"design_{i}"
-        if not (d / "map.txt").exists():
-            operating_map(p, f_ex=F, a_ex=A, s0=0.3, t_end=120.0, out=d, resume=(d / "map.jsonl").exists())
+        # resume: completes a killed map and upgrades an older results format (rows reclassified, no re-run)
+        operating_map(p, f_ex=F, a_ex=A, s0=0.3, t_end=120.0, out=d, resume=(d / "map.jsonl").exists())
         fs = _rows(d / "map.jsonl")
         pr = {(r["f_ex_hz"], r["a_ex_m_s2"]): r for r in predicted_map(p, drift=law, f_ex=F, a_ex=A, s0=0.3, t_end=120.0)}
         bf, bp = bands(fs), bands(pr)
