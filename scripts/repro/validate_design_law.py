@@ -95,8 +95,9 @@ def main() -> None:
     within = sum(abs(r["fs_mean_hz"] - r["predicted_mean_hz"]) <= 3.0 for r in res)
     agree = sum(r["agree"] for r in res) / sum(r["points"] for r in res)
     names = [c for c in res[0]["x"]]
-    lines = [f"# held-out designs (LHS seed {SEED}) against the design law ({len(law.laws)} training designs, "
-             f"k_sets {law.k_sets}); FS and predicted maps: a_ex 10/14 m/s^2, f_ex 100-130 Hz step 2, s0 0.3, 120 s",
+    what = (f"the design law ({len(law.laws)} training designs, k_sets {law.k_sets})" if hasattr(law, "laws")
+            else f"the drift law {a.law} (one parameter set, used for every design)")
+    lines = [f"# held-out designs (LHS seed {SEED}) against {what}; FS and predicted maps: a_ex 10/14 m/s^2, f_ex 100-130 Hz step 2, s0 0.3, 120 s",
              "# python scripts/repro/validate_design_law.py",
              "# design " + " ".join(f"{n}" for n in names),
              ]
