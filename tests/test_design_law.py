@@ -152,3 +152,28 @@ def test_not_json(tmp_path):
     path.write_bytes(b"\x00\xff garbage")
     with pytest.raises(ValueError, match="not a beamslider law file"):
         load_law(path)
+
+
+def test_fit_law_design_cli(tmp_path, capsys):
+    """`beamslider fit-law --design N`: the prototype's law and N designs' laws, blended into
+    design_law.json that predict --law reads; a second fit is refused, --resume refits from the
+    stored laws to the same file. Cheap table settings: this checks the plumbing, not the law."""
+    from beamslider.cli import main
+
+    out = tmp_path / "dl"
+    cheap = ["--points", "124:14,126:10", "--ds", "0.1", "--settle-periods", "40", "--first-settle-periods", "40",
+             "--window-s", "0.5", "--jump-down-n", "0", "--no-progress"]
+    assert main(["fit-law", "--design", "4", "--out", str(out), *cheap]) == 0
+    text = (out / "design_law.json").read_text()
+    law = load_law(out / "design_law.json")
+    assert isinstance(law, DesignLaw) and len(law.laws) == 5 and law.x[0] == design_coordinates(bs.Parameters())
+    assert sorted(p.name for p in (out / "designs").iterdir()) == ["design_000", "design_001", "design_002",
+                                                                    "design_003", "prototype"]
+    capsys.readouterr()
+    assert main(["fit-law", "--design", "4", "--out", str(out), *cheap]) == 1
+    assert "--resume" in capsys.readouterr().err
+    assert main(["fit-law", "--design", "4", "--out", str(out), "--resume", *cheap]) == 0
+    assert (out / "design_law.json").read_text() == text
+    assert main(["predict", "--law", str(out / "design_law.json"), "--f-ex", "124", "--a-ex", "14",
+                 "--out", str(tmp_path / "p"), "--no-progress"]) == 0
+    assert main(["fit-law", "--design", "1", "--out", str(tmp_path / "x"), *cheap]) == 1
