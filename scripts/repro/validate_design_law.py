@@ -140,8 +140,11 @@ def main() -> None:
     ax.fill_between([0, 30], [-3, 27], [3, 33], color="0.9", label="±3 Hz")
     ax.plot([0, 30], [0, 30], color="0.5", lw=0.8)
     ax.scatter(fs_m, pr_m, color="k", zorder=3)
-    for r in res:
-        ax.annotate(str(r["design"]), (r["fs_mean_hz"], r["predicted_mean_hz"]), textcoords="offset points", xytext=(4, 3))
+    at: dict = {}
+    for r in res:  # designs at the same point share one label
+        at.setdefault((r["fs_mean_hz"], r["predicted_mean_hz"]), []).append(str(r["design"]))
+    for xy, names_ in at.items():
+        ax.annotate(", ".join(names_), xy, textcoords="offset points", xytext=(4, 3))
     ax.set_xlim(-1, 31)
     ax.set_ylim(-1, 31)
     ax.set_xlabel("FS adaption bandwidth [Hz] (mean of 10 and 14 m/s²)")
