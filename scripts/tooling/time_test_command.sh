@@ -29,7 +29,29 @@ PASSED=$(grep -Eo "[0-9]+ passed" "$WORK/log" | tail -1)
 fmt() { printf '%d min %02d s' $(( ${1%.*} / 60 )) $(( ${1%.*} % 60 )); }
 CPU_S=$(python3 -c "print(round($USER + $SYS))")
 LINE="$(fmt "$WALL") wall, ${CPU_S} s CPU, on $CORES cores ($CPU); load average $LOAD0 before, $LOAD1 after; commit $COMMIT; pytest: $PASSED"
+write_results() {  # the figures so far: docs/results/timing/test_command.txt and the README
+  mkdir -p docs/results/timing
+  {
+    echo "bash scripts/test.sh from a clean clone (scripts/tooling/time_test_command.sh$( [ "$REBUILD" = 1 ] && echo " --rebuild"))"
+    echo "$LINE"
+    [ -n "$REB" ] && echo "$REB"
+    echo "stage times (seconds since the start):"
+    grep "scripts/test.sh: \[" "$WORK/log" || true
+  } > docs/results/timing/test_command.txt
+  cat docs/results/timing/test_command.txt
+  python3 - "$LINE" "$REB" <<'PY'
+import re, sys
+line, reb = sys.argv[1], sys.argv[2]
+text = open("README.md", encoding="utf-8").read()
+body = f"From a clean clone: **{line}**" + (f"; {reb}" if reb else "") + \
+       " ([docs/results/timing/test_command.txt](docs/results/timing/test_command.txt))."
+new = re.sub(r"(<!-- timing:begin[^\n]*-->\n).*?(\n<!-- timing:end -->)", lambda m: m.group(1) + body + m.group(2),
+             text, flags=re.S)
+open("README.md", "w", encoding="utf-8").write(new)
+PY
+}
 REB=""
+write_results
 if [ "$REBUILD" = 1 ]; then
   cd "$WORK/clone"
   VENV=$(ls -d target/test-venvs/py* | head -1)
@@ -42,22 +64,4 @@ if [ "$REBUILD" = 1 ]; then
   REB="rebuild after a one-line change in the core (maturin develop --release): $(fmt "$W2") wall, $(python3 -c "print(round($U2 + $S2))") s CPU; load average $(cut -d' ' -f1-3 /proc/loadavg) after"
   cd "$ROOT"
 fi
-mkdir -p docs/results/timing
-{
-  echo "bash scripts/test.sh from a clean clone (scripts/tooling/time_test_command.sh$( [ "$REBUILD" = 1 ] && echo " --rebuild"))"
-  echo "$LINE"
-  [ -n "$REB" ] && echo "$REB"
-  echo "stage times (seconds since the start):"
-  grep "scripts/test.sh: \[" "$WORK/log" || true
-} > docs/results/timing/test_command.txt
-cat docs/results/timing/test_command.txt
-python3 - "$LINE" "$REB" <<'PY'
-import re, sys
-line, reb = sys.argv[1], sys.argv[2]
-text = open("README.md", encoding="utf-8").read()
-body = f"From a clean clone: **{line}**" + (f"; {reb}" if reb else "") + \
-       " ([docs/results/timing/test_command.txt](docs/results/timing/test_command.txt))."
-new = re.sub(r"(<!-- timing:begin[^\n]*-->\n).*?(\n<!-- timing:end -->)", lambda m: m.group(1) + body + m.group(2),
-             text, flags=re.S)
-open("README.md", "w", encoding="utf-8").write(new)
-PY
+if [ "$REBUILD" = 1 ]; then write_results; fi

@@ -85,7 +85,7 @@ fn extend_to_reruns_the_not_settled_points() {
     let o = bin().args(["map", "-q", "-j", "2", "--extend-to", "3", "-o"]).arg(&out).output().unwrap();
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(o.status.success(), "{err}");
-    assert!(err.contains("re-ran") && err.contains("not-settled or undetermined points"), "{err}");
+    assert!(err.contains("re-ran") && err.contains("(settled = false, or undetermined)"), "{err}");
     assert!(String::from_utf8_lossy(&o.stdout).contains("t_end = 3 s"));
     let o = bin().args(["map", "-q", "--extend-to", "2.5", "-o"]).arg(&out).output().unwrap();
     assert!(!o.status.success() && String::from_utf8_lossy(&o.stderr).contains("extend-to"));
