@@ -283,10 +283,16 @@ impl Params {
         for (key, value) in values {
             let one = toml::Value::Table(toml::Table::from_iter([(key.clone(), value.clone())]));
             if let Err(e) = one.try_into::<Params>() {
+                // The reason without the field name the deserialiser appends on a second line.
                 let reason = e.to_string();
+                let reason = reason.lines().next().unwrap_or_default().trim_end();
+                let shown = match &value {
+                    toml::Value::String(text) => format!("{text:?}"),
+                    other => other.to_string(),
+                };
                 return Err(match FIELDS.iter().any(|f| f.name == key) {
-                    true => Error::invalid(&key, value, reason.trim_end()),
-                    false => Error::invalid(&key, value, &format!("unknown parameter; allowed names are {}", FIELDS.map(|f| f.name).join(", "))),
+                    true => Error::invalid(&key, shown, reason),
+                    false => Error::invalid(&key, shown, &format!("unknown parameter; allowed names are {}", FIELDS.map(|f| f.name).join(", "))),
                 });
             }
             table.insert(key, value);
