@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 import beamslider as bs
+from beamslider.params import native
 from beamslider import discover as dc
 
 from conftest import is_png, run_cli
@@ -266,8 +267,8 @@ def test_batch_runs_match_single_runs():
     from beamslider import _core
 
     p = bs.Parameters()
-    jobs = [(p.toml_text(), 124.0, 14.0, 0.3, 0.5), (p.toml_text(), 110.0, 10.0, 0.3, 0.5),
-            (bs.Parameters(gap_ratio=1.1).toml_text(), 124.0, 14.0, 0.3, 0.5)]
+    jobs = [(native(p), 124.0, 14.0, 0.3, 0.5), (native(p), 110.0, 10.0, 0.3, 0.5),
+            (native(bs.Parameters(gap_ratio=1.1)), 124.0, 14.0, 0.3, 0.5)]
     one = _core.run_free_slider_batch(jobs, record_every=5, keep_every=5, threads=1)
     two = _core.run_free_slider_batch(jobs, record_every=5, keep_every=5, threads=2)
     ref = bs.simulate(p, f_ex=124.0, a_ex=14.0, s0=0.3, t_end=0.5, record_every=5)
@@ -275,7 +276,7 @@ def test_batch_runs_match_single_runs():
     for a, b in zip(one, two):
         assert np.array_equal(a["s"], b["s"]) and np.array_equal(a["amplitude_h"], b["amplitude_h"])
     assert one[0]["status"] == "completed"
-    bad = _core.run_free_slider_batch([(p.toml_text(), 124.0, -1.0, 0.3, 0.5), jobs[0]])
+    bad = _core.run_free_slider_batch([(native(p), 124.0, -1.0, 0.3, 0.5), jobs[0]])
     assert bad[0]["error_kind"] == "invalid" and "a_ex" in bad[0]["error"] and "s" in bad[1]
     with pytest.raises(ValueError, match="threads"):
         _core.run_free_slider_batch(jobs, threads=0)
@@ -393,11 +394,11 @@ def test_model_and_measured_features_agree_on_noise_free_data(tmp_path):
     for k, f in meas.items():
         tol = 3e-3 * abs(f.value) if k.startswith("amplitude") else 1e-6
         assert model[k].value == pytest.approx(f.value, abs=tol), k
-    raw = _core.run_free_slider_batch([(p.toml_text(), 104.0, 14.0, 0.3, 3.0)], record_every=5, keep_every=5)
+    raw = _core.run_free_slider_batch([(native(p), 104.0, 14.0, 0.3, 3.0)], record_every=5, keep_every=5)
     a_raw = float(np.mean(raw[0]["amplitude_h"][raw[0]["t"] >= 2.0]))
     assert a_raw > 1.02 * meas["amplitude_final_h@104Hz_14ms2_s00.3"].value
     with pytest.raises(ValueError, match="detrend_s"):
-        _core.run_free_slider_batch([(p.toml_text(), 104.0, 14.0, 0.3, 0.1)], detrend_s=0.0)
+        _core.run_free_slider_batch([(native(p), 104.0, 14.0, 0.3, 0.1)], detrend_s=0.0)
 
 
 def test_turning_point_is_not_biased_by_noise():

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from beamslider import Parameters
+from beamslider.params import native
 from beamslider.maps import predicted_map
 from beamslider.superslow import (DriftTable, drift_table, features, fit_drift_law, hb_manifold, load_drift_law, predict,
                                   read_drift_table, save_drift_law)
@@ -293,7 +294,7 @@ def test_core_evaluates_the_law_as_python(tmp_path):
     for br, b in (("H", m.high), ("L", m.low)):
         s = np.linspace(b.s.min(), b.s.max(), 17)
         f_py = features(m, br, s)
-        f_rs = _core.hb_features(p.toml_text(), f_ex_hz=124.0, a_ex_m_s2=14.0, high=br == "H", s=s.tolist())
+        f_rs = _core.hb_features(native(p), f_ex_hz=124.0, a_ex_m_s2=14.0, high=br == "H", s=s.tolist())
         for key in ("lift_off", "slope_gap", "f_slope", "ds_res", "amp_rel", "amplitude", "s"):
             scale = float(np.max(np.abs(f_py[key])))
             np.testing.assert_allclose(f_rs[key], f_py[key], rtol=1e-4, atol=1e-5 * scale, err_msg=f"{br} {key}")
@@ -303,7 +304,7 @@ def test_core_evaluates_the_law_as_python(tmp_path):
         text = law_json(lw)
         for f_, a_, s0 in ((124, 14, 0.3), (106, 10, 0.4), (126, 10, 0.3), (114, 14, 0.3)):
             r_py = predict(f_ex=f_, a_ex=a_, s0=s0, drift=lw)
-            r_rs = json.loads(_core.predict_point(p.toml_text(), text, f_ex_hz=float(f_), a_ex_m_s2=float(a_), s0=s0))
+            r_rs = json.loads(_core.predict_point(native(p), text, f_ex_hz=float(f_), a_ex_m_s2=float(a_), s0=s0))
             assert r_rs["behaviour"] == r_py.behaviour, (f_, a_, s0, lw.s_up_shift)
             assert r_rs["s_final"] == pytest.approx(r_py.classification["s_final"], abs=1e-3)
             assert r_rs["extrapolated"] == r_py.extrapolated
@@ -318,7 +319,7 @@ def test_core_evaluates_the_law_as_python(tmp_path):
     text = law_json(mono)
     for f_, a_, s0 in ((124, 14, 0.3), (126, 10, 0.3)):
         r_py = predict(f_ex=f_, a_ex=a_, s0=s0, drift=mono)
-        r_rs = json.loads(_core.predict_point(p.toml_text(), text, f_ex_hz=float(f_), a_ex_m_s2=float(a_), s0=s0))
+        r_rs = json.loads(_core.predict_point(native(p), text, f_ex_hz=float(f_), a_ex_m_s2=float(a_), s0=s0))
         assert r_py.monostable and r_rs["monostable"]
         assert r_rs["behaviour"] == r_py.behaviour == "self_damping", (f_, a_, r_py.behaviour)
         assert r_rs["s_final"] == pytest.approx(r_py.classification["s_final"], abs=1e-3)
@@ -430,7 +431,7 @@ def test_jump_down_from_the_forcing_ratio():
     p = Parameters()
     for f_, a_, s0 in ((124, 8, 0.3), (126, 10, 0.3), (124, 14, 0.3)):
         r_py = predict(f_ex=f_, a_ex=a_, s0=s0, drift=law)
-        r_rs = json.loads(_core.predict_point(p.toml_text(), text, f_ex_hz=float(f_), a_ex_m_s2=float(a_), s0=s0))
+        r_rs = json.loads(_core.predict_point(native(p), text, f_ex_hz=float(f_), a_ex_m_s2=float(a_), s0=s0))
         expect = s_dn_forcing_ratio(hb_manifold(f_ex=f_, a_ex=a_), rho_c)
         assert (r_py.s_dn is None) == (expect is None)
         if expect is not None:
@@ -514,7 +515,7 @@ def test_jump_down_bracket_locates_the_boundary_between_ending_and_passing_branc
         expect = 0.32 if r <= law.rho_c else None
         assert law.s_dn(m) == (pytest.approx(0.32) if expect else None)
         r_py = predict(f_ex=f_, a_ex=a_, drift=law)
-        r_rs = json.loads(_core.predict_point(p.toml_text(), text, f_ex_hz=float(f_), a_ex_m_s2=float(a_), s0=0.3))
+        r_rs = json.loads(_core.predict_point(native(p), text, f_ex_hz=float(f_), a_ex_m_s2=float(a_), s0=0.3))
         assert r_rs["behaviour"] == r_py.behaviour and r_rs["s_final"] == pytest.approx(r_py.classification["s_final"], abs=1e-3)
         dn_py = [e[2] for e in r_py.events if e[0] == "jump_down"]
         dn_rs = [e[2] for e in r_rs["events"] if e[0] == "jump_down"]
@@ -617,13 +618,13 @@ def test_robustness_flag_from_the_law_resolution(tmp_path):
     assert r2.robust is False and {b for b, _ in r2.shifted} | {r2.behaviour} != {r2.behaviour}
     p = Parameters()
     for lw, want in ((steep, True), (flat, False)):
-        row = json.loads(_core.predict_point(p.toml_text(), law_json(lw), f_ex_hz=124.0, a_ex_m_s2=14.0, s0=0.3))
+        row = json.loads(_core.predict_point(native(p), law_json(lw), f_ex_hz=124.0, a_ex_m_s2=14.0, s0=0.3))
         assert row["robust"] is want
         assert [b for b, _ in row["shifted"]] == [b for b, _ in predict(f_ex=124, a_ex=14, drift=lw).shifted]
     unknown = law_with(lambda s: 0.03 * (0.42 - s), 0.0)
     assert unknown.v_resolution == 0.0
     assert predict(f_ex=124, a_ex=14, drift=unknown).robust is None
-    row = json.loads(_core.predict_point(p.toml_text(), law_json(unknown), f_ex_hz=124.0, a_ex_m_s2=14.0, s0=0.3))
+    row = json.loads(_core.predict_point(native(p), law_json(unknown), f_ex_hz=124.0, a_ex_m_s2=14.0, s0=0.3))
     assert row["robust"] is None and "shifted" not in row
     assert predict(f_ex=124, a_ex=14, drift=steep, robustness=False).robust is None
     d = json.loads(law_json(steep))

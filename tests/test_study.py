@@ -125,8 +125,8 @@ def test_local_study_rows_are_map_rows_and_resume_after_a_truncated_write(tmp_pa
     full = run_study(cfg, out=tmp_path / "full", threads=2)
     assert len(full.table["index"]) == 12 and list(full.table["index"]) == list(range(12))
     path = tmp_path / "full" / RESULTS_FILE
-    settings, core_rows, truncated = _core.read_map_results(path)  # the map reader reads a study file
-    assert len(core_rows) == 12 and not truncated and json.loads(settings)["duration_s"] == 0.3
+    header, core_rows, _good, truncated = _core.read_results_file(path)  # the map reader reads a study file
+    assert len(core_rows) == 12 and not truncated and json.loads(header)["settings"]["duration_s"] == 0.3
     # The same point as a one-point map gives the same row.
     one = [r for r in rows_of(path) if r["index"] == 5][0]
     p = Parameters.from_dict({**Parameters().to_dict(),

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 import beamslider
+from beamslider.params import native
 from beamslider import Parameters
 from beamslider.superslow import backbone, closed_form_n1, hb_manifold
 
@@ -39,7 +40,7 @@ def test_manifold_fields_units_and_branches():
     assert 0.2 < m.high.amplitude_at([0.5])[0] < 2.0
     assert np.isnan(m.low.amplitude_at([m.s_up - 0.01])[0])
     # Amplitude from Q: Â = |Φ(4L/7)ᵀQ| / h.
-    phi47 = np.asarray(beamslider._core.beam_properties(Parameters().toml_text(), [4 / 7])["phi"])[:, 0]
+    phi47 = np.asarray(beamslider._core.beam_properties(native(Parameters()), [4 / 7])["phi"])[:, 0]
     np.testing.assert_allclose(np.abs(m.high.q @ phi47) / 1e-3, m.high.amplitude, rtol=1e-12)
     # The backbone through a high-branch point beyond resonance is near Ω (damping is small).
     k = int(np.argmin(np.abs(m.high.s - 0.45)))
@@ -56,7 +57,7 @@ def test_equivalent_damping_ends_the_high_branch():
 
 def test_backbone_without_slider_is_model_section_9():
     p = Parameters(slider_mass_kg=1e-15, slider_inertia_kg_m2=1e-21, com_offset_m=0.0)
-    props = beamslider._core.beam_properties(p.toml_text(), [0.5, 4 / 7])
+    props = beamslider._core.beam_properties(native(p), [0.5, 4 / 7])
     w, bs = props["omega_rad_s"][0], props["b_star_per_s2"]
     phi_mid, phi47 = props["phi"][0]
     a47 = np.array([0.1, 0.5, 1.0])

@@ -14,7 +14,7 @@ from typing import Any, Callable, Dict, Optional, Sequence, Tuple, Union
 import numpy as np
 
 from . import _core
-from .params import Parameters, resolve
+from .params import Parameters, native, resolve
 from ._util import MAX_INT, number, positive_int, progress_bar  # noqa: F401 (MAX_INT: part of this module's face)
 from .trajectory import (COLUMNS, MEMORY_FRACTION, available_memory, check_memory, check_out,  # noqa: F401
                          read_trajectory, recorded_size)
@@ -193,6 +193,7 @@ def simulate(
     max_memory: Optional[float] = None,
     _check_only: bool = False,
     _window: float = 1.0,
+    _on_start: Optional[Callable[[], Any]] = None,
 ) -> SimulationResult:
     """Integrate the beam–slider system with Moreau's midpoint scheme (docs/model.md §5–6).
 
@@ -250,10 +251,10 @@ def simulate(
         raise ValueError(f"invalid parameter `record_every` = {record_every}: larger than the run's {steps} time steps "
                          f"(t_end / dt): it would record only the start state")
     if _check_only:
-        _core.simulate(p.toml_text(), f_ex_hz=float(f_ex), a_ex_m_s2=float(a_ex), s0=float(s0), t_end_s=0.0,
+        _core.simulate(native(p), f_ex_hz=float(f_ex), a_ex_m_s2=float(a_ex), s0=float(s0), t_end_s=0.0,
                        model=model, s_pcs=s_pcs_value, record_every=1)
         return None  # type: ignore[return-value]
-    target = check_out(out, overwrite)
+    target = check_out(out, overwrite, need_folder=_on_start is None)  # the hook may make the folder
     if target is None:
         check_memory(t_end, p.dt_s, record_every, max_memory)
     stream = target
@@ -261,7 +262,7 @@ def simulate(
         stream = target.with_name(f".{target.name}.partial-{os.getpid()}.npz")
     try:
         res = _run(p, progress, stream, f_ex=float(f_ex), a_ex=float(a_ex), s0=float(s0), t_end=t_end, model=model,
-                   s_pcs=s_pcs_value, record_every=record_every, window=float(_window))
+                   s_pcs=s_pcs_value, record_every=record_every, window=float(_window), on_start=_on_start)
         if stream is not target:
             from .trajectory import write_parquet_from_npz
 
@@ -284,11 +285,13 @@ def simulate(
 
 
 def _run(p: Parameters, progress: Optional[bool], out: Optional[Path], *, f_ex: float, a_ex: float, s0: float,
-         t_end: float, model: str, s_pcs: Optional[float], record_every: int, window: float = 1.0) -> Dict[str, Any]:
+         t_end: float, model: str, s_pcs: Optional[float], record_every: int, window: float = 1.0,
+         on_start: Optional[Callable[[], Any]] = None) -> Dict[str, Any]:
     with progress_bar(progress, t_end, f"{model.upper()} {f_ex:g} Hz {a_ex:g} m/s²", "s") as cb:
-        res = _core.simulate(p.toml_text(), f_ex_hz=f_ex, a_ex_m_s2=a_ex, s0=s0, t_end_s=t_end, model=model,
+        res = _core.simulate(native(p), f_ex_hz=f_ex, a_ex_m_s2=a_ex, s0=s0, t_end_s=t_end, model=model,
                              s_pcs=s_pcs, record_every=record_every, progress=cb,
-                             out=None if out is None else str(out), window_s=window, columns=PIXEL_COLUMNS)
+                             out=None if out is None else str(out), window_s=window, columns=PIXEL_COLUMNS,
+                             on_start=on_start)
     res["window"] = window
     return res
 
@@ -336,7 +339,7 @@ def _attach(result: SimulationResult, path: Path) -> None:
 def manifold_grid(params: Optional[Parameters] = None) -> np.ndarray:
     """Default slider positions of the physical manifold sweep: s = 0, 0.005, ..., 0.5 from the
     first s whose contact points lie on the beam (s >= B/(2L), docs/model.md §6)."""
-    return np.asarray(_core.physical_manifold_grid(resolve(params).toml_text()))
+    return np.asarray(_core.physical_manifold_grid(native(resolve(params))))
 
 
 def super_slow_manifold(
@@ -380,7 +383,7 @@ def super_slow_manifold(
     with progress_bar(progress, 2 * grid.size, f"manifold {f_ex:g} Hz {a_ex:g} m/s²", "pts") as bar:
         cb = bar if _stop is None else _stoppable(bar, _stop)
         out = _core.super_slow_manifold(
-            p.toml_text(),
+            native(p),
             f_ex_hz=float(f_ex),
             a_ex_m_s2=float(a_ex),
             s_values=[float(v) for v in grid],

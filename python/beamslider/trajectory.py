@@ -92,7 +92,7 @@ def recorded_size(t_end: float, *, dt: float, record_every: int, channels: int =
     return int(_core.recorded_rows(float(t_end), float(dt), int(record_every))) * channels * 8
 
 
-def check_out(out: Any, overwrite: bool) -> Optional[Path]:
+def check_out(out: Any, overwrite: bool, need_folder: bool = True) -> Optional[Path]:
     if out is None:
         return None
     if not isinstance(out, (str, os.PathLike)):
@@ -104,7 +104,7 @@ def check_out(out: Any, overwrite: bool) -> Optional[Path]:
         require_pyarrow()
     if target.exists() and not overwrite:
         raise ValueError(f"invalid parameter `out` = {str(out)!r}: the file exists (pass overwrite=True to replace it)")
-    if not target.parent.is_dir():
+    if need_folder and not target.parent.is_dir():
         raise ValueError(f"invalid parameter `out` = {str(out)!r}: the folder {target.parent} does not exist")
     return target
 

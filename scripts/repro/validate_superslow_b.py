@@ -34,6 +34,7 @@ ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT / "python"))
 
 from beamslider import Parameters, read_map, simulate  # noqa: E402
+from beamslider.params import native
 from beamslider.maps import predicted_map  # noqa: E402
 from beamslider.superslow import (drift_table, drift_tables, fit_drift_law, hb_manifold, load_drift_law, predict,  # noqa: E402
                                   read_drift_table, refine_jump_down, save_drift_law)
@@ -579,7 +580,7 @@ def stage_speed(training="cheap", training_set="12 points"):
         tc = []
         for _ in range(5):
             t0 = time.perf_counter()
-            _core.predict_point(Parameters().toml_text(), text, f_ex_hz=f, a_ex_m_s2=a, s0=0.3)
+            _core.predict_point(native(Parameters()), text, f_ex_hz=f, a_ex_m_s2=a, s0=0.3)
             tc.append(time.perf_counter() - t0)
         c0, t0 = _cpu(), time.perf_counter()
         simulate(f_ex=f, a_ex=a, s0=0.3, t_end=120.0, record_every=1000)

@@ -7,6 +7,7 @@ use std::process::ExitCode;
 
 use anyhow::{Context, Result, bail};
 use beamslider_core::*;
+use beamslider_core::signal::run::{Output, RunSpec};
 use clap::{Parser, Subcommand, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
 
@@ -229,26 +230,19 @@ fn run(cli: Cli) -> Result<ExitCode> {
                     SliderModel::PseudoConstrained { s }
                 }
             };
-            let start = m.start(kind, s0, &exc)?;
             let channels = channels.iter().map(|c| Channel::parse(c)).collect::<beamslider_core::Result<Vec<_>>>()?;
-            let opts = RunOptions { excitation: exc, model: kind, duration_s: duration, record_every, channels, audit_contacts: false };
-            m.check_run(&start, &opts)?; // before the output file is created: bad input overwrites nothing
+            let spec = RunSpec { model: kind, s0, excitation: exc, duration_s: duration, record_every, channels };
             let mut bar = Bar::new(common.quiet, duration.ceil() as u64, "s simulated");
             let t0 = std::time::Instant::now();
-            let sum = if out.as_os_str() == "-" {
-                let mut rec = CsvRecorder::new(open_out(&out)?, "standard output");
-                let sum = m.run(&start, &opts, &mut rec, &mut bar)?;
-                rec.finish()?;
-                sum
+            // Inputs are checked before the output is created (bad input overwrites nothing); a
+            // file is written under a temporary name and renamed when complete (.npz or CSV).
+            let output = if out.as_os_str() == "-" {
+                Output::Csv(Box::new(BufWriter::new(std::io::stdout().lock())), "standard output")
             } else {
-                // Written under a temporary name and renamed when complete (.npz or CSV).
                 let format = if out.extension().is_some_and(|e| e.eq_ignore_ascii_case("npz")) { Format::Npz } else { Format::Csv };
-                let rows = beamslider_core::recorded_rows(duration, m.params.dt_s, record_every);
-                let mut rec = FileRecorder::create_as(&out, format, rows)?;
-                let sum = m.run(&start, &opts, &mut rec, &mut bar)?;
-                rec.commit()?;
-                sum
+                Output::File { path: &out, format: Some(format), overview: None }
             };
+            let sum = signal::run::run(&m, &spec, output, &mut bar)?.summary;
             bar.0.finish_and_clear();
             let c = sum.counters;
             eprintln!(

@@ -2,6 +2,7 @@
 
 use serde::{Deserialize, Serialize};
 use std::path::Path;
+use std::sync::atomic::{AtomicU64, Ordering};
 
 use crate::error::{Error, Result};
 
@@ -122,6 +123,131 @@ impl Default for Params {
 /// Largest number of retained modes.
 pub const MAX_MODES: usize = 20;
 
+/// One row of the parameter table of docs/model.md §1.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Field {
+    /// Field name (TOML key).
+    pub name: &'static str,
+    /// Symbol in docs/model.md.
+    pub symbol: &'static str,
+    /// Meaning.
+    pub meaning: &'static str,
+    /// Unit ("-" when dimensionless).
+    pub unit: &'static str,
+    /// Allowed values, as [`Params::validate`] enforces them.
+    pub allowed: &'static str,
+}
+
+/// The fields of [`Params`] in declaration order: the table of docs/model.md §1 (without the
+/// defaults, which are [`Params::default`]).
+pub const FIELDS: [Field; 25] = [
+    Field { name: "length_m", symbol: "L", meaning: "Free length of the beam", unit: "m", allowed: "finite, > 0" },
+    Field { name: "thickness_m", symbol: "h", meaning: "Beam thickness", unit: "m", allowed: "finite, > 0" },
+    Field { name: "density_kg_m3", symbol: "ρ", meaning: "Beam density", unit: "kg/m³", allowed: "finite, > 0" },
+    Field { name: "beam_mass_kg", symbol: "ρAL", meaning: "Beam mass of the free length", unit: "kg", allowed: "finite, > 0" },
+    Field { name: "youngs_modulus_pa", symbol: "E", meaning: "Young's modulus", unit: "Pa", allowed: "finite, > 0" },
+    Field { name: "slider_mass_kg", symbol: "m", meaning: "Slider mass", unit: "kg", allowed: "finite, > 0" },
+    Field { name: "slider_inertia_kg_m2", symbol: "J_C", meaning: "Slider rotary inertia about its centre of mass", unit: "kg m²", allowed: "finite, > 0" },
+    Field { name: "contact_spacing_m", symbol: "B", meaning: "Horizontal distance between the two contact points on one side", unit: "m", allowed: "finite, > 0, < `length_m`" },
+    Field { name: "com_offset_m", symbol: "d", meaning: "Distance from the slider's geometric centre down to its centre of mass", unit: "m", allowed: "finite, ≥ 0" },
+    Field { name: "gap_ratio", symbol: "R/h", meaning: "Relative inner height of the slider opening (> 1)", unit: "-", allowed: "finite, > 1, `gap_ratio`·`thickness_m` < `length_m`" },
+    Field { name: "k_r_nm_per_rad", symbol: "k_r", meaning: "Rotational clamping stiffness at each end; `inf` = ideal clamping", unit: "N m/rad", allowed: "> 0, `inf` allowed (ideal clamping)" },
+    Field { name: "k_t_n_per_m", symbol: "k_t", meaning: "Axial clamping stiffness; `inf` = ideal clamping", unit: "N/m", allowed: "> 0, `inf` allowed (ideal clamping)" },
+    Field { name: "damping_ratio", symbol: "D", meaning: "Modal damping ratio of all modes", unit: "-", allowed: "finite, ≥ 0" },
+    Field { name: "damping_ratio_quadratic", symbol: "D₂", meaning: "Amplitude growth of the damping ratio", unit: "-", allowed: "finite, ≥ 0" },
+    Field { name: "axial_preload_n", symbol: "H₀", meaning: "Static axial force in the beam, tension positive (adds H0 K q to the modal forces)", unit: "N", allowed: "finite; a compression below the buckling load of the retained modes" },
+    Field { name: "friction_coefficient", symbol: "μ", meaning: "Coulomb friction coefficient", unit: "-", allowed: "finite, ≥ 0" },
+    Field { name: "restitution", symbol: "ε_N", meaning: "Normal restitution coefficient (tangential eps_T = 0)", unit: "-", allowed: "in [0, 1]" },
+    Field { name: "gravity_m_s2", symbol: "g", meaning: "Gravitational acceleration, acting on the slider only", unit: "m/s²", allowed: "finite, ≥ 0" },
+    Field { name: "tilt_rad", symbol: "α", meaning: "Tilt alpha of the frame about the transverse axis", unit: "rad", allowed: "finite, −π/2 < α < π/2" },
+    Field { name: "n_modes", symbol: "N", meaning: "Number of retained beam modes (1..20)", unit: "-", allowed: "integer 1..20" },
+    Field { name: "dt_s", symbol: "Δt", meaning: "Fixed time step", unit: "s", allowed: "finite, > 0; below the stability limit ≈ 2/ω_N of the highest mode; ≥ 10 steps per excitation period" },
+    Field { name: "contact_solver", symbol: "—", meaning: "Local contact solver (docs/model.md §5): \"fast\" (exact) or \"reference\" (Gauss–Seidel of the paper)", unit: "-", allowed: "\"fast\" or \"reference\"" },
+    Field { name: "solver_tol_rel", symbol: "—", meaning: "Relative stop tolerance of the Gauss–Seidel solver", unit: "-", allowed: "finite, > 0" },
+    Field { name: "solver_tol_abs", symbol: "—", meaning: "Absolute stop tolerance of the Gauss–Seidel solver", unit: "N s", allowed: "finite, ≥ 0" },
+    Field { name: "solver_max_iter", symbol: "—", meaning: "Iteration cap of the Gauss–Seidel solver (sweeps per step)", unit: "-", allowed: "integer ≥ 1" },
+];
+
+/// Calls of [`Params::validate`] in this process (every check of a parameter set counts).
+static VALIDATIONS: AtomicU64 = AtomicU64::new(0);
+
+/// How often [`Params::validate`] has run in this process: front ends check with it that a run
+/// validates its parameters once (docs/model.md §1).
+pub fn validation_count() -> u64 {
+    VALIDATIONS.load(Ordering::Relaxed)
+}
+
+/// Parameters that passed [`Params::validate`] (docs/model.md §1): a front end validates once and
+/// hands this to every entry point, which then checks nothing again.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Valid(Params);
+
+impl Valid {
+    /// Validate `params`.
+    pub fn new(params: Params) -> Result<Valid> {
+        params.validate()?;
+        Ok(Valid(params))
+    }
+
+    /// The parameters.
+    pub fn get(&self) -> &Params {
+        &self.0
+    }
+
+    /// The parameters, owned.
+    pub fn into_inner(self) -> Params {
+        self.0
+    }
+}
+
+impl std::ops::Deref for Valid {
+    type Target = Params;
+    fn deref(&self) -> &Params {
+        &self.0
+    }
+}
+
+/// Parameters as an entry point of the core takes them: `&Params` (validated there, once) or
+/// `&Valid` (already validated). [`ParamsArg::check`] validates the first kind and passes the
+/// result on, so that the functions it calls check nothing again.
+#[derive(Debug, Clone, Copy)]
+pub struct ParamsArg<'a> {
+    params: &'a Params,
+    valid: bool,
+}
+
+impl<'a> ParamsArg<'a> {
+    /// Validate unless already valid.
+    pub fn check(self) -> Result<ParamsArg<'a>> {
+        if !self.valid {
+            self.params.validate()?;
+        }
+        Ok(ParamsArg { params: self.params, valid: true })
+    }
+
+    /// Parameters derived in the core from validated ones without leaving the allowed values.
+    pub(crate) fn derived(params: &'a Params) -> ParamsArg<'a> {
+        ParamsArg { params, valid: true }
+    }
+
+    /// The parameters.
+    pub fn get(&self) -> &'a Params {
+        self.params
+    }
+}
+
+impl<'a> From<&'a Params> for ParamsArg<'a> {
+    fn from(params: &'a Params) -> Self {
+        ParamsArg { params, valid: false }
+    }
+}
+
+impl<'a> From<&'a Valid> for ParamsArg<'a> {
+    fn from(v: &'a Valid) -> Self {
+        ParamsArg { params: &v.0, valid: true }
+    }
+}
+
 impl Params {
     /// Parse from TOML text (missing keys take their defaults, unknown keys are errors), then validate.
     pub fn from_toml_str(text: &str) -> Result<Self> {
@@ -149,6 +275,44 @@ impl Params {
         })
     }
 
+    /// Parameters from values by field name (defaults for the others), not validated: the
+    /// values of a front end (Python keyword arguments). A value of the wrong type or an unknown
+    /// name is an error naming the field.
+    pub fn from_values(values: impl IntoIterator<Item = (String, toml::Value)>) -> Result<Params> {
+        let mut table = Params::default().table();
+        for (key, value) in values {
+            let one = toml::Value::Table(toml::Table::from_iter([(key.clone(), value.clone())]));
+            if let Err(e) = one.try_into::<Params>() {
+                // The reason without the field name the deserialiser appends on a second line.
+                let reason = e.to_string();
+                let reason = reason.lines().next().unwrap_or_default().trim_end();
+                let shown = match &value {
+                    toml::Value::String(text) => format!("{text:?}"),
+                    other => other.to_string(),
+                };
+                return Err(match FIELDS.iter().any(|f| f.name == key) {
+                    true => Error::invalid(&key, shown, reason),
+                    false => Error::invalid(&key, shown, &format!("unknown parameter; allowed names are {}", FIELDS.map(|f| f.name).join(", "))),
+                });
+            }
+            table.insert(key, value);
+        }
+        toml::Value::Table(table).try_into::<Params>().map_err(|e| Error::Toml { path: None, message: e.to_string().trim_end().to_string() })
+    }
+
+    /// The values by field name (floats, integers and the solver's name), in [`FIELDS`] order.
+    pub fn values(&self) -> Vec<(&'static str, toml::Value)> {
+        let mut table = self.table();
+        FIELDS.iter().filter_map(|f| table.remove(f.name).map(|v| (f.name, v))).collect()
+    }
+
+    fn table(&self) -> toml::Table {
+        match toml::Value::try_from(self) {
+            Ok(toml::Value::Table(t)) => t,
+            _ => unreachable!("plain struct of numbers and strings always serialises to a table"),
+        }
+    }
+
     /// TOML text of these parameters (infinite stiffnesses are written as `inf`).
     pub fn to_toml_string(&self) -> String {
         toml::to_string(self).expect("plain struct of numbers and strings always serialises")
@@ -165,6 +329,7 @@ impl Params {
 
     /// Check every field; the error names the field and the allowed range.
     pub fn validate(&self) -> Result<()> {
+        VALIDATIONS.fetch_add(1, Ordering::Relaxed);
         let positive_finite = [
             ("length_m", self.length_m),
             ("thickness_m", self.thickness_m),
@@ -351,6 +516,27 @@ mod tests {
         assert_eq!(field_of(Params { axial_preload_n: f64::NAN, ..d() }), "axial_preload_n");
         assert_eq!(field_of(Params { tilt_rad: 1.6, ..d() }), "tilt_rad");
         assert_eq!(field_of(Params { tilt_rad: f64::NAN, ..d() }), "tilt_rad");
+    }
+
+    #[test]
+    fn fields_table_lists_every_field_in_order() {
+        let names: Vec<&str> = Params::default().values().iter().map(|(k, _)| *k).collect();
+        assert_eq!(names, FIELDS.map(|f| f.name).to_vec());
+        assert_eq!(Params::default().table().len(), FIELDS.len());
+    }
+
+    #[test]
+    fn values_convert_by_name_and_name_the_bad_field() {
+        let p = Params::from_values([("n_modes".to_string(), toml::Value::Integer(3)), ("length_m".to_string(), toml::Value::Integer(1))]).unwrap();
+        assert_eq!((p.n_modes, p.length_m), (3, 1.0));
+        let e = Params::from_values([("n_modes".to_string(), toml::Value::Float(2.5))]).unwrap_err().to_string();
+        assert!(e.contains("n_modes") && e.contains("expected"), "{e}");
+        let e = Params::from_values([("bogus".to_string(), toml::Value::Float(2.5))]).unwrap_err().to_string();
+        assert!(e.contains("bogus"), "{e}");
+        let n = validation_count();
+        let v = Valid::new(Params::default()).unwrap();
+        assert!(validation_count() > n);
+        assert!(ParamsArg::from(&v).check().is_ok());
     }
 
     #[test]

@@ -1,29 +1,24 @@
 //! `beamslider._core`: the thin PyO3 binding of `beamslider-core`.
 //!
 //! It only converts types and errors; the public Python API lives in `python/beamslider/`.
-//! Parameters cross the boundary as TOML text (Python → Rust) and as a dict (Rust → Python), the
-//! same format the Rust tools read. Long runs release the interpreter (`py.detach`); a monitor
-//! re-attaches every few thousand steps to run pending signal handlers (Ctrl-C) and the optional
-//! progress callback. Core errors map to Python exceptions: invalid parameter / TOML →
-//! `ValueError`, I/O → `OSError`, numerical failure → `beamslider.SimulationError`, interrupted →
-//! `KeyboardInterrupt`. Panics are caught and reported as `SimulationError`.
+//! Parameters cross the boundary as the core's validated object (`Params`, module `params`).
+//! Long runs release the interpreter (`py.detach`); a monitor re-attaches every few thousand
+//! steps to run pending signal handlers (Ctrl-C) and the optional progress callback. Core errors
+//! map to Python exceptions: invalid parameter / TOML → `ValueError`, I/O → `OSError`, numerical
+//! failure → `beamslider.SimulationError`, interrupted → `KeyboardInterrupt`. Panics are caught
+//! and reported as `SimulationError`.
 
 use std::sync::atomic::AtomicBool;
 
-mod enma;
-
-use beamslider_core::{
-    Criteria, MapConfig, MapRow, MapRunOptions, SuperSlow,
-    Channel, ColumnRecorder, Error, Excitation, FileRecorder, ManifoldOptions, Model, Monitor, OverviewRecorder, Params, Recorder,
-    RunOptions, Tee, SliderModel, Status, dynamics::runner, signal,
-};
+use beamslider_core::{Criteria, Error, MapConfig, MapRunOptions, Monitor, SuperSlow, dynamics::runner, signal};
 use numpy::{IntoPyArray, PyArray1, PyReadonlyArray1};
 use pyo3::exceptions::{PyBlockingIOError, PyException, PyKeyboardInterrupt, PyOSError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-mod discover;
 mod maprun;
+mod params;
+mod run;
 mod study;
 mod superslow;
 
@@ -94,225 +89,50 @@ fn detached<T: Send>(
     outcome.map_err(to_py)
 }
 
-fn parse_params(toml_text: &str) -> PyResult<Params> {
-    guarded(|| Params::from_toml_str(toml_text))
-}
-
-/// Parameters as a dict of TOML keys → float / int / str.
-fn params_dict<'py>(py: Python<'py>, p: &Params) -> PyResult<Bound<'py, PyDict>> {
-    let table: toml::Table = toml::from_str(&p.to_toml_string())
-        .map_err(|e| SimulationError::new_err(format!("internal error: {e}")))?;
-    let d = PyDict::new(py);
-    for (k, v) in table {
-        match v {
-            toml::Value::Float(x) => d.set_item(k, x)?,
-            toml::Value::Integer(i) => d.set_item(k, i)?,
-            toml::Value::String(s) => d.set_item(k, s)?,
-            toml::Value::Boolean(b) => d.set_item(k, b)?,
-            other => d.set_item(k, other.to_string())?,
-        }
-    }
-    Ok(d)
-}
-
-/// Default parameters of docs/model.md §1 as a dict.
-#[pyfunction]
-fn default_params(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
-    params_dict(py, &Params::default())
-}
-
-/// Parse and validate TOML parameter text (missing keys take defaults); returns the full dict.
-#[pyfunction]
-fn params_from_toml<'py>(py: Python<'py>, text: &str) -> PyResult<Bound<'py, PyDict>> {
-    let p = parse_params(text)?;
-    params_dict(py, &p)
-}
-
-/// Read and validate a TOML parameter file; returns the full dict.
-#[pyfunction]
-fn read_params_file<'py>(py: Python<'py>, path: std::path::PathBuf) -> PyResult<Bound<'py, PyDict>> {
-    let p = guarded(|| Params::from_toml_file(&path))?;
-    params_dict(py, &p)
-}
-
-/// Validate TOML parameter text and return the canonical TOML text the Rust tools write.
-#[pyfunction]
-fn canonical_toml(text: &str) -> PyResult<String> {
-    Ok(parse_params(text)?.to_toml_string())
-}
-
-/// Natural frequencies f₁..f_N [Hz] of the linear beam (docs/model.md §2).
-#[pyfunction]
-fn natural_frequencies(py: Python<'_>, params_toml: &str) -> PyResult<Vec<f64>> {
-    let p = parse_params(params_toml)?;
-    py.detach(|| guarded(|| Ok(Model::new(p)?.beam.frequencies_hz())))
-}
-
 /// Monitor that re-attaches to Python every poll: pending signal handlers (Ctrl-C) and the
 /// progress callback `callback(t_done, t_total)` run there; an exception stops the run.
+/// `on_start()` is called once the run's inputs are checked, before its first step.
 struct PyMonitor {
     callback: Option<Py<PyAny>>,
+    on_start: Option<Py<PyAny>>,
     error: Option<PyErr>,
 }
 
 impl PyMonitor {
     fn new(callback: Option<Py<PyAny>>) -> Self {
-        PyMonitor { callback, error: None }
+        PyMonitor { callback, on_start: None, error: None }
+    }
+
+    fn call(error: &mut Option<PyErr>, f: impl FnOnce(Python<'_>) -> PyResult<()>) -> bool {
+        if error.is_some() {
+            return false;
+        }
+        let r = Python::attach(|py| py.check_signals().and_then(|()| f(py)));
+        r.map_err(|e| *error = Some(e)).is_ok()
+    }
+
+    /// The run's outcome, or the exception a callback raised.
+    fn outcome<T>(mut self, r: PyResult<T>) -> PyResult<T> {
+        self.error.take().map_or(r, Err)
     }
 }
 
 impl Monitor for PyMonitor {
     fn poll(&mut self, t_s: f64, t_end_s: f64) -> bool {
-        if self.error.is_some() {
-            return false;
-        }
-        Python::attach(|py| {
-            let r = py.check_signals().and_then(|()| match &self.callback {
-                Some(cb) => cb.call1(py, (t_s, t_end_s)).map(|_| ()),
-                None => Ok(()),
-            });
-            match r {
-                Ok(()) => true,
-                Err(e) => {
-                    self.error = Some(e);
-                    false
-                }
-            }
-        })
+        let cb = &self.callback;
+        Self::call(&mut self.error, |py| cb.as_ref().map_or(Ok(()), |cb| cb.call1(py, (t_s, t_end_s)).map(|_| ())))
+    }
+
+    fn start(&mut self) -> bool {
+        let cb = self.on_start.take();
+        Self::call(&mut self.error, |py| cb.map_or(Ok(()), |cb| cb.call0(py).map(|_| ())))
     }
 }
-
-/// Names of the recorded columns, in the order of `RECORDED`.
-const RECORDED: [&str; 6] = ["t_s", "w_4L7_m", "s", "xC_m", "zC_m", "beta_rad"];
 
 /// Rows a run records: the start state and every `record_every`-th of round(t_end/dt) steps.
 #[pyfunction]
 fn recorded_rows(t_end_s: f64, dt_s: f64, record_every: usize) -> u64 {
     beamslider_core::recorded_rows(t_end_s, dt_s, record_every)
-}
-
-/// Integrate the FS / PCS / beam-only model (docs/model.md §5–6) and return a dict with the recorded
-/// columns (numpy arrays keyed by `t_s`, `w_4L7_m`, `s`, `xC_m`, `zC_m`, `beta_rad`), `status`,
-/// `message`, `counters` (dict), `final_state` (dict) and `rows`. With `out` (a `.npz` or `.csv`
-/// path) the rows are streamed into that file instead (written under a temporary name, renamed
-/// when the run ends; an interrupted run leaves nothing) and no columns are returned; instead
-/// `overview` holds what a summary and a figure need, gathered as the rows stream (core module
-/// `overview`): `w_t`, `w`, `s_t`, `s` (min/max decimation to `columns` pixel columns, or None)
-/// and `super_slow` = (t0 [s], bin spacing [s], s per bin, amplitude/h per bin; `window_s`
-/// moving average), or None.
-#[pyfunction]
-#[pyo3(signature = (params_toml, *, f_ex_hz, a_ex_m_s2, s0, t_end_s, model, s_pcs=None, record_every=10, progress=None, out=None, window_s=1.0, columns=2000))]
-#[allow(clippy::too_many_arguments)]
-fn simulate<'py>(
-    py: Python<'py>,
-    params_toml: &str,
-    f_ex_hz: f64,
-    a_ex_m_s2: f64,
-    s0: f64,
-    t_end_s: f64,
-    model: &str,
-    s_pcs: Option<f64>,
-    record_every: usize,
-    progress: Option<Py<PyAny>>,
-    out: Option<std::path::PathBuf>,
-    window_s: f64,
-    columns: usize,
-) -> PyResult<Bound<'py, PyDict>> {
-    let params = parse_params(params_toml)?;
-    let slider_model = match model {
-        "fs" => SliderModel::Free,
-        "pcs" => SliderModel::PseudoConstrained { s: s_pcs.unwrap_or(s0) },
-        "beam" => SliderModel::BeamOnly,
-        other => {
-            return Err(PyValueError::new_err(format!(
-                "invalid parameter `model` = {other:?}: must be one of \"fs\" (free slider), \"pcs\" (pseudo-constrained slider), \"beam\" (beam only)"
-            )));
-        }
-    };
-    let excitation = Excitation::new(f_ex_hz, a_ex_m_s2);
-    let mut monitor = PyMonitor::new(progress);
-    let outcome = py.detach(|| {
-        guarded(|| {
-            let m = Model::new(params)?;
-            let start = m.start(slider_model, s0, &excitation)?;
-            let opts = RunOptions {
-                excitation,
-                model: slider_model,
-                duration_s: t_end_s,
-                record_every,
-                channels: vec![
-                    Channel::Time,
-                    Channel::W4L7,
-                    Channel::S,
-                    Channel::XC,
-                    Channel::ZC,
-                    Channel::Beta,
-                ],
-                audit_contacts: false,
-            };
-            m.check_run(&start, &opts)?;
-            match &out {
-                Some(path) => {
-                    let expected = beamslider_core::recorded_rows(opts.duration_s, m.params.dt_s, record_every);
-                    let mut rec = FileRecorder::create(path, expected)?;
-                    let mut ov = OverviewRecorder::new(expected, columns, m.params.dt_s, record_every);
-                    let summary = m.run(&start, &opts, &mut Tee(&mut rec, &mut ov), &mut monitor)?;
-                    if let Status::Interrupted { .. } = summary.status {
-                        return Ok((summary, Vec::new(), 0, None)); // the recorder removes its files
-                    }
-                    let rows = rec.commit()?;
-                    let ov = ov.finish();
-                    let signals = ov.signals.as_ref().map(|st| st.super_slow(m.params.thickness_m, window_s));
-                    Ok((summary, Vec::new(), rows, Some((ov, signals))))
-                }
-                None => {
-                    let rows = beamslider_core::recorded_rows(opts.duration_s, m.params.dt_s, record_every);
-                    let rows = usize::try_from(rows).map_err(|_| Error::invalid("t_end", t_end_s, "too many rows to record in memory"))?;
-                    let mut rec = ColumnRecorder::with_rows(rows);
-                    let summary = m.run(&start, &opts, &mut rec as &mut dyn Recorder, &mut monitor)?;
-                    let n = rec.columns.first().map_or(0, Vec::len) as u64;
-                    let mut columns = std::mem::take(&mut rec.columns);
-                    // RECORDED is the channel order above.
-                    columns.truncate(RECORDED.len());
-                    Ok((summary, columns, n, None))
-                }
-            }
-        })
-    });
-    if let Some(e) = monitor.error.take() {
-        return Err(e);
-    }
-    let (summary, columns, rows, overview) = outcome?;
-    if let Status::Interrupted { t_s } = summary.status {
-        return Err(PyKeyboardInterrupt::new_err(format!("interrupted at t = {t_s} s")));
-    }
-    let d = PyDict::new(py);
-    for (name, col) in RECORDED.iter().zip(columns) {
-        d.set_item(*name, col.into_pyarray(py))?;
-    }
-    d.set_item("rows", rows)?;
-    if let Some((ov, signals)) = overview {
-        let o = PyDict::new(py);
-        let (w_t, w) = ov.w.map_or((None, None), |(t, y)| (Some(t.into_pyarray(py)), Some(y.into_pyarray(py))));
-        let (s_t, s) = ov.s.map_or((None, None), |(t, y)| (Some(t.into_pyarray(py)), Some(y.into_pyarray(py))));
-        o.set_item("w_t", w_t)?;
-        o.set_item("w", w)?;
-        o.set_item("s_t", s_t)?;
-        o.set_item("s", s)?;
-        o.set_item("super_slow", signals.map(|x| (x.t0_s, x.dt_s, x.s.into_pyarray(py), x.amplitude_h.into_pyarray(py))))?;
-        d.set_item("overview", o)?;
-    }
-    d.set_item("status", summary.status.name())?;
-    d.set_item("message", summary.status.message())?;
-    d.set_item("counters", counters_dict(py, &summary.counters)?)?;
-    let st = PyDict::new(py);
-    st.set_item("t_s", summary.state.t_s)?;
-    st.set_item("q", summary.state.q.clone())?;
-    st.set_item("u", summary.state.u.clone())?;
-    st.set_item("slider_q", summary.state.slider_q.to_vec())?;
-    st.set_item("slider_u", summary.state.slider_u.to_vec())?;
-    d.set_item("final_state", st)?;
-    Ok(d)
 }
 
 fn counters_dict<'py>(py: Python<'py>, c: &beamslider_core::Counters) -> PyResult<Bound<'py, PyDict>> {
@@ -328,53 +148,6 @@ fn counters_dict<'py>(py: Python<'py>, c: &beamslider_core::Counters) -> PyResul
     d.set_item("enumerations", c.enumerations)?;
     d.set_item("fallbacks", c.fallbacks)?;
     d.set_item("max_residual", c.max_residual)?;
-    Ok(d)
-}
-
-/// Default slider positions of the physical manifold sweep (docs/model.md §6): the reference grid
-/// s = 0, 0.005, …, 0.5 from the first s whose contact points lie on the beam.
-#[pyfunction]
-fn physical_manifold_grid(py: Python<'_>, params_toml: &str) -> PyResult<Vec<f64>> {
-    let p = parse_params(params_toml)?;
-    py.detach(|| guarded(|| Ok(ManifoldOptions::physical(&Model::new(p)?).s_values)))
-}
-
-/// Super-slow manifold by PCS continuation (docs/model.md §6). Returns a dict with `up_s`,
-/// `up_amplitude_m`, `down_s`, `down_amplitude_m` (numpy arrays) and `counters`.
-/// `progress(points_done, points_total)` is called after every s.
-#[pyfunction]
-#[pyo3(signature = (params_toml, *, f_ex_hz, a_ex_m_s2, s_values, periods=100, record_periods=25, progress=None))]
-#[allow(clippy::too_many_arguments)]
-fn super_slow_manifold<'py>(
-    py: Python<'py>,
-    params_toml: &str,
-    f_ex_hz: f64,
-    a_ex_m_s2: f64,
-    s_values: Vec<f64>,
-    periods: usize,
-    record_periods: usize,
-    progress: Option<Py<PyAny>>,
-) -> PyResult<Bound<'py, PyDict>> {
-    let params = parse_params(params_toml)?;
-    let excitation = Excitation::new(f_ex_hz, a_ex_m_s2);
-    let opts = ManifoldOptions { s_values, periods, record_periods };
-    let mut monitor = PyMonitor::new(progress);
-    let outcome = py.detach(|| {
-        guarded(|| {
-            let m = Model::new(params)?;
-            beamslider_core::super_slow_manifold(&m, &excitation, &opts, &mut monitor)
-        })
-    });
-    if let Some(e) = monitor.error.take() {
-        return Err(e);
-    }
-    let man = outcome?;
-    let d = PyDict::new(py);
-    d.set_item("up_s", man.up.s.into_pyarray(py))?;
-    d.set_item("up_amplitude_m", man.up.amplitude_m.into_pyarray(py))?;
-    d.set_item("down_s", man.down.s.into_pyarray(py))?;
-    d.set_item("down_amplitude_m", man.down.amplitude_m.into_pyarray(py))?;
-    d.set_item("counters", counters_dict(py, &man.counters)?)?;
     Ok(d)
 }
 
@@ -486,29 +259,13 @@ fn check_map(py: Python<'_>, config_toml: &str, out: Option<std::path::PathBuf>,
     py.detach(|| guarded(|| beamslider_core::map::preflight(&cfg, &opts)))
 }
 
-/// Read a map results file (JSON lines): (settings as JSON text or None, rows as JSON texts,
-/// whether the last line was truncated).
-#[pyfunction]
-fn read_map_results(py: Python<'_>, path: std::path::PathBuf) -> PyResult<(Option<String>, Vec<String>, bool)> {
-    let r = py.detach(|| guarded(|| beamslider_core::results::read_results(&path)))?;
-    let settings = r.settings.map(|s| serde_json::to_string(&s).unwrap_or_default());
-    Ok((settings, r.rows.iter().map(MapRow::to_json).collect(), r.truncated))
-}
-
 /// The compiled core of beamslider (private: import `beamslider` instead).
 #[pymodule]
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("SimulationError", m.py().get_type::<SimulationError>())?;
     m.add("RESULTS_FORMAT_VERSION", beamslider_core::results::FORMAT_VERSION)?;
     m.add("MAX_AXIS_VALUES", beamslider_core::map::MAX_POINTS)?;
-    m.add_function(wrap_pyfunction!(default_params, m)?)?;
-    m.add_function(wrap_pyfunction!(params_from_toml, m)?)?;
-    m.add_function(wrap_pyfunction!(read_params_file, m)?)?;
-    m.add_function(wrap_pyfunction!(canonical_toml, m)?)?;
-    m.add_function(wrap_pyfunction!(natural_frequencies, m)?)?;
-    m.add_function(wrap_pyfunction!(simulate, m)?)?;
-    m.add_function(wrap_pyfunction!(physical_manifold_grid, m)?)?;
-    m.add_function(wrap_pyfunction!(super_slow_manifold, m)?)?;
+    m.add_function(wrap_pyfunction!(recorded_rows, m)?)?;
     m.add_function(wrap_pyfunction!(hilbert_envelope, m)?)?;
     m.add_function(wrap_pyfunction!(moving_average, m)?)?;
     m.add_function(wrap_pyfunction!(envelope, m)?)?;
@@ -517,14 +274,11 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(default_map_config, m)?)?;
     m.add_function(wrap_pyfunction!(map_config, m)?)?;
     m.add_function(wrap_pyfunction!(range_values, m)?)?;
-    m.add_function(wrap_pyfunction!(read_map_results, m)?)?;
-    maprun::register(m)?;
-    m.add_function(wrap_pyfunction!(recorded_rows, m)?)?;
-    m.add_function(wrap_pyfunction!(enma::virtual_enma, m)?)?;
-    m.add_function(wrap_pyfunction!(enma::beam_properties, m)?)?;
-    study::register(m)?;
-    discover::register(m)?;
-    superslow::register(m)?;
     m.add_function(wrap_pyfunction!(check_map, m)?)?;
+    params::register(m)?;
+    run::register(m)?;
+    maprun::register(m)?;
+    study::register(m)?;
+    superslow::register(m)?;
     Ok(())
 }

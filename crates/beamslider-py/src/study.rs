@@ -15,18 +15,10 @@ use beamslider_core::{MapConfig, MapRow};
 use pyo3::exceptions::{PyKeyboardInterrupt, PyValueError};
 use pyo3::prelude::*;
 
-use crate::{SimulationError, detached, guarded};
+use crate::{detached, guarded};
 
 /// One point of a chunk: (index, parameter TOML, f_ex [Hz], a_ex [m/s²], s₀, duration [s]).
 type ChunkPoint = (usize, String, f64, f64, f64, f64);
-
-/// The settings of a map configuration (what decides a row besides its point) as JSON text: the
-/// `settings` object of a results file's header line.
-#[pyfunction]
-fn map_settings_json(config_toml: &str) -> PyResult<String> {
-    let cfg = guarded(|| MapConfig::from_toml_str(config_toml))?;
-    serde_json::to_string(&cfg.settings()).map_err(|e| SimulationError::new_err(format!("internal error: {e}")))
-}
 
 /// Run a chunk of study points in parallel (`threads` workers, default one per core) with the
 /// interpreter released. `config_toml` is a map configuration (record_every, dt_s, criteria; its
@@ -140,7 +132,6 @@ fn read_results_file(py: Python<'_>, path: std::path::PathBuf) -> PyResult<(Opti
 
 /// Register the study functions in the `_core` module.
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
-    m.add_function(wrap_pyfunction!(map_settings_json, m)?)?;
     m.add_function(wrap_pyfunction!(run_study_chunk, m)?)?;
     m.add_function(wrap_pyfunction!(read_results_file, m)?)?;
     m.add_class::<PyStudyResults>()?;

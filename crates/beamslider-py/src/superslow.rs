@@ -1,5 +1,6 @@
-//! Binding of layer (a) of issue 17 (`beamslider_core::superslow`): the harmonic-balance
-//! super-slow manifold, its N = 1 closed form and the single-mode backbone. Types and errors only.
+//! Binding of `beamslider_core::superslow` (docs/model.md §6.3–6.5): the harmonic-balance super-slow
+//! manifold, its N = 1 closed form, the backbone, PCS drift tables, the drift law, the slow flow and
+//! predicted maps. Types and errors only.
 
 use beamslider_core::superslow::drift::{BranchLabel, DriftOptions, drift_table_pcs as core_drift};
 use beamslider_core::superslow::slowflow::{EventKind, SlowBranch, SlowFlowOptions, SlowModel, slow_flow as core_slow_flow};
@@ -11,7 +12,8 @@ use numpy::IntoPyArray;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-use crate::{guarded, parse_params};
+use crate::params::PyParams;
+use crate::{detached, guarded};
 
 fn branch_dict<'py>(py: Python<'py>, b: &HbBranch) -> PyResult<Bound<'py, PyDict>> {
     let d = PyDict::new(py);
@@ -26,19 +28,19 @@ fn branch_dict<'py>(py: Python<'py>, b: &HbBranch) -> PyResult<Bound<'py, PyDict
     Ok(d)
 }
 
-/// HB super-slow manifold (issue 17 §2.3). Returns a dict: branches `high`, `low`, `middle`,
+/// HB super-slow manifold (docs/model.md §6.4). Returns a dict: branches `high`, `low`, `middle`,
 /// `up_run`, `down_run` (dicts of arrays `s`, `amplitude_h`, `phase_rad`, `stable`, `q_re`,
 /// `q_im` flat (point, mode)), `folds_s`, `folds_amplitude_h`, `s_up`, `s_dn` (None when absent),
 /// `s_res`, `s_range`, `n_modes`, `steps`, `warnings`, and with `sample_on_grid` the branches
 /// solved on the grid: `s_grid`, `high_on_grid`, `low_on_grid` (NaN where absent). With
-/// `harmonics` > 1 or `static_sag` (issue §2.5.2/3), `harmonic_orders` and per branch
+/// `harmonics` > 1 or `static_sag` (docs/model.md §6.4), `harmonic_orders` and per branch
 /// `harmonic_amplitude_h` (flat (point, order)) and `state` (flat (point, unknown)).
 #[pyfunction]
-#[pyo3(signature = (params_toml, *, f_ex_hz, a_ex_m_s2, n_modes=5, harmonics=1, d_eff=None, omega1_factor=1.0, s_values=None, max_steps=20_000, max_step=0.05, sample_on_grid=false, static_sag=false))]
+#[pyo3(signature = (params, *, f_ex_hz, a_ex_m_s2, n_modes=5, harmonics=1, d_eff=None, omega1_factor=1.0, s_values=None, max_steps=20_000, max_step=0.05, sample_on_grid=false, static_sag=false))]
 #[allow(clippy::too_many_arguments)]
 pub fn hb_manifold<'py>(
     py: Python<'py>,
-    params_toml: &str,
+    params: &Bound<'_, PyParams>,
     f_ex_hz: f64,
     a_ex_m_s2: f64,
     n_modes: usize,
@@ -51,7 +53,7 @@ pub fn hb_manifold<'py>(
     sample_on_grid: bool,
     static_sag: bool,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let params = parse_params(params_toml)?;
+    let params = params.get().0.clone();
     let opts = HbOptions { n_modes, harmonics, d_eff, omega1_factor, s: s_values, max_steps, max_step, sample_on_grid, static_sag, low_branch_only: false };
     let m = py.detach(|| guarded(|| core_hb(&params, f_ex_hz, a_ex_m_s2, &opts)))?;
     let d = PyDict::new(py);
@@ -76,20 +78,20 @@ pub fn hb_manifold<'py>(
     Ok(d)
 }
 
-/// N = 1 closed form (issue 17 §2.2) on `s_values`. Returns a dict: `s`, `roots_h` (n×3, NaN where
+/// N = 1 closed form (docs/model.md §6.4) on `s_values`. Returns a dict: `s`, `roots_h` (n×3, NaN where
 /// absent), `n_roots`, `discriminant`, `folds`, `s_up`, `s_dn`, `s_res`, `backbone_h`.
 #[pyfunction]
-#[pyo3(signature = (params_toml, *, f_ex_hz, a_ex_m_s2, s_values, d_eff=None, omega1_factor=1.0))]
+#[pyo3(signature = (params, *, f_ex_hz, a_ex_m_s2, s_values, d_eff=None, omega1_factor=1.0))]
 pub fn hb_closed_form_n1<'py>(
     py: Python<'py>,
-    params_toml: &str,
+    params: &Bound<'_, PyParams>,
     f_ex_hz: f64,
     a_ex_m_s2: f64,
     s_values: Vec<f64>,
     d_eff: Option<f64>,
     omega1_factor: f64,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let params = parse_params(params_toml)?;
+    let params = params.get().0.clone();
     let c = py.detach(|| guarded(|| closed_form_n1_scaled(&params, f_ex_hz, a_ex_m_s2, &s_values, d_eff, omega1_factor)))?;
     let d = PyDict::new(py);
     d.set_item("s", c.s.into_pyarray(py))?;
@@ -104,11 +106,11 @@ pub fn hb_closed_form_n1<'py>(
     Ok(d)
 }
 
-/// Single-mode backbone with the slider Ω_bb(Â, s) [rad/s] (issue 17 §2.2) at paired values.
+/// Single-mode backbone with the slider Ω_bb(Â, s) [rad/s] (docs/model.md §6.4) at paired values.
 #[pyfunction]
-#[pyo3(signature = (params_toml, amplitude_h, s, omega1_factor=1.0))]
-pub fn hb_backbone(py: Python<'_>, params_toml: &str, amplitude_h: Vec<f64>, s: Vec<f64>, omega1_factor: f64) -> PyResult<Vec<f64>> {
-    let params = parse_params(params_toml)?;
+#[pyo3(signature = (params, amplitude_h, s, omega1_factor=1.0))]
+pub fn hb_backbone(py: Python<'_>, params: &Bound<'_, PyParams>, amplitude_h: Vec<f64>, s: Vec<f64>, omega1_factor: f64) -> PyResult<Vec<f64>> {
+    let params = params.get().0.clone();
     if amplitude_h.len() != s.len() {
         return Err(pyo3::exceptions::PyValueError::new_err(format!(
             "invalid parameter `s`: {} values for {} amplitudes (must be the same length)",
@@ -133,17 +135,17 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     Ok(())
 }
 
-/// Drift table V(s, branch) from the PCS model (issue 17 §3.1; `beamslider_core::superslow::drift`). Returns
+/// Drift table V(s, branch) from the PCS model (docs/model.md §6.4). Returns
 /// (header JSON, rows as JSON texts in production order, rows computed now). Rows are appended
 /// to `out` as produced; `resume` continues an existing file with the same settings.
 /// `progress(done, total)` is called from the calling thread; Ctrl-C stops both sweeps (rows
 /// written so far stay in the file) and raises KeyboardInterrupt.
 #[pyfunction]
-#[pyo3(signature = (params_toml, *, f_ex_hz, a_ex_m_s2, s_values, settle_periods=40, first_settle_periods=400, window_s=1.0, sub_windows=4, mirror=false, out=None, resume=false, progress=None))]
+#[pyo3(signature = (params, *, f_ex_hz, a_ex_m_s2, s_values, settle_periods=40, first_settle_periods=400, window_s=1.0, sub_windows=4, mirror=false, out=None, resume=false, progress=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn drift_table_pcs(
     py: Python<'_>,
-    params_toml: &str,
+    params: &Bound<'_, PyParams>,
     f_ex_hz: f64,
     a_ex_m_s2: f64,
     s_values: Vec<f64>,
@@ -157,7 +159,7 @@ pub fn drift_table_pcs(
     progress: Option<Py<PyAny>>,
 ) -> PyResult<(String, Vec<String>, usize)> {
     use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
-    let params = parse_params(params_toml)?;
+    let params = params.get().0.clone();
     let opts = DriftOptions { s_values, settle_periods, first_settle_periods, window_s, sub_windows, mirror };
     let exc = Excitation::new(f_ex_hz, a_ex_m_s2);
     let cancel = AtomicBool::new(false);
@@ -171,35 +173,12 @@ pub fn drift_table_pcs(
             _ => Ok(()),
         }
     };
-    let (outcome, err) = py.detach(|| {
-        std::thread::scope(|sc| {
-            let worker = sc.spawn(|| {
-                guarded(|| {
-                    let model = Model::new(params)?;
-                    core_drift(&model, &exc, &opts, out.as_deref(), resume, &cancel, &|d, t| {
-                        done.store(d, Ordering::Relaxed);
-                        total.store(t, Ordering::Relaxed);
-                    })
-                })
-            });
-            let mut err: Option<PyErr> = None;
-            while !worker.is_finished() {
-                std::thread::sleep(std::time::Duration::from_millis(100));
-                if err.is_none()
-                    && let Err(e) = Python::attach(|py| poll(py))
-                {
-                    cancel.store(true, Ordering::Relaxed);
-                    err = Some(e);
-                }
-            }
-            let outcome = worker.join().unwrap_or_else(|_| Err(crate::SimulationError::new_err("internal error: drift worker panicked")));
-            (outcome, err)
-        })
-    });
-    if let Some(e) = err {
-        return Err(e);
-    }
-    let table = outcome?;
+    let progress_of = |d, t| {
+        done.store(d, Ordering::Relaxed);
+        total.store(t, Ordering::Relaxed);
+    };
+    let work = || core_drift(&Model::of(&params)?, &exc, &opts, out.as_deref(), resume, &cancel, &progress_of);
+    let table = detached(py, &cancel, 100, work, poll)?;
     poll(py)?;
     let js = |e: serde_json::Error| crate::SimulationError::new_err(format!("internal error: {e}"));
     let header = serde_json::to_string(&table.header).map_err(js)?;
@@ -215,7 +194,7 @@ pub fn read_drift_table(py: Python<'_>, path: std::path::PathBuf) -> PyResult<(S
     Ok((serde_json::to_string(&h).map_err(js)?, rows.iter().map(|r| serde_json::to_string(r).map_err(js)).collect::<PyResult<Vec<_>>>()?))
 }
 
-/// Slow flow (issue 17 §3.3; `beamslider_core::superslow::slowflow`) on branches given by their nodes
+/// Slow flow (docs/model.md §6.4) on branches given by their nodes
 /// (half coordinate s′ ∈ (0, ½], increasing): `low` / `high` = (s, amplitude_h, v_per_s). Returns a
 /// dict: `t_s`, `s`, `amplitude_h`, `branch` (0 = L, 1 = H), `events` (list of (kind, t_s, s)),
 /// `s_final`, `amplitude_final_h`, `branch_final`, `branch_initial` ("L"/"H"),
@@ -290,13 +269,13 @@ pub fn drift_law_evaluate(law_json: &str, high: bool, x: Vec<Vec<f64>>, lift_off
     Ok((v, out))
 }
 
-/// Layer-(a) features of issue 17 §3.2 computed by the core at `s` on one branch (`high`) of
+/// Layer-(a) features of docs/model.md §6.4 computed by the core at `s` on one branch (`high`) of
 /// the HB manifold: dict of arrays lift_off, slope_gap, f_slope, ds_res, amp_rel, amplitude, s.
 #[pyfunction]
-#[pyo3(signature = (params_toml, *, f_ex_hz, a_ex_m_s2, high, s, n_modes=5, d_eff=None))]
+#[pyo3(signature = (params, *, f_ex_hz, a_ex_m_s2, high, s, n_modes=5, d_eff=None))]
 #[allow(clippy::too_many_arguments)]
-pub fn hb_features<'py>(py: Python<'py>, params_toml: &str, f_ex_hz: f64, a_ex_m_s2: f64, high: bool, s: Vec<f64>, n_modes: usize, d_eff: Option<f64>) -> PyResult<Bound<'py, PyDict>> {
-    let params = parse_params(params_toml)?;
+pub fn hb_features<'py>(py: Python<'py>, params: &Bound<'_, PyParams>, f_ex_hz: f64, a_ex_m_s2: f64, high: bool, s: Vec<f64>, n_modes: usize, d_eff: Option<f64>) -> PyResult<Bound<'py, PyDict>> {
+    let params = params.get().0.clone();
     let opts = HbOptions { n_modes, d_eff, ..HbOptions::default() };
     let f = py.detach(|| {
         guarded(|| {
@@ -319,10 +298,10 @@ pub fn hb_features<'py>(py: Python<'py>, params_toml: &str, f_ex_hz: f64, a_ex_m
 /// One operating point predicted entirely in the core (HB manifold, the law, slow flow,
 /// classification): the map row as JSON text (status `predicted`).
 #[pyfunction]
-#[pyo3(signature = (params_toml, law_json, *, f_ex_hz, a_ex_m_s2, s0=0.3, t_end_s=120.0, n_modes=5, d_eff=None))]
+#[pyo3(signature = (params, law_json, *, f_ex_hz, a_ex_m_s2, s0=0.3, t_end_s=120.0, n_modes=5, d_eff=None))]
 #[allow(clippy::too_many_arguments)]
-pub fn predict_point(py: Python<'_>, params_toml: &str, law_json: &str, f_ex_hz: f64, a_ex_m_s2: f64, s0: f64, t_end_s: f64, n_modes: usize, d_eff: Option<f64>) -> PyResult<String> {
-    let params = parse_params(params_toml)?;
+pub fn predict_point(py: Python<'_>, params: &Bound<'_, PyParams>, law_json: &str, f_ex_hz: f64, a_ex_m_s2: f64, s0: f64, t_end_s: f64, n_modes: usize, d_eff: Option<f64>) -> PyResult<String> {
+    let params = params.get().0.clone();
     let law = parse_law(law_json)?;
     let opts = predict::PredictOptions { hb: HbOptions { n_modes, d_eff, ..predict::PredictOptions::default().hb }, ..predict::PredictOptions::default() };
     py.detach(|| {
@@ -369,7 +348,7 @@ pub fn predicted_map(
         }
     };
     let prog = |n: usize, _t: usize, _r: &MapRow| done.store(n, std::sync::atomic::Ordering::Relaxed);
-    let outcome = crate::detached(py, &cancel, 100, || predict::run_predicted_map(&cfg, &law, &popts, &opts, &cancel, &prog), &poll)?;
+    let outcome = detached(py, &cancel, 100, || predict::run_predicted_map(&cfg, &law, &popts, &opts, &cancel, &prog), &poll)?;
     poll(py)?;
     if outcome.cancelled || cancel.load(std::sync::atomic::Ordering::Relaxed) {
         return Err(pyo3::exceptions::PyKeyboardInterrupt::new_err("map interrupted"));

@@ -7,7 +7,8 @@ from __future__ import annotations
 import argparse
 import threading
 import time
-from typing import Any, Callable, Optional
+from pathlib import Path
+from typing import Any, Callable, Dict, Optional
 
 from ..simulate import simulate
 from ._common import figure, out_dir, params_from_args, plan_outputs, positive, report, write_json_atomic
@@ -86,9 +87,6 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     resolve_manifold(args, args.a_ex)
     with_manifold = args.manifold and args.model != "beam"
     man_name = f"{manifold_name(args, args.f_ex, args.a_ex)}.csv" if with_manifold else None
-    # Bad input is named before anything else.
-    simulate(p, f_ex=args.f_ex, a_ex=args.a_ex, s0=args.s0, t_end=args.t_end, model=args.model, s_pcs=args.s_pcs,
-             record_every=args.record_every, _check_only=True)
     if with_manifold and args.manifold_kind == "pcs":
         check_manifold_args(args)
     if args.format == "parquet":
@@ -97,30 +95,39 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         require_pyarrow()  # the extra named before anything is written
     data_name = f"{stem}.{args.format}"
     plan_outputs(args, [data_name, f"{stem}.json", f"{stem}.png"] + ([man_name] if man_name else []))
-    out = out_dir(args)
+    out = Path(args.out)
     written = [out / data_name, out / f"{stem}.json", out / f"{stem}.png"]
-    # The sidecar says "incomplete" until the data file is in place (plot refuses it meanwhile).
-    write_json_atomic(written[1], {
-        "kind": "simulation", "data": data_name, "format": args.format, "complete": False, "model": args.model,
-        "f_ex_hz": args.f_ex, "a_ex_m_s2": args.a_ex, "s0": args.s0, "t_end_s": args.t_end,
-        "record_every": args.record_every, "params_toml": p.toml_text()})
-    # While the core runs (interpreter released) the manifold runs on the other core and
-    # matplotlib is imported: the three overlap on a multi-core machine.
-    preload = _Background(_preload_figure)
-    background = _Background(run_manifold, args, p, args.f_ex, args.a_ex) if with_manifold else None
-    t0 = time.perf_counter()
+    started: Dict[str, Any] = {}
+
+    def start() -> None:
+        """Called by the core once the run's inputs are checked (bad input is named before
+        anything is written), before its first step."""
+        out_dir(args)
+        # The sidecar says "incomplete" until the data file is in place (plot refuses it meanwhile).
+        write_json_atomic(written[1], {
+            "kind": "simulation", "data": data_name, "format": args.format, "complete": False, "model": args.model,
+            "f_ex_hz": args.f_ex, "a_ex_m_s2": args.a_ex, "s0": args.s0, "t_end_s": args.t_end,
+            "record_every": args.record_every, "params_toml": p.toml_text()})
+        # While the core runs (interpreter released) the manifold runs on the other core and
+        # matplotlib is imported: the three overlap on a multi-core machine.
+        started["preload"] = _Background(_preload_figure)
+        if with_manifold:
+            started["manifold"] = _Background(run_manifold, args, p, args.f_ex, args.a_ex)
+        started["t0"] = time.perf_counter()
+
     try:
         # The trajectory streams from the core to disk (temporary name, renamed when complete).
         result = simulate(p, f_ex=args.f_ex, a_ex=args.a_ex, s0=args.s0, t_end=args.t_end, model=args.model,
                           s_pcs=args.s_pcs, record_every=args.record_every, progress=args.progress,
-                          out=written[0], overwrite=True, _window=args.window)
-        wall = time.perf_counter() - t0
+                          out=written[0], overwrite=True, _window=args.window, _on_start=start)
+        wall = time.perf_counter() - started["t0"]
         summary = simulation_summary(result, t_end=args.t_end, record_every=args.record_every, wall_s=wall,
                                      window=args.window)
     except BaseException:
-        if background is not None:
-            background.cancel()
+        if "manifold" in started:
+            started["manifold"].cancel()
         raise
+    preload, background = started["preload"], started.get("manifold")
     summary.update({"data": data_name, "format": args.format, "complete": True})
     manifold = None
     if background is not None:

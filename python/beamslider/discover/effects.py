@@ -9,17 +9,17 @@ from typing import Any, Callable, Dict, Optional, Sequence, Tuple
 
 
 from .. import _core
-from ..params import Parameters
+from ..params import Parameters, native
 
 
 def _ei_over_l(p: Parameters) -> float:
     """EI/L [N m] (the core's beam)."""
-    return _core.beam_properties(p.toml_text())["ei_n_m2"] / p.length_m
+    return _core.beam_properties(native(p))["ei_n_m2"] / p.length_m
 
 
 def _ea_over_l(p: Parameters) -> float:
     """EA/L [N/m] (the core's beam)."""
-    return _core.beam_properties(p.toml_text())["ea_n"] / p.length_m
+    return _core.beam_properties(native(p))["ea_n"] / p.length_m
 
 
 @dataclass(frozen=True)

@@ -14,7 +14,7 @@ import numpy as np
 from .. import _core, enma
 from ..enma import EnmaData
 from ..measurement import DISPLACEMENT_DETREND_S, Measurement
-from ..params import Parameters
+from ..params import Parameters, native
 from .features import Feature, make_feature, enma_features, slider_features
 
 
@@ -25,7 +25,7 @@ def beam_surrogate(params: Parameters) -> Dict[str, float]:
     """Beam-level features of a model from the single-mode relations (docs/model.md §9) of its first
     mode with preload (the core's ``Beam::first_mode``: eigenpair of diag(ω²) + H₀K,
     b* = (k_ax/2)(vᵀKv)² h²/ψ(L/2)², shape ψ = Σ vₙφₙ)."""
-    b = _core.beam_properties(params.toml_text(), _X5)
+    b = _core.beam_properties(native(params), _X5)
     psi = np.asarray(b["mode1_vector"]) @ np.asarray(b["phi"])
     return dict(f0_hz=b["omega1_preload_rad_s"] / (2 * math.pi), b_star=b["b_star_preload_per_s2"],
                 damping_0=params.damping_ratio, damping_2=params.damping_ratio_quadratic,
@@ -37,7 +37,7 @@ def levels_for(data: EnmaData, params: Parameters) -> List[float]:
     if np.all(np.isfinite(lv)) and len(lv):
         return sorted(set(float(x) for x in lv))
     # Unknown levels: a~ ≈ γ₁ φ₁(L/2) a / (2 D ω₁²) / h at phase resonance.
-    b = _core.beam_properties(params.toml_text())
+    b = _core.beam_properties(native(params))
     gain = b["gamma"][0] * b["phi_mid"] / (2 * max(params.damping_ratio, 1e-5) * b["omega_rad_s"][0] ** 2)
     gain /= params.thickness_m
     amps = np.quantile(data.amplitude_h, np.linspace(0, 1, 12))
@@ -132,7 +132,7 @@ def batch_slider_features(params_list: Sequence[Parameters], ops: Sequence[Opera
     shifts = list(s0_shifts) if s0_shifts is not None else [0.0] * len(params_list)
     jobs = []
     for p, d in zip(params_list, shifts):
-        jobs += [(p.toml_text(), op.f_ex, op.a_ex, op.s0 + d, op.duration_s) for op in ops]
+        jobs += [(native(p), op.f_ex, op.a_ex, op.s0 + d, op.duration_s) for op in ops]
     res = _core.run_free_slider_batch(jobs, record_every=RUN_RECORD_EVERY, keep_every=RUN_KEEP_EVERY,
                                       window_s=1.0, detrend_s=DISPLACEMENT_DETREND_S, threads=threads, on_done=on_run)
     out: List[Optional[Tuple[Dict[str, Feature], Dict[str, str]]]] = []
@@ -301,7 +301,7 @@ def model_slider_features(params: Parameters, ops: Sequence[OperatingPoint], *, 
     """Features of free-slider runs of the model at the operating points (same code as measured);
     the runs go through the core's parallel runner (:func:`batch_slider_features`). Raises
     ``ValueError`` for invalid parameters and ``SimulationError`` when a run fails."""
-    jobs = [(params.toml_text(), op.f_ex, op.a_ex, op.s0 + s0_shift, op.duration_s) for op in ops]
+    jobs = [(native(params), op.f_ex, op.a_ex, op.s0 + s0_shift, op.duration_s) for op in ops]
     res = _core.run_free_slider_batch(jobs, record_every=RUN_RECORD_EVERY, keep_every=RUN_KEEP_EVERY, window_s=1.0,
                                       detrend_s=DISPLACEMENT_DETREND_S)
     feats: Dict[str, Feature] = {}

@@ -12,7 +12,7 @@ import numpy as np
 
 from .. import _core
 from .._util import progress_bar
-from ..params import Parameters, resolve
+from ..params import Parameters, native, resolve
 from .data import EnmaData, concat
 
 __all__ = ["DEFAULT_LEVELS_M_S2", "BackboneFit", "ClampingUpdate", "backbone_hz", "beam_properties", "fit_backbone",
@@ -55,7 +55,7 @@ def virtual(params: Optional[Parameters] = None, *, levels_m_s2: Sequence[float]
     n_levels = len(opts["levels_m_s2"]) * (2 if up_and_down and len(opts["levels_m_s2"]) > 1 else 1) - (
         1 if up_and_down and len(opts["levels_m_s2"]) > 1 else 0)
     with progress_bar(progress, n_levels, "virtual ENMA", "pts") as cb:
-        text = _core.virtual_enma(p.toml_text(), json.dumps(_finite_options(opts)), cb)
+        text = _core.virtual_enma(native(p), json.dumps(_finite_options(opts)), cb)
         if cb is not None:
             cb(n_levels, n_levels)
     r = json.loads(text)
@@ -215,13 +215,13 @@ def fit_backbone(data: EnmaData) -> BackboneFit:
 
 def model_backbone(params: Optional[Parameters] = None) -> Tuple[float, float]:
     """(ω², b*) of a model's first mode (ω including an axial preload, b* of docs/model.md §9)."""
-    b = _core.beam_properties(resolve(params).toml_text())
+    b = _core.beam_properties(native(resolve(params)))
     return b["omega1_preload_rad_s"] ** 2, b["b_star_preload_per_s2"]
 
 
 def beam_properties(params: Optional[Parameters] = None) -> Dict[str, Any]:
     """Modal data of the linear beam (ω, γ, K₁₁, k_ax, φ₁(L/2), b*, shape of mode 1)."""
-    return dict(_core.beam_properties(resolve(params).toml_text()))
+    return dict(_core.beam_properties(native(resolve(params))))
 
 
 @dataclass
@@ -247,7 +247,7 @@ def _with(p: Parameters, **changes: Any) -> Parameters:
 
 
 def _omega1(p: Parameters, k_r: float) -> float:
-    return _core.beam_properties(_with(p, k_r_nm_per_rad=k_r).toml_text())["omega1_preload_rad_s"]
+    return _core.beam_properties(native(_with(p, k_r_nm_per_rad=k_r)))["omega1_preload_rad_s"]
 
 
 def solve_k_r(params: Parameters, omega_rad_s: float) -> float:

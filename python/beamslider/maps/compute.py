@@ -235,8 +235,8 @@ def operating_map(params: Optional[Parameters] = None, *, f_ex: Any, a_ex: Any, 
         results = Path(out) / RESULTS_FILE
         if not results.exists():
             raise ValueError(f"invalid parameter `extend_to`: no map to extend in {out} ({RESULTS_FILE} missing)")
-        settings, _rows, _trunc = _core.read_map_results(results)
-        done = json.loads(settings)["duration_s"] if settings else None
+        header, _rows, _good, _trunc = _core.read_results_file(results)
+        done = json.loads(header)["settings"]["duration_s"] if header else None
         if done not in (float(t_end), te):
             raise ValueError(f"invalid parameter `t_end` = {t_end!r}: the map in {out} was run for {done} s")
         cfg = map_config_toml(params, f_ex=f_ex, a_ex=a_ex, s0=s0, t_end=te, record_every=record_every,

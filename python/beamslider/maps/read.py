@@ -71,7 +71,7 @@ def read_map(path: Union[str, Path]) -> MapTable:
     path = Path(path)
     if path.is_dir():
         path = path / RESULTS_FILE
-    _settings, rows, _truncated = _core.read_map_results(path)
+    _header, rows, _good, _truncated = _core.read_results_file(path)
     latest: Dict[tuple, Dict[str, Any]] = {}
     for r in map(json.loads, rows):  # a later row of a point (an extended run) replaces the earlier
         latest.pop((r["f_ex_hz"], r["a_ex_m_s2"], r["s0"]), None)

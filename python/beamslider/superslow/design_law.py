@@ -29,7 +29,7 @@ from typing import Dict, List, Optional, Sequence, Tuple, Union
 import numpy as np
 
 from .. import _core
-from ..params import Parameters
+from ..params import Parameters, native
 from .law import FEATURES, DriftLaw, law_dict, law_from_dict
 
 __all__ = [
@@ -93,7 +93,7 @@ GRID_S = (0.0, 0.5, 51)
 
 
 def _omega1(p: Parameters) -> float:
-    return float(_core.beam_properties(p.toml_text(), [])["omega_rad_s"][0])
+    return float(_core.beam_properties(native(p), [])["omega_rad_s"][0])
 
 
 def design_coordinates(params: Parameters, base: Optional[Parameters] = None) -> Dict[str, float]:

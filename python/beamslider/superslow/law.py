@@ -15,7 +15,7 @@ from typing import Dict, List, Optional, Sequence, Tuple, Union
 import numpy as np
 
 from .. import _core
-from ..params import Parameters
+from ..params import Parameters, native
 
 
 __all__ = ["DEFAULT_LAW_PATH", "DriftLaw", "FEATURES", "LAW_JUMP_DOWN_CANDIDATES",
@@ -43,7 +43,7 @@ def _modes(p: Parameters, n_modes: int, s: np.ndarray) -> Tuple[np.ndarray, np.n
         g = np.linspace(0.0, 1.0, 4001)
         h = 1e-6
         xs = np.concatenate([g, np.clip(g - h, 0, 1), np.clip(g + h, 0, 1)])
-        d = _core.beam_properties(q.toml_text(), [float(v) for v in xs])
+        d = _core.beam_properties(native(q), [float(v) for v in xs])
         phi = np.asarray(d["phi"], dtype=float)
         n = g.size
         f0, fm, fp = phi[:, :n], phi[:, n:2 * n], phi[:, 2 * n:]

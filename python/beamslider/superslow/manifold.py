@@ -28,7 +28,7 @@ import numpy as np
 
 from .. import _core
 from .._util import number, positive_int
-from ..params import Parameters, resolve
+from ..params import Parameters, native, resolve
 
 
 __all__ = ["ClosedFormN1", "HbBranch", "HbManifold", "backbone", "closed_form_n1", "hb_manifold"]
@@ -225,7 +225,7 @@ def hb_manifold(
     max_steps = positive_int("max_steps", max_steps)
     d = None if d_eff is None else number("d_eff", d_eff)
     out = _core.hb_manifold(
-        p.toml_text(),
+        native(p),
         f_ex_hz=f_ex,
         a_ex_m_s2=a_ex,
         n_modes=n_modes,
@@ -296,7 +296,7 @@ def closed_form_n1(
         lo = 0.5 * p.contact_spacing_m / p.length_m
         grid = [float(v) for v in np.linspace(lo, 0.5, 201)]
     out = _core.hb_closed_form_n1(
-        p.toml_text(),
+        native(p),
         f_ex_hz=f_ex,
         a_ex_m_s2=a_ex,
         s_values=grid,
@@ -333,7 +333,7 @@ def backbone(
         omega1_factor: factor on ω₁.
     """
     a, x = np.broadcast_arrays(np.asarray(amplitude, dtype=float), np.asarray(s, dtype=float))
-    out = _core.hb_backbone(resolve(params).toml_text(), [float(v) for v in a.ravel()], [float(v) for v in x.ravel()],
+    out = _core.hb_backbone(native(resolve(params)), [float(v) for v in a.ravel()], [float(v) for v in x.ravel()],
                             number("omega1_factor", omega1_factor))
     return np.asarray(out).reshape(a.shape)
 

@@ -15,7 +15,7 @@ import numpy as np
 
 from .. import _core
 from .._util import number
-from ..params import Parameters, resolve
+from ..params import Parameters, native, resolve
 
 
 __all__ = ["DriftTable", "drift_table", "drift_tables", "read_drift_table"]
@@ -186,7 +186,7 @@ def drift_table(
     cb, close = _tqdm_progress(progress, f"drift table {f_ex:g} Hz, {a_ex:g} m/s²")
     try:
         header, rows, computed = _core.drift_table_pcs(
-            p.toml_text(), f_ex_hz=f_ex, a_ex_m_s2=a_ex, s_values=[float(v) for v in grid],
+            native(p), f_ex_hz=f_ex, a_ex_m_s2=a_ex, s_values=[float(v) for v in grid],
             settle_periods=int(settle_periods), first_settle_periods=int(first_settle_periods),
             window_s=number("window_s", window_s), sub_windows=int(sub_windows), mirror=bool(mirror),
             out=None if out is None else str(out), resume=bool(resume), progress=cb,

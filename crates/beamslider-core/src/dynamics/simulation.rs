@@ -5,7 +5,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use crate::physics::beam::Beam;
 use crate::error::{Error, Result};
-use crate::params::Params;
+use crate::params::{Params, ParamsArg, Valid};
 use crate::dynamics::record::{Channel, Recorder};
 use crate::physics::slider::Slider;
 pub use crate::physics::excitation::Excitation;
@@ -152,6 +152,12 @@ pub struct Checkpoint {
 pub trait Monitor {
     /// `t_s` reached so far of `t_end_s`.
     fn poll(&mut self, t_s: f64, t_end_s: f64) -> bool;
+
+    /// Called once a run's inputs are checked, before its first step ([`crate::signal::run`]):
+    /// a front end names bad input before it writes anything; false stops the run.
+    fn start(&mut self) -> bool {
+        true
+    }
 }
 
 impl Monitor for () {
@@ -185,7 +191,16 @@ impl Model {
     /// Validate the parameters, compute the modes and check that Δt resolves the highest mode.
     pub fn new(params: Params) -> Result<Model> {
         params.validate()?;
-        let beam = Beam::new(&params)?;
+        Self::build(params)
+    }
+
+    /// [`Model::new`] of parameters validated before (docs/model.md §1): checks nothing again.
+    pub fn of(params: &Valid) -> Result<Model> {
+        Self::build(params.get().clone())
+    }
+
+    fn build(params: Params) -> Result<Model> {
+        let beam = Beam::new(ParamsArg::derived(&params))?;
         // Explicit midpoint (Störmer–Verlet) stability: ω_N Δt < 2.
         let wmax = beam.omega[beam.n - 1];
         if wmax * params.dt_s >= 2.0 {

@@ -9,7 +9,7 @@
 
 use super::modes::{GaussLegendre, ModeTable, TABLE_XI_MAX, TABLE_XI_MIN, dphi_basis, find_roots, null_vector, phi_basis, phi_derivative};
 use crate::error::{Error, Result};
-use crate::params::Params;
+use crate::params::{Params, ParamsArg};
 
 /// The modal beam: frequencies, shapes, γ, K and the mode table.
 #[derive(Debug, Clone)]
@@ -66,13 +66,16 @@ const SHARED_MAX: usize = 4;
 impl Beam {
     /// [`Beam::new`], shared: the beam of equal parameters is built once per process and reused
     /// (the same value `new` returns; a small cache of the last few parameter sets).
-    pub fn shared(p: &Params) -> Result<std::sync::Arc<Beam>> {
+    pub fn shared<'a>(p: impl Into<ParamsArg<'a>>) -> Result<std::sync::Arc<Beam>> {
+        let p = p.into();
+        let arg = p;
+        let p = p.get();
         if let Ok(cache) = SHARED.lock()
             && let Some((_, b)) = cache.iter().rev().find(|(q, _)| q == p)
         {
             return Ok(b.clone());
         }
-        let b = std::sync::Arc::new(Beam::new(p)?);
+        let b = std::sync::Arc::new(Beam::new(arg)?);
         if let Ok(mut cache) = SHARED.lock() {
             if cache.len() >= SHARED_MAX {
                 cache.remove(0);
@@ -83,8 +86,8 @@ impl Beam {
     }
 
     /// Modes of the beam with the parameters' geometry and clamping (k_r may be +inf).
-    pub fn new(p: &Params) -> Result<Beam> {
-        p.validate()?;
+    pub fn new<'a>(p: impl Into<ParamsArg<'a>>) -> Result<Beam> {
+        let p = p.into().check()?.get();
         let n = p.n_modes;
         let l = p.length_m;
         let rho_a = p.beam_mass_kg / l;
@@ -285,6 +288,25 @@ impl Beam {
     /// Second x-derivatives φₘ''(x) of all modes at x (exact).
     pub fn ddphi_row(&self, x: f64) -> Vec<f64> {
         (0..self.n).map(|m| self.ddphi_exact(m, x)).collect()
+    }
+
+    /// The first mode shape φ₁(x)/φ₁(L/2) at `points` + 1 equally spaced x/L = 0 … 1 (docs/model.md
+    /// §9): (x/L, shape).
+    pub fn mode1_shape(&self, points: usize) -> (Vec<f64>, Vec<f64>) {
+        let mid = self.phi_exact(0, 0.5 * self.length_m);
+        let xi: Vec<f64> = (0..=points).map(|i| i as f64 / points as f64).collect();
+        let shape = xi.iter().map(|&x| self.phi_exact(0, x * self.length_m) / mid).collect();
+        (xi, shape)
+    }
+
+    /// φₘ(x) of every mode m (rows) at the positions x/L of `x_over_l` (columns) (docs/model.md §2).
+    pub fn phi_at(&self, x_over_l: &[f64]) -> Vec<Vec<f64>> {
+        (0..self.n).map(|m| x_over_l.iter().map(|&x| self.phi_exact(m, x * self.length_m)).collect()).collect()
+    }
+
+    /// The matrix K of docs/model.md §2 as N rows.
+    pub fn k_rows(&self) -> Vec<Vec<f64>> {
+        self.k.chunks(self.n).map(<[f64]>::to_vec).collect()
     }
 
     /// The slope Gram matrix K (N×N, symmetric) as a nalgebra matrix [1/(kg m)].

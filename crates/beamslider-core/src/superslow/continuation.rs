@@ -10,7 +10,7 @@ use super::hb::{EvalWork, HbSystem, Param};
 use super::lu::LuWork;
 use super::roots::{bracket_zeros, brent};
 use crate::error::{Error, Result};
-use crate::params::Params;
+use crate::params::{Params, ParamsArg};
 
 /// Reused buffers of one continuation.
 pub(super) struct ContWork {
@@ -293,9 +293,10 @@ pub fn default_grid(params: &Params, count: usize) -> Vec<f64> {
 }
 
 /// The HB super-slow manifold (docs/model.md §6.4) at (f_ex [Hz], a_ex [m/s²]).
-pub fn hb_manifold(params: &Params, f_ex_hz: f64, a_ex: f64, opts: &HbOptions) -> Result<HbManifold> {
-    params.validate()?;
-    let sys = HbSystem::new(params, f_ex_hz, a_ex, opts)?;
+pub fn hb_manifold<'a>(params: impl Into<ParamsArg<'a>>, f_ex_hz: f64, a_ex: f64, opts: &HbOptions) -> Result<HbManifold> {
+    let arg = params.into().check()?;
+    let params = arg.get();
+    let sys = HbSystem::new(arg, f_ex_hz, a_ex, opts)?;
     let grid = opts.s.clone().unwrap_or_else(|| default_grid(params, 201));
     check_grid(&grid, params.s_min(), 0.5)?;
     if opts.max_steps == 0 {

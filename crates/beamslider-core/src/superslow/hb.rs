@@ -7,7 +7,7 @@ use super::branch::HbOptions;
 use super::lu::{LuWork, matvec};
 use super::mhb;
 use crate::error::{Error, Result};
-use crate::params::{MAX_MODES, Params};
+use crate::params::{MAX_MODES, Params, ParamsArg};
 use crate::physics::beam::Beam;
 
 pub(super) struct PointOut {
@@ -68,7 +68,8 @@ pub(super) fn check_d_eff(d_eff: Option<f64>) -> Result<()> {
 
 impl HbSystem {
     /// Build the system for `params` (its n_modes replaced by `opts.n_modes`) at (f_ex, a_ex).
-    pub fn new(params: &Params, f_ex_hz: f64, a_ex: f64, opts: &HbOptions) -> Result<HbSystem> {
+    pub fn new<'a>(params: impl Into<ParamsArg<'a>>, f_ex_hz: f64, a_ex: f64, opts: &HbOptions) -> Result<HbSystem> {
+        let params = params.into().check()?.get();
         check_excitation(f_ex_hz, a_ex)?;
         if !(1..=MAX_MODES).contains(&opts.n_modes) {
             return Err(Error::invalid("n_modes", opts.n_modes, "must lie in 1..=20"));
@@ -85,7 +86,8 @@ impl HbSystem {
             return Err(Error::invalid("omega1_factor", opts.omega1_factor, "must be finite and > 0"));
         }
         let p = Params { n_modes: opts.n_modes, ..params.clone() };
-        let beam = Beam::shared(&p)?;
+        // Only n_modes changed, within 1..=MAX_MODES: still valid.
+        let beam = Beam::shared(ParamsArg::derived(&p))?;
         let n = beam.n;
         let omega_ex = 2.0 * std::f64::consts::PI * f_ex_hz;
         let mut omega = beam.omega.clone();

@@ -1,0 +1,116 @@
+//! The core's parameters (docs/model.md §1) as a Python object: `Params(**values)` converts each
+//! value by type and validates once in the core; runs take the object as it is (no TOML, no
+//! second check). The field table (names, symbols, meanings, units, allowed values) is the core's.
+
+use beamslider_core::params::{FIELDS, Valid};
+use beamslider_core::Params;
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use pyo3::types::{PyBool, PyDict, PyString};
+
+use crate::guarded;
+
+/// Validated model parameters (core `params::Valid`); immutable.
+#[pyclass(name = "Params", module = "beamslider._core", frozen)]
+pub struct PyParams(pub Valid);
+
+/// A Python value as the core's value: bool, text, integer (also an integral float, which a
+/// float field reads back exactly) or float; anything else is not a number.
+fn value(key: &str, v: &Bound<'_, PyAny>) -> PyResult<toml::Value> {
+    let bad = |why: &str| PyValueError::new_err(format!("invalid parameter `{key}` = {v}: {why}"));
+    if v.is_instance_of::<PyBool>() {
+        return Ok(toml::Value::Boolean(v.extract()?));
+    }
+    if v.is_instance_of::<PyString>() {
+        return v.extract::<String>().map(toml::Value::String).map_err(|_| bad("must be valid text (a lone surrogate is not)"));
+    }
+    if let Ok(i) = v.extract::<i64>() {
+        return Ok(toml::Value::Integer(i));
+    }
+    match v.extract::<f64>() {
+        Ok(x) if x.fract() == 0.0 && x.abs() < 9.0e15 && !(x == 0.0 && x.is_sign_negative()) => Ok(toml::Value::Integer(x as i64)),
+        Ok(x) => Ok(toml::Value::Float(x)),
+        Err(_) => Err(bad("must be a number")),
+    }
+}
+
+fn dict<'py>(py: Python<'py>, p: &Params) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    for (k, v) in p.values() {
+        match v {
+            toml::Value::Float(x) => d.set_item(k, x)?,
+            toml::Value::Integer(i) => d.set_item(k, i)?,
+            other => d.set_item(k, other.as_str().unwrap_or_default())?,
+        }
+    }
+    Ok(d)
+}
+
+#[pymethods]
+impl PyParams {
+    /// `Params(**values)`: missing fields take the defaults of docs/model.md §1.
+    #[new]
+    #[pyo3(signature = (**values))]
+    fn new(values: Option<&Bound<'_, PyDict>>) -> PyResult<Self> {
+        let mut pairs = Vec::new();
+        for (k, v) in values.into_iter().flatten() {
+            let k: String = k.extract()?;
+            pairs.push((k.clone(), value(&k, &v)?));
+        }
+        Ok(PyParams(guarded(|| Valid::new(Params::from_values(pairs)?))?))
+    }
+
+    /// Read and validate a TOML parameter file (missing keys take their defaults).
+    #[staticmethod]
+    fn from_toml_file(path: std::path::PathBuf) -> PyResult<Self> {
+        Ok(PyParams(guarded(|| Valid::new(Params::from_toml_file(&path)?))?))
+    }
+
+    /// Parse and validate TOML parameter text.
+    #[staticmethod]
+    fn from_toml_text(text: &str) -> PyResult<Self> {
+        Ok(PyParams(guarded(|| Valid::new(Params::from_toml_str(text)?))?))
+    }
+
+    /// Field name → value (float, int or str), in the order of the fields.
+    fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        dict(py, &self.0)
+    }
+
+    /// The canonical TOML text the Rust tools write.
+    fn toml_text(&self) -> String {
+        self.0.to_toml_string()
+    }
+
+    /// The table of docs/model.md §1: (name, symbol, meaning, unit, allowed) per field, in order.
+    #[staticmethod]
+    fn fields() -> Vec<(&'static str, &'static str, &'static str, &'static str, &'static str)> {
+        FIELDS.iter().map(|f| (f.name, f.symbol, f.meaning, f.unit, f.allowed)).collect()
+    }
+}
+
+/// Default parameters of docs/model.md §1 as a dict.
+#[pyfunction]
+fn default_params(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
+    dict(py, &Params::default())
+}
+
+/// Parse and validate TOML parameter text; returns the full dict.
+#[pyfunction]
+fn params_from_toml<'py>(py: Python<'py>, text: &str) -> PyResult<Bound<'py, PyDict>> {
+    dict(py, &PyParams::from_toml_text(text)?.0)
+}
+
+/// Times the core has validated a parameter set in this process (`Params::validate`).
+#[pyfunction]
+fn _validation_count() -> u64 {
+    beamslider_core::params::validation_count()
+}
+
+pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<PyParams>()?;
+    m.add_function(wrap_pyfunction!(default_params, m)?)?;
+    m.add_function(wrap_pyfunction!(params_from_toml, m)?)?;
+    m.add_function(wrap_pyfunction!(_validation_count, m)?)?;
+    Ok(())
+}
