@@ -197,7 +197,8 @@ def test_extend_to_continues_only_not_settled_points_bitwise(tmp_path, capsys):
 
 def _map_file(path, rows, version=3, duration=120.0):
     """A results file with the paper's settings and the given rows (dicts without end states)."""
-    settings = json.loads(beamslider._core.read_map_results(Path(__file__).parent.parent / "docs" / "results" / "operating_map.jsonl")[0])
+    header = beamslider._core.read_results_file(Path(__file__).parent.parent / "docs" / "results" / "operating_map.jsonl")[0]
+    settings = json.loads(header)["settings"]
     settings["duration_s"] = duration
     path.write_text("\n".join([json.dumps({"beamslider_map": version, "settings": settings})]
                               + [json.dumps(r) for r in rows]) + "\n", encoding="utf-8")

@@ -177,7 +177,9 @@ def test_predict_cli(tmp_path):
         assert main(["predict", "--f-ex", f_, "--a-ex", "14" if f_ == "124" else "10", "--law", str(law), "--out", str(tmp_path / "l")]) == 0
     js = {f_: json.loads((tmp_path / "l" / name).read_text()) for f_, name in (("124", "predict_124Hz_14ms2_s0_0p3.json"), ("112", "predict_112Hz_10ms2_s0_0p3.json"))}
     assert js["124"]["robust"] is True and js["112"]["robust"] is False
-    assert len(js["112"]["shifted"]) == 2 and {d["behaviour"] for d in js["112"]["shifted"]} != {js["112"]["behaviour"]}
+    sh = js["112"]["shifted"]  # not robust: V ± its resolution changes the behaviour or moves the final s by > 0.02
+    assert len(sh) == 2 and any(d["behaviour"] != js["112"]["behaviour"] or abs(d["s_final"] - js["112"]["s_final"]) > 0.02
+                                for d in sh)
 
 
 def test_builtin_default_law_is_the_committed_law_and_needs_no_file(tmp_path, capsys):
