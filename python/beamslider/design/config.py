@@ -1,4 +1,4 @@
-"""Design configuration (issue 21): the design variables (``[design]``: any :class:`Parameters`
+"""Design configuration (user guide: design search): the design variables (``[design]``: any :class:`Parameters`
 field with bounds), the band of operating points, the objective, the constraints, the optimiser
 settings and (optionally) the uncertain inputs of a robust objective. TOML in and out."""
 

@@ -27,7 +27,7 @@ distance of s_p, and *passes* s_p when it reaches s_p + JD_WINDOW."""
 
 
 def jump_down_bracket(tables: Sequence[DriftTable], manifolds, monostable: Sequence[bool]) -> dict:
-    """The jump-down threshold of the forcing ratio as a classification boundary (issue 17 §2.5,
+    """The jump-down threshold of the forcing ratio as a classification boundary (docs/model.md §6.3, "Sources of the jump positions";
     s_dn="law"). The PCS high branches end at nearly one position s_p (the median of the tables'
     jump-down positions; 0.32 on the prototype at 120–130 Hz) or not at all, and whether they end
     is ordered by ρ(s_p) = a_ex/(Ω² Â_H(s_p) h) of layer (a). The tables whose high branch ends at
@@ -178,7 +178,7 @@ def fit_drift_law(tables: Sequence[DriftTable], *, params: Optional[Parameters] 
                   s_up_correction: bool = True, monostable_vote: bool = True,
                   lift_off_threshold: Union[str, float] = "learn", jump_down: str = "bracket",
                   jump_down_tables: Sequence[DriftTable] = ()) -> DriftLaw:
-    """Fit the transferable drift law (issue 17 §3.2, b2) on PCS drift tables of several operating
+    """Fit the transferable drift law (docs/model.md §6.3, b2) on PCS drift tables of several operating
     points, and validate it leave one operating point out.
 
     Each table row (s, branch) is paired with the layer-(a) features at the same s on the same

@@ -58,7 +58,7 @@ def _modes(p: Parameters, n_modes: int, s: np.ndarray) -> Tuple[np.ndarray, np.n
 
 
 def features(manifold, branch: str, s: Sequence[float]) -> Dict[str, np.ndarray]:
-    """Local features of issue 17 §3.2 on one branch of a layer-(a) manifold at positions s
+    """Local features of docs/model.md §6.3 ("V from features") on one branch of a layer-(a) manifold at positions s
     (half coordinate, within the branch): Q is interpolated linearly between the branch's
     continuation points.
 

@@ -10,10 +10,10 @@ position in milliseconds (a PCS sweep, :func:`beamslider.super_slow_manifold`, t
   the zeros of its discriminant, the linear resonance position and the high-branch estimate;
 - :func:`backbone` — the single-mode backbone with the slider, Ω² M₁(s) = ω₁² + ¾ b a².
 
-Amplitudes are Â = |w(4L/7)| / h (docs/model.md §7's measure; the first harmonic). Options (issue 17
-§2.5, off by default): ``d_eff`` (equivalent damping), ``harmonics`` = 3, 5, 7 (multi-harmonic HB,
+Amplitudes are Â = |w(4L/7)| / h (docs/model.md §7's measure; the first harmonic). Options (docs/model.md §6.4,
+off by default): ``d_eff`` (equivalent damping), ``harmonics`` = 3, 5, 7 (multi-harmonic HB,
 alternating frequency–time method) and ``static_sag`` (zeroth harmonic under the slider's weight).
-Known limit (issue 17 §8): with the beam's 0.1 % damping HB gives no jump-down of the high branch
+Known limit (docs/model.md §6.3, "Sources of the jump positions"): with the beam's 0.1 % damping HB gives no jump-down of the high branch
 (``s_dn`` is None), with single-term or multi-harmonic HB and with the static sag
 (docs/superslow/validation_a_options.txt); an equivalent damping ``d_eff`` is the option that can
 end it.
@@ -72,7 +72,7 @@ class HbBranch:
 
 @dataclass
 class HbManifold:
-    """HB super-slow manifold at one excitation (issue 17 §2.4)."""
+    """HB super-slow manifold at one excitation (docs/model.md §6.4)."""
 
     high: HbBranch
     """High branch: from s_min (near the clamping) up to s_dn or 0.5."""
@@ -133,7 +133,7 @@ class HbManifold:
 
 @dataclass
 class ClosedFormN1:
-    """The N = 1 closed form of issue 17 §2.2 on an s-grid."""
+    """The N = 1 closed form of docs/model.md §6.4 on an s-grid."""
 
     s: np.ndarray
     """Slider positions [-]."""
@@ -186,7 +186,7 @@ def hb_manifold(
     sample: bool = False,
     static_sag: bool = False,
 ) -> HbManifold:
-    """Super-slow manifold by N-mode harmonic balance (issue 17 §2.3; options §2.5).
+    """Super-slow manifold by N-mode harmonic balance (docs/model.md §6.4, with its options).
 
     Args:
         params: model parameters (``None``: defaults). Its ``n_modes`` is replaced by ``n_modes``;
@@ -278,7 +278,7 @@ def closed_form_n1(
     d_eff: Optional[float] = None,
     omega1_factor: float = 1.0,
 ) -> ClosedFormN1:
-    """Single-mode, single-harmonic closed form (issue 17 §2.2) on an s-grid.
+    """Single-mode, single-harmonic closed form (docs/model.md §6.4) on an s-grid.
 
     Args:
         params: model parameters (``None``: defaults); needs ``damping_ratio_quadratic = 0``.
@@ -323,7 +323,7 @@ def backbone(
     s: Sequence[float],
     omega1_factor: float = 1.0,
 ) -> np.ndarray:
-    """Single-mode backbone with the slider attached (issue 17 §2.2):
+    """Single-mode backbone with the slider attached (docs/model.md §6.4):
     Ω_bb = √((ω₁² + H₀K₁₁ + ¾ b a²) / M₁(s)) [rad/s], a = Â h / |φ₁(4L/7)|.
 
     Args:

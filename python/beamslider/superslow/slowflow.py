@@ -31,7 +31,7 @@ __all__ = ["MONO_NODES", "ROBUST_DS", "Prediction", "dead_band", "predict", "slo
 
 @dataclass
 class Prediction:
-    """Result of :func:`predict` (issue 17 §3.3)."""
+    """Result of :func:`predict` (docs/model.md §6.3, "Slow flow")."""
 
     t: np.ndarray
     """Times [s] (every 0.2 s)."""
@@ -245,7 +245,7 @@ def predict(
     v_dead: Optional[float] = None,
     robustness: bool = True,
 ) -> Prediction:
-    """Predict the behaviour of one operating point with the reduced super-slow model (issue 17).
+    """Predict the behaviour of one operating point with the reduced super-slow model (docs/model.md §6.3).
 
     Args:
         params: model parameters (``None``: defaults).

@@ -152,7 +152,7 @@ def drift_table(
     resume: bool = False,
     progress: bool = False,
 ) -> DriftTable:
-    """Drift velocity V(s, branch) from the PCS model (issue 17 §3.1, layer (b1)).
+    """Drift velocity V(s, branch) from the PCS model (docs/model.md §6.3, layer (b1)).
 
     Args:
         params: model parameters (``None``: defaults).
