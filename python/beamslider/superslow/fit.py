@@ -92,7 +92,7 @@ ON_BRANCH_RATIO = 0.5
 this fraction of the HB high branch's at the same s. Rows below it never reached the high
 branch (a monostable point's up sweep stays on its single low branch, at a few hundredths of h
 where HB has ~1 h), and their V, measured on the low branch, must not be paired with high-branch
-features. On the high branch PCS and HB agree within a few per cent (issue §4.1); the rows that
+features. On the high branch PCS and HB agree within a few per cent (docs/model.md §6.4); the rows that
 fail lie a factor 5–40 below, so any ratio in 0.25–0.9 selects the same rows."""
 
 
@@ -187,7 +187,7 @@ def fit_drift_law(tables: Sequence[DriftTable], *, params: Optional[Parameters] 
 
     ``s_up_correction``: also learn the shift of the jump-up position, s_up(PCS) − s_up(HB)
     (median over the tables where both exist; single-term HB with the slider rigidly attached
-    puts the fold too close to the centre, issue §8), applied by :func:`beamslider.superslow.predict`
+    puts the fold too close to the centre, docs/model.md §6.3), applied by :func:`beamslider.superslow.predict`
     by moving the low branch's fold (``DriftLaw.s_up_shift``).
 
     ``monostable_vote``: also learn where the nonsmooth model has a single, low branch although
@@ -213,7 +213,7 @@ def fit_drift_law(tables: Sequence[DriftTable], *, params: Optional[Parameters] 
     clamping ends, in Λ_g of the HB manifold; 1 if no table shows it). Λ_g < 1 means no lift-off
     of a beam point moving with the HB amplitude; the PCS tables stop drifting at Λ_g ≈ 0.75–0.97
     (the slider's impacts lift it where the rigidly attached HB amplitude says they would not),
-    and the FS runs stop near Λ_g ≈ 0.6–0.75. A number: that Λ_c (1 = the issue's constraint).
+    and the FS runs stop near Λ_g ≈ 0.6–0.75. A number: that Λ_c (1: no lift-off below it).
     """
     if len(tables) < 2:
         raise ValueError("invalid parameter `tables`: need at least two operating points")

@@ -97,8 +97,8 @@ def features(manifold, branch: str, s: Sequence[float]) -> Dict[str, np.ndarray]
 
 # The regression inputs (standardised): the relative amplitude Â/max Â_H and the position s.
 # Chosen by leave-one-operating-point-out validation on the 12 training tables
-# (docs/superslow/validation_b_features.txt, scripts/repro/validate_superslow_b.py features): the
-# issue's list (log Λ_g, θ̂/θ_gap, f_slope, a_ex/g, Â) gave a V error of 0.68 × typical |V|,
+# (docs/results/superslow/validation_b_features.txt, scripts/repro/validate_superslow_b.py features): the
+# the first list of features (log Λ_g, θ̂/θ_gap, f_slope, a_ex/g, Â) gave a V error of 0.68 × typical |V|,
 # (log Λ_g, θ̂/θ_gap, f_slope, s − s_res, Â/max Â_H) 0.52 ×, (Â/max Â_H, s) 0.46 × (k = 4) and
 # the most training points predicted right leave one out. Why s: the PCS high branch's stable
 # zeros of V (where the FS slider stops) sit at nearly the same s across the map (0.33 from
@@ -175,7 +175,7 @@ class DriftLaw:
     mono_groups: np.ndarray = field(default_factory=lambda: np.zeros(0, int))
     """Training-point index of each monostability sample."""
     lift_c: float = 1.0
-    """Lift-off threshold Λ_c: V = 0 where Λ_g < Λ_c. 1 is the issue's constraint (no lift-off
+    """Lift-off threshold Λ_c: V = 0 where Λ_g < Λ_c. 1 is the geometric limit (no lift-off
     below it); :func:`fit_drift_law` learns it from the tables (:func:`learn_lift_off_threshold`)."""
     lift_c_per_point: List[dict] = field(default_factory=list)
     """The tables' own Λ_c values (where their clampward drift ends), the median of which is ``lift_c``."""
@@ -291,7 +291,7 @@ S_DN_MIN = 0.2
 def forcing_ratio(manifold, s: Sequence[float]) -> np.ndarray:
     """ρ(s) = a_ex / (Ω² Â_H(s) h) on the HB high branch: the base acceleration over the beam's
     acceleration amplitude at x = 4L/7, the inverse of the dynamic amplification (NaN where the
-    branch does not exist). Single-mode HB (issue §2.2) ends the high branch where Â_H(s) reaches
+    branch does not exist). Single-mode HB (docs/model.md §6.4) ends the high branch where Â_H(s) reaches
     the damping-limited peak F(s)/(2DωΩ), F = (γ + mφ(s)) a_ex: there ρ is proportional to the
     damping ratio D. The nonsmooth model's high branch ends at a ρ set by its effective damping
     (the slider's impacts), learnt from the PCS tables as ``DriftLaw.rho_c``."""
@@ -303,7 +303,7 @@ def forcing_ratio(manifold, s: Sequence[float]) -> np.ndarray:
 
 
 def s_dn_forcing_ratio(manifold, rho_c: float, s_p: float = 0.0) -> Optional[float]:
-    """Jump-down position from the forcing ratio (issue §2.2's end of the high branch with the
+    """Jump-down position from the forcing ratio (docs/model.md §6.4 end of the high branch with the
     effective damping of the nonsmooth model): the first s ≥ S_DN_MIN on the HB high branch where
     ρ(s) (:func:`forcing_ratio`) falls below ``rho_c``, linearly interpolated between the branch's
     points; None where it never does (the high branch reaches the centre). With ``s_p`` > 0 (the

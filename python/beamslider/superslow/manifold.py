@@ -15,7 +15,7 @@ off by default): ``d_eff`` (equivalent damping), ``harmonics`` = 3, 5, 7 (multi-
 alternating frequency–time method) and ``static_sag`` (zeroth harmonic under the slider's weight).
 Known limit (docs/model.md §6.3, "Sources of the jump positions"): with the beam's 0.1 % damping HB gives no jump-down of the high branch
 (``s_dn`` is None), with single-term or multi-harmonic HB and with the static sag
-(docs/superslow/validation_a_options.txt); an equivalent damping ``d_eff`` is the option that can
+(docs/results/superslow/validation_a_options.txt); an equivalent damping ``d_eff`` is the option that can
 end it.
 """
 
@@ -121,7 +121,7 @@ class HbManifold:
     low_on_grid: np.ndarray = field(default_factory=lambda: np.zeros(0))
     """Â of the low branch solved exactly at each grid s (NaN where it does not exist)."""
     static_sag: bool = False
-    """Static sag under the slider's weight included (zeroth harmonic, issue §2.5.3)."""
+    """Static sag under the slider's weight included (zeroth harmonic, docs/model.md §6.4)."""
     harmonic_orders: tuple = ()
     """Harmonic orders k of the ansatz, in the column order of ``HbBranch.harmonic_amplitude``
     (empty for single-term HB)."""
@@ -195,20 +195,20 @@ def hb_manifold(
         a_ex: base-acceleration amplitude [m/s^2].
         n_modes: retained beam modes N (1..20).
         harmonics: H, the ansatz keeps the odd harmonics 1, 3, …, H (1, 3, 5 or 7; default 1 =
-            single-term HB; issue §2.5.2). H > 1 is solved by the alternating frequency–time
+            single-term HB; docs/model.md §6.4). H > 1 is solved by the alternating frequency–time
             method (exact for the cubic terms) with the same continuation; ``amplitude`` stays
             the first-harmonic Â, the others are in ``HbBranch.harmonic_amplitude``.
-        d_eff: equivalent damping ratio replacing the modal damping of all modes [-] (issue
-            §2.5.1); ``None`` keeps ``params.damping_ratio``.
+        d_eff: equivalent damping ratio replacing the modal damping of all modes [-] (docs/model.md §6.4);
+            ``None`` keeps ``params.damping_ratio``.
         s: increasing slider positions within [B/(2L), 0.5]; the continuation covers
             [s[0], s[-1]] (default B/(2L) .. 0.5). Branches are returned at the continuation's
             own points; use :meth:`HbBranch.amplitude_at` to sample them.
-        omega1_factor: factor on ω₁ (detuning for sensitivity studies, issue §4.6).
+        omega1_factor: factor on ω₁ (detuning for sensitivity studies, docs/model.md §6.4).
         max_steps: cap of continuation steps per run.
         sample: also solve the high and low branches exactly at every grid s
             (``high_on_grid``, ``low_on_grid``; costs about 10 µs per point and branch).
         static_sag: include the static sag under the slider's weight m·g at x = sL (a zeroth
-            harmonic Q₀; with it all harmonics 0..H are kept; issue §2.5.3). Off by default.
+            harmonic Q₀; with it all harmonics 0..H are kept; docs/model.md §6.4). Off by default.
 
     Returns:
         :class:`HbManifold` with the branches (s, Â, phase, stable, Q), folds, ``s_up``,

@@ -80,14 +80,14 @@ class Prediction:
     shifted by ± the law's ``v_resolution`` (the median standard error of its training V)
     wherever the slider can move; None without a law resolution or with ``robustness=False``.
     On the FS map, robust predictions agree far more often than the others
-    (docs/superslow/validation_b_map.txt)."""
+    (docs/results/superslow/validation_b_map.txt)."""
     shifted: List[Tuple[str, float]] = field(default_factory=list)
     """(behaviour, final s) under V − v_resolution and V + v_resolution."""
 
 
 ROBUST_DS = 0.02
 """Largest change of the final s under V ± v_resolution for which a prediction counts as robust
-(the issue's tolerance of a run's final s, §4.3; the core's ``predictor::ROBUST_DS``)."""
+(the tolerance of a run's final s, docs/model.md §6.3; the core's ``predictor::ROBUST_DS``)."""
 
 
 def _stretch_low(s: np.ndarray, s_up: Optional[float], shift: float, lo: float) -> np.ndarray:
@@ -123,7 +123,7 @@ def slow_model(manifold, drift, *, s_dn: str = "auto", nodes: int = 121, v_dead:
     only); 'none'; 'auto' (default) — 'law' with a DriftLaw, 'hb' with a DriftTable.
 
     ``v_dead``: dead band of V [1/s] (:func:`dead_band`; None or 0: none). An option of this
-    Python path only (measured in docs/superslow/validation_c_levers.txt; not used by the core).
+    Python path only (measured in docs/results/superslow/validation_c_levers.txt; not used by the core).
 
     Returns (low, high, low_ends_in_fold, high_ends_in_fold, info dict).
     """
@@ -264,7 +264,7 @@ def predict(
             a_ex/(Ω²Â_H h) falls below the law's ``rho_c``, :meth:`DriftLaw.s_dn`), 'none';
             'auto' (default): 'law' with a DriftLaw, 'hb' with a DriftTable.
         n_modes: modes of the HB manifold.
-        d_eff: equivalent damping ratio of the HB manifold (issue §2.5.1; None: off).
+        d_eff: equivalent damping ratio of the HB manifold (docs/model.md §6.4; None: off).
         manifold: a precomputed :func:`beamslider.superslow.hb_manifold` result (skips layer (a)).
         source: 'hb' — branches, Â and s_up from the HB manifold (layer (a)), V from ``drift``;
             'table' — everything from the PCS drift table (b1 only: its rows' Â and V, its sweeps'
@@ -273,10 +273,10 @@ def predict(
             meanwhile. 'auto': three envelope time constants 3/(D Ω) of the first mode (D = d_eff
             or the parameters' damping ratio; 3.9 s at 124 Hz); 0: start on the manifold.
         build_up_drift: True (default): the slider drifts from t = 0 (PCS and FS runs from rest
-            drift at once, docs/superslow/validation_c_build_up.txt) and a jump at a fold waits
+            drift at once, docs/results/superslow/validation_c_build_up.txt) and a jump at a fold waits
             until the build-up is over; False: s stays at s0 during the build-up (the rule before).
         v_dead: dead band of V [1/s] (:func:`dead_band`; default none). Measured, not adopted:
-            see docs/superslow/validation_c_levers.txt.
+            see docs/results/superslow/validation_c_levers.txt.
         robustness: with a law that has a ``v_resolution``, also run the slow flow with V shifted
             by ± that much and set ``Prediction.robust`` (two more slow flows; default True).
 

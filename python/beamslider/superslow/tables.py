@@ -160,7 +160,7 @@ def drift_table(
         a_ex: base-acceleration amplitude [m/s^2].
         ds: grid step from s_min = B/(2L) to 0.5 (ignored when ``s`` is given).
         s: increasing slider positions within [s_min, 0.5] (the sweeps' grid).
-        settle_periods: settling periods at each s (≥ 40 in the issue).
+        settle_periods: settling periods at each s (≥ 40, docs/model.md §6.3).
         first_settle_periods: settling periods at the first s of a sweep (from rest).
         window_s: least record window [s] (rounded up to whole periods per sub-window).
         sub_windows: sub-windows for the standard error.

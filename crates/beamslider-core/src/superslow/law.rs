@@ -13,7 +13,7 @@
 //!   f_slope = −(Ω²/2g) Re[ŵ_abs θ̂*], s − s_res, Â/max Â_H. The law's inputs are
 //!   (Â/max Â_H, s) ([`FEATURES`]): the relative amplitude on the branch and the position (the
 //!   stable zeros of V_H, where the slider stops, sit at nearly the same s over the map; chosen by
-//!   the leave-one-operating-point-out error, docs/superslow/validation_b_features.txt); Λ_g
+//!   the leave-one-operating-point-out error, docs/results/superslow/validation_b_features.txt); Λ_g
 //!   enters through the constraint V = 0 where Λ_g < Λ_c.
 
 use std::path::Path;
