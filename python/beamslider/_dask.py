@@ -37,7 +37,7 @@ def connect(scheduler: Any = None, scheduler_file: Optional[str] = None, *, time
         if not os.path.isfile(scheduler_file):
             raise ValueError(f"invalid parameter `scheduler_file` = {scheduler_file!r}: no such file")
         what = f"the scheduler of {scheduler_file}"
-        kwargs = {"scheduler_file": os.fspath(scheduler_file)}
+        kwargs = {"address": scheduler_file_address(scheduler_file)}
     elif isinstance(scheduler, str):
         what = f"the scheduler at {scheduler}"
         kwargs = {"address": scheduler}
@@ -50,6 +50,24 @@ def connect(scheduler: Any = None, scheduler_file: Optional[str] = None, *, time
         raise ValueError(f"cannot reach {what}: {e}") from None
     except ValueError as e:
         raise ValueError(f"cannot use {what}: {e}") from None
+
+
+def scheduler_file_address(path: Any) -> str:
+    """The scheduler address in a scheduler file (``dask scheduler --scheduler-file``: a JSON
+    object with ``address`` = ``"tcp://host:port"``); a ValueError naming the file otherwise."""
+    import json
+
+    try:
+        with open(os.fspath(path), "rb") as f:
+            d = json.loads(f.read(1 << 20).decode("utf-8"))
+    except (ValueError, RecursionError) as e:  # JSONDecodeError and UnicodeDecodeError are ValueErrors
+        raise ValueError(f"invalid parameter `scheduler_file`: {path} is not a Dask scheduler file "
+                         f"(JSON with an `address`): {str(e)[:80]}") from None
+    address = d.get("address") if isinstance(d, dict) else None
+    if not isinstance(address, str) or "://" not in address:
+        raise ValueError(f"invalid parameter `scheduler_file`: {path} has no scheduler `address` "
+                         "(expected a JSON object with address = \"tcp://host:port\", as dask scheduler writes)")
+    return address
 
 
 def run_chunks(client: Any, func: Callable[..., List[str]], chunks: Sequence[tuple], *, tag: str,
