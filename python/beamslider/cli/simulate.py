@@ -117,9 +117,14 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         wall = time.perf_counter() - t0
         summary = simulation_summary(result, t_end=args.t_end, record_every=args.record_every, wall_s=wall,
                                      window=args.window)
-    except BaseException:
+    except BaseException as e:
         if background is not None:
             background.cancel()
+        if isinstance(e, KeyboardInterrupt):
+            # Interrupted (Ctrl-C, SIGTERM, SIGHUP): nothing of this run stays under a final name
+            # (the core has removed the partial data file).
+            for path in [written[1]] + ([out / man_name] if man_name else []):
+                path.unlink(missing_ok=True)
         raise
     summary.update({"data": data_name, "format": args.format, "complete": True})
     manifold = None
