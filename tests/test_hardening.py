@@ -1,0 +1,266 @@
+"""Hardening (docs/guide/reliability.md): input files validated with one-line errors naming the
+file and the key, half-right files refused instead of read with a default, counts derived from
+user numbers bounded before a run, map results checked against their grid, a resume that never
+narrows map.toml, and a short run of the property fuzzer of the input readers
+(scripts/tooling/fuzz_inputs.py)."""
+
+import json
+import sys
+from pathlib import Path
+
+import pytest
+
+import beamslider
+from beamslider import _toml
+from beamslider.maps import map_config_toml, read_map
+from beamslider.superslow import default_drift_law, load_drift_law, load_law
+from conftest import run_cli
+
+ROOT = Path(__file__).resolve().parent.parent
+DEFAULT_LAW = ROOT / "python" / "beamslider" / "data" / "default_law.json"
+
+
+def _one_line_error(r, *words):
+    assert r.returncode == 1, (r.returncode, r.stderr[-2000:])
+    assert "Traceback" not in r.stderr, r.stderr[-2000:]
+    lines = [ln for ln in r.stderr.splitlines() if ln.strip()]
+    assert len(lines) == 1 and lines[0].startswith("beamslider: error:"), r.stderr
+    for w in words:
+        assert w in lines[0], (w, lines[0])
+    return lines[0]
+
+
+def _law(tmp_path, name="law.json", **change):
+    d = json.loads(DEFAULT_LAW.read_text())
+    for k, v in change.items():
+        if v is None:
+            d.pop(k)
+        else:
+            d[k] = v
+    path = tmp_path / name
+    path.write_text(json.dumps(d))
+    return path
+
+
+# --- input files: one-line errors naming the file and the key -------------------------------
+
+
+@pytest.mark.parametrize("key", ["x", "v", "k", "mean", "std", "lo", "hi", "points", "rho_c"])
+def test_law_file_without_a_key_is_one_line_on_every_path(tmp_path, key):
+    law = _law(tmp_path, **{key: None})
+    with pytest.raises(ValueError, match=f"law.json lacks `{key}`"):
+        load_drift_law(law)
+    with pytest.raises(ValueError, match=f"lacks `{key}`"):
+        load_law(law)
+    r = run_cli("predict", "--law", str(law), "--f-ex", "124", "--a-ex", "14", "--out", "p", cwd=tmp_path)
+    _one_line_error(r, "law.json", key)
+    r = run_cli("map", "--predictor", str(law), "--f-ex", "124", "--a-ex", "14", "--out", "m", cwd=tmp_path)
+    _one_line_error(r, "law.json", key)
+    assert not (tmp_path / "m").exists() and not (tmp_path / "p").exists()
+
+
+@pytest.mark.parametrize("change, words", [
+    (dict(version=99), ["version 99", "newer"]),
+    (dict(version="1"), ["version"]),
+    (dict(stray=1), ["unknown key `stray`"]),
+    (dict(x=5), ["x = 5"]),
+    (dict(points=[1, 2]), ["points"]),
+    (dict(k=True), ["k = True"]),
+    (dict(features=3), ["features"]),
+])
+def test_half_right_law_files_are_refused(tmp_path, change, words):
+    law = _law(tmp_path, **change)
+    with pytest.raises(ValueError) as e:
+        load_drift_law(law)
+    for w in words + ["law.json"]:
+        assert w in str(e.value)
+
+
+def test_shipped_laws_still_load():
+    assert default_drift_law().rho_c > 0
+    from beamslider.superslow.design_law import DEFAULT_DESIGN_LAW_PATH, load_design_law
+
+    assert len(load_design_law(DEFAULT_DESIGN_LAW_PATH).laws) >= 2
+
+
+STUDY = """duration_s = 0.05
+[uncertain.friction_coefficient]
+low = 0.1
+high = 0.3
+"""
+
+
+@pytest.mark.parametrize("extra, words", [
+    ("levels = 3\n", ["levels"]),
+    ("std = 3\n", ["does not use `std`"]),
+    ("distribution = [1]\n", ["distribution"]),
+])
+def test_study_file_errors_are_one_line(tmp_path, extra, words):
+    (tmp_path / "s.toml").write_text(STUDY + extra)
+    r = run_cli("study", "--config", "s.toml", "--out", "o", cwd=tmp_path)
+    _one_line_error(r, "s.toml", *words)
+    assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize("text", ["garbage", "{}", "[1]", '{"address": 5}', "\xff\xfe"])
+def test_scheduler_file_that_is_not_one_is_a_one_line_error(tmp_path, text):
+    pytest.importorskip("distributed")
+    (tmp_path / "sched.json").write_bytes(text.encode("latin-1"))
+    r = run_cli("map", "--f-ex", "124", "--a-ex", "14", "--t-end", "0.01", "--scheduler-file", "sched.json",
+                "--out", "o", cwd=tmp_path, timeout=60)
+    _one_line_error(r, "sched.json")
+    assert not (tmp_path / "o").exists()
+
+
+def test_binary_config_file_is_named(tmp_path):
+    (tmp_path / "bin.toml").write_bytes(b"duration_s = 1\n\xd0\xff\x00\x01")
+    for cmd in ("map", "study", "design"):
+        r = run_cli(cmd, "--config", "bin.toml", "--out", "o", cwd=tmp_path)
+        _one_line_error(r, "bin.toml")
+
+
+# --- map results checked against their grid; a resume never narrows map.toml ---------------
+
+
+@pytest.fixture(scope="module")
+def small_map(tmp_path_factory):
+    d = tmp_path_factory.mktemp("map")
+    r = run_cli("map", "--f-ex", "120,124,128", "--a-ex", "14", "--t-end", "0.05", "-j", "2", "--out", "m", cwd=d)
+    assert r.returncode == 0, r.stderr
+    return d / "m"
+
+
+def _copy(src: Path, dst: Path) -> Path:
+    dst.mkdir()
+    for f in src.iterdir():
+        (dst / f.name).write_bytes(f.read_bytes())
+    return dst
+
+
+def test_duplicated_map_row_is_refused_with_its_line(small_map, tmp_path):
+    m = _copy(small_map, tmp_path / "m")
+    lines = (m / "map.jsonl").read_text().splitlines(keepends=True)
+    (m / "map.jsonl").write_text("".join(lines + [lines[1]]))
+    with pytest.raises(ValueError, match=r"map.jsonl:5: a second row .*first on line 2"):
+        read_map(m)
+    r = run_cli("map", "--f-ex", "120,124,128", "--a-ex", "14", "--t-end", "0.05", "--resume", "--out", "m", cwd=tmp_path)
+    _one_line_error(r, "map.jsonl:5")
+
+
+def test_foreign_map_row_is_refused_with_its_line(small_map, tmp_path):
+    m = _copy(small_map, tmp_path / "m")
+    lines = (m / "map.jsonl").read_text().splitlines(keepends=True)
+    row = json.loads(lines[1])
+    row["f_ex_hz"] = 99.5
+    (m / "map.jsonl").write_text("".join(lines + [json.dumps(row) + "\n"]))
+    with pytest.raises(ValueError, match=r"map.jsonl:5: a row of a point not on the map's grid .*f_ex = 99.5"):
+        read_map(m)
+    r = run_cli("map", "--f-ex", "120,124,128", "--a-ex", "14", "--t-end", "0.05", "--resume", "--out", "m", cwd=tmp_path)
+    _one_line_error(r, "map.jsonl:5")
+
+
+def test_resume_with_fewer_points_keeps_the_whole_grid_in_map_toml(small_map, tmp_path):
+    m = _copy(small_map, tmp_path / "m")
+    r = run_cli("map", "--f-ex", "120", "--a-ex", "14", "--t-end", "0.05", "--resume", "--out", "m", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    grid = _toml.loads((m / "map.toml").read_text())["grid"]
+    assert grid["f_ex_hz"] == [120.0, 124.0, 128.0]
+    assert len(read_map(m)["index"]) == 3
+
+
+# --- counts derived from user numbers are bounded before the run ----------------------------
+
+
+@pytest.mark.parametrize("kw, words", [
+    (dict(t_end=1e300), ["duration_s", "1e300", "1e11"]),
+    (dict(t_end=1.0, params=dict(dt_s=1e-300)), ["duration_s", "1e11"]),
+    (dict(f_ex=1e-200), ["f_ex_hz", "1e-200", ">= 0.001 Hz"]),
+])
+def test_absurd_durations_and_rates_are_refused_by_name(kw, words):
+    params = kw.pop("params", None)
+    args = dict(f_ex=124.0, a_ex=14.0, t_end=0.01, **kw)
+    if params:
+        args["params"] = beamslider.Parameters(**params)
+    with pytest.raises(ValueError) as e:
+        beamslider.simulate(**args)
+    for w in words:
+        assert w in str(e.value), (w, str(e.value))
+
+
+def test_absurd_values_are_printed_short(tmp_path):
+    r = run_cli("simulate", "--f-ex", "1e300", "--a-ex", "14", "--t-end", "0.01", "--out", "o", cwd=tmp_path)
+    line = _one_line_error(r, "f_ex_hz", "1e300")
+    assert len(line) < 300 and "0000000000" not in line
+
+
+def test_map_with_absurd_duration_or_record_every_is_refused_before_running(tmp_path):
+    r = run_cli("map", "--t-end", "1e300", "--f-ex", "124", "--a-ex", "14", "--out", "o", cwd=tmp_path, timeout=60)
+    _one_line_error(r, "duration_s", "1e300")
+    text = map_config_toml(f_ex=[124.0], a_ex=[14.0], t_end=0.05).replace(
+        "record_every = 20", "record_every = 100000000")
+    (tmp_path / "re.toml").write_text(text)
+    r = run_cli("map", "--config", "re.toml", "--out", "o2", cwd=tmp_path, timeout=60)
+    _one_line_error(r, "record_every", "100000000", "record_every <= 5000")
+    assert not (tmp_path / "o").exists() and not (tmp_path / "o2").exists()
+
+
+# --- the property fuzzer, briefly (the full run: scripts/tooling/fuzz_inputs.py) -------------
+
+
+@pytest.mark.parametrize("reader", ["law", "design_law", "map_config", "map_results", "study", "design"])
+def test_input_readers_fuzzed_briefly(reader, tmp_path):
+    pytest.importorskip("hypothesis")
+    sys.path.insert(0, str(ROOT / "scripts" / "tooling"))
+    try:
+        import fuzz_inputs
+    finally:
+        sys.path.pop(0)
+    assert fuzz_inputs.fuzz(reader, 150, seed=7, tmp=tmp_path, case_timeout=20.0) == 150
+
+
+# --- one overwrite policy; signals leave no file under a final name -------------------------
+
+
+def test_every_writer_refuses_to_replace_results_without_force(tmp_path):
+    assert run_cli("synthesize", "enma", "--out", "syn", cwd=tmp_path).returncode == 0
+    _one_line_error(run_cli("synthesize", "enma", "--out", "syn", cwd=tmp_path), "enma_data.csv", "--force")
+    assert run_cli("synthesize", "enma", "--out", "syn", "--force", cwd=tmp_path).returncode == 0
+    data = str(tmp_path / "syn" / "enma_data.csv")
+    assert run_cli("enma", data, "--out", "e", cwd=tmp_path).returncode == 0
+    _one_line_error(run_cli("enma", data, "--out", "e", cwd=tmp_path), "enma_updated.toml", "--force")
+    assert run_cli("discover", "--enma", data, "--out", "d", cwd=tmp_path).returncode == 0
+    _one_line_error(run_cli("discover", "--enma", data, "--out", "d", cwd=tmp_path), "updated.toml", "--force")
+    assert run_cli("discover", "--enma", data, "--out", "d", "--force", cwd=tmp_path).returncode == 0
+
+
+def test_refusal_says_the_earlier_run_did_not_finish(tmp_path):
+    out = tmp_path / "o"
+    out.mkdir()
+    (out / "fs_124Hz_14ms2_s0_0p3.json").write_text(json.dumps({"kind": "simulation", "complete": False}))
+    r = run_cli("simulate", "--f-ex", "124", "--a-ex", "14", "--t-end", "0.01", "--out", "o", cwd=tmp_path)
+    _one_line_error(r, "did not finish", "--force")
+
+
+@pytest.mark.parametrize("sig", ["SIGINT", "SIGTERM", "SIGHUP"])
+def test_signal_during_simulate_leaves_no_file_under_a_final_name(tmp_path, sig):
+    import os
+    import signal
+    import subprocess
+    import time
+
+    from conftest import cli_command
+
+    env = dict(os.environ, MPLBACKEND="Agg")
+    p = subprocess.Popen([*cli_command(), "simulate", "--f-ex", "124", "--a-ex", "14", "--t-end", "600", "--out", "o",
+                          "--no-progress"], cwd=tmp_path, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, env=env)
+    t0 = time.time()
+    while time.time() - t0 < 60 and not any(f.name.startswith(".") for f in (tmp_path / "o").glob(".*partial*")):
+        time.sleep(0.01)
+    time.sleep(0.3)
+    p.send_signal(getattr(signal, sig))
+    err = p.communicate(timeout=60)[1]
+    assert p.returncode == 128 + getattr(signal, sig), err
+    assert "Traceback" not in err
+    assert sorted(f.name for f in (tmp_path / "o").iterdir()) == []  # no partial, no summary, no manifold
+    r = run_cli("simulate", "--f-ex", "124", "--a-ex", "14", "--t-end", "0.05", "--out", "o", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr  # nothing to replace: the re-run needs no --force
