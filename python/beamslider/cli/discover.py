@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import argparse
 import math
-import sys
 import time
 from typing import Any, List, Tuple
 
@@ -94,7 +93,7 @@ def cmd_discover(args: argparse.Namespace) -> int:
         raise UserError(f"--gap-ratio {args.gap_ratio}: must be in (0, 1]")
     plan_outputs(args, REPORT_FILES)  # nothing replaced without --force, before the fit runs
     t0 = time.perf_counter()
-    prog = args.progress if args.progress is not None else sys.stderr.isatty()
+    prog = args.progress  # None: a bar on a terminal, a line now and then in a log
     if args.enma and args.measured:
         # Joint fit over the beam (ENMA) and slider (runs) features.
         baseline = Parameters.from_toml(args.params) if args.params else Parameters()
