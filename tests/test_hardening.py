@@ -264,3 +264,31 @@ def test_signal_during_simulate_leaves_no_file_under_a_final_name(tmp_path, sig)
     assert sorted(f.name for f in (tmp_path / "o").iterdir()) == []  # no partial, no summary, no manifold
     r = run_cli("simulate", "--f-ex", "124", "--a-ex", "14", "--t-end", "0.05", "--out", "o", cwd=tmp_path)
     assert r.returncode == 0, r.stderr  # nothing to replace: the re-run needs no --force
+
+
+# --- progress in a log (standard error not a terminal) --------------------------------------
+
+
+def test_long_commands_report_progress_in_a_log(tmp_path, monkeypatch, capsys):
+    import os
+    import subprocess
+
+    from conftest import cli_command
+
+    env = dict(os.environ, MPLBACKEND="Agg", BEAMSLIDER_PROGRESS_INTERVAL_S="0")
+    r = subprocess.run([*cli_command(), "map", "--f-ex", "120,124", "--a-ex", "14", "--t-end", "0.3", "-j", "1", "--out", "m"],
+                       cwd=tmp_path, capture_output=True, text=True, env=env, timeout=120)
+    assert r.returncode == 0, r.stderr
+    assert "beamslider: map 2/2 pts (100 %)" in r.stderr and "\r" not in r.stderr
+    from beamslider.discover.naming import _progress_bar
+
+    monkeypatch.setenv("BEAMSLIDER_PROGRESS_INTERVAL_S", "0")
+    bar = _progress_bar(None, 4, "discover (slider): fits")  # what `discover --measured` gets in a job log
+    bar.update(1)
+    bar.close()
+    assert "beamslider: discover (slider): fits 1/4 fit (25 %)" in capsys.readouterr().err
+
+
+def test_short_runs_stay_silent_in_a_log(tmp_path):
+    r = run_cli("map", "--f-ex", "120", "--a-ex", "14", "--t-end", "0.3", "-j", "1", "--out", "m", cwd=tmp_path)
+    assert r.returncode == 0 and "pts" not in r.stderr, r.stderr
