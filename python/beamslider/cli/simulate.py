@@ -7,9 +7,11 @@ from __future__ import annotations
 import argparse
 import threading
 import time
+from pathlib import Path
 from typing import Any, Callable, Optional
 
 from ..simulate import simulate
+from ..trajectory import check_disk
 from ._common import figure, out_dir, params_from_args, plan_outputs, positive, report, write_json_atomic
 from ._files import run_stem, simulation_summary
 from ._manifold import (add_operating_point, add_run_options, check_manifold_args, manifold_name,
@@ -97,6 +99,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         require_pyarrow()  # the extra named before anything is written
     data_name = f"{stem}.{args.format}"
     plan_outputs(args, [data_name, f"{stem}.json", f"{stem}.png"] + ([man_name] if man_name else []))
+    check_disk(Path(args.out) / data_name, args.t_end, p.dt_s, args.record_every)  # before anything is written
     out = out_dir(args)
     written = [out / data_name, out / f"{stem}.json", out / f"{stem}.png"]
     # The sidecar says "incomplete" until the data file is in place (plot refuses it meanwhile).
@@ -117,14 +120,13 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         wall = time.perf_counter() - t0
         summary = simulation_summary(result, t_end=args.t_end, record_every=args.record_every, wall_s=wall,
                                      window=args.window)
-    except BaseException as e:
+    except BaseException:
         if background is not None:
             background.cancel()
-        if isinstance(e, KeyboardInterrupt):
-            # Interrupted (Ctrl-C, SIGTERM, SIGHUP): nothing of this run stays under a final name
-            # (the core has removed the partial data file).
-            for path in [written[1]] + ([out / man_name] if man_name else []):
-                path.unlink(missing_ok=True)
+        # Interrupted (Ctrl-C, SIGTERM, SIGHUP) or failed: nothing of this run stays under a final
+        # name (the core has removed the partial data file).
+        for path in [written[1]] + ([out / man_name] if man_name else []):
+            path.unlink(missing_ok=True)
         raise
     summary.update({"data": data_name, "format": args.format, "complete": True})
     manifold = None
