@@ -7,6 +7,7 @@ resumed by any of them (same configuration, same results file).
 from __future__ import annotations
 
 import dataclasses
+import errno
 import json
 import math
 import os
@@ -104,6 +105,22 @@ def _map_chunk(config_toml: str, jobs: List[tuple], threads: int) -> List[str]:
     return core.run_map_chunk(config_toml, jobs, threads=threads)
 
 
+def _watching(results: Optional[Path], bar: Any) -> Any:
+    """The progress callback of a map: stops the run at the next row when its output folder has
+    vanished (deleted or moved: the rows would go to a file nobody can read), then ``bar``."""
+    if results is None:
+        return bar
+
+    def watch(done: float, total: float) -> None:
+        if not results.exists():
+            raise FileNotFoundError(errno.ENOENT, "the map's results file vanished during the run (output folder deleted "
+                                    "or moved): stopped; run the map again into a folder that stays", str(results))
+        if bar is not None:
+            bar(done, total)
+
+    return watch
+
+
 def _widened(canonical: str, folder: Path) -> str:
     """The configuration to save on a resume: its grid axes joined with those of the map.toml in
     ``folder`` (a resume over fewer points must not narrow what a later --extend-to extends)."""
@@ -163,8 +180,9 @@ def run_map_config(config_toml: str, *, out: Optional[Union[str, Path]] = None, 
             if out is not None:
                 (Path(out) / "map.toml").write_text(saved_toml, encoding="utf-8")
             with progress_bar(progress, total, "map", "pts") as bar:
+                watch = _watching(results, bar)
                 if client is None:
-                    run.run_local(threads=None if threads is None else int(threads), progress=bar)
+                    run.run_local(threads=None if threads is None else int(threads), progress=watch)
                 else:
                     from .._dask import run_chunks
 
@@ -174,8 +192,8 @@ def run_map_config(config_toml: str, *, out: Optional[Union[str, Path]] = None, 
 
                     def on_rows(rows: List[str]) -> None:
                         run.append(rows)
-                        if bar is not None:
-                            bar(run.done, total)
+                        if watch is not None:
+                            watch(run.done, total)
 
                     run_chunks(client, _map_chunk, chunks, tag="map" + canonical, on_rows=on_rows,
                                max_retries=max_retries)
