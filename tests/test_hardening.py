@@ -292,3 +292,44 @@ def test_long_commands_report_progress_in_a_log(tmp_path, monkeypatch, capsys):
 def test_short_runs_stay_silent_in_a_log(tmp_path):
     r = run_cli("map", "--f-ex", "120", "--a-ex", "14", "--t-end", "0.3", "-j", "1", "--out", "m", cwd=tmp_path)
     assert r.returncode == 0 and "pts" not in r.stderr, r.stderr
+
+
+# --- streamed outputs check the free space; a vanished output folder stops a map --------------
+
+
+def test_streamed_run_larger_than_the_free_space_is_refused_before_writing(tmp_path, monkeypatch, capsys):
+    import shutil
+    from collections import namedtuple
+
+    from beamslider.cli import main as cli_main
+
+    usage = namedtuple("usage", "total used free")
+    monkeypatch.setattr(shutil, "disk_usage", lambda _p: usage(10**9, 0, 10**6))
+    assert cli_main(["simulate", "--f-ex", "124", "--a-ex", "14", "--t-end", "5", "--format", "csv",
+                     "--out", str(tmp_path / "o")]) == 1
+    err = capsys.readouterr().err
+    assert "t_end" in err and "free" in err, err
+    assert not (tmp_path / "o").exists()
+
+
+def test_vanished_output_folder_stops_the_map_at_the_next_row(tmp_path):
+    import os
+    import shutil
+    import subprocess
+    import time
+
+    from conftest import cli_command
+
+    env = dict(os.environ, MPLBACKEND="Agg")
+    p = subprocess.Popen([*cli_command(), "map", "--f-ex", "100:130:2", "--a-ex", "14", "--t-end", "40", "-j", "1",
+                          "--no-progress", "--out", "m"], cwd=tmp_path, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                         text=True, env=env)
+    results = tmp_path / "m" / "map.jsonl"
+    t0 = time.time()
+    while time.time() - t0 < 60 and not (results.exists() and len(results.read_text().splitlines()) >= 2):
+        time.sleep(0.01)
+    shutil.rmtree(tmp_path / "m")
+    t1 = time.time()
+    err = p.communicate(timeout=60)[1]
+    assert p.returncode == 1 and "vanished" in err and "Traceback" not in err, err
+    assert time.time() - t1 < 20  # at the next row, not at the end (16 points of about 1 s each)
