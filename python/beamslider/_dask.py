@@ -11,6 +11,7 @@ Starting a cluster: ``dask scheduler --scheduler-file sched.json`` on one machin
 
 from __future__ import annotations
 
+import asyncio
 import hashlib
 import os
 import time
@@ -70,41 +71,124 @@ def scheduler_file_address(path: Any) -> str:
     return address
 
 
+LOST_TIMEOUT_S = 60.0
+"""How long a run waits for a scheduler that stopped answering, or for workers when none is
+left, before it stops [s] (``lost_timeout_s``; the environment variable
+``BEAMSLIDER_CLUSTER_TIMEOUT_S`` overrides the default)."""
+
+RESUME_HINT = "the finished rows are kept: run it again with --resume (resume=True) to finish, locally or on a new cluster"
+
+
+class ClusterLostError(ConnectionError):
+    """The Dask scheduler went away, or no worker was left, for longer than the timeout: the run
+    stopped; the rows written so far are kept (resume finishes it)."""
+
+
+def lost_timeout(value: Optional[float] = None) -> float:
+    """The timeout of a lost cluster [s]: ``value``, else ``BEAMSLIDER_CLUSTER_TIMEOUT_S``, else :data:`LOST_TIMEOUT_S`."""
+    if value is None:
+        try:
+            value = float(os.environ.get("BEAMSLIDER_CLUSTER_TIMEOUT_S", LOST_TIMEOUT_S))
+        except ValueError:
+            value = LOST_TIMEOUT_S
+    if not (value > 0 and value < 1e9):
+        raise ValueError(f"invalid parameter `lost_timeout_s` = {value!r}: must be > 0 seconds")
+    return float(value)
+
+
+def _quietly(call: Callable[[], Any]) -> None:
+    """A clean-up call to a client that may be closed already (its error would hide the real one)."""
+    try:
+        call()
+    except Exception:  # noqa: BLE001 - ClosedClientError, CommClosedError, ... of a dead scheduler
+        pass
+
+
+def close_client(client: Any) -> None:
+    """Close a client we own, quietly when its scheduler is gone."""
+    _quietly(lambda: client.close(timeout=5))
+
+
 def run_chunks(client: Any, func: Callable[..., List[str]], chunks: Sequence[tuple], *, tag: str,
                on_rows: Callable[[List[str]], None], max_retries: int = 3,
-               on_chunk: Optional[Callable[[int, int], None]] = None) -> None:
+               on_chunk: Optional[Callable[[int, int], None]] = None, lost_timeout_s: Optional[float] = None,
+               resume_hint: str = RESUME_HINT) -> None:
     """Run ``func(*chunk)`` for every chunk on the cluster; ``on_rows(rows)`` with each finished
     chunk's rows (in the calling thread, as they finish). A chunk lost with its worker is
-    re-submitted up to ``max_retries`` times."""
-    from distributed import as_completed
+    re-submitted up to ``max_retries`` times. A scheduler that stops answering, or a cluster
+    without workers, for longer than ``lost_timeout_s`` (:func:`lost_timeout`) ends the run with
+    a :class:`ClusterLostError` saying how to resume (the rows already passed to ``on_rows`` are kept)."""
+    from distributed import wait
 
+    timeout = lost_timeout(lost_timeout_s)
     digest = hashlib.sha1(tag.encode()).hexdigest()[:10]
 
     def submit(k: int, tries: int) -> Any:
         return client.submit(func, *chunks[k], key=f"beamslider-{digest}-{k}-r{tries}-{time.time_ns()}", pure=False)
 
+    def lost(why: str) -> ClusterLostError:
+        import logging
+
+        for name in ("distributed", "distributed.client"):  # its reconnect traces would follow our one line
+            logging.getLogger(name).setLevel(logging.CRITICAL + 1)
+        return ClusterLostError(f"the Dask cluster is lost ({why}): stopped after {done} of {len(chunks)} chunks; {resume_hint}")
+
     futures = {submit(k, 0): (k, 0) for k in range(len(chunks))}
+    done = 0
+    trouble_since: Optional[float] = None
     try:
-        ac = as_completed(list(futures))
-        done = 0
-        for fut in ac:
-            k, tries = futures.pop(fut)
+        while futures:
             try:
-                rows = fut.result()
-            except Exception as e:  # a lost worker (KilledWorker, CommClosedError, ...) or a bad point
-                if isinstance(e, (ValueError, KeyboardInterrupt)) or tries >= max_retries:
-                    raise
-                new = submit(k, tries + 1)
-                futures[new] = (k, tries + 1)
-                ac.add(new)
+                finished, _ = wait(list(futures), timeout=min(1.0, timeout), return_when="FIRST_COMPLETED")
+            except TimeoutError:
+                finished = set()
+            except (Exception, asyncio.CancelledError):  # noqa: BLE001 - a cancelled future, a closed client
+                finished = {f for f in futures if f.done()}
+                if not finished:
+                    time.sleep(0.2)
+            status = getattr(client, "status", "running")
+            if status == "closed":
+                raise lost("the scheduler stopped answering and the client gave up reconnecting")
+            why = None
+            if status != "running":
+                why = f"no answer from the scheduler for {timeout:g} s"
+            elif not finished and _workers(client) == 0:
+                why = f"no worker for {timeout:g} s"
+            if why is None:
+                trouble_since = None
+            else:
+                trouble_since = trouble_since or time.monotonic()
+                if time.monotonic() - trouble_since > timeout:
+                    raise lost(why)
                 continue
-            on_rows(rows)
-            done += 1
-            if on_chunk is not None:
-                on_chunk(done, len(chunks))
+            for fut in finished:
+                k, tries = futures.pop(fut)
+                try:
+                    rows = fut.result()
+                except (Exception, asyncio.CancelledError) as e:  # a lost worker (KilledWorker, ...), a cancelled chunk or a bad point
+                    if isinstance(e, ValueError) or tries >= max_retries:
+                        raise
+                    if getattr(client, "status", "running") != "running":
+                        futures[fut] = (k, tries)  # the scheduler is away: judged above on the next round
+                        trouble_since = trouble_since or time.monotonic()
+                        continue
+                    futures[submit(k, tries + 1)] = (k, tries + 1)
+                    continue
+                on_rows(rows)
+                done += 1
+                if on_chunk is not None:
+                    on_chunk(done, len(chunks))
     finally:
         for fut in list(futures):
-            fut.cancel()
+            _quietly(fut.cancel)
+
+
+def _workers(client: Any) -> int:
+    """The number of workers the scheduler knows (-1 when it cannot tell)."""
+    try:
+        return len(client.scheduler_info().get("workers", {}))
+    except Exception:  # noqa: BLE001
+        return -1
 
 
 def run_study_chunk(map_toml: str, chunk: List[Tuple[int, str, float, float, float, float]],

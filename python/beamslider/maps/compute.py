@@ -202,7 +202,9 @@ def run_map_config(config_toml: str, *, out: Optional[Union[str, Path]] = None, 
             run.close()
     finally:
         if own:
-            client.close()
+            from .._dask import close_client
+
+            close_client(client)
     table = rows_to_table([json.loads(r) for r in rows])
     if report and (extend or extended):
         t_end = float(_toml.loads(canonical)["duration_s"])
