@@ -261,9 +261,13 @@ def test_signal_during_simulate_leaves_no_file_under_a_final_name(tmp_path, sig)
     err = p.communicate(timeout=60)[1]
     assert p.returncode == 128 + getattr(signal, sig), err
     assert "Traceback" not in err
-    assert sorted(f.name for f in (tmp_path / "o").iterdir()) == []  # no partial, no summary, no manifold
+    # no partial data, no manifold: only the summary that says the run did not finish
+    assert sorted(f.name for f in (tmp_path / "o").iterdir()) == ["fs_124Hz_14ms2_s0_0p3.json"]
+    assert json.loads((tmp_path / "o" / "fs_124Hz_14ms2_s0_0p3.json").read_text())["complete"] is False
     r = run_cli("simulate", "--f-ex", "124", "--a-ex", "14", "--t-end", "0.05", "--out", "o", cwd=tmp_path)
-    assert r.returncode == 0, r.stderr  # nothing to replace: the re-run needs no --force
+    _one_line_error(r, "did not finish", "--force")
+    r = run_cli("simulate", "--f-ex", "124", "--a-ex", "14", "--t-end", "0.05", "--out", "o", "--force", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
 
 
 # --- progress in a log (standard error not a terminal) --------------------------------------
@@ -333,3 +337,97 @@ def test_vanished_output_folder_stops_the_map_at_the_next_row(tmp_path):
     err = p.communicate(timeout=60)[1]
     assert p.returncode == 1 and "vanished" in err and "Traceback" not in err, err
     assert time.time() - t1 < 20  # at the next row, not at the end (16 points of about 1 s each)
+
+
+# --- a cluster run survives its scheduler ------------------------------------------------------
+
+
+def _rows(path):
+    rows = [json.loads(ln) for ln in Path(path).read_text().splitlines()[1:] if ln.strip().endswith("}")]
+    for r in rows:
+        r.pop("wall_time_s")
+    return sorted(rows, key=lambda r: r["index"])
+
+
+def _start_cluster(tmp_path, env):
+    """A scheduler and one worker, each in a process of its own (the scheduler is then killed)."""
+    import subprocess
+    import time
+
+    dask = Path(sys.executable).parent / "dask"
+    sched_file = tmp_path / "sched.json"
+    sched = subprocess.Popen([str(dask), "scheduler", "--scheduler-file", str(sched_file), "--port", "0",
+                              "--dashboard-address", ":0"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env)
+    t0 = time.time()
+    while not sched_file.exists() and time.time() - t0 < 60:
+        time.sleep(0.1)
+    worker = subprocess.Popen([str(dask), "worker", "--scheduler-file", str(sched_file), "--nthreads", "1"],
+                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env)
+    return sched, worker, sched_file
+
+
+@pytest.mark.parametrize("victim", ["scheduler", "workers"])
+def test_cluster_map_ends_when_the_cluster_is_lost_and_resumes_locally(tmp_path, victim):
+    import os
+    import subprocess
+    import time
+
+    pytest.importorskip("distributed")
+    from conftest import cli_command
+
+    env = dict(os.environ, MPLBACKEND="Agg", BEAMSLIDER_CLUSTER_TIMEOUT_S="8")
+    grid = ["--f-ex", "100:130:2", "--a-ex", "14", "--t-end", "6", "--no-progress"]
+    sched, worker, sched_file = _start_cluster(tmp_path, env)
+    try:
+        p = subprocess.Popen([*cli_command(), "map", *grid, "--scheduler-file", str(sched_file), "--chunk-size", "2",
+                              "--out", "m"], cwd=tmp_path, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, env=env)
+        results = tmp_path / "m" / "map.jsonl"
+        t0 = time.time()
+        while time.time() - t0 < 120 and not (results.exists() and len(results.read_text().splitlines()) >= 3):
+            time.sleep(0.05)
+        (sched if victim == "scheduler" else worker).kill()
+        t1 = time.time()
+        err = p.communicate(timeout=120)[1]
+        assert time.time() - t1 < 8 + 30  # the stated timeout, and the client's reconnect attempts (20 s)
+    finally:
+        for proc in (worker, sched):
+            proc.kill()
+            proc.wait()
+    assert p.returncode == 1, err
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    assert len(lines) == 1 and "Dask cluster is lost" in lines[0] and "--resume" in lines[0], err
+    kept = _rows(results)
+    assert 0 < len(kept) < 16
+    r = run_cli("map", *grid, "-j", "2", "--resume", "--out", "m", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    r = run_cli("map", *grid, "-j", "2", "--out", "full", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    assert _rows(results) == _rows(tmp_path / "full" / "map.jsonl")
+
+
+def test_ctrl_c_on_a_cluster_map_exits_130_without_a_traceback(tmp_path):
+    import os
+    import signal
+    import subprocess
+    import time
+
+    pytest.importorskip("distributed")
+    from conftest import cli_command
+
+    env = dict(os.environ, MPLBACKEND="Agg")
+    sched, worker, sched_file = _start_cluster(tmp_path, env)
+    try:
+        p = subprocess.Popen([*cli_command(), "map", "--f-ex", "100:130:2", "--a-ex", "14", "--t-end", "6", "--no-progress",
+                              "--scheduler-file", str(sched_file), "--chunk-size", "2", "--out", "m"],
+                             cwd=tmp_path, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, env=env)
+        results = tmp_path / "m" / "map.jsonl"
+        t0 = time.time()
+        while time.time() - t0 < 120 and not (results.exists() and len(results.read_text().splitlines()) >= 3):
+            time.sleep(0.05)
+        p.send_signal(signal.SIGINT)
+        err = p.communicate(timeout=60)[1]
+    finally:
+        for proc in (worker, sched):
+            proc.kill()
+            proc.wait()
+    assert p.returncode == 130 and "Traceback" not in err, err

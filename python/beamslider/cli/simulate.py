@@ -123,10 +123,11 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     except BaseException:
         if background is not None:
             background.cancel()
-        # Interrupted (Ctrl-C, SIGTERM, SIGHUP) or failed: nothing of this run stays under a final
-        # name (the core has removed the partial data file).
-        for path in [written[1]] + ([out / man_name] if man_name else []):
-            path.unlink(missing_ok=True)
+        # Interrupted (Ctrl-C, SIGTERM, SIGHUP) or failed: the core has removed the partial data
+        # file; the summary stays and says "complete": false (plot and a re-run say the run did
+        # not finish); the manifold, whole or not, goes with the run.
+        if man_name:
+            (out / man_name).unlink(missing_ok=True)
         raise
     summary.update({"data": data_name, "format": args.format, "complete": True})
     manifold = None
