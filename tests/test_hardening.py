@@ -387,7 +387,11 @@ def test_cluster_map_ends_when_the_cluster_is_lost_and_resumes_locally(tmp_path,
             time.sleep(0.05)
         (sched if victim == "scheduler" else worker).kill()
         t1 = time.time()
-        err = p.communicate(timeout=120)[1]
+        try:
+            err = p.communicate(timeout=120)[1]
+        except subprocess.TimeoutExpired:
+            p.kill()
+            raise
         assert time.time() - t1 < 8 + 30  # the stated timeout, and the client's reconnect attempts (20 s)
     finally:
         for proc in (worker, sched):
@@ -405,7 +409,7 @@ def test_cluster_map_ends_when_the_cluster_is_lost_and_resumes_locally(tmp_path,
     assert _rows(results) == _rows(tmp_path / "full" / "map.jsonl")
 
 
-def test_ctrl_c_on_a_cluster_map_exits_130_without_a_traceback(tmp_path):
+def test_ctrl_c_on_a_cluster_map_whose_scheduler_died_exits_130_without_a_traceback(tmp_path):
     import os
     import signal
     import subprocess
@@ -424,8 +428,14 @@ def test_ctrl_c_on_a_cluster_map_exits_130_without_a_traceback(tmp_path):
         t0 = time.time()
         while time.time() - t0 < 120 and not (results.exists() and len(results.read_text().splitlines()) >= 3):
             time.sleep(0.05)
+        sched.kill()  # the client now waits for it to come back
+        time.sleep(2)
         p.send_signal(signal.SIGINT)
-        err = p.communicate(timeout=60)[1]
+        try:
+            err = p.communicate(timeout=60)[1]
+        except subprocess.TimeoutExpired:
+            p.kill()
+            raise
     finally:
         for proc in (worker, sched):
             proc.kill()

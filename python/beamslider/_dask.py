@@ -104,8 +104,19 @@ def _quietly(call: Callable[[], Any]) -> None:
         pass
 
 
+def _silence_distributed() -> None:
+    """Quiet the client's own reconnect traces (a lost scheduler, a client closed while
+    reconnecting): the run reports the loss in one line of its own."""
+    import logging
+
+    for name in ("distributed", "distributed.client"):
+        logging.getLogger(name).setLevel(logging.CRITICAL + 1)
+
+
 def close_client(client: Any) -> None:
     """Close a client we own, quietly when its scheduler is gone."""
+    if getattr(client, "status", "running") != "running":
+        _silence_distributed()
     _quietly(lambda: client.close(timeout=5))
 
 
@@ -127,10 +138,7 @@ def run_chunks(client: Any, func: Callable[..., List[str]], chunks: Sequence[tup
         return client.submit(func, *chunks[k], key=f"beamslider-{digest}-{k}-r{tries}-{time.time_ns()}", pure=False)
 
     def lost(why: str) -> ClusterLostError:
-        import logging
-
-        for name in ("distributed", "distributed.client"):  # its reconnect traces would follow our one line
-            logging.getLogger(name).setLevel(logging.CRITICAL + 1)
+        _silence_distributed()
         return ClusterLostError(f"the Dask cluster is lost ({why}): stopped after {done} of {len(chunks)} chunks; {resume_hint}")
 
     futures = {submit(k, 0): (k, 0) for k in range(len(chunks))}
