@@ -346,7 +346,7 @@ def _rows(path):
     rows = [json.loads(ln) for ln in Path(path).read_text().splitlines()[1:] if ln.strip().endswith("}")]
     for r in rows:
         r.pop("wall_time_s")
-    return sorted(rows, key=lambda r: r["index"])
+    return sorted(rows, key=lambda r: (r.get("index", -1), r.get("key", "")))  # map and study rows by index, design rows by key
 
 
 def _start_cluster(tmp_path, env):
@@ -441,3 +441,78 @@ def test_ctrl_c_on_a_cluster_map_whose_scheduler_died_exits_130_without_a_traceb
             proc.kill()
             proc.wait()
     assert p.returncode == 130 and "Traceback" not in err, err
+
+
+# --- kills of study and design runs: no partial file, the resume equals an uninterrupted run ----
+
+KILL_STUDY = """duration_s = 3.0
+[grid]
+f_ex_hz = [120.0, 124.0]
+a_ex_m_s2 = [14.0]
+[study]
+method = "lhs"
+samples = 6
+seed = 3
+chunk_size = 2
+[uncertain.friction_coefficient]
+low = 0.2
+high = 0.3
+"""
+
+KILL_DESIGN = """seed = 1
+[design]
+gap_ratio = [1.02, 1.3]
+[band]
+f_lo_hz = 120.0
+f_hi_hz = 124.0
+f_step_hz = 4.0
+a_ex_m_s2 = [14.0]
+s0 = [0.3]
+t_end_s = 2.0
+[optimiser]
+popsize = 3
+maxiter = 1
+recheck = 0
+"""
+
+
+@pytest.fixture(scope="module")
+def uninterrupted(tmp_path_factory):
+    d = tmp_path_factory.mktemp("full")
+    (d / "study.toml").write_text(KILL_STUDY)
+    (d / "design.toml").write_text(KILL_DESIGN)
+    for cmd in ("study", "design"):
+        r = run_cli(cmd, "--config", f"{cmd}.toml", "--out", f"{cmd}-full", "--no-progress", cwd=d, timeout=600)
+        assert r.returncode == 0, r.stderr
+    return d
+
+
+@pytest.mark.parametrize("cmd", ["study", "design"])
+@pytest.mark.parametrize("sig", ["SIGINT", "SIGTERM", "SIGKILL"])
+def test_killed_study_or_design_resumes_to_the_uninterrupted_rows(tmp_path, uninterrupted, cmd, sig):
+    import os
+    import signal
+    import subprocess
+    import time
+
+    from conftest import cli_command
+
+    (tmp_path / f"{cmd}.toml").write_text(KILL_STUDY if cmd == "study" else KILL_DESIGN)
+    env = dict(os.environ, MPLBACKEND="Agg")
+    args = [*cli_command(), cmd, "--config", f"{cmd}.toml", "--out", "o", "--no-progress"]
+    p = subprocess.Popen(args, cwd=tmp_path, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, env=env)
+    results = tmp_path / "o" / f"{cmd}.jsonl"
+    t0 = time.time()
+    while time.time() - t0 < 120 and not (results.exists() and len(results.read_text().splitlines()) >= 3):
+        time.sleep(0.01)
+    p.send_signal(getattr(signal, sig))
+    err = p.communicate(timeout=60)[1]
+    assert p.returncode != 0 and "Traceback" not in err, err
+    if sig != "SIGKILL":
+        assert not [f.name for f in (tmp_path / "o").iterdir() if "partial" in f.name]
+        assert p.returncode == (130 if sig == "SIGINT" else 128 + getattr(signal, sig)), err
+    assert 0 < len(_rows(results)) < len(_rows(uninterrupted / f"{cmd}-full" / f"{cmd}.jsonl"))
+    r = run_cli(cmd, "--config", f"{cmd}.toml", "--out", "o", "--resume", "--no-progress", cwd=tmp_path, timeout=600)
+    assert r.returncode == 0, r.stderr
+    assert not [f.name for f in (tmp_path / "o").iterdir() if "partial" in f.name]
+    assert _rows(results) == _rows(uninterrupted / f"{cmd}-full" / f"{cmd}.jsonl")
