@@ -411,10 +411,10 @@ def _rows(path):
 
 
 @pytest.mark.skipif(sys.platform == "win32", reason="POSIX signals")
-@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT])
+@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT, signal.SIGHUP, signal.SIGKILL])
 def test_signal_during_cli_map_then_resume(tmp_path, sig):
-    """Kill a real `beamslider map` with SIGTERM / SIGINT (Ctrl-C), resume: every point exactly once,
-    the same rows as an uninterrupted map."""
+    """Kill a real `beamslider map` with SIGTERM / SIGINT (Ctrl-C) / SIGHUP / SIGKILL, resume: every
+    point exactly once, the same rows as an uninterrupted map, no partial file."""
     grid = ["--f-ex", "110:130:2", "--a-ex", "6,14", "--t-end", "3", "--no-progress"]
     full = tmp_path / "full"
     beamslider.operating_map(f_ex=list(np.arange(110.0, 131.0, 2.0)), a_ex=[6.0, 14.0], t_end=3.0, out=full, threads=2)
@@ -434,6 +434,7 @@ def test_signal_during_cli_map_then_resume(tmp_path, sig):
     assert "Traceback" not in err
     before = _rows(results)
     assert 0 < len(before) < 22
+    assert not [f for f in out.iterdir() if "partial" in f.name]
     r = run_cli("map", *grid, "-j", "2", "--resume", "--out", str(out), cwd=tmp_path)
     assert r.returncode == 0, r.stderr
     after = _rows(results)

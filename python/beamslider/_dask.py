@@ -11,6 +11,7 @@ Starting a cluster: ``dask scheduler --scheduler-file sched.json`` on one machin
 
 from __future__ import annotations
 
+import asyncio
 import hashlib
 import os
 import time
@@ -37,7 +38,7 @@ def connect(scheduler: Any = None, scheduler_file: Optional[str] = None, *, time
         if not os.path.isfile(scheduler_file):
             raise ValueError(f"invalid parameter `scheduler_file` = {scheduler_file!r}: no such file")
         what = f"the scheduler of {scheduler_file}"
-        kwargs = {"scheduler_file": os.fspath(scheduler_file)}
+        kwargs = {"address": scheduler_file_address(scheduler_file)}
     elif isinstance(scheduler, str):
         what = f"the scheduler at {scheduler}"
         kwargs = {"address": scheduler}
@@ -52,41 +53,150 @@ def connect(scheduler: Any = None, scheduler_file: Optional[str] = None, *, time
         raise ValueError(f"cannot use {what}: {e}") from None
 
 
+def scheduler_file_address(path: Any) -> str:
+    """The scheduler address in a scheduler file (``dask scheduler --scheduler-file``: a JSON
+    object with ``address`` = ``"tcp://host:port"``); a ValueError naming the file otherwise."""
+    import json
+
+    try:
+        with open(os.fspath(path), "rb") as f:
+            d = json.loads(f.read(1 << 20).decode("utf-8"))
+    except (ValueError, RecursionError) as e:  # JSONDecodeError and UnicodeDecodeError are ValueErrors
+        raise ValueError(f"invalid parameter `scheduler_file`: {path} is not a Dask scheduler file "
+                         f"(JSON with an `address`): {str(e)[:80]}") from None
+    address = d.get("address") if isinstance(d, dict) else None
+    if not isinstance(address, str) or "://" not in address:
+        raise ValueError(f"invalid parameter `scheduler_file`: {path} has no scheduler `address` "
+                         "(expected a JSON object with address = \"tcp://host:port\", as dask scheduler writes)")
+    return address
+
+
+LOST_TIMEOUT_S = 60.0
+"""How long a run waits for a scheduler that stopped answering, or for workers when none is
+left, before it stops [s] (``lost_timeout_s``; the environment variable
+``BEAMSLIDER_CLUSTER_TIMEOUT_S`` overrides the default)."""
+
+RESUME_HINT = "the finished rows are kept: run it again with --resume (resume=True) to finish, locally or on a new cluster"
+
+
+class ClusterLostError(ConnectionError):
+    """The Dask scheduler went away, or no worker was left, for longer than the timeout: the run
+    stopped; the rows written so far are kept (resume finishes it)."""
+
+
+def lost_timeout(value: Optional[float] = None) -> float:
+    """The timeout of a lost cluster [s]: ``value``, else ``BEAMSLIDER_CLUSTER_TIMEOUT_S``, else :data:`LOST_TIMEOUT_S`."""
+    if value is None:
+        try:
+            value = float(os.environ.get("BEAMSLIDER_CLUSTER_TIMEOUT_S", LOST_TIMEOUT_S))
+        except ValueError:
+            value = LOST_TIMEOUT_S
+    if not (value > 0 and value < 1e9):
+        raise ValueError(f"invalid parameter `lost_timeout_s` = {value!r}: must be > 0 seconds")
+    return float(value)
+
+
+def _quietly(call: Callable[[], Any]) -> None:
+    """A clean-up call to a client that may be closed already (its error would hide the real one)."""
+    try:
+        call()
+    except Exception:  # noqa: BLE001 - ClosedClientError, CommClosedError, ... of a dead scheduler
+        pass
+
+
+def _silence_distributed() -> None:
+    """Quiet the client's own reconnect traces (a lost scheduler, a client closed while
+    reconnecting): the run reports the loss in one line of its own."""
+    import logging
+
+    for name in ("distributed", "distributed.client"):
+        logging.getLogger(name).setLevel(logging.CRITICAL + 1)
+
+
+def close_client(client: Any) -> None:
+    """Close a client we own, quietly when its scheduler is gone."""
+    if getattr(client, "status", "running") != "running":
+        _silence_distributed()
+    _quietly(lambda: client.close(timeout=5))
+
+
 def run_chunks(client: Any, func: Callable[..., List[str]], chunks: Sequence[tuple], *, tag: str,
                on_rows: Callable[[List[str]], None], max_retries: int = 3,
-               on_chunk: Optional[Callable[[int, int], None]] = None) -> None:
+               on_chunk: Optional[Callable[[int, int], None]] = None, lost_timeout_s: Optional[float] = None,
+               resume_hint: str = RESUME_HINT) -> None:
     """Run ``func(*chunk)`` for every chunk on the cluster; ``on_rows(rows)`` with each finished
     chunk's rows (in the calling thread, as they finish). A chunk lost with its worker is
-    re-submitted up to ``max_retries`` times."""
-    from distributed import as_completed
+    re-submitted up to ``max_retries`` times. A scheduler that stops answering, or a cluster
+    without workers, for longer than ``lost_timeout_s`` (:func:`lost_timeout`) ends the run with
+    a :class:`ClusterLostError` saying how to resume (the rows already passed to ``on_rows`` are kept)."""
+    from distributed import wait
 
+    timeout = lost_timeout(lost_timeout_s)
     digest = hashlib.sha1(tag.encode()).hexdigest()[:10]
 
     def submit(k: int, tries: int) -> Any:
         return client.submit(func, *chunks[k], key=f"beamslider-{digest}-{k}-r{tries}-{time.time_ns()}", pure=False)
 
+    def lost(why: str) -> ClusterLostError:
+        _silence_distributed()
+        return ClusterLostError(f"the Dask cluster is lost ({why}): stopped after {done} of {len(chunks)} chunks; {resume_hint}")
+
     futures = {submit(k, 0): (k, 0) for k in range(len(chunks))}
+    done = 0
+    trouble_since: Optional[float] = None
     try:
-        ac = as_completed(list(futures))
-        done = 0
-        for fut in ac:
-            k, tries = futures.pop(fut)
+        while futures:
             try:
-                rows = fut.result()
-            except Exception as e:  # a lost worker (KilledWorker, CommClosedError, ...) or a bad point
-                if isinstance(e, (ValueError, KeyboardInterrupt)) or tries >= max_retries:
-                    raise
-                new = submit(k, tries + 1)
-                futures[new] = (k, tries + 1)
-                ac.add(new)
+                finished, _ = wait(list(futures), timeout=min(1.0, timeout), return_when="FIRST_COMPLETED")
+            except TimeoutError:
+                finished = set()
+            except (Exception, asyncio.CancelledError):  # noqa: BLE001 - a cancelled future, a closed client
+                finished = {f for f in futures if f.done()}
+                if not finished:
+                    time.sleep(0.2)
+            status = getattr(client, "status", "running")
+            if status == "closed":
+                raise lost("the scheduler stopped answering and the client gave up reconnecting")
+            why = None
+            if status != "running":
+                why = f"no answer from the scheduler for {timeout:g} s"
+            elif not finished and _workers(client) == 0:
+                why = f"no worker for {timeout:g} s"
+            if why is None:
+                trouble_since = None
+            else:
+                trouble_since = trouble_since or time.monotonic()
+                if time.monotonic() - trouble_since > timeout:
+                    raise lost(why)
                 continue
-            on_rows(rows)
-            done += 1
-            if on_chunk is not None:
-                on_chunk(done, len(chunks))
+            for fut in finished:
+                k, tries = futures.pop(fut)
+                try:
+                    rows = fut.result()
+                except (Exception, asyncio.CancelledError) as e:  # a lost worker (KilledWorker, ...), a cancelled chunk or a bad point
+                    if isinstance(e, ValueError) or tries >= max_retries:
+                        raise
+                    if getattr(client, "status", "running") != "running":
+                        futures[fut] = (k, tries)  # the scheduler is away: judged above on the next round
+                        trouble_since = trouble_since or time.monotonic()
+                        continue
+                    futures[submit(k, tries + 1)] = (k, tries + 1)
+                    continue
+                on_rows(rows)
+                done += 1
+                if on_chunk is not None:
+                    on_chunk(done, len(chunks))
     finally:
         for fut in list(futures):
-            fut.cancel()
+            _quietly(fut.cancel)
+
+
+def _workers(client: Any) -> int:
+    """The number of workers the scheduler knows (-1 when it cannot tell)."""
+    try:
+        return len(client.scheduler_info().get("workers", {}))
+    except Exception:  # noqa: BLE001
+        return -1
 
 
 def run_study_chunk(map_toml: str, chunk: List[Tuple[int, str, float, float, float, float]],

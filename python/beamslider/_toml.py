@@ -27,6 +27,8 @@ def loads_config(text: str, what: str) -> Dict[str, Any]:
         return loads(text)
     except TOMLDecodeError as e:
         raise ValueError(f"cannot read the {what} configuration: {e}") from None
+    except RecursionError:
+        raise ValueError(f"cannot read the {what} configuration: arrays or tables nested too deeply") from None
 
 
 def read_config_file(path: Union[str, "os.PathLike[str]"], parse: Callable[[str], T]) -> T:

@@ -3,12 +3,14 @@
 from __future__ import annotations
 
 import contextlib
+import os
 import sys
+import time
 from typing import Any, Callable, Iterator, Optional
 
 import numpy as np
 
-__all__ = ["MAX_INT", "number", "positive_int", "progress_bar", "stderr_is_terminal"]
+__all__ = ["LogProgress", "MAX_INT", "number", "positive_int", "progress_bar", "stderr_is_terminal"]
 
 MAX_INT = 2**63 - 1
 """Largest integer argument the core takes (counts such as ``record_every``)."""
@@ -42,9 +44,15 @@ def positive_int(name: str, value: Any) -> int:
 @contextlib.contextmanager
 def progress_bar(enabled: Optional[bool], total: float, desc: str, unit: str) -> Iterator[Optional[Callable[[float, float], None]]]:
     """A tqdm bar driven by the core's monitor callback ``(done, total)``; None when disabled.
-    ``enabled=None``: on only when standard error is a terminal (no carriage-return frames in logs)."""
-    if enabled is None:
-        enabled = stderr_is_terminal()
+    ``enabled=None``: the bar when standard error is a terminal, else a plain line now and then
+    (:class:`LogProgress`: no carriage-return frames in logs, yet a long run is not silent)."""
+    if enabled is None and not stderr_is_terminal():
+        log = LogProgress(total, desc, unit)
+        try:
+            yield log.at
+        finally:
+            log.close()
+        return
     if not enabled:
         yield None
         return
@@ -73,3 +81,57 @@ def stderr_is_terminal() -> bool:
         return sys.stderr is not None and sys.stderr.isatty()
     except (AttributeError, ValueError):
         return False
+
+
+LOG_INTERVAL_S = 60.0
+"""Seconds between the progress lines of :class:`LogProgress` (``BEAMSLIDER_PROGRESS_INTERVAL_S`` overrides)."""
+
+
+class LogProgress:
+    """Progress for a log file (standard error not a terminal): a line on standard error at most
+    every :data:`LOG_INTERVAL_S` seconds, ``beamslider: map 12/112 pts (11 %), 3.0 min elapsed,
+    about 25 min left``; nothing for a run shorter than that. tqdm-like: ``update(n)``,
+    ``total``, ``refresh()``, ``close()``; ``at(done, total)`` is the core's monitor callback."""
+
+    def __init__(self, total: float, desc: str, unit: str, interval_s: Optional[float] = None) -> None:
+        if interval_s is None:
+            try:
+                interval_s = float(os.environ.get("BEAMSLIDER_PROGRESS_INTERVAL_S", LOG_INTERVAL_S))
+            except ValueError:
+                interval_s = LOG_INTERVAL_S
+        self.total, self.desc, self.unit, self.interval_s = total, desc, unit, interval_s
+        self.n = 0.0
+        self.t0 = self._last = time.monotonic()
+
+    def at(self, done: float, total: Optional[float] = None) -> None:
+        if total:
+            self.total = total
+        self.n = done
+        now = time.monotonic()
+        if now - self._last >= self.interval_s:
+            self._last = now
+            self._line(now)
+
+    def update(self, n: float = 1) -> None:
+        self.at(self.n + n)
+
+    def refresh(self) -> None:
+        pass
+
+    def close(self) -> None:
+        pass
+
+    def _line(self, now: float) -> None:
+        elapsed = now - self.t0
+        frac = self.n / self.total if self.total else 0.0
+        count = f"{self.n:.0f}/{self.total:.0f}" if self.unit in ("pts", "fit", "table", "pt", "designs") else f"{self.n:.2f}/{self.total:.2f}"
+        left = f", about {_minutes(elapsed * (1 - frac) / frac)} left" if 0 < frac < 1 else ""
+        try:
+            print(f"beamslider: {self.desc} {count} {self.unit} ({100 * frac:.0f} %), {_minutes(elapsed)} elapsed{left}",
+                  file=sys.stderr, flush=True)
+        except (OSError, ValueError):
+            pass
+
+
+def _minutes(seconds: float) -> str:
+    return f"{seconds:.0f} s" if seconds < 120 else f"{seconds / 60:.1f} min"

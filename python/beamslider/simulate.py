@@ -16,7 +16,7 @@ import numpy as np
 from . import _core
 from .params import Parameters, native, resolve
 from ._util import MAX_INT, number, positive_int, progress_bar  # noqa: F401 (MAX_INT: part of this module's face)
-from .trajectory import (COLUMNS, MEMORY_FRACTION, available_memory, check_memory, check_out,  # noqa: F401
+from .trajectory import (COLUMNS, MEMORY_FRACTION, available_memory, check_disk, check_memory, check_out,  # noqa: F401
                          read_trajectory, recorded_size)
 
 MODELS = ("fs", "pcs", "beam")
@@ -257,6 +257,8 @@ def simulate(
     target = check_out(out, overwrite, need_folder=_on_start is None)  # the hook may make the folder
     if target is None:
         check_memory(t_end, p.dt_s, record_every, max_memory)
+    else:
+        check_disk(target, t_end, p.dt_s, record_every)
     stream = target
     if target is not None and target.suffix.lower() == ".parquet":
         stream = target.with_name(f".{target.name}.partial-{os.getpid()}.npz")

@@ -128,6 +128,31 @@ def check_memory(t_end: float, dt: float, record_every: int, max_memory: Optiona
             "shorten t_end")
 
 
+CSV_BYTES_PER_VALUE = 25
+"""Most bytes of one value in a trajectory CSV (``-1.2345678901234567e-05,``)."""
+
+
+def check_disk(target: Path, t_end: float, dt: float, record_every: int) -> None:
+    """Refuse, before the run, a streamed recording larger than the free space of its folder
+    (the CSV at its widest, the binary formats at 8 bytes a value)."""
+    import shutil
+
+    per_value = CSV_BYTES_PER_VALUE if target.suffix.lower() == ".csv" else 8
+    need = recorded_size(t_end, dt=dt, record_every=record_every) // 8 * per_value
+    folder = target.parent
+    while not folder.exists() and folder != folder.parent:  # a folder still to be made: its parent's disk
+        folder = folder.parent
+    try:
+        free = shutil.disk_usage(folder).free
+    except OSError:
+        return
+    if need > free:
+        raise ValueError(
+            f"invalid parameter `t_end` = {t_end:g}: with record_every = {record_every} the run would write about "
+            f"{_gb(need)} to {target.parent}, which has {_gb(free)} free; raise record_every, shorten t_end or "
+            "write elsewhere")
+
+
 def read_trajectory(path: Union[str, "os.PathLike[str]"]) -> Mapping[str, np.ndarray]:
     """The columns of a trajectory file written by :func:`simulate` (``out=``) or the CLI, by
     channel name (``t_s``, ``w_4L7_m``, ...), read lazily at bounded memory: an ``.npz`` is

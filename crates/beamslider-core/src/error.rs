@@ -61,8 +61,19 @@ impl Error {
     pub fn invalid(field: &str, value: impl std::fmt::Display, allowed: &str) -> Self {
         Error::InvalidParameter {
             field: field.to_string(),
-            value: value.to_string(),
+            value: short_value(value.to_string()),
             allowed: allowed.to_string(),
         }
     }
+}
+
+/// A value for a message in short form: a number printed with more than 17 digits (`1e300` as
+/// 301 digits) is written as `1e300`.
+fn short_value(text: String) -> String {
+    if text.len() > 24
+        && let Ok(x) = text.parse::<f64>()
+    {
+        return format!("{x:e}");
+    }
+    text
 }

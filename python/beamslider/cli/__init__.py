@@ -24,9 +24,11 @@ from __future__ import annotations
 
 import argparse
 import os
+import signal
 import sys
+import threading
 import warnings
-from typing import Optional, Sequence
+from typing import Any, Optional, Sequence
 
 from .. import _core
 from .._mpl import PlotDependencyError
@@ -83,11 +85,35 @@ EXIT_BROKEN_PIPE = 141
 tool killed by it)."""
 
 
+class Terminated(KeyboardInterrupt):
+    """SIGTERM or SIGHUP, raised as Ctrl-C is: every writer's clean-up runs (partial files
+    removed, finished rows kept) and the command exits with 128 + the signal's number."""
+
+    def __init__(self, signum: int) -> None:
+        super().__init__(signum)
+        self.signum = signum
+
+
+def _raise_terminated(signum: int, _frame: Any) -> None:
+    raise Terminated(signum)
+
+
+def _catch_termination() -> None:
+    """SIGTERM and SIGHUP end a command as Ctrl-C does (in the main thread only)."""
+    if threading.current_thread() is not threading.main_thread():
+        return
+    for name in ("SIGTERM", "SIGHUP"):
+        sig = getattr(signal, name, None)
+        if sig is not None and signal.getsignal(sig) in (signal.SIG_DFL, None):
+            signal.signal(sig, _raise_terminated)
+
+
 def main(argv: Optional[Sequence[str]] = None) -> int:
     """Entry point of the ``beamslider`` console script."""
     words = list(sys.argv[1:] if argv is None else argv)
     args = build_parser(words[0] if words else None).parse_args(words)
     warnings.simplefilter("ignore", RuntimeWarning)  # run faults are reported by the commands
+    _catch_termination()
     try:
         code = args.func(args)
         sys.stdout.flush()  # a closed pipe shows here, not at interpreter exit
@@ -97,7 +123,10 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         # does (status 128 + 13), and send what is left to /dev/null so the exit flush is silent.
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return EXIT_BROKEN_PIPE
-    except KeyboardInterrupt:
+    except KeyboardInterrupt as e:
+        if isinstance(e, Terminated):
+            print(f"beamslider: terminated ({signal.Signals(e.signum).name})", file=sys.stderr)
+            return 128 + e.signum
         print("beamslider: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
     except (UserError, ValueError, OverflowError, _core.SimulationError) as e:

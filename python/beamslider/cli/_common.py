@@ -139,6 +139,21 @@ def out_dir(args: argparse.Namespace) -> Path:
     return out
 
 
+def _finished(existing: Sequence[Path]) -> str:
+    """Whether the earlier run of these files finished, as its JSON summary says (``complete``)."""
+    for path in existing:
+        if path.suffix == ".json":
+            try:
+                complete = json.loads(path.read_text(encoding="utf-8")).get("complete")
+            except (OSError, ValueError, AttributeError):
+                continue
+            if complete is False:
+                return f" that did not finish ({path.name} says complete: false)"
+            if complete is True:
+                return " that finished"
+    return ""
+
+
 def plan_outputs(args: argparse.Namespace, names: Sequence[str]) -> Path:
     """Check, before anything runs, that the output folder can be made and that none of the files
     ``names`` exists (unless ``--force``). Creates nothing: the folder is made when the first file
@@ -155,7 +170,7 @@ def plan_outputs(args: argparse.Namespace, names: Sequence[str]) -> Path:
         existing = [out / n for n in names if (out / n).exists()]
         if existing:
             more = f" (and {len(existing) - 1} more)" if len(existing) > 1 else ""
-            raise UserError(f"{existing[0]}{more} exists from an earlier run: pass --force to overwrite, "
+            raise UserError(f"{existing[0]}{more} exists from an earlier run{_finished(existing)}: pass --force to overwrite, "
                             "or choose another folder with --out DIR")
     return out
 

@@ -5,12 +5,11 @@ from __future__ import annotations
 
 import argparse
 import math
-import sys
 import time
 from typing import Any, List, Tuple
 
 from ..params import Parameters
-from ._common import UserError, add_common, out_dir, positive
+from ._common import UserError, add_common, add_force, out_dir, plan_outputs, positive
 
 
 def add_parser(sub: Any) -> None:
@@ -32,6 +31,7 @@ def add_parser(sub: Any) -> None:
                          "sqrt(max(chi2 - E[chi2], 0)/n) (0.3), else 'unexplained'")
     sp.add_argument("--seed", type=int, default=0, help="noise seed of the paper's synthetic case (0)")
     add_common(sp, window=False)
+    add_force(sp)
     sp.set_defaults(func=cmd_discover)
 
     sp = sub.add_parser(
@@ -50,7 +50,12 @@ def add_parser(sub: Any) -> None:
                          "is; without it the model at exactly the truth repeats the data's chaotic realisation "
                          "(0; e.g. 0.0015, abs(DS) <= 0.05)")
     add_common(sp, model_options=False, window=False)
+    add_force(sp)
     sp.set_defaults(func=cmd_synthesize)
+
+
+REPORT_FILES = ("updated.toml", "report.json", "report.md", "gap.png", "backbone.png", "slider.png")
+"""What ``beamslider discover`` writes (:func:`beamslider.discover.write_report`)."""
 
 
 def _s0_offset(text: str) -> float:
@@ -86,8 +91,9 @@ def cmd_discover(args: argparse.Namespace) -> int:
     effects = [e.strip() for e in args.effects.split(",") if e.strip()] if args.effects else None
     if not (0 < args.gap_ratio <= 1):
         raise UserError(f"--gap-ratio {args.gap_ratio}: must be in (0, 1]")
+    plan_outputs(args, REPORT_FILES)  # nothing replaced without --force, before the fit runs
     t0 = time.perf_counter()
-    prog = args.progress if args.progress is not None else sys.stderr.isatty()
+    prog = args.progress  # None: a bar on a terminal, a line now and then in a log
     if args.enma and args.measured:
         # Joint fit over the beam (ENMA) and slider (runs) features.
         baseline = Parameters.from_toml(args.params) if args.params else Parameters()
@@ -123,6 +129,12 @@ def cmd_synthesize(args: argparse.Namespace) -> int:
     from .. import discover as dc
 
     truth = Parameters.from_toml(args.truth) if args.truth else Parameters()
+    if args.kind == "enma":
+        plan_outputs(args, ["enma_data.csv"])
+    else:
+        from ..discover.synthesize import measured_file_name
+
+        plan_outputs(args, [measured_file_name(f, a, s0) for f, a, s0 in _points(args.points)])
     out = out_dir(args)
     if args.kind == "enma":
         data = dc.synthesize_enma(truth, seed=args.seed, repeats=args.repeats)

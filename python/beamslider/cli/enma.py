@@ -10,7 +10,7 @@ from typing import Any, Dict
 
 from .. import enma
 from ..params import Parameters
-from ._common import UserError, add_common, axis_values, out_dir, positive, write_json
+from ._common import UserError, add_common, add_force, axis_values, out_dir, plan_outputs, positive, write_json
 
 
 def add_parser(sub: Any) -> None:
@@ -32,12 +32,14 @@ def add_parser(sub: Any) -> None:
                     help="independently noisy repetitions of the virtual up-and-down run (default 1)")
     sp.add_argument("--seed", type=int, default=0, help="noise seed (0)")
     add_common(sp, window=False)
+    add_force(sp)
     sp.set_defaults(func=cmd_enma)
 
 
 def cmd_enma(args: argparse.Namespace) -> int:
     baseline = (Parameters.from_toml(args.params) if args.params
                 else Parameters(k_r_nm_per_rad=math.inf, k_t_n_per_m=math.inf))
+    plan_outputs(args, ([] if args.data else ["enma_data.csv"]) + ["enma_updated.toml", "enma_report.json", "enma_report.md", "enma.png"])
     t0 = time.perf_counter()
     if args.data:
         if args.truth or args.levels or args.noise_frequency or args.repeats != 1:

@@ -62,6 +62,8 @@ def cmd_map(args: argparse.Namespace) -> int:
             config = Path(args.config).read_text(encoding="utf-8")
         except FileNotFoundError:
             raise UserError(f"{args.config}: no such file") from None
+        except UnicodeDecodeError as e:
+            raise UserError(f"{args.config}: not a TOML map configuration (not UTF-8 text: {e.reason} at byte {e.start})") from None
         if any(v is not None for v in (args.f_ex, args.a_ex, args.s0, args.t_end, args.params, args.dt)):
             raise UserError("--config replaces --f-ex/--a-ex/--s0/--t-end/--params/--dt: put them in the TOML file")
     else:

@@ -11,6 +11,7 @@ from pathlib import Path
 from typing import Any, Callable, Dict, Optional
 
 from ..simulate import simulate
+from ..trajectory import check_disk
 from ._common import figure, out_dir, params_from_args, plan_outputs, positive, report, write_json_atomic
 from ._files import run_stem, simulation_summary
 from ._manifold import (add_operating_point, add_run_options, check_manifold_args, manifold_name,
@@ -95,6 +96,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         require_pyarrow()  # the extra named before anything is written
     data_name = f"{stem}.{args.format}"
     plan_outputs(args, [data_name, f"{stem}.json", f"{stem}.png"] + ([man_name] if man_name else []))
+    check_disk(Path(args.out) / data_name, args.t_end, p.dt_s, args.record_every)  # before anything is written
     out = Path(args.out)
     written = [out / data_name, out / f"{stem}.json", out / f"{stem}.png"]
     started: Dict[str, Any] = {}
@@ -126,6 +128,11 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     except BaseException:
         if "manifold" in started:
             started["manifold"].cancel()
+        # Interrupted (Ctrl-C, SIGTERM, SIGHUP) or failed: the core has removed the partial data
+        # file; the summary stays and says "complete": false (plot and a re-run say the run did
+        # not finish); the manifold, whole or not, goes with the run.
+        if man_name:
+            (out / man_name).unlink(missing_ok=True)
         raise
     preload, background = started["preload"], started.get("manifold")
     summary.update({"data": data_name, "format": args.format, "complete": True})

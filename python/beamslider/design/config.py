@@ -12,7 +12,7 @@ from typing import Any, Dict, List, Optional, Tuple, Union
 
 import numpy as np
 
-from .. import _toml
+from .. import _core, _toml
 from ..maps import map_config_dict
 from ..params import Parameters
 from ..study.config import Uncertain, sample
@@ -188,6 +188,10 @@ class DesignConfig:
         if not (self.f_step_hz > 0 and self.f_hi_hz > self.f_lo_hz):
             raise ValueError(f"invalid band: need f_lo_hz < f_hi_hz and f_step_hz > 0, got "
                              f"[{self.f_lo_hz}, {self.f_hi_hz}] step {self.f_step_hz}")
+        span = (self.f_hi_hz - self.f_lo_hz) / self.f_step_hz
+        if not (math.isfinite(self.f_lo_hz) and math.isfinite(self.f_hi_hz) and span < _core.MAX_AXIS_VALUES):
+            raise ValueError(f"invalid band: [{self.f_lo_hz:.6g}, {self.f_hi_hz:.6g}] Hz in steps of {self.f_step_hz:.6g} Hz "
+                             f"gives {span:.3g} frequencies, at most {_core.MAX_AXIS_VALUES}")
         if not self.a_min_h >= 0:
             raise ValueError(f"invalid parameter `a_min_h` = {self.a_min_h}: must be >= 0")
         if not 0.0 <= self.quantile <= 1.0:
@@ -347,6 +351,9 @@ class DesignConfig:
             if not (isinstance(b, (list, tuple)) and len(b) == 2):
                 raise ValueError(f"invalid design variable `{name}` = {b!r}: give its bounds as [low, high]")
             variables.append(Variable(name, b[0], b[1]))
+        for sec in sections:
+            if sec in d and not isinstance(d[sec], dict):
+                raise ValueError(f"`{sec}` in the design configuration must be a table ([{sec}]), got {d[sec]!r:.40}")
         for sec, keys in sections.items():
             if keys is None or sec not in d:
                 continue
@@ -361,6 +368,10 @@ class DesignConfig:
         for name, spec in unc.items():
             if not isinstance(spec, dict):
                 raise ValueError(f"[uncertain.{name}] must be a table (distribution = ..., low = ..., ...)")
+            fields_ = {f.name for f in dataclasses.fields(Uncertain)} - {"name"}
+            bad = sorted(set(spec) - fields_)
+            if bad:
+                raise ValueError(f"unknown key {bad[0]!r} in [uncertain.{name}]: allowed are {', '.join(sorted(fields_))}")
             uncertain.append(Uncertain(name=name, **spec))
         return cls(variables=variables, params=Parameters.from_dict(d.get("params", {})),
                    criteria=dict(d.get("criteria", {})), uncertain=uncertain, **kw)

@@ -350,4 +350,6 @@ def optimise(config: Union[DesignConfig, str, Path], *, out: Optional[Union[str,
         if writer is not None:
             writer.close()
         if own:
-            client.close()
+            from .._dask import close_client
+
+            close_client(client)

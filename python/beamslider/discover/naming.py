@@ -19,9 +19,17 @@ from .models import (ENSEMBLE_S0_SHIFTS, Ensemble, Modes, batch_slider_features,
                      ensemble_slider_features, levels_for, measured_slider_features, simulated_enma_features)
 
 
-def _progress_bar(enabled: bool, total: int, desc: str):
-    """tqdm bar of fits done / to do (a no-op object when disabled)."""
+def _progress_bar(enabled: Optional[bool], total: int, desc: str):
+    """tqdm bar of fits done / to do (a no-op object when disabled; ``None``: the bar on a
+    terminal, else a line now and then, :class:`beamslider._util.LogProgress`)."""
     from tqdm.auto import tqdm
+
+    from .._util import LogProgress, stderr_is_terminal
+
+    if enabled is None:
+        if not stderr_is_terminal():
+            return LogProgress(total, desc, "fit")
+        enabled = True
 
     return tqdm(total=total, desc=desc, unit="fit", disable=not enabled, leave=False)
 

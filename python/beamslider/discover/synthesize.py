@@ -35,6 +35,12 @@ def synthesize_enma(truth: Optional[Parameters] = None, *, levels_m_s2: Sequence
     return noisy
 
 
+def measured_file_name(f_ex: float, a_ex: float, s0: float) -> str:
+    """The name of a measured file of this operating point (the laboratory's convention)."""
+    s0_txt = f"{s0:g}".replace("0.", "0")
+    return f"Time_VelBeam_RelSliderPos__fex{f_ex:g}_ExcLevel{a_ex:g}_RelSliderPosStart{s0_txt}.txt"
+
+
 def synthesize_slider_runs(truth: Optional[Parameters] = None, *, operating_points: Sequence[Tuple[float, float, float]],
                            duration_s: float, out_dir: PathLike, noise_s: float = 0.001,
                            noise_velocity_m_s: float = 0.002, seed: int = 0, s0_offset: float = 0.0) -> List[Path]:
@@ -60,8 +66,7 @@ def synthesize_slider_runs(truth: Optional[Parameters] = None, *, operating_poin
         t = r.t
         vel = np.gradient(r.w, t) + noise_velocity_m_s * rng.standard_normal(len(t))
         s = r.s + noise_s * rng.standard_normal(len(t))
-        s0_txt = f"{op.s0:g}".replace("0.", "0")
-        path = out / f"Time_VelBeam_RelSliderPos__fex{op.f_ex:g}_ExcLevel{op.a_ex:g}_RelSliderPosStart{s0_txt}.txt"
+        path = out / measured_file_name(op.f_ex, op.a_ex, op.s0)
         write_measurement(path, t, vel, s)
         paths.append(path)
     return paths

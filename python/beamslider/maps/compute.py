@@ -7,6 +7,7 @@ resumed by any of them (same configuration, same results file).
 from __future__ import annotations
 
 import dataclasses
+import errno
 import json
 import math
 import os
@@ -24,7 +25,7 @@ from ..simulate import SimulationResult
 from ..superslow import DesignLaw, DriftLaw, builtin_law, law_json, predict
 from .config import MIN_CLASSIFY_S, RESULTS_FILE, criteria_toml, map_config_toml
 from ..tables import MapTable, RowList
-from .read import rows_to_table
+from .read import check_rows, grid_points, rows_to_table, saved_grid
 
 __all__ = ["Classification", "classify", "classify_result", "operating_map", "predicted_map", "run_map_config",
            "super_slow_signals"]
@@ -104,6 +105,37 @@ def _map_chunk(config_toml: str, jobs: List[tuple], threads: int) -> List[str]:
     return core.run_map_chunk(config_toml, jobs, threads=threads)
 
 
+def _watching(results: Optional[Path], bar: Any) -> Any:
+    """The progress callback of a map: stops the run at the next row when its output folder has
+    vanished (deleted or moved: the rows would go to a file nobody can read), then ``bar``."""
+    if results is None:
+        return bar
+
+    def watch(done: float, total: float) -> None:
+        if not results.exists():
+            raise FileNotFoundError(errno.ENOENT, "the map's results file vanished during the run (output folder deleted "
+                                    "or moved): stopped; run the map again into a folder that stays", str(results))
+        if bar is not None:
+            bar(done, total)
+
+    return watch
+
+
+def _widened(canonical: str, folder: Path) -> str:
+    """The configuration to save on a resume: its grid axes joined with those of the map.toml in
+    ``folder`` (a resume over fewer points must not narrow what a later --extend-to extends)."""
+    try:
+        old = _toml.loads((folder / "map.toml").read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return canonical
+    new = _toml.loads(canonical)
+    grid = dict(new.get("grid", {}))
+    for axis, values in old.get("grid", {}).items():
+        if axis in grid and isinstance(values, list) and isinstance(grid[axis], list):
+            grid[axis] = sorted({float(v) for v in values} | {float(v) for v in grid[axis]})
+    return _toml.dumps({**new, "grid": grid})
+
+
 def run_map_config(config_toml: str, *, out: Optional[Union[str, Path]] = None, resume: bool = False,
                    threads: Optional[int] = None, progress: Optional[bool] = False, extend: bool = False,
                    report: bool = True, scheduler: Any = None, scheduler_file: Optional[str] = None,
@@ -130,21 +162,27 @@ def run_map_config(config_toml: str, *, out: Optional[Union[str, Path]] = None, 
         from .._dask import connect
 
         client, own = connect(scheduler, scheduler_file)  # before any file is written
+    saved_toml = canonical
     try:
         if out is not None:
             folder = Path(out)
             results = folder / RESULTS_FILE
             # Everything the run would refuse is refused before map.toml is (over)written.
             _core.check_map(config_toml, out=results, resume=resume, extend=extend)
+            if (resume or extend) and results.exists():
+                old_grid = saved_grid(folder)
+                check_rows(results, None if old_grid is None else old_grid | grid_points(canonical))
+                saved_toml = _widened(canonical, folder)
             folder.mkdir(parents=True, exist_ok=True)
         # Takes the results file's lock (a second writer fails here), writes the header.
         run = _core.MapRun(config_toml, out=results, resume=resume, extend=extend)
         try:
             if out is not None:
-                (Path(out) / "map.toml").write_text(canonical, encoding="utf-8")
+                (Path(out) / "map.toml").write_text(saved_toml, encoding="utf-8")
             with progress_bar(progress, total, "map", "pts") as bar:
+                watch = _watching(results, bar)
                 if client is None:
-                    run.run_local(threads=None if threads is None else int(threads), progress=bar)
+                    run.run_local(threads=None if threads is None else int(threads), progress=watch)
                 else:
                     from .._dask import run_chunks
 
@@ -154,8 +192,8 @@ def run_map_config(config_toml: str, *, out: Optional[Union[str, Path]] = None, 
 
                     def on_rows(rows: List[str]) -> None:
                         run.append(rows)
-                        if bar is not None:
-                            bar(run.done, total)
+                        if watch is not None:
+                            watch(run.done, total)
 
                     run_chunks(client, _map_chunk, chunks, tag="map" + canonical, on_rows=on_rows,
                                max_retries=max_retries)
@@ -164,7 +202,9 @@ def run_map_config(config_toml: str, *, out: Optional[Union[str, Path]] = None, 
             run.close()
     finally:
         if own:
-            client.close()
+            from .._dask import close_client
+
+            close_client(client)
     table = rows_to_table([json.loads(r) for r in rows])
     if report and (extend or extended):
         t_end = float(_toml.loads(canonical)["duration_s"])

@@ -44,8 +44,17 @@ def _number(name: str, v: Any) -> Any:
         return int(v)
     try:
         return float(v)
-    except (TypeError, ValueError):
-        raise ValueError(f"invalid parameter `{name}` = {v!r}: expected a number") from None
+    except (TypeError, ValueError, OverflowError):
+        raise ValueError(f"invalid parameter `{name}` = {v!r:.40}: expected a number") from None
+
+
+def _integer(name: str, v: Any) -> int:
+    """An integer count for a TOML value (a ValueError naming ``name`` for anything else)."""
+    if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, np.integer)):
+        if isinstance(v, float) and v.is_integer():
+            return int(v)
+        raise ValueError(f"invalid parameter `{name}` = {v!r:.40}: expected an integer")
+    return int(v)
 
 
 def criteria_toml(criteria: Optional[Dict[str, float]]) -> Optional[str]:
@@ -58,9 +67,9 @@ def map_config_dict(params: Optional[Parameters] = None, *, f_ex: Any, a_ex: Any
                     t_end: float = 120.0, record_every: int = 20, dt_s: Optional[float] = None,
                     criteria: Optional[Dict[str, float]] = None) -> Dict[str, Any]:
     """The tables of a map configuration (see :func:`map_config_toml`)."""
-    d: Dict[str, Any] = {"duration_s": float(t_end), "record_every": int(record_every)}
+    d: Dict[str, Any] = {"duration_s": float(_number("duration_s", t_end)), "record_every": _integer("record_every", record_every)}
     if dt_s is not None:
-        d["dt_s"] = float(dt_s)
+        d["dt_s"] = float(_number("dt_s", dt_s))
     d["grid"] = {key: _axis(name, values) for key, name, values in
                  (("f_ex_hz", "f_ex", f_ex), ("a_ex_m_s2", "a_ex", a_ex), ("s0", "s0", s0))}
     d["params"] = _toml.loads(resolve(params).toml_text())

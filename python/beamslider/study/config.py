@@ -64,7 +64,7 @@ class Uncertain:
             raise ValueError(f"invalid uncertain parameter {self.name!r}: not a continuous quantity")
         need = {"uniform": ("low", "high"), "normal": ("mean", "std"), "truncnormal": ("mean", "std", "low", "high"),
                 "lognormal": ("median", "sigma"), "triangular": ("low", "mode", "high")}
-        if self.distribution not in need:
+        if not isinstance(self.distribution, str) or self.distribution not in need:
             raise ValueError(f"invalid distribution {self.distribution!r} of `{self.name}`: must be one of "
                              f"{', '.join(DISTRIBUTIONS)}")
         for k in need[self.distribution]:
@@ -80,7 +80,15 @@ class Uncertain:
             raise ValueError(f"uncertain `{self.name}`: need median > 0 and sigma > 0")
         if self.distribution == "triangular" and not lo <= self.mode <= hi:
             raise ValueError(f"uncertain `{self.name}`: need low <= mode <= high")
+        stray = [k for k in ("low", "high", "mean", "std", "median", "sigma", "mode")
+                 if k not in need[self.distribution] and getattr(self, k) is not None]
+        if stray:
+            raise ValueError(f"uncertain `{self.name}` ({self.distribution}) does not use `{stray[0]}`: "
+                             f"a {self.distribution} distribution takes {', '.join(need[self.distribution])}")
         if self.levels is not None:
+            if not isinstance(self.levels, (list, tuple, np.ndarray)) or not all(
+                    isinstance(x, (int, float, np.integer, np.floating)) and not isinstance(x, bool) for x in self.levels):
+                raise ValueError(f"uncertain `{self.name}`: `levels` = {self.levels!r} must be a non-empty list of finite numbers")
             lv = [float(x) for x in self.levels]
             if not lv or not all(math.isfinite(x) for x in lv):
                 raise ValueError(f"uncertain `{self.name}`: `levels` must be a non-empty list of finite numbers")
@@ -179,7 +187,8 @@ class StudyConfig:
                 raise ValueError(f"invalid parameter `{k}` = {v!r}: must be an integer >= 1")
         if isinstance(self.seed, bool) or not isinstance(self.seed, (int, np.integer)) or self.seed < 0:
             raise ValueError(f"invalid parameter `study.seed` = {self.seed!r}: must be an integer >= 0")
-        if not all(0.0 <= q <= 1.0 for q in self.quantiles):
+        if not isinstance(self.quantiles, (list, tuple)) or not all(
+                isinstance(q, (int, float)) and not isinstance(q, bool) and 0.0 <= q <= 1.0 for q in self.quantiles):
             raise ValueError(f"invalid parameter `study.quantiles` = {self.quantiles!r}: must lie in [0, 1]")
         if isinstance(self.params, dict):
             self.params = Parameters.from_dict(self.params)
@@ -204,6 +213,9 @@ class StudyConfig:
     def from_dict(cls, d: Dict[str, Any]) -> "StudyConfig":
         """From the parsed TOML tables."""
         d = dict(d)
+        for key in ("grid", "study", "params", "criteria", "uncertain"):
+            if not isinstance(d.get(key, {}), dict):
+                raise ValueError(f"`{key}` in the study configuration must be a table ([{key}]), got {d[key]!r:.40}")
         allowed = {"duration_s", "record_every", "dt_s", "grid", "params", "criteria", "study", "uncertain"}
         unknown = sorted(set(d) - allowed)
         if unknown:
@@ -325,11 +337,17 @@ def _axis_values(name: str, v: Any) -> List[float]:
             start, stop, step = float(v["start"]), float(v["stop"]), float(v["step"])
         except (KeyError, TypeError, ValueError):
             raise ValueError(f"invalid `{name}`: a range needs numbers start, stop, step") from None
-        if not (step > 0 and stop >= start):
-            raise ValueError(f"invalid `{name}`: need start <= stop and step > 0")
-        n = int(math.floor((stop - start) / step + 1e-3)) + 1
+        if not (step > 0 and stop >= start and math.isfinite(start) and math.isfinite(stop)):
+            raise ValueError(f"invalid `{name}`: need finite start <= stop and step > 0")
+        span = (stop - start) / step
+        if not span < _core.MAX_AXIS_VALUES:
+            raise ValueError(f"invalid `{name}`: {span:.3g} values, at most {_core.MAX_AXIS_VALUES}")
+        n = int(math.floor(span + 1e-3)) + 1
         return [round((start + i * step) * 1e9) / 1e9 for i in range(n)]
-    arr = np.atleast_1d(np.asarray(v, dtype=float))
+    try:
+        arr = np.atleast_1d(np.asarray(v, dtype=float))
+    except (TypeError, ValueError, OverflowError):
+        raise ValueError(f"invalid `{name}`: give a number, a list or {{start, stop, step}}") from None
     if arr.ndim != 1 or arr.size == 0:
         raise ValueError(f"invalid `{name}`: give a number, a list or {{start, stop, step}}")
     return [float(x) for x in arr]

@@ -76,7 +76,9 @@ def run_study(config: Union[StudyConfig, str, "os.PathLike[str]"], *, out: Optio
                           on_chunk=on_chunk)
     finally:
         if own:
-            client.close()
+            from .._dask import close_client
+
+            close_client(client)
 
 
 def _run_study(config: StudyConfig, map_toml: str, points: List[StudyPoint], by_index: dict, *, out: Any,

@@ -321,37 +321,56 @@ def design_law_from_dict(d: dict, source: str = "design law") -> DesignLaw:
             raise ValueError(f"invalid parameter `law`: {source} lacks `{key}` ({kind.__name__ if isinstance(kind, type) else 'number'})")
         return d[key]
 
-    if d.get("kind") != DESIGN_KIND:
+    if not isinstance(d, dict) or d.get("kind") != DESIGN_KIND:
         raise ValueError(f"invalid parameter `law`: {source} is not a {DESIGN_KIND} file")
-    if need("version", int) > 1:
+    allowed = {"kind", "version", "box", "base", "k_sets", "scales", "jam_gap_ratio", "loo", "designs"}
+    unknown = sorted(set(d) - allowed)
+    if unknown:
+        raise ValueError(f"invalid parameter `law`: {source} has the unknown key `{unknown[0]}` (a design law has {', '.join(sorted(allowed))})")
+    if isinstance(d.get("version"), bool) or need("version", int) < 1:
+        raise ValueError(f"invalid parameter `law`: {source} has version = {d['version']!r}, expected an integer >= 1")
+    if d["version"] > 1:
         raise ValueError(f"invalid parameter `law`: {source} has version {d['version']}, newer than this build (1)")
     box = []
     for i, c in enumerate(need("box", list)):
         try:
             box.append(BoxCoordinate(str(c["name"]), float(c["low"]), float(c["high"]), bool(c.get("log", False))))
-        except (KeyError, TypeError, ValueError):
+        except (KeyError, TypeError, ValueError, OverflowError):
             raise ValueError(f"invalid parameter `law`: {source}: box[{i}] needs name, low, high") from None
+        if not (math.isfinite(box[-1].low) and math.isfinite(box[-1].high) and box[-1].low < box[-1].high):
+            raise ValueError(f"invalid parameter `law`: {source}: box[{i}] needs finite low < high")
     names = [c.name for c in box]
     if sorted(names) != sorted(c.name for c in DESIGN_BOX):
         raise ValueError(f"invalid parameter `law`: {source}: box coordinates {names}, this version knows {[c.name for c in DESIGN_BOX]}")
-    scales = np.asarray(need("scales", list), dtype=float)
-    if scales.shape != (len(box),) or not np.all(scales > 0):
+    try:
+        scales = np.asarray(need("scales", list), dtype=float)
+    except (TypeError, ValueError, OverflowError):
+        raise ValueError(f"invalid parameter `law`: {source}: `scales` needs {len(box)} numbers") from None
+    if scales.shape != (len(box),) or not np.all(scales > 0) or not np.all(np.isfinite(scales)):
         raise ValueError(f"invalid parameter `law`: {source}: `scales` needs {len(box)} values > 0")
     k = need("k_sets", int)
+    jam = d.get("jam_gap_ratio", JAM_GAP_RATIO)
+    if isinstance(jam, bool) or not isinstance(jam, (int, float)) or not math.isfinite(jam) or jam < 1:
+        raise ValueError(f"invalid parameter `law`: {source} has jam_gap_ratio = {jam!r}, expected a finite number >= 1")
+    if not isinstance(d.get("loo", {}), dict):
+        raise ValueError(f"invalid parameter `law`: {source}: `loo` needs a table")
     designs = need("designs", list)
     if k < 1 or len(designs) < k:
         raise ValueError(f"invalid parameter `law`: {source}: needs k_sets >= 1 and at least k_sets designs")
     xs, laws = [], []
     for i, e in enumerate(designs):
-        if not isinstance(e, dict) or not isinstance(e.get("x"), dict) or not isinstance(e.get("law"), dict):
+        if not isinstance(e, dict) or set(e) != {"x", "law"} or not isinstance(e.get("x"), dict) or not isinstance(e.get("law"), dict):
             raise ValueError(f"invalid parameter `law`: {source}: designs[{i}] needs `x` and `law`")
-        missing = [n for n in names if not isinstance(e["x"].get(n), (int, float))]
+        missing = [n for n in names if isinstance(e["x"].get(n), bool) or not isinstance(e["x"].get(n), (int, float))
+                   or not math.isfinite(e["x"][n])]
         if missing:
             raise ValueError(f"invalid parameter `law`: {source}: designs[{i}].x lacks {missing}")
         xs.append({n: float(e["x"][n]) for n in names})
         laws.append(law_from_dict(e["law"], f"{source}: designs[{i}].law"))
-    base = Parameters.from_dict(need("base", dict))
-    jam = d.get("jam_gap_ratio", JAM_GAP_RATIO)
+    try:
+        base = Parameters.from_dict(need("base", dict))
+    except (TypeError, ValueError) as e:
+        raise ValueError(f"invalid parameter `law`: {source}: base: {str(e).splitlines()[0][:160]}") from None
     return DesignLaw(box=tuple(box), base=base, x=xs, laws=laws, scales=scales, k_sets=k, jam_gap_ratio=float(jam),
                      loo=d.get("loo", {}))
 
@@ -360,8 +379,8 @@ def load_design_law(path: Union[str, os.PathLike]) -> DesignLaw:
     """Read a design law written by :func:`save_design_law`."""
     try:
         d = json.loads(Path(path).read_text(encoding="utf-8"))
-    except json.JSONDecodeError as e:
-        raise ValueError(f"invalid parameter `law`: {path} is not JSON ({e})") from None
+    except (json.JSONDecodeError, UnicodeDecodeError, RecursionError) as e:
+        raise ValueError(f"invalid parameter `law`: {path} is not JSON ({str(e)[:120]})") from None
     if not isinstance(d, dict):
         raise ValueError(f"invalid parameter `law`: {path} is not a {DESIGN_KIND} file")
     return design_law_from_dict(d, str(path))
@@ -396,8 +415,8 @@ def load_law(path: Union[str, os.PathLike]) -> Union[DriftLaw, DesignLaw]:
     """Read a drift law (:func:`save_drift_law`) or a design law (:func:`save_design_law`) by its ``kind``."""
     try:
         d = json.loads(Path(path).read_text(encoding="utf-8"))
-    except (json.JSONDecodeError, UnicodeDecodeError) as e:
-        raise ValueError(f"invalid parameter `law`: {path} is not a beamslider law file ({e})") from None
+    except (json.JSONDecodeError, UnicodeDecodeError, RecursionError) as e:
+        raise ValueError(f"invalid parameter `law`: {path} is not a beamslider law file ({str(e)[:120]})") from None
     if isinstance(d, dict) and d.get("kind") == DESIGN_KIND:
         return design_law_from_dict(d, str(path))
     return law_from_dict(d, str(path))

@@ -401,9 +401,27 @@ def load_drift_law(path: Union[str, os.PathLike]) -> DriftLaw:
     law is read by :func:`beamslider.superslow.load_law`)."""
     try:
         d = json.loads(Path(path).read_text(encoding="utf-8"))
-    except json.JSONDecodeError as e:
-        raise ValueError(f"invalid parameter `law`: {path} is not a beamslider drift law file ({e})") from None
+    except (json.JSONDecodeError, UnicodeDecodeError, RecursionError) as e:
+        raise ValueError(f"invalid parameter `law`: {path} is not a beamslider drift law file ({str(e)[:120]})") from None
     return law_from_dict(d, str(path))
+
+
+LAW_VERSION = 1
+"""The newest law-file version this build reads (a newer one is refused, as the core does)."""
+
+LAW_REQUIRED = ("x", "v", "mean", "std", "lo", "hi", "points", "k", "rho_c")
+"""Keys every law file must have: what an evaluation reads and has no safe default (the shipped
+laws, python/beamslider/data/default_law.json and the compact laws of the design law, have them)."""
+
+LAW_KEYS = frozenset(("kind", "version", "features", "groups", "loo", "loo_per_point", "fit_time_s", "jump_down_s",
+                      "rho_bracket", "loo_s_dn", "s_up_shift", "loo_s_up", "mono_x", "mono_y", "mono_std", "mono_groups",
+                      "lift_c", "lift_c_per_point", "v_resolution", "outside_design") + LAW_REQUIRED)
+"""Every key of a law file (:func:`law_dict`); anything else is refused (a typing error)."""
+
+
+def _short(x) -> str:
+    r = repr(x)
+    return r if len(r) <= 40 else r[:37] + "..."
 
 
 def law_from_dict(d: dict, source: str = "the law") -> DriftLaw:
@@ -411,17 +429,46 @@ def law_from_dict(d: dict, source: str = "the law") -> DriftLaw:
     malformed one)."""
     if not isinstance(d, dict) or d.get("kind") != "beamslider drift law":
         raise ValueError(f"invalid parameter `law`: {source} is not a beamslider drift law file")
-    if list(d.get("features", [])) != list(FEATURES):
+    version = d.get("version")
+    if isinstance(version, bool) or not isinstance(version, int) or version < 1:
+        raise ValueError(f"invalid parameter `law`: {source} has version = {version!r}, expected an integer >= 1")
+    if version > LAW_VERSION:
+        raise ValueError(f"invalid parameter `law`: {source} has version {version}, newer than this build ({LAW_VERSION})")
+    unknown = sorted(set(d) - LAW_KEYS)
+    if unknown:
+        raise ValueError(f"invalid parameter `law`: {source} has the unknown key `{unknown[0]}` "
+                         f"(a law file has {', '.join(sorted(LAW_KEYS))})")
+    if d.get("features") != list(FEATURES):
         raise ValueError(f"invalid parameter `law`: {source} uses the features {d.get('features')}, this version {list(FEATURES)}")
-    # The scalars the core checks too (superslow::law::DriftLaw::from_json_str), with its bounds.
-    for key, default, ok, rule in (("rho_c", 0.0, lambda x: x >= 0, ">= 0"), ("jump_down_s", 0.0, lambda x: 0 <= x <= 0.5, "in [0, 0.5]"),
-                                   ("lift_c", 1.0, lambda x: 0 < x <= 2, "in (0, 2]"), ("v_resolution", 0.0, lambda x: 0 <= x < 0.1, "in [0, 0.1)")):
-        x = d.get(key, default)
-        if not (isinstance(x, (int, float)) and math.isfinite(x) and ok(x)):
-            raise ValueError(f"invalid parameter `law`: {source} has {key} = {x!r}, must be finite and {rule}")
-    for key in ("x", "v", "mean", "std", "lo", "hi", "points", "k"):
+    for key in LAW_REQUIRED:
         if key not in d:
             raise ValueError(f"invalid parameter `law`: {source} lacks `{key}`")
+    # The scalars the core checks too (superslow::law::DriftLaw::from_json_str), with its bounds;
+    # rho_c (the forcing-ratio rule of the jump down, docs/model.md §6.4) has no safe default.
+    for key, default, ok, rule in (("rho_c", 0.0, lambda x: x >= 0, ">= 0"), ("jump_down_s", 0.0, lambda x: 0 <= x <= 0.5, "in [0, 0.5]"),
+                                   ("lift_c", 1.0, lambda x: 0 < x <= 2, "in (0, 2]"), ("v_resolution", 0.0, lambda x: 0 <= x < 0.1, "in [0, 0.1)"),
+                                   ("s_up_shift", 0.0, lambda x: True, "a number")):
+        x = d.get(key, default)
+        if isinstance(x, bool) or not (isinstance(x, (int, float)) and math.isfinite(x) and ok(x)):
+            raise ValueError(f"invalid parameter `law`: {source} has {key} = {x!r}, must be finite and {rule}")
+    k = d["k"]
+    if isinstance(k, bool) or not isinstance(k, int) or k < 1:
+        raise ValueError(f"invalid parameter `law`: {source} has k = {k!r}, expected an integer >= 1")
+    for key in ("x", "v"):
+        if not isinstance(d[key], dict) or not d[key] or not all(b in ("L", "H") for b in d[key]):
+            raise ValueError(f"invalid parameter `law`: {source} has {key} = {_short(d[key])}, expected a table of the branches L and H")
+    for key in ("x", "v", "groups"):
+        if key in d and isinstance(d[key], dict) and not all(isinstance(val, list) for val in d[key].values()):
+            raise ValueError(f"invalid parameter `law`: {source}: `{key}` needs a list per branch")
+    for key in ("mean", "std", "lo", "hi", "points", "mono_x", "mono_y", "mono_std", "mono_groups", "loo_per_point", "loo_s_dn",
+                "loo_s_up", "lift_c_per_point", "outside_design"):
+        if key in d and not isinstance(d[key], list):
+            raise ValueError(f"invalid parameter `law`: {source} has {key} = {_short(d[key])}, expected a list")
+    for key in ("loo", "rho_bracket", "groups"):
+        if key in d and not isinstance(d[key], dict):
+            raise ValueError(f"invalid parameter `law`: {source} has {key} = {_short(d[key])}, expected a table")
+    if not all(isinstance(p, list) and len(p) == 2 for p in d["points"]):
+        raise ValueError(f"invalid parameter `law`: {source}: `points` needs [f_ex, a_ex] pairs")
     arr = lambda v: np.asarray(v, dtype=float)  # noqa: E731
     n = len(FEATURES)
     try:
@@ -439,8 +486,8 @@ def law_from_dict(d: dict, source: str = "the law") -> DriftLaw:
             lift_c=float(d.get("lift_c", 1.0)), lift_c_per_point=d.get("lift_c_per_point", []),
             v_resolution=float(d.get("v_resolution", 0.0)), outside_design=[str(r) for r in d.get("outside_design", [])],
         )
-    except (AttributeError, TypeError, ValueError) as e:
-        raise ValueError(f"invalid parameter `law`: {source} is malformed ({e})") from None
+    except (AttributeError, TypeError, ValueError, OverflowError) as e:
+        raise ValueError(f"invalid parameter `law`: {source} is malformed ({str(e).splitlines()[0][:120]})") from None
 
 
 DriftLaw.save = save_drift_law  # type: ignore[attr-defined]

@@ -280,6 +280,7 @@ impl Model {
         if !(opts.duration_s.is_finite() && opts.duration_s >= 0.0) {
             return Err(Error::invalid("duration_s", opts.duration_s, "must be finite and >= 0"));
         }
+        crate::signal::output::step_count("duration_s", opts.duration_s, self.params.dt_s)?;
         if opts.record_every == 0 {
             return Err(Error::invalid("record_every", 0, "must be >= 1"));
         }
@@ -528,7 +529,7 @@ fn run_n_generic<const N: usize>(run: Run<'_>, rec: &mut dyn Recorder, monitor: 
     rec.begin(&names)?;
     let mut row = Vec::with_capacity(names.len());
     let mut st = to_state_n::<N>(start);
-    let steps = (opts.duration_s / dt).round() as u64;
+    let steps = crate::signal::output::step_count("duration_s", opts.duration_s, dt)?;
     let t_end = t0 + steps as f64 * dt;
     if resume.is_none() {
         writer.fill(&mut row, t0, &st, &stepper.last_p);

@@ -195,7 +195,19 @@ impl MapConfig {
         if self.record_every == 0 {
             return Err(Error::invalid("record_every", 0, "must be >= 1"));
         }
+        let dt = self.effective_params().dt_s;
         self.effective_params().validate()?;
+        crate::signal::output::step_count("duration_s", self.duration_s, dt)?;
+        // The classification samples the run every record_every steps; its envelopes need a
+        // sample at least every half bin (docs/model.md §8).
+        let max_sample = 0.5 * crate::signal::envelope_stream::BIN_S;
+        if self.record_every as f64 * dt > max_sample {
+            return Err(Error::invalid(
+                "record_every",
+                self.record_every,
+                &format!("samples every {:.3e} s at dt = {dt:e} s; the classification needs a sample at least every {max_sample} s (record_every <= {})", self.record_every as f64 * dt, (max_sample / dt).floor()),
+            ));
+        }
         self.points()?;
         Ok(())
     }

@@ -14,6 +14,9 @@ pub struct Excitation {
     pub a_ex_m_s2: f64,
 }
 
+/// Lowest excitation frequency [Hz]: below it the base displacement a_ex/Ω² overflows.
+pub const MIN_F_EX_HZ: f64 = 1e-3;
+
 impl Excitation {
     /// Excitation at f_ex [Hz] and a_ex [m/s²].
     pub fn new(f_ex_hz: f64, a_ex_m_s2: f64) -> Self {
@@ -24,6 +27,10 @@ impl Excitation {
     pub fn validate(&self) -> Result<()> {
         if !(self.f_ex_hz.is_finite() && self.f_ex_hz > 0.0) {
             return Err(Error::invalid("f_ex_hz", self.f_ex_hz, "must be finite and > 0"));
+        }
+        // The base displacement a_ex/Ω² (docs/model.md §3) must stay a number: f_ex >= 1 mHz.
+        if self.f_ex_hz < MIN_F_EX_HZ {
+            return Err(Error::invalid("f_ex_hz", self.f_ex_hz, &format!("must be >= {MIN_F_EX_HZ} Hz (a period of at most {} s)", 1.0 / MIN_F_EX_HZ)));
         }
         if !(self.a_ex_m_s2.is_finite() && self.a_ex_m_s2 >= 0.0) {
             return Err(Error::invalid("a_ex_m_s2", self.a_ex_m_s2, "must be finite and >= 0"));

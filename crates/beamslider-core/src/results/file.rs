@@ -93,7 +93,13 @@ pub fn read_results(path: &Path) -> Result<ResultsFile> {
     let mut pending_bad: Option<usize> = None;
     loop {
         line.clear();
-        let n = r.read_line(&mut line).map_err(|e| io_err(path, e))?;
+        let n = r.read_line(&mut line).map_err(|e| {
+            if e.kind() == std::io::ErrorKind::InvalidData {
+                Error::invalid("results file", format!("{}:{}", path.display(), lineno + 1), "this line is not UTF-8 text (not a result row)")
+            } else {
+                io_err(path, e)
+            }
+        })?;
         if n == 0 {
             break;
         }
