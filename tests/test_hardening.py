@@ -171,6 +171,23 @@ def test_resume_with_fewer_points_keeps_the_whole_grid_in_map_toml(small_map, tm
 # --- counts derived from user numbers are bounded before the run ----------------------------
 
 
+@pytest.mark.parametrize("kw, words", [
+    (dict(t_end=1e300), ["t_end", "1e+300", "limit of 1e+11"]),
+    (dict(t_end=1.0, params=dict(dt_s=1e-300)), ["t_end", "limit of 1e+11"]),
+    (dict(f_ex=1e-200), ["f_ex_hz", "1e-200", ">= 0.001 Hz"]),
+])
+def test_absurd_durations_and_rates_are_refused_by_name(kw, words):
+    kw = dict(kw)
+    params = kw.pop("params", None)
+    args = {**dict(f_ex=124.0, a_ex=14.0, t_end=0.01), **kw}
+    if params:
+        args["params"] = beamslider.Parameters(**params)
+    with pytest.raises(ValueError) as e:
+        beamslider.simulate(**args)
+    for w in words:
+        assert w in str(e.value), (w, str(e.value))
+
+
 def test_absurd_values_are_printed_short(tmp_path):
     r = run_cli("simulate", "--f-ex", "1e300", "--a-ex", "14", "--t-end", "0.01", "--out", "o", cwd=tmp_path)
     line = _one_line_error(r, "f_ex_hz", "1e300")

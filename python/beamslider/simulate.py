@@ -176,6 +176,10 @@ class ManifoldResult:
     """Parameters of the runs."""
 
 
+MAX_STEPS = 100_000_000_000
+"""Most time steps of one run (the core's ``signal::output::MAX_STEPS``): a longer duration is refused before the run."""
+
+
 def simulate(
     params: Optional[Parameters] = None,
     *,
@@ -244,6 +248,9 @@ def simulate(
     if not (np.isfinite(t_end) and t_end >= 0):
         raise ValueError(f"invalid parameter `t_end` = {t_end!r}: the duration (duration_s) must be finite and >= 0 s")
     steps = int(_core.recorded_rows(t_end, p.dt_s, 1)) - 1
+    if steps > MAX_STEPS:
+        raise ValueError(f"invalid parameter `t_end` = {t_end:.6g}: {t_end / p.dt_s:.3e} time steps of dt = {p.dt_s:g} s, "
+                         f"more than the limit of {MAX_STEPS:.0e} ({MAX_STEPS * p.dt_s:.3e} s)")
     if steps < 1:
         raise ValueError(f"invalid parameter `t_end` = {t_end!r}: must be at least one time step (dt = {p.dt_s:g} s); "
                          "a run of zero length records only the start state")

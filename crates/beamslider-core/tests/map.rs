@@ -57,6 +57,16 @@ fn config_errors_name_the_field() {
 }
 
 #[test]
+fn durations_and_sample_spacings_that_cannot_finish_are_refused_by_name() {
+    let e = MapConfig::from_toml_str("duration_s = 1e300\n[grid]\nf_ex_hz = 100.0\na_ex_m_s2 = 4.0\n").unwrap_err().to_string();
+    assert!(e.contains("duration_s") && e.contains("1e300") && e.contains("1e11"), "{e}");
+    let e = MapConfig::from_toml_str("record_every = 100000000\n[grid]\nf_ex_hz = 100.0\na_ex_m_s2 = 4.0\n").unwrap_err().to_string();
+    assert!(e.contains("record_every") && e.contains("record_every <= 5000"), "{e}");
+    let e = MapConfig::from_toml_str("[grid]\nf_ex_hz = 1e-200\na_ex_m_s2 = 4.0\n").unwrap_err().to_string();
+    assert!(e.contains("f_ex_hz"), "{e}");
+}
+
+#[test]
 fn rows_do_not_depend_on_the_number_of_threads() {
     let cfg = small(2.0);
     let cancel = AtomicBool::new(false);

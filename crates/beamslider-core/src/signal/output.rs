@@ -502,6 +502,20 @@ mod tests {
     use super::*;
 
     #[test]
+    fn step_counts_are_checked_and_bounded() {
+        assert_eq!(step_count("duration_s", 120.0, 2e-5).unwrap(), 6_000_000);
+        assert_eq!(step_count("duration_s", 0.0, 2e-5).unwrap(), 0);
+        for (t, dt) in [(1e300, 2e-5), (1.0, 1e-300), (f64::INFINITY, 2e-5), (f64::NAN, 2e-5), (-1.0, 2e-5)] {
+            let e = step_count("duration_s", t, dt).unwrap_err().to_string();
+            assert!(e.contains("duration_s"), "{e}");
+            assert!(e.len() < 300, "{e}");
+        }
+        assert!(step_count("duration_s", 1e300, 2e-5).unwrap_err().to_string().contains("1e11"));
+        // The row count saturates instead of wrapping (a wrapped count read as zero rows).
+        assert_eq!(recorded_rows(1e30, 1e-10, 1), u64::MAX);
+    }
+
+    #[test]
     fn npy_header_is_aligned_and_parsable() {
         for n in [0, 1, 12345, u64::MAX / 8] {
             let h = npy_header(n);
