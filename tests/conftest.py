@@ -44,6 +44,17 @@ def cli_command() -> List[str]:
     return [found] if found else [sys.executable, "-m", "beamslider"]
 
 
+def default_signals() -> None:
+    """``preexec_fn`` of a child that a test signals: SIGINT, SIGTERM and SIGHUP at their defaults,
+    as in a terminal (a test runner started with ``nohup`` or in the background would otherwise
+    hand them on ignored, and the command rightly keeps ignoring them)."""
+    import signal
+
+    for name in ("SIGINT", "SIGTERM", "SIGHUP"):
+        if hasattr(signal, name):
+            signal.signal(getattr(signal, name), signal.SIG_DFL)
+
+
 def run_cli(*args: str, cwd: Path, timeout: float = 120) -> subprocess.CompletedProcess:
     env = dict(os.environ, MPLBACKEND="Agg")
     return subprocess.run([*cli_command(), *args], cwd=cwd, capture_output=True, text=True, timeout=timeout, env=env)

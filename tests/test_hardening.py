@@ -14,7 +14,7 @@ import beamslider
 from beamslider import _toml
 from beamslider.maps import map_config_toml, read_map
 from beamslider.superslow import default_drift_law, load_drift_law, load_law
-from conftest import run_cli
+from conftest import default_signals, run_cli
 
 ROOT = Path(__file__).resolve().parent.parent
 DEFAULT_LAW = ROOT / "python" / "beamslider" / "data" / "default_law.json"
@@ -249,11 +249,11 @@ def test_signal_during_simulate_leaves_no_file_under_a_final_name(tmp_path, sig)
     import subprocess
     import time
 
-    from conftest import cli_command
+    from conftest import cli_command, default_signals
 
     env = dict(os.environ, MPLBACKEND="Agg")
     p = subprocess.Popen([*cli_command(), "simulate", "--f-ex", "124", "--a-ex", "14", "--t-end", "600", "--out", "o",
-                          "--no-progress"], cwd=tmp_path, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, env=env)
+                          "--no-progress"], cwd=tmp_path, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, env=env, preexec_fn=default_signals)
     t0 = time.time()
     while time.time() - t0 < 60 and not any(f.name.startswith(".") for f in (tmp_path / "o").glob(".*partial*")):
         time.sleep(0.01)
@@ -278,7 +278,7 @@ def test_long_commands_report_progress_in_a_log(tmp_path, monkeypatch, capsys):
     import os
     import subprocess
 
-    from conftest import cli_command
+    from conftest import cli_command, default_signals
 
     env = dict(os.environ, MPLBACKEND="Agg", BEAMSLIDER_PROGRESS_INTERVAL_S="0")
     r = subprocess.run([*cli_command(), "map", "--f-ex", "120,124", "--a-ex", "14", "--t-end", "0.3", "-j", "1", "--out", "m"],
@@ -323,12 +323,12 @@ def test_vanished_output_folder_stops_the_map_at_the_next_row(tmp_path):
     import subprocess
     import time
 
-    from conftest import cli_command
+    from conftest import cli_command, default_signals
 
     env = dict(os.environ, MPLBACKEND="Agg")
     p = subprocess.Popen([*cli_command(), "map", "--f-ex", "100:130:2", "--a-ex", "14", "--t-end", "40", "-j", "1",
                           "--no-progress", "--out", "m"], cwd=tmp_path, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
-                         text=True, env=env)
+                         text=True, env=env, preexec_fn=default_signals)
     results = tmp_path / "m" / "map.jsonl"
     t0 = time.time()
     while time.time() - t0 < 60 and not (results.exists() and len(results.read_text().splitlines()) >= 2):
@@ -374,14 +374,14 @@ def test_cluster_map_ends_when_the_cluster_is_lost_and_resumes_locally(tmp_path,
     import time
 
     pytest.importorskip("distributed")
-    from conftest import cli_command
+    from conftest import cli_command, default_signals
 
     env = dict(os.environ, MPLBACKEND="Agg", BEAMSLIDER_CLUSTER_TIMEOUT_S="8")
     grid = ["--f-ex", "100:130:2", "--a-ex", "14", "--t-end", "6", "--no-progress"]
     sched, worker, sched_file = _start_cluster(tmp_path, env)
     try:
         p = subprocess.Popen([*cli_command(), "map", *grid, "--scheduler-file", str(sched_file), "--chunk-size", "2",
-                              "--out", "m"], cwd=tmp_path, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, env=env)
+                              "--out", "m"], cwd=tmp_path, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, env=env, preexec_fn=default_signals)
         results = tmp_path / "m" / "map.jsonl"
         t0 = time.time()
         while time.time() - t0 < 120 and not (results.exists() and len(results.read_text().splitlines()) >= 3):
@@ -417,14 +417,14 @@ def test_ctrl_c_on_a_cluster_map_whose_scheduler_died_exits_130_without_a_traceb
     import time
 
     pytest.importorskip("distributed")
-    from conftest import cli_command
+    from conftest import cli_command, default_signals
 
     env = dict(os.environ, MPLBACKEND="Agg")
     sched, worker, sched_file = _start_cluster(tmp_path, env)
     try:
         p = subprocess.Popen([*cli_command(), "map", "--f-ex", "100:130:2", "--a-ex", "14", "--t-end", "6", "--no-progress",
                               "--scheduler-file", str(sched_file), "--chunk-size", "2", "--out", "m"],
-                             cwd=tmp_path, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, env=env)
+                             cwd=tmp_path, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, env=env, preexec_fn=default_signals)
         results = tmp_path / "m" / "map.jsonl"
         t0 = time.time()
         while time.time() - t0 < 120 and not (results.exists() and len(results.read_text().splitlines()) >= 3):
@@ -496,12 +496,13 @@ def test_killed_study_or_design_resumes_to_the_uninterrupted_rows(tmp_path, unin
     import subprocess
     import time
 
-    from conftest import cli_command
+    from conftest import cli_command, default_signals
 
     (tmp_path / f"{cmd}.toml").write_text(KILL_STUDY if cmd == "study" else KILL_DESIGN)
     env = dict(os.environ, MPLBACKEND="Agg")
     args = [*cli_command(), cmd, "--config", f"{cmd}.toml", "--out", "o", "--no-progress"]
-    p = subprocess.Popen(args, cwd=tmp_path, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, env=env)
+    p = subprocess.Popen(args, cwd=tmp_path, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, env=env,
+                         preexec_fn=default_signals)
     results = tmp_path / "o" / f"{cmd}.jsonl"
     t0 = time.time()
     while time.time() - t0 < 120 and not (results.exists() and len(results.read_text().splitlines()) >= 3):

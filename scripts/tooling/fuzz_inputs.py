@@ -164,7 +164,7 @@ def fuzz(name: str, examples: int, seed: int, tmp: Path, case_timeout: float = 2
          on_finding: Callable[[bytes, BaseException], None] = None) -> int:
     """Run ``examples`` cases against reader ``name``; returns the count run (raises on a finding
     when ``on_finding`` is None)."""
-    from hypothesis import HealthCheck, given, settings
+    from hypothesis import HealthCheck, Phase, given, settings
     from hypothesis import seed as hseed
     from hypothesis import strategies as st
 
@@ -175,7 +175,7 @@ def fuzz(name: str, examples: int, seed: int, tmp: Path, case_timeout: float = 2
 
     @hseed(seed)
     @settings(max_examples=examples, deadline=None, database=None, derandomize=False,
-              suppress_health_check=list(HealthCheck), phases=("generate",))
+              suppress_health_check=list(HealthCheck), phases=(Phase.generate,))
     @given(st.data())
     def case(data):
         if data.draw(st.booleans(), label="tree"):
