@@ -187,11 +187,12 @@ class DesignLaw:
         """Training designs in the unit box, shape (designs, coordinates)."""
         return np.array([[c.unit(xi[c.name]) for c in self.box] for xi in self.x])
 
-    def outside(self, params: Parameters) -> List[str]:
-        """Why ``params`` lie outside what the law covers ([] inside)."""
+    def outside(self, params: Parameters, coordinates: Optional[Dict[str, float]] = None) -> List[str]:
+        """Why ``params`` lie outside what the law covers ([] inside); ``coordinates``: theirs, if
+        already computed (:func:`design_coordinates` builds the beam for ω₁)."""
         why = [f"`{f}` = {getattr(params, f)!r} differs from the base design's {getattr(self.base, f)!r}"
                for f in FIXED if getattr(params, f) != getattr(self.base, f)]
-        c = design_coordinates(params, self.base)
+        c = coordinates if coordinates is not None else design_coordinates(params, self.base)
         for b in self.box:
             if not (b.low - 1e-9 * max(1.0, abs(b.low)) <= c[b.name] <= b.high + 1e-9 * max(1.0, abs(b.high))):
                 why.append(f"{b.name} = {c[b.name]:.6g} outside the box [{b.low:g}, {b.high:g}]")
@@ -205,7 +206,7 @@ class DesignLaw:
         c = design_coordinates(params, self.base)
         u = np.array([b.unit(c[b.name]) for b in self.box])
         o, w = _weights(self.unit, u, self.scales, self.k_sets)
-        why = self.outside(params)
+        why = self.outside(params, c)
         note = ("design outside the drift law's box: " + "; ".join(why)) if why else None
         d0 = float(np.sqrt((((self.unit[o[0]] - u) / self.scales) ** 2).sum()))
         if d0 < 1e-6:  # a training design (to rounding of its coordinates): its own law, unchanged
