@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import asyncio
 import hashlib
+import logging
 import os
 import time
 from typing import Any, Callable, List, Optional, Sequence, Tuple
@@ -109,7 +110,7 @@ def _silence_distributed() -> None:
     reconnecting): the run reports the loss in one line of its own."""
     import logging
 
-    for name in ("distributed", "distributed.client"):
+    for name in ("distributed", "distributed.client", "tornado.application"):
         logging.getLogger(name).setLevel(logging.CRITICAL + 1)
 
 
@@ -141,9 +142,17 @@ def run_chunks(client: Any, func: Callable[..., List[str]], chunks: Sequence[tup
         _silence_distributed()
         return ClusterLostError(f"the Dask cluster is lost ({why}): stopped after {done} of {len(chunks)} chunks; {resume_hint}")
 
+    # Ctrl-C inside distributed's `sync` schedules a cancel callback on the client's event loop
+    # that can fail there (a NameError in some distributed releases) and log a traceback from the
+    # loop's thread; the run reports the interruption itself, so that logger is quiet while the
+    # chunks run and stays quiet when the run is interrupted.
+    loop_log = logging.getLogger("tornado.application")
+    loop_level = loop_log.level
+    loop_log.setLevel(logging.CRITICAL + 1)
     futures = {submit(k, 0): (k, 0) for k in range(len(chunks))}
     done = 0
     trouble_since: Optional[float] = None
+    interrupted = False
     try:
         while futures:
             try:
@@ -186,9 +195,15 @@ def run_chunks(client: Any, func: Callable[..., List[str]], chunks: Sequence[tup
                 done += 1
                 if on_chunk is not None:
                     on_chunk(done, len(chunks))
+    except KeyboardInterrupt:
+        interrupted = True
+        _silence_distributed()
+        raise
     finally:
         for fut in list(futures):
             _quietly(fut.cancel)
+        if not interrupted:
+            loop_log.setLevel(loop_level)
 
 
 def _workers(client: Any) -> int:
