@@ -303,8 +303,8 @@ fn map_with_failing_points_finishes_the_others_and_lists_failures() {
 fn sigterm_and_sigint_during_a_map_then_resume_loses_nothing() {
     let d = tmp("signals");
     let cfg = d.join("map-config.toml");
-    std::fs::write(&cfg, "duration_s = 1.0\nrecord_every = 10\n[grid]\nf_ex_hz = { start = 110.0, stop = 130.0, step = 2.0 }\na_ex_m_s2 = [6.0, 14.0]\n").unwrap();
-    let n_points = 22;
+    std::fs::write(&cfg, "duration_s = 10.0\nrecord_every = 10\n[grid]\nf_ex_hz = { start = 110.0, stop = 130.0, step = 2.0 }\na_ex_m_s2 = [6.0, 14.0]\n").unwrap();
+    let n_points = 22; // 10 s a point: long enough (about 1 s in all on one thread) for the signal to land mid-map on an idle machine
     let full = d.join("full");
     let st = bin().args(["map", "-q", "-j", "2", "-c"]).arg(&cfg).arg("-o").arg(&full).stdout(Stdio::null()).status().unwrap();
     assert!(st.success());
