@@ -312,7 +312,20 @@ fn sigterm_and_sigint_during_a_map_then_resume_loses_nothing() {
     assert_eq!(reference.len(), n_points);
     for signal in ["TERM", "INT"] {
         let out = d.join(signal);
-        let mut child = bin().args(["map", "-q", "-j", "1", "-c"]).arg(&cfg).arg("-o").arg(&out).stdout(Stdio::null()).stderr(Stdio::null()).spawn().unwrap();
+        let mut cmd = bin();
+        cmd.args(["map", "-q", "-j", "1", "-c"]).arg(&cfg).arg("-o").arg(&out).stdout(Stdio::null()).stderr(Stdio::null());
+        // A test runner started in the background (or under nohup) passes SIGINT/SIGHUP on
+        // ignored, and the binary rightly keeps an ignored signal ignored: give the child the
+        // default dispositions, as a terminal would.
+        use std::os::unix::process::CommandExt;
+        unsafe {
+            cmd.pre_exec(|| {
+                libc::signal(libc::SIGINT, libc::SIG_DFL);
+                libc::signal(libc::SIGTERM, libc::SIG_DFL);
+                Ok(())
+            });
+        }
+        let mut child = cmd.spawn().unwrap();
         let results = out.join("map.jsonl");
         let t0 = Instant::now();
         while std::fs::read_to_string(&results).map(|t| t.lines().count()).unwrap_or(0) < 4 && t0.elapsed() < Duration::from_secs(60) {
