@@ -27,6 +27,24 @@ except ImportError:  # hypothesis is part of the extra "test"; without it those 
 GOLDEN_DIR = REPO / "crates" / "beamslider-core" / "tests" / "data"
 
 
+def _terminal_signals() -> None:
+    """The test process itself as in a terminal: a runner started with ``nohup`` or in the
+    background hands SIGINT (and SIGTERM, SIGHUP) on ignored, and Python then installs no Ctrl-C
+    handler, so the tests of Ctrl-C (in-process and in children, which inherit an ignored signal)
+    would test nothing. Ignored dispositions go back to Python's defaults."""
+    import signal
+
+    if signal.getsignal(signal.SIGINT) == signal.SIG_IGN:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+    for name in ("SIGTERM", "SIGHUP"):
+        sig = getattr(signal, name, None)
+        if sig is not None and signal.getsignal(sig) == signal.SIG_IGN:
+            signal.signal(sig, signal.SIG_DFL)
+
+
+_terminal_signals()
+
+
 def read_golden(name: str) -> Dict[str, np.ndarray]:
     """A reference CSV of the core's test data: '#' comments, a header line, comma-separated."""
     lines = [ln for ln in (GOLDEN_DIR / name).read_text().splitlines() if ln.strip() and not ln.startswith("#")]
