@@ -1,10 +1,13 @@
 #!/usr/bin/env bash
 # The tests.
 #
-#   bash scripts/test.sh          the fast check: the Rust tests (cargo test), then the fast pytest
-#                                 suite (not `slow`, not `heavy`) on one Python (python3)
-#   bash scripts/test.sh --full   the full matrix (.ci/run): pytest on Python 3.9 and 3.13, the
-#                                 `heavy` tests on the newest; fails unless both are found
+#   bash scripts/test.sh          the fast check: the Rust tests (cargo test of the libraries,
+#                                 binaries and test targets), then the fast pytest suite (not
+#                                 `slow`, `heavy` or `docs`) on one Python (python3)
+#   bash scripts/test.sh --full   the full matrix (.ci/run): also builds the core's examples and
+#                                 runs its doc tests; pytest on Python 3.9 and 3.13 with the `docs`
+#                                 tests (site build, README and guide examples) on both and the
+#                                 `heavy` fits on the newest; fails unless both are found
 #
 # The Rust core is compiled once, in the ci-wheel profile of Cargo.toml (release code generation
 # without link-time optimisation), for both the cargo tests and the abi3 wheel (valid for every
@@ -22,7 +25,7 @@ FULL=0
 for arg in "$@"; do
   case "$arg" in
     --full) FULL=1 ;;
-    -h|--help) sed -n '2,17p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -h|--help) sed -n '2,20p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
     *) echo "scripts/test.sh: unknown option $arg (--full, --help)" >&2; exit 2 ;;
   esac
 done
@@ -107,7 +110,11 @@ for py in "${PYTHONS[@]}"; do
 done
 
 # 2. The Rust tests, in the wheel's profile.
-cargo test --workspace --profile "$PROFILE"
+if [ "$FULL" = 1 ]; then
+  cargo test --workspace --profile "$PROFILE"
+else
+  cargo test --workspace --profile "$PROFILE" --lib --bins --tests  # not the examples' builds, not doc tests
+fi
 stamp "cargo test passed"
 [ -f pyproject.toml ] || exit 0
 
@@ -131,8 +138,11 @@ for i in "${!PYTHONS[@]}"; do
   fi
   # Same version number as an earlier build: replace the package itself.
   "$venv/bin/python" -m pip install --quiet --disable-pip-version-check --force-reinstall --no-deps "$WHEEL"
-  marks="not slow and not heavy"
-  if [ "$FULL" = 1 ] && [ "$i" = $(( ${#PYTHONS[@]} - 1 )) ]; then marks="not slow"; fi
+  marks="not slow and not heavy and not docs"
+  if [ "$FULL" = 1 ]; then
+    marks="not slow and not heavy"
+    if [ "$i" = $(( ${#PYTHONS[@]} - 1 )) ]; then marks="not slow"; fi
+  fi
   stamp "pytest on Python $ver ($venv), -m '$marks'"
   # Run from a neutral directory so that the installed package (not ./python) is imported.
   (cd tests && "../$venv/bin/python" -m pytest -q -p no:cacheprovider -m "$marks" \

@@ -94,6 +94,7 @@ def test_inside_the_box_not_extrapolated(shipped):
     assert not any(r["extrapolated"] for r in rows)
 
 
+@pytest.mark.heavy
 def test_refit_reproduces_the_shipped_law(shipped):
     """The shipped file is the fit of its own designs and laws (length scales by leave-one-design-out)."""
     again = fit_design_law(shipped.x, shipped.laws, base=shipped.base)

@@ -35,6 +35,7 @@ def test_every_page_of_the_site_exists():
         assert (DOCS / f"{page}.md").exists(), page
 
 
+@pytest.mark.docs
 def test_site_builds_without_warnings(tmp_path):
     pytest.importorskip("myst_parser")
     pytest.importorskip("furo")

@@ -94,6 +94,7 @@ def run_block(lang: str, code: str, cwd: Path, name: str) -> subprocess.Complete
     return subprocess.run(cmd, cwd=cwd, env=env, capture_output=True, text=True, timeout=TIMEOUT_S)
 
 
+@pytest.mark.docs
 @pytest.mark.parametrize("page", PAGES, ids=lambda p: str(p.relative_to(ROOT)))
 def test_page_examples_in_order(page, workdir):
     """All blocks of one page in one test, in the page's order, in one folder."""
