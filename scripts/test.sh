@@ -60,7 +60,8 @@ else
   PYTHONS=(python3)
 fi
 
-# The test dependencies of the package (pyproject.toml, extra "test"), without the package itself.
+# The test dependencies of the package (pyproject.toml, extra "test") and its build backend, without
+# the package itself.
 test_requirements() {
   "$1" - <<'PY'
 import ast, re
@@ -91,7 +92,8 @@ def expand(reqs):
                 yield from expand(extras[e])
         else:
             yield r
-print("\n".join(dict.fromkeys([*deps, *expand(extras["test"])])))
+build = re.search(r'requires = (\[.*?\])', text.split("[build-system]", 1)[1]).group(1)
+print("\n".join(dict.fromkeys([*deps, *expand(extras["test"]), *ast.literal_eval(build)])))
 PY
 }
 
@@ -118,11 +120,27 @@ fi
 stamp "cargo test passed"
 [ -f pyproject.toml ] || exit 0
 
+wait_venv() {  # the virtual environment of PYTHONS[$1], once its installation has finished
+  local ver venv
+  ver=$("${PYTHONS[$1]}" -c 'import sys; print("%d.%d" % sys.version_info[:2])')
+  venv=target/test-venvs/py$ver
+  if ! wait "${VENV_PIDS[$1]}"; then
+    cat "target/test-venvs/py$ver.log" >&2
+    echo "scripts/test.sh: installing the test dependencies into $venv failed" >&2
+    exit 1
+  fi
+}
+
 # 3. One abi3 wheel, built by pip through maturin (as `pip install .`) in the same profile: the
-#    dependencies and the core are already compiled.
+#    dependencies and the core are already compiled. The build backend (maturin) was installed
+#    into the first test environment with the test dependencies, so pip needs no isolated build
+#    environment of its own.
+wait_venv 0
 WHEELS=target/test-wheels
 rm -rf "$WHEELS"
-MATURIN_PEP517_ARGS="--profile $PROFILE" "${PYTHONS[0]}" -m pip wheel --no-deps --disable-pip-version-check --quiet --wheel-dir "$WHEELS" .
+VENV0=target/test-venvs/py$("${PYTHONS[0]}" -c 'import sys; print("%d.%d" % sys.version_info[:2])')
+MATURIN_PEP517_ARGS="--profile $PROFILE" "$VENV0/bin/python" -m pip wheel --no-deps --no-build-isolation \
+  --disable-pip-version-check --quiet --wheel-dir "$WHEELS" .
 WHEEL=$(ls "$WHEELS"/beamslider-*.whl)
 stamp "built $(basename "$WHEEL")"
 
@@ -131,11 +149,7 @@ for i in "${!PYTHONS[@]}"; do
   py=${PYTHONS[$i]}
   ver=$("$py" -c 'import sys; print("%d.%d" % sys.version_info[:2])')
   venv=target/test-venvs/py$ver
-  if ! wait "${VENV_PIDS[$i]}"; then
-    cat "target/test-venvs/py$ver.log" >&2
-    echo "scripts/test.sh: installing the test dependencies into $venv failed" >&2
-    exit 1
-  fi
+  [ "$i" = 0 ] || wait_venv "$i"
   # Same version number as an earlier build: replace the package itself.
   "$venv/bin/python" -m pip install --quiet --disable-pip-version-check --force-reinstall --no-deps "$WHEEL"
   marks="not slow and not heavy and not docs"
