@@ -226,7 +226,7 @@ impl HbSystem {
         let (phi, dphi) = (self.beam.phi_exact(0, x), self.beam.dphi_exact(0, x));
         let m1 = 1.0 + self.mass * phi * phi + self.j_g * dphi * dphi;
         let a = amplitude_h * self.thickness / self.p47[0].abs();
-        ((self.lam[(0, 0)] + 0.75 * self.beam.hardening_b() * a * a) / m1).sqrt()
+        crate::physics::Beam::backbone_omega2(self.lam[(0, 0)], self.beam.hardening_b(), a, m1).sqrt()
     }
 
     pub(super) fn uv(&self, y: &DVector<f64>) -> (Vec<f64>, Vec<f64>) {
