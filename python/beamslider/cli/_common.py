@@ -107,6 +107,17 @@ def add_common(sp: argparse.ArgumentParser, *, model_options: bool = True, windo
         sp.add_argument("--solver", choices=["fast", "reference"], help="local contact solver (default fast)")
 
 
+def add_config_run(sp: argparse.ArgumentParser, what: str) -> None:
+    """--config and --print-config of a ``what`` configuration (study, design), and where it runs:
+    --scheduler / --scheduler-file (Dask) or --threads (local)."""
+    sp.add_argument("--config", metavar="TOML", help=f"{what} configuration (see --print-config)")
+    sp.add_argument("--print-config", action="store_true", help="print an example configuration (TOML) and exit")
+    sp.add_argument("--scheduler", metavar="ADDRESS", help="Dask scheduler address, e.g. tcp://host:8786 (default: local)")
+    sp.add_argument("--scheduler-file", metavar="FILE",
+                    help="Dask scheduler file (dask scheduler --scheduler-file FILE) instead of --scheduler")
+    sp.add_argument("--threads", "-j", type=int, metavar="N", help="local worker threads (default: one per core)")
+
+
 def add_force(sp: argparse.ArgumentParser) -> None:
     """--force."""
     sp.add_argument("--force", action="store_true",
