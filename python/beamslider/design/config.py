@@ -13,7 +13,7 @@ from typing import Any, Dict, List, Optional, Tuple, Union
 import numpy as np
 
 from .. import _core, _toml
-from ..maps import map_config_dict
+from ..maps.config import map_config_dict
 from ..params import Parameters
 from ..study.config import Uncertain, sample, uncertain_from_dict
 

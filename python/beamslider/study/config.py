@@ -11,7 +11,7 @@ from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
 import numpy as np
 
 from .. import _core, _toml
-from ..maps import map_config_dict
+from ..maps.config import map_config_dict
 from ..params import Parameters
 
 RESULTS_FILE = "study.jsonl"
