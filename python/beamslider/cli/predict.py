@@ -18,7 +18,7 @@ from ..superslow import (DEFAULT_LAW_PATH, design_coordinates, design_params, de
                          load_drift_law, save_design_law, LAW_JUMP_DOWN_N, LAW_TABLE_SETTINGS, LAW_TRAINING_POINTS, drift_table, drift_tables,
                          fit_drift_law, load_law, predict, read_drift_table, refine_jump_down, save_drift_law)
 from ._manifold import add_operating_point
-from ._common import (DEFAULT_OUT, UserError, add_common, add_force, axis_values, figure, fmt, out_dir, params_from_args,
+from ._common import (DEFAULT_OUT, UserError, add_common, axis_values, figure, fmt, out_dir, params_from_args,
                       plan_outputs, positive, print_written, write_json)
 
 DEFAULT_LAW_OUT = f"{DEFAULT_OUT}/law"
@@ -44,8 +44,7 @@ def add_parser(sub: Any) -> None:
     add_operating_point(sp, positive_level=True)
     _add_sweep(sp, ds=0.02, window_s=1.0, settle_periods=40)
     sp.add_argument("--resume", action="store_true", help="continue an existing table made with the same settings")
-    add_common(sp, window=False)
-    add_force(sp)
+    add_common(sp, window=False, force=True)
     sp.set_defaults(func=cmd_drift_table)
 
     sp = sub.add_parser(
@@ -74,8 +73,7 @@ def add_parser(sub: Any) -> None:
                          "drawn over the design box, and blend them (DIR/design_law.json; the built-in law: N = 64)")
     sp.add_argument("--design-seed", type=int, default=0, metavar="S", help="seed of the designs' Sobol' sequence (0)")
     sp.add_argument("--resume", action="store_true", help="continue the tables in --out (same settings) and refit")
-    add_common(sp, window=False, out=DEFAULT_LAW_OUT)
-    add_force(sp)
+    add_common(sp, window=False, out=DEFAULT_LAW_OUT, force=True)
     sp.set_defaults(func=cmd_fit_law)
 
     sp = sub.add_parser(
@@ -96,8 +94,7 @@ def add_parser(sub: Any) -> None:
                          "the HB manifold's else the law's forcing-ratio rule (law, with --law), or none; "
                          "auto (default): law with --law, hb with --drift")
     sp.add_argument("--d-eff", type=float, metavar="D", help="equivalent damping ratio of the HB manifold")
-    add_common(sp, window=False)
-    add_force(sp)
+    add_common(sp, window=False, force=True)
     sp.set_defaults(func=cmd_predict)
 
 
