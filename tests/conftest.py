@@ -7,6 +7,7 @@ import os
 import shutil
 import subprocess
 import sys
+import time
 from pathlib import Path
 from typing import Dict, List
 
@@ -85,3 +86,22 @@ def is_png(path: Path) -> bool:
 @pytest.fixture
 def golden():
     return read_golden
+
+
+@pytest.fixture(scope="module")
+def cluster():
+    """A Dask client on a local cluster of two worker processes (one per test module; skipped
+    without ``distributed``)."""
+    distributed = pytest.importorskip("distributed")
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
+                                  worker_dashboard_address=None) as cl, distributed.Client(cl) as client:
+        yield client
+
+
+def wait_for_lines(path: Path, n: int, timeout: float = 60.0) -> None:
+    """Wait (at most ``timeout`` seconds) until the file ``path`` has ``n`` lines (a run writing it)."""
+    t0 = time.time()
+    while time.time() - t0 < timeout:
+        if path.exists() and len(path.read_text().splitlines()) >= n:
+            break
+        time.sleep(0.005)

@@ -219,14 +219,6 @@ def test_print_config_is_valid(capsys):
 
 # --- Dask -------------------------------------------------------------------------------------
 
-@pytest.fixture(scope="module")
-def cluster():
-    distributed = pytest.importorskip("distributed")
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
-                                  worker_dashboard_address=None) as cl, distributed.Client(cl) as client:
-        yield client
-
-
 def test_dask_search_equals_local(tmp_path, cluster):
     cfg = tiny(chunk_size=1)
     local = optimise(cfg, out=tmp_path / "local", checks=False, threads=2)

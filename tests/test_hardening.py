@@ -137,26 +137,29 @@ def _copy(src: Path, dst: Path) -> Path:
     return dst
 
 
-def test_duplicated_map_row_is_refused_with_its_line(small_map, tmp_path):
+def _refused_extra_row(small_map, tmp_path, extra, message):
+    """A copy of the small map with one more row (``extra(lines)``): read_map and a resumed
+    ``beamslider map`` refuse it, naming line 5 (``message``: what read_map says)."""
     m = _copy(small_map, tmp_path / "m")
     lines = (m / "map.jsonl").read_text().splitlines(keepends=True)
-    (m / "map.jsonl").write_text("".join(lines + [lines[1]]))
-    with pytest.raises(ValueError, match=r"map.jsonl:5: a second row .*first on line 2"):
+    (m / "map.jsonl").write_text("".join(lines + [extra(lines)]))
+    with pytest.raises(ValueError, match=message):
         read_map(m)
     r = run_cli("map", "--f-ex", "120,124,128", "--a-ex", "14", "--t-end", "0.05", "--resume", "--out", "m", cwd=tmp_path)
     _one_line_error(r, "map.jsonl:5")
+
+
+def test_duplicated_map_row_is_refused_with_its_line(small_map, tmp_path):
+    _refused_extra_row(small_map, tmp_path, lambda lines: lines[1], r"map.jsonl:5: a second row .*first on line 2")
 
 
 def test_foreign_map_row_is_refused_with_its_line(small_map, tmp_path):
-    m = _copy(small_map, tmp_path / "m")
-    lines = (m / "map.jsonl").read_text().splitlines(keepends=True)
-    row = json.loads(lines[1])
-    row["f_ex_hz"] = 99.5
-    (m / "map.jsonl").write_text("".join(lines + [json.dumps(row) + "\n"]))
-    with pytest.raises(ValueError, match=r"map.jsonl:5: a row of a point not on the map's grid .*f_ex = 99.5"):
-        read_map(m)
-    r = run_cli("map", "--f-ex", "120,124,128", "--a-ex", "14", "--t-end", "0.05", "--resume", "--out", "m", cwd=tmp_path)
-    _one_line_error(r, "map.jsonl:5")
+    def foreign(lines):
+        row = json.loads(lines[1])
+        row["f_ex_hz"] = 99.5
+        return json.dumps(row) + "\n"
+
+    _refused_extra_row(small_map, tmp_path, foreign, r"map.jsonl:5: a row of a point not on the map's grid .*f_ex = 99.5")
 
 
 def test_resume_with_fewer_points_keeps_the_whole_grid_in_map_toml(small_map, tmp_path):

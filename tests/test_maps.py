@@ -13,7 +13,7 @@ import pytest
 
 import beamslider
 from beamslider.maps import RESULTS_FILE, map_config_toml, plot_operating_map, read_map, text_table
-from conftest import cli_command, is_png, run_cli
+from conftest import cli_command, is_png, run_cli, wait_for_lines
 
 GRID = dict(f_ex=[118.0, 120.0, 122.0, 124.0], a_ex=[6.0, 14.0], s0=0.3, t_end=2.0)
 
@@ -98,11 +98,7 @@ def test_cli_map_killed_then_resumed_from_python(tmp_path):
                              "-j", "1", "--no-progress", "--out", str(out)],
                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env)
     results = out / RESULTS_FILE
-    t0 = time.time()
-    while time.time() - t0 < 60:
-        if results.exists() and len(results.read_text().splitlines()) >= 4:
-            break
-        time.sleep(0.005)
+    wait_for_lines(results, 4)
     proc.kill()
     proc.wait()
     before = [json.loads(l) for l in results.read_text().splitlines()[1:] if l.strip().endswith("}")]

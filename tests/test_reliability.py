@@ -24,7 +24,7 @@ import beamslider
 from beamslider import MeasurementFormatError, Parameters, cli, read_measurement
 from beamslider.maps import RESULTS_FILE, map_config_toml, read_map
 from beamslider.measurement import write_measurement
-from conftest import cli_command, default_signals, run_cli
+from conftest import cli_command, default_signals, run_cli, wait_for_lines
 
 hypothesis = pytest.importorskip("hypothesis")
 from hypothesis import HealthCheck, given, settings  # noqa: E402
@@ -423,11 +423,7 @@ def test_signal_during_cli_map_then_resume(tmp_path, sig):
     proc = subprocess.Popen([*cli_command(), "map", *grid, "-j", "1", "--out", str(out)],
                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, env=env, text=True, preexec_fn=default_signals)
     results = out / RESULTS_FILE
-    t0 = time.time()
-    while time.time() - t0 < 60:
-        if results.exists() and len(results.read_text().splitlines()) >= 4:
-            break
-        time.sleep(0.005)
+    wait_for_lines(results, 4)
     proc.send_signal(sig)
     _, err = proc.communicate(timeout=30)
     assert proc.returncode != 0

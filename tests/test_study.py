@@ -205,14 +205,6 @@ def test_figures_are_drawn(tmp_path):
 # --- Dask ---------------------------------------------------------------------------------------
 
 
-@pytest.fixture(scope="module")
-def cluster():
-    distributed = pytest.importorskip("distributed")
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
-                                  worker_dashboard_address=None) as cl, distributed.Client(cl) as client:
-        yield client
-
-
 def test_dask_rows_are_bitwise_the_local_rows(tmp_path, cluster):
     cfg = tiny(samples=5)
     run_study(cfg, out=tmp_path / "local", threads=2)

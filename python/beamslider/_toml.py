@@ -41,4 +41,21 @@ def read_config_file(path: Union[str, "os.PathLike[str]"], parse: Callable[[str]
         raise ValueError(f"{os.fspath(path)}: {e}") from None
 
 
-__all__ = ["TOMLDecodeError", "dumps", "loads", "loads_config", "read_config_file"]
+__all__ = ["ConfigFile", "TOMLDecodeError", "dumps", "loads", "loads_config", "read_config_file"]
+
+
+class ConfigFile:
+    """TOML in for a configuration class with ``from_dict`` (studies, design runs): ``TOML_KIND``
+    names it in the errors."""
+
+    TOML_KIND = "configuration"
+
+    @classmethod
+    def from_toml_text(cls, text: str) -> Any:
+        """Parse the configuration's TOML text (see the class docstring)."""
+        return cls.from_dict(loads_config(text, cls.TOML_KIND))  # type: ignore[attr-defined]
+
+    @classmethod
+    def from_toml(cls, path: Union[str, "os.PathLike[str]"]) -> Any:
+        """Read the configuration's TOML file."""
+        return read_config_file(path, cls.from_toml_text)

@@ -456,37 +456,14 @@ def blocked_envelope(t: Any, w: Any, window: float = 1.0, *, block: int = 2**19,
     """|analytic signal| of a long signal by FFTs of overlapping blocks of ``block`` samples (a
     power of two: fast FFTs), each block keeping its middle (``margin`` samples dropped at either
     inner edge; the last block is aligned with the end of the run, so every block has the same
-    length), then the ``window``-second moving average (docs/model.md §7). The Hilbert kernel
-    decays as 1/t, so the kept samples differ from the whole-run FFT envelope by far less than
-    the line width of a figure (measured in tests/test_scale.py); the cost is O(n log block) and
-    the memory one block. Runs shorter than ``block`` use blocks of the largest power of two
-    that fits (at least 4·``margin``). Used for figures and summaries of runs longer than
-    ``EXACT_ENVELOPE_SAMPLES``."""
+    length), then the ``window``-second moving average (docs/model.md §7; computed by the core).
+    The Hilbert kernel decays as 1/t, so the kept samples differ from the whole-run FFT envelope
+    by far less than the line width of a figure (measured in tests/test_scale.py); the cost is
+    O(n log block) and the memory one block. Runs shorter than ``block`` use blocks of the largest
+    power of two that fits (at least 4·``margin``, else one FFT of the whole run). Used for figures
+    and summaries of runs longer than ``EXACT_ENVELOPE_SAMPLES``."""
     t = np.asarray(t)
-    n = len(w)
-    if n < 2:
+    if len(w) < 2:
         raise ValueError("need at least two samples")
-    dt = float(t[1] - t[0])
-    if n < block:
-        block = 1 << (n.bit_length() - 1)
-    if block < 4 * margin:
-        return envelope(t, w, window=window)
-    amp = np.empty(n)
-    step = block - 2 * margin
-    a, kept = 0, 0
-    while kept < n:
-        last = a + block >= n
-        if last:
-            a = n - block
-        # |x + i H[x]| with the Hilbert transform by real FFTs (-i on the positive frequencies, 0 at
-        # DC and Nyquist): the one-sided-spectrum analytic signal to rounding, at half the cost.
-        x = np.asarray(w[a:a + block], dtype=float)
-        spec = np.fft.rfft(x)
-        spec[0] = spec[-1] = 0.0
-        spec *= -1j
-        z = np.hypot(x, np.fft.irfft(spec, block))
-        hi = n if last else a + block - margin
-        amp[kept:hi] = z[kept - a:hi - a]
-        kept = hi
-        a += step
-    return np.asarray(_core.moving_average(amp, max(1, int(round(float(window) / dt)))))
+    x = np.ascontiguousarray(w, dtype=float)
+    return _core.blocked_envelope(x, float(t[1] - t[0]), float(window), int(block), int(margin))

@@ -11,11 +11,16 @@ a conversion without them raises an ``ImportError`` naming the extra.
 
 from __future__ import annotations
 
-from typing import Any, Dict, List
+from typing import Any, Dict, List, Sequence
 
 import numpy as np
 
-__all__ = ["DIMS", "MapTable", "RowList", "SampleTable", "require_pandas", "require_xarray"]
+__all__ = ["BEHAVIOURS", "DIMS", "MapTable", "RowList", "SampleTable", "require_pandas", "require_xarray", "rows_to_table"]
+
+
+BEHAVIOURS = ("inactivity", "trivial_adaption", "signature_move", "relaxation_oscillation", "self_damping",
+              "not_settled", "undetermined")
+"""Behaviour names as written in results files (docs/model.md §8), in legend order."""
 
 
 DIMS = ("f_ex_hz", "a_ex_m_s2", "s0")
@@ -58,8 +63,6 @@ class SampleTable(dict):
         pd = require_pandas(f"{type(self).__name__}.to_pandas")
         df = pd.DataFrame(_columns(self))
         if "behaviour" in df:
-            from .maps.config import BEHAVIOURS
-
             df["behaviour"] = pd.Categorical(df["behaviour"], categories=list(BEHAVIOURS))
         return df
 
@@ -79,8 +82,6 @@ class MapTable(SampleTable):
         NetCDF stores categories. Lists (the jump times, the contact histogram) are left out.
         Save it with ``ds.to_netcdf("map.nc")`` or ``ds.to_zarr("map.zarr")``."""
         xr = require_xarray("MapTable.to_xarray")
-        from .maps.config import BEHAVIOURS
-
         keys = [k for k, v in self.items() if np.asarray(v).ndim == 1 and np.asarray(v).dtype != object]
         n = len(self.get("index", []))
         coords = {d: np.array(sorted(set(np.asarray(self[d], dtype=float).tolist())), dtype=float) for d in DIMS}
@@ -124,8 +125,6 @@ class RowList(list):
 
     def table(self) -> MapTable:
         """The rows as a :class:`MapTable`."""
-        from .maps.read import rows_to_table
-
         return rows_to_table(list(self))
 
     def to_pandas(self) -> Any:
@@ -141,3 +140,51 @@ def records_frame(records: List[Dict[str, Any]], what: str) -> Any:
     """A DataFrame of JSON records, nested dicts flattened to ``a.b`` columns (extra ``pandas``)."""
     pd = require_pandas(what)
     return pd.json_normalize(records, sep=".")
+
+
+_SCALARS = ("index", "f_ex_hz", "a_ex_m_s2", "s0", "t_end_s", "s_final", "amplitude_final_h", "amplitude_initial_h",
+            "amplitude_max_h", "s_min", "s_max", "net_travel", "travel_to_centre", "turn_s", "turn_t_s",
+            "drift_s", "drift_a_h", "wall_time_s")
+
+
+def _settled(r: Dict[str, Any]) -> bool:
+    """A row's ``settled`` flag; a row without it (format version 2, not read by the core) is
+    settled when steady, a relaxation oscillation counts as settled (docs/model.md §8)."""
+    if "settled" in r:
+        return bool(r["settled"])
+    if r.get("behaviour") == "not_settled":
+        return False
+    return bool(r.get("steady")) or r.get("behaviour") == "relaxation_oscillation"
+
+
+def rows_to_table(rows: Sequence[Dict[str, Any]]) -> MapTable:
+    """Map rows (dicts as in the results file) as a :class:`~beamslider.tables.MapTable` (a dict of
+    numpy arrays with ``to_pandas()`` and ``to_xarray()``): the scalar features (float; NaN for a
+    missing turning point or drift), ``behaviour``, ``reason``, ``status``, ``phase`` (str),
+    ``has_end_state`` (bool: the run can be continued by ``extend_to``), ``steady`` and
+    ``settled`` (bool: the behaviour is final; false while the run still creeps, docs/model.md
+    §8), ``drift_s`` / ``drift_a_h`` (change of s and A over the final drift window),
+    ``jump_up_t_s``/``jump_down_t_s`` (object arrays of lists) and the solver counters as
+    ``counters_<name>`` (int)."""
+    rows = sorted(rows, key=lambda r: r["index"])
+    out = MapTable()
+    for k in _SCALARS:
+        out[k] = np.array([np.nan if r.get(k) is None else r[k] for r in rows], dtype=float)
+    out["index"] = out["index"].astype(int)
+    for k in ("behaviour", "reason", "status", "phase"):
+        out[k] = np.array([r.get(k, "") for r in rows], dtype=object).astype(str) if rows else np.array([], dtype=str)
+    out["has_end_state"] = np.array(["end" in r for r in rows], dtype=bool)
+    out["steady"] = np.array([bool(r["steady"]) for r in rows], dtype=bool)
+    out["settled"] = np.array([_settled(r) for r in rows], dtype=bool)
+    for k in ("jump_up_t_s", "jump_down_t_s"):
+        arr = np.empty(len(rows), dtype=object)
+        for i, r in enumerate(rows):
+            arr[i] = list(r[k])
+        out[k] = arr
+    names = list(rows[0]["counters"]) if rows else []
+    for n in names:
+        if n == "closed_histogram":
+            out["counters_closed_histogram"] = np.array([r["counters"][n] for r in rows], dtype=np.int64)
+        else:
+            out[f"counters_{n}"] = np.array([r["counters"][n] for r in rows], dtype=np.int64)
+    return out

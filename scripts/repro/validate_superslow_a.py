@@ -204,13 +204,8 @@ def main() -> int:
     say("")
 
     # --- figure ---------------------------------------------------------------------------------
-    try:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-    except ImportError:
-        say("matplotlib missing: no figure")
+    plt = _pyplot()
+    if plt is None:
         return 0
     fig, axes = plt.subplots(1, 2, figsize=(12, 4.6), sharey=False)
     for ax, a in zip(axes, (14, 8)):
@@ -237,18 +232,42 @@ def main() -> int:
                 ax.plot(run.s, y, ls, color=col, lw=1.3)
                 ax.plot(run.s, np.where(~st, run.amplitude, np.nan), ":", color=col, lw=1.0)
             ax.plot([], [], ls, color=col, label=label)
-        ax.set_xlim(0, 0.5)
-        ax.set_xlabel("slider position s = x/L")
-        ax.set_ylabel("amplitude |w(4L/7)| / h")
-        ax.set_title(f"124 Hz, {a} m/s² (seed Fig. 4{'a' if a == 14 else 'b'})")
-        ax.grid(alpha=0.3)
-    axes[0].legend(fontsize=7, loc="upper left")
-    fig.suptitle("Super-slow manifold: harmonic balance (lines; dotted = unstable) over PCS sweeps (markers)")
-    fig.tight_layout()
-    fig.savefig(OUT / "fig4_overlay.png", dpi=130)
-    say("Figure: docs/results/superslow/fig4_overlay.png")
-    (OUT / "validation_a.txt").write_text("\n".join(LINES) + "\n", encoding="utf-8")
+        _label_panel(ax, a, "amplitude |w(4L/7)| / h")
+    _save_overlay(fig, axes, "Super-slow manifold: harmonic balance (lines; dotted = unstable) over PCS sweeps (markers)",
+                  "fig4_overlay", "validation_a")
     return 0
+
+
+def _pyplot():
+    """matplotlib.pyplot on the Agg backend, or None (said) without matplotlib."""
+    try:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        say("matplotlib missing: no figure")
+        return None
+    return plt
+
+
+def _label_panel(ax, a, ylabel: str) -> None:
+    """Axes, title and grid of one excitation level's overlay panel."""
+    ax.set_xlim(0, 0.5)
+    ax.set_xlabel("slider position s = x/L")
+    ax.set_ylabel(ylabel)
+    ax.set_title(f"124 Hz, {a} m/s² (seed Fig. 4{'a' if a == 14 else 'b'})")
+    ax.grid(alpha=0.3)
+
+
+def _save_overlay(fig, axes, title: str, figure: str, text: str) -> None:
+    """Legend and title, then the figure (``figure``.png) and the report lines (``text``.txt) into OUT."""
+    axes[0].legend(fontsize=7, loc="upper left")
+    fig.suptitle(title)
+    fig.tight_layout()
+    fig.savefig(OUT / f"{figure}.png", dpi=130)
+    say(f"Figure: docs/results/superslow/{figure}.png")
+    (OUT / f"{text}.txt").write_text("\n".join(LINES) + "\n", encoding="utf-8")
 
 
 OPTIONS = [("H=1", dict(harmonics=1)), ("H=3", dict(harmonics=3)), ("H=5", dict(harmonics=5)),
@@ -320,13 +339,8 @@ def options() -> int:
         ms = [r[8] for r in rows if r[2] == label]
         say(f"  cost {label:>8}: median {np.median(ms):.1f} ms per manifold (range {min(ms):.1f}–{max(ms):.1f}) over the 6 points")
     say("")
-    try:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-    except ImportError:
-        say("matplotlib missing: no figure")
+    plt = _pyplot()
+    if plt is None:
         (OUT / "validation_a_options.txt").write_text("\n".join(LINES) + "\n", encoding="utf-8")
         return 0
     fig, axes = plt.subplots(1, 2, figsize=(12, 4.6))
@@ -342,17 +356,9 @@ def options() -> int:
                 ax.plot(run.s, np.where(st, run.amplitude, np.nan), ls, color=col, lw=1.3)
                 ax.plot(run.s, np.where(~st, run.amplitude, np.nan), ls, color=col, lw=0.6, alpha=0.5)
             ax.plot([], [], ls, color=col, label=f"HB N=5 {label}")
-        ax.set_xlim(0, 0.5)
-        ax.set_xlabel("slider position s = x/L")
-        ax.set_ylabel("first-harmonic amplitude |w(4L/7)| / h")
-        ax.set_title(f"124 Hz, {a} m/s² (seed Fig. 4{'a' if a == 14 else 'b'})")
-        ax.grid(alpha=0.3)
-    axes[0].legend(fontsize=7, loc="upper left")
-    fig.suptitle("HB options (multi-harmonic H, static sag; thin = unstable) over PCS sweeps (markers)")
-    fig.tight_layout()
-    fig.savefig(OUT / "fig4_overlay_options.png", dpi=130)
-    say("Figure: docs/results/superslow/fig4_overlay_options.png")
-    (OUT / "validation_a_options.txt").write_text("\n".join(LINES) + "\n", encoding="utf-8")
+        _label_panel(ax, a, "first-harmonic amplitude |w(4L/7)| / h")
+    _save_overlay(fig, axes, "HB options (multi-harmonic H, static sag; thin = unstable) over PCS sweeps (markers)",
+                  "fig4_overlay_options", "validation_a_options")
     return 0
 
 

@@ -275,12 +275,7 @@ fn run(cli: Cli) -> Result<ExitCode> {
             bar.0.finish_and_clear();
             let mut w = open_out(&out)?;
             let io = |e| anyhow::anyhow!("{}: {e}", out.display());
-            writeln!(w, "branch,s,amplitude_m").map_err(io)?;
-            for (name, b) in [("up", &man.up), ("down", &man.down)] {
-                for (s, a) in b.s.iter().zip(&b.amplitude_m) {
-                    writeln!(w, "{name},{s},{a:e}").map_err(io)?;
-                }
-            }
+            w.write_all(man.to_csv().as_bytes()).map_err(io)?;
             w.flush().map_err(io)?;
         }
     }

@@ -435,7 +435,7 @@ fn evaluate(
 pub fn backbone_rad_s(model: &Model, amplitude_h: f64) -> f64 {
     let b = &model.beam;
     let w2 = b.omega[0].powi(2) + b.preload_n * b.k[0];
-    (w2 + 0.75 * b.b_star(model.params.thickness_m) * amplitude_h * amplitude_h).sqrt()
+    crate::physics::Beam::backbone_omega2(w2, b.b_star(model.params.thickness_m), amplitude_h, 1.0).sqrt()
 }
 
 #[cfg(test)]

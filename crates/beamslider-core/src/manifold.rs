@@ -64,6 +64,30 @@ pub struct Manifold {
     pub counters: Counters,
 }
 
+/// Header of the manifold CSV.
+pub const CSV_HEADER: &str = "branch,s,amplitude_m";
+
+impl Manifold {
+    /// The manifold as CSV text ([`csv_text`]).
+    pub fn to_csv(&self) -> String {
+        csv_text(&self.up, &self.down)
+    }
+}
+
+/// The manifold CSV (docs/model.md §6): header `branch,s,amplitude_m`, then one line per
+/// position, the upward sweep (`up`) then the downward one (`down`); s as the shortest decimal
+/// that reads back exactly, the amplitude [m] in exponent form (also exact).
+pub fn csv_text(up: &Branch, down: &Branch) -> String {
+    use std::fmt::Write as _;
+    let mut out = format!("{CSV_HEADER}\n");
+    for (name, b) in [("up", up), ("down", down)] {
+        for (s, a) in b.s.iter().zip(&b.amplitude_m) {
+            let _ = writeln!(out, "{name},{s},{a:e}");
+        }
+    }
+    out
+}
+
 /// Compute the super-slow manifold at one excitation.
 pub fn super_slow_manifold(
     model: &Model,

@@ -16,6 +16,7 @@ use pyo3::exceptions::{PyBlockingIOError, PyException, PyKeyboardInterrupt, PyOS
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
+mod formats;
 mod maprun;
 mod params;
 mod run;
@@ -280,5 +281,6 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     maprun::register(m)?;
     study::register(m)?;
     superslow::register(m)?;
+    formats::register(m)?;
     Ok(())
 }

@@ -90,9 +90,9 @@ def positive(kind):
 
 
 def add_common(sp: argparse.ArgumentParser, *, model_options: bool = True, window: bool = True,
-               out: str = DEFAULT_OUT) -> None:
+               out: str = DEFAULT_OUT, force: bool = False) -> None:
     """--out (default ``out``), --progress/--no-progress, --window (``window``: only where an
-    envelope is drawn) and (``model_options``) --params, --dt, --solver."""
+    envelope is drawn), (``model_options``) --params, --dt, --solver and (``force``) --force."""
     sp.add_argument("--out", default=out, metavar="DIR",
                     help=f"output folder for CSV/JSON/PNG (default ./{out})")
     sp.add_argument("--progress", dest="progress", action="store_true", default=None,
@@ -105,6 +105,19 @@ def add_common(sp: argparse.ArgumentParser, *, model_options: bool = True, windo
         sp.add_argument("--params", metavar="TOML", help="parameter file (TOML keys of beamslider.Parameters, listed in docs/model.md §1)")
         sp.add_argument("--dt", type=positive(float), metavar="S", help="time step [s] (default 2e-5)")
         sp.add_argument("--solver", choices=["fast", "reference"], help="local contact solver (default fast)")
+    if force:
+        add_force(sp)
+
+
+def add_config_run(sp: argparse.ArgumentParser, what: str) -> None:
+    """--config and --print-config of a ``what`` configuration (study, design), and where it runs:
+    --scheduler / --scheduler-file (Dask) or --threads (local)."""
+    sp.add_argument("--config", metavar="TOML", help=f"{what} configuration (see --print-config)")
+    sp.add_argument("--print-config", action="store_true", help="print an example configuration (TOML) and exit")
+    sp.add_argument("--scheduler", metavar="ADDRESS", help="Dask scheduler address, e.g. tcp://host:8786 (default: local)")
+    sp.add_argument("--scheduler-file", metavar="FILE",
+                    help="Dask scheduler file (dask scheduler --scheduler-file FILE) instead of --scheduler")
+    sp.add_argument("--threads", "-j", type=int, metavar="N", help="local worker threads (default: one per core)")
 
 
 def add_force(sp: argparse.ArgumentParser) -> None:

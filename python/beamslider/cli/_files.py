@@ -15,6 +15,7 @@ from typing import Any, Dict, List, Optional, Sequence
 
 import numpy as np
 
+from .. import _core
 from ..measurement import Measurement, read_measurement
 from ..params import Parameters
 from ..simulate import ManifoldResult, SimulationResult
@@ -109,12 +110,11 @@ MANIFOLD_HEADER = ["branch", "s", "amplitude_m"]
 
 
 def write_manifold_csv(path: Path, m: ManifoldResult) -> None:
-    with open(path, "w", newline="", encoding="utf-8") as f:
-        w = csv.writer(f)
-        w.writerow(MANIFOLD_HEADER)
-        for branch, ss, aa in (("up", m.up_s, m.up_amplitude), ("down", m.down_s, m.down_amplitude)):
-            for s, a in zip(ss, aa):
-                w.writerow([branch, f"{s:.6g}", f"{a:.10e}"])
+    """The manifold CSV as the core writes it (``beamslider-batch manifold``: s and the amplitude
+    as the shortest decimals that read back exactly)."""
+    text = _core.manifold_csv(np.asarray(m.up_s, dtype=float).tolist(), np.asarray(m.up_amplitude, dtype=float).tolist(),
+                              np.asarray(m.down_s, dtype=float).tolist(), np.asarray(m.down_amplitude, dtype=float).tolist())
+    Path(path).write_text(text, encoding="utf-8")
 
 
 HB_MANIFOLD_HEADER = ["branch", "s", "amplitude_h", "phase_rad", "stable"]

@@ -11,7 +11,7 @@ import numpy as np
 
 from ..params import Parameters
 from ..simulate import ManifoldResult, super_slow_manifold
-from ._common import UserError, add_common, add_force, axis_values, out_dir, positive
+from ._common import UserError, add_common, axis_values, out_dir, positive
 from ._files import (DEFAULT_MANIFOLD_RECORD, hb_manifold_file_stem, manifold_file_stem, write_hb_manifold_csv,
                      write_manifold_csv)
 
@@ -76,8 +76,7 @@ def add_run_options(sp: argparse.ArgumentParser) -> None:
     """What ``simulate`` and ``compare`` share after their own options: --record-every, the common
     options, --force and the manifold options (on by default)."""
     sp.add_argument("--record-every", type=positive(int), default=10, metavar="K", help="keep every K-th step (10)")
-    add_common(sp)
-    add_force(sp)
+    add_common(sp, force=True)
     add_manifold_options(sp, default_on=True)
 
 

@@ -7,7 +7,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from ._common import add_common
+from ._common import add_common, add_config_run
 
 
 def add_parser(sub: Any) -> None:
@@ -19,16 +19,12 @@ def add_parser(sub: Any) -> None:
                                     "nominal or robust. Each evaluated design is appended to DIR/design.jsonl at once; "
                                     "--resume continues a killed run without evaluating any design twice. Writes "
                                     "design.toml, summary.json, summary.txt, pareto.png, maps.png, amplitude.png.")
-    sp.add_argument("--config", metavar="TOML", help="design configuration (see --print-config)")
-    sp.add_argument("--scheduler", metavar="ADDRESS", help="Dask scheduler address, e.g. tcp://host:8786 (default: local)")
-    sp.add_argument("--scheduler-file", metavar="FILE", help="Dask scheduler file instead of --scheduler")
-    sp.add_argument("--threads", "-j", type=int, metavar="N", help="local worker threads (default: one per core)")
+    add_config_run(sp, "design")
     sp.add_argument("--check-t-end", type=float, metavar="S",
                     help="duration of the FS re-checks of prototype and best design [s] (default: the search's t_end_s)")
     sp.add_argument("--robust-check-t-end", type=float, metavar="S",
                     help="duration of the robust FS re-checks [s] (default: --check-t-end)")
     sp.add_argument("--resume", action="store_true", help="continue the run in --out, skipping evaluated designs")
-    sp.add_argument("--print-config", action="store_true", help="print an example configuration (TOML) and exit")
     add_common(sp, model_options=False, window=False)
     sp.set_defaults(func=cmd_design)
 

@@ -9,7 +9,7 @@ import time
 from typing import Any, List, Tuple
 
 from ..params import Parameters
-from ._common import UserError, add_common, add_force, out_dir, plan_outputs, positive
+from ._common import UserError, add_common, out_dir, plan_outputs, positive
 
 
 def add_parser(sub: Any) -> None:
@@ -30,8 +30,7 @@ def add_parser(sub: Any) -> None:
                     help="a named effect must leave at most this share of the gap beyond the noise, "
                          "sqrt(max(chi2 - E[chi2], 0)/n) (0.3), else 'unexplained'")
     sp.add_argument("--seed", type=int, default=0, help="noise seed of the paper's synthetic case (0)")
-    add_common(sp, window=False)
-    add_force(sp)
+    add_common(sp, window=False, force=True)
     sp.set_defaults(func=cmd_discover)
 
     sp = sub.add_parser(
@@ -49,8 +48,7 @@ def add_parser(sub: Any) -> None:
                     help="slider: the truth runs start DS off the s0 their files name, as a slider placed by hand "
                          "is; without it the model at exactly the truth repeats the data's chaotic realisation "
                          "(0; e.g. 0.0015, abs(DS) <= 0.05)")
-    add_common(sp, model_options=False, window=False)
-    add_force(sp)
+    add_common(sp, model_options=False, window=False, force=True)
     sp.set_defaults(func=cmd_synthesize)
 
 

@@ -10,7 +10,7 @@ from typing import Any, Dict
 
 from .. import enma
 from ..params import Parameters
-from ._common import UserError, add_common, add_force, axis_values, out_dir, plan_outputs, positive, write_json
+from ._common import UserError, add_common, axis_values, out_dir, plan_outputs, positive, write_json
 
 
 def add_parser(sub: Any) -> None:
@@ -31,8 +31,7 @@ def add_parser(sub: Any) -> None:
     sp.add_argument("--repeats", type=positive(int), default=1, metavar="N",
                     help="independently noisy repetitions of the virtual up-and-down run (default 1)")
     sp.add_argument("--seed", type=int, default=0, help="noise seed (0)")
-    add_common(sp, window=False)
-    add_force(sp)
+    add_common(sp, window=False, force=True)
     sp.set_defaults(func=cmd_enma)
 
 

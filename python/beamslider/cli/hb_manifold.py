@@ -11,7 +11,7 @@ from typing import Any
 from ..superslow import hb_manifold
 from ._files import hb_manifold_file_stem, write_hb_manifold_csv
 from ._manifold import add_operating_point
-from ._common import add_common, add_force, figure, fmt, out_dir, params_from_args, plan_outputs, positive, print_written, write_json
+from ._common import add_common, figure, fmt, out_dir, params_from_args, plan_outputs, positive, print_written, write_json
 
 
 def add_parser(sub: Any) -> None:
@@ -28,8 +28,7 @@ def add_parser(sub: Any) -> None:
                     help="odd harmonics 1..H of the ansatz: 1, 3, 5 or 7 (1 = single-term HB)")
     sp.add_argument("--static-sag", action="store_true",
                     help="include the static sag under the slider's weight (zeroth harmonic; off by default)")
-    add_common(sp, window=False)
-    add_force(sp)
+    add_common(sp, window=False, force=True)
     sp.set_defaults(func=cmd_hb_manifold)
 
 

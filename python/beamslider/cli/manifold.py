@@ -8,7 +8,7 @@ import time
 from typing import Any
 
 from ..simulate import simulate
-from ._common import add_common, add_force, figure, params_from_args, plan_outputs, write_json
+from ._common import add_common, figure, params_from_args, plan_outputs, write_json
 from ._manifold import add_manifold_options, add_operating_point, check_manifold_args, manifold_name, run_manifold
 
 
@@ -18,8 +18,7 @@ def add_parser(sub: Any) -> None:
                         description="Compute the super-slow manifold (upward and downward sweeps, docs/model.md §6) "
                                     "and write manifold_<f>Hz_<a>ms2_<N>periods.csv/.json/.png.")
     add_operating_point(sp)
-    add_common(sp)
-    add_force(sp)
+    add_common(sp, force=True)
     add_manifold_options(sp, default_on=False)
     sp.set_defaults(func=cmd_manifold, manifold=True)
 

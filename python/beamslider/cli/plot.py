@@ -8,7 +8,7 @@ from typing import Any
 
 from ..params import Parameters
 from ..simulate import SimulationResult
-from ._common import UserError, add_common, add_force, out_dir, plan_outputs
+from ._common import UserError, add_common, out_dir, plan_outputs
 from ._files import measurement, read_manifold_csv, read_meta, read_simulation_csv
 
 
@@ -19,8 +19,7 @@ def add_parser(sub: Any) -> None:
     sp.add_argument("result", nargs="?", help="a <stem>.csv or <stem>.json written by beamslider")
     sp.add_argument("--manifold", metavar="CSV", help="manifold CSV to overlay")
     sp.add_argument("--measurement", metavar="FILE", help="measured file to overlay")
-    add_common(sp, model_options=False)
-    add_force(sp)
+    add_common(sp, model_options=False, force=True)
     sp.set_defaults(func=cmd_plot)
 
 

@@ -18,11 +18,19 @@ from ..superslow import (DEFAULT_LAW_PATH, design_coordinates, design_params, de
                          load_drift_law, save_design_law, LAW_JUMP_DOWN_N, LAW_TABLE_SETTINGS, LAW_TRAINING_POINTS, drift_table, drift_tables,
                          fit_drift_law, load_law, predict, read_drift_table, refine_jump_down, save_drift_law)
 from ._manifold import add_operating_point
-from ._common import (DEFAULT_OUT, UserError, add_common, add_force, axis_values, figure, fmt, out_dir, params_from_args,
+from ._common import (DEFAULT_OUT, UserError, add_common, axis_values, figure, fmt, out_dir, params_from_args,
                       plan_outputs, positive, print_written, write_json)
 
 DEFAULT_LAW_OUT = f"{DEFAULT_OUT}/law"
 """Where ``beamslider fit-law`` writes by default (law.json and drift/)."""
+
+
+def _add_sweep(sp: Any, *, ds: float, window_s: float, settle_periods: int) -> None:
+    """The options of the PCS sweeps of a drift table (s step, record window, settling periods)."""
+    sp.add_argument("--ds", type=positive(float), default=ds, metavar="DS", help=f"s step of the sweeps ({ds:g})")
+    sp.add_argument("--window-s", type=positive(float), default=window_s, metavar="S", help=f"record window per s ({window_s:g})")
+    sp.add_argument("--settle-periods", type=positive(int), default=settle_periods, metavar="K",
+                    help=f"settling periods per s ({settle_periods})")
 
 
 def add_parser(sub: Any) -> None:
@@ -34,12 +42,9 @@ def add_parser(sub: Any) -> None:
                     "up-sweep from the clamping for the high branch) and write drift_<f>Hz_<a>ms2.jsonl "
                     "(rows appended as produced; --resume continues a killed run).")
     add_operating_point(sp, positive_level=True)
-    sp.add_argument("--ds", type=positive(float), default=0.02, metavar="DS", help="s step of the sweeps (0.02)")
-    sp.add_argument("--window-s", type=positive(float), default=1.0, metavar="S", help="record window per s (1)")
-    sp.add_argument("--settle-periods", type=positive(int), default=40, metavar="K", help="settling periods per s (40)")
+    _add_sweep(sp, ds=0.02, window_s=1.0, settle_periods=40)
     sp.add_argument("--resume", action="store_true", help="continue an existing table made with the same settings")
-    add_common(sp, window=False)
-    add_force(sp)
+    add_common(sp, window=False, force=True)
     sp.set_defaults(func=cmd_drift_table)
 
     sp = sub.add_parser(
@@ -59,12 +64,7 @@ def add_parser(sub: Any) -> None:
                     help="levels of the jump-down bisection's candidate points (4:16:2)")
     sp.add_argument("--jump-down-n", type=int, default=LAW_JUMP_DOWN_N, metavar="N",
                     help=f"jump-down tables added by bisection ({LAW_JUMP_DOWN_N}; 0: none)")
-    sp.add_argument("--ds", type=positive(float), default=LAW_TABLE_SETTINGS["ds"], metavar="DS",
-                    help=f"s step of the sweeps ({LAW_TABLE_SETTINGS['ds']:g})")
-    sp.add_argument("--window-s", type=positive(float), default=LAW_TABLE_SETTINGS["window_s"], metavar="S",
-                    help=f"record window per s ({LAW_TABLE_SETTINGS['window_s']:g})")
-    sp.add_argument("--settle-periods", type=positive(int), default=LAW_TABLE_SETTINGS["settle_periods"], metavar="K",
-                    help=f"settling periods per s ({LAW_TABLE_SETTINGS['settle_periods']})")
+    _add_sweep(sp, **{k: LAW_TABLE_SETTINGS[k] for k in ("ds", "window_s", "settle_periods")})
     sp.add_argument("--first-settle-periods", type=positive(int), default=400, metavar="K",
                     help="settling periods at the first s of a sweep, from rest (400)")
     sp.add_argument("--threads", "-j", type=positive(int), metavar="N", help="tables computed at a time (default: one per core)")
@@ -73,8 +73,7 @@ def add_parser(sub: Any) -> None:
                          "drawn over the design box, and blend them (DIR/design_law.json; the built-in law: N = 64)")
     sp.add_argument("--design-seed", type=int, default=0, metavar="S", help="seed of the designs' Sobol' sequence (0)")
     sp.add_argument("--resume", action="store_true", help="continue the tables in --out (same settings) and refit")
-    add_common(sp, window=False, out=DEFAULT_LAW_OUT)
-    add_force(sp)
+    add_common(sp, window=False, out=DEFAULT_LAW_OUT, force=True)
     sp.set_defaults(func=cmd_fit_law)
 
     sp = sub.add_parser(
@@ -95,8 +94,7 @@ def add_parser(sub: Any) -> None:
                          "the HB manifold's else the law's forcing-ratio rule (law, with --law), or none; "
                          "auto (default): law with --law, hb with --drift")
     sp.add_argument("--d-eff", type=float, metavar="D", help="equivalent damping ratio of the HB manifold")
-    add_common(sp, window=False)
-    add_force(sp)
+    add_common(sp, window=False, force=True)
     sp.set_defaults(func=cmd_predict)
 
 

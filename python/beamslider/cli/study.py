@@ -8,7 +8,7 @@ from pathlib import Path
 from typing import Any
 
 from ..study import EXAMPLE_CONFIG, RESULTS_FILE, read_config, run_study, write_outputs
-from ._common import add_common
+from ._common import add_common, add_config_run
 
 
 def add_parser(sub: Any) -> None:
@@ -20,15 +20,10 @@ def add_parser(sub: Any) -> None:
                                     "statistics and sensitivity indices. Each finished run is appended to "
                                     "DIR/study.jsonl at once; --resume runs only the missing ones. Writes study.toml, "
                                     "summary.json, summary.txt, behaviour_probability.png and sensitivity*.png.")
-    sp.add_argument("--config", metavar="TOML", help="study configuration (see --print-config)")
-    sp.add_argument("--scheduler", metavar="ADDRESS", help="Dask scheduler address, e.g. tcp://host:8786 (default: local)")
-    sp.add_argument("--scheduler-file", metavar="FILE",
-                    help="Dask scheduler file (dask scheduler --scheduler-file FILE) instead of --scheduler")
-    sp.add_argument("--threads", "-j", type=int, metavar="N", help="local worker threads (default: one per core)")
+    add_config_run(sp, "study")
     sp.add_argument("--chunk-size", type=int, metavar="N", help="points per Dask task (default: the configuration's)")
     sp.add_argument("--task-threads", type=int, default=1, metavar="N", help="rayon threads per Dask task (1)")
     sp.add_argument("--resume", action="store_true", help="continue the study in --out, skipping finished runs")
-    sp.add_argument("--print-config", action="store_true", help="print an example configuration (TOML) and exit")
     add_common(sp, model_options=False, window=False)
     sp.set_defaults(func=cmd_study)
 

@@ -13,9 +13,9 @@ from typing import Any, Dict, List, Optional, Tuple, Union
 import numpy as np
 
 from .. import _core, _toml
-from ..maps import map_config_dict
+from ..maps.config import map_config_dict
 from ..params import Parameters
-from ..study.config import Uncertain, sample
+from ..study.config import Uncertain, sample, uncertain_from_dict
 
 RESULTS_FILE = "design.jsonl"
 """Name of the results file inside a design run's output folder."""
@@ -126,7 +126,7 @@ class Variable:
 
 
 @dataclass
-class DesignConfig:
+class DesignConfig(_toml.ConfigFile):
     """A design optimisation (see :data:`EXAMPLE_TOML` for the TOML form)."""
 
     variables: List[Variable]
@@ -162,6 +162,8 @@ class DesignConfig:
     samples: int = 4
     sampling_seed: int = 0
     chunk_size: int = 8
+
+    TOML_KIND = "design"
 
     def __post_init__(self) -> None:
         self.variables = [v if isinstance(v, Variable) else Variable(**v) for v in self.variables]
@@ -363,26 +365,9 @@ class DesignConfig:
                 raise ValueError(f"unknown key {bad[0]!r} in [{sec}]: allowed are {', '.join(keys)}")
             for k, v in t.items():
                 kw[{"method": "sampling_method", "seed": "sampling_seed"}.get(k, k) if sec == "sampling" else k] = v
-        unc = d.get("uncertain", {})
-        uncertain = []
-        for name, spec in unc.items():
-            if not isinstance(spec, dict):
-                raise ValueError(f"[uncertain.{name}] must be a table (distribution = ..., low = ..., ...)")
-            fields_ = {f.name for f in dataclasses.fields(Uncertain)} - {"name"}
-            bad = sorted(set(spec) - fields_)
-            if bad:
-                raise ValueError(f"unknown key {bad[0]!r} in [uncertain.{name}]: allowed are {', '.join(sorted(fields_))}")
-            uncertain.append(Uncertain(name=name, **spec))
+        uncertain = uncertain_from_dict(d.get("uncertain", {}))
         return cls(variables=variables, params=Parameters.from_dict(d.get("params", {})),
                    criteria=dict(d.get("criteria", {})), uncertain=uncertain, **kw)
-
-    @classmethod
-    def from_toml_text(cls, text: str) -> "DesignConfig":
-        return cls.from_dict(_toml.loads_config(text, "design"))
-
-    @classmethod
-    def from_toml(cls, path: Union[str, "os.PathLike[str]"]) -> "DesignConfig":
-        return _toml.read_config_file(path, cls.from_toml_text)
 
 
 def read_config(path: Union[str, "os.PathLike[str]"]) -> DesignConfig:

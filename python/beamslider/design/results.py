@@ -1,12 +1,12 @@
 """Results of a design run: the file ``design.jsonl`` (a header line with the configuration, then
-one JSON line per evaluated design, appended and flushed as soon as the design is done, under the
-core's one-writer lock ``design.jsonl.lock``), the Pareto front and :class:`DesignResult`."""
+one JSON line per evaluated design, appended, flushed and synced as soon as the design is done, under
+the core's one-writer lock ``design.jsonl.lock``; read and written by the core's results-file code,
+docs/model.md §8), the Pareto front and :class:`DesignResult`."""
 
 from __future__ import annotations
 
 import hashlib
 import json
-import os
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Dict, List, Optional, Union
@@ -29,29 +29,16 @@ def design_key(evaluator: str, mode: str, t_end_s: float, x: Any) -> str:
 
 
 def read_design_file(path: Union[str, Path]) -> tuple:
-    """(header, records, byte length of the complete part). An incomplete last line (a run killed
-    while writing) is ignored; a damaged complete line is a ValueError naming it."""
+    """(header, records, byte length of the complete part), read by the core's results-file reader
+    (docs/model.md §8). An incomplete last line (a run killed while writing) is ignored; a damaged
+    complete line, or a header of another kind of file, is a ValueError naming the file and line."""
     path = Path(path)
     if path.is_dir():
         path = path / RESULTS_FILE
-    data = path.read_bytes()
-    good = data.rfind(b"\n") + 1
-    lines = data[:good].decode("utf-8").splitlines()
+    lines, good, _truncated = _core.read_json_lines(path, "beamslider_design", FORMAT)
     if not lines:
         return None, [], 0
-    try:
-        header = json.loads(lines[0])
-    except json.JSONDecodeError:
-        raise ValueError(f"{path}: line 1 is not JSON") from None
-    if header.get("beamslider_design") != FORMAT:
-        raise ValueError(f"{path}: not a beamslider design results file (version {FORMAT})")
-    records = []
-    for k, line in enumerate(lines[1:], start=2):
-        try:
-            records.append(json.loads(line))
-        except json.JSONDecodeError:
-            raise ValueError(f"{path}: line {k} is damaged") from None
-    return header, records, good
+    return json.loads(lines[0]), [json.loads(line) for line in lines[1:]], good
 
 
 class DesignRecords(list):
@@ -85,7 +72,7 @@ class DesignWriter:
     def __init__(self, config: DesignConfig, path: Optional[Path], resume: bool) -> None:
         self.records: Dict[str, Dict[str, Any]] = {}
         self.order: List[str] = []
-        self._file = None
+        self._path: Optional[Path] = None
         self._lock = None
         if path is None:
             return
@@ -109,25 +96,19 @@ class DesignWriter:
                         raise ValueError(f"{path} was run with another content of the drift law {config.drift_law} "
                                          f"(or before the law's hash was recorded): cannot resume it with this law")
                     raise ValueError(f"{path} holds a run of another configuration: cannot resume it with this one")
-                with open(path, "r+b") as f:  # drop a truncated last line
-                    f.truncate(good)
+                _core.append_json_lines(path, [] if old is not None else [text], good)  # drops a torn last line
                 for r in records:
                     self._remember(r)
-                self._file = open(path, "a", encoding="utf-8")
-                if old is None:
-                    self._write(text)
             else:
-                self._file = open(path, "w", encoding="utf-8")
-                self._write(text)
+                _core.append_json_lines(path, [text], 0)
+            self._path = path
         except BaseException:
             self.close()
             raise
 
     def _write(self, line: str) -> None:
-        assert self._file is not None
-        self._file.write(line + "\n")
-        self._file.flush()
-        os.fsync(self._file.fileno())
+        assert self._path is not None
+        _core.append_json_lines(self._path, [line])
 
     def _remember(self, r: Dict[str, Any]) -> None:
         if r["key"] not in self.records:
@@ -144,15 +125,13 @@ class DesignWriter:
         """Append one evaluated design (returned as read back from its JSON text)."""
         text = json.dumps(json_safe(record))
         rec = json.loads(text)
-        if self._file is not None:
+        if self._path is not None:
             self._write(text)
         self._remember(rec)
         return rec
 
     def close(self) -> None:
-        if self._file is not None:
-            self._file.close()
-            self._file = None
+        self._path = None
         if self._lock is not None:
             self._lock.release()
             self._lock = None

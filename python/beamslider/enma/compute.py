@@ -170,9 +170,10 @@ class BackboneFit:
 
 
 def backbone_hz(omega2: float, b_star: float, amplitude_h: Union[float, np.ndarray]) -> np.ndarray:
-    """Single-mode backbone ω̃(ã)/2π = √(ω² + ¾ b* ã²)/2π [Hz]."""
+    """Single-mode backbone ω̃(ã)/2π = √(ω² + ¾ b* ã²)/2π [Hz] (the core's backbone, docs/model.md §9)."""
     a = np.asarray(amplitude_h, dtype=float)
-    return np.sqrt(np.maximum(omega2 + 0.75 * b_star * a * a, 0.0)) / (2 * math.pi)
+    w2 = np.asarray(_core.backbone_omega2(float(omega2), float(b_star), a.ravel().tolist(), 1.0)).reshape(a.shape)
+    return np.sqrt(np.maximum(w2, 0.0)) / (2 * math.pi)
 
 
 def fit_backbone(data: EnmaData) -> BackboneFit:

@@ -8,6 +8,7 @@ import numpy as np
 
 from .. import _core, _toml
 from ..params import Parameters, resolve
+from ..tables import BEHAVIOURS
 
 __all__ = ["BEHAVIOURS", "LABELS", "LETTERS", "MIN_CLASSIFY_S", "RESULTS_FILE", "criteria_toml", "default_map_config",
            "map_config_dict", "map_config_toml"]
@@ -17,9 +18,6 @@ RESULTS_FILE = "map.jsonl"
 """Name of the results file inside a map's output folder."""
 
 
-BEHAVIOURS = ("inactivity", "trivial_adaption", "signature_move", "relaxation_oscillation", "self_damping",
-              "not_settled", "undetermined")
-"""Behaviour names as written in results files (docs/model.md §8), in legend order."""
 
 
 LETTERS = {"inactivity": "I", "trivial_adaption": "T", "signature_move": "S", "relaxation_oscillation": "R",

@@ -9,58 +9,10 @@ from typing import Any, Dict, List, Optional, Sequence, Union
 import numpy as np
 
 from .. import _core
-from ..tables import MapTable
-from .config import BEHAVIOURS, LABELS, LETTERS, RESULTS_FILE
+from ..tables import MapTable, rows_to_table
+from .config import RESULTS_FILE
 
 __all__ = ["check_rows", "failures", "grid_points", "marked_unsettled", "read_map", "rows_to_table", "t_end_text", "text_table"]
-
-
-_SCALARS = ("index", "f_ex_hz", "a_ex_m_s2", "s0", "t_end_s", "s_final", "amplitude_final_h", "amplitude_initial_h",
-            "amplitude_max_h", "s_min", "s_max", "net_travel", "travel_to_centre", "turn_s", "turn_t_s",
-            "drift_s", "drift_a_h", "wall_time_s")
-
-
-def _settled(r: Dict[str, Any]) -> bool:
-    """A row's ``settled`` flag; a row without it (format version 2, not read by the core) is
-    settled when steady, a relaxation oscillation counts as settled (docs/model.md §8)."""
-    if "settled" in r:
-        return bool(r["settled"])
-    if r.get("behaviour") == "not_settled":
-        return False
-    return bool(r.get("steady")) or r.get("behaviour") == "relaxation_oscillation"
-
-
-def rows_to_table(rows: Sequence[Dict[str, Any]]) -> MapTable:
-    """Map rows (dicts as in the results file) as a :class:`~beamslider.tables.MapTable` (a dict of
-    numpy arrays with ``to_pandas()`` and ``to_xarray()``): the scalar features (float; NaN for a
-    missing turning point or drift), ``behaviour``, ``reason``, ``status``, ``phase`` (str),
-    ``has_end_state`` (bool: the run can be continued by ``extend_to``), ``steady`` and
-    ``settled`` (bool: the behaviour is final; false while the run still creeps, docs/model.md
-    §8), ``drift_s`` / ``drift_a_h`` (change of s and A over the final drift window),
-    ``jump_up_t_s``/``jump_down_t_s`` (object arrays of lists) and the solver counters as
-    ``counters_<name>`` (int)."""
-    rows = sorted(rows, key=lambda r: r["index"])
-    out = MapTable()
-    for k in _SCALARS:
-        out[k] = np.array([np.nan if r.get(k) is None else r[k] for r in rows], dtype=float)
-    out["index"] = out["index"].astype(int)
-    for k in ("behaviour", "reason", "status", "phase"):
-        out[k] = np.array([r.get(k, "") for r in rows], dtype=object).astype(str) if rows else np.array([], dtype=str)
-    out["has_end_state"] = np.array(["end" in r for r in rows], dtype=bool)
-    out["steady"] = np.array([bool(r["steady"]) for r in rows], dtype=bool)
-    out["settled"] = np.array([_settled(r) for r in rows], dtype=bool)
-    for k in ("jump_up_t_s", "jump_down_t_s"):
-        arr = np.empty(len(rows), dtype=object)
-        for i, r in enumerate(rows):
-            arr[i] = list(r[k])
-        out[k] = arr
-    names = list(rows[0]["counters"]) if rows else []
-    for n in names:
-        if n == "closed_histogram":
-            out["counters_closed_histogram"] = np.array([r["counters"][n] for r in rows], dtype=np.int64)
-        else:
-            out[f"counters_{n}"] = np.array([r["counters"][n] for r in rows], dtype=np.int64)
-    return out
 
 
 def grid_points(config_toml: str) -> set:
@@ -143,19 +95,20 @@ def failures(table: Dict[str, np.ndarray]) -> List[str]:
             for i in np.flatnonzero((table["status"] != "completed") & (table["status"] != "predicted"))]
 
 
+def _columns(table: Dict[str, np.ndarray], s0: Optional[float]) -> tuple:
+    """The columns the core's letter table reads (rows of ``s0`` only, when given)."""
+    m = np.ones(len(table["s0"]), dtype=bool) if s0 is None else table["s0"] == s0
+    settled = table.get("settled", np.ones(len(m), dtype=bool))
+    return (np.asarray(table["s0"], dtype=float)[m].tolist(), np.asarray(table["f_ex_hz"], dtype=float)[m].tolist(),
+            np.asarray(table["a_ex_m_s2"], dtype=float)[m].tolist(), np.asarray(table["t_end_s"], dtype=float)[m].tolist(),
+            [str(v) for v in table["status"][m]], [str(v) for v in table["behaviour"][m]],
+            np.asarray(settled, dtype=bool)[m].tolist())
+
+
 def t_end_text(table: Dict[str, np.ndarray], s0: Optional[float] = None) -> str:
     """``t_end = 120 s``, or for an extended map ``t_end = 120 s (settled points kept from 60 s)``;
-    ``predicted, t_end = 120 s`` for a map of the reduced predictor."""
-    predicted = bool(np.any(table["status"] == "predicted"))
-    m = (table["status"] == "completed") | (table["status"] == "predicted")
-    if s0 is not None:
-        m &= table["s0"] == s0
-    if not m.any():
-        return "t_end = -"
-    lo, hi = float(table["t_end_s"][m].min()), float(table["t_end_s"][m].max())
-    if lo == hi:
-        return f"{'predicted, ' if predicted else ''}t_end = {round(hi, 3):g} s"
-    return f"t_end = {round(hi, 3):g} s (settled points kept from {round(lo, 3):g} s)"
+    ``predicted, t_end = 120 s`` for a map of the reduced predictor (the core's text, docs/model.md §8)."""
+    return _core.map_t_end_text(_columns(table, s0))
 
 
 def marked_unsettled(table: Dict[str, np.ndarray]) -> np.ndarray:
@@ -168,25 +121,8 @@ def marked_unsettled(table: Dict[str, np.ndarray]) -> np.ndarray:
 
 
 def text_table(table: Dict[str, np.ndarray], s0: Optional[float] = None) -> str:
-    """The map as text: per s0 a header with s0 and t_end, rows a_ex (highest first), columns
-    f_ex, one letter per behaviour (:data:`LETTERS`; ``.`` = not run), followed by ``*`` when the
-    behaviour is reached but not yet settled (:func:`marked_unsettled`)."""
-    star = marked_unsettled(table)
-    s0s = sorted(set(table["s0"].tolist())) if s0 is None else [s0]
-    out = []
-    for s in s0s:
-        m = table["s0"] == s
-        fs = sorted(set(table["f_ex_hz"][m].tolist()))
-        as_ = sorted(set(table["a_ex_m_s2"][m].tolist()), reverse=True)
-        out.append(f"s0 = {s:g}, {t_end_text(table, s)}; rows a_ex [m/s^2], columns f_ex [Hz]; "
-                   + ", ".join(f"{LETTERS[b]} {LABELS[b]}" for b in BEHAVIOURS) + ", . not run; * reached, not yet settled")
-        corner = "a\\f"
-        out.append(f"{corner:>6} " + "".join(f"{f:>4g}" for f in fs))
-        for a in as_:
-            cells = []
-            for f in fs:
-                k = np.flatnonzero(m & (table["f_ex_hz"] == f) & (table["a_ex_m_s2"] == a))
-                cell = (LETTERS.get(table['behaviour'][k[0]], '?') + ("*" if star[k[0]] else "")) if len(k) else "."
-                cells.append(f"{cell:>4}")
-            out.append(f"{a:>6g} " + "".join(cells))
-    return "\n".join(out) + "\n"
+    """The map as text (the core's letter table, as ``beamslider-batch map`` writes it): per s0 a
+    header with s0 and t_end, rows a_ex (highest first), columns f_ex, one letter per behaviour
+    (:data:`LETTERS`; ``.`` = not run), followed by ``*`` when the behaviour is reached but not yet
+    settled (:func:`marked_unsettled`)."""
+    return _core.map_text_table(_columns(table, s0))

@@ -11,7 +11,7 @@ from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
 import numpy as np
 
 from .. import _core, _toml
-from ..maps import map_config_dict
+from ..maps.config import map_config_dict
 from ..params import Parameters
 
 RESULTS_FILE = "study.jsonl"
@@ -128,8 +128,25 @@ class Uncertain:
         return {k: v for k, v in dataclasses.asdict(self).items() if v is not None and k != "name"}
 
 
+def uncertain_from_dict(unc: Any) -> List[Uncertain]:
+    """The uncertain inputs of a configuration's ``[uncertain.<name>]`` tables (study and design
+    files); a ValueError naming the table for a malformed one."""
+    if not isinstance(unc, dict):
+        raise ValueError("[uncertain] must hold one table per parameter: [uncertain.<name>]")
+    uncertain = []
+    for name, spec in unc.items():
+        if not isinstance(spec, dict):
+            raise ValueError(f"[uncertain.{name}] must be a table (distribution = ..., low = ..., ...)")
+        fields_ = {f.name for f in dataclasses.fields(Uncertain)} - {"name"}
+        bad = sorted(set(spec) - fields_)
+        if bad:
+            raise ValueError(f"unknown key {bad[0]!r} in [uncertain.{name}]: allowed are {', '.join(sorted(fields_))}")
+        uncertain.append(Uncertain(name=name, **spec))
+    return uncertain
+
+
 @dataclass
-class StudyConfig:
+class StudyConfig(_toml.ConfigFile):
     """A study: the operating points and settings of a map, the nominal parameters, the uncertain
     inputs and the sampling. As TOML (``beamslider study --config``)::
 
@@ -172,6 +189,8 @@ class StudyConfig:
     chunk_size: int = 4
     quantiles: List[float] = field(default_factory=lambda: [0.05, 0.5, 0.95])
 
+    TOML_KIND = "study"
+
     def __post_init__(self) -> None:
         if not self.uncertain:
             raise ValueError("a study needs at least one [uncertain.<name>] table")
@@ -200,16 +219,6 @@ class StudyConfig:
 
     # --- TOML ---------------------------------------------------------------------------------
     @classmethod
-    def from_toml_text(cls, text: str) -> "StudyConfig":
-        """Parse study TOML (see the class docstring)."""
-        return cls.from_dict(_toml.loads_config(text, "study"))
-
-    @classmethod
-    def from_toml(cls, path: Union[str, "os.PathLike[str]"]) -> "StudyConfig":
-        """Read a study TOML file."""
-        return _toml.read_config_file(path, cls.from_toml_text)
-
-    @classmethod
     def from_dict(cls, d: Dict[str, Any]) -> "StudyConfig":
         """From the parsed TOML tables."""
         d = dict(d)
@@ -233,18 +242,7 @@ class StudyConfig:
                 kw[key] = study.pop(key)
         if study:
             raise ValueError(f"unknown key {sorted(study)[0]!r} in [study]: allowed are method, samples, seed, chunk_size, quantiles")
-        unc = d.get("uncertain", {})
-        if not isinstance(unc, dict):
-            raise ValueError("[uncertain] must hold one table per parameter: [uncertain.<name>]")
-        uncertain = []
-        for name, spec in unc.items():
-            if not isinstance(spec, dict):
-                raise ValueError(f"[uncertain.{name}] must be a table (distribution = ..., low = ..., ...)")
-            fields_ = {f.name for f in dataclasses.fields(Uncertain)} - {"name"}
-            bad = sorted(set(spec) - fields_)
-            if bad:
-                raise ValueError(f"unknown key {bad[0]!r} in [uncertain.{name}]: allowed are {', '.join(sorted(fields_))}")
-            uncertain.append(Uncertain(name=name, **spec))
+        uncertain = uncertain_from_dict(d.get("uncertain", {}))
         for key in ("duration_s", "record_every", "dt_s"):
             if key in d:
                 kw[key] = d[key]

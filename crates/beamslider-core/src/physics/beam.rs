@@ -328,6 +328,14 @@ impl Beam {
         0.5 * self.k_ax * self.k[0] * self.k[0]
     }
 
+    /// Squared frequency of the single-mode backbone (docs/model.md §6.4, §9):
+    /// ω̃² = (ω² + ¾ b a²)/M₁, with ω² the linear term, b the hardening coefficient of the
+    /// amplitude a's units and M₁ the modal mass (1 without a slider). One formula for the
+    /// ENMA backbone, the backbone with the slider and the fitted backbone of measured data.
+    pub fn backbone_omega2(omega2: f64, b: f64, amplitude: f64, m1: f64) -> f64 {
+        (omega2 + 0.75 * b * amplitude * amplitude) / m1
+    }
+
     /// Axial (string) force Fₙ(q) = ((k_ax/2)(qᵀKq) + H₀)(Kq)ₙ into `out`.
     pub fn string_force(&self, q: &[f64], out: &mut [f64]) {
         let n = self.n;

@@ -8,4 +8,4 @@ pub mod reduced;
 pub mod run;
 
 pub use envelope_stream::{EnvelopeStream, SuperSlow};
-pub use filters::{envelope, envelope_checked, hilbert_envelope, moving_average, positive};
+pub use filters::{blocked_envelope, blocked_hilbert_envelope, envelope, envelope_checked, hilbert_envelope, moving_average, positive};

@@ -1,56 +1,8 @@
-//! Settings and results of the harmonic-balance manifold (docs/model.md §6.4): options,
-//! branches, folds.
+//! Results of the harmonic-balance manifold (docs/model.md §6.4): branches, folds (its
+//! settings, [`HbOptions`], live with the system in `hb`).
 
+pub use super::hb::HbOptions;
 use super::hb::PointOut;
-
-/// Settings of [`hb_manifold`].
-#[derive(Debug, Clone, PartialEq)]
-pub struct HbOptions {
-    /// Retained beam modes N (1..=20; default 5).
-    pub n_modes: usize,
-    /// Harmonics of the HB ansatz: the odd harmonics 1, 3, …, H for H = `harmonics` ∈ {1, 3, 5, 7}
-    /// (1 = single-term HB, the default; docs/model.md §6.4). With `static_sag`, all harmonics 0..=H.
-    pub harmonics: usize,
-    /// Equivalent damping ratio D_eff replacing Dₙ of all modes (docs/model.md §6.4); None = the
-    /// parameters' damping_ratio.
-    pub d_eff: Option<f64>,
-    /// Factor on ω₁ (ω₁ → factor·ω₁, for a sensitivity check; default 1).
-    pub omega1_factor: f64,
-    /// Slider positions, strictly increasing, within [B/(2L), 0.5]: the continuation runs over
-    /// [s[0], s[last]] (default: 201 values from B/(2L) to 0.5).
-    pub s: Option<Vec<f64>>,
-    /// Cap of continuation steps per run (default 20 000).
-    pub max_steps: usize,
-    /// Largest arclength step in the scaled coordinates (Q/q_ref, s) (default 0.05).
-    pub max_step: f64,
-    /// Also solve the high and low branches exactly at every s of the grid
-    /// ([`HbManifold::high_on_grid`], [`HbManifold::low_on_grid`]; default false).
-    pub sample_on_grid: bool,
-    /// Static sag under the slider's weight m·g at x = sL (docs/model.md §6.4; gravity acts on the
-    /// slider only, MODEL.md §1): adds the zeroth harmonic Q₀ (default false).
-    pub static_sag: bool,
-    /// End the downward run at its first fold (s_up): the low branch, s_up and the high branch
-    /// are the same, the middle (unstable) branch and later folds are left out (default false;
-    /// the predictor uses it, about a third fewer continuation steps).
-    pub low_branch_only: bool,
-}
-
-impl Default for HbOptions {
-    fn default() -> Self {
-        HbOptions {
-            n_modes: 5,
-            harmonics: 1,
-            d_eff: None,
-            omega1_factor: 1.0,
-            s: None,
-            max_steps: 20_000,
-            max_step: 0.05,
-            sample_on_grid: false,
-            static_sag: false,
-            low_branch_only: false,
-        }
-    }
-}
 
 /// Points of one branch (or one continuation run), as arrays.
 #[derive(Debug, Clone, Default, PartialEq)]

@@ -134,6 +134,13 @@ pub fn closed_form_n1_scaled(
     omega1_factor: f64,
 ) -> Result<ClosedFormN1> {
     params.validate()?;
+    check_inputs(params, f_ex_hz, a_ex, s, d_eff)?;
+    let beam = Beam::new(&Params { n_modes: 1, ..params.clone() })?;
+    closed_form_n1_with_beam(&beam, params, f_ex_hz, a_ex, s, d_eff, omega1_factor)
+}
+
+/// The closed form's inputs: excitation, d_eff, linear damping only, the grid within the beam.
+fn check_inputs(params: &Params, f_ex_hz: f64, a_ex: f64, s: &[f64], d_eff: Option<f64>) -> Result<()> {
     check_excitation(f_ex_hz, a_ex)?;
     check_d_eff(d_eff)?;
     if params.damping_ratio_quadratic != 0.0 {
@@ -144,8 +151,7 @@ pub fn closed_form_n1_scaled(
         ));
     }
     check_grid(s, params.s_min(), 1.0 - params.s_min())?;
-    let beam = Beam::new(&Params { n_modes: 1, ..params.clone() })?;
-    closed_form_n1_with_beam(&beam, params, f_ex_hz, a_ex, s, d_eff, omega1_factor)
+    Ok(())
 }
 
 /// [`closed_form_n1_scaled`] with the beam's modes given (computed once per parameter set:
@@ -159,16 +165,7 @@ pub fn closed_form_n1_with_beam(
     d_eff: Option<f64>,
     omega1_factor: f64,
 ) -> Result<ClosedFormN1> {
-    check_excitation(f_ex_hz, a_ex)?;
-    check_d_eff(d_eff)?;
-    if params.damping_ratio_quadratic != 0.0 {
-        return Err(Error::invalid(
-            "damping_ratio_quadratic",
-            params.damping_ratio_quadratic,
-            "the N = 1 closed form assumes linear damping (use hb_manifold with n_modes = 1)",
-        ));
-    }
-    check_grid(s, params.s_min(), 1.0 - params.s_min())?;
+    check_inputs(params, f_ex_hz, a_ex, s, d_eff)?;
     let n1 = n1_model(beam, params, f_ex_hz, a_ex, d_eff, omega1_factor)?;
     let mut out = ClosedFormN1 { s: s.to_vec(), ..Default::default() };
     out.roots_h.reserve(s.len());

@@ -381,6 +381,16 @@ pub fn hb_manifold<'a>(params: impl Into<ParamsArg<'a>>, f_ex_hz: f64, a_ex: f64
     Ok(out)
 }
 
+/// The first segment [sᵢ, sᵢ₊₁] of a branch that holds s, and s's weight w within it (s = sᵢ +
+/// w (sᵢ₊₁ − sᵢ)); None outside the branch.
+fn segment(b: &HbBranch, s: f64) -> Option<(usize, f64)> {
+    (0..b.len().saturating_sub(1)).find_map(|i| {
+        let (a, c) = (b.s[i], b.s[i + 1]);
+        let (lo, hi) = if a <= c { (a, c) } else { (c, a) };
+        (!(s < lo || s > hi)).then(|| (i, if c != a { (s - a) / (c - a) } else { 0.0 }))
+    })
+}
+
 /// Â of a branch (monotone in s) at s: Newton at fixed s from Q interpolated between the
 /// neighbouring continuation points (the interpolated Â if Newton fails); NaN outside the branch.
 pub(super) fn sample_branch(sys: &HbSystem, b: &HbBranch, s: f64) -> f64 {
@@ -388,47 +398,31 @@ pub(super) fn sample_branch(sys: &HbSystem, b: &HbBranch, s: f64) -> f64 {
         return sample_branch_state(sys, b, s);
     }
     let n = sys.n;
-    for i in 0..b.len().saturating_sub(1) {
-        let (a, c) = (b.s[i], b.s[i + 1]);
-        let (lo, hi) = if a <= c { (a, c) } else { (c, a) };
-        if s < lo || s > hi {
-            continue;
+    let Some((i, w)) = segment(b, s) else { return f64::NAN };
+    let lerp = |v: &[f64], k: usize| v[i * n + k] + w * (v[(i + 1) * n + k] - v[i * n + k]);
+    let u: Vec<f64> = (0..n).map(|k| lerp(&b.q_re, k)).collect();
+    let v: Vec<f64> = (0..n).map(|k| lerp(&b.q_im, k)).collect();
+    match sys.solve_point(s, &u, &v) {
+        Ok((u, v)) => {
+            let wr: f64 = sys.p47.iter().zip(&u).map(|(a, b)| a * b).sum();
+            let wi: f64 = sys.p47.iter().zip(&v).map(|(a, b)| a * b).sum();
+            wr.hypot(wi) / sys.thickness
         }
-        let w = if c != a { (s - a) / (c - a) } else { 0.0 };
-        let lerp = |v: &[f64], k: usize| v[i * n + k] + w * (v[(i + 1) * n + k] - v[i * n + k]);
-        let u: Vec<f64> = (0..n).map(|k| lerp(&b.q_re, k)).collect();
-        let v: Vec<f64> = (0..n).map(|k| lerp(&b.q_im, k)).collect();
-        return match sys.solve_point(s, &u, &v) {
-            Ok((u, v)) => {
-                let wr: f64 = sys.p47.iter().zip(&u).map(|(a, b)| a * b).sum();
-                let wi: f64 = sys.p47.iter().zip(&v).map(|(a, b)| a * b).sum();
-                wr.hypot(wi) / sys.thickness
-            }
-            Err(_) => b.amplitude_h[i] + w * (b.amplitude_h[i + 1] - b.amplitude_h[i]),
-        };
+        Err(_) => b.amplitude_h[i] + w * (b.amplitude_h[i + 1] - b.amplitude_h[i]),
     }
-    f64::NAN
 }
 
 /// [`sample_branch`] for the multi-harmonic / sag system: Newton at fixed s on all unknowns.
 pub(super) fn sample_branch_state(sys: &HbSystem, b: &HbBranch, s: f64) -> f64 {
     let nx = sys.nx;
-    for i in 0..b.len().saturating_sub(1) {
-        let (a, c) = (b.s[i], b.s[i + 1]);
-        let (lo, hi) = if a <= c { (a, c) } else { (c, a) };
-        if s < lo || s > hi {
-            continue;
-        }
-        let w = if c != a { (s - a) / (c - a) } else { 0.0 };
-        let mut y = DVector::zeros(nx + 1);
-        for k in 0..nx {
-            y[k] = (b.state[i * nx + k] + w * (b.state[(i + 1) * nx + k] - b.state[i * nx + k])) / sys.q_ref;
-        }
-        y[nx] = s;
-        return match sys.newton_fixed(&y, Param::S { load: 1.0 }) {
-            Some(y) => sys.point_out(&y, true).amplitude_h,
-            None => b.amplitude_h[i] + w * (b.amplitude_h[i + 1] - b.amplitude_h[i]),
-        };
+    let Some((i, w)) = segment(b, s) else { return f64::NAN };
+    let mut y = DVector::zeros(nx + 1);
+    for k in 0..nx {
+        y[k] = (b.state[i * nx + k] + w * (b.state[(i + 1) * nx + k] - b.state[i * nx + k])) / sys.q_ref;
     }
-    f64::NAN
+    y[nx] = s;
+    match sys.newton_fixed(&y, Param::S { load: 1.0 }) {
+        Some(y) => sys.point_out(&y, true).amplitude_h,
+        None => b.amplitude_h[i] + w * (b.amplitude_h[i + 1] - b.amplitude_h[i]),
+    }
 }

@@ -3,7 +3,6 @@
 
 use nalgebra::{DMatrix, DVector, DVectorView};
 
-use super::branch::HbOptions;
 use super::lu::{LuWork, matvec};
 use super::mhb;
 use crate::error::{Error, Result};
@@ -19,6 +18,55 @@ pub(super) struct PointOut {
     pub(super) q_im: Vec<f64>,
     pub(super) harm: Vec<f64>,
     pub(super) state: Vec<f64>,
+}
+
+/// Settings of [`super::hb_manifold`] and of the system it continues ([`HbSystem`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct HbOptions {
+    /// Retained beam modes N (1..=20; default 5).
+    pub n_modes: usize,
+    /// Harmonics of the HB ansatz: the odd harmonics 1, 3, …, H for H = `harmonics` ∈ {1, 3, 5, 7}
+    /// (1 = single-term HB, the default; docs/model.md §6.4). With `static_sag`, all harmonics 0..=H.
+    pub harmonics: usize,
+    /// Equivalent damping ratio D_eff replacing Dₙ of all modes (docs/model.md §6.4); None = the
+    /// parameters' damping_ratio.
+    pub d_eff: Option<f64>,
+    /// Factor on ω₁ (ω₁ → factor·ω₁, for a sensitivity check; default 1).
+    pub omega1_factor: f64,
+    /// Slider positions, strictly increasing, within [B/(2L), 0.5]: the continuation runs over
+    /// [s[0], s[last]] (default: 201 values from B/(2L) to 0.5).
+    pub s: Option<Vec<f64>>,
+    /// Cap of continuation steps per run (default 20 000).
+    pub max_steps: usize,
+    /// Largest arclength step in the scaled coordinates (Q/q_ref, s) (default 0.05).
+    pub max_step: f64,
+    /// Also solve the high and low branches exactly at every s of the grid
+    /// ([`super::HbManifold::high_on_grid`], [`super::HbManifold::low_on_grid`]; default false).
+    pub sample_on_grid: bool,
+    /// Static sag under the slider's weight m·g at x = sL (docs/model.md §6.4; gravity acts on the
+    /// slider only, MODEL.md §1): adds the zeroth harmonic Q₀ (default false).
+    pub static_sag: bool,
+    /// End the downward run at its first fold (s_up): the low branch, s_up and the high branch
+    /// are the same, the middle (unstable) branch and later folds are left out (default false;
+    /// the predictor uses it, about a third fewer continuation steps).
+    pub low_branch_only: bool,
+}
+
+impl Default for HbOptions {
+    fn default() -> Self {
+        HbOptions {
+            n_modes: 5,
+            harmonics: 1,
+            d_eff: None,
+            omega1_factor: 1.0,
+            s: None,
+            max_steps: 20_000,
+            max_step: 0.05,
+            sample_on_grid: false,
+            static_sag: false,
+            low_branch_only: false,
+        }
+    }
 }
 
 /// The N-mode, single-harmonic HB system with the slider rigidly attached (docs/model.md §6.4).
@@ -226,7 +274,7 @@ impl HbSystem {
         let (phi, dphi) = (self.beam.phi_exact(0, x), self.beam.dphi_exact(0, x));
         let m1 = 1.0 + self.mass * phi * phi + self.j_g * dphi * dphi;
         let a = amplitude_h * self.thickness / self.p47[0].abs();
-        ((self.lam[(0, 0)] + 0.75 * self.beam.hardening_b() * a * a) / m1).sqrt()
+        crate::physics::Beam::backbone_omega2(self.lam[(0, 0)], self.beam.hardening_b(), a, m1).sqrt()
     }
 
     pub(super) fn uv(&self, y: &DVector<f64>) -> (Vec<f64>, Vec<f64>) {

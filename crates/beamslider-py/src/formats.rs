@@ -1,0 +1,79 @@
+//! Conversions for the core's formats and formulas: the manifold CSV, the map's letter table,
+//! the blocked envelope, the backbone and the JSON-lines results files (design runs).
+
+use std::path::PathBuf;
+
+use beamslider_core::map::{TableCell, t_end_text, table_of_cells};
+use beamslider_core::{Beam, Branch, manifold, results, signal};
+use numpy::{IntoPyArray, PyArray1, PyReadonlyArray1};
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+
+use crate::guarded;
+
+/// The manifold CSV of two sweeps (s, amplitude [m] each), as the core writes it.
+#[pyfunction]
+fn manifold_csv(up_s: Vec<f64>, up_amplitude_m: Vec<f64>, down_s: Vec<f64>, down_amplitude_m: Vec<f64>) -> String {
+    manifold::csv_text(&Branch { s: up_s, amplitude_m: up_amplitude_m }, &Branch { s: down_s, amplitude_m: down_amplitude_m })
+}
+
+type Columns = (Vec<f64>, Vec<f64>, Vec<f64>, Vec<f64>, Vec<String>, Vec<String>, Vec<bool>);
+
+fn cells((s0, f, a, t, status, behaviour, settled): Columns) -> PyResult<Vec<TableCell>> {
+    let n = s0.len();
+    if [f.len(), a.len(), t.len(), status.len(), behaviour.len(), settled.len()].iter().any(|&k| k != n) {
+        return Err(PyValueError::new_err("invalid parameter `table`: the columns must have the same length"));
+    }
+    Ok((0..n).map(|i| TableCell::new(s0[i], f[i], a[i], t[i], &status[i], &behaviour[i], settled[i])).collect())
+}
+
+/// The letter table of a map from its columns (s0, f_ex, a_ex, t_end, status, behaviour, settled).
+#[pyfunction]
+fn map_text_table(columns: Columns) -> PyResult<String> {
+    Ok(table_of_cells(&cells(columns)?))
+}
+
+/// The "t_end = … s" text of a map's columns (as [`map_text_table`]).
+#[pyfunction]
+fn map_t_end_text(columns: Columns) -> PyResult<String> {
+    Ok(t_end_text(&cells(columns)?))
+}
+
+/// Envelope with the analytic signal by overlapping FFT blocks (docs/model.md §7).
+#[pyfunction]
+fn blocked_envelope<'py>(py: Python<'py>, x: PyReadonlyArray1<'py, f64>, dt_s: f64, window_s: f64, block: usize, margin: usize) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    let x = x.as_slice()?.to_vec();
+    Ok(py.detach(|| guarded(|| signal::blocked_envelope(&x, dt_s, window_s, block, margin)))?.into_pyarray(py))
+}
+
+/// Squared backbone frequencies (ω² + ¾ b a²)/M₁ at the amplitudes a.
+#[pyfunction]
+fn backbone_omega2(omega2: f64, b: f64, amplitude: Vec<f64>, m1: f64) -> Vec<f64> {
+    amplitude.iter().map(|&a| Beam::backbone_omega2(omega2, b, a, m1)).collect()
+}
+
+/// The complete lines of a JSON-lines results file whose header has `key` = `version`, the byte
+/// length of the complete part and whether a torn last line was left out.
+#[pyfunction]
+fn read_json_lines(py: Python<'_>, path: PathBuf, key: &str, version: u64) -> PyResult<(Vec<String>, u64, bool)> {
+    let r = py.detach(|| guarded(|| results::read_json_lines(&path, key, version)))?;
+    Ok((r.lines, r.good_len, r.truncated))
+}
+
+/// Append lines to a JSON-lines results file, after cutting it to `good_len` when given.
+#[pyfunction]
+#[pyo3(signature = (path, lines, good_len = None))]
+fn append_json_lines(py: Python<'_>, path: PathBuf, lines: Vec<String>, good_len: Option<u64>) -> PyResult<()> {
+    py.detach(|| guarded(|| results::append_json_lines(&path, good_len, &lines)))
+}
+
+/// Register the format functions in the `_core` module.
+pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    for f in [wrap_pyfunction!(manifold_csv, m)?, wrap_pyfunction!(map_text_table, m)?, wrap_pyfunction!(map_t_end_text, m)?] {
+        m.add_function(f)?;
+    }
+    for f in [wrap_pyfunction!(blocked_envelope, m)?, wrap_pyfunction!(backbone_omega2, m)?, wrap_pyfunction!(read_json_lines, m)?, wrap_pyfunction!(append_json_lines, m)?] {
+        m.add_function(f)?;
+    }
+    Ok(())
+}
