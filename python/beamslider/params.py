@@ -103,7 +103,7 @@ def _wrap(cls: type, core: Any) -> Any:
 
 Parameters = dataclasses.make_dataclass(
     "Parameters",
-    [(n, type(v), dataclasses.field(default=v)) for n, v in _core.default_params().items()],
+    [(n, type(v), dataclasses.field(default=v)) for n, v in _core.Params().to_dict().items()],
     bases=(_Methods,),
     namespace={"__module__": __name__},
 )

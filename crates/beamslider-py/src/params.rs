@@ -89,18 +89,6 @@ impl PyParams {
     }
 }
 
-/// Default parameters of docs/model.md §1 as a dict.
-#[pyfunction]
-fn default_params(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
-    dict(py, &Params::default())
-}
-
-/// Parse and validate TOML parameter text; returns the full dict.
-#[pyfunction]
-fn params_from_toml<'py>(py: Python<'py>, text: &str) -> PyResult<Bound<'py, PyDict>> {
-    dict(py, &PyParams::from_toml_text(text)?.0)
-}
-
 /// Times the core has validated a parameter set in this process (`Params::validate`).
 #[pyfunction]
 fn _validation_count() -> u64 {
@@ -109,8 +97,6 @@ fn _validation_count() -> u64 {
 
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyParams>()?;
-    m.add_function(wrap_pyfunction!(default_params, m)?)?;
-    m.add_function(wrap_pyfunction!(params_from_toml, m)?)?;
-    m.add_function(wrap_pyfunction!(_validation_count, m)?)?;
+    crate::export!(m, _validation_count);
     Ok(())
 }
