@@ -257,7 +257,7 @@ def simulate(
     if record_every > steps:
         raise ValueError(f"invalid parameter `record_every` = {record_every}: larger than the run's {steps} time steps "
                          f"(t_end / dt): it would record only the start state")
-    if _check_only:
+    if _check_only:  # the core's checks of the run's inputs, before its first step; nothing runs
         _core.check_run(native(p), f_ex_hz=float(f_ex), a_ex_m_s2=float(a_ex), s0=float(s0), t_end_s=t_end,
                         model=model, s_pcs=s_pcs_value, record_every=record_every)
         return None  # type: ignore[return-value]

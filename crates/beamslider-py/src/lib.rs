@@ -67,25 +67,20 @@ fn check_threads(threads: Option<usize>) -> PyResult<()> {
 }
 
 /// Run `work` with the interpreter released on the core's watched worker thread
-/// ([`runner::watched`]); every `period_ms` the calling thread re-attaches and calls `poll(py)`
-/// (pending signal handlers such as Ctrl-C, progress callbacks). An exception from `poll` sets
-/// `cancel` and is raised once the work has stopped.
-fn detached<T: Send>(py: Python<'_>, cancel: &AtomicBool, period_ms: u64, work: impl FnOnce() -> Result<T, Error> + Send,
-    poll: impl Fn(Python<'_>) -> PyResult<()> + Sync) -> PyResult<T> {
+/// ([`runner::watched`]); every `period_ms`, and once more at the end, the calling thread
+/// re-attaches, runs pending signal handlers (Ctrl-C) and calls `poll(py)` (progress callbacks).
+/// An exception there sets `cancel` and is raised once the work has stopped.
+fn detached<T: Send>(py: Python<'_>, cancel: &AtomicBool, period_ms: u64, work: impl FnOnce() -> Result<T, Error> + Send, poll: impl Fn(Python<'_>) -> PyResult<()> + Sync) -> PyResult<T> {
+    let poll = |py: Python<'_>| py.check_signals().and_then(|()| poll(py));
     let mut err: Option<PyErr> = None;
-    let outcome = py.detach(|| {
-        runner::watched(cancel, std::time::Duration::from_millis(period_ms), work, || match Python::attach(&poll) {
-            Ok(()) => true,
-            Err(e) => {
-                err = Some(e);
-                false
-            }
-        })
-    });
+    let period = std::time::Duration::from_millis(period_ms);
+    let outcome = py.detach(|| runner::watched(cancel, period, work, || Python::attach(poll).map_err(|e| err = Some(e)).is_ok()));
     if let Some(e) = err {
         return Err(e);
     }
-    outcome.map_err(to_py)
+    let out = outcome.map_err(to_py)?;
+    poll(py)?;
+    Ok(out)
 }
 
 /// Monitor that re-attaches to Python every poll: pending signal handlers (Ctrl-C) and the
@@ -103,11 +98,7 @@ impl PyMonitor {
     }
 
     fn call(error: &mut Option<PyErr>, f: impl FnOnce(Python<'_>) -> PyResult<()>) -> bool {
-        if error.is_some() {
-            return false;
-        }
-        let r = Python::attach(|py| py.check_signals().and_then(|()| f(py)));
-        r.map_err(|e| *error = Some(e)).is_ok()
+        error.is_none() && Python::attach(|py| py.check_signals().and_then(|()| f(py))).map_err(|e| *error = Some(e)).is_ok()
     }
 
     /// The run's outcome, or the exception a callback raised.

@@ -32,12 +32,6 @@ fn spec(f_ex_hz: f64, a_ex_m_s2: f64, s0: f64, t_end_s: f64, model: &str, s_pcs:
     Ok(RunSpec { model, s0, excitation: Excitation::new(f_ex_hz, a_ex_m_s2), duration_s: t_end_s, record_every, channels: RECORDED.map(|c| c.1).to_vec() })
 }
 
-/// Natural frequencies f₁..f_N [Hz] of the linear beam (docs/model.md §2).
-#[pyfunction]
-fn natural_frequencies(py: Python<'_>, params: &Bound<'_, PyParams>) -> PyResult<Vec<f64>> {
-    Ok(model_of(py, params)?.beam.frequencies_hz())
-}
-
 /// Check the inputs of a run as `simulate` does before its first step, running nothing.
 #[pyfunction]
 #[pyo3(signature = (params, *, f_ex_hz, a_ex_m_s2, s0, t_end_s, model, s_pcs=None, record_every=1))]
@@ -126,8 +120,7 @@ fn run_free_slider_batch<'py>(py: Python<'py>, jobs: Vec<(Bound<'py, PyParams>, 
     let red = Reduction { record_every, keep_every, window_s, detrend_s };
     let jobs: Vec<Job> = jobs.into_iter().map(|(p, f_ex_hz, a_ex_m_s2, s0, duration_s)| Job { params: p.get().0.clone(), f_ex_hz, a_ex_m_s2, s0, duration_s }).collect();
     let (cancel, fresh) = (AtomicBool::new(false), AtomicUsize::new(0));
-    let poll = |py: Python<'_>| -> PyResult<()> {
-        py.check_signals()?;
+    let poll = |py: Python<'_>| {
         let n = fresh.swap(0, Ordering::Relaxed);
         on_done.as_ref().filter(|_| n > 0).map_or(Ok(()), |cb| cb.call1(py, (n,)).map(|_| ()))
     };
@@ -135,7 +128,6 @@ fn run_free_slider_batch<'py>(py: Python<'py>, jobs: Vec<(Bound<'py, PyParams>, 
         fresh.fetch_add(1, Ordering::Relaxed);
     };
     let outcome = detached(py, &cancel, 50, || reduced::run_batch(&jobs, &red, threads, &cancel, on_one), poll)?;
-    poll(py)?;
     let results = outcome.ok_or_else(|| PyKeyboardInterrupt::new_err("discover runs interrupted"))?;
     results
         .into_iter()
@@ -180,6 +172,6 @@ fn beam_properties<'py>(py: Python<'py>, params: &Bound<'py, PyParams>, x_over_l
 }
 
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
-    crate::export!(m, natural_frequencies, check_run, simulate, physical_manifold_grid, super_slow_manifold, run_free_slider_batch, virtual_enma, beam_properties);
+    crate::export!(m, check_run, simulate, physical_manifold_grid, super_slow_manifold, run_free_slider_batch, virtual_enma, beam_properties);
     Ok(())
 }

@@ -29,14 +29,15 @@ fn run_study_chunk(py: Python<'_>, config_toml: &str, points: Vec<ChunkPoint>, t
     let points: Vec<StudyPoint> =
         points.into_iter().map(|(index, params_toml, f_ex_hz, a_ex_m_s2, s0, duration_s)| StudyPoint { index, params_toml, f_ex_hz, a_ex_m_s2, s0, duration_s }).collect();
     let (cancel, fresh) = (AtomicBool::new(false), Mutex::new(Vec::new()));
-    let drain = |py: Python<'_>| -> PyResult<()> {
-        py.check_signals()?;
+    let drain = |py: Python<'_>| {
         let batch: Vec<String> = std::mem::take(&mut *fresh.lock().unwrap_or_else(|e| e.into_inner()));
         on_rows.as_ref().filter(|_| !batch.is_empty()).map_or(Ok(()), |cb| cb.call1(py, (batch,)).map(|_| ()))
     };
-    let push = |row: &MapRow| Ok(fresh.lock().unwrap_or_else(|e| e.into_inner()).push(row.to_json()));
+    let push = |row: &MapRow| {
+        fresh.lock().unwrap_or_else(|e| e.into_inner()).push(row.to_json());
+        Ok(())
+    };
     let rows = detached(py, &cancel, 50, || run_points(&cfg, &points, threads, &cancel, push), drain)?;
-    drain(py)?;
     let rows = rows.ok_or_else(|| PyKeyboardInterrupt::new_err("study chunk interrupted"))?;
     Ok(rows.iter().map(MapRow::to_json).collect())
 }

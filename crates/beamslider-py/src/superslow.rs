@@ -73,8 +73,7 @@ pub fn drift_table_pcs(py: Python<'_>, params: &Bound<'_, PyParams>, f_ex_hz: f6
     let opts = DriftOptions { s_values, settle_periods, first_settle_periods, window_s, sub_windows, mirror };
     let exc = Excitation::new(f_ex_hz, a_ex_m_s2);
     let (cancel, done, total) = (AtomicBool::new(false), AtomicUsize::new(0), AtomicUsize::new(0));
-    let poll = |py: Python<'_>| -> PyResult<()> {
-        py.check_signals()?;
+    let poll = |py: Python<'_>| {
         let t = total.load(Relaxed);
         progress.as_ref().filter(|_| t > 0).map_or(Ok(()), |cb| cb.call1(py, (done.load(Relaxed), t)).map(|_| ()))
     };
@@ -83,7 +82,6 @@ pub fn drift_table_pcs(py: Python<'_>, params: &Bound<'_, PyParams>, f_ex_hz: f6
         total.store(t, Relaxed);
     };
     let table = detached(py, &cancel, 100, || core_drift(&Model::of(&params)?, &exc, &opts, out.as_deref(), resume, &cancel, &progress_of), poll)?;
-    poll(py)?;
     Ok((json(&table.header)?, table.rows.iter().map(json).collect::<PyResult<_>>()?, table.computed))
 }
 
