@@ -51,7 +51,7 @@ impl MapRun {
     fn run_local(&self, py: Python<'_>, threads: Option<usize>, progress: Option<Py<PyAny>>) -> PyResult<()> {
         let cancel = AtomicBool::new(false);
         let poll = |py: Python<'_>| progress.as_ref().map_or(Ok(()), |cb| cb.call1(py, (self.0.done(), self.0.total)).map(|_| ()));
-        detached(py, &cancel, 100, || self.0.run_local(threads, &cancel), poll)
+        detached(py, &cancel, 100, || self.0.run_local(threads, &cancel, None), poll)
     }
 
     /// Close the results (release the lock) and return (rows of the grid as JSON texts sorted by

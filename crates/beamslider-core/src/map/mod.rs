@@ -31,6 +31,6 @@ mod table;
 
 pub use crate::results::{EndState, MapPoint, MapRow};
 pub use config::{Axis, DEFAULT_RECORD_EVERY, Grid, MAX_POINTS, MapConfig, RESULTS_FILE};
-pub use run::{Job, MapOutcome, MapResults, MapRunOptions, Progress, continue_point, error_row, preflight, run_job, run_jobs, run_map, run_point, upgrade_row};
-pub use session::{MapSession, WireJob, run_chunk};
+pub use run::{Job, MapOutcome, MapResults, MapRunOptions, Progress, continue_point, error_row, preflight, run_job, run_jobs, run_point, upgrade_row};
+pub use session::{MapSession, WireJob, run_chunk, run_map};
 pub use table::{marked_unsettled, text_table};

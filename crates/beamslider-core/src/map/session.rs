@@ -9,7 +9,7 @@ use std::sync::Mutex;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
 use super::config::MapConfig;
-use super::run::{Job, MapResults, MapRunOptions, run_jobs};
+use super::run::{Job, MapOutcome, MapResults, MapRunOptions, Progress, run_jobs};
 use crate::error::{Error, Result};
 use crate::results::{MapPoint, MapRow};
 
@@ -63,7 +63,7 @@ impl MapSession {
             .collect()
     }
 
-    fn append(&self, row: MapRow) -> Result<bool> {
+    fn append(&self, row: MapRow, progress: Option<Progress<'_>>) -> Result<bool> {
         let mut g = lock(&self.results);
         let r = g.as_mut().ok_or_else(|| Error::invalid("results", "closed", "the map's results are closed"))?;
         if r.rows.iter().any(|x| x.index == row.index) {
@@ -71,6 +71,9 @@ impl MapSession {
         }
         r.append(row)?;
         self.done.store(r.rows.len(), Ordering::Relaxed);
+        if let (Some(progress), Some(last)) = (progress, r.rows.last()) {
+            progress(r.rows.len(), self.total, last);
+        }
         Ok(true)
     }
 
@@ -79,28 +82,29 @@ impl MapSession {
     pub fn append_json(&self, rows: &[String]) -> Result<usize> {
         let mut n = 0;
         for text in rows {
-            n += usize::from(self.append(parse_row(text)?)?);
+            n += usize::from(self.append(parse_row(text)?, None)?);
         }
         Ok(n)
     }
 
     /// Run the remaining jobs here on `threads` threads (None: one per core), appending each
-    /// row at once. A set `cancel` stops the map (finished rows stay): [`Error::Interrupted`].
-    pub fn run_local(&self, threads: Option<usize>, cancel: &AtomicBool) -> Result<()> {
-        crate::dynamics::runner::check_threads(threads)?;
+    /// row at once and then calling `progress(rows so far, points in the grid, row)`. A set
+    /// `cancel` stops the map; finished rows stay.
+    pub fn run_local(&self, threads: Option<usize>, cancel: &AtomicBool, progress: Option<Progress<'_>>) -> Result<()> {
         let jobs = std::mem::take(&mut *lock(&self.jobs));
-        run_jobs(&self.cfg, &jobs, threads, cancel, |row| self.append(row).map(|_| ()))?;
-        if cancel.load(Ordering::Relaxed) {
-            return Err(Error::Interrupted { t_s: 0.0 });
-        }
-        Ok(())
+        run_jobs(&self.cfg, &jobs, threads, cancel, |row| self.append(row, progress).map(|_| ()))
     }
 
-    /// Close the results (release the lock): the rows of the grid sorted by index and the number
-    /// of continued points; [`Error::Interrupted`] when points are missing.
-    pub fn finish(&self) -> Result<(Vec<MapRow>, usize)> {
+    /// Close the results (release the lock): all rows sorted by index, with the counts.
+    pub fn outcome(&self) -> Result<MapOutcome> {
         let r = lock(&self.results).take().ok_or_else(|| Error::invalid("results", "closed", "the map's results are closed"))?;
-        let outcome = r.finish();
+        Ok(r.finish())
+    }
+
+    /// [`MapSession::outcome`] as (rows, continued points); [`Error::Interrupted`] when points
+    /// are missing.
+    pub fn finish(&self) -> Result<(Vec<MapRow>, usize)> {
+        let outcome = self.outcome()?;
         if outcome.cancelled {
             return Err(Error::Interrupted { t_s: 0.0 });
         }
@@ -111,6 +115,15 @@ impl MapSession {
     pub fn close(&self) {
         lock(&self.results).take();
     }
+}
+
+/// Run the grid of `cfg` in parallel, appending each finished point to the results file (a
+/// [`MapSession`] run here). Setting `cancel` stops the map: points in flight are abandoned,
+/// finished ones are kept.
+pub fn run_map(cfg: &MapConfig, opts: &MapRunOptions, cancel: &AtomicBool, progress: Progress<'_>) -> Result<MapOutcome> {
+    let session = MapSession::open(cfg.clone(), opts)?;
+    session.run_local(opts.threads, cancel, Some(progress))?;
+    session.outcome()
 }
 
 /// Run `jobs` (see [`MapSession::wire_jobs`]) of the map `cfg` on `threads` threads: the rows as
@@ -157,7 +170,7 @@ mod tests {
         let local = MapSession::open(cfg.clone(), &MapRunOptions::default()).unwrap();
         assert_eq!((local.total, local.done()), (2, 0));
         let wire = local.wire_jobs();
-        local.run_local(Some(1), &cancel).unwrap();
+        local.run_local(Some(1), &cancel, None).unwrap();
         assert_eq!(local.done(), 2);
         let (rows, _) = local.finish().unwrap();
         let remote = MapSession::open(cfg.clone(), &MapRunOptions::default()).unwrap();
