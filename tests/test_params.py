@@ -10,7 +10,7 @@ from beamslider import Parameters, _core
 
 
 def test_fields_and_defaults_are_the_cores():
-    core = _core.default_params()
+    core = _core.Params().to_dict()
     assert sorted(f.name for f in dataclasses.fields(Parameters)) == sorted(core)
     assert Parameters().to_dict() == core
 

@@ -10,6 +10,7 @@ checks its parameters once, in the core, without converting them to TOML.
 from __future__ import annotations
 
 import dataclasses
+import math
 import os
 from typing import Any, Dict, Union
 
@@ -85,7 +86,7 @@ class _Methods:
 
     def natural_frequencies_hz(self) -> list:
         """Linear natural frequencies f_1..f_N of the elastically clamped beam [Hz] (docs/model.md §2)."""
-        return list(_core.natural_frequencies(native(self)))
+        return [w / (2 * math.pi) for w in _core.beam_properties(native(self))["omega_rad_s"]]
 
 
 def _adopt(obj: Any, core: Any) -> None:
@@ -103,7 +104,7 @@ def _wrap(cls: type, core: Any) -> Any:
 
 Parameters = dataclasses.make_dataclass(
     "Parameters",
-    [(n, type(v), dataclasses.field(default=v)) for n, v in _core.default_params().items()],
+    [(n, type(v), dataclasses.field(default=v)) for n, v in _core.Params().to_dict().items()],
     bases=(_Methods,),
     namespace={"__module__": __name__},
 )

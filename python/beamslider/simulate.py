@@ -257,9 +257,9 @@ def simulate(
     if record_every > steps:
         raise ValueError(f"invalid parameter `record_every` = {record_every}: larger than the run's {steps} time steps "
                          f"(t_end / dt): it would record only the start state")
-    if _check_only:
-        _core.simulate(native(p), f_ex_hz=float(f_ex), a_ex_m_s2=float(a_ex), s0=float(s0), t_end_s=0.0,
-                       model=model, s_pcs=s_pcs_value, record_every=1)
+    if _check_only:  # the core's checks of the run's inputs, before its first step; nothing runs
+        _core.check_run(native(p), f_ex_hz=float(f_ex), a_ex_m_s2=float(a_ex), s0=float(s0), t_end_s=t_end,
+                        model=model, s_pcs=s_pcs_value, record_every=record_every)
         return None  # type: ignore[return-value]
     target = check_out(out, overwrite, need_folder=_on_start is None)  # the hook may make the folder
     if target is None:
@@ -309,14 +309,13 @@ def _overview(res: Dict[str, Any]) -> Optional[RunOverview]:
     o = res.get("overview")
     if o is None:
         return None
-    ss = o["super_slow"]
+    w_pair, s_pair, ss = o
     if ss is None:
         t = s = a = np.empty(0)
     else:
         t0, dt, s, a = ss
         t = t0 + dt * np.arange(len(a))
-    pair = lambda k: None if o[k] is None else (o[f"{k}_t"], o[k])  # noqa: E731
-    return RunOverview(window=res["window"], t=t, s=s, amplitude_h=a, w_minmax=pair("w"), s_minmax=pair("s"),
+    return RunOverview(window=res["window"], t=t, s=s, amplitude_h=a, w_minmax=w_pair, s_minmax=s_pair,
                        columns=PIXEL_COLUMNS)
 
 
@@ -326,11 +325,16 @@ def _result(res: Dict[str, Any], p: Parameters, f_ex: float, a_ex: float, s0: fl
     result = SimulationResult(
         t=res.get("t_s", empty), w=res.get("w_4L7_m", empty), s=res.get("s", empty), x_c=res.get("xC_m", empty),
         z_c=res.get("zC_m", empty), beta=res.get("beta_rad", empty), status=res["status"], message=res["message"],
-        counters=dict(res["counters"]), final_state=dict(res["final_state"]), params=p, f_ex=float(f_ex),
+        counters=_lists(res["counters"]), final_state=_lists(res["final_state"]), params=p, f_ex=float(f_ex),
         a_ex=float(a_ex), s0=float(s0), model=model, path=target, overview=_overview(res))
     if target is not None:
         _attach(result, target)
     return result
+
+
+def _lists(d: Dict[str, Any]) -> Dict[str, Any]:
+    """A dict of the core's fixed-size arrays (tuples) with lists instead."""
+    return {k: list(v) if isinstance(v, tuple) else v for k, v in d.items()}
 
 
 def _attach(result: SimulationResult, path: Path) -> None:
@@ -401,11 +405,11 @@ def super_slow_manifold(
             progress=cb,
         )
     return ManifoldResult(
-        up_s=out["up_s"],
-        up_amplitude=out["up_amplitude_m"],
-        down_s=out["down_s"],
-        down_amplitude=out["down_amplitude_m"],
-        counters=dict(out["counters"]),
+        up_s=np.asarray(out["up"]["s"], dtype=float),
+        up_amplitude=np.asarray(out["up"]["amplitude_m"], dtype=float),
+        down_s=np.asarray(out["down"]["s"], dtype=float),
+        down_amplitude=np.asarray(out["down"]["amplitude_m"], dtype=float),
+        counters=_lists(out["counters"]),
         f_ex=float(f_ex),
         a_ex=float(a_ex),
         periods=periods,

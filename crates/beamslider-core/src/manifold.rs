@@ -45,7 +45,7 @@ impl ManifoldOptions {
 }
 
 /// One sweep direction: amplitude of w(4L/7) at each s.
-#[derive(Debug, Clone, Default, PartialEq)]
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize)]
 pub struct Branch {
     /// Slider positions in the order visited.
     pub s: Vec<f64>,
@@ -54,7 +54,7 @@ pub struct Branch {
 }
 
 /// Both sweeps.
-#[derive(Debug, Clone, Default, PartialEq)]
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize)]
 pub struct Manifold {
     /// Upward sweep (increasing s).
     pub up: Branch,

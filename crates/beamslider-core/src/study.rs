@@ -215,4 +215,39 @@ impl StudyResults {
     pub fn close(&mut self) {
         self.file = None;
     }
+
+    /// [`StudyResults::open`] with the study's configuration and its points as they come from a
+    /// front end: JSON texts, `points_json` a list of objects with `index`, `f_ex_hz`,
+    /// `a_ex_m_s2`, `s0`, `sample`, `point` and `params`.
+    pub fn open_json(path: Option<&Path>, cfg: &MapConfig, study_json: &str, points_json: &str, resume: bool) -> Result<StudyResults> {
+        let bad = |what: &str, e: serde_json::Error| Error::invalid(what, "JSON", &format!("not valid: {e}"));
+        let study = serde_json::from_str(study_json).map_err(|e| bad("study", e))?;
+        let points: Vec<WirePoint> = serde_json::from_str(points_json).map_err(|e| bad("points", e))?;
+        let info = points
+            .into_iter()
+            .map(|w| (w.index, RowInfo { f_ex_hz: w.f_ex_hz, a_ex_m_s2: w.a_ex_m_s2, s0: w.s0, sample: w.sample, point: w.point, params: w.params }))
+            .collect();
+        StudyResults::open(path, cfg, study, info, resume)
+    }
+
+    /// Add rows given as JSON texts of map rows ([`StudyResults::add`]).
+    pub fn add_json(&mut self, rows: &[String]) -> Result<()> {
+        for text in rows {
+            let row: MapRow = serde_json::from_str(text).map_err(|e| Error::invalid("rows", "JSON", &format!("not a map row: {e}")))?;
+            self.add(row)?;
+        }
+        Ok(())
+    }
+}
+
+/// A point's [`RowInfo`] with its index, as JSON from a front end.
+#[derive(serde::Deserialize)]
+struct WirePoint {
+    index: usize,
+    f_ex_hz: f64,
+    a_ex_m_s2: f64,
+    s0: f64,
+    sample: usize,
+    point: usize,
+    params: serde_json::Value,
 }

@@ -10,11 +10,11 @@
 
 use std::sync::atomic::AtomicBool;
 
-use beamslider_core::{Criteria, Error, MapConfig, MapRunOptions, Monitor, SuperSlow, dynamics::runner, signal};
+use beamslider_core::signal::{self, envelope_stream::EnvelopeStream};
+use beamslider_core::{Criteria, Error, MapConfig, MapRunOptions, Monitor, SuperSlow, dynamics::runner};
 use numpy::{IntoPyArray, PyArray1, PyReadonlyArray1};
 use pyo3::exceptions::{PyBlockingIOError, PyException, PyKeyboardInterrupt, PyOSError, PyValueError};
 use pyo3::prelude::*;
-use pyo3::types::PyDict;
 
 mod formats;
 mod maprun;
@@ -23,12 +23,20 @@ mod run;
 mod study;
 mod superslow;
 
-pyo3::create_exception!(
-    _core,
-    SimulationError,
-    PyException,
-    "A simulation failed numerically (e.g. no eigenvalue found, manifold run diverged)."
-);
+pyo3::create_exception!(_core, SimulationError, PyException, "A simulation failed numerically (e.g. no eigenvalue found, manifold run diverged).");
+
+/// Add `#[pyfunction]`s to a module.
+#[macro_export]
+macro_rules! export {
+    ($m:expr, $($f:ident),+ $(,)?) => {
+        $($m.add_function(pyo3::wrap_pyfunction!($f, $m)?)?;)+
+    };
+}
+
+/// A core result as JSON text (the form rows and tables take to Python).
+fn json<T: serde::Serialize>(value: &T) -> PyResult<String> {
+    serde_json::to_string(value).map_err(|e| SimulationError::new_err(format!("internal error: {e}")))
+}
 
 /// Map a core error to the Python exception of its class.
 fn to_py(e: Error) -> PyErr {
@@ -42,8 +50,7 @@ fn to_py(e: Error) -> PyErr {
         },
         Error::Busy { .. } => PyBlockingIOError::new_err(msg),
         Error::Interrupted { .. } => PyKeyboardInterrupt::new_err(msg),
-        Error::Numerical(_) => SimulationError::new_err(msg),
-        _ => SimulationError::new_err(msg),
+        _ => SimulationError::new_err(msg), // numerical failures
     }
 }
 
@@ -55,39 +62,26 @@ fn guarded<T>(f: impl FnOnce() -> Result<T, Error>) -> Result<T, PyErr> {
     }
 }
 
-/// `threads` of a batch: None (one per core) or >= 1.
+/// `threads` of a batch: None (one per core) or >= 1 (checked by the core).
 fn check_threads(threads: Option<usize>) -> PyResult<()> {
-    if threads == Some(0) {
-        return Err(PyValueError::new_err("invalid parameter `threads` = 0: must be >= 1"));
-    }
-    Ok(())
+    guarded(|| runner::check_threads(threads))
 }
 
 /// Run `work` with the interpreter released on the core's watched worker thread
-/// ([`runner::watched`]); every `period_ms` the calling thread re-attaches and calls `poll(py)`
-/// (pending signal handlers such as Ctrl-C, progress callbacks). An exception from `poll` sets
-/// `cancel` and is raised once the work has stopped.
-fn detached<T: Send>(
-    py: Python<'_>,
-    cancel: &AtomicBool,
-    period_ms: u64,
-    work: impl FnOnce() -> Result<T, Error> + Send,
-    poll: impl Fn(Python<'_>) -> PyResult<()> + Sync,
-) -> PyResult<T> {
+/// ([`runner::watched`]); every `period_ms`, and once more at the end, the calling thread
+/// re-attaches, runs pending signal handlers (Ctrl-C) and calls `poll(py)` (progress callbacks).
+/// An exception there sets `cancel` and is raised once the work has stopped.
+fn detached<T: Send>(py: Python<'_>, cancel: &AtomicBool, period_ms: u64, work: impl FnOnce() -> Result<T, Error> + Send, poll: impl Fn(Python<'_>) -> PyResult<()> + Sync) -> PyResult<T> {
+    let poll = |py: Python<'_>| py.check_signals().and_then(|()| poll(py));
     let mut err: Option<PyErr> = None;
-    let outcome = py.detach(|| {
-        runner::watched(cancel, std::time::Duration::from_millis(period_ms), work, || match Python::attach(&poll) {
-            Ok(()) => true,
-            Err(e) => {
-                err = Some(e);
-                false
-            }
-        })
-    });
+    let period = std::time::Duration::from_millis(period_ms);
+    let outcome = py.detach(|| runner::watched(cancel, period, work, || Python::attach(poll).map_err(|e| err = Some(e)).is_ok()));
     if let Some(e) = err {
         return Err(e);
     }
-    outcome.map_err(to_py)
+    let out = outcome.map_err(to_py)?;
+    poll(py)?;
+    Ok(out)
 }
 
 /// Monitor that re-attaches to Python every poll: pending signal handlers (Ctrl-C) and the
@@ -100,16 +94,12 @@ struct PyMonitor {
 }
 
 impl PyMonitor {
-    fn new(callback: Option<Py<PyAny>>) -> Self {
-        PyMonitor { callback, on_start: None, error: None }
+    fn new(callback: Option<Py<PyAny>>, on_start: Option<Py<PyAny>>) -> Self {
+        PyMonitor { callback, on_start, error: None }
     }
 
     fn call(error: &mut Option<PyErr>, f: impl FnOnce(Python<'_>) -> PyResult<()>) -> bool {
-        if error.is_some() {
-            return false;
-        }
-        let r = Python::attach(|py| py.check_signals().and_then(|()| f(py)));
-        r.map_err(|e| *error = Some(e)).is_ok()
+        error.is_none() && Python::attach(|py| py.check_signals().and_then(|()| f(py))).map_err(|e| *error = Some(e)).is_ok()
     }
 
     /// The run's outcome, or the exception a callback raised.
@@ -136,95 +126,47 @@ fn recorded_rows(t_end_s: f64, dt_s: f64, record_every: usize) -> u64 {
     beamslider_core::recorded_rows(t_end_s, dt_s, record_every)
 }
 
-fn counters_dict<'py>(py: Python<'py>, c: &beamslider_core::Counters) -> PyResult<Bound<'py, PyDict>> {
-    let d = PyDict::new(py);
-    d.set_item("steps", c.steps)?;
-    d.set_item("contact_steps", c.contact_steps)?;
-    d.set_item("closed_histogram", c.closed_histogram.to_vec())?;
-    d.set_item("solver_iterations", c.solver_iterations)?;
-    d.set_item("max_iterations", c.max_iterations)?;
-    d.set_item("cap_hits", c.cap_hits)?;
-    d.set_item("first_guess_hits", c.first_guess_hits)?;
-    d.set_item("linear_solves", c.linear_solves)?;
-    d.set_item("enumerations", c.enumerations)?;
-    d.set_item("fallbacks", c.fallbacks)?;
-    d.set_item("max_residual", c.max_residual)?;
-    Ok(d)
-}
-
-/// |analytic signal| of x (discrete Hilbert transform via FFT, docs/model.md §7).
-#[pyfunction]
-fn hilbert_envelope<'py>(py: Python<'py>, x: PyReadonlyArray1<'py, f64>) -> PyResult<Bound<'py, PyArray1<f64>>> {
-    let x = x.as_slice()?.to_vec();
-    let e = py.detach(|| signal::hilbert_envelope(&x));
-    Ok(e.into_pyarray(py))
-}
+/// A NumPy array in (copied) and out.
+type In<'py> = PyReadonlyArray1<'py, f64>;
+type Out<'py> = Bound<'py, PyArray1<f64>>;
 
 /// Centred moving average over `window` samples, shrinking at the ends (as MATLAB's movmean).
 #[pyfunction]
-fn moving_average<'py>(
-    py: Python<'py>,
-    x: PyReadonlyArray1<'py, f64>,
-    window: usize,
-) -> PyResult<Bound<'py, PyArray1<f64>>> {
+fn moving_average<'py>(py: Python<'py>, x: In<'py>, window: usize) -> PyResult<Out<'py>> {
     let x = x.as_slice()?.to_vec();
-    let e = py.detach(|| signal::moving_average(&x, window));
-    Ok(e.into_pyarray(py))
+    Ok(py.detach(|| signal::moving_average(&x, window)).into_pyarray(py))
 }
 
 /// Envelope of docs/model.md §7: |Hilbert(x)|, then a moving average over `window_s` seconds of
 /// samples spaced `dt_s`.
 #[pyfunction]
-fn envelope<'py>(
-    py: Python<'py>,
-    x: PyReadonlyArray1<'py, f64>,
-    dt_s: f64,
-    window_s: f64,
-) -> PyResult<Bound<'py, PyArray1<f64>>> {
+fn envelope<'py>(py: Python<'py>, x: In<'py>, dt_s: f64, window_s: f64) -> PyResult<Out<'py>> {
     let x = x.as_slice()?.to_vec();
-    let e = py.detach(|| guarded(|| signal::envelope_checked(&x, dt_s, window_s)))?;
-    Ok(e.into_pyarray(py))
+    Ok(py.detach(|| guarded(|| signal::envelope_checked(&x, dt_s, window_s)))?.into_pyarray(py))
 }
 
-/// The super-slow signals a map point is classified from (core module `envelope_stream`,
-/// docs/model.md §7): w(4L/7) [m] and s sampled every `dt_s` from a run from rest, binned over 0.2 s;
-/// A = `window_s` moving average of the binned |analytic signal| divided by `thickness_m`.
-/// Returns (t0 of the first bin [s], bin spacing [s], s per bin, A per bin [h]).
+/// The super-slow signals a map point is classified from (core `signal::envelope_stream`,
+/// docs/model.md §7) of w(4L/7) [m] and s sampled every `dt_s`: (t0 of the first 0.2-s bin [s],
+/// bin spacing [s], s per bin, A per bin: `window_s` moving average of |analytic signal| / h).
 #[pyfunction]
-fn super_slow_signals<'py>(
-    py: Python<'py>,
-    w: PyReadonlyArray1<'py, f64>,
-    s: PyReadonlyArray1<'py, f64>,
-    dt_s: f64,
-    thickness_m: f64,
-    window_s: f64,
-) -> PyResult<(f64, f64, Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<f64>>)> {
+fn super_slow_signals<'py>(py: Python<'py>, w: In<'py>, s: In<'py>, dt_s: f64, thickness_m: f64, window_s: f64) -> PyResult<(f64, f64, Out<'py>, Out<'py>)> {
     let (w, s) = (w.as_slice()?.to_vec(), s.as_slice()?.to_vec());
-    let x = py.detach(|| guarded(|| beamslider_core::signal::envelope_stream::EnvelopeStream::of_series(&w, &s, dt_s, thickness_m, window_s)))?;
+    let x = py.detach(|| guarded(|| EnvelopeStream::of_series(&w, &s, dt_s, thickness_m, window_s)))?;
     Ok((x.t0_s, x.dt_s, x.s.into_pyarray(py), x.amplitude_h.into_pyarray(py)))
 }
 
-/// Behaviour classification (docs/model.md §8) of super-slow signals sampled every `dt_s`: slider
-/// position `s` and amplitude `amplitude_h` (1-s moving average of |Hilbert(w(4L/7))| / h).
-/// `criteria_toml`: thresholds as TOML keys of the core's `Criteria` (missing keys take defaults).
-/// Returns the classification as JSON text (the fields of a map row).
+/// Behaviour classification (docs/model.md §8) of super-slow signals sampled every `dt_s` (slider
+/// position `s`, amplitude `amplitude_h`); `criteria_toml`: thresholds as TOML keys of the core's
+/// `Criteria` (missing keys take defaults). Returns the classification as JSON text.
 #[pyfunction]
 #[pyo3(signature = (s, amplitude_h, dt_s, *, t0_s=0.0, criteria_toml=None))]
-fn classify<'py>(
-    py: Python<'py>,
-    s: PyReadonlyArray1<'py, f64>,
-    amplitude_h: PyReadonlyArray1<'py, f64>,
-    dt_s: f64,
-    t0_s: f64,
-    criteria_toml: Option<&str>,
-) -> PyResult<String> {
+fn classify(py: Python<'_>, s: In<'_>, amplitude_h: In<'_>, dt_s: f64, t0_s: f64, criteria_toml: Option<&str>) -> PyResult<String> {
     let criteria: Criteria = match criteria_toml {
         Some(text) => toml::from_str(text).map_err(|e| PyValueError::new_err(format!("cannot read criteria: {}", e.to_string().trim_end())))?,
         None => Criteria::default(),
     };
     let x = SuperSlow { t0_s, dt_s, s: s.as_slice()?.to_vec(), amplitude_h: amplitude_h.as_slice()?.to_vec() };
-    let c = py.detach(|| guarded(|| beamslider_core::classify(&x, &criteria)))?;
-    serde_json::to_string(&c).map_err(|e| SimulationError::new_err(format!("internal error: {e}")))
+    json(&py.detach(|| guarded(|| beamslider_core::classify(&x, &criteria)))?)
 }
 
 /// The default map configuration (the paper's operating map) as TOML text.
@@ -266,16 +208,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("SimulationError", m.py().get_type::<SimulationError>())?;
     m.add("RESULTS_FORMAT_VERSION", beamslider_core::results::FORMAT_VERSION)?;
     m.add("MAX_AXIS_VALUES", beamslider_core::map::MAX_POINTS)?;
-    m.add_function(wrap_pyfunction!(recorded_rows, m)?)?;
-    m.add_function(wrap_pyfunction!(hilbert_envelope, m)?)?;
-    m.add_function(wrap_pyfunction!(moving_average, m)?)?;
-    m.add_function(wrap_pyfunction!(envelope, m)?)?;
-    m.add_function(wrap_pyfunction!(classify, m)?)?;
-    m.add_function(wrap_pyfunction!(super_slow_signals, m)?)?;
-    m.add_function(wrap_pyfunction!(default_map_config, m)?)?;
-    m.add_function(wrap_pyfunction!(map_config, m)?)?;
-    m.add_function(wrap_pyfunction!(range_values, m)?)?;
-    m.add_function(wrap_pyfunction!(check_map, m)?)?;
+    export!(m, recorded_rows, moving_average, envelope, classify, super_slow_signals, default_map_config, map_config, range_values, check_map);
     params::register(m)?;
     run::register(m)?;
     maprun::register(m)?;

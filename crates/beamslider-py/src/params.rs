@@ -34,18 +34,6 @@ fn value(key: &str, v: &Bound<'_, PyAny>) -> PyResult<toml::Value> {
     }
 }
 
-fn dict<'py>(py: Python<'py>, p: &Params) -> PyResult<Bound<'py, PyDict>> {
-    let d = PyDict::new(py);
-    for (k, v) in p.values() {
-        match v {
-            toml::Value::Float(x) => d.set_item(k, x)?,
-            toml::Value::Integer(i) => d.set_item(k, i)?,
-            other => d.set_item(k, other.as_str().unwrap_or_default())?,
-        }
-    }
-    Ok(d)
-}
-
 #[pymethods]
 impl PyParams {
     /// `Params(**values)`: missing fields take the defaults of docs/model.md §1.
@@ -74,7 +62,11 @@ impl PyParams {
 
     /// Field name → value (float, int or str), in the order of the fields.
     fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        dict(py, &self.0)
+        let d = PyDict::new(py);
+        for (k, v) in self.0.values() {
+            d.set_item(k, pythonize::pythonize(py, &v)?)?;
+        }
+        Ok(d)
     }
 
     /// The canonical TOML text the Rust tools write.
@@ -89,18 +81,6 @@ impl PyParams {
     }
 }
 
-/// Default parameters of docs/model.md §1 as a dict.
-#[pyfunction]
-fn default_params(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
-    dict(py, &Params::default())
-}
-
-/// Parse and validate TOML parameter text; returns the full dict.
-#[pyfunction]
-fn params_from_toml<'py>(py: Python<'py>, text: &str) -> PyResult<Bound<'py, PyDict>> {
-    dict(py, &PyParams::from_toml_text(text)?.0)
-}
-
 /// Times the core has validated a parameter set in this process (`Params::validate`).
 #[pyfunction]
 fn _validation_count() -> u64 {
@@ -109,8 +89,6 @@ fn _validation_count() -> u64 {
 
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyParams>()?;
-    m.add_function(wrap_pyfunction!(default_params, m)?)?;
-    m.add_function(wrap_pyfunction!(params_from_toml, m)?)?;
-    m.add_function(wrap_pyfunction!(_validation_count, m)?)?;
+    crate::export!(m, _validation_count);
     Ok(())
 }

@@ -34,7 +34,7 @@ def study_header(config: StudyConfig) -> Dict[str, Any]:
 def open_results(config: StudyConfig, points: Sequence[StudyPoint], path: Optional[Path], resume: bool) -> "_core.StudyResults":
     """The core's results of a study (``path`` None: in memory only): ``add(rows)``, ``in``,
     ``len``, ``rows()``, ``close()``."""
-    info = [(p.index, p.f_ex_hz, p.a_ex_m_s2, p.s0, p.sample, p.point, json.dumps(json_safe(dict(p.values))))
-            for p in points]
+    info = [{"index": p.index, "f_ex_hz": p.f_ex_hz, "a_ex_m_s2": p.a_ex_m_s2, "s0": p.s0, "sample": p.sample,
+             "point": p.point, "params": json_safe(dict(p.values))} for p in points]
     return _core.StudyResults(None if path is None else str(path), config.map_toml(),
-                              json.dumps(json_safe(study_header(config))), info, resume=resume)
+                              json.dumps(json_safe(study_header(config))), json.dumps(info), resume=resume)

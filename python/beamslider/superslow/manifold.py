@@ -156,10 +156,14 @@ class ClosedFormN1:
     """High-branch estimate √(4(M₁Ω² − ω₁²)/(3b)) as Â (NaN where M₁Ω² ≤ ω₁²)."""
 
 
+def _f(values: Sequence[float]) -> np.ndarray:
+    return np.asarray(values, dtype=float)
+
+
 def _branch(d, n_modes: int, n_orders: int = 0) -> HbBranch:
     q = (np.asarray(d["q_re"]) + 1j * np.asarray(d["q_im"])).reshape(-1, n_modes)
     harm = np.asarray(d["harmonic_amplitude_h"], dtype=float).reshape(-1, n_orders) if n_orders else np.zeros((0, 0))
-    return HbBranch(s=d["s"], amplitude=d["amplitude_h"], phase=d["phase_rad"], stable=np.asarray(d["stable"], dtype=bool), q=q,
+    return HbBranch(s=_f(d["s"]), amplitude=_f(d["amplitude_h"]), phase=_f(d["phase_rad"]), stable=np.asarray(d["stable"], dtype=bool), q=q,
                     harmonic_amplitude=harm)
 
 
@@ -246,11 +250,11 @@ def hb_manifold(
         middle=_branch(out["middle"], n, k),
         up_run=_branch(out["up_run"], n, k),
         down_run=_branch(out["down_run"], n, k),
-        folds_s=out["folds_s"],
-        folds_amplitude=out["folds_amplitude_h"],
+        folds_s=_f([f["s"] for f in out["folds"]]),
+        folds_amplitude=_f([f["amplitude_h"] for f in out["folds"]]),
         s_up=out["s_up"],
         s_dn=out["s_dn"],
-        s_res=out["s_res"],
+        s_res=_f(out["s_res"]),
         s_range=tuple(out["s_range"]),
         n_modes=n,
         harmonics=harmonics,
@@ -261,9 +265,9 @@ def hb_manifold(
         warnings=list(out["warnings"]),
         params=p,
         omega1_factor=float(omega1_factor),
-        s_grid=out["s_grid"],
-        high_on_grid=out["high_on_grid"],
-        low_on_grid=out["low_on_grid"],
+        s_grid=_f(out["s_grid"]),
+        high_on_grid=_f(out["high_on_grid"]),
+        low_on_grid=_f(out["low_on_grid"]),
         static_sag=bool(static_sag),
         harmonic_orders=orders,
     )
@@ -304,15 +308,15 @@ def closed_form_n1(
         omega1_factor=number("omega1_factor", omega1_factor),
     )
     return ClosedFormN1(
-        s=out["s"],
-        roots=np.asarray(out["roots_h"]).reshape(-1, 3),
-        n_roots=out["n_roots"],
-        discriminant=out["discriminant"],
-        folds=out["folds"],
+        s=_f(out["s"]),
+        roots=_f(out["roots_h"]).reshape(-1, 3),
+        n_roots=np.asarray(out["n_roots"], dtype=np.uint64),
+        discriminant=_f(out["discriminant"]),
+        folds=_f(out["folds"]),
         s_up=out["s_up"],
         s_dn=out["s_dn"],
-        s_res=out["s_res"],
-        backbone=out["backbone_h"],
+        s_res=_f(out["s_res"]),
+        backbone=_f(out["backbone_h"]),
     )
 
 

@@ -55,6 +55,14 @@ fn internal(what: String) -> Error {
     Error::Numerical(format!("internal error: {what}"))
 }
 
+/// `threads` as a front end gives it: None (one per core) or at least 1.
+pub fn check_threads(threads: Option<usize>) -> Result<()> {
+    match threads {
+        Some(0) => Err(Error::invalid("threads", 0, "must be >= 1")),
+        _ => Ok(()),
+    }
+}
+
 /// Run `work` on `threads` rayon workers (None: the global pool, one per core).
 pub fn with_threads<T: Send>(threads: Option<usize>, work: impl FnOnce() -> T + Send) -> Result<T> {
     match threads {

@@ -26,7 +26,7 @@ pub enum SliderModel {
 }
 
 /// Full state of the system at time t.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct State {
     /// Time t [s].
     pub t_s: f64,

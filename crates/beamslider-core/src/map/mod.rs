@@ -1,4 +1,5 @@
-//! Operating maps (docs/model.md §8): configuration, the parallel point runner and the text table.
+//! Operating maps (docs/model.md §8): configuration, the parallel point runner, the session a
+//! front end drives (local or in chunks elsewhere) and the text table.
 //!
 //! The paper's Fig. 11: the behaviour of the free slider at every point
 //! of a grid of excitation frequency f_ex, level a_ex and initial position s₀, each point a 120-s
@@ -25,9 +26,11 @@
 
 mod config;
 mod run;
+mod session;
 mod table;
 
 pub use crate::results::{EndState, MapPoint, MapRow};
 pub use config::{Axis, DEFAULT_RECORD_EVERY, Grid, MAX_POINTS, MapConfig, RESULTS_FILE};
-pub use run::{Job, MapOutcome, MapResults, MapRunOptions, Progress, continue_point, error_row, preflight, run_job, run_jobs, run_map, run_point, upgrade_row};
+pub use run::{Job, MapOutcome, MapResults, MapRunOptions, Progress, continue_point, error_row, preflight, run_job, run_jobs, run_point, upgrade_row};
+pub use session::{MapSession, WireJob, run_chunk, run_map};
 pub use table::{TableCell, marked_unsettled, t_end_text, table_of_cells, text_table};

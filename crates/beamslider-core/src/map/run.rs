@@ -176,7 +176,7 @@ pub fn error_row(p: &MapPoint, message: &str, t0: Instant) -> MapRow {
 /// Progress of a map: called after every finished point with (points done, points total, row).
 pub type Progress<'a> = &'a (dyn Fn(usize, usize, &MapRow) + Sync);
 
-/// Outcome of [`run_map`].
+/// Outcome of [`super::run_map`].
 #[derive(Debug, Clone)]
 pub struct MapOutcome {
     /// All rows of the grid present in the results (resumed and new), sorted by grid index.
@@ -213,7 +213,7 @@ pub struct MapRunOptions {
     pub extend: bool,
 }
 
-/// Everything [`run_map`] checks before it computes or writes anything: the configuration, the
+/// Everything [`super::run_map`] checks before it computes or writes anything: the configuration, the
 /// model (Δt against the highest mode) and the results file (exists without `resume`, written
 /// with other settings, unreadable). Front ends call it before they write files of their own
 /// (`map.toml`), so that a refused map overwrites nothing.
@@ -312,7 +312,7 @@ pub fn upgrade_row(cfg: &MapConfig, thickness_m: f64, row: &MapRow) -> Result<Ma
 /// The results of a map being run: the rows kept from an existing results file, the jobs still
 /// to do, and — with a results file — the file, locked for this process ([`ResultsLock`]: a
 /// second writer fails at once naming the holder) and opened for appending (O_APPEND, one write
-/// per row). Shared by the local runner ([`run_map`]) and front ends that run the jobs
+/// per row). Shared by the local runner ([`super::run_map`]) and front ends that run the jobs
 /// elsewhere (a Dask cluster) and append the rows here.
 #[derive(Debug)]
 pub struct MapResults {
@@ -443,20 +443,4 @@ pub fn run_jobs(cfg: &MapConfig, jobs: &[Job], threads: Option<usize>, cancel: &
     let model = Model::new(cfg.effective_params())?;
     run_batch(jobs, threads, cancel, |job| Ok(run_point_guarded(&model, cfg, job, cancel)), |row: &MapRow| on_row(row.clone()))?;
     Ok(())
-}
-
-/// Run the grid of `cfg` in parallel, appending each finished point to the results file.
-/// Setting `cancel` stops the map: points in flight are abandoned, finished ones are kept.
-pub fn run_map(cfg: &MapConfig, opts: &MapRunOptions, cancel: &AtomicBool, progress: Progress<'_>) -> Result<MapOutcome> {
-    let mut results = MapResults::open(cfg, opts)?;
-    let jobs = std::mem::take(&mut results.jobs);
-    let total = results.total;
-    run_jobs(cfg, &jobs, opts.threads, cancel, |row| {
-        results.append(row)?;
-        if let Some(last) = results.rows.last() {
-            progress(results.rows.len(), total, last);
-        }
-        Ok(())
-    })?;
-    Ok(results.finish())
 }

@@ -4,8 +4,10 @@ pub mod beam;
 pub mod contact;
 pub mod excitation;
 pub mod modes;
+pub mod properties;
 pub mod slider;
 
 pub use beam::{Beam, FirstMode, Loc};
+pub use properties::BeamProperties;
 pub use excitation::{BaseState, Excitation};
 pub use slider::Slider;

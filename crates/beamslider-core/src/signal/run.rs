@@ -7,7 +7,7 @@ use std::io::Write;
 use std::path::Path;
 
 use crate::dynamics::record::{Channel, ColumnRecorder, CsvRecorder, Recorder, Tee};
-use crate::dynamics::simulation::{Excitation, Model, Monitor, RunOptions, RunSummary, SliderModel, Status};
+use crate::dynamics::simulation::{Excitation, Model, Monitor, RunOptions, RunSummary, SliderModel, State, Status};
 use crate::error::{Error, Result};
 use crate::signal::envelope_stream::SuperSlow;
 use crate::signal::output::{FileRecorder, Format, recorded_rows};
@@ -65,10 +65,8 @@ pub struct RunOutput {
     pub super_slow: Option<SuperSlow>,
 }
 
-/// Run `spec` on `model` into `output`: inputs checked first (bad input writes nothing), then
-/// [`Monitor::start`], then the steps. An interrupted run returns its summary (status
-/// `Interrupted`) and leaves no file.
-pub fn run(model: &Model, spec: &RunSpec, output: Output<'_>, monitor: &mut dyn Monitor) -> Result<RunOutput> {
+/// The model's start state and the run's options, with every input of `spec` checked.
+fn prepare(model: &Model, spec: &RunSpec) -> Result<(State, RunOptions)> {
     let start = model.start(spec.model, spec.s0, &spec.excitation)?;
     let opts = RunOptions {
         excitation: spec.excitation,
@@ -79,6 +77,31 @@ pub fn run(model: &Model, spec: &RunSpec, output: Output<'_>, monitor: &mut dyn 
         audit_contacts: false,
     };
     model.check_run(&start, &opts)?;
+    Ok((start, opts))
+}
+
+/// Check the inputs of `spec` on `model` as [`run`] does first (operating point, start state,
+/// duration and recording), running nothing: a front end's check before other work.
+pub fn check(model: &Model, spec: &RunSpec) -> Result<()> {
+    prepare(model, spec).map(|_| ())
+}
+
+/// The model named `name` (docs/model.md §6): "fs" (free slider), "pcs" (pseudo-constrained
+/// slider at `s_pcs`, default `s0`) or "beam" (beam only).
+pub fn model_named(name: &str, s_pcs: Option<f64>, s0: f64) -> Result<SliderModel> {
+    match name {
+        "fs" => Ok(SliderModel::Free),
+        "pcs" => Ok(SliderModel::PseudoConstrained { s: s_pcs.unwrap_or(s0) }),
+        "beam" => Ok(SliderModel::BeamOnly),
+        other => Err(Error::invalid("model", format!("{other:?}"), r#"must be one of "fs" (free slider), "pcs" (pseudo-constrained slider), "beam" (beam only)"#)),
+    }
+}
+
+/// Run `spec` on `model` into `output`: inputs checked first (bad input writes nothing), then
+/// [`Monitor::start`], then the steps. An interrupted run returns its summary (status
+/// `Interrupted`) and leaves no file.
+pub fn run(model: &Model, spec: &RunSpec, output: Output<'_>, monitor: &mut dyn Monitor) -> Result<RunOutput> {
+    let (start, opts) = prepare(model, spec)?;
     let expected = recorded_rows(spec.duration_s, model.params.dt_s, spec.record_every);
     let out = |summary, columns, rows, overview| RunOutput { summary, columns, rows, overview, super_slow: None };
     if !monitor.start() {

@@ -5,7 +5,7 @@ pub use super::hb::HbOptions;
 use super::hb::PointOut;
 
 /// Points of one branch (or one continuation run), as arrays.
-#[derive(Debug, Clone, Default, PartialEq)]
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize)]
 pub struct HbBranch {
     /// Slider position s = x/L [-].
     pub s: Vec<f64>,
@@ -75,7 +75,7 @@ impl HbBranch {
 }
 
 /// A fold (turning point) of the manifold.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct Fold {
     /// Slider position [-].
     pub s: f64,
@@ -84,7 +84,7 @@ pub struct Fold {
 }
 
 /// The HB super-slow manifold at one excitation.
-#[derive(Debug, Clone, Default, PartialEq)]
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize)]
 pub struct HbManifold {
     /// High branch: from s[0] (near the clamping) up to its end (s_dn) or s[last].
     pub high: HbBranch,

@@ -8,7 +8,7 @@ use crate::params::Params;
 use crate::physics::beam::Beam;
 
 /// The single-mode closed form (docs/model.md §6.4) on an s-grid.
-#[derive(Debug, Clone, Default, PartialEq)]
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize)]
 pub struct ClosedFormN1 {
     /// Slider positions [-].
     pub s: Vec<f64>,
@@ -221,6 +221,18 @@ pub(super) fn n1_model<'a>(beam: &'a Beam, params: &Params, f_ex_hz: f64, a_ex: 
         amp_scale: p47 * (omega2 / b).sqrt() / p.thickness_m,
         beam,
     })
+}
+
+/// The single-mode backbone with the slider Ω_bb(Â, s) [rad/s] (docs/model.md §6.4,
+/// [`HbSystem::backbone_omega`]) at paired values of `amplitude_h` and `s`, ω₁ scaled by
+/// `omega1_factor`.
+pub fn backbone<'a>(params: impl Into<crate::params::ParamsArg<'a>>, amplitude_h: &[f64], s: &[f64], omega1_factor: f64) -> Result<Vec<f64>> {
+    if amplitude_h.len() != s.len() {
+        return Err(Error::invalid("s", format!("{} values for {} amplitudes", s.len(), amplitude_h.len()), "must be the same length"));
+    }
+    let opts = super::HbOptions { n_modes: 1, omega1_factor, ..super::HbOptions::default() };
+    let sys = super::HbSystem::new(params, 100.0, 1.0, &opts)?;
+    Ok(amplitude_h.iter().zip(s).map(|(&a, &x)| sys.backbone_omega(a, x)).collect())
 }
 
 #[cfg(test)]

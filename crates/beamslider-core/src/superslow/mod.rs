@@ -49,7 +49,7 @@ mod roots;
 pub mod slowflow;
 
 pub use branch::{Fold, HbBranch, HbManifold, HbOptions};
-pub use closed_form::{ClosedFormN1, closed_form_n1, closed_form_n1_scaled, closed_form_n1_with_beam};
+pub use closed_form::{ClosedFormN1, backbone, closed_form_n1, closed_form_n1_scaled, closed_form_n1_with_beam};
 pub use continuation::{default_grid, hb_manifold};
 pub use hb::HbSystem;
 pub use roots::brent;
