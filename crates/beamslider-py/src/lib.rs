@@ -18,6 +18,7 @@ use pyo3::types::PyDict;
 
 mod maprun;
 mod params;
+mod predictor;
 mod run;
 mod study;
 mod superslow;
@@ -280,5 +281,6 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     maprun::register(m)?;
     study::register(m)?;
     superslow::register(m)?;
+    predictor::register(m)?;
     Ok(())
 }
