@@ -460,6 +460,43 @@ fn fmt_g(x: f64, p: usize) -> String {
 mod tests {
     use super::*;
 
+    fn shipped() -> DesignLaw {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../python/beamslider/data");
+        DesignLaw::from_file(dir.join("default_design_law.json")).unwrap()
+    }
+
+    #[test]
+    fn at_the_base_design_the_blend_is_the_default_law_itself() {
+        let dl = shipped();
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../python/beamslider/data");
+        let own = DriftLaw::from_file(dir.join("default_law.json")).unwrap();
+        let law = dl.law_for(&dl.base.clone()).unwrap();
+        assert_eq!(law.fingerprint, own.fingerprint);
+        assert!(law.outside_design.is_empty());
+    }
+
+    #[test]
+    fn a_new_design_gets_the_grid_and_weights_that_sum_to_one() {
+        let dl = shipped();
+        let mut p = dl.base.clone();
+        p.friction_coefficient = 0.27;
+        p.gap_ratio = 1.11;
+        let c = dl.coordinates_of(&p).unwrap();
+        let u: [f64; 9] = std::array::from_fn(|i| dl.coordinates[i].unit(c[i]));
+        let (o, w, d0) = dl.neighbours(&u);
+        assert_eq!(o.len(), dl.k_sets);
+        assert!(d0 > 1e-6 && (w.iter().sum::<f64>() - 1.0).abs() < 1e-12 && w.windows(2).all(|x| x[0] >= x[1]));
+        let (f, why) = dl.law_file_for(&p).unwrap();
+        assert!(why.is_empty());
+        assert_eq!(f.x["H"].len(), GRID_AMP.2 * GRID_S.2);
+        assert!((f.mean[0] - 0.625).abs() < 1e-12 && (f.mean[1] - 0.25).abs() < 1e-12);
+        p.friction_coefficient = 0.5;
+        p.length_m = 0.15;
+        let (_, why) = dl.law_file_for(&p).unwrap();
+        assert_eq!(why.len(), 2, "{why:?}");
+        assert!(why[0].starts_with("`length_m` = 0.15 differs") && why[1].starts_with("friction_coefficient = 0.5 outside the box [0.1, 0.4]"), "{why:?}");
+    }
+
     #[test]
     fn g_format_as_python() {
         assert_eq!(fmt_g(1.025, 4), "1.025");

@@ -154,3 +154,41 @@ pub(super) fn dead_band(model: &SlowModel, v_dead: f64) -> SlowModel {
     m
 }
 
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn interp_is_numpy_interp() {
+        let (xp, fp) = ([0.1, 0.2, 0.4], [1.0, 3.0, -1.0]);
+        // numpy.interp([0.0, 0.1, 0.15, 0.3, 0.4, 0.9], xp, fp) = [1, 1, 2, 1, -1, -1]
+        let got: Vec<f64> = [0.0, 0.1, 0.15, 0.3, 0.4, 0.9].iter().map(|&x| interp(x, &xp, &fp)).collect();
+        for (g, w) in got.iter().zip([1.0, 1.0, 2.0, 1.0, -1.0, -1.0]) {
+            assert!((g - w).abs() < 1e-12, "{got:?}");
+        }
+        assert_eq!(interp(0.3, &[], &[]), 0.0);
+    }
+
+    #[test]
+    fn dead_band_reads_slow_drift_as_rest_and_is_continuous() {
+        let br = SlowBranch { s: vec![0.1, 0.2, 0.3, 0.4], amplitude_h: vec![1.0; 4], v_per_s: vec![-3e-4, -1e-4, 5e-5, 2e-4] };
+        let m = SlowModel { low: br.clone(), high: br, ..SlowModel::default() };
+        let d = dead_band(&m, 1e-4);
+        let want = [-2e-4, 0.0, 0.0, 1e-4];
+        for (g, w) in d.low.v_per_s.iter().zip(want) {
+            assert!((g - w).abs() < 1e-18, "{:?}", d.low.v_per_s);
+        }
+        assert_eq!(dead_band(&m, 0.0), m);
+    }
+
+    #[test]
+    fn a_table_branch_ends_in_a_fold_only_where_its_sweep_jumped() {
+        let br = |n: usize| SlowBranch { s: (0..n).map(|i| 0.1 + 0.1 * i as f64).collect(), amplitude_h: vec![1.0; n], v_per_s: vec![0.0; n] };
+        let t = TableDrift::new(br(3), br(3), Some(0.15), None);
+        assert!(t.own.low_ends_in_fold && !t.own.high_ends_in_fold);
+        assert_eq!(t.rows[0].0, vec![0.1, 0.2, 0.30000000000000004]);
+        let empty = TableDrift::new(br(0), br(2), Some(0.15), Some(0.3));
+        assert!(!empty.own.low_ends_in_fold && empty.own.high_ends_in_fold);
+    }
+}
