@@ -171,7 +171,7 @@ impl DesignLaw {
         if f.kind != DESIGN_KIND {
             return Err(bad(source, &format!("not a {DESIGN_KIND} file (kind)")));
         }
-        if f.version < 1 || f.version > 1 {
+        if f.version != 1 {
             return Err(bad(source, &format!("version = {}, expected 1 (this build)", f.version)));
         }
         let mut coordinates = Vec::with_capacity(9);
@@ -181,7 +181,7 @@ impl DesignLaw {
                 return Err(bad(source, &format!("box lacks the coordinate `{name}`")));
             };
             let c = &f.box_[j];
-            if !(c.low.is_finite() && c.high.is_finite() && c.low < c.high) || (c.log && !(c.low > 0.0)) {
+            if !(c.low.is_finite() && c.high.is_finite() && c.low < c.high) || (c.log && c.low <= 0.0) {
                 return Err(bad(source, &format!("box[{j}] needs finite low < high")));
             }
             perm[i] = j;
@@ -368,8 +368,8 @@ impl DesignLaw {
         points.dedup();
         let mut mono_std = [0.0; 2];
         for (law, &wi) in parts.iter().zip(&w) {
-            for i in 0..2 {
-                mono_std[i] += wi * law.mono_std[i];
+            for (m, x) in mono_std.iter_mut().zip(law.mono_std) {
+                *m += wi * x;
             }
         }
         let file = LawFile {
