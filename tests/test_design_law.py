@@ -55,6 +55,30 @@ def test_reproduces_its_training_designs(shipped):
             np.testing.assert_allclose(v, own.v[br], rtol=1e-3, atol=2 * own.v_resolution)
 
 
+def test_blend_equals_the_stored_numbers(shipped):
+    """The core's blend (docs/model.md §6.5) against numbers stored from the Python blend it
+    replaced (tests/data/design_law_blend.json: two designs drawn over the box and one outside it;
+    each neighbour law evaluated by the core's kNN): V on the 26 × 51 grid within 1e-12, the
+    scalars and the coverage notes; the handle parses the file once."""
+    from pathlib import Path
+
+    ref = json.loads((Path(__file__).parent / "data" / "design_law_blend.json").read_text())
+    assert len(ref["cases"]) == 3
+    for c in ref["cases"]:
+        law, note = shipped.law_for(bs.Parameters.from_dict(c["params"]))
+        for br in ("L", "H"):
+            want = np.asarray(c["v"][br])
+            assert law.v[br].shape == want.shape == (26 * 51,) and law.x[br].shape == (26 * 51, 2)
+            assert np.max(np.abs(law.v[br] - want)) <= 1e-12, (c["name"], br)
+        for key in ("mean", "std", "lo", "hi", "mono_std"):
+            np.testing.assert_allclose(getattr(law, key), c[key], rtol=0, atol=1e-12, err_msg=key)
+        for key in ("lift_c", "rho_c", "jump_down_s", "s_up_shift", "v_resolution"):
+            assert getattr(law, key) == pytest.approx(c[key], abs=1e-12), key
+        assert [list(q) for q in law.points] == c["points"]
+        assert law.outside_design == c["outside_design"] and (note is None) == (not c["outside_design"])
+    assert shipped.core() is shipped.core()
+
+
 def test_blend_between_designs_is_a_weighted_mean(shipped):
     """Midway between two training designs (one coordinate apart) V lies between theirs."""
     x = dict(shipped.x[5])

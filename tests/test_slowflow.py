@@ -74,20 +74,20 @@ def test_predict_signature_move_on_the_hb_manifold():
     zero at 0.42 → a signature move that jumps exactly at the manifold's s_up."""
     t = _synthetic_table(124, 14, lambda s: -0.005 + 0 * s, lambda s: 0.05 * (0.42 - s))
     m = hb_manifold(f_ex=124, a_ex=14)
-    r = predict(f_ex=124, a_ex=14, s0=0.3, drift=t, manifold=m, build_up=0)
+    r = predict(f_ex=124, a_ex=14, s0=0.3, drift=t, build_up=0)
     assert r.behaviour == "signature_move", r.classification["reason"]
     # Default: the build-up from rest lasts 3 envelope time constants 3/(D Ω); the slider drifts
     # from t = 0 and reaches the fold after it (6.2 s > 3.85 s), so the jump time is unchanged.
-    r2 = predict(f_ex=124, a_ex=14, s0=0.3, drift=t, manifold=m)
+    r2 = predict(f_ex=124, a_ex=14, s0=0.3, drift=t)
     t_b = 3 / (0.001 * 2 * np.pi * 124)
     assert r2.build_up_s == pytest.approx(t_b)
     assert r2.events[0][1] == pytest.approx((0.3 - m.s_up) / 0.005, rel=1e-9)
     # Held (the rule before): s stays at s0 until the build-up is over.
-    r3 = predict(f_ex=124, a_ex=14, s0=0.3, drift=t, manifold=m, build_up_drift=False)
+    r3 = predict(f_ex=124, a_ex=14, s0=0.3, drift=t, build_up_drift=False)
     assert r3.events[0][1] == pytest.approx((0.3 - m.s_up) / 0.005 + t_b, rel=1e-9)
     # A fold reached within the build-up: the jump waits for its end.
     t_fast = _synthetic_table(124, 14, lambda s: -0.02 + 0 * s, lambda s: 0.05 * (0.42 - s))
-    r4 = predict(f_ex=124, a_ex=14, s0=0.3, drift=t_fast, manifold=m)
+    r4 = predict(f_ex=124, a_ex=14, s0=0.3, drift=t_fast)
     assert r4.events[0][0] == "jump_up" and r4.events[0][1] == pytest.approx(t_b, rel=1e-9)
     kinds = [e[0] for e in r.events]
     assert kinds[0] == "jump_up"
@@ -274,12 +274,21 @@ def _realistic_law(monostable_vote=False):
     return fit_drift_law(tables, k=3, monostable_vote=monostable_vote)
 
 
-def test_core_evaluates_the_law_as_python(tmp_path):
-    """The core's kNN law (beamslider-batch map --predictor) against the Python one on the same
-    law file: V and the extrapolation flag equal; the core's features (exact mode shapes) against
-    the Python ones (interpolated mode table); whole predictions equal in behaviour and final s."""
+def _map_row(law_text, f_ex, a_ex, s0):
+    """The core's predicted-map row of one point (the map writer's path, beside predict's)."""
     from beamslider import _core
-    from beamslider.superslow import law_inputs as _x, law_json
+
+    cfg = f"duration_s = 120.0\n[grid]\nf_ex_hz = [{float(f_ex)}]\na_ex_m_s2 = [{float(a_ex)}]\ns0 = [{float(s0)}]\n"
+    return json.loads(_core.predicted_map(cfg, law_text, threads=1)[0])
+
+
+def test_core_law_and_features_against_independent_references(tmp_path):
+    """The core's kNN law against a brute-force kNN in numpy (inverse-distance weights, V = 0
+    below Λ_c, the extrapolation flag); the core's features against the formulas of docs/model.md
+    §6.3 evaluated here from the manifold's Q and the mode shapes of ``beam_properties`` (slope by
+    a central difference); the predicted map's rows against predict (the same core, two paths)."""
+    from beamslider import _core
+    from beamslider.superslow import law_json
 
     law = _realistic_law()
     text = law_json(law)
@@ -287,26 +296,45 @@ def test_core_evaluates_the_law_as_python(tmp_path):
     for br in ("L", "H"):
         x = law.lo + (law.hi - law.lo) * rng.uniform(-0.2, 1.2, size=(200, len(law.lo)))
         lift = np.exp(rng.uniform(-0.5, 1.0, size=200))  # Λ_g on both sides of 1
-        v_py, out_py = law._evaluate_x(br, x, lift)
+        z = (law.x[br] - law.mean) / law.std
+        d = np.sqrt(((((x - law.mean) / law.std)[:, None, :] - z[None, :, :]) ** 2).sum(axis=2))
+        idx = np.argsort(d, axis=1, kind="stable")[:, :law.k]
+        w = 1.0 / np.maximum(np.take_along_axis(d, idx, axis=1), 1e-6)
+        v_ref = np.where(lift < law.lift_c, 0.0, (w * law.v[br][idx]).sum(axis=1) / w.sum(axis=1))
+        out_ref = np.any((x < law.lo - 1e-9) | (x > law.hi + 1e-9), axis=1)
         v_rs, out_rs = _core.drift_law_evaluate(text, high=br == "H", x=x.tolist(), lift_off=lift.tolist())
-        np.testing.assert_allclose(v_rs, v_py, rtol=1e-12, atol=1e-15)
-        np.testing.assert_array_equal(out_rs, out_py)
+        np.testing.assert_allclose(v_rs, v_ref, rtol=1e-12, atol=1e-15)
+        np.testing.assert_array_equal(out_rs, out_ref)
+        v_py, _ = law.evaluate(br, {"amp_rel": x[:, 0], "s": x[:, 1], "lift_off": lift})
+        np.testing.assert_array_equal(v_py, v_rs)
     p = Parameters()
     m = hb_manifold(f_ex=124, a_ex=14)
+    omega, g, h = 2 * np.pi * 124, p.gravity_m_s2, 1e-6
+    theta_gap = (p.gap_ratio - 1) * p.thickness_m / p.contact_spacing_m
     for br, b in (("H", m.high), ("L", m.low)):
         s = np.linspace(b.s.min(), b.s.max(), 17)
-        f_py = features(m, br, s)
-        f_rs = _core.hb_features(native(p), f_ex_hz=124.0, a_ex_m_s2=14.0, high=br == "H", s=s.tolist())
-        for key in ("lift_off", "slope_gap", "f_slope", "ds_res", "amp_rel", "amplitude", "s"):
-            scale = float(np.max(np.abs(f_py[key])))
-            np.testing.assert_allclose(f_rs[key], f_py[key], rtol=1e-4, atol=1e-5 * scale, err_msg=f"{br} {key}")
+        f = features(m, br, s)
+        o = np.argsort(b.s)
+        q = np.stack([np.interp(s, b.s[o], b.q[o][:, k].real) + 1j * np.interp(s, b.s[o], b.q[o][:, k].imag)
+                      for k in range(b.q.shape[1])], axis=1)
+        phi = np.asarray(_core.beam_properties(native(p), s.tolist())["phi"])[: b.q.shape[1]].T
+        dphi = (np.asarray(_core.beam_properties(native(p), (s + h).tolist())["phi"])
+                - np.asarray(_core.beam_properties(native(p), (s - h).tolist())["phi"]))[: b.q.shape[1]].T / (2 * h * p.length_m)
+        w_abs = 14.0 / omega**2 + np.sum(phi * q, axis=1)
+        theta = np.sum(dphi * q, axis=1)
+        ref = {"lift_off": omega**2 * np.abs(w_abs) / g, "slope_gap": np.abs(theta) / theta_gap,
+               "f_slope": -(omega**2 / (2 * g)) * np.real(w_abs * np.conj(theta)), "s": s,
+               "amp_rel": np.interp(s, b.s[o], b.amplitude[o]) / np.max(m.high.amplitude)}
+        for key, want in ref.items():
+            scale = float(np.max(np.abs(want)))
+            np.testing.assert_allclose(f[key], want, rtol=1e-5, atol=1e-6 * scale, err_msg=f"{br} {key}")
     shifted = _realistic_law()
     shifted.s_up_shift = -0.015  # the learnt s_up correction moves the low branch's fold
     for lw in (law, shifted):
         text = law_json(lw)
         for f_, a_, s0 in ((124, 14, 0.3), (106, 10, 0.4), (126, 10, 0.3), (114, 14, 0.3)):
             r_py = predict(f_ex=f_, a_ex=a_, s0=s0, drift=lw)
-            r_rs = json.loads(_core.predict_point(native(p), text, f_ex_hz=float(f_), a_ex_m_s2=float(a_), s0=s0))
+            r_rs = _map_row(text, float(f_), float(a_), s0)
             assert r_rs["behaviour"] == r_py.behaviour, (f_, a_, s0, lw.s_up_shift)
             assert r_rs["s_final"] == pytest.approx(r_py.classification["s_final"], abs=1e-3)
             assert r_rs["extrapolated"] == r_py.extrapolated
@@ -321,7 +349,7 @@ def test_core_evaluates_the_law_as_python(tmp_path):
     text = law_json(mono)
     for f_, a_, s0 in ((124, 14, 0.3), (126, 10, 0.3)):
         r_py = predict(f_ex=f_, a_ex=a_, s0=s0, drift=mono)
-        r_rs = json.loads(_core.predict_point(native(p), text, f_ex_hz=float(f_), a_ex_m_s2=float(a_), s0=s0))
+        r_rs = _map_row(text, float(f_), float(a_), s0)
         assert r_py.monostable and r_rs["monostable"]
         assert r_rs["behaviour"] == r_py.behaviour == "self_damping", (f_, a_, r_py.behaviour)
         assert r_rs["s_final"] == pytest.approx(r_py.classification["s_final"], abs=1e-3)
@@ -413,7 +441,6 @@ def test_jump_down_from_the_forcing_ratio():
     """s_dn="law": the high branch ends where ρ(s) = a_ex/(Ω² Â_H(s) h) falls below the law's ρ_c,
     checked against ρ recomputed by hand from the manifold's own arrays; none below min ρ; the
     core (predict_point) and Python agree on the jump-down position and the behaviour."""
-    from beamslider import _core
     from beamslider.superslow import forcing_ratio, law_json, s_dn_forcing_ratio
 
     m = hb_manifold(f_ex=124, a_ex=8)
@@ -430,10 +457,9 @@ def test_jump_down_from_the_forcing_ratio():
     law = _realistic_law()
     law.rho_c = rho_c
     text = law_json(law)
-    p = Parameters()
     for f_, a_, s0 in ((124, 8, 0.3), (126, 10, 0.3), (124, 14, 0.3)):
         r_py = predict(f_ex=f_, a_ex=a_, s0=s0, drift=law)
-        r_rs = json.loads(_core.predict_point(native(p), text, f_ex_hz=float(f_), a_ex_m_s2=float(a_), s0=s0))
+        r_rs = _map_row(text, float(f_), float(a_), s0)
         expect = s_dn_forcing_ratio(hb_manifold(f_ex=f_, a_ex=a_), rho_c)
         assert (r_py.s_dn is None) == (expect is None)
         if expect is not None:
@@ -489,7 +515,6 @@ def test_jump_down_bracket_locates_the_boundary_between_ending_and_passing_branc
     the smallest of those whose high branch passes it, ρ_c = √(lo·hi), all recomputed by hand
     from forcing_ratio; the high branch then ends at s_p exactly where ρ(s_p) ≤ ρ_c (Python and
     core alike); jump_down_tables move the bracket without entering V; 'median' is the old rule."""
-    from beamslider import _core
     from beamslider.superslow import forcing_ratio, jump_down_bracket, law_json, refine_jump_down
 
     ends = [(124, 8), (126, 10)]
@@ -511,13 +536,12 @@ def test_jump_down_bracket_locates_the_boundary_between_ending_and_passing_branc
     loo = {(r["f_ex"], r["a_ex"]): r for r in law.loo_s_dn}
     assert loo[(126, 10)]["rho_c_loo"] == pytest.approx(np.sqrt(min(rho[fa] for fa in ends) * hi), rel=1e-12)
     text = law_json(law)
-    p = Parameters()
     for (f_, a_), r in rho.items():
         m = hb_manifold(f_ex=f_, a_ex=a_)
         expect = 0.32 if r <= law.rho_c else None
         assert law.s_dn(m) == (pytest.approx(0.32) if expect else None)
         r_py = predict(f_ex=f_, a_ex=a_, drift=law)
-        r_rs = json.loads(_core.predict_point(native(p), text, f_ex_hz=float(f_), a_ex_m_s2=float(a_), s0=0.3))
+        r_rs = _map_row(text, float(f_), float(a_), 0.3)
         assert r_rs["behaviour"] == r_py.behaviour and r_rs["s_final"] == pytest.approx(r_py.classification["s_final"], abs=1e-3)
         dn_py = [e[2] for e in r_py.events if e[0] == "jump_down"]
         dn_rs = [e[2] for e in r_rs["events"] if e[0] == "jump_down"]
@@ -598,7 +622,6 @@ def test_robustness_flag_from_the_law_resolution(tmp_path):
     is robust, a nearly flat drift that a shift of V reverses is not; Python and core agree; a
     law without a resolution gives None, and the resolution is the median standard error of the
     training rows and survives the JSON round trip."""
-    from beamslider import _core
     from beamslider.superslow import law_json
 
     def law_with(v_high, se):
@@ -618,15 +641,14 @@ def test_robustness_flag_from_the_law_resolution(tmp_path):
     flat = law_with(lambda s: 2e-4 + 0 * s, 3e-4)  # V_H > 0 everywhere, but within its resolution
     r2 = predict(f_ex=124, a_ex=14, drift=flat)
     assert r2.robust is False and {b for b, _ in r2.shifted} | {r2.behaviour} != {r2.behaviour}
-    p = Parameters()
     for lw, want in ((steep, True), (flat, False)):
-        row = json.loads(_core.predict_point(native(p), law_json(lw), f_ex_hz=124.0, a_ex_m_s2=14.0, s0=0.3))
+        row = _map_row(law_json(lw), 124.0, 14.0, 0.3)
         assert row["robust"] is want
         assert [b for b, _ in row["shifted"]] == [b for b, _ in predict(f_ex=124, a_ex=14, drift=lw).shifted]
     unknown = law_with(lambda s: 0.03 * (0.42 - s), 0.0)
     assert unknown.v_resolution == 0.0
     assert predict(f_ex=124, a_ex=14, drift=unknown).robust is None
-    row = json.loads(_core.predict_point(native(p), law_json(unknown), f_ex_hz=124.0, a_ex_m_s2=14.0, s0=0.3))
+    row = _map_row(law_json(unknown), 124.0, 14.0, 0.3)
     assert row["robust"] is None and "shifted" not in row
     assert predict(f_ex=124, a_ex=14, drift=steep, robustness=False).robust is None
     d = json.loads(law_json(steep))

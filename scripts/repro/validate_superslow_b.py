@@ -564,7 +564,7 @@ def stage_speed(training="cheap", training_set="12 points"):
 
     pts = [(124.0, 14.0), (126.0, 10.0), (104.0, 14.0)]
     lines = [f"§4.5  Speed (this machine, shared by other jobs; CPU = user + system time of this process, all its threads); core prediction = "
-             "_core.predict_point from Python, parsing the law file on each call, with the robustness check; the core alone: "
+             "_core.predict from Python, parsing the law file on each call, with the robustness check; the core alone: "
              "cargo bench -p beamslider-core --bench predict"]
     law_all = load_drift_law(OUT / "law.json")
     text = _law_text(law_all)
@@ -580,14 +580,14 @@ def stage_speed(training="cheap", training_set="12 points"):
         tc = []
         for _ in range(5):
             t0 = time.perf_counter()
-            _core.predict_point(native(Parameters()), text, f_ex_hz=f, a_ex_m_s2=a, s0=0.3)
+            _core.predict(native(Parameters()), law_json=text, f_ex_hz=f, a_ex_m_s2=a, s0=0.3, t_end_s=120.0)
             tc.append(time.perf_counter() - t0)
         c0, t0 = _cpu(), time.perf_counter()
         simulate(f_ex=f, a_ex=a, s0=0.3, t_end=120.0, record_every=1000)
         fs_wall.append(time.perf_counter() - t0)
         fs_cpu.append(_cpu() - c0)
         pr_wall.append(min(tc))
-        lines.append(f"({f:g}, {a:g}): core prediction {1e3 * min(tc):.2f} ms (Python path: manifold {1e3 * min(ta):.2f} ms, V {1e3 * min(td):.2f} ms, "
+        lines.append(f"({f:g}, {a:g}): core prediction {1e3 * min(tc):.2f} ms (predict() timings: manifold {1e3 * min(ta):.2f} ms, V {1e3 * min(td):.2f} ms, "
                      f"slow flow + classifier {1e3 * min(tf):.3f} ms, robustness check {1e3 * min(tr):.2f} ms); FS 120-s run {fs_wall[-1]:.2f} s wall, {fs_cpu[-1]:.2f} s CPU "
                      f"→ {fs_wall[-1] / min(tc):.0f}× per point")
     pts_train = {"12 points": TRAINING, "6 points": [(124.0, 14.0), (104.0, 14.0), (126.0, 10.0), (124.0, 6.0), (110.0, 8.0), (116.0, 12.0)]}[training_set]
@@ -728,7 +728,7 @@ def stage_levers():
                 lines.append(f"{kind:>7} {sname:>10} {('%+.4f' % law.s_up_shift) if shift else 'off':>10} | {st:3d}/112 {100 * st / 112:5.1f}% {ph:3d}/112 {100 * ph / 112:5.1f}% | "
                              f"{np.median(errs):14.4f} {np.percentile(errs, 90):8.4f} {errs.size:4d} | {'—' if wall is None else f'{wall:.1f}':>15}")
                 print(lines[-1], flush=True)
-    # The dead band of V (|V| <= v_dead read as rest; Python path only), b1 and b2 (12 fine tables,
+    # The dead band of V (|V| <= v_dead read as rest), b1 and b2 (12 fine tables,
     # s_up correction, training points in-sample here).
     lines.append("")
     lines.append("dead band of V (predict(v_dead=...)): strict/phase agreement, final-s median and 90th percentile over points steady in both")

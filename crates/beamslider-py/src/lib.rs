@@ -19,6 +19,7 @@ use pyo3::prelude::*;
 mod formats;
 mod maprun;
 mod params;
+mod predictor;
 mod run;
 mod study;
 mod superslow;
@@ -215,5 +216,6 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     study::register(m)?;
     superslow::register(m)?;
     formats::register(m)?;
+    predictor::register(m)?;
     Ok(())
 }

@@ -243,8 +243,6 @@ def cmd_predict(args: argparse.Namespace) -> int:
         drift = read_drift_table(args.drift) if args.drift else load_law(args.law) if args.law else None
     except FileNotFoundError as e:
         raise UserError(f"cannot read {e.filename or args.drift or args.law}: no such file") from None
-    import scipy.spatial  # noqa: F401  (the law's kNN; imported here so that the printed time is the prediction's)
-
     r = predict(p, f_ex=args.f_ex, a_ex=args.a_ex, s0=args.s0, t_end=args.t_end, drift=drift, s_dn=args.s_dn, d_eff=args.d_eff)
     out = out_dir(args)
     with open(out / f"{stem}.csv", "w", newline="", encoding="utf-8") as f:

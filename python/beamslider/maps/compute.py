@@ -9,9 +9,7 @@ from __future__ import annotations
 import dataclasses
 import errno
 import json
-import math
 import os
-import time
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Dict, List, Optional, Sequence, Union
@@ -22,7 +20,7 @@ from .. import _core, _toml
 from .._util import progress_bar
 from ..params import Parameters, resolve
 from ..simulate import SimulationResult
-from ..superslow import DesignLaw, DriftLaw, builtin_law, law_json, predict
+from ..superslow import BUILTIN_LAW_NOTE, DesignLaw, DriftLaw, default_law, law_json
 from .config import MIN_CLASSIFY_S, RESULTS_FILE, criteria_toml, map_config_toml
 from ..tables import MapTable, RowList
 from .read import check_rows, grid_points, rows_to_table, saved_grid
@@ -289,21 +287,6 @@ def operating_map(params: Optional[Parameters] = None, *, f_ex: Any, a_ex: Any, 
                           scheduler_file=scheduler_file, chunk_size=chunk_size)
 
 
-def _law_for(p: Parameters, drift: Union[DriftLaw, DesignLaw, None]) -> DriftLaw:
-    """The law for ``p``: the built-in design law's or the given design law's blend for ``p`` (a
-    UserWarning when ``p`` lie outside what it covers), or ``drift`` itself."""
-    if isinstance(drift, DriftLaw):
-        return drift
-    if drift is not None and not isinstance(drift, DesignLaw):
-        raise ValueError("invalid parameter `drift`: a fitted DriftLaw or DesignLaw (beamslider.superslow.load_law)")
-    law, note = builtin_law(p) if drift is None else drift.law_for(p)
-    if note:
-        import warnings
-
-        warnings.warn(note, stacklevel=3)
-    return law
-
-
 def predicted_map(
     params: Optional[Parameters] = None,
     *,
@@ -332,20 +315,15 @@ def predicted_map(
     core's map results writer, as ``beamslider-batch map --predictor``: with ``out`` (a folder) the
     rows go to ``out/map.jsonl`` with the predictor in its header; an existing file is refused
     (``FileExistsError``) unless ``force`` (replaced) or ``resume`` (its points are kept; it must
-    hold the same law and settings). ``s_dn='none'`` is evaluated in Python (:func:`beamslider.superslow.predict`) and
-    cannot be written (``out`` must be None). ``drift``: a :class:`DriftLaw`, or a :class:`DesignLaw`
+    hold the same law and settings). ``s_dn='none'``: no jump-down (the high branch runs to its
+    end). ``drift``: a :class:`DriftLaw`, or a :class:`DesignLaw`
     blended for ``params`` (docs/model.md §6.5; a warning when they lie outside what it covers, and
     every row ``extrapolated``); None: the built-in design law (:func:`beamslider.superslow.default_law`)."""
     p = resolve(params)
-    drift = _law_for(p, drift)
     if s_dn not in ("hb", "law", "none"):
         raise ValueError(f"invalid parameter `s_dn` = {s_dn!r}: one of 'hb', 'law', 'none'")
-    if not isinstance(drift, DriftLaw):
-        raise ValueError("invalid parameter `drift`: a fitted DriftLaw (fit_drift_law / load_drift_law)")
-    if s_dn == "none":
-        if out is not None:
-            raise ValueError(f"invalid parameter `out`: a map with s_dn={s_dn!r} is evaluated in Python and not written (the core writes s_dn='law' and 'hb')")
-        return RowList(_predicted_rows_python(p, drift, f_ex, a_ex, s0, t_end, s_dn, d_eff, n_modes))
+    if drift is not None and not isinstance(drift, (DriftLaw, DesignLaw)):
+        raise ValueError("invalid parameter `drift`: a fitted DriftLaw or DesignLaw (beamslider.superslow.load_law)")
     path = None
     if out is not None:
         path = Path(out) / "map.jsonl"
@@ -354,34 +332,17 @@ def predicted_map(
         if path.exists() and force and not resume:
             path.unlink()
     cfg = map_config_toml(p, f_ex=[float(v) for v in f_ex], a_ex=[float(v) for v in a_ex], s0=float(s0), t_end=float(t_end))
-    law = drift if s_dn == "law" else dataclasses.replace(drift, rho_c=0.0, _trees={})
-    rows = _core.predicted_map(cfg, law_json(law), out=None if path is None else str(path), resume=bool(resume),
-                               threads=threads, n_modes=int(n_modes), d_eff=d_eff)
+    kw = dict(out=None if path is None else str(path), resume=bool(resume), threads=threads, n_modes=int(n_modes), d_eff=d_eff)
+    if isinstance(drift, DriftLaw):
+        law = drift if s_dn != "hb" else dataclasses.replace(drift, rho_c=0.0, _trees={})
+        rows = _core.predicted_map(cfg, law_json(law), s_dn="none" if s_dn == "none" else "law", **kw)
+    else:
+        rows, why = (drift or default_law()).core().predicted_map(cfg, s_dn=s_dn, **kw)
+        if why:
+            import warnings
+
+            note = "; ".join(why)
+            warnings.warn(BUILTIN_LAW_NOTE.format(why=note) if drift is None else "design outside the drift law's box: " + note,
+                          stacklevel=2)
     return RowList(json.loads(r) for r in rows)
 
-
-def _predicted_rows_python(p, drift, f_ex, a_ex, s0, t_end, s_dn, d_eff, n_modes) -> List[dict]:
-    rows = []
-    k = 0
-    for a in a_ex:
-        for f in f_ex:
-            t0 = time.perf_counter()
-            r = predict(p, f_ex=float(f), a_ex=float(a), s0=s0, t_end=t_end, drift=drift, s_dn=s_dn, d_eff=d_eff, n_modes=n_modes)
-            wall = time.perf_counter() - t0
-            c = dict(r.classification)
-            row = {"index": k, "f_ex_hz": float(f), "a_ex_m_s2": float(a), "s0": float(s0), "t_end_s": float(t_end),
-                   "status": "predicted", **{key: c.get(key) for key in (
-                       "behaviour", "reason", "s_final", "amplitude_final_h", "amplitude_initial_h", "amplitude_max_h", "s_min",
-                       "s_max", "net_travel", "travel_to_centre", "turn_s", "turn_t_s", "jump_up_t_s", "jump_down_t_s",
-                       "steady", "phase", "settled", "drift_s", "drift_a_h")},
-                   "counters": {"steps": 0, "contact_steps": 0, "closed_histogram": [0, 0, 0, 0, 0], "solver_iterations": 0,
-                                "max_iterations": 0, "cap_hits": 0, "first_guess_hits": 0, "linear_solves": 0,
-                                "enumerations": 0, "fallbacks": 0},
-                   "wall_time_s": wall, "events": [list(e) for e in r.events], "extrapolated": r.extrapolated,
-                   "s_dn_source": r.s_dn_source}
-            for key in ("turn_s", "turn_t_s", "drift_s", "drift_a_h"):
-                if row[key] is not None and not math.isfinite(row[key]):
-                    row[key] = None
-            rows.append(row)
-            k += 1
-    return rows

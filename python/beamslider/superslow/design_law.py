@@ -1,4 +1,5 @@
-"""A drift law over the design box (docs/model.md §6.5): per-design laws blended by design distance.
+"""A drift law over the design box (docs/model.md §6.5): per-design laws blended by design distance
+(the blend is the core's, ``superslow::design_law``; fitting it is this module's).
 
 The drift law of :mod:`.law` is fitted on the PCS tables of one set of parameters. A *design law*
 holds such laws for many designs drawn over a box of the parameters that a designer changes or does
@@ -18,7 +19,6 @@ changed from the base design, or a clearance below ``jam_gap_ratio`` where slide
 
 from __future__ import annotations
 
-import dataclasses
 import json
 import math
 import os
@@ -30,7 +30,7 @@ import numpy as np
 
 from .. import _core
 from ..params import Parameters, native
-from .law import FEATURES, DriftLaw, law_dict, law_from_dict
+from .law import DriftLaw, law_dict, law_from_dict
 
 __all__ = [
     "BUILTIN_LAW_NOTE", "BoxCoordinate", "DEFAULT_DESIGN_LAW_PATH", "DESIGN_BOX", "DESIGN_KIND", "DesignLaw",
@@ -82,37 +82,12 @@ JAM_GAP_RATIO = 1.03
 """Below this clearance ratio sliders barely move (FS runs of 40 s travel < 0.05 L, docs/design):
 a design there is outside what the law covers."""
 
-FIXED = ("length_m", "thickness_m", "density_kg_m3", "beam_mass_kg", "damping_ratio_quadratic", "axial_preload_n",
-         "gravity_m_s2", "tilt_rad")
-"""Fields that are not coordinates: a design that changes one of them is outside the law."""
-
-GRID_AMP = (0.0, 1.25, 26)
-"""Grid of Â/max Â_H on which a blended law is materialised (start, stop, nodes)."""
-GRID_S = (0.0, 0.5, 51)
-"""Grid of s on which a blended law is materialised."""
-
-
-def _omega1(p: Parameters) -> float:
-    return float(_core.beam_properties(native(p), [])["omega_rad_s"][0])
-
-
 def design_coordinates(params: Parameters, base: Optional[Parameters] = None) -> Dict[str, float]:
-    """The design coordinates of ``params`` relative to ``base`` (default: the prototype)."""
-    b = base or Parameters()
-    j_similar = b.slider_inertia_kg_m2 * (params.slider_mass_kg / b.slider_mass_kg) * (
-        params.contact_spacing_m / b.contact_spacing_m) ** 2
-    same_beam = all(getattr(params, f) == getattr(b, f) for f in ("youngs_modulus_pa", "k_r_nm_per_rad", "k_t_n_per_m"))
-    return {
-        "gap_ratio": params.gap_ratio,
-        "slider_mass_kg": params.slider_mass_kg,
-        "contact_spacing_m": params.contact_spacing_m,
-        "inertia_factor": params.slider_inertia_kg_m2 / j_similar,
-        "com_offset_m": params.com_offset_m,
-        "friction_coefficient": params.friction_coefficient,
-        "restitution": params.restitution,
-        "natural_frequency_factor": 1.0 if same_beam else _omega1(params) / _omega1(b),
-        "damping_factor": params.damping_ratio / b.damping_ratio if b.damping_ratio > 0 else 1.0,
-    }
+    """The design coordinates of ``params`` relative to ``base`` (default: the prototype), computed
+    by the core: the inertia factor J_C / (J_C0 (m/m0)(B/B0)²), the natural-frequency factor
+    ω₁/ω₁0 (1 when E, k_r and k_t are the base's), the damping factor D/D0, the others the fields."""
+    c = _core.design_coordinates(native(params), native(base or Parameters()))
+    return dict(zip([b.name for b in DESIGN_BOX], c))
 
 
 def design_params(x: Union[Dict[str, float], Sequence[float]], base: Optional[Parameters] = None) -> Parameters:
@@ -182,65 +157,33 @@ class DesignLaw:
     loo: Dict[str, float] = field(default_factory=dict)
     """Leave-one-design-out V error (``ratio``: RMS error / RMS |V| over all training rows)."""
 
+    _core_law: Optional[object] = field(default=None, repr=False, compare=False)
+    _text: Optional[str] = field(default=None, repr=False, compare=False)
+
     @property
     def unit(self) -> np.ndarray:
         """Training designs in the unit box, shape (designs, coordinates)."""
         return np.array([[c.unit(xi[c.name]) for c in self.box] for xi in self.x])
 
-    def outside(self, params: Parameters, coordinates: Optional[Dict[str, float]] = None) -> List[str]:
-        """Why ``params`` lie outside what the law covers ([] inside); ``coordinates``: theirs, if
-        already computed (:func:`design_coordinates` builds the beam for ω₁)."""
-        why = [f"`{f}` = {getattr(params, f)!r} differs from the base design's {getattr(self.base, f)!r}"
-               for f in FIXED if getattr(params, f) != getattr(self.base, f)]
-        c = coordinates if coordinates is not None else design_coordinates(params, self.base)
-        for b in self.box:
-            if not (b.low - 1e-9 * max(1.0, abs(b.low)) <= c[b.name] <= b.high + 1e-9 * max(1.0, abs(b.high))):
-                why.append(f"{b.name} = {c[b.name]:.6g} outside the box [{b.low:g}, {b.high:g}]")
-        if c["gap_ratio"] < self.jam_gap_ratio:
-            why.append(f"gap_ratio = {c['gap_ratio']:.4g} below {self.jam_gap_ratio:g}, where sliders barely move")
-        return why
+    def core(self):
+        """The core's handle of this law (``beamslider._core.DesignLaw``: the file parsed once)."""
+        if self._core_law is None:
+            text = self._text if self._text is not None else json.dumps(design_law_dict(self))
+            self._core_law = _core.DesignLaw(text, "the design law")
+        return self._core_law
+
+    def outside(self, params: Parameters) -> List[str]:
+        """Why ``params`` lie outside what the law covers ([] inside): a parameter that is not a
+        coordinate changed from the base design, a coordinate beyond the box, or a clearance below
+        ``jam_gap_ratio``."""
+        return list(self.core().law_for(native(params))[1])
 
     def law_for(self, params: Parameters) -> Tuple[DriftLaw, Optional[str]]:
-        """The blended :class:`DriftLaw` of design ``params`` and a note when it lies outside the law
-        (None inside); the note's reasons are also the law's ``outside_design``."""
-        c = design_coordinates(params, self.base)
-        u = np.array([b.unit(c[b.name]) for b in self.box])
-        o, w = _weights(self.unit, u, self.scales, self.k_sets)
-        why = self.outside(params, c)
+        """The blended :class:`DriftLaw` of design ``params`` (the core's blend) and a note when it
+        lies outside the law (None inside); the note's reasons are also the law's ``outside_design``."""
+        text, why = self.core().law_for(native(params))
         note = ("design outside the drift law's box: " + "; ".join(why)) if why else None
-        d0 = float(np.sqrt((((self.unit[o[0]] - u) / self.scales) ** 2).sum()))
-        if d0 < 1e-6:  # a training design (to rounding of its coordinates): its own law, unchanged
-            return dataclasses.replace(self.laws[o[0]], outside_design=why, _trees={}), note
-        parts = [self.laws[i] for i in o]
-        amp = np.linspace(*GRID_AMP[:2], int(GRID_AMP[2]))
-        ss = np.linspace(*GRID_S[:2], int(GRID_S[2]))
-        grid = np.array([[a, s] for s in ss for a in amp])
-        xs, vs = {}, {}
-        for br in ("L", "H"):
-            v = _blend_v(parts, w, br, grid)
-            xs[br], vs[br] = (grid, v) if v is not None else (np.zeros((0, len(FEATURES))), np.zeros(0))
-
-        def mean(f):
-            return float(sum(wi * f(law) for law, wi in zip(parts, w)))
-
-        def mean_learnt(f):  # over the neighbours that learnt it (> 0); 0 when they weigh less than half
-            ww = [(wi, f(law)) for law, wi in zip(parts, w) if f(law) > 0]
-            tot = sum(a for a, _ in ww)
-            return float(sum(a * b for a, b in ww) / tot) if tot >= 0.5 else 0.0
-
-        mono_x = np.concatenate([law.mono_x for law in parts])
-        mono_y = np.concatenate([law.mono_y for law in parts])
-        law = DriftLaw(
-            x=xs, v=vs, groups={b: np.zeros(vs[b].size, int) for b in vs}, mean=grid.mean(axis=0), std=grid.std(axis=0),
-            lo=np.min([law.lo for law in parts], axis=0), hi=np.max([law.hi for law in parts], axis=0),
-            points=sorted({tuple(p) for law in parts for p in law.points}), k=4,
-            rho_c=mean_learnt(lambda q: q.rho_c), jump_down_s=mean_learnt(lambda q: q.jump_down_s),
-            s_up_shift=mean(lambda q: q.s_up_shift), mono_x=mono_x, mono_y=mono_y,
-            mono_std=np.sum([wi * q.mono_std for q, wi in zip(parts, w)], axis=0), mono_groups=np.zeros(mono_y.size, int),
-            lift_c=mean(lambda q: q.lift_c), v_resolution=mean(lambda q: q.v_resolution),
-            outside_design=why,
-        )
-        return law, note
+        return law_from_dict(json.loads(text), "the blended law"), note
 
 
 def loo_design_error(laws: Sequence[DriftLaw], U: np.ndarray, scales: np.ndarray, k: int) -> Tuple[float, List[float]]:
@@ -315,8 +258,9 @@ def save_design_law(law: DesignLaw, path: Union[str, os.PathLike]) -> None:
     Path(path).write_text(json.dumps(design_law_dict(law)), encoding="utf-8")
 
 
-def design_law_from_dict(d: dict, source: str = "design law") -> DesignLaw:
-    """A :class:`DesignLaw` from a file's content (ValueError naming the key for a malformed one)."""
+def design_law_from_dict(d: dict, source: str = "design law", text: Optional[str] = None) -> DesignLaw:
+    """A :class:`DesignLaw` from a file's content (ValueError naming the key for a malformed one);
+    ``text``: the file's JSON text, handed to the core as it is."""
     def need(key, kind):
         if key not in d or not isinstance(d[key], kind):
             raise ValueError(f"invalid parameter `law`: {source} lacks `{key}` ({kind.__name__ if isinstance(kind, type) else 'number'})")
@@ -373,18 +317,19 @@ def design_law_from_dict(d: dict, source: str = "design law") -> DesignLaw:
     except (TypeError, ValueError) as e:
         raise ValueError(f"invalid parameter `law`: {source}: base: {str(e).splitlines()[0][:160]}") from None
     return DesignLaw(box=tuple(box), base=base, x=xs, laws=laws, scales=scales, k_sets=k, jam_gap_ratio=float(jam),
-                     loo=d.get("loo", {}))
+                     loo=d.get("loo", {}), _text=text)
 
 
 def load_design_law(path: Union[str, os.PathLike]) -> DesignLaw:
     """Read a design law written by :func:`save_design_law`."""
     try:
-        d = json.loads(Path(path).read_text(encoding="utf-8"))
+        text = Path(path).read_text(encoding="utf-8")
+        d = json.loads(text)
     except (json.JSONDecodeError, UnicodeDecodeError, RecursionError) as e:
         raise ValueError(f"invalid parameter `law`: {path} is not JSON ({str(e)[:120]})") from None
     if not isinstance(d, dict):
         raise ValueError(f"invalid parameter `law`: {path} is not a {DESIGN_KIND} file")
-    return design_law_from_dict(d, str(path))
+    return design_law_from_dict(d, str(path), text)
 
 
 DEFAULT_DESIGN_LAW_PATH = Path(__file__).resolve().parent.parent / "data" / "default_design_law.json"
@@ -415,9 +360,10 @@ def builtin_law(p: Parameters) -> Tuple[DriftLaw, Optional[str]]:
 def load_law(path: Union[str, os.PathLike]) -> Union[DriftLaw, DesignLaw]:
     """Read a drift law (:func:`save_drift_law`) or a design law (:func:`save_design_law`) by its ``kind``."""
     try:
-        d = json.loads(Path(path).read_text(encoding="utf-8"))
+        text = Path(path).read_text(encoding="utf-8")
+        d = json.loads(text)
     except (json.JSONDecodeError, UnicodeDecodeError, RecursionError) as e:
         raise ValueError(f"invalid parameter `law`: {path} is not a beamslider law file ({str(e)[:120]})") from None
     if isinstance(d, dict) and d.get("kind") == DESIGN_KIND:
-        return design_law_from_dict(d, str(path))
+        return design_law_from_dict(d, str(path), text)
     return law_from_dict(d, str(path))

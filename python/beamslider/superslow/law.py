@@ -15,84 +15,45 @@ from typing import Dict, List, Optional, Sequence, Tuple, Union
 import numpy as np
 
 from .. import _core
-from ..params import Parameters, native
+from ..params import native
 
 
 __all__ = ["DEFAULT_LAW_PATH", "DriftLaw", "FEATURES", "LAW_JUMP_DOWN_CANDIDATES",
            "LAW_JUMP_DOWN_N", "LAW_TABLE_SETTINGS", "LAW_TRAINING_POINTS", "S_DN_MIN",
            "default_drift_law", "features", "forcing_ratio", "law_inputs", "law_json", "load_drift_law",
-           "mono_features", "monostable_inputs", "move_fold", "s_dn_forcing_ratio", "save_drift_law"]
+           "monostable_inputs", "move_fold", "s_dn_forcing_ratio", "save_drift_law"]
 
 
 # ---------------------------------------------------------------------------------------------
 # Local features from the HB manifold
 
 
-_BEAM_CACHE: Dict[tuple, tuple] = {}
-
-
-def _modes(p: Parameters, n_modes: int, s: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
-    """Φ(s) [kg^-½] and Φ'(s) [kg^-½ m^-1] of the first n_modes modes at positions s: linear
-    interpolation in a table of the exact mode shapes on 4001 points of [0, 1] (the slope by a
-    central difference, step 1e-6 L), computed once per parameter set."""
-    import dataclasses
-
-    key = (repr(p), int(n_modes))
-    if key not in _BEAM_CACHE:
-        q = dataclasses.replace(p, n_modes=int(n_modes))
-        g = np.linspace(0.0, 1.0, 4001)
-        h = 1e-6
-        xs = np.concatenate([g, np.clip(g - h, 0, 1), np.clip(g + h, 0, 1)])
-        d = _core.beam_properties(native(q), [float(v) for v in xs])
-        phi = np.asarray(d["phi"], dtype=float)
-        n = g.size
-        f0, fm, fp = phi[:, :n], phi[:, n:2 * n], phi[:, 2 * n:]
-        step = (np.clip(g + h, 0, 1) - np.clip(g - h, 0, 1)) * p.length_m
-        if len(_BEAM_CACHE) > 16:
-            _BEAM_CACHE.clear()
-        _BEAM_CACHE[key] = (g, f0, (fp - fm) / step)
-    g, f0, df = _BEAM_CACHE[key]
-    phi = np.stack([np.interp(s, g, f0[k]) for k in range(f0.shape[0])], axis=1)
-    dphi = np.stack([np.interp(s, g, df[k]) for k in range(df.shape[0])], axis=1)
-    return phi, dphi
-
-
 def features(manifold, branch: str, s: Sequence[float]) -> Dict[str, np.ndarray]:
-    """Local features of docs/model.md §6.3 ("V from features") on one branch of a layer-(a) manifold at positions s
-    (half coordinate, within the branch): Q is interpolated linearly between the branch's
-    continuation points.
+    """Local features of docs/model.md §6.3 ("V from features") on one branch of a layer-(a) manifold at
+    positions s (half coordinate, within the branch), computed by the core (``law::features``; Q
+    interpolated linearly between the branch's continuation points, the exact mode shapes).
 
     Returns a dict of arrays: ``lift_off`` Λ_g = Ω²|ŵ_abs|/g with ŵ_abs = a_ex/Ω² + Φ(s)ᵀQ;
-    ``slope_gap`` θ̂/θ_gap with θ̂ = |Φ'(s)ᵀQ|, θ_gap = (R − h)/B; ``slope_mu`` θ̂/μ; ``f_slope``
-    = −(Ω²/2g) Re[ŵ_abs conj(Φ'(s)ᵀQ)]; ``a_ex_g`` = a_ex/g; ``amplitude`` Â; ``ds_res`` =
-    s − s_res (the first linear-resonance position of layer (a), 0.5 if there is none);
-    ``amp_rel`` = Â / max Â of the high branch; ``s`` = s.
+    ``slope_gap`` θ̂/θ_gap with θ̂ = |Φ'(s)ᵀQ|, θ_gap = (R − h)/B; ``f_slope``
+    = −(Ω²/2g) Re[ŵ_abs conj(Φ'(s)ᵀQ)]; ``amplitude`` Â; ``ds_res`` = s − s_res (the first
+    linear-resonance position of layer (a), 0.5 if there is none); ``amp_rel`` = Â / max Â of the
+    high branch; ``s`` = s. The core recomputes the manifold from its parameters and settings
+    (single-term HB with the manifold's ``n_modes`` and ``d_eff``).
     """
-    p = manifold.params
     b = manifold.high if branch == "H" else manifold.low
-    s = np.atleast_1d(np.asarray(s, dtype=float))
-    if len(b) == 0:
+    if branch not in ("L", "H") or len(b) == 0:
         raise ValueError(f"invalid parameter `branch` = {branch!r}: the manifold has no such branch")
-    o = np.argsort(b.s)
-    bs, bq = b.s[o], b.q[o]
-    q = np.stack([np.interp(s, bs, bq[:, k].real) + 1j * np.interp(s, bs, bq[:, k].imag) for k in range(bq.shape[1])], axis=1)
-    phi, dphi = _modes(p, bq.shape[1], s)
-    omega = 2 * math.pi * manifold.f_ex
-    g = p.gravity_m_s2
-    w_abs = manifold.a_ex / omega**2 + np.sum(phi * q, axis=1)
-    theta = np.sum(dphi * q, axis=1)
-    theta_gap = (p.gap_ratio * p.thickness_m - p.thickness_m) / p.contact_spacing_m
-    return {
-        "lift_off": omega**2 * np.abs(w_abs) / g,
-        "slope_gap": np.abs(theta) / theta_gap,
-        "slope_mu": np.abs(theta) / p.friction_coefficient,
-        "f_slope": -(omega**2 / (2 * g)) * np.real(w_abs * np.conj(theta)),
-        "a_ex_g": np.full(s.shape, manifold.a_ex / g),
-        "amplitude": np.interp(s, bs, b.amplitude[o]),
-        "ds_res": s - (float(manifold.s_res[0]) if len(manifold.s_res) else 0.5),
-        "amp_rel": np.interp(s, bs, b.amplitude[o]) / (float(np.max(manifold.high.amplitude)) if len(manifold.high) else 1.0),
-        "s": s.copy(),
-    }
+    if manifold.harmonics != 1 or manifold.static_sag or manifold.omega1_factor != 1.0:
+        raise ValueError("invalid parameter `manifold`: features are defined on the single-term HB manifold "
+                         "(harmonics=1, no static sag, omega1_factor=1)")
+    s = np.atleast_1d(np.asarray(s, dtype=float))
+    rows = json.loads(_core.hb_features(native(manifold.params), f_ex_hz=float(manifold.f_ex), a_ex_m_s2=float(manifold.a_ex),
+                                        high=branch == "H", s=[float(x) for x in s], n_modes=int(manifold.n_modes),
+                                        d_eff=manifold.d_eff))
+    keys = ("lift_off", "slope_gap", "f_slope", "ds_res", "amp_rel", "amplitude_h", "s")
+    out = {k: np.array([r[k] for r in rows], dtype=float).reshape(s.shape) for k in keys}
+    out["amplitude"] = out.pop("amplitude_h")
+    return out
 
 
 # The regression inputs (standardised): the relative amplitude Â/max Â_H and the position s.
@@ -183,8 +144,6 @@ class DriftLaw:
     """Resolution of V [1/s]: the median standard error (four sub-windows) of the training rows'
     V. :func:`beamslider.superslow.predict` re-runs the slow flow with V shifted by ± this much and
     reports whether the prediction stays the same (``Prediction.robust``); 0: not checked."""
-    v_offset: float = 0.0
-    """Added to V wherever Λ_g ≥ Λ_c (0; the robustness check's shifted copies, :meth:`shifted`)."""
     outside_design: List[str] = field(default_factory=list)
     """Why the design this law was blended for lies outside what its design law covers
     (:meth:`beamslider.superslow.DesignLaw.law_for`); every prediction with it is ``extrapolated``."""
@@ -204,18 +163,13 @@ class DriftLaw:
         d = np.sum(((self.mono_x[keep] - x) / self.mono_std) ** 2, axis=1)
         return bool(self.mono_y[keep][int(np.argmin(d))] > 0.5)
 
-    def evaluate(self, branch: str, feat: Dict[str, np.ndarray], exclude_group: Optional[int] = None) -> Tuple[np.ndarray, np.ndarray]:
+    def evaluate(self, branch: str, feat: Dict[str, np.ndarray]) -> Tuple[np.ndarray, np.ndarray]:
         """V at the given features (half coordinate, towards the centre positive) and a flag per
-        point: True where a feature lies outside the training range (extrapolation)."""
-        return self._evaluate_x(branch, law_inputs(feat), np.asarray(feat["lift_off"]), exclude_group)
-
-    def shifted(self, dv: float) -> "DriftLaw":
-        """A copy whose V is larger by ``dv`` [1/s] wherever Λ_g ≥ Λ_c (the robustness check)."""
-        import copy
-
-        c = copy.copy(self)
-        c.v_offset = self.v_offset + float(dv)
-        return c
+        point: True where a feature lies outside the training range (extrapolation); evaluated
+        by the core (``law::DriftLaw::evaluate``), as the predictor does."""
+        x, lift = law_inputs(feat), np.asarray(feat["lift_off"], dtype=float).reshape(-1)
+        v, out = _core.drift_law_evaluate(law_json(self), high=branch == "H", x=x.tolist(), lift_off=lift.tolist())
+        return np.asarray(v, dtype=float), np.asarray(out, dtype=bool)
 
     def outside_points(self, f_ex: float, a_ex: float) -> bool:
         """True where (f_ex, a_ex) lies outside the box of the training operating points (the
@@ -235,6 +189,8 @@ class DriftLaw:
         return s_dn_forcing_ratio(manifold, rc, sp) if rc > 0 else None
 
     def _evaluate_x(self, branch, x, lift_off, exclude_group=None):
+        """The fit's leave-one-out evaluation (``exclude_group`` left out; scipy's kNN, whose
+        choice among equidistant samples may differ from the core's)."""
         from scipy.spatial import cKDTree
 
         key = (branch, exclude_group)
@@ -253,22 +209,9 @@ class DriftLaw:
         dk, idx = dk.reshape(x.shape[0], k), idx.reshape(x.shape[0], k)
         w = 1.0 / np.maximum(dk, 1e-6)
         out = (w * vt[idx]).sum(axis=1) / w.sum(axis=1)
-        if self.v_offset:
-            out = out + self.v_offset
         out[lift_off < self.lift_c] = 0.0
         outside = np.any((x < self.lo - 1e-9) | (x > self.hi + 1e-9), axis=1)
         return out, outside
-
-
-def mono_features(manifold, s: Sequence[float], a_cap: float) -> Dict[str, np.ndarray]:
-    """Features on the single low branch of a monostable point below the HB fold: those of the
-    HB branch that reaches the clamping, with the amplitude capped at ``a_cap`` (the low branch's
-    amplitude at the fold) in ``amplitude`` and ``amp_rel``."""
-    f = features(manifold, "H", s)
-    amp = np.minimum(f["amplitude"], a_cap)
-    f["amp_rel"] = amp / float(np.max(manifold.high.amplitude))
-    f["amplitude"] = amp
-    return f
 
 
 def _fold_amplitude(manifold) -> float:

@@ -18,7 +18,7 @@
 
 use std::path::Path;
 
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 
 use super::branch::{HbBranch, HbManifold};
 use crate::error::{Error, Result};
@@ -31,8 +31,11 @@ pub const FEATURES: [&str; 2] = ["amp_rel", "s"];
 /// Number of inputs.
 pub const NF: usize = FEATURES.len();
 
-#[derive(Deserialize)]
-pub(super) struct LawFile {
+/// A law file's content as read (the JSON of `beamslider.superslow.law_json`, only what an evaluation
+/// reads): parsed into a [`DriftLaw`] by [`DriftLaw::from_law_file`]; a design law keeps its laws'
+/// files to build blended ones (docs/model.md §6.5).
+#[derive(Debug, Clone, Deserialize, Serialize)]
+pub struct LawFile {
     pub(super) kind: String,
     #[serde(default)]
     pub(super) version: u32,
@@ -52,7 +55,7 @@ pub(super) struct LawFile {
     pub(super) mono_x: Vec<Vec<f64>>,
     #[serde(default)]
     pub(super) mono_y: Vec<f64>,
-    #[serde(default)]
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub(super) mono_std: Vec<f64>,
     #[serde(default = "one")]
     pub(super) lift_c: f64,
@@ -62,8 +65,15 @@ pub(super) struct LawFile {
     pub(super) jump_down_s: f64,
     #[serde(default)]
     pub(super) v_resolution: f64,
-    #[serde(default)]
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub(super) outside_design: Vec<String>,
+}
+
+impl LawFile {
+    /// The file's JSON text.
+    pub fn to_json(&self) -> String {
+        serde_json::to_string(self).unwrap_or_default()
+    }
 }
 
 pub(super) fn one() -> f64 {
@@ -140,6 +150,11 @@ impl DriftLaw {
     /// Parse the JSON text of a law file (checks its kind, features and shapes).
     pub fn from_json_str(text: &str) -> Result<DriftLaw> {
         let f: LawFile = serde_json::from_str(text).map_err(|e| Error::invalid("law", "file", &format!("not a beamslider drift law file ({e})")))?;
+        DriftLaw::from_law_file(f)
+    }
+
+    /// Check a law file's content (kind, features, shapes, scalars) and build the law.
+    pub fn from_law_file(f: LawFile) -> Result<DriftLaw> {
         if f.kind != "beamslider drift law" {
             return Err(Error::invalid("law", &f.kind, "not a beamslider drift law file (kind)"));
         }
@@ -272,6 +287,11 @@ impl DriftLaw {
         if high { &self.high } else { &self.low }
     }
 
+    /// Training samples on the high (`high`) or low branch.
+    pub fn branch_len(&self, high: bool) -> usize {
+        self.branch(high).v.len()
+    }
+
     /// Whether the operating point has a single (low) branch in the nonsmooth model although
     /// single-term HB has a fold: the label of the nearest training point in standardised
     /// (ln Â_L(s_up), s_up) of the HB manifold (label: its PCS sweeps show no jump-up). False
@@ -385,7 +405,7 @@ impl Fnv {
 }
 
 /// The local features of docs/model.md §6.3 at one s on one branch.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct Features {
     /// Λ_g = Ω²|ŵ_abs|/g.
     pub lift_off: f64,

@@ -1,4 +1,4 @@
-//! The super-slow scale of docs/model.md §6.3–§6.4: the harmonic-balance manifold (layer (a)), the drift law from PCS runs, the slow flow and the predicted operating maps.
+//! The super-slow scale of docs/model.md §6.3–§6.5: the harmonic-balance manifold (layer (a)), the drift law from PCS runs and its blend over the design box, the slow flow and the predicted operating maps.
 //!
 //! Layer (a), the super-slow manifold by harmonic balance (HB):
 //!
@@ -39,12 +39,14 @@
 mod branch;
 mod closed_form;
 mod continuation;
+pub mod design_law;
 pub mod drift;
 mod hb;
 mod lu;
 pub mod law;
 mod mhb;
 pub mod predict;
+mod predict_options;
 mod roots;
 pub mod slowflow;
 

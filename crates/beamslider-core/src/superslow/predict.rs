@@ -12,11 +12,11 @@
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
-use super::branch::{HbManifold, HbOptions};
+use super::branch::HbManifold;
 use super::continuation::hb_manifold;
 use super::law::{DriftLaw, Features, MONO_NODES, beam_for, features_with};
 use super::slowflow::{EventKind, Prediction, SlowBranch, SlowFlowOptions, SlowModel, slow_flow};
-use crate::classify::{Behaviour, Criteria};
+use crate::classify::Behaviour;
 use crate::dynamics::runner::run_batch;
 use crate::dynamics::stepper::Counters;
 use crate::error::{Error, Result};
@@ -24,34 +24,8 @@ use crate::map::{Job, MapConfig, MapOutcome, MapPoint, MapResults, MapRow, MapRu
 use crate::params::Params;
 use crate::physics::beam::Beam;
 pub use crate::results::STATUS_PREDICTED;
-
-/// Settings of [`predict_point`].
-#[derive(Debug, Clone, PartialEq)]
-pub struct PredictOptions {
-    /// Layer (a) settings (modes, D_eff, ...; default: `low_branch_only`, the predictor uses no
-    /// middle branch).
-    pub hb: HbOptions,
-    /// Nodes per branch (default 121, as the Python package).
-    pub nodes: usize,
-    /// Build-up time [s]; None: three envelope time constants 3/(DΩ) (D = d_eff or the
-    /// parameters' damping ratio), as `beamslider.slowflow.predict`.
-    pub build_up_s: Option<f64>,
-    /// During the build-up the slider drifts from t = 0 and only a jump waits for its end (the
-    /// PCS and FS runs from rest drift at once; the envelope needs the build-up before the beam can
-    /// settle on the other branch); false: s stays at s₀ until then (the rule before). Default true.
-    pub build_up_drift: bool,
-    /// Classification thresholds.
-    pub criteria: Criteria,
-    /// Also run the slow flow with V shifted by ± the law's `v_resolution` and report whether
-    /// the prediction is robust ([`PointPrediction::robust`]; default true).
-    pub robustness: bool,
-}
-
-impl Default for PredictOptions {
-    fn default() -> Self {
-        PredictOptions { hb: HbOptions { low_branch_only: true, ..HbOptions::default() }, nodes: 121, build_up_s: None, build_up_drift: true, criteria: Criteria::default(), robustness: true }
-    }
-}
+pub use super::predict_options::{Drift, PredictOptions, SDnRule, Source, TableDrift};
+use super::predict_options::{dead_band, interp};
 
 /// Largest change of the final s [–] under V ± `v_resolution` for which a prediction counts as
 /// robust (the tolerance on the final s of a run; not applied to a relaxation
@@ -59,7 +33,7 @@ impl Default for PredictOptions {
 pub const ROBUST_DS: f64 = 0.02;
 
 /// Result of [`predict_point`].
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, serde::Serialize)]
 pub struct PointPrediction {
     /// The slow flow and its classification.
     pub flow: Prediction,
@@ -76,8 +50,8 @@ pub struct PointPrediction {
     pub s_dn: Option<f64>,
     /// The law's monostability vote said: a single low branch ([`DriftLaw::monostable`]).
     pub monostable: bool,
-    /// Wall times [s]: manifold, drift evaluation, slow flow.
-    pub timings_s: [f64; 3],
+    /// Wall times [s]: manifold, drift evaluation, slow flow, robustness check (two more slow flows).
+    pub timings_s: [f64; 4],
     /// Whether the behaviour and the final s (within [`ROBUST_DS`]) stay the same when V is
     /// shifted by ± the law's `v_resolution` at every node that can move (Λ_g ≥ Λ_c); None when
     /// the law has no resolution or [`PredictOptions::robustness`] is off.
@@ -85,6 +59,13 @@ pub struct PointPrediction {
     /// The behaviours and final s under V − v_resolution and V + v_resolution (empty when
     /// `robust` is None).
     pub shifted: Vec<(Behaviour, f64)>,
+    /// The features of layer (a) at the nodes of the low and the high branch (law drift and HB
+    /// source; before a monostable point's single branch replaces them).
+    pub features: [Vec<Features>; 2],
+    /// The build-up time used [s].
+    pub build_up_s: f64,
+    /// Why the model differs from the one asked for (a table's jump-down below the HB jump-up).
+    pub note: Option<String>,
 }
 
 fn linspace(a: f64, z: f64, n: usize) -> Vec<f64> {
@@ -157,18 +138,48 @@ pub fn slow_model(params: &Params, manifold: &HbManifold, law: &DriftLaw, f_ex_h
 
 /// [`slow_model`] with the beam of [`beam_for`] built once by the caller.
 pub fn slow_model_with(params: &Params, beam: &Beam, manifold: &HbManifold, law: &DriftLaw, f_ex_hz: f64, a_ex: f64, nodes: usize) -> Result<(SlowModel, bool)> {
-    slow_model_masked(params, beam, manifold, law, f_ex_hz, a_ex, nodes).map(|(m, x, _)| (m, x))
+    slow_model_masked(params, beam, manifold, law, f_ex_hz, a_ex, nodes, SDnRule::Law).map(|b| (b.model, b.extrapolated))
 }
 
 /// Per branch (low, high) of a [`SlowModel`]: whether the node can move (Λ_g ≥ Λ_c).
 type Moving = [Vec<bool>; 2];
 
-/// [`slow_model_with`], also returning which nodes can move ([`Moving`]).
-fn slow_model_masked(params: &Params, beam: &Beam, manifold: &HbManifold, law: &DriftLaw, f_ex_hz: f64, a_ex: f64, nodes: usize) -> Result<(SlowModel, bool, Moving)> {
+/// A reduced model as built: the model (no dead band yet), whether the drift extrapolated,
+/// which nodes can move ([`Moving`]), the features at the nodes, where s_dn comes from, the
+/// monostability vote and a note.
+struct Built {
+    model: SlowModel,
+    extrapolated: bool,
+    moving: Moving,
+    features: [Vec<Features>; 2],
+    s_dn_source: &'static str,
+    monostable: bool,
+    note: Option<String>,
+}
+
+/// The s_dn source of a model with jump-down `s_dn` given the HB manifold's own.
+fn s_dn_source(s_dn: Option<f64>, hb: Option<f64>, rule: SDnRule) -> &'static str {
+    match (s_dn, hb, rule) {
+        (None, _, _) => "none",
+        (Some(_), _, SDnRule::Table) => "table",
+        (Some(_), Some(_), _) => "hb",
+        (Some(_), None, _) => "law",
+    }
+}
+
+/// [`slow_model_with`] under a jump-down rule, also returning what [`Built`] holds.
+#[allow(clippy::too_many_arguments)]
+fn slow_model_masked(params: &Params, beam: &Beam, manifold: &HbManifold, law: &DriftLaw, f_ex_hz: f64, a_ex: f64, nodes: usize, rule: SDnRule) -> Result<Built> {
     let mut moving: Moving = [Vec::new(), Vec::new()];
+    let mut all_feats: [Vec<Features>; 2] = [Vec::new(), Vec::new()];
     let mut extrapolated = !law.outside_design.is_empty() || law.outside_points(f_ex_hz, a_ex);
     let mut model = SlowModel { low_ends_in_fold: manifold.s_up.is_some(), ..SlowModel::default() };
-    let s_dn = manifold.s_dn.or_else(|| law_s_dn(manifold, f_ex_hz, a_ex, law.rho_c, law.jump_down_s, params.thickness_m));
+    let s_dn = match rule {
+        SDnRule::Law => manifold.s_dn.or_else(|| law_s_dn(manifold, f_ex_hz, a_ex, law.rho_c, law.jump_down_s, params.thickness_m)),
+        SDnRule::Hb => manifold.s_dn,
+        SDnRule::None => None,
+        SDnRule::Table => return Err(Error::invalid("s_dn", "table", "needs a drift table as the drift")),
+    };
     for high in [false, true] {
         let b = if high { &manifold.high } else { &manifold.low };
         if b.is_empty() {
@@ -192,6 +203,7 @@ fn slow_model_masked(params: &Params, beam: &Beam, manifold: &HbManifold, law: &
             br.v_per_s.push(v);
         }
         moving[usize::from(high)] = feats.iter().map(|f| f.lift_off >= law.lift_c).collect();
+        all_feats[usize::from(high)] = feats;
         if high {
             model.high = br;
         } else {
@@ -214,11 +226,69 @@ fn slow_model_masked(params: &Params, beam: &Beam, manifold: &HbManifold, law: &
         }
     }
     model.high_ends_in_fold = s_dn.is_some() && !model.high.s.is_empty();
-    if !model.low.s.is_empty() && law.monostable(manifold) {
+    let monostable = law.monostable(manifold);
+    if !model.low.s.is_empty() && monostable {
         let low_moving = monostable_low(params, beam, manifold, law, f_ex_hz, a_ex, &mut model)?;
         moving = [low_moving.into_iter().chain(moving[0].iter().copied()).collect(), Vec::new()];
     }
-    Ok((model, extrapolated, moving))
+    let source = s_dn_source(model.s_dn(), manifold.s_dn, rule);
+    Ok(Built { model, extrapolated, moving, features: all_feats, s_dn_source: source, monostable, note: None })
+}
+
+/// The reduced model with a PCS drift table (b1): on the HB manifold's branches (V linear
+/// between the table's rows) or, with [`Source::Table`] or when the table's jump-down lies below
+/// the HB jump-up (no coexistence in the combined model), the table's own branches.
+#[allow(clippy::too_many_arguments)]
+fn table_slow_model(params: &Params, beam: &Beam, manifold: Option<&HbManifold>, table: &TableDrift, f_ex_hz: f64, a_ex: f64, opts: &PredictOptions) -> Result<Built> {
+    let own = |note: Option<String>| {
+        let src = if table.own.high_ends_in_fold { "table" } else { "none" };
+        Built { model: table.own.clone(), extrapolated: false, moving: [Vec::new(), Vec::new()], features: [Vec::new(), Vec::new()], s_dn_source: src, monostable: false, note }
+    };
+    let Some(manifold) = manifold else { return Ok(own(None)) };
+    let s_dn = match opts.s_dn {
+        SDnRule::Law => return Err(Error::invalid("s_dn", "law", "needs a drift law as the drift")),
+        SDnRule::Hb => manifold.s_dn,
+        SDnRule::Table => table.s_dn,
+        SDnRule::None => None,
+    };
+    if opts.s_dn == SDnRule::Table
+        && let (Some(sd), Some(su)) = (s_dn, manifold.s_up)
+        && sd <= su
+    {
+        let note = format!(
+            "PCS s_dn = {sd:.4} lies below the HB s_up = {su:.4}: no coexistence in the combined model; the PCS table's own branches and jumps are used"
+        );
+        return Ok(own(Some(note)));
+    }
+    let mut model = SlowModel { low_ends_in_fold: manifold.s_up.is_some(), ..SlowModel::default() };
+    let mut all_feats: [Vec<Features>; 2] = [Vec::new(), Vec::new()];
+    for high in [false, true] {
+        let b = if high { &manifold.high } else { &manifold.low };
+        if b.is_empty() {
+            continue;
+        }
+        let a = b.s.iter().copied().fold(f64::INFINITY, f64::min);
+        let mut z = b.s.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        if high && let Some(sd) = s_dn {
+            z = z.min(sd);
+        }
+        if z <= a {
+            continue;
+        }
+        let s = linspace(a, z, opts.nodes.max(2));
+        let feats = features_with(params, beam, manifold, f_ex_hz, a_ex, high, &s)?;
+        let (ts, tv) = &table.rows[usize::from(high)];
+        let br = SlowBranch { amplitude_h: feats.iter().map(|f| f.amplitude_h).collect(), v_per_s: s.iter().map(|&x| interp(x, ts, tv)).collect(), s };
+        all_feats[usize::from(high)] = feats;
+        if high {
+            model.high = br;
+        } else {
+            model.low = br;
+        }
+    }
+    model.high_ends_in_fold = s_dn.is_some() && !model.high.s.is_empty();
+    let source = s_dn_source(model.s_dn(), manifold.s_dn, opts.s_dn);
+    Ok(Built { model, extrapolated: false, moving: [Vec::new(), Vec::new()], features: all_feats, s_dn_source: source, monostable: false, note: None })
 }
 
 /// The single low branch of a monostable point ([`DriftLaw::monostable`]): below the (possibly
@@ -276,6 +346,13 @@ pub fn predict_point(params: &Params, law: &DriftLaw, f_ex_hz: f64, a_ex: f64, s
 /// [`predict_point`] with the beam of [`beam_for`] (`opts.hb.n_modes` modes) built once by the caller.
 #[allow(clippy::too_many_arguments)]
 pub fn predict_point_with(params: &Params, beam: &Beam, law: &DriftLaw, f_ex_hz: f64, a_ex: f64, s0: f64, t_end_s: f64, opts: &PredictOptions) -> Result<PointPrediction> {
+    predict_drift(params, beam, Drift::Law(law), f_ex_hz, a_ex, s0, t_end_s, opts)
+}
+
+/// [`predict_point_with`] with either kind of drift ([`Drift`]): a law (b2) or a PCS table (b1,
+/// also with [`Source::Table`]); the options' jump-down rule, dead band and build-up apply.
+#[allow(clippy::too_many_arguments)]
+pub fn predict_drift(params: &Params, beam: &Beam, drift: Drift<'_>, f_ex_hz: f64, a_ex: f64, s0: f64, t_end_s: f64, opts: &PredictOptions) -> Result<PointPrediction> {
     let lo = params.s_min();
     if !(s0.is_finite() && s0 >= lo - 1e-12 && s0 <= 1.0 - lo + 1e-12) {
         return Err(Error::invalid("s0", s0, &format!("must lie on the beam, {lo:.4} <= s0 <= {:.4}", 1.0 - lo)));
@@ -283,10 +360,31 @@ pub fn predict_point_with(params: &Params, beam: &Beam, law: &DriftLaw, f_ex_hz:
     if !(t_end_s.is_finite() && t_end_s > 0.0) {
         return Err(Error::invalid("t_end", t_end_s, "must be > 0"));
     }
+    if !(opts.v_dead.is_finite() && opts.v_dead >= 0.0) {
+        return Err(Error::invalid("v_dead", opts.v_dead, "must be finite and >= 0"));
+    }
+    if let Some(t) = opts.build_up_s
+        && !(t.is_finite() && t >= 0.0)
+    {
+        return Err(Error::invalid("build_up", t, "must be finite and >= 0"));
+    }
     let t0 = Instant::now();
-    let manifold = hb_manifold(params, f_ex_hz, a_ex, &opts.hb)?;
-    let t1 = Instant::now();
-    let (model, extrapolated, moving) = slow_model_masked(params, beam, &manifold, law, f_ex_hz, a_ex, opts.nodes)?;
+    let (built, t1) = match drift {
+        Drift::Law(law) => {
+            if opts.source == Source::Table {
+                return Err(Error::invalid("source", "table", "needs a drift table as the drift"));
+            }
+            let manifold = hb_manifold(params, f_ex_hz, a_ex, &opts.hb)?;
+            let t1 = Instant::now();
+            let b = slow_model_masked(params, beam, &manifold, law, f_ex_hz, a_ex, opts.nodes, opts.s_dn)?;
+            (b, t1)
+        }
+        Drift::Table(table) => {
+            let manifold = if opts.source == Source::Hb { Some(hb_manifold(params, f_ex_hz, a_ex, &opts.hb)?) } else { None };
+            let t1 = Instant::now();
+            (table_slow_model(params, beam, manifold.as_ref(), table, f_ex_hz, a_ex, opts)?, t1)
+        }
+    };
     let t2 = Instant::now();
     let build_up = match opts.build_up_s {
         Some(t) => t,
@@ -296,12 +394,17 @@ pub fn predict_point_with(params: &Params, beam: &Beam, law: &DriftLaw, f_ex_hz:
         }
     };
     let fo = SlowFlowOptions { t_end_s, criteria: opts.criteria.clone(), build_up_s: build_up.min(t_end_s), build_up_drift: opts.build_up_drift, ..SlowFlowOptions::default() };
+    let model = dead_band(&built.model, opts.v_dead);
     let flow = slow_flow(&model, s0, &fo)?;
+    let t3 = Instant::now();
     let mut shifted = Vec::new();
     let mut robust = None;
-    if opts.robustness && law.v_resolution > 0.0 {
+    if let Drift::Law(law) = drift
+        && opts.robustness
+        && law.v_resolution > 0.0
+    {
         for dv in [-law.v_resolution, law.v_resolution] {
-            let f = slow_flow(&shifted_model(&model, &moving, dv), s0, &fo)?;
+            let f = slow_flow(&dead_band(&shifted_model(&built.model, &built.moving, dv), opts.v_dead), s0, &fo)?;
             shifted.push((f.classification.behaviour, f.s_final));
         }
         let b = flow.classification.behaviour;
@@ -309,22 +412,21 @@ pub fn predict_point_with(params: &Params, beam: &Beam, law: &DriftLaw, f_ex_hz:
         let cycle = b == Behaviour::RelaxationOscillation;
         robust = Some(shifted.iter().all(|&(bs, sf)| bs == b && (cycle || (sf - flow.s_final).abs() <= ROBUST_DS)));
     }
-    let t3 = Instant::now();
+    let t4 = Instant::now();
     Ok(PointPrediction {
         s_up: model.s_up(),
         s_dn: model.s_dn(),
-        s_dn_source: match (model.s_dn(), manifold.s_dn) {
-            (None, _) => "none",
-            (Some(_), Some(_)) => "hb",
-            (Some(_), None) => "law",
-        },
-        monostable: law.monostable(&manifold),
+        s_dn_source: built.s_dn_source,
+        monostable: built.monostable,
         flow,
-        extrapolated,
+        extrapolated: built.extrapolated,
         model,
-        timings_s: [(t1 - t0).as_secs_f64(), (t2 - t1).as_secs_f64(), (t3 - t2).as_secs_f64()],
+        timings_s: [(t1 - t0).as_secs_f64(), (t2 - t1).as_secs_f64(), (t3 - t2).as_secs_f64(), (t4 - t3).as_secs_f64()],
         robust,
         shifted,
+        features: built.features,
+        build_up_s: build_up.min(t_end_s),
+        note: built.note,
     })
 }
 
@@ -367,7 +469,11 @@ pub fn header_value(law: &DriftLaw, opts: &PredictOptions) -> serde_json::Value 
         "k": law.k,
         "n_modes": opts.hb.n_modes,
         "d_eff": opts.hb.d_eff,
-        "s_dn": if law.rho_c > 0.0 { "law" } else { "hb" },
+        "s_dn": match opts.s_dn {
+            SDnRule::Law if law.rho_c > 0.0 => "law",
+            SDnRule::Law => "hb",
+            r => r.name(),
+        },
         "nodes": opts.nodes,
         "build_up": if opts.build_up_drift { "drift" } else { "hold" },
     })

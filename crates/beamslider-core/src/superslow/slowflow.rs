@@ -191,7 +191,7 @@ pub struct Event {
 }
 
 /// Result of [`slow_flow`].
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Prediction {
     /// Sample times [s] (0, dt_out, …, ≤ t_end).
     pub t_s: Vec<f64>,
