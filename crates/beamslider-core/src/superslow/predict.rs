@@ -181,19 +181,7 @@ fn slow_model_masked(params: &Params, beam: &Beam, manifold: &HbManifold, law: &
         SDnRule::Table => return Err(Error::invalid("s_dn", "table", "needs a drift table as the drift")),
     };
     for high in [false, true] {
-        let b = if high { &manifold.high } else { &manifold.low };
-        if b.is_empty() {
-            continue;
-        }
-        let a = b.s.iter().copied().fold(f64::INFINITY, f64::min);
-        let mut z = b.s.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-        if high && let Some(sd) = s_dn {
-            z = z.min(sd);
-        }
-        if z <= a {
-            continue;
-        }
-        let s = linspace(a, z, nodes.max(2));
+        let Some(s) = branch_nodes(manifold, high, s_dn, nodes) else { continue };
         let feats = features_with(params, beam, manifold, f_ex_hz, a_ex, high, &s)?;
         let mut br = SlowBranch { s: s.clone(), amplitude_h: Vec::with_capacity(s.len()), v_per_s: Vec::with_capacity(s.len()) };
         for f in &feats {
@@ -263,19 +251,7 @@ fn table_slow_model(params: &Params, beam: &Beam, manifold: Option<&HbManifold>,
     let mut model = SlowModel { low_ends_in_fold: manifold.s_up.is_some(), ..SlowModel::default() };
     let mut all_feats: [Vec<Features>; 2] = [Vec::new(), Vec::new()];
     for high in [false, true] {
-        let b = if high { &manifold.high } else { &manifold.low };
-        if b.is_empty() {
-            continue;
-        }
-        let a = b.s.iter().copied().fold(f64::INFINITY, f64::min);
-        let mut z = b.s.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-        if high && let Some(sd) = s_dn {
-            z = z.min(sd);
-        }
-        if z <= a {
-            continue;
-        }
-        let s = linspace(a, z, opts.nodes.max(2));
+        let Some(s) = branch_nodes(manifold, high, s_dn, opts.nodes) else { continue };
         let feats = features_with(params, beam, manifold, f_ex_hz, a_ex, high, &s)?;
         let (ts, tv) = &table.rows[usize::from(high)];
         let br = SlowBranch { amplitude_h: feats.iter().map(|f| f.amplitude_h).collect(), v_per_s: s.iter().map(|&x| interp(x, ts, tv)).collect(), s };
@@ -522,6 +498,23 @@ pub fn run_predicted_map(cfg: &MapConfig, law: &DriftLaw, popts: &PredictOptions
         },
     )?;
     Ok(results.finish())
+}
+
+
+/// The slow flow's nodes on one branch of the HB manifold (docs/model.md §6.4): `nodes` values
+/// spaced evenly over the branch's s range, the high branch cut at the jump-down s_dn; None when
+/// the branch is empty or has no extent.
+fn branch_nodes(manifold: &HbManifold, high: bool, s_dn: Option<f64>, nodes: usize) -> Option<Vec<f64>> {
+    let b = if high { &manifold.high } else { &manifold.low };
+    if b.is_empty() {
+        return None;
+    }
+    let a = b.s.iter().copied().fold(f64::INFINITY, f64::min);
+    let mut z = b.s.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    if high && let Some(sd) = s_dn {
+        z = z.min(sd);
+    }
+    (z > a).then(|| linspace(a, z, nodes.max(2)))
 }
 
 #[cfg(test)]
