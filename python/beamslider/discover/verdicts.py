@@ -1,0 +1,151 @@
+"""What the data resolve: a candidate's interval must exclude the baseline before it is named,
+candidates the data cannot tell apart are reported as a group (``confounded``), and the
+separability tool's advice says which measurement would resolve or separate them
+(docs/guide/discrepancy.md, "Naming rule")."""
+
+from __future__ import annotations
+
+import itertools
+import math
+from typing import Any, Dict, List, Optional, Sequence, Tuple
+
+import numpy as np
+
+from ..params import Parameters
+from .effects import EFFECTS
+from .fitting import CandidateFit
+from .models import OperatingPoint
+
+
+CONFOUND_COS = 0.95
+"""|cos θ| of the feature changes of two single fits from which they enter the model through one
+combination (the separability tool's threshold, :func:`.separability.separability`)."""
+
+CONFOUND_DELTA_CHI2 = 2.0
+"""Two fits within this χ² of each other fit equally (as the report's "equally good alternatives")."""
+
+ADVICE_GRID: Tuple[Tuple[float, float, float], ...] = (
+    (104.0, 14.0, 0.3), (110.0, 10.0, 0.3), (116.0, 10.0, 0.3), (120.0, 6.0, 0.3), (124.0, 6.0, 0.3),
+    (124.0, 14.0, 0.3), (126.0, 10.0, 0.3))
+"""Operating points (f_ex Hz, a_ex m/s², s0) of the paper's map among which the advice looks for
+the measurement that resolves or separates candidates (those already measured are left out)."""
+
+
+def interval_of(f: CandidateFit, e: str) -> Tuple[float, float]:
+    """The interval of parameter ``e`` in fit ``f`` that the report shows: the profile's Δχ² = 1
+    interval widened by its roughness (slider level, :func:`.fitting._interval`), else the value ±
+    its standard error (the smooth least-squares fits of the beam level)."""
+    if e in f.intervals:
+        lo, hi = f.intervals[e]
+        return float(lo), float(hi)
+    v, se = f.values[e], f.stderrs.get(e, math.inf)
+    return (v - se, v + se) if math.isfinite(se) else (-math.inf, math.inf)
+
+
+def unresolved_reasons(f: CandidateFit, base: Parameters) -> List[str]:
+    """A reason per parameter of ``f`` whose interval (:func:`interval_of`) contains its baseline
+    value: the data do not resolve that change (empty: all resolved)."""
+    out = []
+    for e in f.effects:
+        lo, hi = interval_of(f, e)
+        b = EFFECTS[e].baseline_value(base)
+        if lo <= b <= hi:
+            out.append(f"not resolved: the interval [{lo:.4g}, {hi:.4g}] of {EFFECTS[e].field} contains the "
+                       f"baseline {b:.4g}")
+    return out
+
+
+def signature(f: CandidateFit, before: Dict[str, float], sig: Dict[str, float]) -> Dict[str, float]:
+    """The feature changes of fit ``f`` from the baseline (``before``), in units of ``sig``."""
+    return {k: (f.predicted[k] - before[k]) / sig[k] for k in sig
+            if k in f.predicted and k in before and math.isfinite(f.predicted[k]) and sig[k] > 0}
+
+
+def cosine(a: Dict[str, float], b: Dict[str, float]) -> Tuple[float, float, float]:
+    """cos θ between two signatures over their common features, and their norms."""
+    keys = [k for k in a if k in b]
+    x, y = np.array([a[k] for k in keys]), np.array([b[k] for k in keys])
+    na, nb = float(np.linalg.norm(x)), float(np.linalg.norm(y))
+    return (float(x @ y / (na * nb)) if na > 0 and nb > 0 else 0.0), na, nb
+
+
+def confounded_group(best: CandidateFit, fits: Sequence[CandidateFit], reasons: Dict[Tuple[str, ...], List[str]],
+                     before: Dict[str, float], sig: Dict[str, float], base: Parameters) -> Optional[Dict[str, Any]]:
+    """The candidates that fit as well as the single effect ``best`` (χ² within
+    :data:`CONFOUND_DELTA_CHI2`, each passing the naming rule alone) because they move the
+    features alike (|cos θ| ≥ :data:`CONFOUND_COS` between the fits' feature changes): then the
+    data resolve one combination of them, not which one. None if there is no such candidate."""
+    if len(best.effects) != 1:
+        return None
+    s0 = signature(best, before, sig)
+    members = [best]
+    cos: Dict[str, float] = {}
+    for f in fits:
+        if len(f.effects) != 1 or f.effects == best.effects or reasons.get(f.effects):
+            continue
+        if f.chi2 - best.chi2 > CONFOUND_DELTA_CHI2:
+            continue
+        c, _, _ = cosine(s0, signature(f, before, sig))
+        if abs(c) >= CONFOUND_COS:
+            members.append(f)
+            cos[f.effects[0]] = c
+    if len(members) < 2:
+        return None
+    terms = []
+    for f in members:
+        e = f.effects[0]
+        b = EFFECTS[e].baseline_value(base)
+        terms.append(f"({EFFECTS[e].field} - {b:.4g})/({f.values[e] - b:+.4g})")
+    return dict(group=[f.effects[0] for f in members], cos=cos,
+                chi2={f.effects[0]: f.chi2 for f in members},
+                values={f.effects[0]: f.values[f.effects[0]] for f in members},
+                intervals={f.effects[0]: list(interval_of(f, f.effects[0])) for f in members},
+                combination=" + ".join(terms) + " = 1",
+                explanation="each alone fits equally and moves the features alike (linearised: cos of the "
+                            "feature changes " + ", ".join(f"{best.effects[0]}/{k} {v:+.3f}" for k, v in cos.items())
+                            + "); the data resolve the combination, in which a change of any one of them "
+                              "by its fitted amount explains the data, not which of them changed")
+
+
+def advise(names: Sequence[str], base: Parameters, ops: Sequence[OperatingPoint],
+           grid: Sequence[Tuple[float, float, float]], *, threads: Optional[int] = None) -> Dict[str, Any]:
+    """The separability tool's advice for candidates the data did not resolve (one name) or
+    separate (several): the signatures (:func:`.separability.slider_sensitivities`, features in
+    units of their uncertainty for a change of 5 relevance thresholds) at each point of ``grid``
+    not yet measured, at the measured points' duration; the point where one candidate moves the
+    features most, or where two separate best (min(|z₁|, |z₂|)·sin θ), is recommended."""
+    from .separability import slider_sensitivities
+
+    measured = {(op.f_ex, op.a_ex, op.s0) for op in ops}
+    points = [g for g in grid if tuple(g) not in measured]
+    duration = max(op.duration_s for op in ops)
+    if not points:
+        return dict(names=list(names), recommended=None, note="every point of the grid is measured already")
+    here = slider_sensitivities(names, base, ops, threads=threads)
+    best: Optional[Tuple[Tuple[float, float, float], float]] = None
+    now = _score(names, here)
+    for g in points:
+        sens = slider_sensitivities(names, base, [OperatingPoint(*g, duration)], threads=threads)
+        score = _score(names, sens)
+        if best is None or score > best[1]:
+            best = (g, score)
+    assert best is not None
+    what = "signature norm" if len(names) == 1 else "separation min(|z1|, |z2|) sin(theta)"
+    return dict(names=list(names), measure=what, at_measured_points=now,
+                recommended=dict(f_ex=best[0][0], a_ex=best[0][1], s0=best[0][2], duration_s=duration,
+                                 score=best[1]),
+                text=f"add a run at f_ex = {best[0][0]:g} Hz, a_ex = {best[0][1]:g} m/s^2, s0 = {best[0][2]:g} "
+                     f"({duration:g} s): {what} {best[1]:.3g} for a change of 5 relevance thresholds, against "
+                     f"{now:.3g} at the measured points")
+
+
+def _score(names: Sequence[str], sens: Dict[str, Dict[str, float]]) -> float:
+    """One candidate: the norm of its signature; several: the smallest pairwise separation."""
+    if len(names) == 1:
+        v = np.array(list(sens[names[0]].values()))
+        return float(np.linalg.norm(v)) if len(v) else 0.0
+    seps = []
+    for a, b in itertools.combinations(names, 2):
+        c, na, nb = cosine(sens[a], sens[b])
+        seps.append(min(na, nb) * math.sqrt(max(1 - c * c, 0.0)))
+    return float(min(seps))
