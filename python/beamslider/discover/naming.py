@@ -362,7 +362,7 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
     confounded: Dict[str, Any] = {}
     if best is not None and measured is not None:
         sig_base = {k: sigma(meas[k], spread_base.get(k, 0.0), runs_base) for k in meas}
-        group = confounded_group(best, fits, verdicts, before, sig_base, base)
+        group = confounded_group(best, fits, verdicts, before, sig_base, base, lrt_threshold(1, len(cand_effects)))
         if group is not None:
             # The data resolve a combination of the group, not which of them: nothing is named.
             confounded = group
@@ -411,8 +411,10 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
                 for k, f in meas.items()}
     # "none" also when an adequate fit needs only a negligible change (and may fail the gap share):
     # the data are explained without a physically relevant change.
+    # Every parameter of the set negligible (a relevant one beside a negligible one is not "none").
     negligible = [f for f in fits if verdicts[f.effects] and f.adequate
-                  and any(r.startswith("negligible change") for r in verdicts[f.effects])
+                  and all(any(r.startswith(f"negligible change of {EFFECTS[e].field}:") for r in verdicts[f.effects])
+                          for e in f.effects)
                   and all(r.startswith(("negligible change", "small share of the gap", "not resolved"))
                           for r in verdicts[f.effects])]
     unresolved: Dict[str, Any] = {}

@@ -110,7 +110,7 @@ def verdict_line(d: Discovery) -> str:
         vals = ", ".join(f"{EFFECTS[e].field} = {fmt_value(u['values'][e])} ± {fmt_value(u['stderrs'][e])}"
                          for e in u["effects"])
         return (f"unexplained (gap {d.gap_before:.3g}) - best candidate {' + '.join(u['effects'])} ({vals}), not "
-                f"resolved by these runs: {u['reasons'][-1]}" + (f"; to resolve it, {adv}" if adv else ""))
+                f"resolved by these runs ({u['reasons'][-1].removeprefix('not resolved: ')})" + (f"; to resolve it, {adv}" if adv else ""))
     if d.verdict == "unexplained":
         off = ", ".join(f"{f['feature']} z = {f['z']:+.1f}" for f in d.features_off[:3])
         best = d.rejected[0] if d.rejected else None
@@ -128,7 +128,9 @@ def _negligible(d: Discovery) -> List[Any]:
     that does not fit)."""
     if d.verdict != "none":
         return []
-    return [r for r in d.rejected if r["reasons"] and any(x.startswith("negligible change") for x in r["reasons"])
+    return [r for r in d.rejected if r["reasons"]
+            and all(any(x.startswith(f"negligible change of {EFFECTS[e].field}:") for x in r["reasons"])
+                    for e in r["effects"])
             and all(x.startswith(("negligible change", "small share of the gap", "not resolved"))
                     for x in r["reasons"])]
 

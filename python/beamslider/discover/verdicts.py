@@ -21,8 +21,6 @@ CONFOUND_COS = 0.95
 """|cos θ| of the feature changes of two single fits from which they enter the model through one
 combination (the separability tool's threshold, :func:`.separability.separability`)."""
 
-CONFOUND_DELTA_CHI2 = 2.0
-"""Two fits within this χ² of each other fit equally (as the report's "equally good alternatives")."""
 
 ADVICE_GRID: Tuple[Tuple[float, float, float], ...] = (
     (104.0, 14.0, 0.3), (110.0, 10.0, 0.3), (116.0, 10.0, 0.3), (120.0, 6.0, 0.3), (124.0, 6.0, 0.3),
@@ -70,11 +68,13 @@ def cosine(a: Dict[str, float], b: Dict[str, float]) -> Tuple[float, float, floa
 
 
 def confounded_group(best: CandidateFit, fits: Sequence[CandidateFit], reasons: Dict[Tuple[str, ...], List[str]],
-                     before: Dict[str, float], sig: Dict[str, float], base: Parameters) -> Optional[Dict[str, Any]]:
-    """The candidates that fit as well as the single effect ``best`` (χ² within
-    :data:`CONFOUND_DELTA_CHI2`, each passing the naming rule alone) because they move the
-    features alike (|cos θ| ≥ :data:`CONFOUND_COS` between the fits' feature changes): then the
-    data resolve one combination of them, not which one. None if there is no such candidate."""
+                     before: Dict[str, float], sig: Dict[str, float], base: Parameters,
+                     delta_chi2: float) -> Optional[Dict[str, Any]]:
+    """The candidates that fit as well as the single effect ``best`` — each passing the naming rule
+    alone, χ² within ``delta_chi2`` of it (the selection's likelihood-ratio threshold: the data do
+    not prefer one at the significance that named it) — because they move the features alike
+    (|cos θ| ≥ :data:`CONFOUND_COS` between the fits' feature changes): then the data resolve one
+    combination of them, not which one. None if there is no such candidate."""
     if len(best.effects) != 1:
         return None
     s0 = signature(best, before, sig)
@@ -83,7 +83,7 @@ def confounded_group(best: CandidateFit, fits: Sequence[CandidateFit], reasons: 
     for f in fits:
         if len(f.effects) != 1 or f.effects == best.effects or reasons.get(f.effects):
             continue
-        if f.chi2 - best.chi2 > CONFOUND_DELTA_CHI2:
+        if f.chi2 - best.chi2 > delta_chi2:
             continue
         c, _, _ = cosine(s0, signature(f, before, sig))
         if abs(c) >= CONFOUND_COS:
