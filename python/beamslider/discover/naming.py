@@ -439,7 +439,13 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
     grid = ADVICE_GRID if advice_grid is None else tuple(advice_grid)
     to_advise = confounded.get("group") or unresolved.get("effects")
     if to_advise and measured is not None and grid:
-        (confounded or unresolved)["advice"] = advise(to_advise, base, ops, grid, threads=threads)
+        done_pts = {(op.f_ex, op.a_ex, op.s0) for op in ops}
+        bar = _progress_bar(progress, 1 + sum(tuple(g) not in done_pts for g in grid),
+                            f"discover: advice for {', '.join(to_advise)} (points)")
+        (confounded or unresolved)["advice"] = advise(to_advise, base, ops, grid, threads=threads,
+                                                     on_point=lambda: bar.update(1),
+                                                     fitted=confounded.get("values"))
+        bar.close()
     rejected = [dict(effects=list(f.effects), values=f.values, stderrs=f.stderrs, chi2=f.chi2, dof=f.dof,
                      reasons=verdicts[f.effects] or ["passes the naming rule, but a simpler or better set was named"])
                 for f in sorted(fits, key=lambda f: f.chi2) if best is None or f.effects != best.effects]

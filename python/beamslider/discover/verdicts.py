@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import itertools
 import math
-from typing import Any, Dict, List, Optional, Sequence, Tuple
+from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -108,12 +108,18 @@ def confounded_group(best: CandidateFit, fits: Sequence[CandidateFit], reasons: 
 
 
 def advise(names: Sequence[str], base: Parameters, ops: Sequence[OperatingPoint],
-           grid: Sequence[Tuple[float, float, float]], *, threads: Optional[int] = None) -> Dict[str, Any]:
+           grid: Sequence[Tuple[float, float, float]], *, threads: Optional[int] = None,
+           on_point: Optional[Callable[[], None]] = None,
+           fitted: Optional[Dict[str, float]] = None) -> Dict[str, Any]:
     """The separability tool's advice for candidates the data did not resolve (one name) or
     separate (several): the signatures (:func:`.separability.slider_sensitivities`, features in
     units of their uncertainty for a change of 5 relevance thresholds) at each point of ``grid``
     not yet measured, at the measured points' duration; the point where one candidate moves the
-    features most, or where two separate best (min(|z₁|, |z₂|)·sin θ), is recommended."""
+    features most, or where two separate best (min(|z₁|, |z₂|)·sin θ), is recommended.
+    ``fitted``: for a confounded group, each member's fitted value; the separation is then the
+    distance between the features of the fitted models (:func:`fitted_differences`), which stays
+    right where the linearised signatures do not (a large change of one mimicking another).
+    ``on_point``: called after the measured points and after each grid point (progress)."""
     from .separability import slider_sensitivities
 
     measured = {(op.f_ex, op.a_ex, op.s0) for op in ops}
@@ -121,22 +127,69 @@ def advise(names: Sequence[str], base: Parameters, ops: Sequence[OperatingPoint]
     duration = max(op.duration_s for op in ops)
     if not points:
         return dict(names=list(names), recommended=None, note="every point of the grid is measured already")
-    here = slider_sensitivities(names, base, ops, threads=threads)
+    def score_at(where: Sequence[OperatingPoint]) -> float:
+        if fitted:
+            return _score_fitted(fitted_differences(fitted, base, where, threads=threads))
+        return _score(names, slider_sensitivities(names, base, where, threads=threads))
+
+    now = score_at(ops)
+    if on_point is not None:
+        on_point()
     best: Optional[Tuple[Tuple[float, float, float], float]] = None
-    now = _score(names, here)
     for g in points:
-        sens = slider_sensitivities(names, base, [OperatingPoint(*g, duration)], threads=threads)
-        score = _score(names, sens)
+        score = score_at([OperatingPoint(*g, duration)])
+        if on_point is not None:
+            on_point()
         if best is None or score > best[1]:
             best = (g, score)
     assert best is not None
-    what = "signature norm" if len(names) == 1 else "separation min(|z1|, |z2|) sin(theta)"
+    what = ("distance between the fitted models' features" if fitted else
+            "signature norm" if len(names) == 1 else "separation min(|z1|, |z2|) sin(theta)")
     return dict(names=list(names), measure=what, at_measured_points=now,
                 recommended=dict(f_ex=best[0][0], a_ex=best[0][1], s0=best[0][2], duration_s=duration,
                                  score=best[1]),
                 text=f"add a run at f_ex = {best[0][0]:g} Hz, a_ex = {best[0][1]:g} m/s^2, s0 = {best[0][2]:g} "
-                     f"({duration:g} s): {what} {best[1]:.3g} for a change of 5 relevance thresholds, against "
-                     f"{now:.3g} at the measured points")
+                     f"({duration:g} s): {what} {best[1]:.3g}"
+                     + ("" if fitted else " for a change of 5 relevance thresholds")
+                     + f", against {now:.3g} at the measured points")
+
+
+def fitted_differences(values: Dict[str, float], base: Parameters, ops: Sequence[OperatingPoint], *,
+                       threads: Optional[int] = None) -> Dict[str, Dict[str, float]]:
+    """The features of each single candidate's fitted model (``values``: effect name -> fitted
+    value) at ``ops``, relative to the baseline, in units of the uncertainty: the resolution floor
+    and the largest run-to-run spread (over s0 and s0 ± 0.002) of the baseline and of the fitted
+    models — where two explanations that fit the data alike predict differently beyond what their
+    own sensitivity to unresolvable perturbations blurs."""
+    from .chain import realise_model
+    from .models import batch_slider_features
+    from .._core import SimulationError
+
+    names = list(values)
+    shifts = (0.0, -0.002, 0.002)
+    models = [base] + [realise_model(base, {n: values[n]}) for n in names]
+    res = batch_slider_features([m for m in models for _ in shifts], ops, s0_shifts=list(shifts) * len(models),
+                                threads=threads)
+    if any(r is None for r in res):
+        raise SimulationError("a run of the fitted models at the advice's operating points failed")
+    groups = [[r[0] for r in res[i * len(shifts):(i + 1) * len(shifts)] if r is not None] for i in range(len(models))]
+    f0 = groups[0][0]
+    sig = {}
+    for k, f in f0.items():
+        spreads = [float(np.std([g[0][k].value] + [r[k].value for r in g[1:] if k in r], ddof=1))
+                   for g in groups if k in g[0]]
+        sig[k] = math.hypot(f.stderr, max(spreads))
+    return {n: {k: (g[0][k].value - f0[k].value) / sig[k] for k in f0 if k in g[0] and sig[k] > 0}
+            for n, g in zip(names, groups[1:])}
+
+
+def _score_fitted(diffs: Dict[str, Dict[str, float]]) -> float:
+    """The smallest distance between two fitted models' features (units of the uncertainty)."""
+    out = math.inf
+    for a, b in itertools.combinations(list(diffs), 2):
+        keys = [k for k in diffs[a] if k in diffs[b]]
+        out = min(out, float(np.linalg.norm([diffs[a][k] - diffs[b][k] for k in keys])))
+    return out
 
 
 def _score(names: Sequence[str], sens: Dict[str, Dict[str, float]]) -> float:
