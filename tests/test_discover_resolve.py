@@ -234,3 +234,20 @@ def test_confounded_contact_spacing_and_inertia_and_the_advice_that_separates_th
     q = d2.parameters["contact_spacing"]
     assert abs(q["value"] - 0.0115) <= 2 * q["stderr"], q
     assert any(r["effects"] == ["slider_inertia"] and r["reasons"][0].startswith("not adequate") for r in d2.rejected)
+
+
+def test_linearised_pair_ranking_finds_two_effects_that_fit_badly_alone():
+    """Data that are the sum of two candidates' signatures: that pair is predicted to fit exactly
+    (χ² 0) although neither fits alone; a pair with a candidate that moves other features does not."""
+    from beamslider.discover.verdicts import rank_pairs
+
+    sens = {"friction_coefficient": {"a": 1.0, "b": 2.0, "c": 0.0, "d": 1.0},
+            "natural_frequency_detuning": {"a": -1.0, "b": 1.0, "c": 3.0, "d": 0.0},
+            "tilt": {"a": 0.0, "b": 0.0, "c": 0.0, "d": 5.0},
+            "com_offset": {"a": 1.0, "b": 0.0, "c": 0.0}}
+    r = {k: 2.5 * sens["friction_coefficient"][k] - 1.5 * sens["natural_frequency_detuning"][k] for k in "abcd"}
+    r["e"] = 0.5  # moved by none of them: counts r² in every prediction
+    ranked = rank_pairs(sens, r)
+    assert ranked[0][0] == ("friction_coefficient", "natural_frequency_detuning")
+    assert ranked[0][1] == pytest.approx(0.25, abs=1e-9) and ranked[1][1] > 5.0
+    assert len(ranked) == 6 and [c for _, c in ranked] == sorted(c for _, c in ranked)

@@ -98,9 +98,14 @@ class Discovery:
     """Verdict ``unexplained`` with a relevant best candidate whose interval contains the baseline:
     the candidate, its fit, and the ``advice`` (a run that would resolve it)."""
 
+    guided_pairs: List[Dict[str, Any]] = field(default_factory=list)
+    """Slider level: the pairs fitted because the linearised model predicts them to fit best
+    (:func:`.verdicts.rank_pairs`), with that prediction."""
+
     def to_json(self) -> Dict[str, Any]:
         return _json_safe(dict(
-            verdict=self.verdict, confounded=self.confounded, unresolved=self.unresolved, level=self.level, named_effects=self.named_effects, parameters=self.parameters,
+            verdict=self.verdict, confounded=self.confounded, unresolved=self.unresolved,
+            guided_pairs=self.guided_pairs, level=self.level, named_effects=self.named_effects, parameters=self.parameters,
             rejected=self.rejected, features_off=self.features_off, gap_ratio=self.gap_ratio,
             gap_before=self.gap_before, gap_after=self.gap_after, gap_measure=GAP_MEASURE,
             gap_excess_before=self.gap_excess_before, gap_excess_after=self.gap_excess_after,

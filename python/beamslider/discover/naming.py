@@ -19,7 +19,9 @@ from .fitting import (MODE_CONDITIONING, CandidateFit, Discovery, EnsembleMany, 
 from .models import (ENSEMBLE_S0_SHIFTS, Ensemble, Modes, RunCache, batch_slider_features, beam_surrogate,
                      data_modes, ensemble_slider_features, levels_for, measured_slider_features,
                      simulated_enma_features)
-from .verdicts import ADVICE_GRID, advise, confounded_group, interval_of, unresolved_reasons
+from .separability import slider_sensitivities
+from .verdicts import (ADVICE_GRID, GUIDED_PAIRS, advise, confounded_group, interval_of, rank_pairs,
+                       unresolved_reasons)
 
 
 def _progress_bar(enabled: Optional[bool], total: int, desc: str):
@@ -56,8 +58,10 @@ def _fit_sets(cand_effects: Sequence[Effect], max_effects: int, level: str, base
               meas: Dict[str, Feature], model_fn: Callable[[Parameters], Dict[str, float]],
               diff_step: Optional[float], max_nfev: int, *, model_many: Optional[ModelMany] = None,
               ensemble_many: Optional[EnsembleMany] = None, spread0: Optional[Dict[str, float]] = None,
-              progress: bool = False) -> List[CandidateFit]:
-    """Fit every single candidate and the sets of up to ``max_effects`` (:func:`_pairs_to_fit`)."""
+              progress: bool = False,
+              guide: Optional[Callable[[], List[Tuple[Effect, ...]]]] = None) -> List[CandidateFit]:
+    """Fit every single candidate and the sets of up to ``max_effects`` (:func:`_pairs_to_fit`),
+    and the pairs ``guide`` adds (slider level: :func:`.verdicts.rank_pairs`)."""
     def fit(combo: Sequence[Effect]) -> CandidateFit:
         if level == "beam":
             return fit_candidate(combo, base, meas, model_fn, diff_step=diff_step, max_nfev=max_nfev)
@@ -71,6 +75,9 @@ def _fit_sets(cand_effects: Sequence[Effect], max_effects: int, level: str, base
         bar.update(1)
     if max_effects >= 2:
         combos = _pairs_to_fit(cand_effects, fits, max_effects, level)
+        if guide is not None:
+            have = {frozenset(e.name for e in c) for c in combos}
+            combos += [c for c in guide() if frozenset(e.name for e in c) not in have]
         bar.total = len(cand_effects) + len(combos)
         bar.refresh()
         for combo in combos:
@@ -291,6 +298,7 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
     n = len(meas)
     excess_before = excess(chi2_0, n, n)
     fits: List[CandidateFit] = []
+    guided: List[Dict[str, Any]] = []
 
     def refit_beam_bias(fits_b: List[CandidateFit]) -> None:
         """Re-centre the surrogate's bias correction at the model the likelihood-ratio selection
@@ -313,9 +321,18 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
                 fits = [fit_candidate([EFFECTS[e] for e in f.effects], base, meas, model_fn, diff_step=diff_step,
                                        max_nfev=max_nfev) for f in fits]
         elif level == "slider":
+            def guide() -> List[Tuple[Effect, ...]]:
+                # Pairs the linearised model predicts to fit best (each may fit badly alone).
+                sens = slider_sensitivities([e.name for e in cand_effects], base, ops, threads=threads)
+                resid = {k: (meas[k].value - before[k]) / sigma(meas[k], spread_base.get(k, 0.0), runs_base)
+                         for k in meas if k in before}
+                ranked = rank_pairs(sens, resid)[:GUIDED_PAIRS]
+                guided.extend(dict(pair=list(p), predicted_chi2=c) for p, c in ranked)
+                return [(EFFECTS[a], EFFECTS[b]) for (a, b), _ in ranked]
+
             fits = _fit_sets(cand_effects, max_effects, level, base, meas, model_fn, diff_step, max_nfev,
                              model_many=model_many, ensemble_many=ensemble_many, spread0=spread_base,
-                             progress=progress)
+                             progress=progress, guide=guide if len(cand_effects) > 3 else None)
         else:
             assert model_many is not None
             # Beam stage first (cheap): its selection re-centres the surrogate's bias.
@@ -464,7 +481,7 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
                      time.perf_counter() - t0, verdict=verdict, rejected=rejected,
                      features_off=[dict(feature=k, z=z) for k, z in off], gap_ratio=gap_ratio,
                      gap_excess_before=excess_before, gap_excess_after=excess_after,
-                     confounded=confounded, unresolved=unresolved,
+                     confounded=confounded, unresolved=unresolved, guided_pairs=guided,
                      modes={t: dict(ends_high=md[0], turning_point=md[1], runs=runs_base,
                                     baseline_runs_in_mode=counts_base.get(t), updated_runs_in_mode=counts_after.get(t))
                             for t, md in (modes or {}).items() if md is not None})

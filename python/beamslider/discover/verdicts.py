@@ -202,3 +202,29 @@ def _score(names: Sequence[str], sens: Dict[str, Dict[str, float]]) -> float:
         c, na, nb = cosine(sens[a], sens[b])
         seps.append(min(na, nb) * math.sqrt(max(1 - c * c, 0.0)))
     return float(min(seps))
+
+
+GUIDED_PAIRS = 3
+"""Pairs fitted beyond those that extend one of the two best single candidates: the ones the
+linearised model predicts to fit best (:func:`rank_pairs`), so that two effects that each fit badly
+alone are still tried together."""
+
+
+def rank_pairs(sens: Dict[str, Dict[str, float]], resid: Dict[str, float]) -> List[Tuple[Tuple[str, str], float]]:
+    """Every pair of candidates with the χ² the linearised model predicts for its best fit:
+    min over x of |r − S x|², S the two signatures (feature changes in units of the uncertainty per
+    step, :func:`.separability.slider_sensitivities`) over the features both move, r the data's
+    residuals from the baseline in the same units (features outside S count r²). Best first."""
+    out = []
+    for a, b in itertools.combinations(sorted(sens), 2):
+        keys = [k for k in resid if k in sens[a] and k in sens[b]]
+        r = np.array([resid[k] for k in keys])
+        A = np.column_stack([[sens[a][k] for k in keys], [sens[b][k] for k in keys]]) if keys else np.zeros((0, 2))
+        rest = float(sum(v * v for k, v in resid.items() if k not in keys))
+        if len(keys):
+            x, *_ = np.linalg.lstsq(A, r, rcond=None)
+            chi2 = float(np.sum((r - A @ x) ** 2)) + rest
+        else:
+            chi2 = rest
+        out.append(((a, b), chi2))
+    return sorted(out, key=lambda t: t[1])
