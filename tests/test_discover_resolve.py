@@ -251,3 +251,10 @@ def test_linearised_pair_ranking_finds_two_effects_that_fit_badly_alone():
     assert ranked[0][0] == ("friction_coefficient", "natural_frequency_detuning")
     assert ranked[0][1] == pytest.approx(0.25, abs=1e-9) and ranked[1][1] > 5.0
     assert len(ranked) == 6 and [c for _, c in ranked] == sorted(c for _, c in ranked)
+
+
+@pytest.mark.parametrize("grid", [[(110, 10)], [(110, 10, "x")], [(110, math.nan, 0.3)], 5])
+def test_a_bad_advice_grid_is_a_one_line_error(grid, tmp_path):
+    runs = _runs(tmp_path, bs.Parameters(), points=[(110, 10, 0.3)], duration_s=1)
+    with pytest.raises(ValueError, match="advice_grid"):
+        dc.discover(measured=runs, effects=["friction_coefficient"], advice_grid=grid)

@@ -215,6 +215,13 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
         raise ValueError(f"invalid gap_ratio = {gap_ratio!r}: must be in (0, 1]")
     if threads is not None and not (isinstance(threads, int) and threads >= 1):
         raise ValueError(f"invalid threads = {threads!r}: must be an integer >= 1")
+    if advice_grid is not None:
+        try:
+            advice_grid = [tuple(float(v) for v in g) for g in advice_grid]
+        except (TypeError, ValueError):
+            raise ValueError(f"invalid advice_grid = {advice_grid!r}: give (f_ex, a_ex, s0) triples") from None
+        if not all(len(g) == 3 and all(math.isfinite(v) for v in g) for g in advice_grid):
+            raise ValueError(f"invalid advice_grid = {advice_grid!r}: give (f_ex, a_ex, s0) triples of finite numbers")
     if enma_data is None and measured is None:
         raise ValueError("give enma_data (beam level), measured runs (slider level) or both (joint fit)")
     if measured is not None and len(measured) == 0:
