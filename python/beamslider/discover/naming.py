@@ -453,8 +453,9 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
         verdict = "none"
     else:
         verdict = "unexplained"
-        # The best relevant candidate the data do not resolve (its interval contains the baseline).
-        unres = [f for f in fits if any(r.startswith("not resolved") for r in verdicts[f.effects])
+        # The best relevant candidate that fits but that the data do not resolve (its interval
+        # contains the baseline).
+        unres = [f for f in fits if f.adequate and any(r.startswith("not resolved") for r in verdicts[f.effects])
                  and not any(r.startswith("negligible change") for r in verdicts[f.effects])]
         if unres:
             u = min(unres, key=lambda f: f.chi2)
