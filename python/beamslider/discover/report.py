@@ -109,8 +109,9 @@ def verdict_line(d: Discovery) -> str:
         adv = u.get("advice", {}).get("text")
         vals = ", ".join(f"{EFFECTS[e].field} = {fmt_value(u['values'][e])} ± {fmt_value(u['stderrs'][e])}"
                          for e in u["effects"])
-        return (f"unexplained discrepancy (gap {d.gap_before:.3g}) - best candidate {' + '.join(u['effects'])} ({vals}), not "
-                f"resolved by these runs ({u['reasons'][-1].removeprefix('not resolved: ')})" + (f"; to resolve it, {adv}" if adv else ""))
+        why = u["reasons"][-1].removeprefix("not resolved: ")
+        return (f"unexplained discrepancy (gap {d.gap_before:.3g}) - best candidate {' + '.join(u['effects'])} "
+                f"({vals}), not resolved by these runs ({why})" + (f"; to resolve it, {adv}" if adv else ""))
     if d.verdict == "unexplained":
         off = ", ".join(f"{f['feature']} z = {f['z']:+.1f}" for f in d.features_off[:3])
         best = d.rejected[0] if d.rejected else None
