@@ -6,7 +6,7 @@ from __future__ import annotations
 import argparse
 import math
 import time
-from typing import Any, List, Tuple
+from typing import Any, Dict, List, Tuple
 
 from ..params import Parameters
 from ._common import UserError, add_common, out_dir, plan_outputs, positive
@@ -30,6 +30,10 @@ def add_parser(sub: Any) -> None:
                     help="a named effect must leave at most this share of the gap beyond the noise, "
                          "sqrt(max(chi2 - E[chi2], 0)/n) (0.3), else 'unexplained'")
     sp.add_argument("--seed", type=int, default=0, help="noise seed of the paper's synthetic case (0)")
+    sp.add_argument("--advice-grid", metavar="LIST",
+                    help="slider level: operating points f_ex,a_ex,s0 separated by ';' among which the separability "
+                         "tool looks for the run that would resolve an unresolved candidate or separate a "
+                         "confounded group (default: seven points of the paper's map; 'none': no advice runs)")
     add_common(sp, window=False, force=True)
     sp.set_defaults(func=cmd_discover)
 
@@ -44,6 +48,9 @@ def add_parser(sub: Any) -> None:
                     help="slider: operating points f_ex,a_ex,s0 separated by ';' (110,10,0.3;124,6,0.3)")
     sp.add_argument("--duration", type=positive(float), default=15.0, metavar="S", help="slider: run length [s] (15)")
     sp.add_argument("--repeats", type=positive(int), default=2, metavar="N", help="enma: noisy repetitions (2)")
+    sp.add_argument("--chain", metavar="LIST", default="",
+                    help="slider: calibration errors of the measurement chain (docs/model.md §9.1), e.g. "
+                         "'excitation_gain=0.95,velocity_gain=1.02' (also position_offset, position_scale, time_base)")
     sp.add_argument("--s0-offset", type=_s0_offset, default=0.0, metavar="DS",
                     help="slider: the truth runs start DS off the s0 their files name, as a slider placed by hand "
                          "is; without it the model at exactly the truth repeats the data's chaotic realisation "
@@ -66,7 +73,23 @@ def _s0_offset(text: str) -> float:
     return v
 
 
-def _points(text: str) -> List[Tuple[float, float, float]]:
+def _chain(text: str) -> Dict[str, float]:
+    out: Dict[str, float] = {}
+    for part in text.split(","):
+        if not part.strip():
+            continue
+        name, _, val = part.partition("=")
+        try:
+            v = float(val)
+        except ValueError:
+            raise UserError(f"--chain {text!r}: give name=value pairs separated by ','") from None
+        if not math.isfinite(v):
+            raise UserError(f"--chain {text!r}: {name.strip()} must be finite")
+        out[name.strip()] = v
+    return out
+
+
+def _points(text: str, option: str = "--points") -> List[Tuple[float, float, float]]:
     out = []
     for part in text.split(";"):
         if not part.strip():
@@ -74,10 +97,10 @@ def _points(text: str) -> List[Tuple[float, float, float]]:
         try:
             f, a, s0 = (float(v) for v in part.split(","))
         except ValueError:
-            raise UserError(f"--points {text!r}: give f_ex,a_ex,s0 triples separated by ';'") from None
+            raise UserError(f"{option} {text!r}: give f_ex,a_ex,s0 triples separated by ';'") from None
         out.append((f, a, s0))
     if not out:
-        raise UserError("--points: no operating points")
+        raise UserError(f"{option}: no operating points")
     return out
 
 
@@ -87,6 +110,9 @@ def cmd_discover(args: argparse.Namespace) -> int:
     from ..measurement import read_measurement
 
     effects = [e.strip() for e in args.effects.split(",") if e.strip()] if args.effects else None
+    advice = None
+    if args.advice_grid is not None:
+        advice = [] if args.advice_grid.strip().lower() == "none" else _points(args.advice_grid, "--advice-grid")
     if not (0 < args.gap_ratio <= 1):
         raise UserError(f"--gap-ratio {args.gap_ratio}: must be in (0, 1]")
     plan_outputs(args, REPORT_FILES)  # nothing replaced without --force, before the fit runs
@@ -97,7 +123,7 @@ def cmd_discover(args: argparse.Namespace) -> int:
         baseline = Parameters.from_toml(args.params) if args.params else Parameters()
         runs = [read_measurement(p) for p in args.measured]
         d = dc.discover(enma_data=enma.read(args.enma), measured=runs, baseline=baseline, effects=effects,
-                        max_effects=args.max_effects, gap_ratio=args.gap_ratio, progress=prog)
+                        max_effects=args.max_effects, gap_ratio=args.gap_ratio, progress=prog, advice_grid=advice)
     elif args.enma:
         baseline = Parameters.from_toml(args.params) if args.params else Parameters()
         d = dc.discover(enma_data=enma.read(args.enma), baseline=baseline, effects=effects, max_effects=args.max_effects,
@@ -106,7 +132,7 @@ def cmd_discover(args: argparse.Namespace) -> int:
         baseline = Parameters.from_toml(args.params) if args.params else Parameters()
         runs = [read_measurement(p) for p in args.measured]
         d = dc.discover(measured=runs, baseline=baseline, effects=effects, max_effects=args.max_effects,
-                        gap_ratio=args.gap_ratio, progress=prog)
+                        gap_ratio=args.gap_ratio, progress=prog, advice_grid=advice)
     else:
         baseline = (Parameters.from_toml(args.params) if args.params
                     else Parameters(k_r_nm_per_rad=math.inf, k_t_n_per_m=math.inf))
@@ -127,6 +153,7 @@ def cmd_synthesize(args: argparse.Namespace) -> int:
     from .. import discover as dc
 
     truth = Parameters.from_toml(args.truth) if args.truth else Parameters()
+    chain = _chain(args.chain)
     if args.kind == "enma":
         plan_outputs(args, ["enma_data.csv"])
     else:
@@ -140,6 +167,6 @@ def cmd_synthesize(args: argparse.Namespace) -> int:
         print(f"wrote {out / 'enma_data.csv'}")
     else:
         for p in dc.synthesize_slider_runs(truth, operating_points=_points(args.points), duration_s=args.duration,
-                                           out_dir=out, seed=args.seed, s0_offset=args.s0_offset):
+                                           out_dir=out, seed=args.seed, s0_offset=args.s0_offset, chain=chain):
             print(f"wrote {p}")
     return 0

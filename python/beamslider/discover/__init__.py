@@ -8,7 +8,8 @@ model is missing, add it, and show the disagreement shrink.
    slider level (free-slider runs): per operating point the behaviour type, early and late slider
    speed, turning point, final position and final amplitude.
 2. **Candidate effects** (:data:`EFFECTS`), each a real extension of the model with a parameter,
-   bounds and the features it moves.
+   bounds and the features it moves, and the measurement chain's calibrations (:mod:`.chain`,
+   docs/model.md §9.1: excitation level, velocity gain, camera offset and scale, time base).
 3. **Naming** (:func:`discover`): every candidate and every pair is fitted to the disagreement
    (weighted least squares, χ² with the feature uncertainties). Criterion: nothing is named when
    the baseline agrees (χ² ≤ the 99 % quantile of χ²(n)); otherwise forward selection by
@@ -19,7 +20,9 @@ model is missing, add it, and show the disagreement shrink.
    a simpler explanation wins unless a richer one is clearly better. A set is named only if the
    updated model is adequate, each parameter moved by a relevant amount and the gap beyond the
    noise, sqrt(max(χ² − E[χ²], 0)/n), shrinks to ≤ ``gap_ratio`` (0.3) of itself; else
-   "unexplained". Slider level: a model's features are the mean of an ensemble of runs from
+   "unexplained"; and only if each parameter's interval excludes its baseline value (else
+   "unexplained — best candidate X, not resolved", with advice); single candidates that fit equally
+   by moving the features alike are reported as a ``confounded`` group (:mod:`.verdicts`). Slider level: a model's features are the mean of an ensemble of runs from
    s0 + (0, ±0.001, ±0.002), their spread part of the uncertainty (the final state of a long run
    depends on such unresolvable perturbations). The end-state features are bimodal across such
    perturbations (jumped up yet or not, the phase of a relaxation cycle), so they are compared
@@ -35,15 +38,17 @@ preloaded first mode (eigenvector of diag(ω²) + H₀K) as a fast surrogate, bi
 virtual ENMA of the baseline (the estimator's own small biases — time step, five-point damping
 estimate, amplitude dependence of the shape — cancel); slider-level fits run the free-slider model.
 
-The package is split by step: :mod:`.features` (1), :mod:`.effects` (2), :mod:`.models` (the model
-side of the features), :mod:`.naming` (3), :mod:`.report` (4), :mod:`.synthesize` (5) and :mod:`.separability` (identifiability); every
+The package is split by step: :mod:`.features` (1), :mod:`.effects` and :mod:`.chain` (2),
+:mod:`.models` (the model side of the features), :mod:`.naming` and :mod:`.verdicts` (3),
+:mod:`.report` (4), :mod:`.synthesize` (5) and :mod:`.separability` (identifiability); every
 public name is re-exported here.
 """
 
 from __future__ import annotations
 
 from .features import DESCRIPTIONS, enma_features, Feature, FLOORS, slider_features
-from .effects import realise_effects, Effect, EFFECTS
+from .effects import CHAIN_EFFECTS, realise_effects, Effect, EFFECTS
+from .chain import Model, realise_model
 from .models import beam_surrogate, measured_slider_features, model_slider_features, OperatingPoint, simulated_enma_features
 from .fitting import CandidateFit, Discovery, GAP_MEASURE, SIGNIFICANCE
 from .naming import discover
@@ -56,5 +61,5 @@ __all__ = [
     "enma_features", "Feature", "FLOORS", "GAP_MEASURE", "measured_slider_features", "model_slider_features",
     "OperatingPoint", "SIGNIFICANCE", "simulated_enma_features", "slider_features", "synthesize_enma",
     "synthesize_slider_runs", "write_report", "verdict_line", "separability", "slider_sensitivities",
-    "realise_effects", "fmt_value",
+    "realise_effects", "fmt_value", "CHAIN_EFFECTS", "Model", "realise_model",
 ]

@@ -52,9 +52,18 @@ class Effect:
     realise: Optional[Callable[[Parameters, float], Dict[str, float]]] = None
     """For a virtual parameter (not a field of :class:`Parameters`, e.g. the natural-frequency
     factor): the field values that realise the value; its baseline value is 1."""
+    chain: str = ""
+    """A measurement-chain candidate (docs/model.md §9.1), not a parameter of the model:
+    ``"excitation"`` scales the runs' a_ex, ``"features"`` maps the model's features to what the
+    instruments would report (:mod:`.chain`); "" for a physical effect."""
+    neutral: float = 1.0
+    """The value of a measurement-chain parameter that changes nothing (a gain 1, an offset 0)."""
 
     def baseline_value(self, p: Parameters) -> float:
-        """The parameter's value in ``p`` (1 for a virtual factor)."""
+        """The parameter's value in ``p`` (1 for a virtual factor, :attr:`neutral` for the
+        measurement chain)."""
+        if self.chain:
+            return self.neutral
         return 1.0 if self.realise is not None else float(getattr(p, self.field))
 
     def relevant(self, value: float, p: Parameters) -> Tuple[bool, str]:
@@ -80,6 +89,9 @@ class Effect:
             return 0.0 if math.isinf(value) else self.scale(p) / value
         return value / self.scale(p)
 
+
+_SLIDER = ("speed_early", "speed_late", "s_turning", "s_final", "amplitude_final_h")
+"""The slider-level features (docs/guide/discrepancy.md)."""
 
 EFFECTS: Dict[str, Effect] = {e.name: e for e in (
     Effect("rotational_clamping_compliance",
@@ -157,7 +169,48 @@ EFFECTS: Dict[str, Effect] = {e.name: e for e in (
            ("speed_early", "speed_late", "s_turning", "s_final", "amplitude_final_h"), (-20.0, 20.0),
            relevance=2e-3, relevance_reason="2 mrad = 0.11 deg, what a frame set up with a machinist's bubble "
                                             "level (and the shaker's mounting) can be off by"),
+    Effect("contact_spacing",
+           "horizontal distance B between the two contact points on one side of the slider (docs/model.md §3): "
+           "the lever of the contact forces in the slider's rocking, which it enters with J_C/(m B^2)",
+           "contact_spacing_m", "m", "linear", 0.5, 2.0, lambda p: p.contact_spacing_m, "slider", _SLIDER,
+           (0.8, 1.25), relevance=0.02, relevance_kind="rel",
+           relevance_reason="2 % (0.2 mm of 10 mm): where a rounded edge touches the beam is known to about that "
+                            "(docs/model.md §9.1)"),
+    # The measurement chain (docs/model.md §9.1): the instruments, not the physics.
+    Effect("excitation_gain",
+           "calibration of the excitation level: the shaker ran at g a_ex while the files name a_ex (its "
+           "control's reference accelerometer or set point off by the factor g)", "excitation_gain", "-", "linear",
+           0.5, 1.5, lambda p: 1.0, "slider", _SLIDER, (0.85, 1.15), relevance=0.02, relevance_kind="rel",
+           relevance_reason="2 %: a reference accelerometer's calibrated sensitivity and a shaker control's "
+                            "level are accurate to 1-2 % (docs/model.md §9.1)", chain="excitation"),
+    Effect("velocity_gain",
+           "gain of the beam-velocity sensor (laser vibrometer and its acquisition): the measured velocity, and "
+           "the amplitude integrated from it, is G times the true one", "velocity_gain", "-", "linear", 0.5, 1.5,
+           lambda p: 1.0, "slider", _SLIDER, (0.85, 1.15), relevance=0.02, relevance_kind="rel",
+           relevance_reason="2 %: a vibrometer's scale factor and the acquisition's voltage range are accurate to "
+                            "about 1 % each (docs/model.md §9.1)", chain="features"),
+    Effect("position_offset",
+           "offset of the camera tracking of the slider: measured s = o + k s (o here; k: position_scale)",
+           "position_offset", "-", "linear", -0.2, 0.2, lambda p: 1.0, "slider", _SLIDER, (-0.03, 0.03),
+           relevance=0.005, relevance_reason="0.005 of L = 0.7 mm: where a tracking marker sits on the slider "
+                                             "and the clamp edge in the image (docs/model.md §9.1)",
+           chain="features", neutral=0.0),
+    Effect("position_scale",
+           "scale of the camera tracking of the slider: measured s = o + k s (k here; o: position_offset)",
+           "position_scale", "-", "linear", 0.7, 1.3, lambda p: 1.0, "slider", _SLIDER, (0.9, 1.1),
+           relevance=0.01, relevance_kind="rel",
+           relevance_reason="1 %: a pixel-to-millimetre calibration from a target (docs/model.md §9.1)",
+           chain="features"),
+    Effect("time_base",
+           "scale of the acquisition's time base: the samples are stamped tau t (slider speeds / tau, the "
+           "amplitude integrated from the velocity x tau)", "time_base", "-", "linear", 0.9, 1.1, lambda p: 1.0,
+           "slider", _SLIDER, (0.98, 1.02), relevance=1e-3, relevance_kind="rel",
+           relevance_reason="0.1 %: twenty times a data acquisition's crystal (50 ppm), i.e. a sample rate "
+                            "configured wrong, not drift (docs/model.md §9.1)", chain="features"),
 )}
+
+CHAIN_EFFECTS = tuple(n for n, e in EFFECTS.items() if e.chain)
+"""The measurement-chain candidates (docs/model.md §9.1)."""
 
 
 def _detune(p: Parameters, c: float) -> Dict[str, float]:
@@ -176,12 +229,13 @@ def apply_effects(p: Parameters, effects: Sequence[Effect], u: Sequence[float]) 
 
 def realise_effects(p: Parameters, values: Dict[str, float]) -> Parameters:
     """``p`` with the effects' parameters set to ``values`` (by effect name); virtual parameters
-    (a natural-frequency factor) are realised last, relative to the other changes."""
-    real = {EFFECTS[n].field: v for n, v in values.items() if EFFECTS[n].realise is None}
+    (a natural-frequency factor) are realised last, relative to the other changes. The
+    measurement chain's values are not parameters of the model: :func:`.chain.realise_model`."""
+    real = {EFFECTS[n].field: v for n, v in values.items() if EFFECTS[n].realise is None and not EFFECTS[n].chain}
     q = _with(p, **real) if real else p
     for n, v in values.items():
         e = EFFECTS[n]
-        if e.realise is not None:
+        if e.realise is not None and not e.chain:
             q = _with(q, **e.realise(q, float(v)))
     return q
 

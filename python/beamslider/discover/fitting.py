@@ -13,7 +13,8 @@ import numpy as np
 from .. import _core
 from .._json import json_safe as _json_safe
 from ..params import Parameters
-from .effects import Effect, apply_effects, realise_effects
+from .chain import Model, as_model, realise_model
+from .effects import Effect, apply_effects
 from .features import Feature
 from .models import MODE_MIN_DOF, Ensemble, Modes, data_modes, is_mode_feature, mode_penalty, run_mode, tag_of
 
@@ -72,7 +73,9 @@ class Discovery:
     runtime_s: float = 0.0
     verdict: str = "none"
     """``named`` (an effect set passed the naming rule), ``unexplained`` (the baseline does not fit
-    and no candidate set passes), ``none`` (the baseline fits the data)."""
+    and no candidate set passes), ``confounded`` (candidates that fit equally by moving the
+    features alike: :attr:`confounded`), ``none`` (the baseline fits the data, or only a negligible
+    change is needed)."""
     rejected: List[Dict[str, Any]] = field(default_factory=list)
     """Fitted candidate sets not named, each with the reasons."""
     features_off: List[Dict[str, Any]] = field(default_factory=list)
@@ -87,9 +90,22 @@ class Discovery:
     has a turning point) and how many of the baseline's and the updated model's ensemble runs end
     in it (:data:`MODE_CONDITIONING`)."""
 
+    confounded: Dict[str, Any] = field(default_factory=dict)
+    """Verdict ``confounded``: the ``group`` of candidates that fit equally by moving the features
+    alike, the ``combination`` the data resolve, and the ``advice`` (a run that would separate
+    them, :func:`.verdicts.advise`)."""
+    unresolved: Dict[str, Any] = field(default_factory=dict)
+    """Verdict ``unexplained`` with a relevant best candidate whose interval contains the baseline:
+    the candidate, its fit, and the ``advice`` (a run that would resolve it)."""
+
+    guided_pairs: List[Dict[str, Any]] = field(default_factory=list)
+    """Slider level: the pairs fitted because the linearised model predicts them to fit best
+    (:func:`.verdicts.rank_pairs`), with that prediction."""
+
     def to_json(self) -> Dict[str, Any]:
         return _json_safe(dict(
-            verdict=self.verdict, level=self.level, named_effects=self.named_effects, parameters=self.parameters,
+            verdict=self.verdict, confounded=self.confounded, unresolved=self.unresolved,
+            guided_pairs=self.guided_pairs, level=self.level, named_effects=self.named_effects, parameters=self.parameters,
             rejected=self.rejected, features_off=self.features_off, gap_ratio=self.gap_ratio,
             gap_before=self.gap_before, gap_after=self.gap_after, gap_measure=GAP_MEASURE,
             gap_excess_before=self.gap_excess_before, gap_excess_after=self.gap_excess_after,
@@ -244,16 +260,17 @@ def fit_candidate(effects: Sequence[Effect], baseline: Parameters, meas: Dict[st
                         chi2 <= chi2_quantile(dof), chi2 + k * math.log(max(n, 2)))
 
 
-ModelMany = Callable[[List[Parameters]], List[Optional[Dict[str, float]]]]
-"""Model features of several parameter sets at once (None for a failed model): one batch of runs."""
+ModelMany = Callable[[List[Any]], List[Optional[Dict[str, float]]]]
+"""Model features of several parameter sets or :class:`.chain.Model` at once (None for a failed
+model): one batch of runs."""
 
 
 def _one_at_a_time(model_fn: Callable[[Parameters], Dict[str, float]]) -> ModelMany:
-    def many(ps: List[Parameters]) -> List[Optional[Dict[str, float]]]:
+    def many(ps: List[Any]) -> List[Optional[Dict[str, float]]]:
         out: List[Optional[Dict[str, float]]] = []
         for p in ps:
             try:
-                out.append(model_fn(p))
+                out.append(model_fn(as_model(p).params))
             except (ValueError, _core.SimulationError):
                 out.append(None)
         return out
@@ -269,7 +286,7 @@ def _stderr_of(e: Effect, u: float, su: float, baseline: Parameters) -> float:
     return abs(e.scale(baseline)) * su
 
 
-EnsembleMany = Callable[[List[Parameters], List[Optional[Dict[str, float]]]], List[Optional[Ensemble]]]
+EnsembleMany = Callable[[List[Any], List[Optional[Dict[str, float]]]], List[Optional[Ensemble]]]
 """Ensembles (:func:`.models.ensemble_slider_features`) of several parameter sets whose unshifted
 runs' features are given: one batch of the remaining runs."""
 
@@ -403,10 +420,10 @@ def profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str,
     def key_of(u: np.ndarray) -> Tuple[float, ...]:
         return tuple(round(float(v), 12) for v in u)
 
-    def params_of(u: np.ndarray) -> Parameters:
+    def params_of(u: np.ndarray) -> Model:
         vals = dict(fixed)
         vals.update({e.name: e.value(float(x), baseline) for e, x in zip(effects, u)})
-        return realise_effects(baseline, vals)
+        return realise_model(baseline, vals)
 
     def evaluate(us: List[np.ndarray]) -> None:
         todo: Dict[Tuple[float, ...], Parameters] = {}

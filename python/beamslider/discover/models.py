@@ -7,7 +7,7 @@ import math
 import os
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
-from typing import Callable, Dict, List, Optional, Sequence, Tuple
+from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
@@ -15,6 +15,7 @@ from .. import _core, enma
 from ..enma import EnmaData
 from ..measurement import DISPLACEMENT_DETREND_S, Measurement
 from ..params import Parameters, native
+from .chain import Model, as_model, chain_features, excitation_factor
 from .features import Feature, make_feature, enma_features, slider_features
 
 
@@ -120,36 +121,61 @@ RUN_KEEP_EVERY = 5
 """Of those, every k-th sample of t, s and the 1-s envelope is kept for the features (5e-4 s)."""
 
 
-def batch_slider_features(params_list: Sequence[Parameters], ops: Sequence[OperatingPoint], *,
+RunCache = Dict[Tuple[Any, ...], Optional[Tuple[Dict[str, Feature], str]]]
+"""Features and behaviour of runs already made (None: failed), by physical parameters, operating
+point, a_ex and s0 (:func:`batch_slider_features`): the measurement chain's candidates other than
+the excitation level re-read the same runs."""
+
+
+def _params_key(p: Parameters) -> Tuple[Any, ...]:
+    return tuple(sorted(p.to_dict().items()))
+
+
+def batch_slider_features(params_list: Sequence[Union[Parameters, Model]], ops: Sequence[OperatingPoint], *,
                           s0_shifts: Optional[Sequence[float]] = None, threads: Optional[int] = None,
-                          on_run: Optional[Callable[[int], None]] = None
+                          on_run: Optional[Callable[[int], None]] = None, cache: Optional[RunCache] = None
                           ) -> List[Optional[Tuple[Dict[str, Feature], Dict[str, str]]]]:
     """Features of free-slider runs of every model of ``params_list`` at the operating points
     (same code as measured), all runs as one batch of the core's parallel runner
     (``_core.run_free_slider_batch``: interpreter released, Ctrl-C, deterministic). A model whose
     parameters are invalid or one of whose runs fails numerically gives None. ``s0_shifts``: per
-    model, a shift of every run's s0 (repeated runs)."""
+    model, a shift of every run's s0 (repeated runs). A :class:`.chain.Model` is run at its
+    excitation factor times a_ex and its features are those its measurement chain reports
+    (docs/model.md §9.1). Identical runs are made once; ``cache`` keeps them across calls."""
     shifts = list(s0_shifts) if s0_shifts is not None else [0.0] * len(params_list)
-    jobs = []
-    for p, d in zip(params_list, shifts):
-        jobs += [(native(p), op.f_ex, op.a_ex, op.s0 + d, op.duration_s) for op in ops]
-    res = _core.run_free_slider_batch(jobs, record_every=RUN_RECORD_EVERY, keep_every=RUN_KEEP_EVERY,
-                                      window_s=1.0, detrend_s=DISPLACEMENT_DETREND_S, threads=threads, on_done=on_run)
+    models = [as_model(p) for p in params_list]
+    known: RunCache = cache if cache is not None else {}
+    keys: List[List[Tuple[Any, ...]]] = []
+    jobs, todo = [], []
+    for m, d in zip(models, shifts):
+        pk = _params_key(m.params)
+        a_fac = excitation_factor(m)
+        row = []
+        for op in ops:
+            key = (pk, op.tag, op.f_ex, op.a_ex * a_fac, op.s0 + d, op.duration_s)
+            if key not in known and key not in todo:
+                todo.append(key)
+                jobs.append((native(m.params), op.f_ex, op.a_ex * a_fac, op.s0 + d, op.duration_s))
+            row.append(key)
+        keys.append(row)
+    if jobs:
+        res = _core.run_free_slider_batch(jobs, record_every=RUN_RECORD_EVERY, keep_every=RUN_KEEP_EVERY,
+                                          window_s=1.0, detrend_s=DISPLACEMENT_DETREND_S, threads=threads,
+                                          on_done=on_run)
+        for key, r in zip(todo, res):
+            known[key] = None if "error" in r else slider_features(r["t"], r["s"], r["amplitude_h"], tag=key[1])
     out: List[Optional[Tuple[Dict[str, Feature], Dict[str, str]]]] = []
-    k = 0
-    for _ in params_list:
+    for m, row in zip(models, keys):
         feats: Dict[str, Feature] = {}
         behaviours: Dict[str, str] = {}
         ok = True
-        for op in ops:
-            r = res[k]
-            k += 1
-            if "error" in r:
+        for op, key in zip(ops, row):
+            r = known[key]
+            if r is None:
                 ok = False
                 continue
-            fe, beh = slider_features(r["t"], r["s"], r["amplitude_h"], tag=op.tag)
-            feats.update(fe)
-            behaviours[op.tag] = beh
+            feats.update(chain_features(r[0], m))
+            behaviours[op.tag] = r[1]
         out.append((feats, behaviours) if ok else None)
     return out
 
@@ -276,17 +302,18 @@ def combine_ensemble(members: Sequence[Optional[Tuple[Dict[str, Feature], Dict[s
     return Ensemble(mean, spread, len(ok), members[0][1], counts, mode_spread)
 
 
-def ensemble_slider_features(params_list: Sequence[Parameters], ops: Sequence[OperatingPoint], *,
+def ensemble_slider_features(params_list: Sequence[Union[Parameters, Model]], ops: Sequence[OperatingPoint], *,
                              threads: Optional[int] = None, on_run: Optional[Callable[[int], None]] = None,
                              central: Optional[Sequence[Optional[Tuple[Dict[str, Feature], Dict[str, str]]]]] = None,
-                             modes: Optional[Modes] = None) -> List[Optional[Ensemble]]:
+                             modes: Optional[Modes] = None, cache: Optional[RunCache] = None) -> List[Optional[Ensemble]]:
     """Per model, the features of its runs from s0 + :data:`ENSEMBLE_S0_SHIFTS` (one batch of the
     core's runner for all models): mean and spread. ``central``: the unshifted runs' features when
     already known (their runs are not repeated). ``modes``: the data's modes (:func:`combine_ensemble`).
-    None for a model whose unshifted runs fail."""
+    None for a model whose unshifted runs fail. ``cache``: :func:`batch_slider_features`."""
     shifts = list(ENSEMBLE_S0_SHIFTS) if central is None else [d for d in ENSEMBLE_S0_SHIFTS if d != 0.0]
     res = batch_slider_features([p for p in params_list for _ in shifts], ops,
-                                s0_shifts=[d for _ in params_list for d in shifts], threads=threads, on_run=on_run)
+                                s0_shifts=[d for _ in params_list for d in shifts], threads=threads, on_run=on_run,
+                                cache=cache)
     out: List[Optional[Ensemble]] = []
     for i in range(len(params_list)):
         members = list(res[i * len(shifts):(i + 1) * len(shifts)])

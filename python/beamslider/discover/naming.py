@@ -11,12 +11,17 @@ from .. import _core
 from ..enma import EnmaData
 from ..measurement import Measurement
 from ..params import Parameters, resolve
+from .chain import Model, realise_model
 from .effects import EFFECTS, Effect, realise_effects
 from .features import Feature, enma_features
 from .fitting import (MODE_CONDITIONING, CandidateFit, Discovery, EnsembleMany, ModelMany, chi2_quantile, excess,
                       fit_candidate, gap_of, lrt_threshold, missing_z, profile_fit, select, sigma)
-from .models import (ENSEMBLE_S0_SHIFTS, Ensemble, Modes, batch_slider_features, beam_surrogate, data_modes,
-                     ensemble_slider_features, levels_for, measured_slider_features, simulated_enma_features)
+from .models import (ENSEMBLE_S0_SHIFTS, Ensemble, Modes, RunCache, batch_slider_features, beam_surrogate,
+                     data_modes, ensemble_slider_features, levels_for, measured_slider_features,
+                     simulated_enma_features)
+from .separability import slider_sensitivities
+from .verdicts import (ADVICE_GRID, GUIDED_PAIRS, advise, confounded_group, interval_of, rank_pairs,
+                       unresolved_reasons)
 
 
 def _progress_bar(enabled: Optional[bool], total: int, desc: str):
@@ -53,8 +58,10 @@ def _fit_sets(cand_effects: Sequence[Effect], max_effects: int, level: str, base
               meas: Dict[str, Feature], model_fn: Callable[[Parameters], Dict[str, float]],
               diff_step: Optional[float], max_nfev: int, *, model_many: Optional[ModelMany] = None,
               ensemble_many: Optional[EnsembleMany] = None, spread0: Optional[Dict[str, float]] = None,
-              progress: bool = False) -> List[CandidateFit]:
-    """Fit every single candidate and the sets of up to ``max_effects`` (:func:`_pairs_to_fit`)."""
+              progress: bool = False,
+              guide: Optional[Callable[[], List[Tuple[Effect, ...]]]] = None) -> List[CandidateFit]:
+    """Fit every single candidate and the sets of up to ``max_effects`` (:func:`_pairs_to_fit`),
+    and the pairs ``guide`` adds (slider level: :func:`.verdicts.rank_pairs`)."""
     def fit(combo: Sequence[Effect]) -> CandidateFit:
         if level == "beam":
             return fit_candidate(combo, base, meas, model_fn, diff_step=diff_step, max_nfev=max_nfev)
@@ -68,6 +75,9 @@ def _fit_sets(cand_effects: Sequence[Effect], max_effects: int, level: str, base
         bar.update(1)
     if max_effects >= 2:
         combos = _pairs_to_fit(cand_effects, fits, max_effects, level)
+        if guide is not None:
+            have = {frozenset(e.name for e in c) for c in combos}
+            combos += [c for c in guide() if frozenset(e.name for e in c) not in have]
         bar.total = len(cand_effects) + len(combos)
         bar.refresh()
         for combo in combos:
@@ -160,7 +170,8 @@ def _judge(fits: Sequence[CandidateFit], base: Parameters, n: int, excess_before
     """The naming rule per fitted set: the reasons it may not be named (empty: it may). Not
     adequate (χ² > χ²₀.₉₉(n − k)); a parameter moved by less than its relevance threshold; a
     small share of the gap beyond the noise (:func:`excess`: sqrt(max(χ² − (n − k), 0)/n) >
-    gap_ratio × the baseline's sqrt(max(χ²₀ − n, 0)/n))."""
+    gap_ratio × the baseline's sqrt(max(χ²₀ − n, 0)/n)); a parameter whose interval contains its
+    baseline value (not resolved, :func:`.verdicts.unresolved_reasons`)."""
     out: Dict[Tuple[str, ...], List[str]] = {}
     for f in fits:
         reasons = []
@@ -174,6 +185,7 @@ def _judge(fits: Sequence[CandidateFit], base: Parameters, n: int, excess_before
         if g > gap_ratio * excess_before:
             reasons.append(f"small share of the gap beyond the noise: {excess_before:.3g} -> {g:.3g} "
                            f"(more than {gap_ratio:g} x)")
+        reasons += unresolved_reasons(f, base)
         out[f.effects] = reasons
     return out
 
@@ -181,7 +193,8 @@ def _judge(fits: Sequence[CandidateFit], base: Parameters, n: int, excess_before
 def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequence[Measurement]] = None,
              baseline: Optional[Parameters] = None, effects: Optional[Sequence[str]] = None,
              max_effects: int = 2, progress: bool = False, gap_ratio: float = 0.3,
-             threads: Optional[int] = None) -> Discovery:
+             threads: Optional[int] = None,
+             advice_grid: Optional[Sequence[Tuple[float, float, float]]] = None) -> Discovery:
     """Find the effects the ``baseline`` model misses, from beam-level ENMA data (``enma_data``),
     slider-level free-slider runs (``measured``, files of the published format) or both (one joint
     fit over both feature sets: beam-level effects from both, slider-level ones from the runs),
@@ -190,7 +203,10 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
     sqrt(max(χ² − E[χ²], 0)/n) (0.3); otherwise the verdict is "unexplained". Slider level: each
     model is an ensemble of runs from s0 + :data:`.models.ENSEMBLE_S0_SHIFTS` whose spread joins
     the feature uncertainties. ``progress``: a bar of fits done / to do. ``threads``: workers of
-    the core's runner for the free-slider runs (None: one per core)."""
+    the core's runner for the free-slider runs (None: one per core). ``advice_grid``: operating
+    points (f_ex, a_ex, s0) among which the separability tool looks for the run that would resolve
+    an unresolved best candidate or separate a confounded group (None:
+    :data:`.verdicts.ADVICE_GRID`; empty: no advice runs)."""
     import time
 
     t0 = time.perf_counter()
@@ -199,6 +215,13 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
         raise ValueError(f"invalid gap_ratio = {gap_ratio!r}: must be in (0, 1]")
     if threads is not None and not (isinstance(threads, int) and threads >= 1):
         raise ValueError(f"invalid threads = {threads!r}: must be an integer >= 1")
+    if advice_grid is not None:
+        try:
+            advice_grid = [tuple(float(v) for v in g) for g in advice_grid]
+        except (TypeError, ValueError):
+            raise ValueError(f"invalid advice_grid = {advice_grid!r}: give (f_ex, a_ex, s0) triples") from None
+        if not all(len(g) == 3 and all(math.isfinite(v) for v in g) for g in advice_grid):
+            raise ValueError(f"invalid advice_grid = {advice_grid!r}: give (f_ex, a_ex, s0) triples of finite numbers")
     if enma_data is None and measured is None:
         raise ValueError("give enma_data (beam level), measured runs (slider level) or both (joint fit)")
     if measured is not None and len(measured) == 0:
@@ -222,6 +245,7 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
     modes: Optional[Modes] = None
     counts_base: Dict[str, int] = {}
     bias: Dict[str, float] = {}
+    run_cache: RunCache = {}
     if enma_data is not None:
         meas_b = enma_features(enma_data)
         enma_levels = levels_for(enma_data, base)
@@ -241,19 +265,19 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
         # Baseline: an ensemble of runs from s0 + ENSEMBLE_S0_SHIFTS (one batch): the mean is the
         # prediction, the spread the model's sensitivity to what the data cannot resolve; with
         # modes, the mode features' mean and spread over the runs in the data's mode.
-        ens_base = ensemble_slider_features([base], ops, threads=threads, modes=modes)[0]
+        ens_base = ensemble_slider_features([base], ops, threads=threads, modes=modes, cache=run_cache)[0]
         if ens_base is None:
             raise _core.SimulationError("the baseline model's runs at the measured operating points failed")
         spread_base = {k: ens_base.spread.get(k, 0.0) for k in meas_s}
         behaviours = {"measured": beh_meas, "baseline": ens_base.behaviours}
 
-        def model_many_fn(ps: List[Parameters]) -> List[Optional[Dict[str, float]]]:
+        def model_many_fn(ps: List[Any]) -> List[Optional[Dict[str, float]]]:
             return [None if r is None else {k: f.value for k, f in r[0].items()}
-                    for r in batch_slider_features(ps, ops, threads=threads)]
+                    for r in batch_slider_features(ps, ops, threads=threads, cache=run_cache)]
 
-        def ensemble_many_fn(ps: List[Parameters], central: List[Optional[Dict[str, float]]]) -> List[Optional[Ensemble]]:
+        def ensemble_many_fn(ps: List[Any], central: List[Optional[Dict[str, float]]]) -> List[Optional[Ensemble]]:
             cen = [None if c is None else ({k: Feature(k, v, 0.0) for k, v in c.items()}, {}) for c in central]
-            return ensemble_slider_features(ps, ops, threads=threads, central=cen, modes=modes)
+            return ensemble_slider_features(ps, ops, threads=threads, central=cen, modes=modes, cache=run_cache)
 
         ensemble_many = ensemble_many_fn
         model_many = model_many_fn
@@ -281,6 +305,7 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
     n = len(meas)
     excess_before = excess(chi2_0, n, n)
     fits: List[CandidateFit] = []
+    guided: List[Dict[str, Any]] = []
 
     def refit_beam_bias(fits_b: List[CandidateFit]) -> None:
         """Re-centre the surrogate's bias correction at the model the likelihood-ratio selection
@@ -303,9 +328,18 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
                 fits = [fit_candidate([EFFECTS[e] for e in f.effects], base, meas, model_fn, diff_step=diff_step,
                                        max_nfev=max_nfev) for f in fits]
         elif level == "slider":
+            def guide() -> List[Tuple[Effect, ...]]:
+                # Pairs the linearised model predicts to fit best (each may fit badly alone).
+                sens = slider_sensitivities([e.name for e in cand_effects], base, ops, threads=threads)
+                resid = {k: (meas[k].value - before[k]) / sigma(meas[k], spread_base.get(k, 0.0), runs_base)
+                         for k in meas if k in before}
+                ranked = rank_pairs(sens, resid)[:GUIDED_PAIRS]
+                guided.extend(dict(pair=list(p), predicted_chi2=c) for p, c in ranked)
+                return [(EFFECTS[a], EFFECTS[b]) for (a, b), _ in ranked]
+
             fits = _fit_sets(cand_effects, max_effects, level, base, meas, model_fn, diff_step, max_nfev,
                              model_many=model_many, ensemble_many=ensemble_many, spread0=spread_base,
-                             progress=progress)
+                             progress=progress, guide=guide if len(cand_effects) > 3 else None)
         else:
             assert model_many is not None
             # Beam stage first (cheap): its selection re-centres the surrogate's bias.
@@ -321,7 +355,7 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
     verdicts = _judge(fits, base, n, excess_before, gap_ratio)
     best, alts = select([f for f in fits if not verdicts[f.effects]], chi2_0, n)
 
-    def after_of(p: Parameters) -> Tuple[Dict[str, float], Dict[str, str], Dict[str, float], Dict[str, int]]:
+    def after_of(p: Model) -> Tuple[Dict[str, float], Dict[str, str], Dict[str, float], Dict[str, int]]:
         # "After": full simulation of the updated model (not the surrogate): virtual ENMA and the
         # ensemble of runs (mean, behaviours of the unshifted run, spread, runs in the data's modes).
         out: Dict[str, float] = {}
@@ -329,9 +363,9 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
         sp: Dict[str, float] = {}
         counts: Dict[str, int] = {}
         if enma_data is not None:
-            out.update({k: f.value for k, f in simulated_enma_features(p, enma_levels)[0].items()})
+            out.update({k: f.value for k, f in simulated_enma_features(p.params, enma_levels)[0].items()})
         if measured is not None:
-            e = ensemble_slider_features([p], ops, threads=threads, modes=modes)[0]
+            e = ensemble_slider_features([p], ops, threads=threads, modes=modes, cache=run_cache)[0]
             if e is not None:
                 out.update(e.mean)
                 beh, sp, counts = e.behaviours, e.spread, e.mode_counts
@@ -349,8 +383,16 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
     counts_after: Dict[str, int] = dict(counts_base)
     beh_upd = behaviours.get("baseline", {})
     updated = base
+    confounded: Dict[str, Any] = {}
+    if best is not None and measured is not None:
+        sig_base = {k: sigma(meas[k], spread_base.get(k, 0.0), runs_base) for k in meas}
+        group = confounded_group(best, fits, verdicts, before, sig_base, base, lrt_threshold(1, len(cand_effects)))
+        if group is not None:
+            # The data resolve a combination of the group, not which of them: nothing is named.
+            confounded = group
+            best, alts = None, []
     if best is not None:
-        cand = realise_effects(base, {e: best.values[e] for e in best.effects})
+        cand = realise_model(base, {e: best.values[e] for e in best.effects})
         f_c, b_c, sp_c, n_c = after_of(cand)
         # The fit's spread pools the ensemble with the roughness of its scan (pooled_spread).
         sp_c = {**sp_c, **{k: v for k, v in best.model_spread.items() if k in sp_c or k in f_c}}
@@ -358,7 +400,7 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
         chi2_c = gap_of(f_c, meas, sp_c, runs_base, modes, n_c)[1]
         g_c = excess(chi2_c, n - len(best.effects), n)
         if g_c <= gap_ratio * excess_before:
-            updated, after_f, beh_upd, spread_after, counts_after = cand, f_c, b_c, sp_c, n_c
+            updated, after_f, beh_upd, spread_after, counts_after = cand.params, f_c, b_c, sp_c, n_c
         else:
             # The fit's gap was small enough, the full simulation's is not: not named.
             verdicts[best.effects] = verdicts[best.effects] + [
@@ -375,6 +417,7 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
         params_out = {e: dict(field=EFFECTS[e].field, value=best.values[e], stderr=best.stderrs[e],
                               unit=EFFECTS[e].unit, baseline=EFFECTS[e].baseline_value(base),
                               relevance=EFFECTS[e].relevant(best.values[e], base)[1],
+                              interval=list(interval_of(best, e)),
                               **({"chi2_roughness": best.roughness[e]} if e in best.roughness else {})) for e in named}
     after_f = filled(after_f, spread_after, counts_after)
     gap_after, chi2_after = gap_of(after_f, meas, spread_after, runs_base, modes, counts_after)
@@ -392,18 +435,42 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
                 for k, f in meas.items()}
     # "none" also when an adequate fit needs only a negligible change (and may fail the gap share):
     # the data are explained without a physically relevant change.
+    # Every parameter of the set negligible (a relevant one beside a negligible one is not "none").
     negligible = [f for f in fits if verdicts[f.effects] and f.adequate
-                  and any(r.startswith("negligible change") for r in verdicts[f.effects])
-                  and all(r.startswith(("negligible change", "small share of the gap")) for r in verdicts[f.effects])]
+                  and all(any(r.startswith(f"negligible change of {EFFECTS[e].field}:") for r in verdicts[f.effects])
+                          for e in f.effects)
+                  and all(r.startswith(("negligible change", "small share of the gap", "not resolved"))
+                          for r in verdicts[f.effects])]
+    unresolved: Dict[str, Any] = {}
     if chi2_0 <= chi2_quantile(n):
         verdict = "none"
     elif best is not None:
         verdict = "named"
+    elif confounded:
+        verdict = "confounded"
     elif negligible:
         # Adequate and closing the gap, but only by a physically negligible change: nothing to name.
         verdict = "none"
     else:
         verdict = "unexplained"
+        # The best relevant candidate that fits but that the data do not resolve (its interval
+        # contains the baseline).
+        unres = [f for f in fits if f.adequate and any(r.startswith("not resolved") for r in verdicts[f.effects])
+                 and not any(r.startswith("negligible change") for r in verdicts[f.effects])]
+        if unres:
+            u = min(unres, key=lambda f: f.chi2)
+            unresolved = dict(effects=list(u.effects), values=u.values, stderrs=u.stderrs, chi2=u.chi2,
+                              reasons=verdicts[u.effects])
+    grid = ADVICE_GRID if advice_grid is None else tuple(advice_grid)
+    to_advise = confounded.get("group") or unresolved.get("effects")
+    if to_advise and measured is not None and grid:
+        done_pts = {(op.f_ex, op.a_ex, op.s0) for op in ops}
+        bar = _progress_bar(progress, 1 + sum(tuple(g) not in done_pts for g in grid),
+                            f"discover: advice for {', '.join(to_advise)} (points)")
+        (confounded or unresolved)["advice"] = advise(to_advise, base, ops, grid, threads=threads,
+                                                     on_point=lambda: bar.update(1),
+                                                     fitted=confounded.get("values"))
+        bar.close()
     rejected = [dict(effects=list(f.effects), values=f.values, stderrs=f.stderrs, chi2=f.chi2, dof=f.dof,
                      reasons=verdicts[f.effects] or ["passes the naming rule, but a simpler or better set was named"])
                 for f in sorted(fits, key=lambda f: f.chi2) if best is None or f.effects != best.effects]
@@ -422,6 +489,7 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
                      time.perf_counter() - t0, verdict=verdict, rejected=rejected,
                      features_off=[dict(feature=k, z=z) for k, z in off], gap_ratio=gap_ratio,
                      gap_excess_before=excess_before, gap_excess_after=excess_after,
+                     confounded=confounded, unresolved=unresolved, guided_pairs=guided,
                      modes={t: dict(ends_high=md[0], turning_point=md[1], runs=runs_base,
                                     baseline_runs_in_mode=counts_base.get(t), updated_runs_in_mode=counts_after.get(t))
                             for t, md in (modes or {}).items() if md is not None})

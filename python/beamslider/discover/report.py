@@ -15,6 +15,7 @@ from ..enma import EnmaData
 from .effects import EFFECTS
 from .models import OperatingPoint, simulate_ops
 from .fitting import Discovery, GAP_EXCESS_MEASURE, GAP_MEASURE
+from .verdicts import interval_of
 
 PathLike = Union[str, "os.PathLike[str]"]
 
@@ -98,17 +99,41 @@ def verdict_line(d: Discovery) -> str:
                          for e in d.named_effects)
         return (f"named {what}; gap {d.gap_before:.3g} -> {d.gap_after:.3g} "
                 f"(beyond the noise {d.gap_excess_before:.3g} -> {d.gap_excess_after:.3g})")
+    if d.verdict == "confounded":
+        c = d.confounded
+        adv = c.get("advice", {}).get("text")
+        return (f"confounded: {', '.join(c['group'])} fit equally (the data resolve {c['combination']}, not which of "
+                f"them changed; gap {d.gap_before:.3g})" + (f"; to separate them, {adv}" if adv else ""))
+    if d.verdict == "unexplained" and d.unresolved:
+        u = d.unresolved
+        adv = u.get("advice", {}).get("text")
+        vals = ", ".join(f"{EFFECTS[e].field} = {fmt_value(u['values'][e])} ± {fmt_value(u['stderrs'][e])}"
+                         for e in u["effects"])
+        why = u["reasons"][-1].removeprefix("not resolved: ")
+        return (f"unexplained discrepancy (gap {d.gap_before:.3g}) - best candidate {' + '.join(u['effects'])} "
+                f"({vals}), not resolved by these runs ({why})" + (f"; to resolve it, {adv}" if adv else ""))
     if d.verdict == "unexplained":
         off = ", ".join(f"{f['feature']} z = {f['z']:+.1f}" for f in d.features_off[:3])
         best = d.rejected[0] if d.rejected else None
         why = (f"; best candidate {' + '.join(best['effects'])} rejected: {best['reasons'][0]}" if best else "")
         return f"unexplained discrepancy (gap {d.gap_before:.3g}; off: {off or 'no single feature beyond 2 sigma'}){why}"
-    neg = [r for r in d.rejected if r["reasons"] and any(x.startswith("negligible change") for x in r["reasons"])
-           and all(x.startswith(("negligible change", "small share of the gap")) for x in r["reasons"])]
+    neg = _negligible(d)
     if neg:
         return (f"none (gap {d.gap_before:.3g} closed by a negligible change: {' + '.join(neg[0]['effects'])}, "
                 f"{neg[0]['reasons'][0]})")
     return f"none (the baseline fits: gap {d.gap_before:.3g})"
+
+
+def _negligible(d: Discovery) -> List[Any]:
+    """Rejected sets that fit with only a negligible change (the "none" verdict of a baseline
+    that does not fit)."""
+    if d.verdict != "none":
+        return []
+    return [r for r in d.rejected if r["reasons"]
+            and all(any(x.startswith(f"negligible change of {EFFECTS[e].field}:") for x in r["reasons"])
+                    for e in r["effects"])
+            and all(x.startswith(("negligible change", "small share of the gap", "not resolved"))
+                    for x in r["reasons"])]
 
 
 def fmt_value(v: Any) -> str:
@@ -124,16 +149,29 @@ def _markdown(d: Discovery, figs: Sequence[str]) -> str:
     elif d.verdict == "unexplained":
         lines.append("**Unexplained discrepancy** — the baseline does not fit the data and no candidate effect "
                      "passes the naming rule; nothing was added to the model.")
+    elif d.verdict == "confounded":
+        lines.append(f"**Confounded: {', '.join(f'`{e}`' for e in d.confounded['group'])}** — "
+                     f"{d.confounded['explanation']}; nothing was added to the model. Resolved combination: "
+                     f"{d.confounded['combination']}.")
+    elif _negligible(d):
+        lines.append("**Named: nothing** — the data are explained by a change smaller than the candidates' "
+                     "relevance thresholds.")
     else:
         lines.append("**Named: nothing** — the baseline agrees with the data within the measurement uncertainty.")
+    for key in ("confounded", "unresolved"):
+        adv = getattr(d, key).get("advice") if getattr(d, key) else None
+        if adv and adv.get("text"):
+            lines += ["", f"Advice (the separability tool): {adv['text']}."]
     lines += ["", f"Gap ({GAP_MEASURE}): before {d.gap_before:.3g}, after {d.gap_after:.3g} "
               f"(chi2 of the baseline {d.chi2_before:.3g} over {len(d.features)} features); "
               f"{GAP_EXCESS_MEASURE}: before {d.gap_excess_before:.3g}, after {d.gap_excess_after:.3g}.", ""]
     if d.parameters:
-        lines += ["| effect | parameter | fitted | ± std. error | baseline |", "|---|---|---|---|---|"]
+        lines += ["| effect | parameter | fitted | ± std. error | interval | baseline |", "|---|---|---|---|---|---|"]
         for e, p in d.parameters.items():
+            iv = p.get("interval")
+            ivs = f"[{fmt_value(iv[0])}, {fmt_value(iv[1])}]" if iv else ""
             lines.append(f"| {e} | {p['field']} [{p['unit']}] | {fmt_value(p['value'])} | {fmt_value(p['stderr'])} | "
-                         f"{fmt_value(p['baseline'])} |")
+                         f"{ivs} | {fmt_value(p['baseline'])} |")
         lines.append("")
         rough = {e: p["chi2_roughness"] for e, p in d.parameters.items() if p.get("chi2_roughness", 0.0) > 1.0}
         if rough:
@@ -165,9 +203,11 @@ def _markdown(d: Discovery, figs: Sequence[str]) -> str:
             f"{t}: ends {'high' if m['ends_high'] else 'low'}, {'a' if m['turning_point'] else 'no'} turning point, "
             f"baseline {m['baseline_runs_in_mode']}/{m['runs']} runs in it, updated {m['updated_runs_in_mode']}/{m['runs']}"
             for t, m in d.modes.items())]
-    lines += ["", "Candidates (chi2, dof, adequate at 99 %):", ""]
+    lines += ["", "Candidates (chi2, dof, adequate at 99 %; each parameter's interval, which must exclude its "
+                  "baseline for it to be named):", ""]
     for c in sorted(d.candidates, key=lambda c: (len(c.effects), c.chi2)):
-        vals = ", ".join(f"{EFFECTS[e].field} = {fmt_value(c.values[e])}" for e in c.effects)
+        vals = ", ".join(f"{EFFECTS[e].field} = {fmt_value(c.values[e])} in [{fmt_value(interval_of(c, e)[0])}, "
+                         f"{fmt_value(interval_of(c, e)[1])}]" for e in c.effects)
         lines.append(f"- {' + '.join(c.effects)}: chi2 = {c.chi2:.3g}, dof {c.dof}, "
                      f"{'adequate' if c.adequate else 'not adequate'} ({vals})")
     lines += ["", f"Criterion: {d.criterion}.", "", f"Run time: {d.runtime_s:.1f} s.", ""]

@@ -11,7 +11,8 @@ from typing import Any, Dict, List, Optional, Sequence, Tuple
 import numpy as np
 
 from ..params import Parameters, resolve
-from .effects import EFFECTS, Effect, realise_effects
+from .chain import realise_model
+from .effects import EFFECTS, Effect
 from .._core import SimulationError
 from .models import OperatingPoint, batch_slider_features
 
@@ -28,15 +29,17 @@ def _bumped(e: Effect, p: Parameters, steps: float) -> float:
 
 
 def slider_sensitivities(effects: Sequence[str], baseline: Optional[Parameters], ops: Sequence[OperatingPoint], *,
-                         steps: float = 5.0) -> Dict[str, Dict[str, float]]:
+                         steps: float = 5.0, threads: Optional[int] = None) -> Dict[str, Dict[str, float]]:
     """Change of each slider feature at ``ops``, in units of its uncertainty — the resolution floor
     (:data:`FLOORS`) combined with the model's run-to-run spread (runs from s0 ± 0.002, as in
     :func:`discover`) — when each effect moves by ``steps`` relevance thresholds from the
-    baseline (one FS run per effect and point)."""
+    baseline (one FS run per effect and point; the measurement chain's candidates other than the
+    excitation level re-read the baseline's run, docs/model.md §9.1)."""
     base = resolve(baseline)
-    models = [base, base, base] + [realise_effects(base, {n: _bumped(EFFECTS[n], base, steps)}) for n in effects]
+    models = [base, base, base] + [realise_model(base, {n: _bumped(EFFECTS[n], base, steps)}) for n in effects]
     # All runs as one batch of the core's parallel runner.
-    res = batch_slider_features(models, ops, s0_shifts=[0.0, -0.002, 0.002] + [0.0] * len(effects))
+    res = batch_slider_features(models, ops, s0_shifts=[0.0, -0.002, 0.002] + [0.0] * len(effects),
+                                threads=threads)
     if res[0] is None:
         raise SimulationError("the baseline model's runs failed")
     f0 = res[0][0]

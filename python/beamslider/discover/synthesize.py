@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
-from typing import List, Optional, Sequence, Tuple, Union
+from typing import Dict, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
@@ -43,7 +43,8 @@ def measured_file_name(f_ex: float, a_ex: float, s0: float) -> str:
 
 def synthesize_slider_runs(truth: Optional[Parameters] = None, *, operating_points: Sequence[Tuple[float, float, float]],
                            duration_s: float, out_dir: PathLike, noise_s: float = 0.001,
-                           noise_velocity_m_s: float = 0.002, seed: int = 0, s0_offset: float = 0.0) -> List[Path]:
+                           noise_velocity_m_s: float = 0.002, seed: int = 0, s0_offset: float = 0.0,
+                           chain: Optional[Dict[str, float]] = None) -> List[Path]:
     """Hidden-effect free-slider runs of ``truth`` written in the published measured format
     (time, beam velocity at 4L/7, s at 1e-4 s; file names carry the operating point), with white
     noise on s and the velocity, reproducible by ``seed``. Returns the file paths.
@@ -52,22 +53,33 @@ def synthesize_slider_runs(truth: Optional[Parameters] = None, *, operating_poin
     by hand is never exactly where the label says). With 0 the model run at exactly the truth
     repeats the data's realisation of the chaotic locomotion, which no real measurement allows (the
     "inverse crime" of synthetic tests): a scan point on the truth then scores far better than its
-    neighbours (docs/results/discover/table.md)."""
+    neighbours (docs/results/discover/table.md).
+
+    ``chain``: calibration errors of the measurement chain (docs/model.md §9.1) applied to the
+    signals: ``excitation_gain`` g (the truth runs at g a_ex, the files name a_ex),
+    ``velocity_gain`` G (velocity × G), ``position_offset`` o and ``position_scale`` k (s written
+    as o + k s), ``time_base`` τ (samples stamped τ t)."""
+    ch = dict(chain or {})
+    unknown = sorted(set(ch) - {"excitation_gain", "velocity_gain", "position_offset", "position_scale", "time_base"})
+    if unknown:
+        raise ValueError(f"unknown measurement-chain parameter {unknown[0]!r}")
+    g, gv = float(ch.get("excitation_gain", 1.0)), float(ch.get("velocity_gain", 1.0))
+    o, k, tau = float(ch.get("position_offset", 0.0)), float(ch.get("position_scale", 1.0)), float(ch.get("time_base", 1.0))
     p = resolve(truth)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     ops = [OperatingPoint(f, a, s0, duration_s) for f, a, s0 in operating_points]
-    sim_ops = [OperatingPoint(f, a, s0 + float(s0_offset), duration_s) for f, a, s0 in operating_points]
+    sim_ops = [OperatingPoint(f, a * g, s0 + float(s0_offset), duration_s) for f, a, s0 in operating_points]
     rng = np.random.default_rng(seed)
     paths = []
     for op, r in zip(ops, simulate_ops(p, sim_ops)):
         if not r.completed:
             raise _core.SimulationError(f"truth run at {op.tag} stopped: {r.message}")
         t = r.t
-        vel = np.gradient(r.w, t) + noise_velocity_m_s * rng.standard_normal(len(t))
-        s = r.s + noise_s * rng.standard_normal(len(t))
+        vel = gv * np.gradient(r.w, t) + noise_velocity_m_s * rng.standard_normal(len(t))
+        s = o + k * r.s + noise_s * rng.standard_normal(len(t))
         path = out / measured_file_name(op.f_ex, op.a_ex, op.s0)
-        write_measurement(path, t, vel, s)
+        write_measurement(path, tau * t, vel, s)
         paths.append(path)
     return paths
 

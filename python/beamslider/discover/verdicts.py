@@ -1,0 +1,230 @@
+"""What the data resolve: a candidate's interval must exclude the baseline before it is named,
+candidates the data cannot tell apart are reported as a group (``confounded``), and the
+separability tool's advice says which measurement would resolve or separate them
+(docs/guide/discrepancy.md, "Naming rule")."""
+
+from __future__ import annotations
+
+import itertools
+import math
+from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple
+
+import numpy as np
+
+from ..params import Parameters
+from .effects import EFFECTS
+from .fitting import CandidateFit
+from .models import OperatingPoint
+
+
+CONFOUND_COS = 0.95
+"""|cos θ| of the feature changes of two single fits from which they enter the model through one
+combination (the separability tool's threshold, :func:`.separability.separability`)."""
+
+
+ADVICE_GRID: Tuple[Tuple[float, float, float], ...] = (
+    (104.0, 14.0, 0.3), (110.0, 10.0, 0.3), (116.0, 10.0, 0.3), (120.0, 6.0, 0.3), (124.0, 6.0, 0.3),
+    (124.0, 14.0, 0.3), (126.0, 10.0, 0.3))
+"""Operating points (f_ex Hz, a_ex m/s², s0) of the paper's map among which the advice looks for
+the measurement that resolves or separates candidates (those already measured are left out)."""
+
+
+def interval_of(f: CandidateFit, e: str) -> Tuple[float, float]:
+    """The interval of parameter ``e`` in fit ``f`` that the report shows: the profile's Δχ² = 1
+    interval widened by its roughness (slider level, :func:`.fitting._interval`), else the value ±
+    its standard error (the smooth least-squares fits of the beam level)."""
+    if e in f.intervals:
+        lo, hi = f.intervals[e]
+        return float(lo), float(hi)
+    v, se = f.values[e], f.stderrs.get(e, math.inf)
+    return (v - se, v + se) if math.isfinite(se) else (-math.inf, math.inf)
+
+
+def unresolved_reasons(f: CandidateFit, base: Parameters) -> List[str]:
+    """A reason per parameter of ``f`` whose interval (:func:`interval_of`) contains its baseline
+    value: the data do not resolve that change (empty: all resolved)."""
+    out = []
+    for e in f.effects:
+        lo, hi = interval_of(f, e)
+        b = EFFECTS[e].baseline_value(base)
+        if lo <= b <= hi:
+            out.append(f"not resolved: the interval [{lo:.4g}, {hi:.4g}] of {EFFECTS[e].field} contains the "
+                       f"baseline {b:.4g}")
+    return out
+
+
+def signature(f: CandidateFit, before: Dict[str, float], sig: Dict[str, float]) -> Dict[str, float]:
+    """The feature changes of fit ``f`` from the baseline (``before``), in units of ``sig``."""
+    return {k: (f.predicted[k] - before[k]) / sig[k] for k in sig
+            if k in f.predicted and k in before and math.isfinite(f.predicted[k]) and sig[k] > 0}
+
+
+def cosine(a: Dict[str, float], b: Dict[str, float]) -> Tuple[float, float, float]:
+    """cos θ between two signatures over their common features, and their norms."""
+    keys = [k for k in a if k in b]
+    x, y = np.array([a[k] for k in keys]), np.array([b[k] for k in keys])
+    na, nb = float(np.linalg.norm(x)), float(np.linalg.norm(y))
+    return (float(x @ y / (na * nb)) if na > 0 and nb > 0 else 0.0), na, nb
+
+
+def confounded_group(best: CandidateFit, fits: Sequence[CandidateFit], reasons: Dict[Tuple[str, ...], List[str]],
+                     before: Dict[str, float], sig: Dict[str, float], base: Parameters,
+                     delta_chi2: float) -> Optional[Dict[str, Any]]:
+    """The candidates that fit as well as the single effect ``best`` — each passing the naming rule
+    alone, χ² within ``delta_chi2`` of it (the selection's likelihood-ratio threshold: the data do
+    not prefer one at the significance that named it) — because they move the features alike
+    (|cos θ| ≥ :data:`CONFOUND_COS` between the fits' feature changes): then the data resolve one
+    combination of them, not which one. None if there is no such candidate."""
+    if len(best.effects) != 1:
+        return None
+    s0 = signature(best, before, sig)
+    members = [best]
+    cos: Dict[str, float] = {}
+    for f in fits:
+        if len(f.effects) != 1 or f.effects == best.effects or reasons.get(f.effects):
+            continue
+        if f.chi2 - best.chi2 > delta_chi2:
+            continue
+        c, _, _ = cosine(s0, signature(f, before, sig))
+        if abs(c) >= CONFOUND_COS:
+            members.append(f)
+            cos[f.effects[0]] = c
+    if len(members) < 2:
+        return None
+    terms = []
+    for f in members:
+        e = f.effects[0]
+        b = EFFECTS[e].baseline_value(base)
+        terms.append(f"({EFFECTS[e].field} - {b:.4g})/({f.values[e] - b:+.4g})")
+    return dict(group=[f.effects[0] for f in members], cos=cos,
+                chi2={f.effects[0]: f.chi2 for f in members},
+                values={f.effects[0]: f.values[f.effects[0]] for f in members},
+                intervals={f.effects[0]: list(interval_of(f, f.effects[0])) for f in members},
+                combination=" + ".join(terms) + " = 1",
+                explanation="each alone fits equally and moves the features alike (linearised: cos of the "
+                            "feature changes " + ", ".join(f"{best.effects[0]}/{k} {v:+.3f}" for k, v in cos.items())
+                            + "); the data resolve the combination, in which a change of any one of them "
+                              "by its fitted amount explains the data, not which of them changed")
+
+
+def advise(names: Sequence[str], base: Parameters, ops: Sequence[OperatingPoint],
+           grid: Sequence[Tuple[float, float, float]], *, threads: Optional[int] = None,
+           on_point: Optional[Callable[[], None]] = None,
+           fitted: Optional[Dict[str, float]] = None) -> Dict[str, Any]:
+    """The separability tool's advice for candidates the data did not resolve (one name) or
+    separate (several): the signatures (:func:`.separability.slider_sensitivities`, features in
+    units of their uncertainty for a change of 5 relevance thresholds) at each point of ``grid``
+    not yet measured, at the measured points' duration; the point where one candidate moves the
+    features most, or where two separate best (min(|z₁|, |z₂|)·sin θ), is recommended.
+    ``fitted``: for a confounded group, each member's fitted value; the separation is then the
+    distance between the features of the fitted models (:func:`fitted_differences`), which stays
+    right where the linearised signatures do not (a large change of one mimicking another).
+    ``on_point``: called after the measured points and after each grid point (progress)."""
+    from .separability import slider_sensitivities
+
+    measured = {(op.f_ex, op.a_ex, op.s0) for op in ops}
+    points = [g for g in grid if tuple(g) not in measured]
+    duration = max(op.duration_s for op in ops)
+    if not points:
+        return dict(names=list(names), recommended=None, note="every point of the grid is measured already")
+    def score_at(where: Sequence[OperatingPoint]) -> float:
+        if fitted:
+            return _score_fitted(fitted_differences(fitted, base, where, threads=threads))
+        return _score(names, slider_sensitivities(names, base, where, threads=threads))
+
+    now = score_at(ops)
+    if on_point is not None:
+        on_point()
+    best: Optional[Tuple[Tuple[float, float, float], float]] = None
+    for g in points:
+        score = score_at([OperatingPoint(*g, duration)])
+        if on_point is not None:
+            on_point()
+        if best is None or score > best[1]:
+            best = (g, score)
+    assert best is not None
+    what = ("distance between the fitted models' features" if fitted else
+            "signature norm" if len(names) == 1 else "separation min(|z1|, |z2|) sin(theta)")
+    return dict(names=list(names), measure=what, at_measured_points=now,
+                recommended=dict(f_ex=best[0][0], a_ex=best[0][1], s0=best[0][2], duration_s=duration,
+                                 score=best[1]),
+                text=f"add a run at f_ex = {best[0][0]:g} Hz, a_ex = {best[0][1]:g} m/s^2, s0 = {best[0][2]:g} "
+                     f"({duration:g} s): {what} {best[1]:.3g}"
+                     + ("" if fitted else " for a change of 5 relevance thresholds")
+                     + f", against {now:.3g} at the measured points")
+
+
+def fitted_differences(values: Dict[str, float], base: Parameters, ops: Sequence[OperatingPoint], *,
+                       threads: Optional[int] = None) -> Dict[str, Dict[str, float]]:
+    """The features of each single candidate's fitted model (``values``: effect name -> fitted
+    value) at ``ops``, relative to the baseline, in units of the uncertainty: the resolution floor
+    and the largest run-to-run spread (over s0 and s0 ± 0.002) of the baseline and of the fitted
+    models — where two explanations that fit the data alike predict differently beyond what their
+    own sensitivity to unresolvable perturbations blurs."""
+    from .chain import realise_model
+    from .models import batch_slider_features
+    from .._core import SimulationError
+
+    names = list(values)
+    shifts = (0.0, -0.002, 0.002)
+    models = [base] + [realise_model(base, {n: values[n]}) for n in names]
+    res = batch_slider_features([m for m in models for _ in shifts], ops, s0_shifts=list(shifts) * len(models),
+                                threads=threads)
+    if any(r is None for r in res):
+        raise SimulationError("a run of the fitted models at the advice's operating points failed")
+    groups = [[r[0] for r in res[i * len(shifts):(i + 1) * len(shifts)] if r is not None] for i in range(len(models))]
+    f0 = groups[0][0]
+    sig = {}
+    for k, f in f0.items():
+        spreads = [float(np.std([g[0][k].value] + [r[k].value for r in g[1:] if k in r], ddof=1))
+                   for g in groups if k in g[0]]
+        sig[k] = math.hypot(f.stderr, max(spreads))
+    return {n: {k: (g[0][k].value - f0[k].value) / sig[k] for k in f0 if k in g[0] and sig[k] > 0}
+            for n, g in zip(names, groups[1:])}
+
+
+def _score_fitted(diffs: Dict[str, Dict[str, float]]) -> float:
+    """The smallest distance between two fitted models' features (units of the uncertainty)."""
+    out = math.inf
+    for a, b in itertools.combinations(list(diffs), 2):
+        keys = [k for k in diffs[a] if k in diffs[b]]
+        out = min(out, float(np.linalg.norm([diffs[a][k] - diffs[b][k] for k in keys])))
+    return out
+
+
+def _score(names: Sequence[str], sens: Dict[str, Dict[str, float]]) -> float:
+    """One candidate: the norm of its signature; several: the smallest pairwise separation."""
+    if len(names) == 1:
+        v = np.array(list(sens[names[0]].values()))
+        return float(np.linalg.norm(v)) if len(v) else 0.0
+    seps = []
+    for a, b in itertools.combinations(names, 2):
+        c, na, nb = cosine(sens[a], sens[b])
+        seps.append(min(na, nb) * math.sqrt(max(1 - c * c, 0.0)))
+    return float(min(seps))
+
+
+GUIDED_PAIRS = 3
+"""Pairs fitted beyond those that extend one of the two best single candidates: the ones the
+linearised model predicts to fit best (:func:`rank_pairs`), so that two effects that each fit badly
+alone are still tried together."""
+
+
+def rank_pairs(sens: Dict[str, Dict[str, float]], resid: Dict[str, float]) -> List[Tuple[Tuple[str, str], float]]:
+    """Every pair of candidates with the χ² the linearised model predicts for its best fit:
+    min over x of |r − S x|², S the two signatures (feature changes in units of the uncertainty per
+    step, :func:`.separability.slider_sensitivities`) over the features both move, r the data's
+    residuals from the baseline in the same units (features outside S count r²). Best first."""
+    out = []
+    for a, b in itertools.combinations(sorted(sens), 2):
+        keys = [k for k in resid if k in sens[a] and k in sens[b]]
+        r = np.array([resid[k] for k in keys])
+        A = np.column_stack([[sens[a][k] for k in keys], [sens[b][k] for k in keys]]) if keys else np.zeros((0, 2))
+        rest = float(sum(v * v for k, v in resid.items() if k not in keys))
+        if len(keys):
+            x, *_ = np.linalg.lstsq(A, r, rcond=None)
+            chi2 = float(np.sum((r - A @ x) ** 2)) + rest
+        else:
+            chi2 = rest
+        out.append(((a, b), chi2))
+    return sorted(out, key=lambda t: t[1])
