@@ -152,8 +152,8 @@ class DriftLaw:
     def core(self, exclude_group: Optional[int] = None):
         """The core's handle of this law (``beamslider._core.DriftLaw``: the law file parsed and
         checked once); with ``exclude_group``, of the law without the samples of that training
-        point (leave one out: the same standardisation, Λ_c and scalars). Made at the first call:
-        a law changed afterwards needs ``dataclasses.replace`` (a new law, a new handle)."""
+        point (leave one out: the same standardisation, Λ_c and scalars). Made at the first call
+        and kept until a field of the law is assigned."""
         if exclude_group not in self._cores:
             d = law_dict(self, compact=True)
             if exclude_group is not None:
@@ -164,6 +164,12 @@ class DriftLaw:
                 d["mono_x"], d["mono_y"] = self.mono_x[keep].tolist(), self.mono_y[keep].tolist()
             self._cores[exclude_group] = _core.DriftLaw(json.dumps(d))
         return self._cores[exclude_group]
+
+    def __setattr__(self, name: str, value) -> None:
+        # A changed field makes new handles (the core's copies would be stale).
+        if name != "_cores":
+            self.__dict__["_cores"] = {}
+        object.__setattr__(self, name, value)
 
     def __getstate__(self) -> dict:
         """Pickled without the core's handles (made again where the law is used)."""
