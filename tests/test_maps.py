@@ -132,10 +132,10 @@ def test_cli_map_writes_table_and_figure(tmp_path):
 
 def test_config_is_shared_with_the_rust_tool():
     text = map_config_toml(f_ex=[100, 102], a_ex=4, t_end=120)
-    canonical, f, a, s = beamslider._core.map_config(text)
+    f, a, s = beamslider._core.MapConfig(text).axes
     assert f == [100.0, 102.0] and a == [4.0] and s == [0.3]
     default = beamslider.maps.default_map_config()
-    _, f, a, s = beamslider._core.map_config(default)
+    f, a, s = beamslider._core.MapConfig(default).axes
     assert f == list(np.arange(100.0, 131.0, 2.0)) and a == [4.0, 6.0, 8.0, 10.0, 12.0, 14.0, 16.0] and s == [0.3]
 
 

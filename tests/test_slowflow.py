@@ -279,7 +279,7 @@ def _map_row(law_text, f_ex, a_ex, s0):
     from beamslider import _core
 
     cfg = f"duration_s = 120.0\n[grid]\nf_ex_hz = [{float(f_ex)}]\na_ex_m_s2 = [{float(a_ex)}]\ns0 = [{float(s0)}]\n"
-    return json.loads(_core.predicted_map(cfg, law_text, threads=1)[0])
+    return json.loads(_core.predicted_map(_core.MapConfig(cfg), _core.DriftLaw(law_text), threads=1)[0])
 
 
 def test_core_law_and_features_against_independent_references(tmp_path):
@@ -302,7 +302,7 @@ def test_core_law_and_features_against_independent_references(tmp_path):
         w = 1.0 / np.maximum(np.take_along_axis(d, idx, axis=1), 1e-6)
         v_ref = np.where(lift < law.lift_c, 0.0, (w * law.v[br][idx]).sum(axis=1) / w.sum(axis=1))
         out_ref = np.any((x < law.lo - 1e-9) | (x > law.hi + 1e-9), axis=1)
-        v_rs, out_rs = _core.drift_law_evaluate(text, high=br == "H", x=x.tolist(), lift_off=lift.tolist())
+        v_rs, out_rs = _core.DriftLaw(text).evaluate(high=br == "H", x=x.tolist(), lift_off=lift.tolist())
         np.testing.assert_allclose(v_rs, v_ref, rtol=1e-12, atol=1e-15)
         np.testing.assert_array_equal(out_rs, out_ref)
         v_py, _ = law.evaluate(br, {"amp_rel": x[:, 0], "s": x[:, 1], "lift_off": lift})
@@ -404,11 +404,10 @@ def test_predicted_map_written_by_the_core(tmp_path):
     mem = predicted_map(drift=law, f_ex=[122, 124], a_ex=[14])
     strip = lambda r: {k: v for k, v in r.items() if k != "wall_time_s"}  # noqa: E731
     assert [strip(r) for r in mem] == [strip(r) for r in rows]
-    cfg = "duration_s = 120.0\n[grid]\nf_ex_hz = [124.0]\na_ex_m_s2 = [14.0]\n"
     for bad, match in (("{", "not a beamslider drift law"), ('{"kind": "x"}', "not a beamslider drift law"),
                        (law_json_text(law).replace('"amp_rel"', '"slope_mu"'), "features")):
         with pytest.raises(ValueError, match=match):
-            _core.predicted_map(cfg, bad)
+            _core.DriftLaw(bad)
     (tmp_path / "bad.json").write_text("[1, 2]")
     with pytest.raises(ValueError, match="not a beamslider drift law"):
         load_drift_law(tmp_path / "bad.json")
@@ -420,7 +419,7 @@ def test_predicted_map_written_by_the_core(tmp_path):
         with pytest.raises(ValueError, match=key):
             load_drift_law(tmp_path / "bad.json")
         with pytest.raises(ValueError, match=key):
-            _core.predicted_map(cfg, json.dumps(d))
+            _core.DriftLaw(json.dumps(d))
 
 
 def load_drift_law_text(law):

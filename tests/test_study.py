@@ -42,7 +42,7 @@ def test_config_toml_roundtrip_and_core_readable_map_config():
     c = tiny(method="saltelli", samples=4, criteria={"high_h": 0.25}, dt_s=2e-5)
     again = StudyConfig.from_toml_text(c.to_toml_text())
     assert again == c
-    canonical, f, a, s = _core.map_config(c.map_toml())
+    f, a, s = c.map_config().axes
     assert f == [120.0, 124.0] and a == [14.0] and s == [0.3]
 
 
@@ -133,7 +133,7 @@ def test_local_study_rows_are_map_rows_and_resume_after_a_truncated_write(tmp_pa
                               "friction_coefficient": one["params"]["friction_coefficient"],
                               **detune(Parameters(), one["params"]["natural_frequency_factor"])})
     from beamslider.maps import map_config_toml
-    run = _core.MapRun(map_config_toml(p, f_ex=one["f_ex_hz"], a_ex=14.0, t_end=0.3))
+    run = _core.MapRun(_core.MapConfig(map_config_toml(p, f_ex=one["f_ex_hz"], a_ex=14.0, t_end=0.3)))
     run.run_local()
     mrow = json.loads(run.finish()[0][0])
     # (a study row keeps no end state: it is not extended in time)

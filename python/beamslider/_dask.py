@@ -214,9 +214,9 @@ def _workers(client: Any) -> int:
         return -1
 
 
-def run_study_chunk(map_toml: str, chunk: List[Tuple[int, str, float, float, float, float]],
+def run_study_chunk(map_config: Any, chunk: List[Tuple[int, str, float, float, float, float]],
                     threads: Optional[int]) -> List[str]:
     """A Dask task of a study or a design run: one chunk of points through the Rust core (rayon, interpreter released)."""
     from beamslider import _core as core
 
-    return core.run_study_chunk(map_toml, chunk, threads=threads)
+    return core.run_study_chunk(map_config, chunk, threads=threads)

@@ -258,8 +258,8 @@ def simulate(
         raise ValueError(f"invalid parameter `record_every` = {record_every}: larger than the run's {steps} time steps "
                          f"(t_end / dt): it would record only the start state")
     if _check_only:  # the core's checks of the run's inputs, before its first step; nothing runs
-        _core.check_run(native(p), f_ex_hz=float(f_ex), a_ex_m_s2=float(a_ex), s0=float(s0), t_end_s=t_end,
-                        model=model, s_pcs=s_pcs_value, record_every=record_every)
+        _core.simulate(native(p), f_ex_hz=float(f_ex), a_ex_m_s2=float(a_ex), s0=float(s0), t_end_s=t_end,
+                       model=model, s_pcs=s_pcs_value, record_every=record_every, check_only=True)
         return None  # type: ignore[return-value]
     target = check_out(out, overwrite, need_folder=_on_start is None)  # the hook may make the folder
     if target is None:

@@ -115,7 +115,7 @@ def targets() -> Dict[str, tuple]:
             text = path.read_bytes().decode("utf-8")
         except UnicodeDecodeError:
             return
-        _core.map_config(text)
+        _core.MapConfig(text)
 
     def read_results(path: Path) -> None:
         read_map(path)

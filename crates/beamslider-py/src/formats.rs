@@ -27,16 +27,12 @@ fn cells((s0, f, a, t, status, behaviour, settled): Columns) -> PyResult<Vec<Tab
     Ok((0..n).map(|i| TableCell::new(s0[i], f[i], a[i], t[i], &status[i], &behaviour[i], settled[i])).collect())
 }
 
-/// The letter table of a map from its columns (s0, f_ex, a_ex, t_end, status, behaviour, settled).
+/// The letter table of a map and its "t_end = … s" text, from its columns (s0, f_ex, a_ex,
+/// t_end, status, behaviour, settled).
 #[pyfunction]
-fn map_text_table(columns: Columns) -> PyResult<String> {
-    Ok(table_of_cells(&cells(columns)?))
-}
-
-/// The "t_end = … s" text of a map's columns (as [`map_text_table`]).
-#[pyfunction]
-fn map_t_end_text(columns: Columns) -> PyResult<String> {
-    Ok(t_end_text(&cells(columns)?))
+fn map_text_table(columns: Columns) -> PyResult<(String, String)> {
+    let cells = cells(columns)?;
+    Ok((table_of_cells(&cells), t_end_text(&cells)))
 }
 
 /// Envelope with the analytic signal by overlapping FFT blocks (docs/model.md §7).
@@ -69,11 +65,6 @@ fn append_json_lines(py: Python<'_>, path: PathBuf, lines: Vec<String>, good_len
 
 /// Register the format functions in the `_core` module.
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
-    for f in [wrap_pyfunction!(manifold_csv, m)?, wrap_pyfunction!(map_text_table, m)?, wrap_pyfunction!(map_t_end_text, m)?] {
-        m.add_function(f)?;
-    }
-    for f in [wrap_pyfunction!(blocked_envelope, m)?, wrap_pyfunction!(backbone_omega2, m)?, wrap_pyfunction!(read_json_lines, m)?, wrap_pyfunction!(append_json_lines, m)?] {
-        m.add_function(f)?;
-    }
+    crate::export!(m, manifold_csv, map_text_table, blocked_envelope, backbone_omega2, read_json_lines, append_json_lines);
     Ok(())
 }

@@ -6,12 +6,14 @@
 //! steps to run pending signal handlers (Ctrl-C) and the optional progress callback. Core errors
 //! map to Python exceptions: invalid parameter / TOML → `ValueError`, I/O → `OSError`, numerical
 //! failure → `beamslider.SimulationError`, interrupted → `KeyboardInterrupt`. Panics are caught
-//! and reported as `SimulationError`.
+//! and reported as `SimulationError`. The functions mirror Python's keyword signatures (their
+//! argument lists are the API, hence the crate-wide `too_many_arguments`).
+#![allow(clippy::too_many_arguments)]
 
 use std::sync::atomic::AtomicBool;
 
 use beamslider_core::signal::{self, envelope_stream::EnvelopeStream};
-use beamslider_core::{Criteria, Error, MapConfig, MapRunOptions, Monitor, SuperSlow, dynamics::runner};
+use beamslider_core::{Criteria, Error, Monitor, SuperSlow, dynamics::runner};
 use numpy::{IntoPyArray, PyArray1, PyReadonlyArray1};
 use pyo3::exceptions::{PyBlockingIOError, PyException, PyKeyboardInterrupt, PyOSError, PyValueError};
 use pyo3::prelude::*;
@@ -99,8 +101,9 @@ impl PyMonitor {
         PyMonitor { callback, on_start, error: None }
     }
 
-    fn call(error: &mut Option<PyErr>, f: impl FnOnce(Python<'_>) -> PyResult<()>) -> bool {
-        error.is_none() && Python::attach(|py| py.check_signals().and_then(|()| f(py))).map_err(|e| *error = Some(e)).is_ok()
+    /// Call `f(*args)` (if any) attached, after the signal handlers; false (and the error kept) on an exception.
+    fn call<A: for<'py> pyo3::call::PyCallArgs<'py>>(error: &mut Option<PyErr>, f: Option<&Py<PyAny>>, args: A) -> bool {
+        error.is_none() && Python::attach(|py| py.check_signals().and_then(|()| f.map_or(Ok(()), |f| f.call1(py, args).map(drop)))).map_err(|e| *error = Some(e)).is_ok()
     }
 
     /// The run's outcome, or the exception a callback raised.
@@ -111,13 +114,12 @@ impl PyMonitor {
 
 impl Monitor for PyMonitor {
     fn poll(&mut self, t_s: f64, t_end_s: f64) -> bool {
-        let cb = &self.callback;
-        Self::call(&mut self.error, |py| cb.as_ref().map_or(Ok(()), |cb| cb.call1(py, (t_s, t_end_s)).map(|_| ())))
+        Self::call(&mut self.error, self.callback.as_ref(), (t_s, t_end_s))
     }
 
     fn start(&mut self) -> bool {
         let cb = self.on_start.take();
-        Self::call(&mut self.error, |py| cb.map_or(Ok(()), |cb| cb.call0(py).map(|_| ())))
+        Self::call(&mut self.error, cb.as_ref(), ())
     }
 }
 
@@ -170,37 +172,11 @@ fn classify(py: Python<'_>, s: In<'_>, amplitude_h: In<'_>, dt_s: f64, t0_s: f64
     json(&py.detach(|| guarded(|| beamslider_core::classify(&x, &criteria)))?)
 }
 
-/// The default map configuration (the paper's operating map) as TOML text.
-#[pyfunction]
-fn default_map_config() -> String {
-    MapConfig::default().to_toml_string()
-}
-
 /// The values of an inclusive range START:STOP:STEP (core `map::Axis`: STOP included when within
 /// STEP/1000 of the grid, values rounded to 1e-9, at most a million); errors name `field`.
 #[pyfunction]
 fn range_values(field: &str, start: f64, stop: f64, step: f64) -> PyResult<Vec<f64>> {
     guarded(|| beamslider_core::Axis::Range { start, stop, step }.values(field))
-}
-
-/// Validate map configuration TOML; returns (canonical TOML, f_ex list, a_ex list, s0 list).
-#[pyfunction]
-fn map_config(text: &str) -> PyResult<(String, Vec<f64>, Vec<f64>, Vec<f64>)> {
-    let cfg = guarded(|| MapConfig::from_toml_str(text))?;
-    let g = &cfg.grid;
-    let axes = guarded(|| Ok((g.f_ex_hz.values("grid.f_ex_hz")?, g.a_ex_m_s2.values("grid.a_ex_m_s2")?, g.s0.values("grid.s0")?)))?;
-    Ok((cfg.to_toml_string(), axes.0, axes.1, axes.2))
-}
-
-/// Check a map before anything is written: configuration, Δt, and the results file `out`
-/// (exists without `resume`, other settings; with `extend`: the map to extend to the config's
-/// duration). Raises what `run_map` would raise.
-#[pyfunction]
-#[pyo3(signature = (config_toml, *, out=None, resume=false, extend=false))]
-fn check_map(py: Python<'_>, config_toml: &str, out: Option<std::path::PathBuf>, resume: bool, extend: bool) -> PyResult<()> {
-    let cfg = guarded(|| MapConfig::from_toml_str(config_toml))?;
-    let opts = MapRunOptions { out, resume, threads: None, extend };
-    py.detach(|| guarded(|| beamslider_core::map::preflight(&cfg, &opts)))
 }
 
 /// The compiled core of beamslider (private: import `beamslider` instead).
@@ -209,7 +185,8 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("SimulationError", m.py().get_type::<SimulationError>())?;
     m.add("RESULTS_FORMAT_VERSION", beamslider_core::results::FORMAT_VERSION)?;
     m.add("MAX_AXIS_VALUES", beamslider_core::map::MAX_POINTS)?;
-    export!(m, recorded_rows, moving_average, envelope, classify, super_slow_signals, default_map_config, map_config, range_values, check_map);
+    m.add("S_DN_MIN", beamslider_core::superslow::predict::S_DN_MIN)?;
+    export!(m, recorded_rows, moving_average, envelope, classify, super_slow_signals, range_values);
     params::register(m)?;
     run::register(m)?;
     maprun::register(m)?;

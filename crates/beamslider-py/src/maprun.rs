@@ -1,6 +1,7 @@
-//! Operating maps (binding of core `map::session`, docs/model.md §8): `MapRun` wraps a
-//! `MapSession` (results locked, checked, jobs planned) whose jobs run here or elsewhere
-//! ([`run_map_chunk`] on a Dask worker); `ResultsLock` for the other results files.
+//! Operating maps (binding of core `map`, docs/model.md §8): `MapConfig`, a configuration parsed
+//! and checked once; `MapRun` wraps a `MapSession` (results locked, checked, jobs planned) whose
+//! jobs run here or elsewhere ([`run_map_chunk`] on a Dask worker); `ResultsLock` for the other
+//! results files.
 
 use std::path::PathBuf;
 use std::sync::atomic::AtomicBool;
@@ -8,10 +9,61 @@ use std::sync::atomic::AtomicBool;
 use beamslider_core::map::{MapSession, WireJob, run_chunk};
 use beamslider_core::{MapConfig, MapRow, MapRunOptions, ResultsLock};
 use pyo3::prelude::*;
+use pyo3::types::PyType;
 
 use crate::{detached, guarded};
 
-/// The results of a map: `MapRun(config_toml, out=None, resume=False, extend=False)` checks the
+/// A map configuration (core `MapConfig`) parsed and checked once: `MapConfig(toml_text)`; the
+/// map, study and predictor functions take it as it is (pickled as its canonical TOML).
+#[pyclass(name = "MapConfig", module = "beamslider._core", frozen)]
+pub struct PyMapConfig {
+    pub cfg: MapConfig,
+    axes: (Vec<f64>, Vec<f64>, Vec<f64>),
+}
+
+#[pymethods]
+impl PyMapConfig {
+    #[new]
+    fn new(text: &str) -> PyResult<Self> {
+        let cfg = guarded(|| MapConfig::from_toml_str(text))?;
+        let g = &cfg.grid;
+        let axes = guarded(|| Ok((g.f_ex_hz.values("grid.f_ex_hz")?, g.a_ex_m_s2.values("grid.a_ex_m_s2")?, g.s0.values("grid.s0")?)))?;
+        Ok(PyMapConfig { cfg, axes })
+    }
+
+    /// The paper's operating map.
+    #[staticmethod]
+    #[pyo3(name = "default")]
+    fn paper() -> PyResult<Self> {
+        Self::new(&MapConfig::default().to_toml_string())
+    }
+
+    /// The canonical TOML text (what `map.toml` holds).
+    fn toml(&self) -> String {
+        self.cfg.to_toml_string()
+    }
+
+    /// The grid's axes: (f_ex [Hz], a_ex [m/s²], s0).
+    #[getter]
+    fn axes(&self) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
+        self.axes.clone()
+    }
+
+    /// Check the map before anything is written: Δt and the results file `out` (exists without
+    /// `resume`, other settings; with `extend`: the map to extend to the configuration's
+    /// duration). Raises what `MapRun` would raise.
+    #[pyo3(signature = (*, out=None, resume=false, extend=false))]
+    fn check(&self, py: Python<'_>, out: Option<PathBuf>, resume: bool, extend: bool) -> PyResult<()> {
+        let opts = MapRunOptions { out, resume, threads: None, extend };
+        py.detach(|| guarded(|| beamslider_core::map::preflight(&self.cfg, &opts)))
+    }
+
+    fn __reduce__<'py>(slf: &Bound<'py, Self>) -> (Bound<'py, PyType>, (String,)) {
+        (slf.get_type(), (slf.get().toml(),))
+    }
+}
+
+/// The results of a map: `MapRun(config, out=None, resume=False, extend=False)` checks the
 /// map, takes the lock of `out` (a second writer fails at once: `BlockingIOError` naming the
 /// folder and the holder's PID), cuts off a torn last line, writes the header and plans the jobs.
 #[pyclass(module = "beamslider._core", frozen)]
@@ -20,9 +72,9 @@ pub struct MapRun(MapSession);
 #[pymethods]
 impl MapRun {
     #[new]
-    #[pyo3(signature = (config_toml, *, out=None, resume=false, extend=false))]
-    fn new(py: Python<'_>, config_toml: &str, out: Option<PathBuf>, resume: bool, extend: bool) -> PyResult<Self> {
-        let cfg = guarded(|| MapConfig::from_toml_str(config_toml))?;
+    #[pyo3(signature = (config, *, out=None, resume=false, extend=false))]
+    fn new(py: Python<'_>, config: &Bound<'_, PyMapConfig>, out: Option<PathBuf>, resume: bool, extend: bool) -> PyResult<Self> {
+        let cfg = config.get().cfg.clone();
         let opts = MapRunOptions { out, resume, threads: None, extend };
         Ok(MapRun(py.detach(|| guarded(|| MapSession::open(cfg, &opts)))?))
     }
@@ -67,14 +119,14 @@ impl MapRun {
     }
 }
 
-/// A Dask task of a map: run `jobs` (see `MapRun.jobs`) of the map `config_toml` on `threads`
+/// A Dask task of a map: run `jobs` (see `MapRun.jobs`) of the map `config` on `threads`
 /// rayon threads (default 1) with the interpreter released; returns the rows as JSON texts sorted
 /// by grid index. Each row is bitwise the row the local runner writes (but `wall_time_s`).
 #[pyfunction]
-#[pyo3(signature = (config_toml, jobs, *, threads=1))]
-pub fn run_map_chunk(py: Python<'_>, config_toml: &str, jobs: Vec<WireJob>, threads: usize) -> PyResult<Vec<String>> {
-    let cfg = guarded(|| MapConfig::from_toml_str(config_toml))?;
-    py.detach(|| guarded(|| run_chunk(&cfg, &jobs, threads, &AtomicBool::new(false))))
+#[pyo3(signature = (config, jobs, *, threads=1))]
+pub fn run_map_chunk(py: Python<'_>, config: &Bound<'_, PyMapConfig>, jobs: Vec<WireJob>, threads: usize) -> PyResult<Vec<String>> {
+    let cfg = &config.get().cfg;
+    py.detach(|| guarded(|| run_chunk(cfg, &jobs, threads, &AtomicBool::new(false))))
 }
 
 /// `ResultsLock(path)`: the one-writer lock of a results file (`<path>.lock`), taken at once or
@@ -107,6 +159,7 @@ impl PyResultsLock {
 
 /// Register the map functions and classes.
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<PyMapConfig>()?;
     m.add_class::<MapRun>()?;
     m.add_class::<PyResultsLock>()?;
     crate::export!(m, run_map_chunk);

@@ -32,17 +32,6 @@ fn spec(f_ex_hz: f64, a_ex_m_s2: f64, s0: f64, t_end_s: f64, model: &str, s_pcs:
     Ok(RunSpec { model, s0, excitation: Excitation::new(f_ex_hz, a_ex_m_s2), duration_s: t_end_s, record_every, channels: RECORDED.map(|c| c.1).to_vec() })
 }
 
-/// Check the inputs of a run as `simulate` does before its first step, running nothing.
-#[pyfunction]
-#[pyo3(signature = (params, *, f_ex_hz, a_ex_m_s2, s0, t_end_s, model, s_pcs=None, record_every=1))]
-#[allow(clippy::too_many_arguments)]
-fn check_run(py: Python<'_>, params: &Bound<'_, PyParams>, f_ex_hz: f64, a_ex_m_s2: f64, s0: f64, t_end_s: f64, model: &str,
-    s_pcs: Option<f64>, record_every: usize) -> PyResult<()> {
-    let spec = spec(f_ex_hz, a_ex_m_s2, s0, t_end_s, model, s_pcs, record_every)?;
-    let model = model_of(py, params)?;
-    guarded(|| check(&model, &spec))
-}
-
 /// Integrate the FS / PCS / beam-only model (docs/model.md §5–6) and return a dict with the recorded
 /// columns (numpy arrays keyed by `t_s`, `w_4L7_m`, `s`, `xC_m`, `zC_m`, `beta_rad`), `status`,
 /// `message`, `counters`, `final_state` (dicts of the core's structs) and `rows`. With `out` (a
@@ -50,14 +39,18 @@ fn check_run(py: Python<'_>, params: &Bound<'_, PyParams>, f_ex_hz: f64, a_ex_m_
 /// when the run ends; an interrupted run leaves nothing) and `overview` = ((t, w) or None, (t, s)
 /// or None: min/max decimation to `columns` pixel columns; super-slow (t0 [s], bin spacing [s],
 /// s per bin, amplitude/h per bin; `window_s` moving average) or None). `on_start()` is called
-/// once the inputs are checked, before the first step.
+/// once the inputs are checked, before the first step. `check_only`: check the inputs as the run
+/// does before its first step, run nothing and return None.
 #[pyfunction]
-#[pyo3(signature = (params, *, f_ex_hz, a_ex_m_s2, s0, t_end_s, model, s_pcs=None, record_every=10, progress=None, out=None, window_s=1.0, columns=2000, on_start=None))]
-#[allow(clippy::too_many_arguments)]
+#[pyo3(signature = (params, *, f_ex_hz, a_ex_m_s2, s0, t_end_s, model, s_pcs=None, record_every=10, progress=None, out=None, window_s=1.0, columns=2000, on_start=None, check_only=false))]
 fn simulate<'py>(py: Python<'py>, params: &Bound<'py, PyParams>, f_ex_hz: f64, a_ex_m_s2: f64, s0: f64, t_end_s: f64, model: &str,
     s_pcs: Option<f64>, record_every: usize, progress: Option<Py<PyAny>>, out: Option<std::path::PathBuf>, window_s: f64, columns: usize,
-    on_start: Option<Py<PyAny>>) -> PyResult<Bound<'py, PyDict>> {
+    on_start: Option<Py<PyAny>>, check_only: bool) -> PyResult<Option<Bound<'py, PyDict>>> {
     let spec = spec(f_ex_hz, a_ex_m_s2, s0, t_end_s, model, s_pcs, record_every)?;
+    if check_only {
+        let model = model_of(py, params)?;
+        return guarded(|| check(&model, &spec)).map(|()| None);
+    }
     let valid = params.get().0.clone();
     let mut monitor = PyMonitor::new(progress, on_start);
     let outcome = py.detach(|| {
@@ -80,7 +73,7 @@ fn simulate<'py>(py: Python<'py>, params: &Bound<'py, PyParams>, f_ex_hz: f64, a
     d.set_item("message", r.summary.status.message())?;
     d.set_item("counters", pythonize(py, &r.summary.counters)?)?;
     d.set_item("final_state", pythonize(py, &r.summary.state)?)?;
-    Ok(d)
+    Ok(Some(d))
 }
 
 /// Default slider positions of the physical manifold sweep (docs/model.md §6): the reference grid
@@ -90,12 +83,10 @@ fn physical_manifold_grid(py: Python<'_>, params: &Bound<'_, PyParams>) -> PyRes
     Ok(ManifoldOptions::physical(&model_of(py, params)?).s_values)
 }
 
-/// Super-slow manifold by PCS continuation (docs/model.md §6): the core's `Manifold` as a dict
-/// (`up` and `down` with `s` and `amplitude_m`, `counters`). `progress(points_done, points_total)`
-/// is called after every s.
+/// Super-slow manifold by PCS continuation (docs/model.md §6): the core's `Manifold` as a dict;
+/// `progress(points_done, points_total)` is called after every s.
 #[pyfunction]
 #[pyo3(signature = (params, *, f_ex_hz, a_ex_m_s2, s_values, periods=100, record_periods=25, progress=None))]
-#[allow(clippy::too_many_arguments)]
 fn super_slow_manifold<'py>(py: Python<'py>, params: &Bound<'py, PyParams>, f_ex_hz: f64, a_ex_m_s2: f64, s_values: Vec<f64>,
     periods: usize, record_periods: usize, progress: Option<Py<PyAny>>) -> PyResult<Bound<'py, PyAny>> {
     let (excitation, opts) = (Excitation::new(f_ex_hz, a_ex_m_s2), ManifoldOptions { s_values, periods, record_periods });
@@ -114,7 +105,7 @@ fn super_slow_manifold<'py>(py: Python<'py>, params: &Bound<'py, PyParams>, f_ex
 /// in it cancels the batch.
 #[pyfunction]
 #[pyo3(signature = (jobs, *, record_every=5, keep_every=5, window_s=1.0, detrend_s=None, threads=None, on_done=None))]
-#[allow(clippy::too_many_arguments, clippy::type_complexity)]
+#[allow(clippy::type_complexity)]
 fn run_free_slider_batch<'py>(py: Python<'py>, jobs: Vec<(Bound<'py, PyParams>, f64, f64, f64, f64)>, record_every: usize,
     keep_every: usize, window_s: f64, detrend_s: Option<f64>, threads: Option<usize>, on_done: Option<Py<PyAny>>) -> PyResult<Vec<Bound<'py, PyDict>>> {
     let red = Reduction { record_every, keep_every, window_s, detrend_s };
@@ -172,6 +163,6 @@ fn beam_properties<'py>(py: Python<'py>, params: &Bound<'py, PyParams>, x_over_l
 }
 
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
-    crate::export!(m, check_run, simulate, physical_manifold_grid, super_slow_manifold, run_free_slider_batch, virtual_enma, beam_properties);
+    crate::export!(m, simulate, physical_manifold_grid, super_slow_manifold, run_free_slider_batch, virtual_enma, beam_properties);
     Ok(())
 }

@@ -7,25 +7,25 @@ use std::sync::Mutex;
 use std::sync::atomic::AtomicBool;
 
 use beamslider_core::study::{StudyPoint, StudyResults, run_points};
-use beamslider_core::{MapConfig, MapRow};
+use beamslider_core::MapRow;
 use pyo3::exceptions::PyKeyboardInterrupt;
 use pyo3::prelude::*;
 
-use crate::{detached, guarded};
+use crate::{detached, guarded, maprun::PyMapConfig};
 
 /// One point of a chunk: (index, parameter TOML, f_ex [Hz], a_ex [m/s²], s₀, duration [s]).
 type ChunkPoint = (usize, String, f64, f64, f64, f64);
 
 /// Run a chunk of study points in parallel (`threads` workers, default one per core) with the
-/// interpreter released. `config_toml` is a map configuration (record_every, dt_s, criteria; its
+/// interpreter released. `config` is a map configuration (`MapConfig`: record_every, dt_s, criteria; its
 /// grid and parameters are not used); each point brings its own full parameter TOML, operating
 /// point and duration. Returns the rows as JSON texts (map row format, `index` = the point's
 /// index), sorted by index. `on_rows(list_of_json)` gets the rows finished since the last call
 /// (at most every 50 ms); Ctrl-C or an exception in `on_rows` cancels the chunk.
 #[pyfunction]
-#[pyo3(signature = (config_toml, points, *, threads=None, on_rows=None))]
-fn run_study_chunk(py: Python<'_>, config_toml: &str, points: Vec<ChunkPoint>, threads: Option<usize>, on_rows: Option<Py<PyAny>>) -> PyResult<Vec<String>> {
-    let cfg = guarded(|| MapConfig::from_toml_str(config_toml))?;
+#[pyo3(signature = (config, points, *, threads=None, on_rows=None))]
+fn run_study_chunk(py: Python<'_>, config: &Bound<'_, PyMapConfig>, points: Vec<ChunkPoint>, threads: Option<usize>, on_rows: Option<Py<PyAny>>) -> PyResult<Vec<String>> {
+    let cfg = &config.get().cfg;
     let points: Vec<StudyPoint> =
         points.into_iter().map(|(index, params_toml, f_ex_hz, a_ex_m_s2, s0, duration_s)| StudyPoint { index, params_toml, f_ex_hz, a_ex_m_s2, s0, duration_s }).collect();
     let (cancel, fresh) = (AtomicBool::new(false), Mutex::new(Vec::new()));
@@ -37,13 +37,13 @@ fn run_study_chunk(py: Python<'_>, config_toml: &str, points: Vec<ChunkPoint>, t
         fresh.lock().unwrap_or_else(|e| e.into_inner()).push(row.to_json());
         Ok(())
     };
-    let rows = detached(py, &cancel, 50, || run_points(&cfg, &points, threads, &cancel, push), drain)?;
+    let rows = detached(py, &cancel, 50, || run_points(cfg, &points, threads, &cancel, push), drain)?;
     let rows = rows.ok_or_else(|| PyKeyboardInterrupt::new_err("study chunk interrupted"))?;
     Ok(rows.iter().map(MapRow::to_json).collect())
 }
 
 /// The results of a study (core `study::StudyResults`): the file `path` (None: in memory only),
-/// opened for the map configuration `config_toml`, the study configuration `study_json` (header)
+/// opened for the map configuration `config` (`MapConfig`), the study configuration `study_json` (header)
 /// and the points `points_json` (a list of objects: index, f_ex_hz, a_ex_m_s2, s0, sample,
 /// point, params); `resume` keeps the rows of an existing file of the same study.
 #[pyclass(name = "StudyResults", module = "beamslider._core")]
@@ -52,10 +52,9 @@ struct PyStudyResults(StudyResults);
 #[pymethods]
 impl PyStudyResults {
     #[new]
-    #[pyo3(signature = (path, config_toml, study_json, points_json, *, resume=false))]
-    fn new(path: Option<std::path::PathBuf>, config_toml: &str, study_json: &str, points_json: &str, resume: bool) -> PyResult<Self> {
-        let cfg = guarded(|| MapConfig::from_toml_str(config_toml))?;
-        Ok(PyStudyResults(guarded(|| StudyResults::open_json(path.as_deref(), &cfg, study_json, points_json, resume))?))
+    #[pyo3(signature = (path, config, study_json, points_json, *, resume=false))]
+    fn new(path: Option<std::path::PathBuf>, config: &Bound<'_, PyMapConfig>, study_json: &str, points_json: &str, resume: bool) -> PyResult<Self> {
+        Ok(PyStudyResults(guarded(|| StudyResults::open_json(path.as_deref(), &config.get().cfg, study_json, points_json, resume))?))
     }
 
     /// Add rows (JSON texts of map rows): each gets its study keys and is appended at once.

@@ -11,14 +11,9 @@ use pythonize::pythonize;
 use crate::params::PyParams;
 use crate::{detached, guarded, json};
 
-/// HB super-slow manifold (docs/model.md §6.4): the core's `HbManifold` as a dict (branches
-/// `high`, `low`, `middle`, `up_run`, `down_run` of `s`, `amplitude_h`, `phase_rad`, `stable`,
-/// `q_re`, `q_im` flat (point, mode), `harmonic_amplitude_h`, `state`; `folds` of `s` and
-/// `amplitude_h`; `s_up`, `s_dn`, `s_res`, `s_range`, `n_modes`, `steps`, `warnings`, `s_grid`,
-/// `high_on_grid`, `low_on_grid`, `harmonic_orders`).
+/// HB super-slow manifold (docs/model.md §6.4): the core's `HbManifold` as a dict (its fields).
 #[pyfunction]
 #[pyo3(signature = (params, *, f_ex_hz, a_ex_m_s2, n_modes=5, harmonics=1, d_eff=None, omega1_factor=1.0, s_values=None, max_steps=20_000, max_step=0.05, sample_on_grid=false, static_sag=false))]
-#[allow(clippy::too_many_arguments)]
 pub fn hb_manifold<'py>(py: Python<'py>, params: &Bound<'_, PyParams>, f_ex_hz: f64, a_ex_m_s2: f64, n_modes: usize, harmonics: usize,
     d_eff: Option<f64>, omega1_factor: f64, s_values: Option<Vec<f64>>, max_steps: usize, max_step: f64, sample_on_grid: bool,
     static_sag: bool) -> PyResult<Bound<'py, PyAny>> {
@@ -27,9 +22,7 @@ pub fn hb_manifold<'py>(py: Python<'py>, params: &Bound<'_, PyParams>, f_ex_hz: 
     Ok(pythonize(py, &py.detach(|| guarded(|| core_hb(&params, f_ex_hz, a_ex_m_s2, &opts)))?)?)
 }
 
-/// N = 1 closed form (docs/model.md §6.4) on `s_values`: the core's `ClosedFormN1` as a dict (`s`,
-/// `roots_h` (n rows of 3, NaN where absent), `n_roots`, `discriminant`, `folds`, `s_up`, `s_dn`,
-/// `s_res`, `backbone_h`).
+/// N = 1 closed form (docs/model.md §6.4) on `s_values`: the core's `ClosedFormN1` as a dict.
 #[pyfunction]
 #[pyo3(signature = (params, *, f_ex_hz, a_ex_m_s2, s_values, d_eff=None, omega1_factor=1.0))]
 pub fn hb_closed_form_n1<'py>(py: Python<'py>, params: &Bound<'_, PyParams>, f_ex_hz: f64, a_ex_m_s2: f64, s_values: Vec<f64>,
@@ -58,7 +51,6 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
 /// written so far stay in the file) and raises KeyboardInterrupt.
 #[pyfunction]
 #[pyo3(signature = (params, *, f_ex_hz, a_ex_m_s2, s_values, settle_periods=40, first_settle_periods=400, window_s=1.0, sub_windows=4, mirror=false, out=None, resume=false, progress=None))]
-#[allow(clippy::too_many_arguments)]
 pub fn drift_table_pcs(py: Python<'_>, params: &Bound<'_, PyParams>, f_ex_hz: f64, a_ex_m_s2: f64, s_values: Vec<f64>,
     settle_periods: usize, first_settle_periods: usize, window_s: f64, sub_windows: usize, mirror: bool, out: Option<std::path::PathBuf>,
     resume: bool, progress: Option<Py<PyAny>>) -> PyResult<(String, Vec<String>, usize)> {

@@ -12,7 +12,7 @@ import os
 import re
 import sys
 from pathlib import Path
-from typing import Any, Dict, List, Sequence
+from typing import Any, Dict, List, Optional, Sequence
 
 from .. import _core
 from .._json import json_safe
@@ -44,6 +44,22 @@ def one_line(e: BaseException) -> str:
         m = re.match(r"^\d+ \| (.*)$", ln)
         parts.append(f"({m.group(1).strip()})" if m else ln)
     return " ".join(parts)
+
+
+def print_report(text: str, summary: str, paths: Sequence[Path]) -> int:
+    """Print a run's text report, its one-line summary and the files it wrote; the exit code 0."""
+    print(text, end="")
+    print(summary)
+    for p in paths:
+        print(f"wrote {p}")
+    return 0
+
+
+def doc_body(doc: Optional[str]) -> Optional[str]:
+    """A subcommand's description: its module's docstring after the first paragraph (the module's
+    summary), white space folded as argparse prints it (None where docstrings are stripped)."""
+    parts = (doc or "").split("\n\n", 1)
+    return " ".join(parts[1].split()) if len(parts) == 2 else None
 
 
 def fmt(x: float) -> str:

@@ -1,5 +1,11 @@
 """``beamslider design``: slider design optimisation for broadband self-adaption
-(:mod:`beamslider.design`), local or on Dask, resumable."""
+(:mod:`beamslider.design`), local or on Dask, resumable.
+
+Search the design variables of a design configuration (TOML) with differential evolution; every
+design is run over a band of operating points (FS, or the reduced predictor) and scored by its
+adaption bandwidth [Hz] / harvestable level, nominal or robust. Each evaluated design is appended to
+DIR/design.jsonl at once; --resume continues a killed run without evaluating any design twice.
+Writes design.toml, summary.json, summary.txt, pareto.png, maps.png, amplitude.png."""
 
 from __future__ import annotations
 
@@ -7,18 +13,13 @@ import time
 from pathlib import Path
 from typing import Any
 
-from ._common import add_common, add_config_run
+from ._common import add_common, add_config_run, doc_body, print_report
 
 
 def add_parser(sub: Any) -> None:
     """Register ``beamslider design``."""
     sp = sub.add_parser("design", help="optimise the slider design for the widest adaption band (local or Dask)",
-                        description="Search the design variables of a design configuration (TOML) with differential "
-                                    "evolution; every design is run over a band of operating points (FS, or the "
-                                    "reduced predictor) and scored by its adaption bandwidth [Hz] / harvestable level, "
-                                    "nominal or robust. Each evaluated design is appended to DIR/design.jsonl at once; "
-                                    "--resume continues a killed run without evaluating any design twice. Writes "
-                                    "design.toml, summary.json, summary.txt, pareto.png, maps.png, amplitude.png.")
+                        description=doc_body(__doc__))
     add_config_run(sp, "design")
     sp.add_argument("--check-t-end", type=float, metavar="S",
                     help="duration of the FS re-checks of prototype and best design [s] (default: the search's t_end_s)")
@@ -51,8 +52,4 @@ def cmd_design(args: Any) -> int:
                    threads=args.threads, progress=args.progress, check_t_end_s=args.check_t_end,
                    robust_check_t_end_s=args.robust_check_t_end)
     written = write_outputs(res, out)
-    print(res.text(), end="")
-    print(f"wall time {time.perf_counter() - t0:.1f} s")
-    for p in [out / RESULTS_FILE, out / "design.toml", *written]:
-        print(f"wrote {p}")
-    return 0
+    return print_report(res.text(), f"wall time {time.perf_counter() - t0:.1f} s", [out / RESULTS_FILE, out / "design.toml", *written])

@@ -1,5 +1,12 @@
 """``beamslider discover``: measured data + baseline model → named missing effects, updated TOML,
-``report.json``, ``report.md`` and figures; ``beamslider synthesize``: hidden-effect test data."""
+``report.json``, ``report.md`` and figures; ``beamslider synthesize``: hidden-effect test data.
+
+Compare measured data with the --params baseline (default: the prototype), name the missing physical
+effect(s) among the candidates (beamslider.discover.EFFECTS), add them and report the gap before and
+after. Beam level: --enma FILE (ENMA CSV). Slider level: --measured FILE... (published measured
+format, operating point in the file name). Both together: one joint fit (beam-level effects from
+both, slider-level ones from the runs). Without data: the paper's case, a synthetic ENMA of the
+prototype against the ideally clamped beam."""
 
 from __future__ import annotations
 
@@ -9,19 +16,14 @@ import time
 from typing import Any, Dict, List, Tuple
 
 from ..params import Parameters
-from ._common import UserError, add_common, out_dir, plan_outputs, positive
+from ._common import UserError, add_common, doc_body, out_dir, plan_outputs, positive
 
 
 def add_parser(sub: Any) -> None:
     """Register ``beamslider discover`` and ``beamslider synthesize``."""
     sp = sub.add_parser(
         "discover", help="find and name the effect the model misses, add it, show the gap shrink",
-        description="Compare measured data with the --params baseline (default: the prototype), name the missing "
-                    "physical effect(s) among the candidates (beamslider.discover.EFFECTS), add them and report the "
-                    "gap before and after. Beam level: --enma FILE (ENMA CSV). Slider level: --measured FILE... "
-                    "(published measured format, operating point in the file name). Both together: one joint fit "
-                    "(beam-level effects from both, slider-level ones from the runs). Without data: the paper's "
-                    "case, a synthetic ENMA of the prototype against the ideally clamped beam.")
+        description=doc_body(__doc__))
     sp.add_argument("--enma", metavar="CSV", help="ENMA data (beam level)")
     sp.add_argument("--measured", metavar="FILE", nargs="+", help="measured free-slider runs (slider level; with --enma: joint fit)")
     sp.add_argument("--effects", metavar="LIST", help="comma list of candidate effects (default: all of the level)")

@@ -1,5 +1,10 @@
 """``beamslider enma``: ENMA data (measured, or a virtual ENMA of a truth model) → backbone fit →
-updated clamping (k_r, k_t, damping) → TOML, report and the paper's Fig. 3."""
+updated clamping (k_r, k_t, damping) → TOML, report and the paper's Fig. 3.
+
+Fit the single-mode backbone w~^2 = w^2 + 3/4 b* a~^2 to ENMA data and update the clamping
+stiffnesses k_r, k_t (and the damping ratio) of the --params model (default: the prototype with
+ideal clamping). Without DATA, a virtual ENMA of --truth (default: the prototype) makes the data.
+Writes enma_data.csv, enma_updated.toml, enma_report.json, enma_report.md and enma.png into --out."""
 
 from __future__ import annotations
 
@@ -10,18 +15,14 @@ from typing import Any, Dict
 
 from .. import enma
 from ..params import Parameters
-from ._common import UserError, add_common, axis_values, out_dir, plan_outputs, positive, write_json
+from ._common import UserError, add_common, axis_values, doc_body, out_dir, plan_outputs, positive, write_json
 
 
 def add_parser(sub: Any) -> None:
     """Register the subcommand."""
     sp = sub.add_parser(
         "enma", help="ENMA data -> backbone fit -> updated clamping k_r, k_t (paper section 3)",
-        description="Fit the single-mode backbone w~^2 = w^2 + 3/4 b* a~^2 to ENMA data and update the "
-                    "clamping stiffnesses k_r, k_t (and the damping ratio) of the --params model (default: the "
-                    "prototype with ideal clamping). Without DATA, a virtual ENMA of --truth (default: the "
-                    "prototype) makes the data. Writes enma_data.csv, enma_updated.toml, enma_report.json, "
-                    "enma_report.md and enma.png into --out.")
+        description=doc_body(__doc__))
     sp.add_argument("data", nargs="?", help="ENMA CSV (columns amplitude_h, frequency_hz[, damping_ratio, run, ...])")
     sp.add_argument("--truth", metavar="TOML", help="model of the virtual ENMA when no DATA is given (default: prototype)")
     sp.add_argument("--levels", metavar="GRID", help="virtual ENMA levels a_ex [m/s^2]: START:STOP:STEP or a comma list "

@@ -1,5 +1,9 @@
 """``beamslider hb-manifold``: the super-slow manifold by harmonic balance (docs/model.md §6.4)
-written as CSV + JSON + figure."""
+written as CSV + JSON + figure.
+
+Compute the super-slow manifold by N-mode harmonic balance (single-term by default) with the slider
+rigidly attached (pseudo-arclength continuation, folds, stability) and write
+hb_manifold_<f>Hz_<a>ms2_N<n>.csv/.json/.png (plus _Deff<D>, _H<H>, _sag for those options)."""
 
 from __future__ import annotations
 
@@ -11,16 +15,14 @@ from typing import Any
 from ..superslow import hb_manifold
 from ._files import hb_manifold_file_stem, write_hb_manifold_csv
 from ._manifold import add_operating_point
-from ._common import add_common, figure, fmt, out_dir, params_from_args, plan_outputs, positive, print_written, write_json
+from ._common import add_common, doc_body, figure, fmt, out_dir, params_from_args, plan_outputs, positive, print_written, write_json
 
 
 def add_parser(sub: Any) -> None:
     """Register the subcommand."""
     sp = sub.add_parser(
         "hb-manifold", help="super-slow manifold by harmonic balance (milliseconds; slider rigidly attached)",
-        description="Compute the super-slow manifold by N-mode harmonic balance (single-term by default) with the slider "
-                    "rigidly attached (pseudo-arclength continuation, folds, stability) and write "
-                    "hb_manifold_<f>Hz_<a>ms2_N<n>.csv/.json/.png (plus _Deff<D>, _H<H>, _sag for those options).")
+        description=doc_body(__doc__))
     add_operating_point(sp, positive_level=True)
     sp.add_argument("--n-modes", type=positive(int), default=5, metavar="N", help="retained beam modes (5)")
     sp.add_argument("--d-eff", type=float, metavar="D", help="equivalent damping ratio of all modes (default: params)")

@@ -1,5 +1,11 @@
 """``beamslider study``: an uncertainty study (local or Dask) written as results rows, summary and
-figures (:mod:`beamslider.study`)."""
+figures (:mod:`beamslider.study`).
+
+Sample the uncertain parameters of a study configuration (TOML), run the free slider at every sample
+and operating point (locally with one thread per core, or on a Dask cluster with --scheduler) and
+aggregate behaviour probabilities, statistics and sensitivity indices. Each finished run is appended
+to DIR/study.jsonl at once; --resume runs only the missing ones. Writes study.toml, summary.json,
+summary.txt, behaviour_probability.png and sensitivity*.png."""
 
 from __future__ import annotations
 
@@ -8,18 +14,13 @@ from pathlib import Path
 from typing import Any
 
 from ..study import EXAMPLE_CONFIG, RESULTS_FILE, read_config, run_study, write_outputs
-from ._common import add_common, add_config_run
+from ._common import add_common, add_config_run, doc_body, print_report
 
 
 def add_parser(sub: Any) -> None:
     """Register ``beamslider study``."""
     sp = sub.add_parser("study", help="uncertainty study: behaviour probabilities and sensitivities (local or Dask)",
-                        description="Sample the uncertain parameters of a study configuration (TOML), run the free "
-                                    "slider at every sample and operating point (locally with one thread per core, or "
-                                    "on a Dask cluster with --scheduler) and aggregate behaviour probabilities, "
-                                    "statistics and sensitivity indices. Each finished run is appended to "
-                                    "DIR/study.jsonl at once; --resume runs only the missing ones. Writes study.toml, "
-                                    "summary.json, summary.txt, behaviour_probability.png and sensitivity*.png.")
+                        description=doc_body(__doc__))
     add_config_run(sp, "study")
     sp.add_argument("--chunk-size", type=int, metavar="N", help="points per Dask task (default: the configuration's)")
     sp.add_argument("--task-threads", type=int, default=1, metavar="N", help="rayon threads per Dask task (1)")
@@ -47,11 +48,7 @@ def cmd_study(args: Any) -> int:
                     chunk_size=args.chunk_size, task_threads=args.task_threads, progress=args.progress)
     wall = time.perf_counter() - t0
     written = write_outputs(res, out)
-    print(res.text(), end="")
-    print(f"{len(res.table['index'])} runs in {wall:.1f} s")
-    for p in [out / RESULTS_FILE, out / "study.toml", *written]:
-        print(f"wrote {p}")
-    return 0
+    return print_report(res.text(), f"{len(res.table['index'])} runs in {wall:.1f} s", [out / RESULTS_FILE, out / "study.toml", *written])
 
 
 def add_cli(sub: Any, common: Any = None) -> None:

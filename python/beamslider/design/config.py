@@ -220,7 +220,7 @@ class DesignConfig(_toml.ConfigFile):
                 if not v.low <= x <= v.high:
                     raise ValueError(f"include_prototype: the base value {v.name} = {x} lies outside the bounds "
                                      f"[{v.low}, {v.high}] (widen them or set include_prototype = false)")
-        self.map_toml()  # the core validates band, duration, record_every, criteria
+        self.map_config()  # the core validates band, duration, record_every, criteria
 
     # --- derived ------------------------------------------------------------------------------
     @property
@@ -243,11 +243,12 @@ class DesignConfig(_toml.ConfigFile):
         """(f_ex, a_ex, s0) in map order: s0 slowest, then a_ex, f_ex fastest."""
         return [(f, a, s) for s in self.s0 for a in self.a_ex_m_s2 for f in self.f_ex_hz()]
 
-    def map_toml(self, params: Optional[Parameters] = None) -> str:
-        """Map configuration of the band (the core's runner reads record_every, dt, criteria from it)."""
-        return _toml.dumps(map_config_dict(params or self.params, f_ex=self.f_ex_hz(), a_ex=self.a_ex_m_s2, s0=self.s0,
-                                             t_end=self.t_end_s, record_every=self.record_every,
-                                             criteria=self.criteria or None))
+    def map_config(self, params: Optional[Parameters] = None) -> "_core.MapConfig":
+        """Map configuration of the band (the core's runner reads record_every, dt, criteria from
+        it), parsed and checked once by the core."""
+        return _core.MapConfig(_toml.dumps(map_config_dict(params or self.params, f_ex=self.f_ex_hz(), a_ex=self.a_ex_m_s2,
+                                                           s0=self.s0, t_end=self.t_end_s, record_every=self.record_every,
+                                                           criteria=self.criteria or None)))
 
     def design_params(self, x: Any) -> Parameters:
         """The :class:`Parameters` of design vector ``x`` (variables in order). With ``scale_inertia``

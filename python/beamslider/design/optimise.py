@@ -135,7 +135,7 @@ class _Search:
         from .._util import progress_bar
 
         ops = self.c.operating_points()
-        map_toml = self.c.map_toml()  # record_every, dt, criteria (each run brings its own duration)
+        map_cfg = self.c.map_config()  # record_every, dt, criteria (each run brings its own duration)
         chunk: List[Tuple[int, str, float, float, float, float]] = []
         where: Dict[int, Tuple[int, int, int]] = {}
         idx = 0
@@ -171,13 +171,13 @@ class _Search:
                     bar(done[0], len(chunk))
 
             if self.client is None:
-                _core.run_study_chunk(map_toml, chunk, threads=self.threads, on_rows=on_rows)
+                _core.run_study_chunk(map_cfg, chunk, threads=self.threads, on_rows=on_rows)
             else:
                 from .._dask import run_chunks, run_study_chunk
 
                 size = self.c.chunk_size
-                chunks = [(map_toml, chunk[i:i + size], self.task_threads) for i in range(0, len(chunk), size)]
-                run_chunks(self.client, run_study_chunk, chunks, tag="design" + map_toml + json.dumps([t[0] for t in todo]),
+                chunks = [(map_cfg, chunk[i:i + size], self.task_threads) for i in range(0, len(chunk), size)]
+                run_chunks(self.client, run_study_chunk, chunks, tag="design" + map_cfg.toml() + json.dumps([t[0] for t in todo]),
                            on_rows=on_rows)
         if any(m != 0 for m in missing):  # pragma: no cover - the runner returns every row or raises
             raise RuntimeError("design batch: runs missing")

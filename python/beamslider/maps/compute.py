@@ -20,7 +20,7 @@ from .. import _core, _toml
 from .._util import progress_bar
 from ..params import Parameters, resolve
 from ..simulate import SimulationResult
-from ..superslow import BUILTIN_LAW_NOTE, DesignLaw, DriftLaw, default_law, law_json
+from ..superslow import BUILTIN_LAW_NOTE, DesignLaw, DriftLaw, default_law
 from .config import MIN_CLASSIFY_S, RESULTS_FILE, criteria_toml, map_config_toml
 from ..tables import MapTable, RowList
 from .read import check_rows, grid_points, rows_to_table, saved_grid
@@ -96,11 +96,11 @@ def classify_result(result: SimulationResult, *, window: float = 1.0,
     return classify(t, s, amp, criteria=criteria)
 
 
-def _map_chunk(config_toml: str, jobs: List[tuple], threads: int) -> List[str]:
+def _map_chunk(config: "_core.MapConfig", jobs: List[tuple], threads: int) -> List[str]:
     """A Dask task of a map: one chunk of jobs through the Rust core (rayon, interpreter released)."""
     from beamslider import _core as core
 
-    return core.run_map_chunk(config_toml, jobs, threads=threads)
+    return core.run_map_chunk(config, jobs, threads=threads)
 
 
 def _watching(results: Optional[Path], bar: Any) -> Any:
@@ -134,17 +134,19 @@ def _widened(canonical: str, folder: Path) -> str:
     return _toml.dumps({**new, "grid": grid})
 
 
-def run_map_config(config_toml: str, *, out: Optional[Union[str, Path]] = None, resume: bool = False,
+def run_map_config(config_toml: Union[str, "_core.MapConfig"], *, out: Optional[Union[str, Path]] = None, resume: bool = False,
                    threads: Optional[int] = None, progress: Optional[bool] = False, extend: bool = False,
                    report: bool = True, scheduler: Any = None, scheduler_file: Optional[str] = None,
                    chunk_size: int = 8, task_threads: int = 1, max_retries: int = 3) -> MapTable:
-    """Run a map from configuration TOML text (see :func:`map_config_toml`); ``out`` is the output
+    """Run a map from configuration TOML text (see :func:`map_config_toml`) or the core's parsed
+    configuration (``beamslider._core.MapConfig``, parsed and checked once); ``out`` is the output
     folder (results appended to ``out/map.jsonl`` point by point, the configuration written to
     ``out/map.toml``). ``extend``: the map in ``out`` was run for a shorter duration; continue its
     points with ``settled`` false and its undetermined points from their saved end states to the
     configuration's duration (the count is printed when ``report``). ``scheduler`` / ``scheduler_file``: run the points on a Dask
     cluster in chunks of ``chunk_size`` (see :func:`operating_map`)."""
-    canonical, f, a, s = _core.map_config(config_toml)
+    cfg = _core.MapConfig(config_toml) if isinstance(config_toml, str) else config_toml
+    canonical, (f, a, s) = cfg.toml(), cfg.axes
     total = len(f) * len(a) * len(s)
     if threads is not None and (not isinstance(threads, (int, np.integer)) or isinstance(threads, bool) or threads < 1
                                 or threads > 65536):
@@ -166,14 +168,14 @@ def run_map_config(config_toml: str, *, out: Optional[Union[str, Path]] = None, 
             folder = Path(out)
             results = folder / RESULTS_FILE
             # Everything the run would refuse is refused before map.toml is (over)written.
-            _core.check_map(config_toml, out=results, resume=resume, extend=extend)
+            cfg.check(out=results, resume=resume, extend=extend)
             if (resume or extend) and results.exists():
                 old_grid = saved_grid(folder)
-                check_rows(results, None if old_grid is None else old_grid | grid_points(canonical))
+                check_rows(results, None if old_grid is None else old_grid | grid_points(cfg))
                 saved_toml = _widened(canonical, folder)
             folder.mkdir(parents=True, exist_ok=True)
         # Takes the results file's lock (a second writer fails here), writes the header.
-        run = _core.MapRun(config_toml, out=results, resume=resume, extend=extend)
+        run = _core.MapRun(cfg, out=results, resume=resume, extend=extend)
         try:
             if out is not None:
                 (Path(out) / "map.toml").write_text(saved_toml, encoding="utf-8")
@@ -185,7 +187,7 @@ def run_map_config(config_toml: str, *, out: Optional[Union[str, Path]] = None, 
                     from .._dask import run_chunks
 
                     jobs = run.jobs()
-                    chunks = [(config_toml, jobs[i:i + chunk_size], int(task_threads))
+                    chunks = [(cfg, jobs[i:i + chunk_size], int(task_threads))
                               for i in range(0, len(jobs), chunk_size)]
 
                     def on_rows(rows: List[str]) -> None:
@@ -331,11 +333,12 @@ def predicted_map(
             raise FileExistsError(f"{path} exists: pass force=True to overwrite or resume=True to continue it")
         if path.exists() and force and not resume:
             path.unlink()
-    cfg = map_config_toml(p, f_ex=[float(v) for v in f_ex], a_ex=[float(v) for v in a_ex], s0=float(s0), t_end=float(t_end))
+    cfg = _core.MapConfig(map_config_toml(p, f_ex=[float(v) for v in f_ex], a_ex=[float(v) for v in a_ex], s0=float(s0),
+                                          t_end=float(t_end)))
     kw = dict(out=None if path is None else str(path), resume=bool(resume), threads=threads, n_modes=int(n_modes), d_eff=d_eff)
     if isinstance(drift, DriftLaw):
-        law = drift if s_dn != "hb" else dataclasses.replace(drift, rho_c=0.0, _trees={})
-        rows = _core.predicted_map(cfg, law_json(law), s_dn="none" if s_dn == "none" else "law", **kw)
+        law = drift if s_dn != "hb" else dataclasses.replace(drift, rho_c=0.0)
+        rows = _core.predicted_map(cfg, law.core(), s_dn="none" if s_dn == "none" else "law", **kw)
     else:
         rows, why = (drift or default_law()).core().predicted_map(cfg, s_dn=s_dn, **kw)
         if why:

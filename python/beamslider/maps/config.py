@@ -93,4 +93,4 @@ def map_config_toml(params: Optional[Parameters] = None, *, f_ex: Any, a_ex: Any
 
 def default_map_config() -> str:
     """The paper's map (f_ex = 100, 102, …, 130 Hz, a_ex = 4, 6, …, 16 m/s², s0 = 0.3, 120 s) as TOML."""
-    return _core.default_map_config()
+    return _core.MapConfig.default().toml()

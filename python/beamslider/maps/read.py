@@ -15,9 +15,9 @@ from .config import RESULTS_FILE
 __all__ = ["check_rows", "failures", "grid_points", "marked_unsettled", "read_map", "rows_to_table", "t_end_text", "text_table"]
 
 
-def grid_points(config_toml: str) -> set:
-    """The (f_ex, a_ex, s0) points of a map configuration's grid."""
-    _canonical, f, a, s = _core.map_config(config_toml)
+def grid_points(config: Union[str, "_core.MapConfig"]) -> set:
+    """The (f_ex, a_ex, s0) points of a map configuration's grid (TOML text or the core's handle)."""
+    f, a, s = (_core.MapConfig(config) if isinstance(config, str) else config).axes
     return {(float(x), float(y), float(z)) for x in f for y in a for z in s}
 
 
@@ -108,7 +108,7 @@ def _columns(table: Dict[str, np.ndarray], s0: Optional[float]) -> tuple:
 def t_end_text(table: Dict[str, np.ndarray], s0: Optional[float] = None) -> str:
     """``t_end = 120 s``, or for an extended map ``t_end = 120 s (settled points kept from 60 s)``;
     ``predicted, t_end = 120 s`` for a map of the reduced predictor (the core's text, docs/model.md §8)."""
-    return _core.map_t_end_text(_columns(table, s0))
+    return _core.map_text_table(_columns(table, s0))[1]
 
 
 def marked_unsettled(table: Dict[str, np.ndarray]) -> np.ndarray:
@@ -125,4 +125,4 @@ def text_table(table: Dict[str, np.ndarray], s0: Optional[float] = None) -> str:
     header with s0 and t_end, rows a_ex (highest first), columns f_ex, one letter per behaviour
     (:data:`LETTERS`; ``.`` = not run), followed by ``*`` when the behaviour is reached but not yet
     settled (:func:`marked_unsettled`)."""
-    return _core.map_text_table(_columns(table, s0))
+    return _core.map_text_table(_columns(table, s0))[0]

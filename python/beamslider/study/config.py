@@ -215,7 +215,7 @@ class StudyConfig(_toml.ConfigFile):
             v = getattr(self, name)
             setattr(self, name, [float(x) for x in np.atleast_1d(np.asarray(v, dtype=float))])
         # The core checks the operating points, duration, record_every, dt_s and criteria.
-        self.map_toml()
+        self.map_config()
 
     # --- TOML ---------------------------------------------------------------------------------
     @classmethod
@@ -266,13 +266,16 @@ class StudyConfig(_toml.ConfigFile):
         """TOML text of the study (readable by :meth:`from_toml_text`)."""
         return _toml.dumps(self.to_dict())
 
+    def map_config(self) -> "_core.MapConfig":
+        """The map configuration the core runs each point with (grid = the operating points), parsed
+        and checked once by the core."""
+        return _core.MapConfig(_toml.dumps(map_config_dict(self.params, f_ex=self.f_ex_hz, a_ex=self.a_ex_m_s2, s0=self.s0,
+                                                           t_end=self.duration_s, record_every=self.record_every,
+                                                           dt_s=self.dt_s, criteria=self.criteria)))
+
     def map_toml(self) -> str:
-        """The map configuration the core runs each point with (grid = the operating points)."""
-        text = _toml.dumps(map_config_dict(self.params, f_ex=self.f_ex_hz, a_ex=self.a_ex_m_s2, s0=self.s0,
-                                             t_end=self.duration_s, record_every=self.record_every, dt_s=self.dt_s,
-                                             criteria=self.criteria))
-        _core.map_config(text)  # validates
-        return text
+        """The canonical TOML text of :meth:`map_config`."""
+        return self.map_config().toml()
 
     # --- design -------------------------------------------------------------------------------
     @property

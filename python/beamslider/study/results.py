@@ -31,10 +31,12 @@ def study_header(config: StudyConfig) -> Dict[str, Any]:
     return {"config": config.to_dict(), "n_points": len(config.operating_points()) * len(config.design())}
 
 
-def open_results(config: StudyConfig, points: Sequence[StudyPoint], path: Optional[Path], resume: bool) -> "_core.StudyResults":
-    """The core's results of a study (``path`` None: in memory only): ``add(rows)``, ``in``,
-    ``len``, ``rows()``, ``close()``."""
+def open_results(config: StudyConfig, points: Sequence[StudyPoint], path: Optional[Path], resume: bool,
+                 map_config: Optional["_core.MapConfig"] = None) -> "_core.StudyResults":
+    """The core's results of a study (``path`` None: in memory only; ``map_config``: the study's
+    :meth:`StudyConfig.map_config` when the caller has it): ``add(rows)``, ``in``, ``len``,
+    ``rows()``, ``close()``."""
     info = [{"index": p.index, "f_ex_hz": p.f_ex_hz, "a_ex_m_s2": p.a_ex_m_s2, "s0": p.s0, "sample": p.sample,
              "point": p.point, "params": json_safe(dict(p.values))} for p in points]
-    return _core.StudyResults(None if path is None else str(path), config.map_toml(),
+    return _core.StudyResults(None if path is None else str(path), map_config or config.map_config(),
                               json.dumps(json_safe(study_header(config))), json.dumps(info), resume=resume)

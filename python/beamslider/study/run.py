@@ -21,7 +21,7 @@ def _chunks(todo: List[StudyPoint], size: int) -> List[List[StudyPoint]]:
     return [todo[i:i + size] for i in range(0, len(todo), size)]
 
 
-def _run_dask(client: Any, map_toml: str, todo: List[StudyPoint], writer: Any, *, chunk_size: int,
+def _run_dask(client: Any, map_cfg: Any, todo: List[StudyPoint], writer: Any, *, chunk_size: int,
               task_threads: Optional[int], max_retries: int, on_chunk: Optional[Callable[[int, int], None]],
               tick: Callable[[], None]) -> None:
     from .._dask import run_chunks, run_study_chunk
@@ -30,8 +30,8 @@ def _run_dask(client: Any, map_toml: str, todo: List[StudyPoint], writer: Any, *
         writer.add(rows)
         tick()
 
-    chunks = [(map_toml, [p.chunk_tuple() for p in ch], task_threads) for ch in _chunks(todo, chunk_size)]
-    run_chunks(client, run_study_chunk, chunks, tag="study" + map_toml, on_rows=on_rows, max_retries=max_retries,
+    chunks = [(map_cfg, [p.chunk_tuple() for p in ch], task_threads) for ch in _chunks(todo, chunk_size)]
+    run_chunks(client, run_study_chunk, chunks, tag="study" + map_cfg.toml(), on_rows=on_rows, max_retries=max_retries,
                on_chunk=on_chunk)
 
 
@@ -62,7 +62,7 @@ def run_study(config: Union[StudyConfig, str, "os.PathLike[str]"], *, out: Optio
     size = config.chunk_size if chunk_size is None else chunk_size
     if isinstance(size, bool) or not isinstance(size, (int, np.integer)) or size < 1:
         raise ValueError(f"invalid parameter `chunk_size` = {size!r}: must be an integer >= 1")
-    map_toml = config.map_toml()
+    map_cfg = config.map_config()
     points = study_points(config)
     by_index = {p.index: p for p in points}
     client, own = None, False
@@ -71,7 +71,7 @@ def run_study(config: Union[StudyConfig, str, "os.PathLike[str]"], *, out: Optio
 
         client, own = connect(scheduler, scheduler_file)
     try:
-        return _run_study(config, map_toml, points, by_index, out=out, resume=resume, client=client, threads=threads,
+        return _run_study(config, map_cfg, points, by_index, out=out, resume=resume, client=client, threads=threads,
                           size=int(size), task_threads=task_threads, max_retries=max_retries, progress=progress,
                           on_chunk=on_chunk)
     finally:
@@ -81,16 +81,16 @@ def run_study(config: Union[StudyConfig, str, "os.PathLike[str]"], *, out: Optio
             close_client(client)
 
 
-def _run_study(config: StudyConfig, map_toml: str, points: List[StudyPoint], by_index: dict, *, out: Any,
+def _run_study(config: StudyConfig, map_cfg: Any, points: List[StudyPoint], by_index: dict, *, out: Any,
                resume: bool, client: Any, threads: Optional[int], size: int, task_threads: Optional[int],
                max_retries: int, progress: Any, on_chunk: Any) -> "StudyResult":
     if out is not None:
         folder = Path(out)
         folder.mkdir(parents=True, exist_ok=True)
-        writer = open_results(config, points, folder / RESULTS_FILE, resume)
+        writer = open_results(config, points, folder / RESULTS_FILE, resume, map_cfg)
         (folder / "study.toml").write_text(config.to_toml_text(), encoding="utf-8")
     else:
-        writer = open_results(config, points, None, False)
+        writer = open_results(config, points, None, False, map_cfg)
     todo = [p for p in points if p.index not in writer]
     try:
         with progress_bar(progress, len(points), "study", "pts") as cb:
@@ -104,10 +104,10 @@ def _run_study(config: StudyConfig, map_toml: str, points: List[StudyPoint], by_
                     writer.add(batch)
                     tick()
 
-                writer.add(_core.run_study_chunk(map_toml, [p.chunk_tuple() for p in todo], threads=threads,
+                writer.add(_core.run_study_chunk(map_cfg, [p.chunk_tuple() for p in todo], threads=threads,
                                                  on_rows=on_rows))
             elif todo:
-                _run_dask(client, map_toml, todo, writer, chunk_size=size, task_threads=task_threads,
+                _run_dask(client, map_cfg, todo, writer, chunk_size=size, task_threads=task_threads,
                           max_retries=max_retries, on_chunk=on_chunk, tick=tick)
     finally:
         writer.close()

@@ -147,29 +147,49 @@ class DriftLaw:
     outside_design: List[str] = field(default_factory=list)
     """Why the design this law was blended for lies outside what its design law covers
     (:meth:`beamslider.superslow.DesignLaw.law_for`); every prediction with it is ``extrapolated``."""
-    _trees: dict = field(default_factory=dict, repr=False, compare=False)
+    _cores: dict = field(default_factory=dict, init=False, repr=False, compare=False)
+
+    def core(self, exclude_group: Optional[int] = None):
+        """The core's handle of this law (``beamslider._core.DriftLaw``: the law file parsed and
+        checked once); with ``exclude_group``, of the law without the samples of that training
+        point (leave one out: the same standardisation, Λ_c and scalars). Made at the first call
+        and kept until a field of the law is assigned."""
+        if exclude_group not in self._cores:
+            d = law_dict(self, compact=True)
+            if exclude_group is not None:
+                for b in self.x:
+                    keep = self.groups[b] != exclude_group
+                    d["x"][b], d["v"][b] = self.x[b][keep].tolist(), self.v[b][keep].tolist()
+                keep = self.mono_groups != exclude_group
+                d["mono_x"], d["mono_y"] = self.mono_x[keep].tolist(), self.mono_y[keep].tolist()
+            self._cores[exclude_group] = _core.DriftLaw(json.dumps(d))
+        return self._cores[exclude_group]
+
+    def __setattr__(self, name: str, value) -> None:
+        # A changed field makes new handles (the core's copies would be stale).
+        if name != "_cores":
+            self.__dict__["_cores"] = {}
+        object.__setattr__(self, name, value)
+
+    def __getstate__(self) -> dict:
+        """Pickled without the core's handles (made again where the law is used)."""
+        return {**self.__dict__, "_cores": {}}
 
     def monostable(self, manifold, exclude_group: Optional[int] = None) -> bool:
         """Whether the operating point has a single (low) branch in the nonsmooth model although
         single-term HB with the slider rigidly attached has a fold: the label of the nearest
         training point in standardised (ln Â_L(s_up), s_up) of the HB manifold (the low
         branch's amplitude at its fold and the fold's position), the label being "the PCS
-        down sweep shows no jump-up and stays low" (``mono_y``). False without an HB fold or
-        without samples."""
+        down sweep shows no jump-up and stays low" (``mono_y``); the core's vote
+        (``law::DriftLaw::monostable``). False without an HB fold or without samples."""
         x = monostable_inputs(manifold)
-        keep = self.mono_groups != exclude_group if exclude_group is not None else np.ones(self.mono_y.size, bool)
-        if x is None or not keep.any():
-            return False
-        d = np.sum(((self.mono_x[keep] - x) / self.mono_std) ** 2, axis=1)
-        return bool(self.mono_y[keep][int(np.argmin(d))] > 0.5)
+        return x is not None and self.core(exclude_group).monostable([float(x[0]), float(x[1])])
 
     def evaluate(self, branch: str, feat: Dict[str, np.ndarray]) -> Tuple[np.ndarray, np.ndarray]:
         """V at the given features (half coordinate, towards the centre positive) and a flag per
         point: True where a feature lies outside the training range (extrapolation); evaluated
         by the core (``law::DriftLaw::evaluate``), as the predictor does."""
-        x, lift = law_inputs(feat), np.asarray(feat["lift_off"], dtype=float).reshape(-1)
-        v, out = _core.drift_law_evaluate(law_json(self), high=branch == "H", x=x.tolist(), lift_off=lift.tolist())
-        return np.asarray(v, dtype=float), np.asarray(out, dtype=bool)
+        return self._evaluate_x(branch, law_inputs(feat), np.asarray(feat["lift_off"], dtype=float).reshape(-1))
 
     def outside_points(self, f_ex: float, a_ex: float) -> bool:
         """True where (f_ex, a_ex) lies outside the box of the training operating points (the
@@ -189,29 +209,16 @@ class DriftLaw:
         return s_dn_forcing_ratio(manifold, rc, sp) if rc > 0 else None
 
     def _evaluate_x(self, branch, x, lift_off, exclude_group=None):
-        """The fit's leave-one-out evaluation (``exclude_group`` left out; scipy's kNN, whose
-        choice among equidistant samples may differ from the core's)."""
-        from scipy.spatial import cKDTree
-
-        key = (branch, exclude_group)
-        if key not in self._trees:
-            xt, vt = self.x[branch], self.v[branch]
-            if exclude_group is not None:
-                keep = self.groups[branch] != exclude_group
-                xt, vt = xt[keep], vt[keep]
-            self._trees[key] = (cKDTree((xt - self.mean) / self.std) if xt.shape[0] else None, vt)
-        tree, vt = self._trees[key]
-        out = np.zeros(x.shape[0])
-        if tree is None:
-            return out, np.ones(x.shape[0], dtype=bool)
-        k = min(self.k, vt.size)
-        dk, idx = tree.query((x - self.mean) / self.std, k=k)
-        dk, idx = dk.reshape(x.shape[0], k), idx.reshape(x.shape[0], k)
-        w = 1.0 / np.maximum(dk, 1e-6)
-        out = (w * vt[idx]).sum(axis=1) / w.sum(axis=1)
-        out[lift_off < self.lift_c] = 0.0
-        outside = np.any((x < self.lo - 1e-9) | (x > self.hi + 1e-9), axis=1)
-        return out, outside
+        """V and the outside flag at law inputs ``x`` (rows of FEATURES) with Λ_g ``lift_off``, by
+        the core (``law::DriftLaw::evaluate``); ``exclude_group``: leave that training point out
+        (the fit's validation). A branch without samples gives V = 0, outside everywhere."""
+        x = np.asarray(x, dtype=float).reshape(-1, len(FEATURES))
+        keep = self.groups[branch] != exclude_group if exclude_group is not None else slice(None)
+        if self.v[branch][keep].size == 0:
+            return np.zeros(x.shape[0]), np.ones(x.shape[0], dtype=bool)
+        v, out = self.core(exclude_group).evaluate(high=branch == "H", x=x.tolist(),
+                                                   lift_off=np.asarray(lift_off, dtype=float).reshape(-1).tolist())
+        return np.asarray(v, dtype=float), np.asarray(out, dtype=bool)
 
 
 def _fold_amplitude(manifold) -> float:
@@ -227,8 +234,8 @@ def monostable_inputs(manifold) -> Optional[np.ndarray]:
     return np.array([math.log(max(_fold_amplitude(manifold), 1e-12)), float(manifold.s_up)])
 
 
-S_DN_MIN = 0.2
-"""Smallest s at which :func:`s_dn_forcing_ratio` looks for the end of the high branch."""
+S_DN_MIN = _core.S_DN_MIN
+"""Smallest s at which :func:`s_dn_forcing_ratio` looks for the end of the high branch (the core's)."""
 
 
 def forcing_ratio(manifold, s: Sequence[float]) -> np.ndarray:
@@ -247,7 +254,8 @@ def forcing_ratio(manifold, s: Sequence[float]) -> np.ndarray:
 
 def s_dn_forcing_ratio(manifold, rho_c: float, s_p: float = 0.0) -> Optional[float]:
     """Jump-down position from the forcing ratio (docs/model.md §6.4 end of the high branch with the
-    effective damping of the nonsmooth model): the first s ≥ S_DN_MIN on the HB high branch where
+    effective damping of the nonsmooth model; the core's ``predict::law_s_dn``, as the predictor
+    uses it): the first s ≥ S_DN_MIN on the HB high branch where
     ρ(s) (:func:`forcing_ratio`) falls below ``rho_c``, linearly interpolated between the branch's
     points; None where it never does (the high branch reaches the centre). With ``s_p`` > 0 (the
     PCS high branches end at one position, :func:`jump_down_bracket`): s_p if ρ(s_p) ≤ ``rho_c``,
@@ -255,19 +263,9 @@ def s_dn_forcing_ratio(manifold, rho_c: float, s_p: float = 0.0) -> Optional[flo
     hb = manifold.high
     if len(hb) == 0 or not rho_c > 0:
         return None
-    s = np.sort(np.asarray(hb.s, dtype=float))
-    if s_p > 0:
-        if not (s[0] <= s_p <= s[-1]):
-            return None
-        return float(s_p) if float(forcing_ratio(manifold, [s_p])[0]) <= rho_c else None
-    r = forcing_ratio(manifold, s)
-    for i in range(1, s.size):
-        if s[i] < S_DN_MIN or not (r[i] < rho_c):
-            continue
-        if s[i - 1] >= S_DN_MIN and r[i - 1] >= rho_c and r[i - 1] != r[i]:
-            return float(s[i - 1] + (s[i] - s[i - 1]) * (r[i - 1] - rho_c) / (r[i - 1] - r[i]))
-        return float(s[i])
-    return None
+    return _core.law_s_dn(np.asarray(hb.s, dtype=float).tolist(), np.asarray(hb.amplitude, dtype=float).tolist(),
+                          f_ex_hz=float(manifold.f_ex), a_ex_m_s2=float(manifold.a_ex), rho_c=float(rho_c), s_p=float(s_p),
+                          thickness_m=float(manifold.params.thickness_m))
 
 
 def move_fold(s, z: float, fold: float, new_fold: float):

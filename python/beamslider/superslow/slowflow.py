@@ -15,7 +15,7 @@ from .. import _core
 from .._util import number
 from ..params import Parameters, native, resolve
 from .design_law import DesignLaw, builtin_law
-from .law import DriftLaw, law_json
+from .law import DriftLaw
 from .tables import DriftTable
 
 __all__ = ["MONO_NODES", "ROBUST_DS", "Prediction", "predict", "table_model"]
@@ -183,7 +183,7 @@ def predict(
         t_build = number("build_up", build_up)
     v_dead = float(v_dead or 0.0)
     if isinstance(drift, DriftLaw):
-        kw = {"law_json": law_json(drift)}
+        kw = {"law": drift.core()}
     else:
         low, high, _, _, su, sd = table_model(drift)
         kw = {"table": (low, high, su, sd)}

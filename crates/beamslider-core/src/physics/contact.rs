@@ -77,19 +77,9 @@ impl<const N: usize> Jacobians<N> {
 ///
 /// Returns the point's x-coordinate and, when the contact is closed (g_N < 0), its kinematics.
 #[inline(always)]
-#[allow(clippy::too_many_arguments)]
-pub fn kinematics<const N: usize>(
-    beam: &Beam,
-    slider: &Slider,
-    i: usize,
-    x_kin: f64,
-    z_c: f64,
-    sin_b: f64,
-    cos_b: f64,
-    q: &[f64; N],
-    base: BaseState,
-) -> (f64, Option<ClosedContact<N>>) {
-    let pr = probe(beam, slider, i, x_kin, z_c, sin_b, cos_b, q);
+pub fn kinematics<const N: usize>(beam: &Beam, slider: &Slider, i: usize, pose: Pose, q: &[f64; N], base: BaseState) -> (f64, Option<ClosedContact<N>>) {
+    let Pose { sin_b, cos_b, .. } = pose;
+    let pr = probe(beam, slider, i, pose, q);
     if !may_close(i, pr.z_p, base.w0, pr.w, slider.half_thickness) {
         return (pr.x_p, None);
     }
@@ -121,20 +111,24 @@ pub struct Probe<const N: usize> {
     phi: [f64; N],
 }
 
+/// The slider's configuration as the contact kinematics read it (docs/model.md §4): `x_kin` (x_C
+/// for the free slider, s·L for the PCS), z_C, and sin β, cos β.
+#[derive(Debug, Clone, Copy)]
+pub struct Pose {
+    /// x used for the kinematics [m].
+    pub x_kin: f64,
+    /// z_C [m].
+    pub z_c: f64,
+    /// sin β.
+    pub sin_b: f64,
+    /// cos β.
+    pub cos_b: f64,
+}
+
 /// Position of point `i` and the beam deflection under it (mode values via the table).
 #[inline(always)]
-#[allow(clippy::too_many_arguments)]
-pub fn probe<const N: usize>(
-    beam: &Beam,
-    slider: &Slider,
-    i: usize,
-    x_kin: f64,
-    z_c: f64,
-    sin_b: f64,
-    cos_b: f64,
-    q: &[f64; N],
-) -> Probe<N> {
-    let [x_p, z_p] = slider.point(i, x_kin, z_c, sin_b, cos_b);
+pub fn probe<const N: usize>(beam: &Beam, slider: &Slider, i: usize, pose: Pose, q: &[f64; N]) -> Probe<N> {
+    let [x_p, z_p] = slider.point(i, pose.x_kin, pose.z_c, pose.sin_b, pose.cos_b);
     probe_at(beam, x_p, z_p, q)
 }
 
@@ -258,7 +252,7 @@ mod tests {
         let (sb, cb) = qsm[2].sin_cos();
         let mut out = Vec::new();
         for i in 0..4 {
-            let (_, c) = kinematics::<5>(&model.beam, &slider, i, qsm[0], qsm[1], sb, cb, &qm, BaseState { w0: 0.0, w0_dot: 0.0 });
+            let (_, c) = kinematics::<5>(&model.beam, &slider, i, Pose { x_kin: qsm[0], z_c: qsm[1], sin_b: sb, cos_b: cb }, &qm, BaseState { w0: 0.0, w0_dot: 0.0 });
             if let Some(c) = c {
                 let v = |ubv: &[f64], usv: [f64; 3]| -> f64 {
                     (0..5).map(|m| c.wb[0][m] * ubv[m]).sum::<f64>() + (0..3).map(|m| c.ws[0][m] * usv[m]).sum::<f64>()

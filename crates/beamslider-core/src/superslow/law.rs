@@ -297,7 +297,12 @@ impl DriftLaw {
     /// (ln Â_L(s_up), s_up) of the HB manifold (label: its PCS sweeps show no jump-up). False
     /// without an HB fold or without samples.
     pub fn monostable(&self, manifold: &HbManifold) -> bool {
-        let Some(x) = mono_x(manifold) else { return false };
+        mono_x(manifold).is_some_and(|x| self.monostable_at(&x))
+    }
+
+    /// The monostability vote at `x` = (ln Â_L at the HB fold, s_up) (the inputs of
+    /// [`DriftLaw::monostable`]): the label of the nearest sample; false without samples.
+    pub fn monostable_at(&self, x: &[f64; 2]) -> bool {
         let d = |m: &[f64; 2]| ((m[0] - x[0]) / self.mono_std[0]).powi(2) + ((m[1] - x[1]) / self.mono_std[1]).powi(2);
         let mut best: Option<(f64, bool)> = None;
         for (m, y) in &self.mono {
@@ -527,4 +532,29 @@ pub fn features_with(params: &Params, beam: &Beam, manifold: &HbManifold, f_ex_h
     }
     let _ = sorted.n;
     Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn law(mono_x: &str, mono_y: &str) -> DriftLaw {
+        let text = format!(
+            r#"{{"kind": "beamslider drift law", "version": 1, "features": ["amp_rel", "s"], "k": 1,
+            "x": {{"L": [[0.5, 0.3]], "H": []}}, "v": {{"L": [0.01], "H": []}}, "mean": [0.5, 0.3], "std": [1.0, 1.0],
+            "lo": [0.0, 0.0], "hi": [1.0, 0.5], "rho_c": 0.0, "mono_x": {mono_x}, "mono_y": {mono_y}, "mono_std": [1.0, 0.1]}}"#
+        );
+        DriftLaw::from_json_str(&text).unwrap()
+    }
+
+    #[test]
+    fn monostable_vote_is_the_label_of_the_nearest_sample_in_standardised_inputs() {
+        let l = law("[[-3.0, 0.30], [-1.0, 0.40]]", "[1.0, 0.0]");
+        assert!(l.monostable_at(&[-2.9, 0.31]));
+        assert!(!l.monostable_at(&[-1.1, 0.39]));
+        // Standardised by mono_std = [1, 0.1]: nearer the first sample (1.21 against 1.81),
+        // although the second is nearer in raw units (0.82 against 1.21).
+        assert!(l.monostable_at(&[-1.9, 0.30]));
+        assert!(!law("[]", "[]").monostable_at(&[-3.0, 0.30]));
+    }
 }
