@@ -118,6 +118,8 @@ def main() -> None:
     ap.add_argument("--work", default="validation-out/design_law_loo", help="FS maps of the training designs (resumable)")
     ap.add_argument("--out", default=str(ROOT / "docs" / "results" / "design_law"))
     ap.add_argument("--stacked", action="store_true", help="also the stacked classifier's cross-validation (scikit-learn)")
+    ap.add_argument("--only-computed", action="store_true",
+                    help="only the designs whose FS map under --work is complete (map.txt written); no FS runs")
     a = ap.parse_args()
     law = default_law()
     x0 = design_coordinates(Parameters())
@@ -129,6 +131,8 @@ def main() -> None:
             continue  # the prototype: its map is the paper's (validate_design_law.py)
         p = design_params(x)
         d = work / f"design_{j:02d}"
+        if a.only_computed and not (d / "map.txt").exists():
+            continue
         operating_map(p, f_ex=F, a_ex=A, s0=0.3, t_end=120.0, out=d, resume=(d / "map.jsonl").exists())
         fs = read_rows(d / "map.jsonl")
         pr = by_point(predicted_map(p, drift=without(law, j), f_ex=F, a_ex=A, s0=0.3, t_end=120.0))
@@ -139,9 +143,12 @@ def main() -> None:
               f"agreement {res[-1]['agree']}/{len(fs)}", flush=True)
     within = sum(abs(r["fs_mean_hz"] - r["predicted_mean_hz"]) <= 3.0 for r in res)
     agree = sum(r["agree"] for r in res) / sum(r["points"] for r in res)
+    if not res:
+        raise SystemExit("no training design with a complete FS map under --work")
     lines = [f"# the design law's training designs, each predicted by the law of the others (leave one design out); "
              f"FS and predicted maps: a_ex 10/14 m/s^2, f_ex 100-130 Hz step 2, s0 0.3, 120 s",
-             "# python scripts/repro/validate_design_law_loo.py" + (" --stacked" if a.stacked else ""),
+             "# python scripts/repro/validate_design_law_loo.py" + (" --stacked" if a.stacked else "")
+             + (f"  ({len(res)} of {len(law.x) - 1} designs: --only-computed)" if a.only_computed else ""),
              "design  FS band mean [Hz] | predicted | |diff| | behaviour agreement"]
     for r in res:
         lines.append(f"{r['design']:>6}  {r['fs_mean_hz']:6.1f} | {r['predicted_mean_hz']:6.1f} | "
