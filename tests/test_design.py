@@ -251,3 +251,34 @@ def test_predictor_run_records_the_law_content_and_refuses_a_changed_law(tmp_pat
     law.write_text('{"kind": "beamslider drift law", "rho_c": 0.01497}', encoding="utf-8")
     with pytest.raises(ValueError, match="another content of the drift law"):
         DesignWriter(cfg, path, True)
+
+
+def test_reference_designs_and_every_check_robust_over_the_same_sample():
+    """Named reference designs are re-checked beside the search's best and its re-checks, every one
+    robustly over the same fixed sample, and the FS-confirmed best is the re-checked search design
+    with the highest FS robust bandwidth (an FS-only reference never wins that title)."""
+    unc = [Uncertain("friction_coefficient", "uniform", low=0.15, high=0.3)]
+    cfg = tiny(evaluator="predictor", drift_law="default", robust="mean", uncertain=unc, samples=2, recheck=2,
+               maxiter=0, popsize=1, reference={"other": {"gap_ratio": 1.064}})
+    assert np.allclose(cfg.reference_x(cfg.reference["other"]), [1.064, Parameters().slider_mass_kg])
+    again = DesignConfig.from_toml_text(cfg.to_toml_text())
+    assert again.reference == {"other": {"gap_ratio": 1.064}}
+    res = optimise(cfg, check_t_end_s=1.5)
+    names = {"prototype", "best", "recheck_0", "recheck_1", "ref_other"}
+    assert {k[:-len("_robust")] for k in res.checks if k.endswith("_robust")} == names
+    fs = {k: r for k, r in res.checks.items() if k.endswith("_robust")}
+    assert all(r["evaluator"] == "fs" and len(r["samples"]) == 2 for r in fs.values())
+    assert res.checks["ref_other_robust"]["variables"]["gap_ratio"] == 1.064
+    name, rec = res.confirmed_best()
+    assert name in ("best", "recheck_0", "recheck_1")
+    assert rec["bandwidth_hz"] == max(fs[f"{n}_robust"]["bandwidth_hz"] for n in ("best", "recheck_0", "recheck_1"))
+    assert res.summary()["confirmed_best"]["name"] == name and "FS-confirmed best" in res.text()
+
+
+def test_reference_design_errors():
+    with pytest.raises(ValueError, match=r"unknown key 'friction_coefficient' in \[reference.a\]"):
+        tiny(reference={"a": {"friction_coefficient": 0.2}})
+    with pytest.raises(ValueError, match="outside its bounds"):
+        tiny(reference={"a": {"gap_ratio": 1.5}})
+    with pytest.raises(ValueError, match="must be a table"):
+        DesignConfig.from_toml_text("[design]\ngap_ratio = [1.02, 1.2]\n[reference]\na = 3\n")

@@ -22,7 +22,7 @@ def add_parser(sub: Any) -> None:
                         description=doc_body(__doc__))
     add_config_run(sp, "design")
     sp.add_argument("--check-t-end", type=float, metavar="S",
-                    help="duration of the FS re-checks of prototype and best design [s] (default: the search's t_end_s)")
+                    help="duration of the FS re-checks (prototype, best, re-checked and reference designs) [s] (default: the search's t_end_s)")
     sp.add_argument("--robust-check-t-end", type=float, metavar="S",
                     help="duration of the robust FS re-checks [s] (default: --check-t-end)")
     sp.add_argument("--resume", action="store_true", help="continue the run in --out, skipping evaluated designs")

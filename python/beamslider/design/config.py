@@ -66,6 +66,10 @@ include_prototype = true         # the base parameters are a member of the first
 scale_inertia = true             # J_C scaled with m (B/B0)^2 when slider_mass_kg / contact_spacing_m vary
 recheck = 2                      # FS re-checks of the best designs (predictor search)
 
+# [reference.fs_only_best]       # named designs re-checked with FS beside the search's best
+# gap_ratio = 1.064              # (variables not given keep the base value)
+# slider_mass_kg = 0.04259
+
 # [params]                       # base design (default: the paper's prototype)
 # [uncertain.friction_coefficient]
 # distribution = "uniform"
@@ -162,6 +166,9 @@ class DesignConfig(_toml.ConfigFile):
     samples: int = 4
     sampling_seed: int = 0
     chunk_size: int = 8
+    reference: Dict[str, Dict[str, float]] = field(default_factory=dict)
+    """Named designs re-checked with FS beside the search's best (``[reference.<name>]``: variable =
+    value; variables not given keep the base value)."""
 
     TOML_KIND = "design"
 
@@ -220,6 +227,21 @@ class DesignConfig(_toml.ConfigFile):
                 if not v.low <= x <= v.high:
                     raise ValueError(f"include_prototype: the base value {v.name} = {x} lies outside the bounds "
                                      f"[{v.low}, {v.high}] (widen them or set include_prototype = false)")
+        if not isinstance(self.reference, dict):
+            raise ValueError("[reference] must hold tables of named designs: [reference.<name>] variable = value")
+        ref: Dict[str, Dict[str, float]] = {}
+        for name, vals in self.reference.items():
+            if not (isinstance(name, str) and name.replace("_", "").isalnum()):
+                raise ValueError(f"invalid reference design name {name!r}: letters, digits and underscores only")
+            if not isinstance(vals, dict) or not vals:
+                raise ValueError(f"[reference.{name}] must be a table of design variables: variable = value")
+            bad = sorted(set(vals) - set(self.names))
+            if bad:
+                raise ValueError(f"unknown key {bad[0]!r} in [reference.{name}]: allowed are the design variables "
+                                 f"{', '.join(self.names)}")
+            ref[name] = {k: _num(f"reference.{name}.{k}", v) for k, v in vals.items()}
+            self.design_params(self.reference_x(ref[name]))  # inside the bounds, valid parameters
+        self.reference = ref
         self.map_config()  # the core validates band, duration, record_every, criteria
 
     # --- derived ------------------------------------------------------------------------------
@@ -274,6 +296,10 @@ class DesignConfig(_toml.ConfigFile):
         """The base parameters as a design vector."""
         return np.array([float(getattr(self.params, v.name)) for v in self.variables])
 
+    def reference_x(self, values: Dict[str, float]) -> np.ndarray:
+        """The design vector of a reference design (variables not given: the base value)."""
+        return np.array([float(values.get(v.name, getattr(self.params, v.name))) for v in self.variables])
+
     def violation(self, p: Parameters) -> str:
         """Why design ``p`` breaks a constraint ('' when feasible)."""
         out = []
@@ -325,6 +351,8 @@ class DesignConfig(_toml.ConfigFile):
         if self.uncertain:
             d["uncertain"] = {u.name: u.to_dict() for u in self.uncertain}
             d["sampling"] = {"method": self.sampling_method, "samples": self.samples, "seed": self.sampling_seed}
+        if self.reference:
+            d["reference"] = {k: dict(v) for k, v in self.reference.items()}
         return d
 
     def to_toml_text(self) -> str:
@@ -339,7 +367,8 @@ class DesignConfig(_toml.ConfigFile):
                     "constraints": ("max_slider_mass_kg", "min_gap_ratio"),
                     "optimiser": ("popsize", "maxiter", "init", "mutation", "recombination", "include_prototype",
                                   "scale_inertia", "recheck", "chunk_size"),
-                    "sampling": ("method", "samples", "seed"), "params": None, "criteria": None, "uncertain": None}
+                    "sampling": ("method", "samples", "seed"), "params": None, "criteria": None, "uncertain": None,
+                    "reference": None}
         top = ("evaluator", "drift_law", "seed")
         unknown = sorted(set(d) - set(sections) - set(top))
         if unknown:
@@ -368,7 +397,7 @@ class DesignConfig(_toml.ConfigFile):
                 kw[{"method": "sampling_method", "seed": "sampling_seed"}.get(k, k) if sec == "sampling" else k] = v
         uncertain = uncertain_from_dict(d.get("uncertain", {}))
         return cls(variables=variables, params=Parameters.from_dict(d.get("params", {})),
-                   criteria=dict(d.get("criteria", {})), uncertain=uncertain, **kw)
+                   criteria=dict(d.get("criteria", {})), uncertain=uncertain, reference=d.get("reference", {}), **kw)
 
 
 def read_config(path: Union[str, "os.PathLike[str]"]) -> DesignConfig:

@@ -325,16 +325,16 @@ def optimise(config: Union[DesignConfig, str, Path], *, out: Optional[Union[str,
                     if len(seen) == c.recheck:
                         break
                 named += [(f"recheck_{i}", np.array(writer.get(k)["x"])) for i, k in enumerate(seen)]
+            named += [(f"ref_{n}", c.reference_x(v)) for n, v in c.reference.items()]
             recs = s.evaluate([x for _, x in named], evaluator="fs", mode="nominal", t_end=t_check, samples=[{}],
                               desc="FS check (nominal)")
             for (name, _x), r in zip(named, recs):
                 result_checks[f"{name}_nominal" if not name.startswith("recheck") else name] = r
             rs = c.robust_samples_values()
-            if rs:
-                two = [(n, x) for n, x in named if n in ("prototype", "best")]
-                recs = s.evaluate([x for _, x in two], evaluator="fs", mode="robust", t_end=t_robust, samples=rs,
+            if rs:  # every checked design over the same fixed sample
+                recs = s.evaluate([x for _, x in named], evaluator="fs", mode="robust", t_end=t_robust, samples=rs,
                                   desc="FS check (robust)")
-                for (name, _x), r in zip(two, recs):
+                for (name, _x), r in zip(named, recs):
                     result_checks[f"{name}_robust"] = r
         records = [writer.records[k] for k in writer.order]
         obj = "bandwidth_hz" if c.maximise == "bandwidth" else "harvest"

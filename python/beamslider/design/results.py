@@ -7,9 +7,10 @@ from __future__ import annotations
 
 import hashlib
 import json
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Dict, List, Optional, Union
+from typing import Any, Dict, List, Optional, Tuple, Union
 
 import numpy as np
 
@@ -161,7 +162,9 @@ class DesignResult:
     ``best``: the search's best record and ``best_params`` its :class:`Parameters`; ``prototype``:
     the search record of the base design (if evaluated); ``pareto``: the Pareto front of bandwidth
     vs slider mass over the search's feasible designs; ``checks``: FS re-checks by name
-    (``prototype_nominal``, ``best_nominal``, ``prototype_robust``, ``best_robust``, ``recheck_<k>``);
+    (``prototype_nominal``, ``best_nominal``, ``recheck_<k>``, ``ref_<name>_nominal``, and with uncertain
+    inputs ``<same name>_robust`` of each over the fixed sample); :meth:`confirmed_best`: the
+    search's design that the FS re-checks rank first;
     ``jam``: the jam report; ``optimiser``: scipy's result summary (nit, nfev, message)."""
 
     config: DesignConfig
@@ -179,6 +182,21 @@ class DesignResult:
     """Designs evaluated by this call (not read back from a resumed file)."""
     runs_now: int = 0
     """Single runs (FS or predicted points) done by this call."""
+
+    def confirmed_best(self) -> Optional[Tuple[str, Dict[str, Any]]]:
+        """The FS-confirmed best: among the search's re-checked designs (``best`` and ``recheck_<k>``,
+        not the prototype or the reference designs), the one with the highest FS bandwidth (then score), robust when
+        robust re-checks exist, else nominal; None without re-checks."""
+        robust = any(k.endswith("_robust") for k in self.checks)
+        cands = []
+        for k, r in self.checks.items():
+            base = k[:-len("_robust")] if k.endswith("_robust") else (k[:-len("_nominal")] if k.endswith("_nominal") else k)
+            if robust != k.endswith("_robust") or not (base == "best" or base.startswith("recheck_")):
+                continue
+            cands.append((base, r))
+        if not cands:
+            return None
+        return max(cands, key=lambda t: (t[1].get("bandwidth_hz", -math.inf), t[1].get("score", -math.inf), t[0] == "best"))
 
     def to_pandas(self) -> Any:
         """Every evaluated design as a pandas DataFrame (see :meth:`DesignRecords.to_pandas`)."""
@@ -199,6 +217,7 @@ class DesignResult:
             "best": brief(self.best), "prototype": brief(self.prototype),
             "pareto": [brief(r) for r in self.pareto],
             "checks": {k: brief(v) for k, v in self.checks.items()}, "jam": self.jam,
+            "confirmed_best": (lambda cb: None if cb is None else {"name": cb[0], **brief(cb[1])})(self.confirmed_best()),
         })
 
     def text(self) -> str:
@@ -224,6 +243,9 @@ class DesignResult:
         row("best", self.best)
         for k, v in self.checks.items():
             row(k, v)
+        cb = self.confirmed_best()
+        if cb is not None:
+            row(f"FS-confirmed best ({cb[0]})", cb[1])
         lines.append(f"  Pareto front (bandwidth vs slider mass): " + "; ".join(
             f"m = {r['slider_mass_kg'] * 1e3:.1f} g: {r['bandwidth_hz']:.2f} Hz" for r in self.pareto))
         if self.jam:
