@@ -11,9 +11,12 @@
 #
 # The Rust core is compiled once, in the ci-wheel profile of Cargo.toml (release code generation
 # without link-time optimisation), for both the cargo tests and the abi3 wheel (valid for every
-# CPython >= 3.9), so the two builds share the compiled dependencies. While Cargo compiles, a
-# virtual environment per Python (target/test-venvs/, re-used by later runs) gets the test
-# dependencies. Installs what it needs; a fresh machine needs only the toolchains.
+# CPython >= 3.9), so the two builds share the compiled dependencies. The core's unit-test harness
+# (the core compiled a second time, with cfg(test)) is compiled without optimisation
+# (scripts/tooling/rustc_unit_tests_unoptimised.sh, unless RUSTC_WRAPPER is already set). While
+# Cargo compiles, a virtual environment per Python (target/test-venvs/, re-used by later runs)
+# gets the test dependencies, installed by uv (from PyPI; pip if uv cannot be installed).
+# Installs what it needs; a fresh machine needs only the toolchains.
 #
 #   BEAMSLIDER_TEST_PYTHONS="/path/to/python3.9 /path/to/python3.13"   choose the interpreters
 #   BEAMSLIDER_REQUIRE_PYTHONS=1   (--full) fail unless both 3.9 and 3.13 are found
@@ -25,7 +28,7 @@ FULL=0
 for arg in "$@"; do
   case "$arg" in
     --full) FULL=1 ;;
-    -h|--help) sed -n '2,20p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -h|--help) sed -n '2,23p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
     *) echo "scripts/test.sh: unknown option $arg (--full, --help)" >&2; exit 2 ;;
   esac
 done
@@ -106,16 +109,27 @@ for py in "${PYTHONS[@]}"; do
   (
     [ -x "$venv/bin/python" ] || "$py" -m venv "$venv"
     test_requirements "$venv/bin/python" > "$venv/requirements-test.txt"
-    "$venv/bin/python" -m pip install --quiet --disable-pip-version-check -r "$venv/requirements-test.txt"
+    # uv takes ~3 s CPU where pip takes ~40 (pip compiles every module's bytecode at install; uv
+    # leaves that to the first import), CPU that the compilers running meanwhile would wait for.
+    if "$venv/bin/python" -m pip install --quiet --disable-pip-version-check uv \
+       && "$venv/bin/uv" pip install --quiet --python "$venv/bin/python" -r "$venv/requirements-test.txt"; then
+      :
+    else
+      "$venv/bin/python" -m pip install --quiet --disable-pip-version-check -r "$venv/requirements-test.txt"
+    fi
   ) > "target/test-venvs/py$ver.log" 2>&1 &
   VENV_PIDS+=($!)
 done
 
-# 2. The Rust tests, in the wheel's profile.
+# 2. The Rust tests, in the wheel's profile. The binding's library is not built as a test harness
+#    (`--lib` would: it has no Rust tests, pytest tests it, and the wheel's build compiles PyO3
+#    with the build variables of maturin anyway).
+UNOPT=$PWD/scripts/tooling/rustc_unit_tests_unoptimised.sh
 if [ "$FULL" = 1 ]; then
-  cargo test --workspace --profile "$PROFILE"
+  RUSTC_WRAPPER=${RUSTC_WRAPPER:-$UNOPT} cargo test --workspace --profile "$PROFILE"
 else
-  cargo test --workspace --profile "$PROFILE" --lib --bins --tests  # not the examples' builds, not doc tests
+  # not the examples' builds, not doc tests
+  RUSTC_WRAPPER=${RUSTC_WRAPPER:-$UNOPT} cargo test --workspace --profile "$PROFILE" --bins --tests
 fi
 stamp "cargo test passed"
 [ -f pyproject.toml ] || exit 0
