@@ -121,18 +121,16 @@ for py in "${PYTHONS[@]}"; do
   VENV_PIDS+=($!)
 done
 
-# 2. The Rust tests, in the wheel's profile. The binding's library is not built as a test harness
-#    (`--lib` would: it has no Rust tests, pytest tests it, and the wheel's build compiles PyO3
-#    with the build variables of maturin anyway).
-UNOPT=$PWD/scripts/tooling/rustc_unit_tests_unoptimised.sh
-if [ "$FULL" = 1 ]; then
-  RUSTC_WRAPPER=${RUSTC_WRAPPER:-$UNOPT} cargo test --workspace --profile "$PROFILE"
-else
-  # not the examples' builds, not doc tests
-  RUSTC_WRAPPER=${RUSTC_WRAPPER:-$UNOPT} cargo test --workspace --profile "$PROFILE" --bins --tests
-fi
-stamp "cargo test passed"
-[ -f pyproject.toml ] || exit 0
+# 2. The Rust tests, in the wheel's profile: built here, run in step 3 while the wheel builds. The
+#    binding's library is not built as a test harness (`--lib` would: it has no Rust tests, pytest
+#    tests it, and the wheel's build compiles PyO3 with the build variables of maturin anyway).
+CARGO_TEST=(cargo test --workspace --profile "$PROFILE")
+# The fast check: not the examples' builds, not doc tests.
+[ "$FULL" = 1 ] || CARGO_TEST+=(--bins --tests)
+export RUSTC_WRAPPER=${RUSTC_WRAPPER:-$PWD/scripts/tooling/rustc_unit_tests_unoptimised.sh}
+"${CARGO_TEST[@]}" --no-run
+stamp "cargo test built"
+if [ ! -f pyproject.toml ]; then "${CARGO_TEST[@]}"; exit 0; fi
 
 wait_venv() {  # the virtual environment of PYTHONS[$1], once its installation has finished
   local ver venv
@@ -145,18 +143,40 @@ wait_venv() {  # the virtual environment of PYTHONS[$1], once its installation h
   fi
 }
 
-# 3. One abi3 wheel, built by pip through maturin (as `pip install .`) in the same profile: the
-#    dependencies and the core are already compiled. The build backend (maturin) was installed
-#    into the first test environment with the test dependencies, so pip needs no isolated build
+# 3. The Rust tests run (output in target/cargo-test.log) while one abi3 wheel is built by pip
+#    through maturin (as `pip install .`) in the same profile: the dependencies and the core are
+#    already compiled, and the wheel's build, mostly one chain of crates (PyO3, numpy, the binding),
+#    leaves a core free for the tests. Cargo releases the build directory once its tests start
+#    running; the wheel's build starts then. The build backend (maturin) was installed into the
+#    first test environment with the test dependencies, so pip needs no isolated build
 #    environment of its own.
+CARGO_LOG=target/cargo-test.log
+"${CARGO_TEST[@]}" > "$CARGO_LOG" 2>&1 &
+CARGO_PID=$!
+cargo_tests_passed() {  # waits for the Rust tests; their summary, or their whole output if they failed
+  if wait "$CARGO_PID"; then
+    grep -E "^ *(Running|Doc-tests)|^test result" "$CARGO_LOG"
+    stamp "cargo test passed"
+  else
+    cat "$CARGO_LOG" >&2
+    echo "scripts/test.sh: cargo test failed (output above, also in $CARGO_LOG)" >&2
+    exit 1
+  fi
+}
+until grep -q "^ *Running " "$CARGO_LOG" 2>/dev/null || ! kill -0 "$CARGO_PID" 2>/dev/null; do sleep 0.2; done
 wait_venv 0
 WHEELS=target/test-wheels
 rm -rf "$WHEELS"
 VENV0=target/test-venvs/py$("${PYTHONS[0]}" -c 'import sys; print("%d.%d" % sys.version_info[:2])')
-MATURIN_PEP517_ARGS="--profile $PROFILE" "$VENV0/bin/python" -m pip wheel --no-deps --no-build-isolation \
-  --disable-pip-version-check --quiet --wheel-dir "$WHEELS" .
+if ! MATURIN_PEP517_ARGS="--profile $PROFILE" "$VENV0/bin/python" -m pip wheel --no-deps --no-build-isolation \
+     --disable-pip-version-check --quiet --wheel-dir "$WHEELS" .; then
+  wait "$CARGO_PID" || true
+  echo "scripts/test.sh: building the wheel failed" >&2
+  exit 1
+fi
 WHEEL=$(ls "$WHEELS"/beamslider-*.whl)
 stamp "built $(basename "$WHEEL")"
+cargo_tests_passed
 
 # 4. pytest, per Python.
 for i in "${!PYTHONS[@]}"; do
