@@ -155,7 +155,7 @@ CARGO_LOG=target/cargo-test.log
 CARGO_PID=$!
 cargo_tests_passed() {  # waits for the Rust tests; their summary, or their whole output if they failed
   if wait "$CARGO_PID"; then
-    grep -E "^ *(Running|Doc-tests)|^test result" "$CARGO_LOG"
+    grep -E "^ *(Running|Doc-tests)|^test result:" "$CARGO_LOG"
     stamp "cargo test passed"
   else
     cat "$CARGO_LOG" >&2
