@@ -11,9 +11,12 @@
 #
 # The Rust core is compiled once, in the ci-wheel profile of Cargo.toml (release code generation
 # without link-time optimisation), for both the cargo tests and the abi3 wheel (valid for every
-# CPython >= 3.9), so the two builds share the compiled dependencies. While Cargo compiles, a
-# virtual environment per Python (target/test-venvs/, re-used by later runs) gets the test
-# dependencies. Installs what it needs; a fresh machine needs only the toolchains.
+# CPython >= 3.9), so the two builds share the compiled dependencies. The core's unit-test harness
+# (the core compiled a second time, with cfg(test)) is compiled without optimisation
+# (scripts/tooling/rustc_unit_tests_unoptimised.sh, unless RUSTC_WRAPPER is already set). While
+# Cargo compiles, a virtual environment per Python (target/test-venvs/, re-used by later runs)
+# gets the test dependencies, installed by uv (from PyPI; pip if uv cannot be installed).
+# Installs what it needs; a fresh machine needs only the toolchains.
 #
 #   BEAMSLIDER_TEST_PYTHONS="/path/to/python3.9 /path/to/python3.13"   choose the interpreters
 #   BEAMSLIDER_REQUIRE_PYTHONS=1   (--full) fail unless both 3.9 and 3.13 are found
@@ -25,7 +28,7 @@ FULL=0
 for arg in "$@"; do
   case "$arg" in
     --full) FULL=1 ;;
-    -h|--help) sed -n '2,20p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -h|--help) sed -n '2,23p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
     *) echo "scripts/test.sh: unknown option $arg (--full, --help)" >&2; exit 2 ;;
   esac
 done
@@ -106,19 +109,28 @@ for py in "${PYTHONS[@]}"; do
   (
     [ -x "$venv/bin/python" ] || "$py" -m venv "$venv"
     test_requirements "$venv/bin/python" > "$venv/requirements-test.txt"
-    "$venv/bin/python" -m pip install --quiet --disable-pip-version-check -r "$venv/requirements-test.txt"
+    # uv takes ~3 s CPU where pip takes ~40 (pip compiles every module's bytecode at install; uv
+    # leaves that to the first import), CPU that the compilers running meanwhile would wait for.
+    if "$venv/bin/python" -m pip install --quiet --disable-pip-version-check uv \
+       && "$venv/bin/uv" pip install --quiet --python "$venv/bin/python" -r "$venv/requirements-test.txt"; then
+      :
+    else
+      "$venv/bin/python" -m pip install --quiet --disable-pip-version-check -r "$venv/requirements-test.txt"
+    fi
   ) > "target/test-venvs/py$ver.log" 2>&1 &
   VENV_PIDS+=($!)
 done
 
-# 2. The Rust tests, in the wheel's profile.
-if [ "$FULL" = 1 ]; then
-  cargo test --workspace --profile "$PROFILE"
-else
-  cargo test --workspace --profile "$PROFILE" --lib --bins --tests  # not the examples' builds, not doc tests
-fi
-stamp "cargo test passed"
-[ -f pyproject.toml ] || exit 0
+# 2. The Rust tests, in the wheel's profile: built here, run in step 3 while the wheel builds. The
+#    binding's library is not built as a test harness (`--lib` would: it has no Rust tests, pytest
+#    tests it, and the wheel's build compiles PyO3 with the build variables of maturin anyway).
+CARGO_TEST=(cargo test --workspace --profile "$PROFILE")
+# The fast check: not the examples' builds, not doc tests.
+[ "$FULL" = 1 ] || CARGO_TEST+=(--bins --tests)
+export RUSTC_WRAPPER=${RUSTC_WRAPPER:-$PWD/scripts/tooling/rustc_unit_tests_unoptimised.sh}
+"${CARGO_TEST[@]}" --no-run
+stamp "cargo test built"
+if [ ! -f pyproject.toml ]; then "${CARGO_TEST[@]}"; exit 0; fi
 
 wait_venv() {  # the virtual environment of PYTHONS[$1], once its installation has finished
   local ver venv
@@ -131,18 +143,40 @@ wait_venv() {  # the virtual environment of PYTHONS[$1], once its installation h
   fi
 }
 
-# 3. One abi3 wheel, built by pip through maturin (as `pip install .`) in the same profile: the
-#    dependencies and the core are already compiled. The build backend (maturin) was installed
-#    into the first test environment with the test dependencies, so pip needs no isolated build
+# 3. The Rust tests run (output in target/cargo-test.log) while one abi3 wheel is built by pip
+#    through maturin (as `pip install .`) in the same profile: the dependencies and the core are
+#    already compiled, and the wheel's build, mostly one chain of crates (PyO3, numpy, the binding),
+#    leaves a core free for the tests. Cargo releases the build directory once its tests start
+#    running; the wheel's build starts then. The build backend (maturin) was installed into the
+#    first test environment with the test dependencies, so pip needs no isolated build
 #    environment of its own.
+CARGO_LOG=target/cargo-test.log
+"${CARGO_TEST[@]}" > "$CARGO_LOG" 2>&1 &
+CARGO_PID=$!
+cargo_tests_passed() {  # waits for the Rust tests; their summary, or their whole output if they failed
+  if wait "$CARGO_PID"; then
+    grep -E "^ *(Running|Doc-tests)|^test result:" "$CARGO_LOG"
+    stamp "cargo test passed"
+  else
+    cat "$CARGO_LOG" >&2
+    echo "scripts/test.sh: cargo test failed (output above, also in $CARGO_LOG)" >&2
+    exit 1
+  fi
+}
+until grep -q "^ *Running " "$CARGO_LOG" 2>/dev/null || ! kill -0 "$CARGO_PID" 2>/dev/null; do sleep 0.2; done
 wait_venv 0
 WHEELS=target/test-wheels
 rm -rf "$WHEELS"
 VENV0=target/test-venvs/py$("${PYTHONS[0]}" -c 'import sys; print("%d.%d" % sys.version_info[:2])')
-MATURIN_PEP517_ARGS="--profile $PROFILE" "$VENV0/bin/python" -m pip wheel --no-deps --no-build-isolation \
-  --disable-pip-version-check --quiet --wheel-dir "$WHEELS" .
+if ! MATURIN_PEP517_ARGS="--profile $PROFILE" "$VENV0/bin/python" -m pip wheel --no-deps --no-build-isolation \
+     --disable-pip-version-check --quiet --wheel-dir "$WHEELS" .; then
+  wait "$CARGO_PID" || true
+  echo "scripts/test.sh: building the wheel failed" >&2
+  exit 1
+fi
 WHEEL=$(ls "$WHEELS"/beamslider-*.whl)
 stamp "built $(basename "$WHEEL")"
+cargo_tests_passed
 
 # 4. pytest, per Python.
 for i in "${!PYTHONS[@]}"; do

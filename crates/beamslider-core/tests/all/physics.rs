@@ -1,6 +1,6 @@
 //! Physical checks of the model and the integrator (docs/model.md §2–§6).
 
-mod common;
+use crate::common;
 use beamslider_core::*;
 
 fn energy(model: &Model, q: &[f64], u: &[f64]) -> f64 {

@@ -1,8 +1,10 @@
 //! Determinism: identical inputs give bitwise identical outputs — across repeated runs, across
 //! threads running at the same time, with the AVX2 build of the time loop on or off, and for
-//! both contact solvers. (Maps across thread counts: `tests/map.rs`,
-//! `rows_do_not_depend_on_the_number_of_threads`.) One test function, because `set_simd` is global.
+//! both contact solvers. (Maps across thread counts: `map.rs`,
+//! `rows_do_not_depend_on_the_number_of_threads`.) One test function, because `set_simd` is global
+//! (it holds `common::SIMD_SWITCH`).
 
+use crate::common::SIMD_SWITCH;
 use beamslider_core::*;
 
 fn run(params: &Params, exc: Excitation, model: SliderModel, duration: f64) -> (Vec<u64>, RunSummary) {
@@ -25,6 +27,7 @@ fn state_bits(s: &State) -> Vec<u64> {
 
 #[test]
 fn identical_inputs_give_bitwise_identical_outputs() {
+    let _switch = SIMD_SWITCH.lock().unwrap_or_else(|e| e.into_inner());
     let exc = Excitation::new(124.0, 14.0);
     let fast = Params::default();
     let reference = Params { contact_solver: ContactSolver::Reference, ..Params::default() };

@@ -1,8 +1,7 @@
 //! Reproduction of the reference trajectories (docs/model.md §5–6) with the reference contact solver.
 
-mod common;
 use beamslider_core::*;
-use common::*;
+use crate::common::*;
 
 fn reference_params() -> Params {
     Params { contact_solver: ContactSolver::Reference, ..Params::default() }

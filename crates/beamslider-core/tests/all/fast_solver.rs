@@ -2,9 +2,8 @@
 //! golden trajectory is a property of the reference stop rule; an exact solver is compared with
 //! Gauss–Seidel at 1e-12 / 1e-16 N s instead).
 
-mod common;
 use beamslider_core::*;
-use common::*;
+use crate::common::*;
 
 /// The reference solver converged tightly (1e-12 relative, 1e-16 N s).
 fn tight_reference() -> Params {
@@ -50,6 +49,7 @@ fn fast_matches_tight_reference_pcs() {
 
 #[test]
 fn simd_and_plain_builds_are_bitwise_identical() {
+    let _switch = SIMD_SWITCH.lock().unwrap_or_else(|e| e.into_inner());
     for solver in [ContactSolver::Fast, ContactSolver::Reference] {
         let p = Params { contact_solver: solver, ..Params::default() };
         set_simd(false);

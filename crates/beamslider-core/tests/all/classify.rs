@@ -338,7 +338,7 @@ fn bad_input_is_an_error() {
 }
 
 /// The four representative points of MODEL.md §8 (paper, section 4): 120 s from s0 = 0.3.
-/// Slow (≈ 2 s each in release): `cargo test --release -p beamslider-core --test classify -- --ignored`.
+/// Slow (≈ 2 s each in release): `cargo test --release -p beamslider-core --test all classify:: -- --ignored`.
 #[test]
 #[ignore]
 fn representative_operating_points() {
@@ -371,7 +371,7 @@ fn representative_operating_points() {
 
 /// The paper's start-position example (Fig. 12, "var_start_pos"): 106 Hz, 10 m/s², 120 s:
 /// trivial adaption from s0 = 0.3, signature move from s0 = 0.4 (which ends nearer the clamping
-/// than it started). Slow: `cargo test --release -p beamslider-core --test classify -- --ignored`.
+/// than it started). Slow: `cargo test --release -p beamslider-core --test all classify:: -- --ignored`.
 #[test]
 #[ignore]
 fn start_position_example_106hz_10ms2() {

@@ -2,9 +2,8 @@
 //! tilted frame with a beam at rest (a_ex = 0) slides the slider downhill at the incline rate
 //! g (sin α − sign(α) μ cos α), or holds it when |tan α| ≤ μ.
 
-mod common;
 use beamslider_core::*;
-use common::*;
+use crate::common::*;
 
 /// FNV-1a over the bits of every recorded value.
 fn fingerprint(rec: &MemoryRecorder) -> u64 {
@@ -32,7 +31,7 @@ fn level_frame_is_bitwise_unchanged() {
         assert!(sum.counters.contact_steps > 0);
         assert_eq!(fingerprint(&rec), before, "{solver}: the level-frame trajectory changed");
     }
-    // And the golden file itself (tolerances of tests/golden.rs).
+    // And the golden file itself (tolerances of golden.rs).
     let gold = read_reference("golden_fs_124Hz_14ms2_s03.csv");
     let p = Params { contact_solver: ContactSolver::Reference, tilt_rad: 0.0, ..Params::default() };
     let (rec, _) = run(p, SliderModel::Free, 124.0, 14.0, 0.3, 0.2, 10);

@@ -3,6 +3,10 @@
 
 use beamslider_core::*;
 
+/// Held by the tests that switch the AVX2 build of the time loop off and on (`set_simd` is global
+/// to the process, and the tests of all modules run in one): they do not interleave.
+pub static SIMD_SWITCH: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
 /// Columns of a reference CSV (comment lines start with '#').
 pub struct Table {
     pub names: Vec<String>,
