@@ -22,6 +22,25 @@ from .models import MODE_MIN_DOF, Ensemble, Modes, data_modes, is_mode_feature, 
 SIGNIFICANCE = 0.01
 
 
+INTERVAL_LEVEL = 0.95
+"""Confidence level of the interval that must exclude a parameter's baseline value before it is
+named (docs/model.md §9.1, "Resolved"): the profile's Δχ² = z² interval of one effect, the Wald
+interval ± z·se of a set, z = 1.96."""
+
+
+JOINT_REFINEMENT = True
+"""Slider level, sets of two or more effects: after the coordinate pass, Gauss–Newton steps on the
+linearised model confirmed by full runs (:func:`.refine.gauss_newton`); False: the coordinate pass
+alone."""
+
+
+def interval_z() -> float:
+    """z of the two-sided :data:`INTERVAL_LEVEL` interval (1.96 at 95 %)."""
+    from scipy.stats import norm
+
+    return float(norm.ppf(0.5 + INTERVAL_LEVEL / 2))
+
+
 MODE_CONDITIONING = True
 """Slider level: compare the features that depend on the state a run ends in
 (:data:`.models.MODE_FEATURES`) only with model runs in the data's mode, and charge the mode's
@@ -46,10 +65,13 @@ class CandidateFit:
     model_spread: Dict[str, float] = field(default_factory=dict)
     """Slider level: their spread over the ensemble (:data:`.models.ENSEMBLE_S0_SHIFTS`)."""
     intervals: Dict[str, Tuple[float, float]] = field(default_factory=dict)
-    """Slider level: the Δχ² = 1 interval of each parameter from its profile scan."""
+    """Slider level: the :data:`INTERVAL_LEVEL` interval of each parameter (one effect: its
+    profile scan's Δχ² = z² interval; several: the joint fit's Wald interval)."""
     roughness: Dict[str, float] = field(default_factory=dict)
     """Slider level: scatter of the single-run χ² about a parabola near the minimum
     (:func:`_roughness`); the interval's threshold is χ²_min + 1 + 2·roughness."""
+    screened: bool = False
+    """Slider level: only the coarse scan was made (:data:`.naming.SCREEN_MARGIN`)."""
 
 
 @dataclass
@@ -313,19 +335,20 @@ def _parabola_scatter(x: np.ndarray, v: np.ndarray) -> Tuple[float, int]:
     return float(r @ r), len(x) - 3
 
 
-def _interval(xs: np.ndarray, fs: np.ndarray, rough: float = 0.0) -> Tuple[float, float, float]:
-    """Minimum of a scanned profile χ²(x) and its Δχ² = 1 interval: the outermost scan points with
-    χ² ≤ χ²_min + 1, extended to where the profile crosses χ²_min + 1 by interpolation in
-    sqrt(χ² − χ²_min) (the scan's ends if it does not cross). For a rough profile (single-run χ²
-    scattering by ``rough`` about a smooth one, :func:`_roughness`) the threshold is
-    χ²_min + 1 + 2·rough: the scan points that the scatter cannot tell from the minimum."""
+def _interval(xs: np.ndarray, fs: np.ndarray, rough: float = 0.0, delta: float = 1.0) -> Tuple[float, float, float]:
+    """Minimum of a scanned profile χ²(x) and its Δχ² = ``delta`` interval (1: one standard
+    error; :func:`interval_z` squared: the interval that names, docs/model.md §9.1): the outermost
+    scan points with χ² ≤ χ²_min + delta, extended to where the profile crosses it by
+    interpolation in sqrt(χ² − χ²_min) (the scan's ends if it does not cross). For a rough profile
+    (single-run χ² scattering by ``rough`` about a smooth one, :func:`_roughness`) the threshold is
+    χ²_min + delta + 2·rough: the scan points that the scatter cannot tell from the minimum."""
     order = np.argsort(xs)
     xs, fs = xs[order], fs[order]
     ok = np.isfinite(fs)
     if not ok.any():
         return math.nan, -math.inf, math.inf
     j = int(np.nanargmin(np.where(ok, fs, np.inf)))
-    delta = 1.0 + 2.0 * max(float(rough), 0.0)
+    delta = float(delta) + 2.0 * max(float(rough), 0.0)
     level = fs[j] + delta
     inside = np.flatnonzero(ok & (fs <= level))
     lo_i, hi_i = int(inside[0]), int(inside[-1])
@@ -388,7 +411,8 @@ def profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str,
                  model_fn: Optional[Callable[[Parameters], Dict[str, float]]] = None, *, grid_n: int = 9,
                  refine: int = 2, model_many: Optional[ModelMany] = None,
                  ensemble_many: Optional[EnsembleMany] = None, spread0: Optional[Dict[str, float]] = None,
-                 fixed: Optional[Dict[str, float]] = None) -> CandidateFit:
+                 fixed: Optional[Dict[str, float]] = None, start: Optional[Dict[str, float]] = None,
+                 roughness0: Optional[Dict[str, float]] = None) -> CandidateFit:
     """Fit for expensive, rough objectives (slider level). Per effect (one coordinate pass): a grid
     scan of χ² over its search range (``grid_n`` points, one batch of runs), then ``refine``
     levels of 7 points spanning ± one step around the best so far (each one batch; the step
@@ -399,7 +423,11 @@ def profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str,
     fitted point, whose mean gives the fit's χ² (σ² = σ_meas² + (1 + 1/R)·spread²). Standard
     error: half the Δχ² = 1 interval of the rescored profile scan (:func:`_interval`), widened
     by the scatter of the last refinement level's χ² about a parabola (:func:`_roughness`)
-    where the objective is rough.
+    where the objective is rough. Several effects: the coordinate pass's point refined jointly
+    (:func:`.refine.gauss_newton`, :data:`JOINT_REFINEMENT`), standard errors from its covariance.
+    Intervals at :data:`INTERVAL_LEVEL` (:func:`.verdicts.interval_of`). ``start``: several
+    effects, their values to refine jointly from (e.g. the better single fit's), no coordinate
+    pass; ``roughness0``: each effect's roughness from its single fit (the larger counts).
     ``fixed``: values of further effects held (the joint fit's beam-level part)."""
     many = model_many if model_many is not None else _one_at_a_time(model_fn)  # type: ignore[arg-type]
     names = list(meas)
@@ -449,7 +477,10 @@ def profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str,
     u = np.array([np.clip(e.variable(e.baseline_value(baseline), baseline), e.lower, e.upper) for e in effects])
     samples: List[List[np.ndarray]] = [[] for _ in effects]
     last: List[List[np.ndarray]] = [[] for _ in effects]
-    for i, e in enumerate(effects):
+    if start is not None and len(effects) >= 2 and JOINT_REFINEMENT:
+        u = np.array([np.clip(e.variable(start[e.name], baseline), e.lower, e.upper) if e.name in start else x
+                      for e, x in zip(effects, u)])
+    for i, e in enumerate(effects if start is None or len(effects) < 2 or not JOINT_REFINEMENT else ()):
         lo, hi = e.search if math.isfinite(e.search[0]) else (e.lower, e.upper)
         at = lambda x: np.where(np.arange(len(u)) == i, x, u)  # noqa: E731
         grid = list(np.linspace(lo, hi, grid_n))
@@ -472,6 +503,18 @@ def profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str,
         u[i] = x_best
         samples[i] = [at(x) for x in xs]
         last[i] = [at(x) for x in fine]
+    joint = None
+    if len(effects) >= 2 and JOINT_REFINEMENT:
+        from .refine import refine_jointly
+
+        if start is not None:
+            evaluate([u])
+            ens = ensemble_at(u)
+            if ens is not None:
+                spread.update(ens.spread)
+        joint = refine_jointly(effects, u, evaluate, lambda p: cache[key_of(p)], chi2, names, y, sig_single,
+                               lambda m: _mode_terms(m, modes, None, 1)[0])
+        u = joint.u
     ens = ensemble_at(u)
     n, k = len(names), len(effects) + len(fixed)
     predicted: Dict[str, float] = {}
@@ -485,16 +528,27 @@ def profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str,
         predicted = dict(cache[key_of(u)] or {})
     values, stderrs, intervals = dict(fixed), {}, {}
     roughness: Dict[str, float] = {}
+    z = interval_z()
     for i, e in enumerate(effects):
         xs = np.array([p[i] for p in samples[i]])
         fs = np.array([chi2(p) for p in samples[i]])
         rough = _roughness(np.array([p[i] for p in last[i]]), np.array([chi2(p) for p in last[i]]))
-        _, lo_u, hi_u = _interval(xs, fs, rough)
+        rough = max(rough, (roughness0 or {}).get(e.name, 0.0))
         roughness[e.name] = rough
-        su = (hi_u - lo_u) / 2 if math.isfinite(lo_u) and math.isfinite(hi_u) else math.inf
         values[e.name] = e.value(u[i], baseline)
+        if joint is not None:
+            # Several effects: the Wald interval of the joint fit (marginal over the others),
+            # widened as the profile's by the roughness: half-width z·se·sqrt(1 + 2·roughness).
+            var = float(joint.cov[i, i]) if joint.cov is not None else math.inf
+            su = math.sqrt(var * (1 + 2 * rough)) if math.isfinite(var) and var >= 0 else math.inf
+            lo_u, hi_u = u[i] - z * su, u[i] + z * su
+        else:
+            _, lo1, hi1 = _interval(xs, fs, rough)
+            su = (hi1 - lo1) / 2 if math.isfinite(lo1) and math.isfinite(hi1) else math.inf
+            _, lo_u, hi_u = _interval(xs, fs, rough, delta=z * z)
         stderrs[e.name] = _stderr_of(e, u[i], su, baseline)
-        ends = sorted((e.value(lo_u, baseline), e.value(hi_u, baseline))) if math.isfinite(su) else [-math.inf, math.inf]
+        ok = math.isfinite(su) and math.isfinite(lo_u) and math.isfinite(hi_u)
+        ends = sorted((e.value(lo_u, baseline), e.value(hi_u, baseline))) if ok else [-math.inf, math.inf]
         intervals[e.name] = (ends[0], ends[1])
     names_all = tuple(list(fixed) + [e.name for e in effects])
     return CandidateFit(names_all, values, stderrs, best_chi2, n - k, best_chi2 <= chi2_quantile(n - k),
