@@ -505,15 +505,23 @@ def profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str,
         last[i] = [at(x) for x in fine]
     joint = None
     if len(effects) >= 2 and JOINT_REFINEMENT:
-        from .refine import refine_jointly
+        from .refine import EnsembleObjective, refine_jointly, single_run_residuals
 
-        if start is not None:
-            evaluate([u])
-            ens = ensemble_at(u)
-            if ens is not None:
-                spread.update(ens.spread)
-        joint = refine_jointly(effects, u, evaluate, lambda p: cache[key_of(p)], chi2, names, y, sig_single,
-                               lambda m: _mode_terms(m, modes, None, 1)[0])
+        evaluate([u])
+        ens = ensemble_at(u)
+        if ens is not None:
+            spread.update(ens.spread)
+        if ensemble_many is not None:
+            # Ensemble means: single runs are too rough to linearise (docs/model.md §9.1).
+            obj = EnsembleObjective(evaluate, lambda p: cache[key_of(p)], params_of, ensemble_many, key_of, names, y,
+                                    se, spread, ens.runs if ens is not None else 5,
+                                    lambda m, c, r, sg: chi2_from(m, sg, c, r),
+                                    lambda m, c, r: _mode_terms(m, modes, c, r)[0])
+            joint = refine_jointly(effects, u, obj.evaluate, obj.residuals, obj.chi2)
+        else:
+            resid = single_run_residuals(lambda p: cache[key_of(p)], names, y, sig_single,
+                                         lambda m: _mode_terms(m, modes, None, 1)[0])
+            joint = refine_jointly(effects, u, evaluate, resid, chi2)
         u = joint.u
     ens = ensemble_at(u)
     n, k = len(names), len(effects) + len(fixed)

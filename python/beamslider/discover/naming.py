@@ -134,9 +134,11 @@ become the best (docs/model.md §9.1)."""
 SCREEN_KEEP = 3
 """At least this many single candidates (the best coarse ones) are fitted in full."""
 
-SET_FROM_SINGLES = True
+SET_FROM_SINGLES = False
 """Slider level: a set's joint refinement starts from the better of its single fits (no
-coordinate pass; :func:`.fitting.profile_fit`'s ``start``)."""
+coordinate pass; :func:`.fitting.profile_fit`'s ``start``). Off: χ² is not convex over the search
+ranges, and from friction's own best value the refinement of friction with the natural
+frequencies went to the wrong valley (docs/model.md §9.1, "Sets of effects")."""
 
 
 def _fit_sets_joint(cand_effects: Sequence[Effect], max_effects: int, base: Parameters,

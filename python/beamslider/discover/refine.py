@@ -115,25 +115,73 @@ def residual_vector(model: Optional[Dict[str, float]], names: Sequence[str], y: 
 
 
 def refine_jointly(effects: Sequence, u: np.ndarray, evaluate: Callable[[List[np.ndarray]], None],
-                   model_of: Callable[[np.ndarray], Optional[Dict[str, float]]], chi2: Callable[[np.ndarray], float],
-                   names: Sequence[str], y: np.ndarray, sig_single: Callable[[], np.ndarray],
-                   unpredicted: Callable[[Dict[str, float]], set]) -> Refined:
+                   residuals: Callable[[np.ndarray], np.ndarray], chi2: Callable[[np.ndarray], float]) -> Refined:
     """:func:`gauss_newton` for a profile fit's point ``u`` of the ``effects``: bounds the effects'
-    ranges, difference steps a third of a grid step of each search range (9 points);
-    ``unpredicted(model)``: the operating points whose mode the model's run misses (their mode
-    features are not residuals)."""
-    from .models import is_mode_feature, tag_of
-
+    ranges, difference steps a third of a grid step of each search range (9 points)."""
     lower = [e.lower for e in effects]
     upper = [e.upper for e in effects]
     h = []
     for e in effects:
         lo, hi = e.search if math.isfinite(e.search[0]) else (e.lower, e.upper)
         h.append((hi - lo) / 24)
+    return gauss_newton(u, lower, upper, h, evaluate, residuals, chi2)
+
+
+class EnsembleObjective:
+    """The joint refinement's objective on ensembles of runs (a model's runs from s0 + the
+    ensemble's shifts, :func:`.models.ensemble_slider_features`): the mean features are smooth
+    where single runs scatter by Δχ² of tens between neighbouring parameter values (friction and
+    detuning together at (110 Hz, 10 m/s²)). Residuals and χ² with the uncertainties fixed at the
+    start (σ² = σ_meas² + (1 + 1/R)·spread²), so that trial points are compared alike; the mode
+    terms as in the fit's χ² (:func:`.fitting._chi2_terms`)."""
+
+    def __init__(self, evaluate, central, params_of, ensemble_many, key_of, names, y, se, spread, runs,
+                 chi2_of, unpredicted) -> None:
+        self._evaluate, self._central, self._params_of = evaluate, central, params_of
+        self._many, self._key = ensemble_many, key_of
+        self.names, self.y = list(names), y
+        self.sig = np.sqrt(np.asarray(se) ** 2 + (1 + 1 / max(runs, 1)) *
+                           np.array([spread.get(k, 0.0) for k in self.names]) ** 2)
+        self._chi2_of, self._unpredicted = chi2_of, unpredicted
+        self.cache: Dict = {}
+
+    def evaluate(self, us: List[np.ndarray]) -> None:
+        self._evaluate(us)
+        todo, seen = [], set()
+        for u in us:
+            k = self._key(u)
+            if k not in self.cache and k not in seen and self._central(u) is not None:
+                todo.append(u)
+                seen.add(k)
+        for k in {self._key(u) for u in us} - seen:
+            self.cache.setdefault(k, None)
+        if todo:
+            for u, e in zip(todo, self._many([self._params_of(u) for u in todo], [self._central(u) for u in todo])):
+                self.cache[self._key(u)] = e
+
+    def residuals(self, u: np.ndarray) -> np.ndarray:
+        from .models import is_mode_feature, tag_of
+
+        e = self.cache.get(self._key(u))
+        if e is None:
+            return np.full(len(self.names), math.nan)
+        miss = self._unpredicted(e.mean, e.mode_counts, e.runs)
+        return residual_vector(e.mean, self.names, self.y, self.sig, lambda k: tag_of(k) in miss and is_mode_feature(k))
+
+    def chi2(self, u: np.ndarray) -> float:
+        e = self.cache.get(self._key(u))
+        return math.inf if e is None else self._chi2_of(e.mean, e.mode_counts, e.runs, self.sig)
+
+
+def single_run_residuals(model_of: Callable[[np.ndarray], Optional[Dict[str, float]]], names: Sequence[str],
+                         y: np.ndarray, sig: Callable[[], np.ndarray], unpredicted: Callable[[Dict[str, float]], set]
+                         ) -> Callable[[np.ndarray], np.ndarray]:
+    """Residuals of single runs (no ensembles): ``unpredicted(model)`` the operating points whose
+    mode the run misses (their mode features are not residuals)."""
+    from .models import is_mode_feature, tag_of
 
     def residuals(p: np.ndarray) -> np.ndarray:
         m = model_of(p)
         miss = unpredicted(m) if m is not None else set()
-        return residual_vector(m, names, y, sig_single(), lambda k: tag_of(k) in miss and is_mode_feature(k))
-
-    return gauss_newton(u, lower, upper, h, evaluate, residuals, chi2)
+        return residual_vector(m, names, y, sig(), lambda k: tag_of(k) in miss and is_mode_feature(k))
+    return residuals
