@@ -72,22 +72,16 @@ def _fit_sets(cand_effects: Sequence[Effect], max_effects: int, level: str, base
               diff_step: Optional[float], max_nfev: int, *, model_many: Optional[ModelMany] = None,
               ensemble_many: Optional[EnsembleMany] = None, spread0: Optional[Dict[str, float]] = None,
               progress: bool = False,
-              guide: Optional[Callable[[], List[Tuple[Tuple[str, str], float]]]] = None) -> List[CandidateFit]:
+              guide: Optional[Callable[[], List[Tuple[Tuple[str, str], float]]]] = None,
+              done: Optional[Callable[[List[CandidateFit]], bool]] = None) -> List[CandidateFit]:
     """Fit every single candidate and the sets of up to ``max_effects`` (:func:`_pairs_to_fit`,
-    with the pairs ranked by ``guide``, slider level: :func:`.verdicts.rank_pairs`)."""
-    def fit(combo: Sequence[Effect], refine: int = 2) -> CandidateFit:
+    with the pairs ranked by ``guide``, slider level: :func:`.verdicts.rank_pairs`); no sets if
+    ``done(singles)`` (no set can be selected over them, :func:`_no_set_can_win`)."""
+    def fit(combo: Sequence[Effect], refine: int = 2, joint: Optional[bool] = None) -> CandidateFit:
         if level == "beam":
             return fit_candidate(combo, base, meas, model_fn, diff_step=diff_step, max_nfev=max_nfev)
-        start, rough = None, None
-        if len(combo) >= 2 and SET_FROM_SINGLES:
-            # The joint refinement starts from the better of the set's single fits.
-            own = [f for f in fits if len(f.effects) == 1 and f.effects[0] in {e.name for e in combo}]
-            if own:
-                b = min(own, key=lambda f: f.chi2)
-                start = {b.effects[0]: b.values[b.effects[0]]}
-                rough = {f.effects[0]: f.roughness.get(f.effects[0], 0.0) for f in own}
         return profile_fit(combo, base, meas, model_fn, model_many=model_many, ensemble_many=ensemble_many,
-                            spread0=spread0, refine=refine, start=start, roughness0=rough)
+                            spread0=spread0, refine=refine, joint=joint)
 
     bar = _progress_bar(progress, len(cand_effects), f"discover ({level}): fits")
     fits: List[CandidateFit] = []
@@ -111,15 +105,42 @@ def _fit_sets(cand_effects: Sequence[Effect], max_effects: int, level: str, base
         for e in cand_effects:
             fits.append(fit((e,)))
             bar.update(1)
-    if max_effects >= 2:
-        combos = _pairs_to_fit(cand_effects, fits, max_effects, level, guide() if guide is not None else None)
+    if max_effects >= 2 and not (done is not None and done(fits)):
+        ranked = guide() if guide is not None else None
+        combos = _pairs_to_fit(cand_effects, fits, max_effects, level, ranked)
         bar.total = len(cand_effects) + len(combos)
         bar.refresh()
+        staged = level == "slider" and len(combos) > JOINT_SETS
+        sets = []
         for combo in combos:
-            fits.append(fit(combo))
+            # Many sets: the coordinate pass of each first, the joint refinement of the best below.
+            sets.append(fit(combo, joint=False if staged else None))
             bar.update(1)
+        if staged:
+            names = [frozenset(e.name for e in c) for c in combos]
+            order = sorted(range(len(sets)), key=lambda i: sets[i].chi2)[:JOINT_SETS - 1]
+            top = [frozenset(p) for p, _ in (ranked or [])[:1]]
+            order += [i for i in range(len(sets)) if names[i] in top and i not in order]
+            if len(order) < JOINT_SETS:
+                order += [i for i in sorted(range(len(sets)), key=lambda i: sets[i].chi2)
+                          if i not in order][:JOINT_SETS - len(order)]
+            bar.total += len(order)
+            for i in order:
+                sets[i] = fit(combos[i])  # the coordinate pass's runs are cached
+                bar.update(1)
+        fits += sets
     bar.close()
     return fits
+
+
+def _no_set_can_win(singles: List[CandidateFit], judge: Callable[[List[CandidateFit]], Dict[Tuple[str, ...], List[str]]]
+                    ) -> bool:
+    """Whether fitting sets is pointless: a single candidate passes the naming rule with a χ²
+    below the least likelihood-ratio threshold for adding an effect (:func:`.fitting.lrt_threshold`
+    with m = 1, 6.63): the selection would name it, and no set (χ² ≥ 0) can beat it by the threshold."""
+    reasons = judge(singles)
+    ok = [f for f in singles if not reasons[f.effects]]
+    return bool(ok) and min(f.chi2 for f in ok) <= lrt_threshold(1, 1)
 
 
 SCREEN_FROM = 3
@@ -134,11 +155,10 @@ become the best (docs/model.md §9.1)."""
 SCREEN_KEEP = 3
 """At least this many single candidates (the best coarse ones) are fitted in full."""
 
-SET_FROM_SINGLES = False
-"""Slider level: a set's joint refinement starts from the better of its single fits (no
-coordinate pass; :func:`.fitting.profile_fit`'s ``start``). Off: χ² is not convex over the search
-ranges, and from friction's own best value the refinement of friction with the natural
-frequencies went to the wrong valley (docs/model.md §9.1, "Sets of effects")."""
+JOINT_SETS = 3
+"""Slider level, with more sets to fit than this: all get the coordinate pass, and only this many
+the joint refinement (:func:`.fitting.profile_fit`): the best by the pass's χ² and the pair the
+linearised model predicts best (the refinement costs ensembles of runs at every point)."""
 
 
 def _fit_sets_joint(cand_effects: Sequence[Effect], max_effects: int, base: Parameters,
@@ -396,7 +416,9 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
 
             fits = _fit_sets(cand_effects, max_effects, level, base, meas, model_fn, diff_step, max_nfev,
                              model_many=model_many, ensemble_many=ensemble_many, spread0=spread_base,
-                             progress=progress, guide=guide if len(cand_effects) > 3 else None)
+                             progress=progress, guide=guide if len(cand_effects) > 3 else None,
+                             done=lambda singles: _no_set_can_win(
+                                 singles, lambda fs: _judge(fs, base, n, excess_before, gap_ratio)))
         else:
             assert model_many is not None
             # Beam stage first (cheap): its selection re-centres the surrogate's bias.

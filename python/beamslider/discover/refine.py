@@ -116,13 +116,14 @@ def residual_vector(model: Optional[Dict[str, float]], names: Sequence[str], y: 
 
 def refine_jointly(effects: Sequence, u: np.ndarray, evaluate: Callable[[List[np.ndarray]], None],
                    residuals: Callable[[np.ndarray], np.ndarray], chi2: Callable[[np.ndarray], float]) -> Refined:
-    """:func:`gauss_newton` for a profile fit's point ``u`` of the ``effects``: bounds the effects'
-    ranges, difference steps a third of a grid step of each search range (9 points)."""
-    lower = [e.lower for e in effects]
-    upper = [e.upper for e in effects]
-    h = []
+    """:func:`gauss_newton` for a profile fit's point ``u`` of the ``effects``: bounds each
+    effect's search range widened by a quarter of its width on both sides (within its bounds),
+    difference steps a third of a grid step of the search range (9 points)."""
+    lower, upper, h = [], [], []
     for e in effects:
         lo, hi = e.search if math.isfinite(e.search[0]) else (e.lower, e.upper)
+        lower.append(max(e.lower, lo - (hi - lo) / 4))
+        upper.append(min(e.upper, hi + (hi - lo) / 4))
         h.append((hi - lo) / 24)
     return gauss_newton(u, lower, upper, h, evaluate, residuals, chi2)
 
