@@ -487,10 +487,12 @@ def profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str,
         roughness[e.name] = rough
         values[e.name] = e.value(u[i], baseline)
         if refined is not None:
-            # Several effects: the Wald interval of the joint fit (marginal over the others),
-            # widened as the profile's by the roughness: half-width z·se·sqrt(1 + 2·roughness).
+            # Several effects: the Wald interval of the joint fit (marginal over the others). Not
+            # widened by the single runs' roughness where it ran on ensemble means: their
+            # uncertainties hold the runs' spread, which that roughness measures.
             var = float(refined.cov[i, i]) if refined.cov is not None else math.inf
-            su = math.sqrt(var * (1 + 2 * rough)) if math.isfinite(var) and var >= 0 else math.inf
+            widen = 1.0 if ensemble_many is not None else 1 + 2 * rough
+            su = math.sqrt(var * widen) if math.isfinite(var) and var >= 0 else math.inf
             lo_u, hi_u = u[i] - z * su, u[i] + z * su
         else:
             _, lo1, hi1 = _interval(xs, fs, rough)
