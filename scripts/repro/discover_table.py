@@ -8,7 +8,8 @@ Usage:  python3 scripts/repro/discover_table.py [--duration 60] [--out docs/resu
 
 Data: `synthesize_slider_runs` of the truth at the operating points (default: the three reference points,
 s noise 0.001, seed 3); baseline: the prototype; candidates: all slider-level effects, or all but
-the hidden one ("out of library"). Single effects by default (max_effects = 1). The runs of each
+the hidden one ("out of library"); the contact spacing and the measurement chain's calibrations, and two
+effects at once (sets of up to two effects by default, as `beamslider discover`). The runs of each
 chi2 evaluation go through the core's parallel runner; the wall time of each discover is measured
 and printed with the load average.
 """
@@ -49,20 +50,46 @@ CASES = {
                         [n for n in SLIDER if n != "restitution"]),
     "negligible": ("mu = 0.203 (below the 0.01 threshold)", dict(friction_coefficient=0.203), SLIDER),
     "baseline": ("nothing (the prototype)", {}, SLIDER),
+    # The contact spacing and the measurement chain (docs/model.md §9.1), by effect name.
+    "spacing": ("contact spacing x 1.15", "effects:contact_spacing=0.0115", SLIDER),
+    "excitation": ("excitation level 5 % low", "effects:excitation_gain=0.95", SLIDER),
+    "velocity": ("velocity sensor gain 1.06", "effects:velocity_gain=1.06", SLIDER),
+    "offset": ("camera offset 0.012", "effects:position_offset=0.012", SLIDER),
+    "scale": ("camera scale 1.035", "effects:position_scale=1.035", SLIDER),
+    "timebase": ("time base 1.004", "effects:time_base=1.004", SLIDER),
+    # Two effects at once, values off the scan grids.
+    "pair-mu-f0": ("mu = 0.24 and f0 x 0.985", "effects:friction_coefficient=0.24,natural_frequency_detuning=0.985",
+                   SLIDER),
+    "pair-mass-tilt": ("slider mass 49.9 g and tilt 7 mrad", "effects:slider_mass=0.0499,tilt=0.007", SLIDER),
 }
 
 
-def truth_of(spec) -> bs.Parameters:
+def truth_of(spec):
+    """The truth: parameters, or (parameters, measurement chain) for a spec by effect name."""
     if isinstance(spec, str) and spec.startswith("detune:"):
         return dc.realise_effects(P, {"natural_frequency_detuning": float(spec.split(":")[1])})
+    if isinstance(spec, str) and spec.startswith("effects:"):
+        vals = {k: float(v) for k, v in (kv.split("=") for kv in spec.split(":", 1)[1].split(","))}
+        m = dc.realise_model(P, vals)
+        return m.params, (dict(m.chain) or None)
     return bs.Parameters(**{**P.to_dict(), **spec})
+
+
+def truth_values(spec) -> dict:
+    """The hidden values by effect name (for the table's truth column)."""
+    if isinstance(spec, str) and spec.startswith("detune:"):
+        return {"natural_frequency_detuning": float(spec.split(":")[1])}
+    if isinstance(spec, str) and spec.startswith("effects:"):
+        return {k: float(v) for k, v in (kv.split("=") for kv in spec.split(":", 1)[1].split(","))}
+    by_field = {e.field: n for n, e in dc.EFFECTS.items()}
+    return {by_field.get(k, k): v for k, v in spec.items()}
 
 
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--duration", type=float, default=60.0)
     ap.add_argument("--ops", default=";".join(",".join(f"{v:g}" for v in op) for op in OPS))
-    ap.add_argument("--max-effects", type=int, default=1)
+    ap.add_argument("--max-effects", type=int, default=2)
     ap.add_argument("--out", type=Path, default=Path("docs/results/discover/table.md"))
     ap.add_argument("--cases", default=",".join(CASES))
     ap.add_argument("--force", action="store_true", help="overwrite --out")
@@ -74,24 +101,28 @@ def main() -> int:
     if args.out.exists() and not args.force and not args.rows_only:
         print(f"error: {args.out} exists (use --force to overwrite)", file=sys.stderr)
         return 1
-    rows = ["| hidden truth | candidates | verdict | named: fitted ± stderr | gap before → after | gap beyond the noise before → after | wall time (load), CPU time of all threads |",
-            "|---|---|---|---|---|---|---|"]
+    rows = ["| hidden truth | candidates | verdict | named: fitted ± stderr [95 % interval] | truth | gap before → after | gap beyond the noise before → after | wall time (load), CPU time of all threads |",
+            "|---|---|---|---|---|---|---|---|"]
     for key in args.cases.split(","):
         label, spec, effects = CASES[key]
         with tempfile.TemporaryDirectory() as tmp:
-            paths = dc.synthesize_slider_runs(truth_of(spec), operating_points=ops, duration_s=args.duration,
-                                              out_dir=tmp, seed=3, s0_offset=args.s0_offset)
+            truth = truth_of(spec)
+            params, chain = truth if isinstance(truth, tuple) else (truth, None)
+            paths = dc.synthesize_slider_runs(params, operating_points=ops, duration_s=args.duration,
+                                              out_dir=tmp, seed=3, s0_offset=args.s0_offset, chain=chain)
             runs = [bs.read_measurement(p) for p in paths]
             t0, c0 = time.perf_counter(), time.process_time()
             d = dc.discover(measured=runs, baseline=P, effects=effects, max_effects=args.max_effects, progress=True)
             wall, cpu = time.perf_counter() - t0, time.process_time() - c0
             load = os.getloadavg()
-        named = "; ".join(f"{e} {dc.fmt_value(d.parameters[e]['value'])} ± {dc.fmt_value(d.parameters[e]['stderr'])}"
+        named = "; ".join(f"{e} {dc.fmt_value(d.parameters[e]['value'])} ± {dc.fmt_value(d.parameters[e]['stderr'])} "
+                          f"[{dc.fmt_value(d.parameters[e]['interval'][0])}, {dc.fmt_value(d.parameters[e]['interval'][1])}]"
                           for e in d.named_effects) or "—"
+        truth_txt = ", ".join(f"{k} {dc.fmt_value(v)}" for k, v in truth_values(spec).items()) or "—"
         cands = f"all {len(SLIDER)}" if len(effects) == len(SLIDER) else f"all but {set(SLIDER).difference(effects).pop()}"
         if args.s0_offset:
             label = f"{label} (truth runs from s0 + {args.s0_offset:g})"
-        line = (f"| {label} | {cands} | {d.verdict} | {named} | {d.gap_before:.3g} → {d.gap_after:.3g} | "
+        line = (f"| {label} | {cands} | {d.verdict} | {named} | {truth_txt} | {d.gap_before:.3g} → {d.gap_after:.3g} | "
                 f"{d.gap_excess_before:.3g} → {d.gap_excess_after:.3g} | {wall:.0f} s (load {load[0]:.1f}), CPU {cpu:.0f} s |")
         rows.append(line)
         print(line, flush=True)

@@ -10,7 +10,7 @@ model is missing, add it, and show the disagreement shrink.
 2. **Candidate effects** (:data:`EFFECTS`), each a real extension of the model with a parameter,
    bounds and the features it moves, and the measurement chain's calibrations (:mod:`.chain`,
    docs/model.md §9.1: excitation level, velocity gain, camera offset and scale, time base).
-3. **Naming** (:func:`discover`): every candidate and every pair is fitted to the disagreement
+3. **Naming** (:func:`discover`): every candidate and pairs of them are fitted to the disagreement
    (weighted least squares, χ² with the feature uncertainties). Criterion: nothing is named when
    the baseline agrees (χ² ≤ the 99 % quantile of χ²(n)); otherwise forward selection by
    likelihood-ratio tests with the measurement noise: the best single effect is named if it lowers
@@ -20,7 +20,7 @@ model is missing, add it, and show the disagreement shrink.
    a simpler explanation wins unless a richer one is clearly better. A set is named only if the
    updated model is adequate, each parameter moved by a relevant amount and the gap beyond the
    noise, sqrt(max(χ² − E[χ²], 0)/n), shrinks to ≤ ``gap_ratio`` (0.3) of itself; else
-   "unexplained"; and only if each parameter's interval excludes its baseline value (else
+   "unexplained"; and only if each parameter's 95 % interval excludes its baseline value (else
    "unexplained — best candidate X, not resolved", with advice); single candidates that fit equally
    by moving the features alike are reported as a ``confounded`` group (:mod:`.verdicts`). Slider level: a model's features are the mean of an ensemble of runs from
    s0 + (0, ±0.001, ±0.002), their spread part of the uncertainty (the final state of a long run
@@ -38,8 +38,12 @@ preloaded first mode (eigenvector of diag(ω²) + H₀K) as a fast surrogate, bi
 virtual ENMA of the baseline (the estimator's own small biases — time step, five-point damping
 estimate, amplitude dependence of the shape — cancel); slider-level fits run the free-slider model.
 
+Slider level, a set of effects is refined jointly after its coordinate pass (:mod:`.refine`:
+Gauss–Newton on ensemble means, each step confirmed by runs); with many candidates the fits are
+screened and the pairs chosen by the linearised model (docs/model.md §9.1, "Sets of effects", "Cost").
+
 The package is split by step: :mod:`.features` (1), :mod:`.effects` and :mod:`.chain` (2),
-:mod:`.models` (the model side of the features), :mod:`.naming` and :mod:`.verdicts` (3),
+:mod:`.models` (the model side of the features), :mod:`.naming`, :mod:`.refine`, :mod:`.spread` and :mod:`.verdicts` (3),
 :mod:`.report` (4), :mod:`.synthesize` (5) and :mod:`.separability` (identifiability); every
 public name is re-exported here.
 """

@@ -16,10 +16,30 @@ from ..params import Parameters
 from .chain import Model, as_model, realise_model
 from .effects import Effect, apply_effects
 from .features import Feature
-from .models import MODE_MIN_DOF, Ensemble, Modes, data_modes, is_mode_feature, mode_penalty, run_mode, tag_of
+from .models import Ensemble, Modes, data_modes, is_mode_feature, mode_penalty, run_mode, tag_of
+from .spread import _parabola_scatter, _roughness, pooled_spread  # noqa: F401 (re-exported)
 
 
 SIGNIFICANCE = 0.01
+
+
+INTERVAL_LEVEL = 0.95
+"""Confidence level of the interval that must exclude a parameter's baseline value before it is
+named (docs/model.md §9.1, "Resolved"): the profile's Δχ² = z² interval of one effect, the Wald
+interval ± z·se of a set, z = 1.96."""
+
+
+JOINT_REFINEMENT = True
+"""Slider level, sets of two or more effects: after the coordinate pass, Gauss–Newton steps on the
+linearised model confirmed by full runs (:func:`.refine.gauss_newton`); False: the coordinate pass
+alone."""
+
+
+def interval_z() -> float:
+    """z of the two-sided :data:`INTERVAL_LEVEL` interval (1.96 at 95 %)."""
+    from scipy.stats import norm
+
+    return float(norm.ppf(0.5 + INTERVAL_LEVEL / 2))
 
 
 MODE_CONDITIONING = True
@@ -46,10 +66,13 @@ class CandidateFit:
     model_spread: Dict[str, float] = field(default_factory=dict)
     """Slider level: their spread over the ensemble (:data:`.models.ENSEMBLE_S0_SHIFTS`)."""
     intervals: Dict[str, Tuple[float, float]] = field(default_factory=dict)
-    """Slider level: the Δχ² = 1 interval of each parameter from its profile scan."""
+    """Slider level: the :data:`INTERVAL_LEVEL` interval of each parameter (one effect: its
+    profile scan's Δχ² = z² interval; several: the joint fit's Wald interval)."""
     roughness: Dict[str, float] = field(default_factory=dict)
     """Slider level: scatter of the single-run χ² about a parabola near the minimum
     (:func:`_roughness`); the interval's threshold is χ²_min + 1 + 2·roughness."""
+    screened: bool = False
+    """Slider level: only the coarse scan was made (:data:`.naming.SCREEN_MARGIN`)."""
 
 
 @dataclass
@@ -291,41 +314,20 @@ EnsembleMany = Callable[[List[Any], List[Optional[Dict[str, float]]]], List[Opti
 runs' features are given: one batch of the remaining runs."""
 
 
-def _roughness(xs: np.ndarray, fs: np.ndarray) -> float:
-    """Scatter of single-run χ² values about a quadratic in x: the residual RMS of a least-squares
-    parabola through the points (at least 5 distinct x, 4 residual degrees of freedom
-    with 7), 0 with fewer. Where the locomotion is chaotic in the parameter (restitution), runs at
-    neighbouring values differ by Δχ² of several units although the data cannot tell them apart."""
-    xs, fs = np.asarray(xs, dtype=float), np.asarray(fs, dtype=float)
-    ok = np.isfinite(fs)
-    xs, fs = xs[ok], fs[ok]
-    if np.unique(np.round(xs, 12)).size < 5:
-        return 0.0
-    ss, dof = _parabola_scatter(xs, fs)
-    return math.sqrt(ss / dof)
-
-
-def _parabola_scatter(x: np.ndarray, v: np.ndarray) -> Tuple[float, int]:
-    """Sum of squared residuals of v about a least-squares parabola in x, and their degrees of
-    freedom (len − 3): what a quadratic trend leaves unexplained (the roughness)."""
-    t = (x - x.mean()) / max(float(np.ptp(x)), 1e-300)
-    r = v - np.polyval(np.polyfit(t, v, 2), t)
-    return float(r @ r), len(x) - 3
-
-
-def _interval(xs: np.ndarray, fs: np.ndarray, rough: float = 0.0) -> Tuple[float, float, float]:
-    """Minimum of a scanned profile χ²(x) and its Δχ² = 1 interval: the outermost scan points with
-    χ² ≤ χ²_min + 1, extended to where the profile crosses χ²_min + 1 by interpolation in
-    sqrt(χ² − χ²_min) (the scan's ends if it does not cross). For a rough profile (single-run χ²
-    scattering by ``rough`` about a smooth one, :func:`_roughness`) the threshold is
-    χ²_min + 1 + 2·rough: the scan points that the scatter cannot tell from the minimum."""
+def _interval(xs: np.ndarray, fs: np.ndarray, rough: float = 0.0, delta: float = 1.0) -> Tuple[float, float, float]:
+    """Minimum of a scanned profile χ²(x) and its Δχ² = ``delta`` interval (1: one standard
+    error; :func:`interval_z` squared: the interval that names, docs/model.md §9.1): the outermost
+    scan points with χ² ≤ χ²_min + delta, extended to where the profile crosses it by
+    interpolation in sqrt(χ² − χ²_min) (the scan's ends if it does not cross). For a rough profile
+    (single-run χ² scattering by ``rough`` about a smooth one, :func:`_roughness`) the threshold is
+    χ²_min + delta + 2·rough: the scan points that the scatter cannot tell from the minimum."""
     order = np.argsort(xs)
     xs, fs = xs[order], fs[order]
     ok = np.isfinite(fs)
     if not ok.any():
         return math.nan, -math.inf, math.inf
     j = int(np.nanargmin(np.where(ok, fs, np.inf)))
-    delta = 1.0 + 2.0 * max(float(rough), 0.0)
+    delta = float(delta) + 2.0 * max(float(rough), 0.0)
     level = fs[j] + delta
     inside = np.flatnonzero(ok & (fs <= level))
     lo_i, hi_i = int(inside[0]), int(inside[-1])
@@ -345,50 +347,12 @@ def _interval(xs: np.ndarray, fs: np.ndarray, rough: float = 0.0) -> Tuple[float
     return float(xs[j]), lo, hi
 
 
-def pooled_spread(ens: Ensemble, levels: Sequence[Sequence[Optional[Dict[str, float]]]],
-                   names: Sequence[str], modes: Optional[Modes] = None) -> Dict[str, float]:
-    """The model's spread of each feature at the fitted point, pooled from two measurements of the
-    same thing — its sensitivity to what the data cannot resolve: the variance over the ensemble
-    of runs (R − 1 degrees of freedom) and the scatter about a quadratic trend of the single runs
-    of the last refinement level of each profile scan (7 points, 4 degrees of freedom; the trend is
-    what the data resolve, the scatter the roughness). Five runs alone give an unstable estimate
-    (4 degrees of freedom: at μ = 0.26, 60 s, the final amplitude at 126 Hz spreads by 0.002 over
-    the ensemble, by 0.007 over nine perturbations). ``modes``: the data's modes; a mode feature's
-    spread comes from the runs in the data's mode only, or, with fewer than
-    :data:`.models.MODE_MIN_DOF` degrees of freedom, is the ensemble's spread over all runs."""
-    out: Dict[str, float] = {}
-    for k in names:
-        ss, dof = 0.0, 0
-        tag = tag_of(k)
-        md = (modes or {}).get(tag) if tag is not None and is_mode_feature(k) else None
-        if md is not None and tag in ens.mode_counts:
-            runs = ens.mode_counts[tag]
-            if k in ens.mode_spread and runs > 1:
-                ss += ens.mode_spread[k] ** 2 * (runs - 1)
-                dof += runs - 1
-        elif k in ens.spread and ens.runs > 1:
-            ss += ens.spread[k] ** 2 * (ens.runs - 1)
-            dof += ens.runs - 1
-        for pts in levels:
-            xs = np.array([j for j, m in enumerate(pts) if m is not None and k in m and math.isfinite(m[k])
-                           and (md is None or run_mode(m, tag) == md)], dtype=float)
-            if len(xs) >= 5:
-                v = np.array([pts[int(j)][k] for j in xs])  # type: ignore[index]
-                ss_k, dof_k = _parabola_scatter(xs, v)
-                ss += ss_k
-                dof += dof_k
-        if md is not None and tag in ens.mode_counts and dof < MODE_MIN_DOF:
-            out[k] = ens.spread.get(k, 0.0)  # too few runs in the data's mode: the spread over all runs
-        else:
-            out[k] = math.sqrt(ss / dof) if dof > 0 else 0.0
-    return out
-
-
 def profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str, Feature],
                  model_fn: Optional[Callable[[Parameters], Dict[str, float]]] = None, *, grid_n: int = 9,
                  refine: int = 2, model_many: Optional[ModelMany] = None,
                  ensemble_many: Optional[EnsembleMany] = None, spread0: Optional[Dict[str, float]] = None,
-                 fixed: Optional[Dict[str, float]] = None) -> CandidateFit:
+                 fixed: Optional[Dict[str, float]] = None, start: Optional[Dict[str, float]] = None,
+                 roughness0: Optional[Dict[str, float]] = None, joint: Optional[bool] = None) -> CandidateFit:
     """Fit for expensive, rough objectives (slider level). Per effect (one coordinate pass): a grid
     scan of χ² over its search range (``grid_n`` points, one batch of runs), then ``refine``
     levels of 7 points spanning ± one step around the best so far (each one batch; the step
@@ -399,7 +363,12 @@ def profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str,
     fitted point, whose mean gives the fit's χ² (σ² = σ_meas² + (1 + 1/R)·spread²). Standard
     error: half the Δχ² = 1 interval of the rescored profile scan (:func:`_interval`), widened
     by the scatter of the last refinement level's χ² about a parabola (:func:`_roughness`)
-    where the objective is rough.
+    where the objective is rough. Several effects: the coordinate pass's point refined jointly
+    (:func:`.refine.gauss_newton`, :data:`JOINT_REFINEMENT`), standard errors from its covariance.
+    Intervals at :data:`INTERVAL_LEVEL` (:func:`.verdicts.interval_of`). ``start``: several
+    effects, their values to refine jointly from (e.g. the better single fit's), no coordinate
+    pass; ``roughness0``: each effect's roughness from its single fit (the larger counts);
+    ``joint``: refine a set jointly (None: :data:`JOINT_REFINEMENT`).
     ``fixed``: values of further effects held (the joint fit's beam-level part)."""
     many = model_many if model_many is not None else _one_at_a_time(model_fn)  # type: ignore[arg-type]
     names = list(meas)
@@ -409,6 +378,7 @@ def profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str,
     fixed = dict(fixed or {})
     spread = dict(spread0 or {})
     modes = data_modes(meas) if MODE_CONDITIONING else None
+    joint_on = JOINT_REFINEMENT if joint is None else bool(joint)
 
     def sig_single() -> np.ndarray:
         return np.sqrt(se ** 2 + 2 * np.array([spread.get(k, 0.0) for k in names]) ** 2)
@@ -449,7 +419,10 @@ def profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str,
     u = np.array([np.clip(e.variable(e.baseline_value(baseline), baseline), e.lower, e.upper) for e in effects])
     samples: List[List[np.ndarray]] = [[] for _ in effects]
     last: List[List[np.ndarray]] = [[] for _ in effects]
-    for i, e in enumerate(effects):
+    if start is not None and len(effects) >= 2 and joint_on:
+        u = np.array([np.clip(e.variable(start[e.name], baseline), e.lower, e.upper) if e.name in start else x
+                      for e, x in zip(effects, u)])
+    for i, e in enumerate(effects if start is None or len(effects) < 2 or not joint_on else ()):
         lo, hi = e.search if math.isfinite(e.search[0]) else (e.lower, e.upper)
         at = lambda x: np.where(np.arange(len(u)) == i, x, u)  # noqa: E731
         grid = list(np.linspace(lo, hi, grid_n))
@@ -472,6 +445,26 @@ def profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str,
         u[i] = x_best
         samples[i] = [at(x) for x in xs]
         last[i] = [at(x) for x in fine]
+    refined = None
+    if len(effects) >= 2 and joint_on:
+        from .refine import EnsembleObjective, refine_jointly, single_run_residuals
+
+        evaluate([u])
+        ens = ensemble_at(u)
+        if ens is not None:
+            spread.update(ens.spread)
+        if ensemble_many is not None:
+            # Ensemble means: single runs are too rough to linearise (docs/model.md §9.1).
+            obj = EnsembleObjective(evaluate, lambda p: cache[key_of(p)], params_of, ensemble_many, key_of, names, y,
+                                    se, spread, ens.runs if ens is not None else 5,
+                                    lambda m, c, r, sg: chi2_from(m, sg, c, r),
+                                    lambda m, c, r: _mode_terms(m, modes, c, r)[0])
+            refined = refine_jointly(effects, u, obj.evaluate, obj.residuals, obj.chi2)
+        else:
+            resid = single_run_residuals(lambda p: cache[key_of(p)], names, y, sig_single,
+                                         lambda m: _mode_terms(m, modes, None, 1)[0])
+            refined = refine_jointly(effects, u, evaluate, resid, chi2)
+        u = refined.u
     ens = ensemble_at(u)
     n, k = len(names), len(effects) + len(fixed)
     predicted: Dict[str, float] = {}
@@ -485,16 +478,29 @@ def profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str,
         predicted = dict(cache[key_of(u)] or {})
     values, stderrs, intervals = dict(fixed), {}, {}
     roughness: Dict[str, float] = {}
+    z = interval_z()
     for i, e in enumerate(effects):
         xs = np.array([p[i] for p in samples[i]])
         fs = np.array([chi2(p) for p in samples[i]])
         rough = _roughness(np.array([p[i] for p in last[i]]), np.array([chi2(p) for p in last[i]]))
-        _, lo_u, hi_u = _interval(xs, fs, rough)
+        rough = max(rough, (roughness0 or {}).get(e.name, 0.0))
         roughness[e.name] = rough
-        su = (hi_u - lo_u) / 2 if math.isfinite(lo_u) and math.isfinite(hi_u) else math.inf
         values[e.name] = e.value(u[i], baseline)
+        if refined is not None:
+            # Several effects: the Wald interval of the joint fit (marginal over the others). Not
+            # widened by the single runs' roughness where it ran on ensemble means: their
+            # uncertainties hold the runs' spread, which that roughness measures.
+            var = float(refined.cov[i, i]) if refined.cov is not None else math.inf
+            widen = 1.0 if ensemble_many is not None else 1 + 2 * rough
+            su = math.sqrt(var * widen) if math.isfinite(var) and var >= 0 else math.inf
+            lo_u, hi_u = u[i] - z * su, u[i] + z * su
+        else:
+            _, lo1, hi1 = _interval(xs, fs, rough)
+            su = (hi1 - lo1) / 2 if math.isfinite(lo1) and math.isfinite(hi1) else math.inf
+            _, lo_u, hi_u = _interval(xs, fs, rough, delta=z * z)
         stderrs[e.name] = _stderr_of(e, u[i], su, baseline)
-        ends = sorted((e.value(lo_u, baseline), e.value(hi_u, baseline))) if math.isfinite(su) else [-math.inf, math.inf]
+        ok = math.isfinite(su) and math.isfinite(lo_u) and math.isfinite(hi_u)
+        ends = sorted((e.value(lo_u, baseline), e.value(hi_u, baseline))) if ok else [-math.inf, math.inf]
         intervals[e.name] = (ends[0], ends[1])
     names_all = tuple(list(fixed) + [e.name for e in effects])
     return CandidateFit(names_all, values, stderrs, best_chi2, n - k, best_chi2 <= chi2_quantile(n - k),

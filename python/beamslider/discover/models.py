@@ -163,7 +163,7 @@ def batch_slider_features(params_list: Sequence[Union[Parameters, Model]], ops: 
                                           window_s=1.0, detrend_s=DISPLACEMENT_DETREND_S, threads=threads,
                                           on_done=on_run)
         for key, r in zip(todo, res):
-            known[key] = None if "error" in r else slider_features(r["t"], r["s"], r["amplitude_h"], tag=key[1])
+            known[key] = None if "error" in r else _features_of_run(r, key[1])
     out: List[Optional[Tuple[Dict[str, Feature], Dict[str, str]]]] = []
     for m, row in zip(models, keys):
         feats: Dict[str, Feature] = {}
@@ -178,6 +178,15 @@ def batch_slider_features(params_list: Sequence[Union[Parameters, Model]], ops: 
             behaviours[op.tag] = r[1]
         out.append((feats, behaviours) if ok else None)
     return out
+
+
+def _features_of_run(r: Dict[str, Any], tag: str) -> Optional[Tuple[Dict[str, Feature], str]]:
+    """Features of one run of the core's runner, None for a run too short to classify (the slider
+    left the beam early: a failed model, as a run that fails numerically)."""
+    try:
+        return slider_features(r["t"], r["s"], r["amplitude_h"], tag=tag)
+    except ValueError:
+        return None
 
 
 ENSEMBLE_S0_SHIFTS = (0.0, -0.002, -0.001, 0.001, 0.002)

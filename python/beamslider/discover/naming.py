@@ -20,7 +20,7 @@ from .models import (ENSEMBLE_S0_SHIFTS, Ensemble, Modes, RunCache, batch_slider
                      data_modes, ensemble_slider_features, levels_for, measured_slider_features,
                      simulated_enma_features)
 from .separability import slider_sensitivities
-from .verdicts import (ADVICE_GRID, GUIDED_PAIRS, advise, confounded_group, interval_of, rank_pairs,
+from .verdicts import (ADVICE_GRID, EXTENDING_PAIRS, GUIDED_PAIRS, advise, confounded_group, interval_of, rank_pairs,
                        unresolved_reasons)
 
 
@@ -39,17 +39,30 @@ def _progress_bar(enabled: Optional[bool], total: int, desc: str):
     return tqdm(total=total, desc=desc, unit="fit", disable=not enabled, leave=False)
 
 
-def _pairs_to_fit(cand_effects: Sequence[Effect], singles: List[CandidateFit], max_effects: int, level: str
-                  ) -> List[Tuple[Effect, ...]]:
+def _pairs_to_fit(cand_effects: Sequence[Effect], singles: List[CandidateFit], max_effects: int, level: str,
+                  ranked: Optional[List[Tuple[Tuple[str, str], float]]] = None) -> List[Tuple[Effect, ...]]:
     """The sets of 2..max_effects effects to fit: all at the beam level (cheap surrogate); at the
     slider and joint levels those that extend one of the two best singles, and (joint) every set
-    of beam-level effects only (their slider part is one evaluation)."""
-    top = {f.effects[0] for f in sorted(singles, key=lambda f: f.chi2)[:2]}
-    out = []
+    of beam-level effects only (their slider part is one evaluation). ``ranked``: every pair with
+    the χ² the linearised model predicts for it (:func:`.verdicts.rank_pairs`, slider level);
+    then of the pairs that extend one of the two best singles only the
+    :data:`.verdicts.EXTENDING_PAIRS` predicted best for each are fitted, and beside them the
+    :data:`.verdicts.GUIDED_PAIRS` predicted best overall."""
+    top = [f.effects[0] for f in sorted(singles, key=lambda f: f.chi2)[:2]]
+    out: List[Tuple[Effect, ...]] = []
     for k in range(2, max_effects + 1):
+        if k == 2 and ranked is not None and level == "slider":
+            want: List[frozenset] = []
+            for t in top:
+                want += [frozenset(p) for p, _ in ranked if t in p][:EXTENDING_PAIRS]
+            want += [frozenset(p) for p, _ in ranked[:GUIDED_PAIRS]]
+            for combo in itertools.combinations(cand_effects, 2):
+                if frozenset(e.name for e in combo) in want:
+                    out.append(combo)
+            continue
         for combo in itertools.combinations(cand_effects, k):
             names = {e.name for e in combo}
-            if level == "beam" or top & names or (level == "joint" and all(e.level == "beam" for e in combo)):
+            if level == "beam" or set(top) & names or (level == "joint" and all(e.level == "beam" for e in combo)):
                 out.append(combo)
     return out
 
@@ -59,32 +72,93 @@ def _fit_sets(cand_effects: Sequence[Effect], max_effects: int, level: str, base
               diff_step: Optional[float], max_nfev: int, *, model_many: Optional[ModelMany] = None,
               ensemble_many: Optional[EnsembleMany] = None, spread0: Optional[Dict[str, float]] = None,
               progress: bool = False,
-              guide: Optional[Callable[[], List[Tuple[Effect, ...]]]] = None) -> List[CandidateFit]:
-    """Fit every single candidate and the sets of up to ``max_effects`` (:func:`_pairs_to_fit`),
-    and the pairs ``guide`` adds (slider level: :func:`.verdicts.rank_pairs`)."""
-    def fit(combo: Sequence[Effect]) -> CandidateFit:
+              guide: Optional[Callable[[], List[Tuple[Tuple[str, str], float]]]] = None,
+              done: Optional[Callable[[List[CandidateFit]], bool]] = None) -> List[CandidateFit]:
+    """Fit every single candidate and the sets of up to ``max_effects`` (:func:`_pairs_to_fit`,
+    with the pairs ranked by ``guide``, slider level: :func:`.verdicts.rank_pairs`); no sets if
+    ``done(singles)`` (no set can be selected over them, :func:`_no_set_can_win`)."""
+    def fit(combo: Sequence[Effect], refine: int = 2, joint: Optional[bool] = None) -> CandidateFit:
         if level == "beam":
             return fit_candidate(combo, base, meas, model_fn, diff_step=diff_step, max_nfev=max_nfev)
         return profile_fit(combo, base, meas, model_fn, model_many=model_many, ensemble_many=ensemble_many,
-                            spread0=spread0)
+                            spread0=spread0, refine=refine, joint=joint)
 
     bar = _progress_bar(progress, len(cand_effects), f"discover ({level}): fits")
-    fits = []
-    for e in cand_effects:
-        fits.append(fit((e,)))
-        bar.update(1)
-    if max_effects >= 2:
-        combos = _pairs_to_fit(cand_effects, fits, max_effects, level)
-        if guide is not None:
-            have = {frozenset(e.name for e in c) for c in combos}
-            combos += [c for c in guide() if frozenset(e.name for e in c) not in have]
+    fits: List[CandidateFit] = []
+    if level == "slider" and len(cand_effects) > SCREEN_FROM:
+        # Coarse scans of every candidate first (grid and one ensemble: runs the full fits reuse),
+        # full fits only of those whose coarse χ² is within SCREEN_MARGIN of the best.
+        coarse = []
+        for e in cand_effects:
+            coarse.append(fit((e,), refine=0))
+            bar.update(0.5)
+        best = sorted(c.chi2 for c in coarse)
+        cut = max(best[0] + SCREEN_MARGIN, best[min(SCREEN_KEEP, len(best)) - 1])
+        for e, c in zip(cand_effects, coarse):
+            if c.chi2 <= cut:
+                fits.append(fit((e,)))
+            else:
+                c.screened = True
+                fits.append(c)
+            bar.update(0.5)
+    else:
+        for e in cand_effects:
+            fits.append(fit((e,)))
+            bar.update(1)
+    if max_effects >= 2 and not (done is not None and done(fits)):
+        ranked = guide() if guide is not None else None
+        combos = _pairs_to_fit(cand_effects, fits, max_effects, level, ranked)
         bar.total = len(cand_effects) + len(combos)
         bar.refresh()
+        staged = level == "slider" and len(combos) > JOINT_SETS
+        sets = []
         for combo in combos:
-            fits.append(fit(combo))
+            # Many sets: the coordinate pass of each first, the joint refinement of the best below.
+            sets.append(fit(combo, joint=False if staged else None))
             bar.update(1)
+        if staged:
+            names = [frozenset(e.name for e in c) for c in combos]
+            order = sorted(range(len(sets)), key=lambda i: sets[i].chi2)[:JOINT_SETS - 1]
+            top = [frozenset(p) for p, _ in (ranked or [])[:1]]
+            order += [i for i in range(len(sets)) if names[i] in top and i not in order]
+            if len(order) < JOINT_SETS:
+                order += [i for i in sorted(range(len(sets)), key=lambda i: sets[i].chi2)
+                          if i not in order][:JOINT_SETS - len(order)]
+            bar.total += len(order)
+            for i in order:
+                sets[i] = fit(combos[i])  # the coordinate pass's runs are cached
+                bar.update(1)
+        fits += sets
     bar.close()
     return fits
+
+
+def _no_set_can_win(singles: List[CandidateFit], judge: Callable[[List[CandidateFit]], Dict[Tuple[str, ...], List[str]]]
+                    ) -> bool:
+    """Whether fitting sets is pointless: a single candidate passes the naming rule with a χ²
+    below the least likelihood-ratio threshold for adding an effect (:func:`.fitting.lrt_threshold`
+    with m = 1, 6.63): the selection would name it, and no set (χ² ≥ 0) can beat it by the threshold."""
+    reasons = judge(singles)
+    ok = [f for f in singles if not reasons[f.effects]]
+    return bool(ok) and min(f.chi2 for f in ok) <= lrt_threshold(1, 1)
+
+
+SCREEN_FROM = 3
+"""Slider level, more candidates than this: each is first scanned coarsely (:func:`_fit_sets`)."""
+
+SCREEN_MARGIN = 20.0
+"""A coarsely scanned single candidate is fitted in full if its χ² is within this of the best
+coarse χ²: the refinement lowers a coarse minimum by at most (grid step / 2σ)², about 13 for the
+sharpest candidate (slider inertia with the reference runs), and a candidate farther off cannot
+become the best (docs/model.md §9.1)."""
+
+SCREEN_KEEP = 3
+"""At least this many single candidates (the best coarse ones) are fitted in full."""
+
+JOINT_SETS = 3
+"""Slider level, with more sets to fit than this: all get the coordinate pass, and only this many
+the joint refinement (:func:`.fitting.profile_fit`): the best by the pass's χ² and the pair the
+linearised model predicts best (the refinement costs ensembles of runs at every point)."""
 
 
 def _fit_sets_joint(cand_effects: Sequence[Effect], max_effects: int, base: Parameters,
@@ -175,7 +249,10 @@ def _judge(fits: Sequence[CandidateFit], base: Parameters, n: int, excess_before
     out: Dict[Tuple[str, ...], List[str]] = {}
     for f in fits:
         reasons = []
-        if not f.adequate:
+        if f.screened:
+            reasons.append(f"screened out: its coarse scan's chi2 = {f.chi2:.3g} is more than {SCREEN_MARGIN:g} "
+                           f"above the best coarse chi2 (not fitted in full)")
+        elif not f.adequate:
             reasons.append(f"not adequate: chi2 = {f.chi2:.3g} > chi2_0.99({f.dof}) = {chi2_quantile(f.dof):.3g}")
         for e in f.effects:
             ok, how = EFFECTS[e].relevant(f.values[e], base)
@@ -328,18 +405,20 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
                 fits = [fit_candidate([EFFECTS[e] for e in f.effects], base, meas, model_fn, diff_step=diff_step,
                                        max_nfev=max_nfev) for f in fits]
         elif level == "slider":
-            def guide() -> List[Tuple[Effect, ...]]:
-                # Pairs the linearised model predicts to fit best (each may fit badly alone).
+            def guide() -> List[Tuple[Tuple[str, str], float]]:
+                # Every pair with the χ² the linearised model predicts (each may fit badly alone).
                 sens = slider_sensitivities([e.name for e in cand_effects], base, ops, threads=threads)
                 resid = {k: (meas[k].value - before[k]) / sigma(meas[k], spread_base.get(k, 0.0), runs_base)
                          for k in meas if k in before}
-                ranked = rank_pairs(sens, resid)[:GUIDED_PAIRS]
-                guided.extend(dict(pair=list(p), predicted_chi2=c) for p, c in ranked)
-                return [(EFFECTS[a], EFFECTS[b]) for (a, b), _ in ranked]
+                ranked = rank_pairs(sens, resid)
+                guided.extend(dict(pair=list(p), predicted_chi2=c) for p, c in ranked[:GUIDED_PAIRS])
+                return ranked
 
             fits = _fit_sets(cand_effects, max_effects, level, base, meas, model_fn, diff_step, max_nfev,
                              model_many=model_many, ensemble_many=ensemble_many, spread0=spread_base,
-                             progress=progress, guide=guide if len(cand_effects) > 3 else None)
+                             progress=progress, guide=guide if len(cand_effects) > 3 else None,
+                             done=lambda singles: _no_set_can_win(
+                                 singles, lambda fs: _judge(fs, base, n, excess_before, gap_ratio)))
         else:
             assert model_many is not None
             # Beam stage first (cheap): its selection re-centres the surrogate's bias.
@@ -455,7 +534,7 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
         verdict = "unexplained"
         # The best relevant candidate that fits but that the data do not resolve (its interval
         # contains the baseline).
-        unres = [f for f in fits if f.adequate and any(r.startswith("not resolved") for r in verdicts[f.effects])
+        unres = [f for f in fits if f.adequate and not f.screened and any(r.startswith("not resolved") for r in verdicts[f.effects])
                  and not any(r.startswith("negligible change") for r in verdicts[f.effects])]
         if unres:
             u = min(unres, key=lambda f: f.chi2)

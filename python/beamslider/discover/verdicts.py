@@ -13,7 +13,7 @@ import numpy as np
 
 from ..params import Parameters
 from .effects import EFFECTS
-from .fitting import CandidateFit
+from .fitting import CandidateFit, interval_z
 from .models import OperatingPoint
 
 
@@ -30,14 +30,17 @@ the measurement that resolves or separates candidates (those already measured ar
 
 
 def interval_of(f: CandidateFit, e: str) -> Tuple[float, float]:
-    """The interval of parameter ``e`` in fit ``f`` that the report shows: the profile's Δχ² = 1
-    interval widened by its roughness (slider level, :func:`.fitting._interval`), else the value ±
-    its standard error (the smooth least-squares fits of the beam level)."""
+    """The :data:`.fitting.INTERVAL_LEVEL` (95 %) interval of parameter ``e`` in fit ``f`` that
+    the report shows and that must exclude the baseline (docs/model.md §9.1): slider level, the
+    profile's Δχ² = z² interval widened by its roughness (one effect, :func:`.fitting._interval`)
+    or the joint fit's Wald interval (several, :func:`.refine.gauss_newton`); else the value ±
+    z standard errors (the smooth least-squares fits of the beam level)."""
     if e in f.intervals:
         lo, hi = f.intervals[e]
         return float(lo), float(hi)
     v, se = f.values[e], f.stderrs.get(e, math.inf)
-    return (v - se, v + se) if math.isfinite(se) else (-math.inf, math.inf)
+    z = interval_z()
+    return (v - z * se, v + z * se) if math.isfinite(se) else (-math.inf, math.inf)
 
 
 def unresolved_reasons(f: CandidateFit, base: Parameters) -> List[str]:
@@ -202,6 +205,12 @@ def _score(names: Sequence[str], sens: Dict[str, Dict[str, float]]) -> float:
         c, na, nb = cosine(sens[a], sens[b])
         seps.append(min(na, nb) * math.sqrt(max(1 - c * c, 0.0)))
     return float(min(seps))
+
+
+EXTENDING_PAIRS = 3
+"""Of the pairs that extend one of the two best single candidates, those fitted: the ones the
+linearised model predicts to fit best (:func:`rank_pairs`); the others' full fits cost most of a
+discover's runs and the linearised model ranks them (docs/model.md §9.1, "Sets of effects")."""
 
 
 GUIDED_PAIRS = 3

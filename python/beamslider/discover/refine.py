@@ -1,0 +1,188 @@
+"""Joint refinement of a fit of several effects (docs/model.md §9.1, "Sets of effects"): damped
+Gauss–Newton steps on the model linearised by central differences of full runs, each step
+confirmed by full runs, and the Wald covariance of the converged fit.
+
+A coordinate pass (one effect after the other, each scanned with the others held) stops short of
+the minimum when the effects move the features alike (friction and the natural frequencies both
+shift the slider's speeds): the first effect is fitted with the second at its baseline value and
+takes up part of the second's share. The linearised model solves for all of them at once."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Callable, Dict, List, Optional, Sequence
+
+import numpy as np
+
+
+MAX_STEPS = 4
+"""Gauss–Newton steps at most (each: 2k runs for the Jacobian, 3 trial points)."""
+
+MIN_GAIN = 0.5
+"""A step is taken only if it lowers χ² by more than this (the roughness of single-run χ² is of
+this order where the locomotion is regular); otherwise the refinement stops."""
+
+
+@dataclass
+class Refined:
+    """Outcome of :func:`gauss_newton`."""
+
+    u: np.ndarray
+    chi2: float
+    cov: Optional[np.ndarray]
+    """Covariance of u from the Jacobian at ``u``: (JᵀJ)⁻¹ (residuals in units of their
+    uncertainty); None if J is rank-deficient."""
+    history: List[float] = field(default_factory=list)
+    """χ² at the start and after each accepted step."""
+
+
+def _clip(u: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
+    return np.minimum(np.maximum(u, lower), upper)
+
+
+def gauss_newton(u0: Sequence[float], lower: Sequence[float], upper: Sequence[float], h: Sequence[float],
+                 evaluate: Callable[[List[np.ndarray]], None], residuals: Callable[[np.ndarray], np.ndarray],
+                 chi2: Callable[[np.ndarray], float], *, max_steps: int = MAX_STEPS,
+                 min_gain: float = MIN_GAIN) -> Refined:
+    """Refine ``u0`` jointly. ``evaluate(us)``: make the runs of the points ``us`` (one batch;
+    cached by the caller); ``residuals(u)``: (model − measured)/σ per feature of an evaluated
+    point (NaN where the model lacks the feature or it is charged as a mode term); ``chi2(u)``: the
+    fit's χ² of an evaluated point. Per step: the Jacobian by central differences (±``h``,
+    clipped to the bounds), the Gauss–Newton step δ = −J⁺r and the Levenberg–Marquardt step
+    (JᵀJ + diag JᵀJ)⁻¹(−Jᵀr), trials u + δ, u + δ/2 and the damped step as one batch; the best is
+    taken if it lowers χ² by more than ``min_gain``."""
+    u = np.asarray(u0, dtype=float).copy()
+    lo, hi, hs = (np.asarray(v, dtype=float) for v in (lower, upper, h))
+    k = len(u)
+    evaluate([u])
+    f = chi2(u)
+    history = [f]
+
+    def jacobian(at: np.ndarray):
+        plus = [_clip(at + hs[i] * np.eye(k)[i], lo, hi) for i in range(k)]
+        minus = [_clip(at - hs[i] * np.eye(k)[i], lo, hi) for i in range(k)]
+        evaluate(plus + minus)
+        r0 = residuals(at)
+        cols = []
+        for i in range(k):
+            span = plus[i][i] - minus[i][i]
+            cols.append((residuals(plus[i]) - residuals(minus[i])) / span if span > 0 else np.full_like(r0, np.nan))
+        J = np.column_stack(cols)
+        ok = np.isfinite(r0) & np.all(np.isfinite(J), axis=1)
+        return r0[ok], J[ok]
+
+    r, J = jacobian(u)
+    for _ in range(max_steps):
+        if len(r) <= k:
+            break
+        delta = np.linalg.lstsq(J, -r, rcond=None)[0]
+        A, g = J.T @ J, J.T @ r
+        try:
+            damped = np.linalg.solve(A + np.diag(np.diag(A)), -g)
+        except np.linalg.LinAlgError:
+            damped = 0.5 * delta
+        trials = [_clip(u + delta, lo, hi), _clip(u + 0.5 * delta, lo, hi), _clip(u + damped, lo, hi)]
+        evaluate(trials)
+        scores = [chi2(t) for t in trials]
+        j = int(np.argmin(scores))
+        if not scores[j] < f - min_gain:
+            break
+        u, f = trials[j], scores[j]
+        history.append(f)
+        r, J = jacobian(u)
+    cov: Optional[np.ndarray] = None
+    if len(r) > k:
+        A = J.T @ J
+        if np.linalg.matrix_rank(A) == k:
+            cov = np.linalg.inv(A)
+    return Refined(u, f, cov, history)
+
+
+def residual_vector(model: Optional[Dict[str, float]], names: Sequence[str], y: np.ndarray, sig: np.ndarray,
+                    skip: Callable[[str], bool]) -> np.ndarray:
+    """(model − measured)/σ per feature of ``names``; NaN where the model lacks the feature or
+    ``skip(name)`` (a mode feature of an operating point whose run is not in the data's mode: its
+    χ² term is its expectation, not a residual)."""
+    out = np.full(len(names), math.nan)
+    if model is None:
+        return out
+    for i, (k, yk, sk) in enumerate(zip(names, y, sig)):
+        v = model.get(k)
+        if v is not None and math.isfinite(v) and not skip(k):
+            out[i] = (v - yk) / sk
+    return out
+
+
+def refine_jointly(effects: Sequence, u: np.ndarray, evaluate: Callable[[List[np.ndarray]], None],
+                   residuals: Callable[[np.ndarray], np.ndarray], chi2: Callable[[np.ndarray], float]) -> Refined:
+    """:func:`gauss_newton` for a profile fit's point ``u`` of the ``effects``: bounds each
+    effect's search range widened by a quarter of its width on both sides (within its bounds),
+    difference steps a third of a grid step of the search range (9 points)."""
+    lower, upper, h = [], [], []
+    for e in effects:
+        lo, hi = e.search if math.isfinite(e.search[0]) else (e.lower, e.upper)
+        lower.append(max(e.lower, lo - (hi - lo) / 4))
+        upper.append(min(e.upper, hi + (hi - lo) / 4))
+        h.append((hi - lo) / 24)
+    return gauss_newton(u, lower, upper, h, evaluate, residuals, chi2)
+
+
+class EnsembleObjective:
+    """The joint refinement's objective on ensembles of runs (a model's runs from s0 + the
+    ensemble's shifts, :func:`.models.ensemble_slider_features`): the mean features are smooth
+    where single runs scatter by Δχ² of tens between neighbouring parameter values (friction and
+    detuning together at (110 Hz, 10 m/s²)). Residuals and χ² with the uncertainties fixed at the
+    start (σ² = σ_meas² + (1 + 1/R)·spread²), so that trial points are compared alike; the mode
+    terms as in the fit's χ² (:func:`.fitting._chi2_terms`)."""
+
+    def __init__(self, evaluate, central, params_of, ensemble_many, key_of, names, y, se, spread, runs,
+                 chi2_of, unpredicted) -> None:
+        self._evaluate, self._central, self._params_of = evaluate, central, params_of
+        self._many, self._key = ensemble_many, key_of
+        self.names, self.y = list(names), y
+        self.sig = np.sqrt(np.asarray(se) ** 2 + (1 + 1 / max(runs, 1)) *
+                           np.array([spread.get(k, 0.0) for k in self.names]) ** 2)
+        self._chi2_of, self._unpredicted = chi2_of, unpredicted
+        self.cache: Dict = {}
+
+    def evaluate(self, us: List[np.ndarray]) -> None:
+        self._evaluate(us)
+        todo, seen = [], set()
+        for u in us:
+            k = self._key(u)
+            if k not in self.cache and k not in seen and self._central(u) is not None:
+                todo.append(u)
+                seen.add(k)
+        for k in {self._key(u) for u in us} - seen:
+            self.cache.setdefault(k, None)
+        if todo:
+            for u, e in zip(todo, self._many([self._params_of(u) for u in todo], [self._central(u) for u in todo])):
+                self.cache[self._key(u)] = e
+
+    def residuals(self, u: np.ndarray) -> np.ndarray:
+        from .models import is_mode_feature, tag_of
+
+        e = self.cache.get(self._key(u))
+        if e is None:
+            return np.full(len(self.names), math.nan)
+        miss = self._unpredicted(e.mean, e.mode_counts, e.runs)
+        return residual_vector(e.mean, self.names, self.y, self.sig, lambda k: tag_of(k) in miss and is_mode_feature(k))
+
+    def chi2(self, u: np.ndarray) -> float:
+        e = self.cache.get(self._key(u))
+        return math.inf if e is None else self._chi2_of(e.mean, e.mode_counts, e.runs, self.sig)
+
+
+def single_run_residuals(model_of: Callable[[np.ndarray], Optional[Dict[str, float]]], names: Sequence[str],
+                         y: np.ndarray, sig: Callable[[], np.ndarray], unpredicted: Callable[[Dict[str, float]], set]
+                         ) -> Callable[[np.ndarray], np.ndarray]:
+    """Residuals of single runs (no ensembles): ``unpredicted(model)`` the operating points whose
+    mode the run misses (their mode features are not residuals)."""
+    from .models import is_mode_feature, tag_of
+
+    def residuals(p: np.ndarray) -> np.ndarray:
+        m = model_of(p)
+        miss = unpredicted(m) if m is not None else set()
+        return residual_vector(m, names, y, sig(), lambda k: tag_of(k) in miss and is_mode_feature(k))
+    return residuals
