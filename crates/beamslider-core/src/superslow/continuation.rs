@@ -6,7 +6,8 @@ use std::cell::RefCell;
 use nalgebra::{DMatrix, DVector};
 
 use super::branch::{Fold, HbBranch, HbManifold, HbOptions};
-use super::hb::{EvalWork, HbSystem, Param};
+use super::hb::{EvalWork, HbSystem};
+use super::hb_terms::Param;
 use super::lu::LuWork;
 use super::roots::{bracket_zeros, brent};
 use crate::error::{Error, Result};
