@@ -525,6 +525,37 @@ mod tests {
         assert!(why[0].starts_with("`length_m` = 0.15 differs") && why[1].starts_with("friction_coefficient = 0.5 outside the box [0.1, 0.4]"), "{why:?}");
     }
 
+    /// The blend from the tabulated laws is Σ wᵢ Vᵢ(x) / Σ wᵢ with each Vᵢ(x) evaluated afresh, to the bit.
+    #[test]
+    fn the_blend_from_tabulated_laws_is_the_direct_weighted_mean() {
+        let dl = shipped();
+        let mut p = dl.base.clone();
+        (p.gap_ratio, p.friction_coefficient, p.com_offset_m) = (1.17, 0.21, 3e-3);
+        let c = dl.coordinates_of(&p).unwrap();
+        let u: [f64; 9] = std::array::from_fn(|i| dl.coordinates[i].unit(c[i]));
+        let (o, w, d0) = dl.neighbours(&u);
+        assert!(d0 > 1e-6);
+        let (f, _) = dl.law_file_for(&p).unwrap();
+        for (name, high) in [("L", false), ("H", true)] {
+            let mut ws = 0.0;
+            for (&i, &wi) in o.iter().zip(&w) {
+                if dl.laws[i].branch_len(high) > 0 {
+                    ws += wi;
+                }
+            }
+            assert_eq!(f.v[name].len(), GRID_AMP.2 * GRID_S.2);
+            for (x, got) in grid().iter().zip(&f.v[name]) {
+                let mut acc = 0.0;
+                for (&i, &wi) in o.iter().zip(&w) {
+                    if dl.laws[i].branch_len(high) > 0 {
+                        acc += wi * dl.laws[i].evaluate(high, x, f64::INFINITY).0;
+                    }
+                }
+                assert_eq!((acc / ws).to_bits(), got.to_bits(), "{name} at {x:?}");
+            }
+        }
+    }
+
     #[test]
     fn g_format_as_python() {
         assert_eq!(fmt_g(1.025, 4), "1.025");
