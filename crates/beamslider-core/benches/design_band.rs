@@ -76,8 +76,8 @@ fn main() {
                 let row = predicted_row(i, f, a, 0.3, 120.0, &pr, 0.0);
                 std::hint::black_box(row.to_json());
                 t_rows += r0.elapsed().as_secs_f64();
-                for k in 0..4 {
-                    st[k] += pr.timings_s[k];
+                for (acc, t) in st.iter_mut().zip(pr.timings_s) {
+                    *acc += t;
                 }
             }
             let t2 = Instant::now();
