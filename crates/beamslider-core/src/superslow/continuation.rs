@@ -2,13 +2,15 @@
 //! (docs/model.md §6.4), fold detection and the sampling of branches on the grid.
 
 use std::cell::RefCell;
+use std::sync::{Arc, Mutex};
 
 use nalgebra::{DMatrix, DVector};
 
 use super::branch::{Fold, HbBranch, HbManifold, HbOptions};
-use super::hb::{EvalWork, HbSystem, Param};
+use super::hb::{EvalWork, HbSystem};
+use super::hb_terms::Param;
 use super::lu::LuWork;
-use super::roots::{bracket_zeros, brent};
+use super::roots::{brent, uniform_grid, zeros_from_values};
 use crate::error::{Error, Result};
 use crate::params::{Params, ParamsArg};
 
@@ -375,10 +377,37 @@ pub fn hb_manifold<'a>(params: impl Into<ParamsArg<'a>>, f_ex_hz: f64, a_ex: f64
         out.high_on_grid = grid.iter().map(|&x| sample_branch(&sys, &out.high, x)).collect();
         out.low_on_grid = grid.iter().map(|&x| sample_branch(&sys, &out.low, x)).collect();
     }
-    // Linear resonance positions on a 26-point grid, refined by Brent.
+    // Linear resonance positions: bracketed on a 26-point grid, refined by Brent.
     let g = |s: f64| sys.linear_frequency(s) - sys.omega_ex;
-    out.s_res = bracket_zeros(&g, s_lo, s_hi, 26, 1e-13);
+    let res_grid = uniform_grid(s_lo, s_hi, RES_GRID);
+    let vals: Vec<f64> = linear_frequencies(&sys, params, opts, &res_grid).iter().map(|w| w - sys.omega_ex).collect();
+    out.s_res = zeros_from_values(&g, &res_grid, &vals, 1e-13);
     Ok(out)
+}
+
+/// Points of the grid on which the linear resonance positions are bracketed.
+const RES_GRID: usize = 26;
+
+/// The lowest linear frequency of (Λ, M(s)) at the points `grid` (the bracketing grid of the
+/// resonance positions). It does not depend on the excitation, so the points of an operating map
+/// share it: kept for the last few (parameters, modes, detuning, grid).
+fn linear_frequencies(sys: &HbSystem, params: &Params, opts: &HbOptions, grid: &[f64]) -> Arc<Vec<f64>> {
+    type Key = (Params, usize, u64, Vec<u64>);
+    static CACHE: Mutex<Vec<(Key, Arc<Vec<f64>>)>> = Mutex::new(Vec::new());
+    let key: Key = (params.clone(), opts.n_modes, opts.omega1_factor.to_bits(), grid.iter().map(|s| s.to_bits()).collect());
+    if let Ok(cache) = CACHE.lock()
+        && let Some((_, w)) = cache.iter().rev().find(|(k, _)| *k == key)
+    {
+        return w.clone();
+    }
+    let w = Arc::new(grid.iter().map(|&s| sys.linear_frequency(s)).collect::<Vec<f64>>());
+    if let Ok(mut cache) = CACHE.lock() {
+        if cache.len() >= 16 {
+            cache.remove(0);
+        }
+        cache.push((key, w.clone()));
+    }
+    w
 }
 
 /// The first segment [sᵢ, sᵢ₊₁] of a branch that holds s, and s's weight w within it (s = sᵢ +
@@ -424,5 +453,30 @@ pub(super) fn sample_branch_state(sys: &HbSystem, b: &HbBranch, s: f64) -> f64 {
     match sys.newton_fixed(&y, Param::S { load: 1.0 }) {
         Some(y) => sys.point_out(&y, true).amplitude_h,
         None => b.amplitude_h[i] + w * (b.amplitude_h[i + 1] - b.amplitude_h[i]),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::superslow::roots::zeros_on_grid;
+
+    /// The resonance positions of manifolds that share one design's linear frequencies on the
+    /// bracketing grid (two frequencies, two levels) are those of the frequencies evaluated afresh.
+    #[test]
+    fn resonance_positions_from_the_shared_grid_are_the_fresh_ones() {
+        let p = Params::default();
+        let opts = HbOptions { low_branch_only: true, ..HbOptions::default() };
+        let mut found = 0;
+        for (f, a) in [(112.0, 10.0), (124.0, 14.0), (112.0, 14.0), (128.0, 10.0)] {
+            let m = hb_manifold(&p, f, a, &opts).unwrap();
+            let sys = HbSystem::new(&p, f, a, &opts).unwrap();
+            let g = |s: f64| sys.linear_frequency(s) - sys.omega_ex;
+            let fresh = zeros_on_grid(&g, &uniform_grid(m.s_range.0, m.s_range.1, RES_GRID), 1e-13);
+            let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(&m.s_res), bits(&fresh), "f = {f}, a = {a}");
+            found += fresh.len();
+        }
+        assert!(found > 0, "no resonance position in the range: the test compares nothing");
     }
 }

@@ -20,6 +20,7 @@
 
 use std::collections::HashMap;
 use std::path::Path;
+use std::sync::OnceLock;
 
 use serde::Deserialize;
 
@@ -154,6 +155,20 @@ pub struct DesignLaw {
     pub k_sets: usize,
     /// Below this clearance ratio a design lies outside the law (sliders barely move).
     pub jam_gap_ratio: f64,
+    /// Each training law's V on the blend's grid ([`grid`]), low and high branch, tabulated on
+    /// the law's first blend: the blend's summands depend on the law alone, not on the design.
+    tables: Vec<OnceLock<[Vec<f64>; 2]>>,
+}
+
+/// The blend's grid of the law's inputs (Â/max Â_H, s): [`GRID_S`] outer, [`GRID_AMP`] inner,
+/// so sorted by s.
+fn grid() -> &'static [[f64; NF]] {
+    static GRID: OnceLock<Vec<[f64; NF]>> = OnceLock::new();
+    GRID.get_or_init(|| {
+        let amp = linspace(GRID_AMP.0, GRID_AMP.1, GRID_AMP.2);
+        let ss = linspace(GRID_S.0, GRID_S.1, GRID_S.2);
+        ss.iter().flat_map(|&s| amp.iter().map(move |&a| [a, s])).collect()
+    })
 }
 
 fn bad(source: &str, why: &str) -> Error {
@@ -221,7 +236,8 @@ impl DesignLaw {
             files.push(lf);
             laws.push(law);
         }
-        Ok(DesignLaw { coordinates, base, unit, files, laws, scales, k_sets: f.k_sets, jam_gap_ratio: f.jam_gap_ratio })
+        let tables = laws.iter().map(|_| OnceLock::new()).collect();
+        Ok(DesignLaw { coordinates, base, unit, files, laws, scales, k_sets: f.k_sets, jam_gap_ratio: f.jam_gap_ratio, tables })
     }
 
     /// Read a design-law file.
@@ -229,6 +245,19 @@ impl DesignLaw {
         let path = path.as_ref();
         let text = std::fs::read_to_string(path).map_err(|e| Error::Io { path: path.display().to_string(), source: e })?;
         DesignLaw::from_json_str(&text, &path.display().to_string())
+    }
+
+    /// V of training law `i` on the blend's grid, (low, high) (empty for a branch without samples).
+    fn table(&self, i: usize) -> &[Vec<f64>; 2] {
+        self.tables[i].get_or_init(|| {
+            let law = &self.laws[i];
+            [false, true].map(|high| {
+                if law.branch_len(high) == 0 {
+                    return Vec::new();
+                }
+                grid().iter().map(|x| law.evaluate(high, x, f64::INFINITY).0).collect()
+            })
+        })
     }
 
     /// The design coordinates of `params` relative to this law's base ([`COORDINATES`] order).
@@ -293,18 +322,17 @@ impl DesignLaw {
         }
         let parts: Vec<&DriftLaw> = o.iter().map(|&i| &self.laws[i]).collect();
         let pfiles: Vec<&LawFile> = o.iter().map(|&i| &self.files[i]).collect();
-        let amp = linspace(GRID_AMP.0, GRID_AMP.1, GRID_AMP.2);
-        let ss = linspace(GRID_S.0, GRID_S.1, GRID_S.2);
-        let grid: Vec<[f64; NF]> = ss.iter().flat_map(|&s| amp.iter().map(move |&a| [a, s])).collect();
+        let grid = grid();
         let (mut xs, mut vs) = (HashMap::new(), HashMap::new());
         for (name, high) in [("L", false), ("H", true)] {
             let (mut acc, mut ws) = (vec![0.0; grid.len()], 0.0);
-            for (law, &wi) in parts.iter().zip(&w) {
-                if law.branch_len(high) == 0 {
+            for (&i, &wi) in o.iter().zip(&w) {
+                if self.laws[i].branch_len(high) == 0 {
                     continue;
                 }
-                for (a, x) in acc.iter_mut().zip(&grid) {
-                    *a += wi * law.evaluate(high, x, f64::INFINITY).0;
+                // Σ wᵢ Vᵢ(x) over the neighbours in order: the tabulated Vᵢ are the evaluations.
+                for (a, v) in acc.iter_mut().zip(&self.table(i)[usize::from(high)]) {
+                    *a += wi * v;
                 }
                 ws += wi;
             }
@@ -318,7 +346,7 @@ impl DesignLaw {
         }
         let n = grid.len() as f64;
         let mut mean = [0.0; NF];
-        for x in &grid {
+        for x in grid {
             for i in 0..NF {
                 mean[i] += x[i];
             }
@@ -327,7 +355,7 @@ impl DesignLaw {
             *m /= n;
         }
         let mut var = [0.0; NF];
-        for x in &grid {
+        for x in grid {
             for i in 0..NF {
                 let t = x[i] - mean[i];
                 var[i] += t * t;
@@ -495,6 +523,37 @@ mod tests {
         let (_, why) = dl.law_file_for(&p).unwrap();
         assert_eq!(why.len(), 2, "{why:?}");
         assert!(why[0].starts_with("`length_m` = 0.15 differs") && why[1].starts_with("friction_coefficient = 0.5 outside the box [0.1, 0.4]"), "{why:?}");
+    }
+
+    /// The blend from the tabulated laws is Σ wᵢ Vᵢ(x) / Σ wᵢ with each Vᵢ(x) evaluated afresh, to the bit.
+    #[test]
+    fn the_blend_from_tabulated_laws_is_the_direct_weighted_mean() {
+        let dl = shipped();
+        let mut p = dl.base.clone();
+        (p.gap_ratio, p.friction_coefficient, p.com_offset_m) = (1.17, 0.21, 3e-3);
+        let c = dl.coordinates_of(&p).unwrap();
+        let u: [f64; 9] = std::array::from_fn(|i| dl.coordinates[i].unit(c[i]));
+        let (o, w, d0) = dl.neighbours(&u);
+        assert!(d0 > 1e-6);
+        let (f, _) = dl.law_file_for(&p).unwrap();
+        for (name, high) in [("L", false), ("H", true)] {
+            let mut ws = 0.0;
+            for (&i, &wi) in o.iter().zip(&w) {
+                if dl.laws[i].branch_len(high) > 0 {
+                    ws += wi;
+                }
+            }
+            assert_eq!(f.v[name].len(), GRID_AMP.2 * GRID_S.2);
+            for (x, got) in grid().iter().zip(&f.v[name]) {
+                let mut acc = 0.0;
+                for (&i, &wi) in o.iter().zip(&w) {
+                    if dl.laws[i].branch_len(high) > 0 {
+                        acc += wi * dl.laws[i].evaluate(high, x, f64::INFINITY).0;
+                    }
+                }
+                assert_eq!((acc / ws).to_bits(), got.to_bits(), "{name} at {x:?}");
+            }
+        }
     }
 
     #[test]

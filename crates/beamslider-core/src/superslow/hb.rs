@@ -3,6 +3,7 @@
 
 use nalgebra::{DMatrix, DVector, DVectorView};
 
+use super::hb_terms::{HbTerms, Param};
 use super::lu::{LuWork, matvec};
 use super::mhb;
 use crate::error::{Error, Result};
@@ -69,30 +70,22 @@ impl Default for HbOptions {
     }
 }
 
-/// The N-mode, single-harmonic HB system with the slider rigidly attached (docs/model.md §6.4).
+/// The N-mode, single-harmonic HB system with the slider rigidly attached (docs/model.md §6.4):
+/// its coefficients ([`HbTerms`], read through `Deref`) and the multi-harmonic residual.
 #[derive(Debug, Clone)]
 pub struct HbSystem {
-    pub(super) beam: std::sync::Arc<Beam>,
-    pub(super) n: usize,
-    pub(super) length: f64,
-    pub(super) thickness: f64,
-    pub(super) omega_ex: f64,
-    pub(super) a_ex: f64,
-    pub(super) mass: f64,
-    pub(super) j_g: f64,
-    pub(super) lam: DMatrix<f64>,
-    pub(super) e_diag: Vec<f64>,
-    pub(super) kmat: DMatrix<f64>,
-    pub(super) k_ax: f64,
-    pub(super) gamma: DVector<f64>,
-    pub(super) d2: Option<(Vec<f64>, Vec<f64>)>,
-    pub(super) p47: Vec<f64>,
-    pub(super) q_ref: f64,
-    pub(super) f_ref: f64,
+    pub(super) terms: HbTerms,
     /// Multi-harmonic / static-sag residual (None: single-term HB).
     pub(super) mhb: Option<mhb::Mhb>,
     /// Number of real unknowns (parameter excluded): 2N for single-term HB.
     pub(super) nx: usize,
+}
+
+impl std::ops::Deref for HbSystem {
+    type Target = HbTerms;
+    fn deref(&self) -> &HbTerms {
+        &self.terms
+    }
 }
 
 pub(super) fn check_excitation(f_ex_hz: f64, a_ex: f64) -> Result<()> {
@@ -161,7 +154,7 @@ impl HbSystem {
         let mhb = (opts.harmonics > 1 || opts.static_sag)
             .then(|| mhb::Mhb::new(n, opts.harmonics, opts.static_sag, p.slider_mass_kg * p.gravity_m_s2));
         let nx = mhb.as_ref().map_or(2 * n, |m| m.nx);
-        Ok(HbSystem {
+        let terms = HbTerms {
             n,
             length: p.length_m,
             thickness: p.thickness_m,
@@ -178,10 +171,9 @@ impl HbSystem {
             p47,
             q_ref,
             f_ref,
-            mhb,
-            nx,
             beam,
-        })
+        };
+        Ok(HbSystem { terms, mhb, nx })
     }
 
     /// Number of modes N.
@@ -294,7 +286,7 @@ impl HbSystem {
     /// allocating (single-term HB).
     pub(super) fn eval_into(&self, y: &DVector<f64>, par: Param, want_j: bool, w: &mut EvalWork) {
         if let Some(m) = &self.mhb {
-            let (r, j) = m.eval(self, y, par, want_j);
+            let (r, j) = m.eval(&self.terms, y, par, want_j);
             w.r = r;
             if want_j {
                 w.j = j;
@@ -502,7 +494,7 @@ impl HbSystem {
             stable,
             q_re: u,
             q_im: v,
-            harm: self.mhb.as_ref().map_or_else(Vec::new, |m| m.harmonic_amplitudes(self, y)),
+            harm: self.mhb.as_ref().map_or_else(Vec::new, |m| m.harmonic_amplitudes(&self.terms, y)),
             state: if self.mhb.is_some() { (0..self.nx).map(|i| y[i] * self.q_ref).collect() } else { Vec::new() },
         }
     }
@@ -516,14 +508,6 @@ impl HbSystem {
         let a = (&a + a.transpose()) * 0.5;
         a.symmetric_eigenvalues().min().max(0.0).sqrt()
     }
-}
-
-#[derive(Debug, Clone, Copy)]
-pub(super) enum Param {
-    /// Continuation parameter s; forcing scaled by `load`.
-    S { load: f64 },
-    /// Continuation parameter: load factor at fixed s.
-    Load { s: f64 },
 }
 
 /// Buffers of [`HbSystem::eval_into`]: the residual `r`, the Jacobian `j` and the intermediates.

@@ -37,7 +37,7 @@
 
 use nalgebra::{DMatrix, DVector};
 
-use super::hb::{HbSystem, Param};
+use super::hb_terms::{HbTerms, Param};
 
 /// The AFT harmonic-balance residual for the harmonic set 𝒦 (docs/model.md §6.4).
 #[derive(Debug, Clone)]
@@ -104,7 +104,7 @@ impl Mhb {
 
     /// Amplitudes |Φ(4L/7)ᵀQ_k| / h per order (for k = 0: the signed static value) of the scaled
     /// unknowns y.
-    pub(super) fn harmonic_amplitudes(&self, sys: &HbSystem, y: &DVector<f64>) -> Vec<f64> {
+    pub(super) fn harmonic_amplitudes(&self, sys: &HbTerms, y: &DVector<f64>) -> Vec<f64> {
         let n = sys.n;
         let scale = sys.q_ref / sys.thickness;
         self.orders
@@ -123,8 +123,8 @@ impl Mhb {
     }
 
     /// Scaled residual r = R/f_ref and (optionally) the scaled Jacobian [∂r/∂x | ∂r/∂p], as
-    /// [`HbSystem::eval`] for the single-term system.
-    pub(super) fn eval(&self, sys: &HbSystem, y: &DVector<f64>, par: Param, want_j: bool) -> (DVector<f64>, DMatrix<f64>) {
+    /// `HbSystem::eval` for the single-term system.
+    pub(super) fn eval(&self, sys: &HbTerms, y: &DVector<f64>, par: Param, want_j: bool) -> (DVector<f64>, DMatrix<f64>) {
         let n = sys.n;
         let nx = self.nx;
         let nt = self.nt;

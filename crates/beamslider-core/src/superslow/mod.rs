@@ -42,6 +42,7 @@ mod continuation;
 pub mod design_law;
 pub mod drift;
 mod hb;
+mod hb_terms;
 mod lu;
 pub mod law;
 mod mhb;

@@ -141,6 +141,14 @@ pub fn slow_model_with(params: &Params, beam: &Beam, manifold: &HbManifold, law:
     slow_model_masked(params, beam, manifold, law, f_ex_hz, a_ex, nodes, SDnRule::Law).map(|b| (b.model, b.extrapolated))
 }
 
+/// V of the law at a node's features on the high (`high`) or low branch and whether they lie
+/// outside its training range, as [`DriftLaw::evaluate`] with the node's Λ_g; where the slider does
+/// not lift off (Λ_g < Λ_c) V = 0 and the range does not count (such a node cannot move), so the
+/// law's nearest samples are not searched there.
+fn drift_at(law: &DriftLaw, high: bool, f: &Features) -> (f64, bool) {
+    if f.lift_off < law.lift_c { (0.0, false) } else { law.evaluate(high, &f.x(), f.lift_off) }
+}
+
 /// Per branch (low, high) of a [`SlowModel`]: whether the node can move (Λ_g ≥ Λ_c).
 type Moving = [Vec<bool>; 2];
 
@@ -185,7 +193,7 @@ fn slow_model_masked(params: &Params, beam: &Beam, manifold: &HbManifold, law: &
         let feats = features_with(params, beam, manifold, f_ex_hz, a_ex, high, &s)?;
         let mut br = SlowBranch { s: s.clone(), amplitude_h: Vec::with_capacity(s.len()), v_per_s: Vec::with_capacity(s.len()) };
         for f in &feats {
-            let (v, outside) = law.evaluate(high, &f.x(), f.lift_off);
+            let (v, outside) = drift_at(law, high, f);
             extrapolated |= outside && f.lift_off >= law.lift_c;
             br.amplitude_h.push(f.amplitude_h);
             br.v_per_s.push(v);
@@ -288,7 +296,7 @@ fn monostable_low(params: &Params, beam: &Beam, manifold: &HbManifold, law: &Dri
     for f in &feats {
         let amp = f.amplitude_h.min(a_su);
         let capped = Features { amp_rel: amp / a_max, amplitude_h: amp, ..*f };
-        let (v, _) = law.evaluate(false, &capped.x(), f.lift_off);
+        let (v, _) = drift_at(law, false, &capped);
         br.amplitude_h.push(amp);
         br.v_per_s.push(v);
     }

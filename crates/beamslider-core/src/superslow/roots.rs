@@ -3,13 +3,13 @@
 
 use crate::error::{Error, Result};
 
-/// Zeros of f on [lo, hi], bracketed on `count` uniform points and refined by Brent.
-/// Exact zeros at grid points are reported once.
-pub(super) fn bracket_zeros(f: &dyn Fn(f64) -> f64, lo: f64, hi: f64, count: usize, tol: f64) -> Vec<f64> {
-    let grid: Vec<f64> = (0..count).map(|i| lo + (hi - lo) * i as f64 / (count - 1) as f64).collect();
-    zeros_on_grid(f, &grid, tol)
+/// `count` uniform points on [lo, hi] (a bracketing grid of [`zeros_from_values`]).
+pub(super) fn uniform_grid(lo: f64, hi: f64, count: usize) -> Vec<f64> {
+    (0..count).map(|i| lo + (hi - lo) * i as f64 / (count - 1) as f64).collect()
 }
 
+/// Zeros of f bracketed on the points `grid` and refined by Brent; exact zeros at grid points are
+/// reported once.
 pub(super) fn zeros_on_grid(f: &dyn Fn(f64) -> f64, grid: &[f64], tol: f64) -> Vec<f64> {
     let vals: Vec<f64> = grid.iter().map(|&s| f(s)).collect();
     zeros_from_values(f, grid, &vals, tol)
