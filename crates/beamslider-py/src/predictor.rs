@@ -67,9 +67,9 @@ pub fn predict(py: Python<'_>, params: &Bound<'_, PyParams>, f_ex_hz: f64, a_ex_
     let drift = match (law, &table) { (Some(l), None) => Drift::Law(l), (None, Some(t)) => Drift::Table(t), _ => return Err(bad("drift", "", "one of law and table")) };
     js!(py.detach(|| guarded(|| pred::predict_drift(&params, &*law::beam_for(&params, n_modes)?, drift, f_ex_hz, a_ex_m_s2, s0, t_end_s, &opts)))?)
 }
-/// Interval [ms] of the interpreter's polls (Ctrl-C, progress) while a predicted map runs: the wait
-/// ends at a poll, and a design's band takes a few tens of ms, so it is short.
-const POLL_MS: u64 = 2;
+/// Interval [ms] of the interpreter's polls (Ctrl-C, progress) while a predicted map runs (the
+/// wait itself ends as soon as the map is done).
+const POLL_MS: u64 = 100;
 /// A map predicted by the core (`map --predictor`; interpreter released, Ctrl-C stops it, `progress(done, total)`): rows, JSON.
 fn run_map(py: Python<'_>, cfg: &MapConfig, law: &DriftLaw, popts: &PredictOptions, out: Path, resume: bool, threads: Option<usize>, progress: Option<Py<PyAny>>) -> PyResult<Vec<String>> {
     crate::check_threads(threads)?;

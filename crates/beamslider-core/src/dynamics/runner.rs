@@ -124,15 +124,20 @@ where
 }
 
 /// Run `work` on a scoped worker thread while the calling thread calls `poll()` every `period`
-/// (signals, progress). When `poll` returns false the flag `cancel` is set (the work is expected
+/// (signals, progress); the call returns as soon as the work ends, not at the next period. When `poll` returns false the flag `cancel` is set (the work is expected
 /// to stop soon) and polling stops; the work is always joined. A panic of the work becomes
 /// [`Error::Numerical`].
 pub fn watched<T: Send>(cancel: &AtomicBool, period: Duration, work: impl FnOnce() -> Result<T> + Send, mut poll: impl FnMut() -> bool) -> Result<T> {
+    use std::sync::mpsc::{RecvTimeoutError, channel};
+    let (done, finished) = channel::<()>();
     std::thread::scope(|sc| {
-        let worker = sc.spawn(|| catch_panic(work).unwrap_or_else(|what| Err(internal(what))));
+        let worker = sc.spawn(move || {
+            let out = catch_panic(work).unwrap_or_else(|what| Err(internal(what)));
+            let _ = done.send(()); // wakes the watcher at once
+            out
+        });
         let mut polling = true;
-        while !worker.is_finished() {
-            std::thread::sleep(period);
+        while let Err(RecvTimeoutError::Timeout) = finished.recv_timeout(period) {
             if polling && !poll() {
                 cancel.store(true, Ordering::Relaxed);
                 polling = false;
@@ -145,6 +150,20 @@ pub fn watched<T: Send>(cancel: &AtomicBool, period: Duration, work: impl FnOnce
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn watched_returns_when_the_work_ends_not_at_the_next_poll() {
+        let cancel = AtomicBool::new(false);
+        let t0 = std::time::Instant::now();
+        let mut polls = 0;
+        let out = watched(&cancel, Duration::from_secs(30), || Ok(7), || {
+            polls += 1;
+            true
+        });
+        assert_eq!(out.unwrap(), 7);
+        assert_eq!(polls, 0);
+        assert!(t0.elapsed() < Duration::from_secs(10), "waited {:?}", t0.elapsed());
+    }
 
     #[test]
     fn every_job_once_in_any_order_and_on_done_sees_each() {
