@@ -8,8 +8,8 @@ a_ex 10 and 14 m/s², f_ex 100–130 Hz step 2, s0 0.3, 120 s; a_min 0.3 h) pred
 design law. A Saltelli design of N base samples (N (D + 2) designs), first-order and total
 indices with bootstrap 95 % intervals (beamslider.study.statistics.sobol_indices, the estimators
 of SALib). Designs outside what the law covers (the jam zone R/h < 1.03) are kept, and counted.
-Writes sobol.txt and sobol.json; the predictions are cached in sobol_y.npy under --work
-(resumable).
+Writes sobol.txt and sobol.json; the predictions are cached per chunk of 256 designs under --work
+(an interrupted run resumes).
 """
 
 from __future__ import annotations
@@ -18,7 +18,7 @@ import argparse
 import json
 import time
 import warnings
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 
 import numpy as np
@@ -69,16 +69,24 @@ def main() -> None:
     u = np.concatenate(rows)
     work = Path(a.work)
     work.mkdir(parents=True, exist_ok=True)
-    cache = work / f"sobol_y_n{a.n}_seed{a.seed}.npy"
+    # One file per chunk of designs, written as each chunk finishes: an interrupted run resumes
+    # where it stopped (a chunk's file is written to a temporary name, then renamed).
+    cdir = work / f"sobol_y_n{a.n}_seed{a.seed}"
+    cdir.mkdir(exist_ok=True)
+    chunks = np.array_split(np.arange(len(u)), max(1, -(-len(u) // 256)))
+    todo = [k for k in range(len(chunks)) if not (cdir / f"{k:05d}.npy").exists()]
     t0 = time.perf_counter()
-    if cache.exists():
-        res = np.load(cache)
-    else:
-        chunks = np.array_split(u, max(1, 8 * a.workers))
+    if todo:
+        from tqdm import tqdm
+
         with ProcessPoolExecutor(max_workers=a.workers) as ex:
-            parts = list(ex.map(_band, chunks))
-        res = np.array([v for part in parts for v in part], dtype=float)
-        np.save(cache, res)
+            futs = {ex.submit(_band, u[chunks[k]]): k for k in todo}
+            for fut in tqdm(as_completed(futs), total=len(futs), desc="designs (chunks of 256)"):
+                k = futs[fut]
+                tmp = cdir / f"{k:05d}.tmp.npy"
+                np.save(tmp, np.array(fut.result(), dtype=float))
+                tmp.replace(cdir / f"{k:05d}.npy")
+    res = np.concatenate([np.load(cdir / f"{k:05d}.npy") for k in range(len(chunks))])
     wall = time.perf_counter() - t0
     y, extrap = res[:, 0], res[:, 1] > 0.5
     si = sobol_indices(y, a.n, d, bootstrap=1000, seed=a.seed)

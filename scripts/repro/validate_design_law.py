@@ -47,6 +47,9 @@ def _label(r) -> str:
     return r.get("behaviour") or ("error" if r.get("status") == "error" else "none")
 
 
+ADAPTING = ("trivial_adaption", "signature_move", "relaxation_oscillation")
+
+
 def bands(rows):
     out = []
     for a in A:
@@ -76,6 +79,7 @@ def main() -> None:
         pr = {(r["f_ex_hz"], r["a_ex_m_s2"]): r for r in predicted_map(p, drift=law, f_ex=F, a_ex=A, s0=0.3, t_end=120.0)}
         bf, bp = bands(fs), bands(pr)
         agree = sum(_label(fs[k]) == _label(pr[k]) for k in fs)
+        coarse = sum((_label(fs[k]) in ADAPTING) == (_label(pr[k]) in ADAPTING) for k in fs)
         own = None
         if a.own_laws and (Path(a.own_laws) / f"design_{i}" / "law.json").exists():
             ol = load_law(Path(a.own_laws) / f"design_{i}" / "law.json")
@@ -84,7 +88,7 @@ def main() -> None:
                    "agree": sum(_label(fs[k]) == _label(po[k]) for k in fs)}
         res.append({"design": i, "x": x, "fs_bandwidth_hz": bf, "predicted_bandwidth_hz": bp,
                     "fs_mean_hz": float(np.mean(bf)), "predicted_mean_hz": float(np.mean(bp)), "agree": agree,
-                    "points": len(fs), "own_law": own, "extrapolated": any(bool(r.get("extrapolated")) for r in pr.values()),
+                    "adapting_or_not": coarse, "points": len(fs), "own_law": own, "extrapolated": any(bool(r.get("extrapolated")) for r in pr.values()),
                     "fs": {f"{k[0]:g},{k[1]:g}": _label(v) for k, v in fs.items()},
                     "predicted": {f"{k[0]:g},{k[1]:g}": _label(v) for k, v in pr.items()}})
     paper = _rows(ROOT / "docs" / "results" / "operating_map.jsonl")
@@ -110,6 +114,9 @@ def main() -> None:
                      f"{abs(r['fs_mean_hz'] - r['predicted_mean_hz']):5.1f} | {r['agree']}/{r['points']}"
                      + ("  (extrapolated)" if r["extrapolated"] else ""))
     lines.append(f"within 3 Hz: {within}/{len(res)}; behaviour agreement {100 * agree:.0f} % over {sum(r['points'] for r in res)} points")
+    coarse = sum(r["adapting_or_not"] for r in res) / sum(r["points"] for r in res)
+    lines.append(f"adapting or not (trivial adaption, signature move, relaxation oscillation against the rest): "
+                 f"agreement {100 * coarse:.0f} %")
     if all(r["own_law"] for r in res):
         w_own = sum(abs(r["fs_mean_hz"] - r["own_law"]["mean_hz"]) <= 3.0 for r in res)
         ag_own = sum(r["own_law"]["agree"] for r in res) / sum(r["points"] for r in res)
@@ -125,6 +132,7 @@ def main() -> None:
     text = "\n".join(lines) + "\n"
     (out / "heldout.txt").write_text(text)
     (out / "heldout.json").write_text(json.dumps({"designs": res, "within_3hz": within, "agreement": agree,
+                                                  "adapting_or_not": coarse,
                                                   "paper_map_agree": paper_agree, "paper_map_points": len(paper)}, indent=1))
     print(text, end="")
     try:

@@ -8,7 +8,11 @@ of the built-in design law except the prototype (64): design j's map is predicte
 fitted on the others (same length scales, k_sets), so the law never saw the design's drift
 tables. FS maps (a_ex 10/14 m/s², f_ex 100–130 Hz step 2, s0 0.3, 120 s) are resumable under
 --work (design_<j>/). Per design: adaption bandwidth of FS and predictor (mean of the two levels)
-and behaviour agreement; writes loo.txt and loo.json under --out.
+and behaviour agreement; writes loo.txt and loo.json under --out. Beside them, two diagnostics: the
+agreement on "adapting or not" (trivial adaption, signature move or relaxation oscillation against
+every other label), and the same maps predicted *in sample* by the shipped law (the design's own
+drift tables in the blend), which separates the error of carrying the law over to a new design from
+that of the reduced model itself.
 
 --stacked (needs scikit-learn; diagnostics, not a shipped model): a gradient-boosted classifier of
 the FS behaviour from the design coordinates, (f_ex, a_ex) and the predictor's row (behaviour,
@@ -59,6 +63,14 @@ def mean_band(rows, amp_of=None) -> float:
                for f in F]
         out.append(adaption_bandwidth(F, beh, amp, a_min_h=0.3))
     return float(np.mean(out))
+
+
+ADAPTING = ("trivial_adaption", "signature_move", "relaxation_oscillation")
+
+
+def coarse(fs, pr) -> int:
+    """Points where FS and the predictor agree on whether the slider adapts (the labels in ADAPTING)."""
+    return sum((label(fs[k]) in ADAPTING) == (label(pr[k]) in ADAPTING) for k in fs)
 
 
 def without(law: DesignLaw, j: int) -> DesignLaw:
@@ -136,8 +148,11 @@ def main() -> None:
         operating_map(p, f_ex=F, a_ex=A, s0=0.3, t_end=120.0, out=d, resume=(d / "map.jsonl").exists())
         fs = read_rows(d / "map.jsonl")
         pr = by_point(predicted_map(p, drift=without(law, j), f_ex=F, a_ex=A, s0=0.3, t_end=120.0))
+        own = by_point(predicted_map(p, drift=law, f_ex=F, a_ex=A, s0=0.3, t_end=120.0))
         res.append({"design": j, "x": x, "fs_mean_hz": mean_band(fs), "predicted_mean_hz": mean_band(pr),
                     "agree": sum(label(fs[k]) == label(pr[k]) for k in fs), "points": len(fs),
+                    "coarse": coarse(fs, pr), "in_sample_mean_hz": mean_band(own),
+                    "in_sample_agree": sum(label(fs[k]) == label(own[k]) for k in fs), "in_sample_coarse": coarse(fs, own),
                     "fs_rows": fs, "pr_rows": pr})
         print(f"design {j}: FS {res[-1]['fs_mean_hz']:.1f} Hz, predicted {res[-1]['predicted_mean_hz']:.1f} Hz, "
               f"agreement {res[-1]['agree']}/{len(fs)}", flush=True)
@@ -155,13 +170,24 @@ def main() -> None:
                      f"{abs(r['fs_mean_hz'] - r['predicted_mean_hz']):5.1f} | {r['agree']}/{r['points']}")
     lines.append(f"within 3 Hz: {within}/{len(res)} ({100 * within / len(res):.0f} %); behaviour agreement "
                  f"{100 * agree:.0f} % over {sum(r['points'] for r in res)} points")
+    n = sum(r["points"] for r in res)
+    co = sum(r["coarse"] for r in res) / n
+    w_in = sum(abs(r["fs_mean_hz"] - r["in_sample_mean_hz"]) <= 3.0 for r in res)
+    ag_in = sum(r["in_sample_agree"] for r in res) / n
+    co_in = sum(r["in_sample_coarse"] for r in res) / n
+    lines.append(f"adapting or not (trivial adaption, signature move, relaxation oscillation against the rest): "
+                 f"agreement {100 * co:.0f} %")
+    lines.append(f"in sample (diagnostics: the shipped law, each design's own drift tables in the blend): within 3 Hz "
+                 f"{w_in}/{len(res)} ({100 * w_in / len(res):.0f} %), behaviour agreement {100 * ag_in:.0f} %, "
+                 f"adapting or not {100 * co_in:.0f} %")
     labels = sorted({label(v) for r in res for v in list(r["fs_rows"].values()) + list(r["pr_rows"].values())})
     lines.append("confusion (rows FS, columns predicted): " + ", ".join(labels))
     for lf in labels:
         counts = [sum(1 for r in res for k in r["fs_rows"] if label(r["fs_rows"][k]) == lf and label(r["pr_rows"][k]) == lp)
                   for lp in labels]
         lines.append(f"  {lf:>24} " + " ".join(f"{c:4d}" for c in counts))
-    summary = {"within_3hz": within, "designs": len(res), "agreement": agree}
+    summary = {"within_3hz": within, "designs": len(res), "agreement": agree, "adapting_or_not": co,
+               "in_sample": {"within_3hz": w_in, "agreement": ag_in, "adapting_or_not": co_in}}
     if a.stacked:
         w, ag, n = stacked(res)
         lines.append(f"stacked classifier (diagnostics; 8-fold leave-designs-out CV over {n} points): within 3 Hz "
@@ -170,7 +196,8 @@ def main() -> None:
     text = "\n".join(lines) + "\n"
     (out / "loo.txt").write_text(text)
     (out / "loo.json").write_text(json.dumps({**summary, "per_design": [
-        {k: r[k] for k in ("design", "x", "fs_mean_hz", "predicted_mean_hz", "agree", "points")} for r in res]}, indent=1))
+        {k: r[k] for k in ("design", "x", "fs_mean_hz", "predicted_mean_hz", "agree", "points", "coarse",
+                            "in_sample_mean_hz", "in_sample_agree", "in_sample_coarse")} for r in res]}, indent=1))
     print(text, end="")
 
 
