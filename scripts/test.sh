@@ -1,9 +1,9 @@
 #!/usr/bin/env bash
 # The tests.
 #
-#   bash scripts/test.sh          the fast check: the Rust tests (cargo test of the libraries,
-#                                 binaries and test targets), then the fast pytest suite (not
-#                                 `slow`, `heavy` or `docs`) on one Python (python3)
+#   bash scripts/test.sh          the fast check: the Rust tests (`cargo test --tests`: the core's
+#                                 unit tests, each crate's test binary), then the fast pytest
+#                                 suite (not `slow`, `heavy` or `docs`) on one Python (python3)
 #   bash scripts/test.sh --full   the full matrix (.ci/run): also builds the core's examples and
 #                                 runs its doc tests; pytest on Python 3.9 and 3.13 with the `docs`
 #                                 tests (site build, README and guide examples) on both and the
@@ -121,12 +121,15 @@ for py in "${PYTHONS[@]}"; do
   VENV_PIDS+=($!)
 done
 
-# 2. The Rust tests, in the wheel's profile: built here, run in step 3 while the wheel builds. The
-#    binding's library is not built as a test harness (`--lib` would: it has no Rust tests, pytest
-#    tests it, and the wheel's build compiles PyO3 with the build variables of maturin anyway).
+# 2. The Rust tests, in the wheel's profile: built here, run in step 3 while the wheel builds.
+#    `--tests` selects the targets with `test = true`: the core's unit tests and the integration
+#    test binaries (one per crate, tests/all/); not the binding's library (`test = false`: it has no
+#    Rust tests, pytest tests it, and the wheel's build compiles PyO3 with the build variables of
+#    maturin anyway) nor the batch binary's harness (`test = false`: no unit tests; its
+#    integration tests run the binary itself). `--bins` or `--lib` would build those harnesses.
 CARGO_TEST=(cargo test --workspace --profile "$PROFILE")
 # The fast check: not the examples' builds, not doc tests.
-[ "$FULL" = 1 ] || CARGO_TEST+=(--bins --tests)
+[ "$FULL" = 1 ] || CARGO_TEST+=(--tests)
 export RUSTC_WRAPPER=${RUSTC_WRAPPER:-$PWD/scripts/tooling/rustc_unit_tests_unoptimised.sh}
 "${CARGO_TEST[@]}" --no-run
 stamp "cargo test built"
