@@ -35,7 +35,15 @@ done
 [ "$FULL" = 1 ] && BEAMSLIDER_REQUIRE_PYTHONS=${BEAMSLIDER_REQUIRE_PYTHONS:-1}
 PROFILE=ci-wheel
 T0=$(date +%s)
-stamp() { echo "scripts/test.sh: [$(( $(date +%s) - T0 )) s] $*"; }
+mkdir -p target
+CPU_FILE=target/test-sh-times.txt
+stamp() {  # wall seconds since the start, and the CPU seconds (user + system) of the finished steps
+  times > "$CPU_FILE"  # in this shell, not a subshell: the second line is its children's CPU
+  local cpu
+  cpu=$(awk 'NR == 2 { n = 0; for (i = 1; i <= 2; i++) { split($i, a, "m"); sub("s", "", a[2]); n += a[1] * 60 + a[2] }
+                       printf "%.0f", n }' "$CPU_FILE")
+  echo "scripts/test.sh: [$(( $(date +%s) - T0 )) s, ${cpu} s CPU] $*"
+}
 
 find_python() {  # newest patch release of Python $1 on PATH or under pyenv
   local v=$1 c found=""
@@ -196,7 +204,9 @@ for i in "${!PYTHONS[@]}"; do
   fi
   stamp "pytest on Python $ver ($venv), -m '$marks'"
   # Run from a neutral directory so that the installed package (not ./python) is imported.
+  # Work stealing: a worker that runs out of tests takes pending ones from the other, so that a
+  # few long tests (subprocesses, local Dask clusters) near the end leave no worker idle.
   (cd tests && "../$venv/bin/python" -m pytest -q -p no:cacheprovider -m "$marks" \
-     -n "${BEAMSLIDER_TEST_WORKERS:-2}" .)
+     -n "${BEAMSLIDER_TEST_WORKERS:-2}" --dist worksteal --durations=15 .)
 done
 stamp "all tests passed"
