@@ -1,9 +1,9 @@
 #!/usr/bin/env bash
 # The tests.
 #
-#   bash scripts/test.sh          the fast check: the Rust tests (cargo test of the libraries,
-#                                 binaries and test targets), then the fast pytest suite (not
-#                                 `slow`, `heavy` or `docs`) on one Python (python3)
+#   bash scripts/test.sh          the fast check: the Rust tests (`cargo test --tests`: the core's
+#                                 unit tests, each crate's test binary), then the fast pytest
+#                                 suite (not `slow`, `heavy` or `docs`) on one Python (python3)
 #   bash scripts/test.sh --full   the full matrix (.ci/run): also builds the core's examples and
 #                                 runs its doc tests; pytest on Python 3.9 and 3.13 with the `docs`
 #                                 tests (site build, README and guide examples) on both and the
@@ -35,7 +35,15 @@ done
 [ "$FULL" = 1 ] && BEAMSLIDER_REQUIRE_PYTHONS=${BEAMSLIDER_REQUIRE_PYTHONS:-1}
 PROFILE=ci-wheel
 T0=$(date +%s)
-stamp() { echo "scripts/test.sh: [$(( $(date +%s) - T0 )) s] $*"; }
+mkdir -p target
+CPU_FILE=target/test-sh-times.txt
+stamp() {  # wall seconds since the start, and the CPU seconds (user + system) of the finished steps
+  times > "$CPU_FILE"  # in this shell, not a subshell: the second line is its children's CPU
+  local cpu
+  cpu=$(awk 'NR == 2 { n = 0; for (i = 1; i <= 2; i++) { split($i, a, "m"); sub("s", "", a[2]); n += a[1] * 60 + a[2] }
+                       printf "%.0f", n }' "$CPU_FILE")
+  echo "scripts/test.sh: [$(( $(date +%s) - T0 )) s, ${cpu} s CPU] $*"
+}
 
 find_python() {  # newest patch release of Python $1 on PATH or under pyenv
   local v=$1 c found=""
@@ -121,12 +129,15 @@ for py in "${PYTHONS[@]}"; do
   VENV_PIDS+=($!)
 done
 
-# 2. The Rust tests, in the wheel's profile: built here, run in step 3 while the wheel builds. The
-#    binding's library is not built as a test harness (`--lib` would: it has no Rust tests, pytest
-#    tests it, and the wheel's build compiles PyO3 with the build variables of maturin anyway).
+# 2. The Rust tests, in the wheel's profile: built here, run in step 3 while the wheel builds.
+#    `--tests` selects the targets with `test = true`: the core's unit tests and the integration
+#    test binaries (one per crate, tests/all/); not the binding's library (`test = false`: it has no
+#    Rust tests, pytest tests it, and the wheel's build compiles PyO3 with the build variables of
+#    maturin anyway) nor the batch binary's harness (`test = false`: no unit tests; its
+#    integration tests run the binary itself). `--bins` or `--lib` would build those harnesses.
 CARGO_TEST=(cargo test --workspace --profile "$PROFILE")
 # The fast check: not the examples' builds, not doc tests.
-[ "$FULL" = 1 ] || CARGO_TEST+=(--bins --tests)
+[ "$FULL" = 1 ] || CARGO_TEST+=(--tests)
 export RUSTC_WRAPPER=${RUSTC_WRAPPER:-$PWD/scripts/tooling/rustc_unit_tests_unoptimised.sh}
 "${CARGO_TEST[@]}" --no-run
 stamp "cargo test built"
@@ -193,7 +204,9 @@ for i in "${!PYTHONS[@]}"; do
   fi
   stamp "pytest on Python $ver ($venv), -m '$marks'"
   # Run from a neutral directory so that the installed package (not ./python) is imported.
+  # Work stealing: a worker that runs out of tests takes pending ones from the other, so that a
+  # few long tests (subprocesses, local Dask clusters) near the end leave no worker idle.
   (cd tests && "../$venv/bin/python" -m pytest -q -p no:cacheprovider -m "$marks" \
-     -n "${BEAMSLIDER_TEST_WORKERS:-2}" .)
+     -n "${BEAMSLIDER_TEST_WORKERS:-2}" --dist worksteal --durations=15 .)
 done
 stamp "all tests passed"

@@ -482,13 +482,21 @@ recheck = 0
 
 @pytest.fixture(scope="module")
 def uninterrupted(tmp_path_factory):
+    """The uninterrupted results of a command (``study`` or ``design``), each run once per test
+    process and only if a test asks for it (with several pytest-xdist workers a worker may get the
+    tests of one command only)."""
     d = tmp_path_factory.mktemp("full")
-    (d / "study.toml").write_text(KILL_STUDY)
-    (d / "design.toml").write_text(KILL_DESIGN)
-    for cmd in ("study", "design"):
-        r = run_cli(cmd, "--config", f"{cmd}.toml", "--out", f"{cmd}-full", "--no-progress", cwd=d, timeout=600)
-        assert r.returncode == 0, r.stderr
-    return d
+    done = set()
+
+    def results(cmd: str) -> Path:
+        if cmd not in done:
+            (d / f"{cmd}.toml").write_text(KILL_STUDY if cmd == "study" else KILL_DESIGN)
+            r = run_cli(cmd, "--config", f"{cmd}.toml", "--out", f"{cmd}-full", "--no-progress", cwd=d, timeout=600)
+            assert r.returncode == 0, r.stderr
+            done.add(cmd)
+        return d / f"{cmd}-full" / f"{cmd}.jsonl"
+
+    return results
 
 
 @pytest.mark.parametrize("cmd", ["study", "design"])
@@ -516,8 +524,8 @@ def test_killed_study_or_design_resumes_to_the_uninterrupted_rows(tmp_path, unin
     if sig != "SIGKILL":
         assert not [f.name for f in (tmp_path / "o").iterdir() if "partial" in f.name]
         assert p.returncode == (130 if sig == "SIGINT" else 128 + getattr(signal, sig)), err
-    assert 0 < len(_rows(results)) < len(_rows(uninterrupted / f"{cmd}-full" / f"{cmd}.jsonl"))
+    assert 0 < len(_rows(results)) < len(_rows(uninterrupted(cmd)))
     r = run_cli(cmd, "--config", f"{cmd}.toml", "--out", "o", "--resume", "--no-progress", cwd=tmp_path, timeout=600)
     assert r.returncode == 0, r.stderr
     assert not [f.name for f in (tmp_path / "o").iterdir() if "partial" in f.name]
-    assert _rows(results) == _rows(uninterrupted / f"{cmd}-full" / f"{cmd}.jsonl")
+    assert _rows(results) == _rows(uninterrupted(cmd))

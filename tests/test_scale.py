@@ -147,7 +147,7 @@ def test_csv_result_is_read_at_bounded_memory(tmp_path):
     out = tmp_path / "run.csv"
     r = _run_py(f"""
 import json, resource, beamslider
-res = beamslider.simulate(f_ex=124, a_ex=14, t_end=40.0, record_every=1, out={str(out)!r})
+res = beamslider.simulate(f_ex=124, a_ex=14, t_end=20.0, record_every=1, out={str(out)!r})
 before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
 n, t_last, w_first = len(res.t), float(res.t[-1]), float(res.w[1])  # every column parsed
 after = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
@@ -155,12 +155,12 @@ print(json.dumps({{"before_kib": before, "after_kib": after, "rows": n, "t_last"
 """)
     assert r.returncode == 0, r.stderr
     d = json.loads(r.stdout.strip().splitlines()[-1])
-    rows = 1 + round(40.0 / 2e-5)
-    assert d["rows"] == rows and d["t_last"] == pytest.approx(40.0)
+    rows = 1 + round(20.0 / 2e-5)
+    assert d["rows"] == rows and d["t_last"] == pytest.approx(20.0)
     assert d["w1"] == beamslider.simulate(f_ex=124, a_ex=14, t_end=1e-4, record_every=1).w[1]
-    data_mb = rows * 6 * 8 / 1e6  # 96 MB of columns, 2 M lines of text
+    data_mb = rows * 6 * 8 / 1e6  # 48 MB of columns, 1 M lines of text
     growth_mb = (d["after_kib"] - d["before_kib"]) / 1024
-    print(f"CSV of 40 s at record_every=1 read: {data_mb:.0f} MB of columns, peak RSS grew by {growth_mb:.1f} MB")
+    print(f"CSV of 20 s at record_every=1 read: {data_mb:.0f} MB of columns, peak RSS grew by {growth_mb:.1f} MB")
     assert growth_mb < data_mb / 4, (growth_mb, data_mb)
 
 
@@ -221,6 +221,7 @@ def test_cli_interrupted_simulate_leaves_an_incomplete_sidecar_that_plot_refuses
 
 def test_cli_simulate_streams_npz_by_default_and_csv_or_parquet_on_request(tmp_path):
     stem = "fs_124Hz_14ms2_s0_0p3"
+    mem = beamslider.simulate(f_ex=124, a_ex=14, s0=0.3, t_end=0.3)
     for fmt in ("npz", "csv", "parquet"):
         out = tmp_path / fmt
         r = subprocess.run(CLI + ["simulate", "--t-end", "0.3", "--no-manifold", "--out", str(out)]
@@ -229,7 +230,6 @@ def test_cli_simulate_streams_npz_by_default_and_csv_or_parquet_on_request(tmp_p
         meta = json.loads((out / f"{stem}.json").read_text())
         assert meta["complete"] is True and meta["data"] == f"{stem}.{fmt}"
         cols = beamslider.read_trajectory(out / f"{stem}.{fmt}")
-        mem = beamslider.simulate(f_ex=124, a_ex=14, s0=0.3, t_end=0.3)
         np.testing.assert_array_equal(cols["w_4L7_m"], mem.w)
         r = subprocess.run(CLI + ["plot", str(out / f"{stem}.json"), "--out", str(out / "re")], capture_output=True,
                            text=True, env=ENV)

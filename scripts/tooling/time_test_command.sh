@@ -35,7 +35,7 @@ write_results() {  # the figures so far: docs/results/timing/test_command.txt an
     echo "bash scripts/test.sh from a clean clone (scripts/tooling/time_test_command.sh$( [ "$REBUILD" = 1 ] && echo " --rebuild"))"
     echo "$LINE"
     [ -n "$REB" ] && echo "$REB"
-    echo "stage times (seconds since the start):"
+    echo "stage times (wall seconds since the start; CPU seconds, user + system, of the steps finished by then):"
     grep "scripts/test.sh: \[" "$WORK/log" || true
   } > docs/results/timing/test_command.txt
   cat docs/results/timing/test_command.txt

@@ -3,8 +3,7 @@
 
 use std::process::Stdio;
 
-mod common;
-use common::{bin, rows};
+use crate::common::{bin, rows};
 
 /// A small law file in the format of `beamslider.slowflow.save_drift_law` (features amp_rel, s):
 /// V < 0 on the low branch, a zero of V on the high branch between s = 0.35 and 0.40.

@@ -1,5 +1,4 @@
 //! Helpers shared by the integration tests of `beamslider-batch`.
-#![allow(dead_code)] // each test crate uses a part of the helpers
 
 use std::path::Path;
 use std::process::Command;

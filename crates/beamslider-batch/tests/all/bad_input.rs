@@ -8,8 +8,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
-mod common;
-use common::{bin, rows};
+use crate::common::{bin, rows};
 
 fn tmp(name: &str) -> PathBuf {
     let d = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("bsb-bad-{}-{name}", std::process::id()));

@@ -3,8 +3,7 @@
 use std::process::Stdio;
 use std::time::{Duration, Instant};
 
-mod common;
-use common::{bin, rows};
+use crate::common::{bin, rows};
 
 #[test]
 fn killed_map_resumes_without_loss_or_duplicates() {

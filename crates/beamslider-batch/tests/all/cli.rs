@@ -1,7 +1,6 @@
 //! Smoke tests of the `beamslider-batch` binary.
 
-mod common;
-use common::bin;
+use crate::common::bin;
 
 #[test]
 fn help_lists_simulate() {
@@ -51,7 +50,7 @@ fn simulate_writes_csv_with_header() {
 
 #[test]
 fn bad_input_gives_clear_error_and_nonzero_exit() {
-    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("bsb-bad-{}", std::process::id()));
+    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("bsb-cli-bad-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let pfile = dir.join("bad.toml");
     std::fs::write(&pfile, "gap_ratio = 0.9\n").unwrap();
