@@ -1,6 +1,6 @@
 """Sobol' indices of the adaption bandwidth over the design box, on the predictor (docs/model.md §6.5).
 
-    python scripts/repro/design_law_sobol.py [--n 1024] [--seed 0] [--workers 2] [--out docs/results/design_law]
+    python scripts/repro/design_law_sobol.py [--n 4096] [--seed 0] [--workers 2] [--out docs/results/design_law]
 
 Inputs: the nine coordinates of the design box (uniform in the box's unit coordinates; the damping
 factor on a log scale). Output: the adaption bandwidth [Hz] of the design search's band (mean of
@@ -57,7 +57,7 @@ def main() -> None:
     from beamslider.superslow import DESIGN_BOX
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--n", type=int, default=1024)
+    ap.add_argument("--n", type=int, default=4096)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--work", default="validation-out/design_law_sobol")
@@ -94,7 +94,7 @@ def main() -> None:
     lines = [f"# Sobol' indices of the predicted adaption bandwidth over the design box: N = {a.n} base samples, "
              f"D = {d}, {len(y)} designs ({int(extrap.sum())} outside what the law covers, kept), "
              f"{wall:.0f} s wall on {a.workers} processes",
-             "# python scripts/repro/design_law_sobol.py" + (f" --n {a.n}" if a.n != 1024 else ""),
+             "# python scripts/repro/design_law_sobol.py" + (f" --n {a.n}" if a.n != 4096 else ""),
              f"bandwidth [Hz]: mean {np.mean(y):.2f}, std {np.std(y):.2f}, min {np.min(y):.1f}, max {np.max(y):.1f}",
              f"{'coordinate':>26}  {'S1':>7} {'±95%':>6}  {'ST':>7} {'±95%':>6}"]
     for i, n in enumerate(names):
