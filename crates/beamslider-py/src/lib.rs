@@ -74,7 +74,13 @@ fn check_threads(threads: Option<usize>) -> PyResult<()> {
 /// ([`runner::watched`]); every `period_ms`, and once more at the end, the calling thread
 /// re-attaches, runs pending signal handlers (Ctrl-C) and calls `poll(py)` (progress callbacks).
 /// An exception there sets `cancel` and is raised once the work has stopped.
-fn detached<T: Send>(py: Python<'_>, cancel: &AtomicBool, period_ms: u64, work: impl FnOnce() -> Result<T, Error> + Send, poll: impl Fn(Python<'_>) -> PyResult<()> + Sync) -> PyResult<T> {
+fn detached<T: Send>(
+    py: Python<'_>,
+    cancel: &AtomicBool,
+    period_ms: u64,
+    work: impl FnOnce() -> Result<T, Error> + Send,
+    poll: impl Fn(Python<'_>) -> PyResult<()> + Sync,
+) -> PyResult<T> {
     let poll = |py: Python<'_>| py.check_signals().and_then(|()| poll(py));
     let mut err: Option<PyErr> = None;
     let period = std::time::Duration::from_millis(period_ms);
@@ -103,7 +109,8 @@ impl PyMonitor {
 
     /// Call `f(*args)` (if any) attached, after the signal handlers; false (and the error kept) on an exception.
     fn call<A: for<'py> pyo3::call::PyCallArgs<'py>>(error: &mut Option<PyErr>, f: Option<&Py<PyAny>>, args: A) -> bool {
-        error.is_none() && Python::attach(|py| py.check_signals().and_then(|()| f.map_or(Ok(()), |f| f.call1(py, args).map(drop)))).map_err(|e| *error = Some(e)).is_ok()
+        error.is_none()
+            && Python::attach(|py| py.check_signals().and_then(|()| f.map_or(Ok(()), |f| f.call1(py, args).map(drop)))).map_err(|e| *error = Some(e)).is_ok()
     }
 
     /// The run's outcome, or the exception a callback raised.
