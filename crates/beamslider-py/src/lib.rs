@@ -10,7 +10,7 @@
 //! argument lists are the API, hence the crate-wide `too_many_arguments`).
 #![allow(clippy::too_many_arguments)]
 
-use std::sync::atomic::AtomicBool;
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
 use beamslider_core::signal::{self, envelope_stream::EnvelopeStream};
 use beamslider_core::{Criteria, Error, Monitor, SuperSlow, dynamics::runner};
@@ -91,6 +91,26 @@ fn detached<T: Send>(
     let out = outcome.map_err(to_py)?;
     poll(py)?;
     Ok(out)
+}
+
+/// Progress (callback, done, total) of work on other threads; [`detached`]'s polls report it
+/// to `callback(done, total)` once the total is known (> 0).
+struct Progress(Option<Py<PyAny>>, AtomicUsize, AtomicUsize);
+
+impl Progress {
+    fn new(callback: Option<Py<PyAny>>, total: usize) -> Self {
+        Progress(callback, AtomicUsize::new(0), AtomicUsize::new(total))
+    }
+
+    fn set(&self, done: usize, total: usize) {
+        self.1.store(done, Ordering::Relaxed);
+        self.2.store(total, Ordering::Relaxed);
+    }
+
+    fn report(&self, py: Python<'_>) -> PyResult<()> {
+        let (done, total) = (self.1.load(Ordering::Relaxed), self.2.load(Ordering::Relaxed));
+        self.0.as_ref().filter(|_| total > 0).map_or(Ok(()), |cb| cb.call1(py, (done, total)).map(drop))
+    }
 }
 
 /// Monitor that re-attaches to Python every poll: pending signal handlers (Ctrl-C) and the

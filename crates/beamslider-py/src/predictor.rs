@@ -10,20 +10,15 @@ use beamslider_core::superslow::{HbBranch, HbManifold, HbOptions, hb_manifold};
 use beamslider_core::{Error, MapConfig, MapRow, MapRunOptions};
 use pyo3::exceptions::{PyKeyboardInterrupt, PyValueError};
 use pyo3::prelude::*;
-use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering::Relaxed};
+use std::sync::atomic::{AtomicBool, Ordering::Relaxed};
 
-use crate::{detached, guarded, maprun::PyMapConfig, params::PyParams};
+use crate::{Progress, detached, guarded, json, maprun::PyMapConfig, params::PyParams};
 
 type Branch = (Vec<f64>, Vec<f64>, Vec<f64>);
 type Table = (Branch, Branch, Option<f64>, Option<f64>);
 type Path = Option<std::path::PathBuf>;
 fn branch(b: Branch) -> SlowBranch {
     SlowBranch { s: b.0, amplitude_h: b.1, v_per_s: b.2 }
-}
-macro_rules! js {
-    ($x:expr) => {
-        serde_json::to_string(&$x).map_err(|e| crate::SimulationError::new_err(format!("internal error: {e}")))
-    };
 }
 fn bad(field: &str, v: &str, allowed: &str) -> PyErr {
     PyValueError::new_err(Error::invalid(field, format!("{v:?}"), allowed).to_string())
@@ -79,7 +74,7 @@ pub fn hb_features(
     d_eff: Option<f64>,
 ) -> PyResult<String> {
     let (params, opts) = (params.get().0.clone(), HbOptions { n_modes, d_eff, ..HbOptions::default() });
-    js!(py.detach(|| guarded(|| law::features(&params, &hb_manifold(&params, f_ex_hz, a_ex_m_s2, &opts)?, f_ex_hz, a_ex_m_s2, high, &s)))?)
+    json(&py.detach(|| guarded(|| law::features(&params, &hb_manifold(&params, f_ex_hz, a_ex_m_s2, &opts)?, f_ex_hz, a_ex_m_s2, high, &s)))?)
 }
 /// One operating point by the reduced model, drift a law (`DriftLaw`) or a PCS table ((low, high, s_up, s_dn)): JSON.
 #[pyfunction]
@@ -115,7 +110,7 @@ pub fn predict(
         (None, Some(t)) => Drift::Table(t),
         _ => return Err(bad("drift", "", "one of law and table")),
     };
-    js!(py.detach(|| guarded(|| pred::predict_drift(&params, &*law::beam_for(&params, n_modes)?, drift, f_ex_hz, a_ex_m_s2, s0, t_end_s, &opts)))?)
+    json(&py.detach(|| guarded(|| pred::predict_drift(&params, &*law::beam_for(&params, n_modes)?, drift, f_ex_hz, a_ex_m_s2, s0, t_end_s, &opts)))?)
 }
 /// Interval [ms] of the interpreter's polls (Ctrl-C, progress) while a predicted map runs (the
 /// wait itself ends as soon as the map is done).
@@ -132,11 +127,10 @@ fn run_map(
     progress: Option<Py<PyAny>>,
 ) -> PyResult<Vec<String>> {
     crate::check_threads(threads)?;
-    let (cancel, done, total) = (AtomicBool::new(false), AtomicUsize::new(0), guarded(|| cfg.points())?.len());
-    let poll = |py: Python<'_>| progress.as_ref().map_or(Ok(()), |cb| cb.call1(py, (done.load(Relaxed), total)).map(|_| ()));
+    let (cancel, progress) = (AtomicBool::new(false), Progress::new(progress, guarded(|| cfg.points())?.len()));
     let opts = MapRunOptions { out, resume, threads, extend: false };
-    let run = || pred::run_predicted_map(cfg, law, popts, &opts, &cancel, &|n: usize, _t: usize, _r: &MapRow| done.store(n, Relaxed));
-    let outcome = detached(py, &cancel, POLL_MS, run, poll)?;
+    let run = || pred::run_predicted_map(cfg, law, popts, &opts, &cancel, &|n: usize, t: usize, _r: &MapRow| progress.set(n, t));
+    let outcome = detached(py, &cancel, POLL_MS, run, |py| progress.report(py))?;
     if outcome.cancelled || cancel.load(Relaxed) {
         return Err(PyKeyboardInterrupt::new_err("map interrupted"));
     }

@@ -9,7 +9,8 @@ use pyo3::prelude::*;
 use pythonize::pythonize;
 
 use crate::params::PyParams;
-use crate::{detached, guarded, json};
+use crate::{Progress, detached, guarded, json};
+use std::sync::atomic::AtomicBool;
 
 /// HB super-slow manifold (docs/model.md §6.4): the core's `HbManifold` as a dict (its fields).
 #[pyfunction]
@@ -85,20 +86,11 @@ pub fn drift_table_pcs(
     resume: bool,
     progress: Option<Py<PyAny>>,
 ) -> PyResult<(String, Vec<String>, usize)> {
-    use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering::Relaxed};
     let params = params.get().0.clone();
     let opts = DriftOptions { s_values, settle_periods, first_settle_periods, window_s, sub_windows, mirror };
-    let exc = Excitation::new(f_ex_hz, a_ex_m_s2);
-    let (cancel, done, total) = (AtomicBool::new(false), AtomicUsize::new(0), AtomicUsize::new(0));
-    let poll = |py: Python<'_>| {
-        let t = total.load(Relaxed);
-        progress.as_ref().filter(|_| t > 0).map_or(Ok(()), |cb| cb.call1(py, (done.load(Relaxed), t)).map(|_| ()))
-    };
-    let progress_of = |d, t| {
-        done.store(d, Relaxed);
-        total.store(t, Relaxed);
-    };
-    let table = detached(py, &cancel, 100, || core_drift(&Model::of(&params)?, &exc, &opts, out.as_deref(), resume, &cancel, &progress_of), poll)?;
+    let (exc, cancel, progress) = (Excitation::new(f_ex_hz, a_ex_m_s2), AtomicBool::new(false), Progress::new(progress, 0));
+    let work = || core_drift(&Model::of(&params)?, &exc, &opts, out.as_deref(), resume, &cancel, &|d, t| progress.set(d, t));
+    let table = detached(py, &cancel, 100, work, |py| progress.report(py))?;
     Ok((json(&table.header)?, table.rows.iter().map(json).collect::<PyResult<_>>()?, table.computed))
 }
 
