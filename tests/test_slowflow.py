@@ -279,7 +279,7 @@ def _map_row(law_text, f_ex, a_ex, s0):
     from beamslider import _core
 
     cfg = f"duration_s = 120.0\n[grid]\nf_ex_hz = [{float(f_ex)}]\na_ex_m_s2 = [{float(a_ex)}]\ns0 = [{float(s0)}]\n"
-    return json.loads(_core.predicted_map(_core.MapConfig(cfg), _core.DriftLaw(law_text), threads=1)[0])
+    return json.loads(_core.predicted_map(_core.MapConfig(cfg), _core.DriftLaw(law_text), threads=1)[0][0])
 
 
 def test_core_law_and_features_against_independent_references(tmp_path):

@@ -178,9 +178,9 @@ def predict(
     build_up_drift: bool = True, robustness: bool = True
 ) -> str: ...
 def predicted_map(
-    config: MapConfig, law: DriftLaw, *, out: Union[str, PathLike[str], None] = None, resume: bool = False,
+    config: MapConfig, law: Union[DriftLaw, DesignLaw], *, out: Union[str, PathLike[str], None] = None, resume: bool = False,
     threads: Optional[int] = None, n_modes: int = 5, d_eff: Optional[float] = None, s_dn: str = "law", progress: Progress = None
-) -> List[str]: ...
+) -> Tuple[List[str], List[str]]: ...
 
 # Formats and formulas of the core (crates/beamslider-py/src/formats.rs).
 _MapColumns = Tuple[List[float], List[float], List[float], List[float], List[str], List[str], List[bool]]
@@ -199,8 +199,3 @@ class DesignLaw:
 
     def __init__(self, text: str, source: str) -> None: ...
     def law_for(self, params: Params) -> Tuple[str, List[str]]: ...
-    def predicted_map(
-        self, config: MapConfig, *, out: Union[str, PathLike[str], None] = None, resume: bool = False,
-        threads: Optional[int] = None, n_modes: int = 5, d_eff: Optional[float] = None, s_dn: str = "law",
-        progress: Progress = None
-    ) -> Tuple[List[str], List[str]]: ...

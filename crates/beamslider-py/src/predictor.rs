@@ -7,7 +7,7 @@ use beamslider_core::superslow::law::{self, DriftLaw};
 use beamslider_core::superslow::predict::{self as pred, Drift, PredictOptions, SDnRule, Source, TableDrift};
 use beamslider_core::superslow::slowflow::SlowBranch;
 use beamslider_core::superslow::{HbBranch, HbManifold, HbOptions, hb_manifold};
-use beamslider_core::{Error, MapConfig, MapRow, MapRunOptions};
+use beamslider_core::{Error, MapRow, MapRunOptions};
 use pyo3::exceptions::{PyKeyboardInterrupt, PyValueError};
 use pyo3::prelude::*;
 use std::sync::atomic::{AtomicBool, Ordering::Relaxed};
@@ -115,34 +115,21 @@ pub fn predict(
 /// Interval [ms] of the interpreter's polls (Ctrl-C, progress) while a predicted map runs (the
 /// wait itself ends as soon as the map is done).
 const POLL_MS: u64 = 100;
-/// A map predicted by the core (`map --predictor`; interpreter released, Ctrl-C stops it, `progress(done, total)`): rows, JSON.
-fn run_map(
-    py: Python<'_>,
-    cfg: &MapConfig,
-    law: &DriftLaw,
-    popts: &PredictOptions,
-    out: Path,
-    resume: bool,
-    threads: Option<usize>,
-    progress: Option<Py<PyAny>>,
-) -> PyResult<Vec<String>> {
-    crate::check_threads(threads)?;
-    let (cancel, progress) = (AtomicBool::new(false), Progress::new(progress, guarded(|| cfg.points())?.len()));
-    let opts = MapRunOptions { out, resume, threads, extend: false };
-    let run = || pred::run_predicted_map(cfg, law, popts, &opts, &cancel, &|n: usize, t: usize, _r: &MapRow| progress.set(n, t));
-    let outcome = detached(py, &cancel, POLL_MS, run, |py| progress.report(py))?;
-    if outcome.cancelled || cancel.load(Relaxed) {
-        return Err(PyKeyboardInterrupt::new_err("map interrupted"));
-    }
-    Ok(outcome.rows.iter().map(MapRow::to_json).collect())
+/// The drift of a predicted map: a drift law, or a design law blended for the map's parameters.
+#[derive(FromPyObject)]
+pub enum MapLaw<'py> {
+    Drift(Bound<'py, PyDriftLaw>),
+    Design(Bound<'py, PyDesignLaw>),
 }
-/// A map predicted by the core with a drift law: see `run_map`.
+/// A map predicted by the core (`map --predictor`; interpreter released, Ctrl-C stops it, `progress(done, total)`) with a
+/// drift law or a design law (blended for the configuration's parameters; `s_dn="hb"` drops its learnt jump-down):
+/// (rows as JSON, why the design lies outside the design law).
 #[pyfunction]
 #[pyo3(signature = (config, law, *, out=None, resume=false, threads=None, n_modes=5, d_eff=None, s_dn="law", progress=None))]
 pub fn predicted_map(
     py: Python<'_>,
     config: &Bound<'_, PyMapConfig>,
-    law: &Bound<'_, PyDriftLaw>,
+    law: MapLaw<'_>,
     out: Path,
     resume: bool,
     threads: Option<usize>,
@@ -150,8 +137,28 @@ pub fn predicted_map(
     d_eff: Option<f64>,
     s_dn: &str,
     progress: Option<Py<PyAny>>,
-) -> PyResult<Vec<String>> {
-    run_map(py, &config.get().cfg, &law.get().0, &options(n_modes, d_eff, s_dn)?, out, resume, threads, progress)
+) -> PyResult<(Vec<String>, Vec<String>)> {
+    crate::check_threads(threads)?;
+    let cfg = &config.get().cfg;
+    let (blended, mut why);
+    why = Vec::new();
+    let (law, s_dn) = match &law {
+        MapLaw::Drift(l) => (&l.get().0, s_dn),
+        MapLaw::Design(d) => {
+            let design = &d.get().0;
+            (blended, why) = py.detach(|| guarded(|| design.law_for_rule(&cfg.effective_params(), s_dn != "hb")))?;
+            (&blended, if s_dn == "hb" { "law" } else { s_dn })
+        }
+    };
+    let popts = options(n_modes, d_eff, s_dn)?;
+    let (cancel, progress) = (AtomicBool::new(false), Progress::new(progress, guarded(|| cfg.points())?.len()));
+    let opts = MapRunOptions { out, resume, threads, extend: false };
+    let run = || pred::run_predicted_map(cfg, law, &popts, &opts, &cancel, &|n: usize, t: usize, _r: &MapRow| progress.set(n, t));
+    let outcome = detached(py, &cancel, POLL_MS, run, |py| progress.report(py))?;
+    if outcome.cancelled || cancel.load(Relaxed) {
+        return Err(PyKeyboardInterrupt::new_err("map interrupted"));
+    }
+    Ok((outcome.rows.iter().map(MapRow::to_json).collect(), why))
 }
 /// Design coordinates (docs/model.md §6.5) of `params` relative to `base`, in the core's order.
 #[pyfunction]
@@ -172,24 +179,6 @@ impl PyDesignLaw {
     fn law_for(&self, py: Python<'_>, params: &Bound<'_, PyParams>) -> PyResult<(String, Vec<String>)> {
         let p = params.get().0.clone();
         py.detach(|| guarded(|| self.0.law_file_for(&p).map(|(f, why)| (f.to_json(), why))))
-    }
-    /// A map predicted with the law blended for the configuration's parameters (`run_map`): (rows, why outside).
-    #[pyo3(signature = (config, *, out=None, resume=false, threads=None, n_modes=5, d_eff=None, s_dn="law", progress=None))]
-    fn predicted_map(
-        &self,
-        py: Python<'_>,
-        config: &Bound<'_, PyMapConfig>,
-        out: Path,
-        resume: bool,
-        threads: Option<usize>,
-        n_modes: usize,
-        d_eff: Option<f64>,
-        s_dn: &str,
-        progress: Option<Py<PyAny>>,
-    ) -> PyResult<(Vec<String>, Vec<String>)> {
-        let (cfg, popts) = (&config.get().cfg, options(n_modes, d_eff, if s_dn == "hb" { "law" } else { s_dn })?);
-        let (law, why) = py.detach(|| guarded(|| self.0.law_for_rule(&cfg.effective_params(), s_dn != "hb")))?;
-        Ok((run_map(py, cfg, &law, &popts, out, resume, threads, progress)?, why))
     }
 }
 

@@ -338,9 +338,9 @@ def predicted_map(
     kw = dict(out=None if path is None else str(path), resume=bool(resume), threads=threads, n_modes=int(n_modes), d_eff=d_eff)
     if isinstance(drift, DriftLaw):
         law = drift if s_dn != "hb" else dataclasses.replace(drift, rho_c=0.0)
-        rows = _core.predicted_map(cfg, law.core(), s_dn="none" if s_dn == "none" else "law", **kw)
+        rows, _ = _core.predicted_map(cfg, law.core(), s_dn="none" if s_dn == "none" else "law", **kw)
     else:
-        rows, why = (drift or default_law()).core().predicted_map(cfg, s_dn=s_dn, **kw)
+        rows, why = _core.predicted_map(cfg, (drift or default_law()).core(), s_dn=s_dn, **kw)
         if why:
             import warnings
 
