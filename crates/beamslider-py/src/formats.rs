@@ -38,12 +38,7 @@ fn map_text_table(columns: Columns) -> PyResult<(String, String)> {
 /// Envelope with the analytic signal by overlapping FFT blocks (docs/model.md §7).
 #[pyfunction]
 fn blocked_envelope<'py>(
-    py: Python<'py>,
-    x: PyReadonlyArray1<'py, f64>,
-    dt_s: f64,
-    window_s: f64,
-    block: usize,
-    margin: usize,
+    py: Python<'py>, x: PyReadonlyArray1<'py, f64>, dt_s: f64, window_s: f64, block: usize, margin: usize,
 ) -> PyResult<Bound<'py, PyArray1<f64>>> {
     let x = x.as_slice()?.to_vec();
     Ok(py.detach(|| guarded(|| signal::blocked_envelope(&x, dt_s, window_s, block, margin)))?.into_pyarray(py))

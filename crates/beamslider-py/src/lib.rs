@@ -75,11 +75,7 @@ fn check_threads(threads: Option<usize>) -> PyResult<()> {
 /// re-attaches, runs pending signal handlers (Ctrl-C) and calls `poll(py)` (progress callbacks).
 /// An exception there sets `cancel` and is raised once the work has stopped.
 fn detached<T: Send>(
-    py: Python<'_>,
-    cancel: &AtomicBool,
-    period_ms: u64,
-    work: impl FnOnce() -> Result<T, Error> + Send,
-    poll: impl Fn(Python<'_>) -> PyResult<()> + Sync,
+    py: Python<'_>, cancel: &AtomicBool, period_ms: u64, work: impl FnOnce() -> Result<T, Error> + Send, poll: impl Fn(Python<'_>) -> PyResult<()> + Sync,
 ) -> PyResult<T> {
     let poll = |py: Python<'_>| py.check_signals().and_then(|()| poll(py));
     let mut err: Option<PyErr> = None;

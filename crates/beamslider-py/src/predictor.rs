@@ -64,14 +64,7 @@ pub fn law_s_dn(s: Vec<f64>, amplitude_h: Vec<f64>, f_ex_hz: f64, a_ex_m_s2: f64
 #[pyfunction]
 #[pyo3(signature = (params, *, f_ex_hz, a_ex_m_s2, high, s, n_modes=5, d_eff=None))]
 pub fn hb_features(
-    py: Python<'_>,
-    params: &Bound<'_, PyParams>,
-    f_ex_hz: f64,
-    a_ex_m_s2: f64,
-    high: bool,
-    s: Vec<f64>,
-    n_modes: usize,
-    d_eff: Option<f64>,
+    py: Python<'_>, params: &Bound<'_, PyParams>, f_ex_hz: f64, a_ex_m_s2: f64, high: bool, s: Vec<f64>, n_modes: usize, d_eff: Option<f64>,
 ) -> PyResult<String> {
     let (params, opts) = (params.get().0.clone(), HbOptions { n_modes, d_eff, ..HbOptions::default() });
     json(&py.detach(|| guarded(|| law::features(&params, &hb_manifold(&params, f_ex_hz, a_ex_m_s2, &opts)?, f_ex_hz, a_ex_m_s2, high, &s)))?)
@@ -80,21 +73,8 @@ pub fn hb_features(
 #[pyfunction]
 #[pyo3(signature = (params, *, f_ex_hz, a_ex_m_s2, s0, t_end_s, law=None, table=None, s_dn="law", source="hb", n_modes=5, d_eff=None, v_dead=0.0, build_up_s=None, build_up_drift=true, robustness=true))]
 pub fn predict(
-    py: Python<'_>,
-    params: &Bound<'_, PyParams>,
-    f_ex_hz: f64,
-    a_ex_m_s2: f64,
-    s0: f64,
-    t_end_s: f64,
-    law: Option<&Bound<'_, PyDriftLaw>>,
-    table: Option<Table>,
-    s_dn: &str,
-    source: &str,
-    n_modes: usize,
-    d_eff: Option<f64>,
-    v_dead: f64,
-    build_up_s: Option<f64>,
-    build_up_drift: bool,
+    py: Python<'_>, params: &Bound<'_, PyParams>, f_ex_hz: f64, a_ex_m_s2: f64, s0: f64, t_end_s: f64, law: Option<&Bound<'_, PyDriftLaw>>,
+    table: Option<Table>, s_dn: &str, source: &str, n_modes: usize, d_eff: Option<f64>, v_dead: f64, build_up_s: Option<f64>, build_up_drift: bool,
     robustness: bool,
 ) -> PyResult<String> {
     let source = match source {
@@ -127,16 +107,8 @@ pub enum MapLaw<'py> {
 #[pyfunction]
 #[pyo3(signature = (config, law, *, out=None, resume=false, threads=None, n_modes=5, d_eff=None, s_dn="law", progress=None))]
 pub fn predicted_map(
-    py: Python<'_>,
-    config: &Bound<'_, PyMapConfig>,
-    law: MapLaw<'_>,
-    out: Path,
-    resume: bool,
-    threads: Option<usize>,
-    n_modes: usize,
-    d_eff: Option<f64>,
-    s_dn: &str,
-    progress: Option<Py<PyAny>>,
+    py: Python<'_>, config: &Bound<'_, PyMapConfig>, law: MapLaw<'_>, out: Path, resume: bool, threads: Option<usize>, n_modes: usize, d_eff: Option<f64>,
+    s_dn: &str, progress: Option<Py<PyAny>>,
 ) -> PyResult<(Vec<String>, Vec<String>)> {
     crate::check_threads(threads)?;
     let cfg = &config.get().cfg;

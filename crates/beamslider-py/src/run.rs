@@ -44,21 +44,8 @@ fn spec(f_ex_hz: f64, a_ex_m_s2: f64, s0: f64, t_end_s: f64, model: &str, s_pcs:
 #[pyfunction]
 #[pyo3(signature = (params, *, f_ex_hz, a_ex_m_s2, s0, t_end_s, model, s_pcs=None, record_every=10, progress=None, out=None, window_s=1.0, columns=2000, on_start=None, check_only=false))]
 fn simulate<'py>(
-    py: Python<'py>,
-    params: &Bound<'py, PyParams>,
-    f_ex_hz: f64,
-    a_ex_m_s2: f64,
-    s0: f64,
-    t_end_s: f64,
-    model: &str,
-    s_pcs: Option<f64>,
-    record_every: usize,
-    progress: Option<Py<PyAny>>,
-    out: Option<std::path::PathBuf>,
-    window_s: f64,
-    columns: usize,
-    on_start: Option<Py<PyAny>>,
-    check_only: bool,
+    py: Python<'py>, params: &Bound<'py, PyParams>, f_ex_hz: f64, a_ex_m_s2: f64, s0: f64, t_end_s: f64, model: &str, s_pcs: Option<f64>, record_every: usize,
+    progress: Option<Py<PyAny>>, out: Option<std::path::PathBuf>, window_s: f64, columns: usize, on_start: Option<Py<PyAny>>, check_only: bool,
 ) -> PyResult<Option<Bound<'py, PyDict>>> {
     let spec = spec(f_ex_hz, a_ex_m_s2, s0, t_end_s, model, s_pcs, record_every)?;
     if check_only {
@@ -102,13 +89,7 @@ fn physical_manifold_grid(py: Python<'_>, params: &Bound<'_, PyParams>) -> PyRes
 #[pyfunction]
 #[pyo3(signature = (params, *, f_ex_hz, a_ex_m_s2, s_values, periods=100, record_periods=25, progress=None))]
 fn super_slow_manifold<'py>(
-    py: Python<'py>,
-    params: &Bound<'py, PyParams>,
-    f_ex_hz: f64,
-    a_ex_m_s2: f64,
-    s_values: Vec<f64>,
-    periods: usize,
-    record_periods: usize,
+    py: Python<'py>, params: &Bound<'py, PyParams>, f_ex_hz: f64, a_ex_m_s2: f64, s_values: Vec<f64>, periods: usize, record_periods: usize,
     progress: Option<Py<PyAny>>,
 ) -> PyResult<Bound<'py, PyAny>> {
     let (excitation, opts) = (Excitation::new(f_ex_hz, a_ex_m_s2), ManifoldOptions { s_values, periods, record_periods });
@@ -129,14 +110,8 @@ fn super_slow_manifold<'py>(
 #[pyo3(signature = (jobs, *, record_every=5, keep_every=5, window_s=1.0, detrend_s=None, threads=None, on_done=None))]
 #[allow(clippy::type_complexity)]
 fn run_free_slider_batch<'py>(
-    py: Python<'py>,
-    jobs: Vec<(Bound<'py, PyParams>, f64, f64, f64, f64)>,
-    record_every: usize,
-    keep_every: usize,
-    window_s: f64,
-    detrend_s: Option<f64>,
-    threads: Option<usize>,
-    on_done: Option<Py<PyAny>>,
+    py: Python<'py>, jobs: Vec<(Bound<'py, PyParams>, f64, f64, f64, f64)>, record_every: usize, keep_every: usize, window_s: f64, detrend_s: Option<f64>,
+    threads: Option<usize>, on_done: Option<Py<PyAny>>,
 ) -> PyResult<Vec<Bound<'py, PyDict>>> {
     let red = Reduction { record_every, keep_every, window_s, detrend_s };
     let jobs: Vec<Job> =

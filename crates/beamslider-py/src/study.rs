@@ -25,11 +25,7 @@ type ChunkPoint = (usize, String, f64, f64, f64, f64);
 #[pyfunction]
 #[pyo3(signature = (config, points, *, threads=None, on_rows=None))]
 fn run_study_chunk(
-    py: Python<'_>,
-    config: &Bound<'_, PyMapConfig>,
-    points: Vec<ChunkPoint>,
-    threads: Option<usize>,
-    on_rows: Option<Py<PyAny>>,
+    py: Python<'_>, config: &Bound<'_, PyMapConfig>, points: Vec<ChunkPoint>, threads: Option<usize>, on_rows: Option<Py<PyAny>>,
 ) -> PyResult<Vec<String>> {
     let cfg = &config.get().cfg;
     let points: Vec<StudyPoint> = points

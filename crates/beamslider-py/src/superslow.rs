@@ -16,19 +16,8 @@ use std::sync::atomic::AtomicBool;
 #[pyfunction]
 #[pyo3(signature = (params, *, f_ex_hz, a_ex_m_s2, n_modes=5, harmonics=1, d_eff=None, omega1_factor=1.0, s_values=None, max_steps=20_000, max_step=0.05, sample_on_grid=false, static_sag=false))]
 pub fn hb_manifold<'py>(
-    py: Python<'py>,
-    params: &Bound<'_, PyParams>,
-    f_ex_hz: f64,
-    a_ex_m_s2: f64,
-    n_modes: usize,
-    harmonics: usize,
-    d_eff: Option<f64>,
-    omega1_factor: f64,
-    s_values: Option<Vec<f64>>,
-    max_steps: usize,
-    max_step: f64,
-    sample_on_grid: bool,
-    static_sag: bool,
+    py: Python<'py>, params: &Bound<'_, PyParams>, f_ex_hz: f64, a_ex_m_s2: f64, n_modes: usize, harmonics: usize, d_eff: Option<f64>, omega1_factor: f64,
+    s_values: Option<Vec<f64>>, max_steps: usize, max_step: f64, sample_on_grid: bool, static_sag: bool,
 ) -> PyResult<Bound<'py, PyAny>> {
     let params = params.get().0.clone();
     let opts = HbOptions { n_modes, harmonics, d_eff, omega1_factor, s: s_values, max_steps, max_step, sample_on_grid, static_sag, low_branch_only: false };
@@ -39,13 +28,7 @@ pub fn hb_manifold<'py>(
 #[pyfunction]
 #[pyo3(signature = (params, *, f_ex_hz, a_ex_m_s2, s_values, d_eff=None, omega1_factor=1.0))]
 pub fn hb_closed_form_n1<'py>(
-    py: Python<'py>,
-    params: &Bound<'_, PyParams>,
-    f_ex_hz: f64,
-    a_ex_m_s2: f64,
-    s_values: Vec<f64>,
-    d_eff: Option<f64>,
-    omega1_factor: f64,
+    py: Python<'py>, params: &Bound<'_, PyParams>, f_ex_hz: f64, a_ex_m_s2: f64, s_values: Vec<f64>, d_eff: Option<f64>, omega1_factor: f64,
 ) -> PyResult<Bound<'py, PyAny>> {
     let params = params.get().0.clone();
     Ok(pythonize(py, &py.detach(|| guarded(|| closed_form_n1_scaled(&params, f_ex_hz, a_ex_m_s2, &s_values, d_eff, omega1_factor)))?)?)
@@ -72,19 +55,8 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
 #[pyfunction]
 #[pyo3(signature = (params, *, f_ex_hz, a_ex_m_s2, s_values, settle_periods=40, first_settle_periods=400, window_s=1.0, sub_windows=4, mirror=false, out=None, resume=false, progress=None))]
 pub fn drift_table_pcs(
-    py: Python<'_>,
-    params: &Bound<'_, PyParams>,
-    f_ex_hz: f64,
-    a_ex_m_s2: f64,
-    s_values: Vec<f64>,
-    settle_periods: usize,
-    first_settle_periods: usize,
-    window_s: f64,
-    sub_windows: usize,
-    mirror: bool,
-    out: Option<std::path::PathBuf>,
-    resume: bool,
-    progress: Option<Py<PyAny>>,
+    py: Python<'_>, params: &Bound<'_, PyParams>, f_ex_hz: f64, a_ex_m_s2: f64, s_values: Vec<f64>, settle_periods: usize, first_settle_periods: usize,
+    window_s: f64, sub_windows: usize, mirror: bool, out: Option<std::path::PathBuf>, resume: bool, progress: Option<Py<PyAny>>,
 ) -> PyResult<(String, Vec<String>, usize)> {
     let params = params.get().0.clone();
     let opts = DriftOptions { s_values, settle_periods, first_settle_periods, window_s, sub_windows, mirror };
