@@ -65,11 +65,6 @@ fn guarded<T>(f: impl FnOnce() -> Result<T, Error>) -> Result<T, PyErr> {
     }
 }
 
-/// `threads` of a batch: None (one per core) or >= 1 (checked by the core).
-fn check_threads(threads: Option<usize>) -> PyResult<()> {
-    guarded(|| runner::check_threads(threads))
-}
-
 /// Run `work` with the interpreter released on the core's watched worker thread
 /// ([`runner::watched`]); every `period_ms`, and once more at the end, the calling thread
 /// re-attaches, runs pending signal handlers (Ctrl-C) and calls `poll(py)` (progress callbacks).
@@ -119,20 +114,21 @@ struct PyMonitor {
 }
 
 impl PyMonitor {
-    fn new(callback: Option<Py<PyAny>>, on_start: Option<Py<PyAny>>) -> Self {
-        PyMonitor { callback, on_start, error: None }
-    }
-
     /// Call `f(*args)` (if any) attached, after the signal handlers; false (and the error kept) on an exception.
     fn call<A: for<'py> pyo3::call::PyCallArgs<'py>>(error: &mut Option<PyErr>, f: Option<&Py<PyAny>>, args: A) -> bool {
         error.is_none()
             && Python::attach(|py| py.check_signals().and_then(|()| f.map_or(Ok(()), |f| f.call1(py, args).map(drop)))).map_err(|e| *error = Some(e)).is_ok()
     }
+}
 
-    /// The run's outcome, or the exception a callback raised.
-    fn outcome<T>(mut self, r: PyResult<T>) -> PyResult<T> {
-        self.error.take().map_or(r, Err)
-    }
+/// Run `work` with the interpreter released under a [`PyMonitor`] of `callback` and `on_start`:
+/// its outcome, or the exception a callback raised.
+fn monitored<T: Send>(
+    py: Python<'_>, callback: Option<Py<PyAny>>, on_start: Option<Py<PyAny>>, work: impl FnOnce(&mut dyn Monitor) -> Result<T, Error> + Send,
+) -> PyResult<T> {
+    let mut monitor = PyMonitor { callback, on_start, error: None };
+    let outcome = py.detach(|| guarded(|| work(&mut monitor)));
+    monitor.error.take().map_or(outcome, Err)
 }
 
 impl Monitor for PyMonitor {

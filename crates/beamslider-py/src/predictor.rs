@@ -110,7 +110,7 @@ pub fn predicted_map(
     py: Python<'_>, config: &Bound<'_, PyMapConfig>, law: MapLaw<'_>, out: Path, resume: bool, threads: Option<usize>, n_modes: usize, d_eff: Option<f64>,
     s_dn: &str, progress: Option<Py<PyAny>>,
 ) -> PyResult<(Vec<String>, Vec<String>)> {
-    crate::check_threads(threads)?;
+    guarded(|| beamslider_core::dynamics::runner::check_threads(threads))?;
     let cfg = &config.get().cfg;
     let (blended, mut why);
     why = Vec::new();

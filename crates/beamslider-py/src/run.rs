@@ -16,7 +16,7 @@ use pyo3::types::PyDict;
 use pythonize::pythonize;
 
 use crate::params::PyParams;
-use crate::{PyMonitor, detached, guarded};
+use crate::{Out, detached, guarded, json, monitored};
 
 /// Names of the recorded columns and their channels.
 const RECORDED: [(&str, Channel); 6] =
@@ -53,12 +53,8 @@ fn simulate<'py>(
         return guarded(|| check(&model, &spec)).map(|()| None);
     }
     let valid = params.get().0.clone();
-    let mut monitor = PyMonitor::new(progress, on_start);
-    let outcome = py.detach(|| {
-        let output = out.as_deref().map_or(Output::Memory, |path| Output::File { path, format: None, overview: Some((columns, window_s)) });
-        guarded(|| run(&Model::of(&valid)?, &spec, output, &mut monitor))
-    });
-    let r = monitor.outcome(outcome)?;
+    let output = || out.as_deref().map_or(Output::Memory, |path| Output::File { path, format: None, overview: Some((columns, window_s)) });
+    let r = monitored(py, progress, on_start, |m| run(&Model::of(&valid)?, &spec, output(), m))?;
     if let Status::Interrupted { t_s } = r.summary.status {
         return Err(PyKeyboardInterrupt::new_err(format!("interrupted at t = {t_s} s")));
     }
@@ -94,9 +90,7 @@ fn super_slow_manifold<'py>(
 ) -> PyResult<Bound<'py, PyAny>> {
     let (excitation, opts) = (Excitation::new(f_ex_hz, a_ex_m_s2), ManifoldOptions { s_values, periods, record_periods });
     let valid = params.get().0.clone();
-    let mut monitor = PyMonitor::new(progress, None);
-    let outcome = py.detach(|| guarded(|| beamslider_core::super_slow_manifold(&Model::of(&valid)?, &excitation, &opts, &mut monitor)));
-    Ok(pythonize(py, &monitor.outcome(outcome)?)?)
+    Ok(pythonize(py, &monitored(py, progress, None, |m| beamslider_core::super_slow_manifold(&Model::of(&valid)?, &excitation, &opts, m))?)?)
 }
 
 /// Free-slider jobs `(params, f_ex_hz, a_ex_m_s2, s0, duration_s)` reduced in the core
@@ -112,7 +106,7 @@ fn super_slow_manifold<'py>(
 fn run_free_slider_batch<'py>(
     py: Python<'py>, jobs: Vec<(Bound<'py, PyParams>, f64, f64, f64, f64)>, record_every: usize, keep_every: usize, window_s: f64, detrend_s: Option<f64>,
     threads: Option<usize>, on_done: Option<Py<PyAny>>,
-) -> PyResult<Vec<Bound<'py, PyDict>>> {
+) -> PyResult<Vec<Reduced<'py>>> {
     let red = Reduction { record_every, keep_every, window_s, detrend_s };
     let jobs: Vec<Job> =
         jobs.into_iter().map(|(p, f_ex_hz, a_ex_m_s2, s0, duration_s)| Job { params: p.get().0.clone(), f_ex_hz, a_ex_m_s2, s0, duration_s }).collect();
@@ -126,25 +120,21 @@ fn run_free_slider_batch<'py>(
     };
     let outcome = detached(py, &cancel, 50, || reduced::run_batch(&jobs, &red, threads, &cancel, on_one), poll)?;
     let results = outcome.ok_or_else(|| PyKeyboardInterrupt::new_err("discover runs interrupted"))?;
-    results
+    Ok(results
         .into_iter()
-        .map(|r| {
-            let d = PyDict::new(py);
-            match r {
-                Ok(x) => {
-                    for (k, v) in [("t", x.t), ("s", x.s), ("amplitude_h", x.amplitude_h)] {
-                        d.set_item(k, v.into_pyarray(py))?;
-                    }
-                    d.set_item("status", x.status.name())?;
-                }
-                Err(e) => {
-                    d.set_item("error_kind", if matches!(e, Error::InvalidParameter { .. } | Error::Toml { .. }) { "invalid" } else { "numerical" })?;
-                    d.set_item("error", e.to_string())?;
-                }
-            }
-            Ok(d)
+        .map(|r| match r {
+            Ok(x) => Reduced::Done { t: x.t.into_pyarray(py), s: x.s.into_pyarray(py), amplitude_h: x.amplitude_h.into_pyarray(py), status: x.status.name() },
+            Err(e @ (Error::InvalidParameter { .. } | Error::Toml { .. })) => Reduced::Failed { error_kind: "invalid", error: e.to_string() },
+            Err(e) => Reduced::Failed { error_kind: "numerical", error: e.to_string() },
         })
-        .collect()
+        .collect())
+}
+
+/// One job of [`run_free_slider_batch`] as a dict: its reduced signals and status, or its error.
+#[derive(IntoPyObject)]
+enum Reduced<'py> {
+    Done { t: Out<'py>, s: Out<'py>, amplitude_h: Out<'py>, status: &'static str },
+    Failed { error_kind: &'static str, error: String },
 }
 
 /// Virtual ENMA of the beam of `params`; `options_json` holds the fields of the core's
@@ -154,10 +144,7 @@ fn run_free_slider_batch<'py>(
 fn virtual_enma(py: Python<'_>, params: &Bound<'_, PyParams>, options_json: &str, progress: Option<Py<PyAny>>) -> PyResult<String> {
     let opts: EnmaOptions = serde_json::from_str(options_json).map_err(|e| PyValueError::new_err(format!("invalid ENMA options: {e}")))?;
     let valid = params.get().0.clone();
-    let mut monitor = PyMonitor::new(progress, None);
-    let out =
-        py.detach(|| guarded(|| serde_json::to_string(&core_enma(&Model::of(&valid)?, &opts, &mut monitor)?).map_err(|e| Error::Numerical(e.to_string()))));
-    monitor.outcome(out)
+    json(&monitored(py, progress, None, |m| core_enma(&Model::of(&valid)?, &opts, m))?)
 }
 
 /// Modal data of the linear beam (core `physics::properties::BeamProperties`, docs/model.md §2
