@@ -20,13 +20,9 @@ type Path = Option<std::path::PathBuf>;
 fn branch(b: Branch) -> SlowBranch {
     SlowBranch { s: b.0, amplitude_h: b.1, v_per_s: b.2 }
 }
-fn bad(field: &str, v: &str, allowed: &str) -> PyErr {
-    PyValueError::new_err(Error::invalid(field, format!("{v:?}"), allowed).to_string())
-}
 fn options(n_modes: usize, d_eff: Option<f64>, s_dn: &str) -> PyResult<PredictOptions> {
-    let rules = [("law", SDnRule::Law), ("hb", SDnRule::Hb), ("table", SDnRule::Table), ("none", SDnRule::None)];
-    let rule = rules.iter().find(|r| r.0 == s_dn).ok_or_else(|| bad("s_dn", s_dn, "one of 'law', 'hb', 'table', 'none'"))?.1;
-    Ok(PredictOptions { hb: HbOptions { n_modes, d_eff, ..PredictOptions::default().hb }, s_dn: rule, ..PredictOptions::default() })
+    let s_dn = guarded(|| SDnRule::named(s_dn))?;
+    Ok(PredictOptions { hb: HbOptions { n_modes, d_eff, ..PredictOptions::default().hb }, s_dn, ..PredictOptions::default() })
 }
 /// A drift law (docs/model.md §6.3) parsed and checked once from its file's JSON text.
 #[pyclass(name = "DriftLaw", module = "beamslider._core", frozen)]
@@ -77,18 +73,14 @@ pub fn predict(
     table: Option<Table>, s_dn: &str, source: &str, n_modes: usize, d_eff: Option<f64>, v_dead: f64, build_up_s: Option<f64>, build_up_drift: bool,
     robustness: bool,
 ) -> PyResult<String> {
-    let source = match source {
-        "hb" => Source::Hb,
-        "table" => Source::Table,
-        _ => return Err(bad("source", source, "'hb' or 'table'")),
-    };
+    let source = guarded(|| Source::named(source))?;
     let opts = PredictOptions { v_dead, build_up_s, build_up_drift, robustness, source, ..options(n_modes, d_eff, s_dn)? };
     let (params, law) = (params.get().0.clone(), law.map(|l| &l.get().0));
     let table = table.map(|(lo, hi, su, sd)| TableDrift::new(branch(lo), branch(hi), su, sd));
     let drift = match (law, &table) {
         (Some(l), None) => Drift::Law(l),
         (None, Some(t)) => Drift::Table(t),
-        _ => return Err(bad("drift", "", "one of law and table")),
+        _ => return Err(crate::to_py(Error::invalid("drift", "\"\"", "one of law and table"))),
     };
     json(&py.detach(|| guarded(|| pred::predict_drift(&params, &*law::beam_for(&params, n_modes)?, drift, f_ex_hz, a_ex_m_s2, s0, t_end_s, &opts)))?)
 }
