@@ -139,6 +139,22 @@ def test_config_is_shared_with_the_rust_tool():
     assert f == list(np.arange(100.0, 131.0, 2.0)) and a == [4.0, 6.0, 8.0, 10.0, 12.0, 14.0, 16.0] and s == [0.3]
 
 
+
+def test_config_from_its_parts_is_the_config_from_toml():
+    """``MapConfig.of`` (no TOML, the predicted map's path) builds the configuration that the TOML
+    text of :func:`map_config_toml` gives, and refuses what that refuses, naming the field."""
+    from beamslider.params import native
+
+    p = beamslider.Parameters(friction_coefficient=0.27, slider_mass_kg=0.0123456789)
+    f, a = [100.0, 101.5, 130.0], [4.0, 14.0]
+    text = beamslider._core.MapConfig(map_config_toml(p, f_ex=f, a_ex=a, s0=0.3, t_end=20.0)).toml()
+    parts = beamslider._core.MapConfig.of(native(p), f_ex_hz=f, a_ex_m_s2=a, s0=[0.3], duration_s=20.0)
+    assert parts.toml() == text and parts.axes == (f, a, [0.3])
+    with pytest.raises(ValueError, match="grid.f_ex_hz"):
+        beamslider._core.MapConfig.of(native(p), f_ex_hz=[], a_ex_m_s2=a, s0=[0.3], duration_s=20.0)
+    with pytest.raises(ValueError, match="duration_s"):
+        beamslider._core.MapConfig.of(native(p), f_ex_hz=f, a_ex_m_s2=a, s0=[0.3], duration_s=0.0)
+
 @pytest.mark.slow
 def test_representative_operating_points():
     """MODEL.md §8: the four representative points, 120 s from s0 = 0.3."""

@@ -279,7 +279,7 @@ def _map_row(law_text, f_ex, a_ex, s0):
     from beamslider import _core
 
     cfg = f"duration_s = 120.0\n[grid]\nf_ex_hz = [{float(f_ex)}]\na_ex_m_s2 = [{float(a_ex)}]\ns0 = [{float(s0)}]\n"
-    return json.loads(_core.predicted_map(_core.MapConfig(cfg), _core.DriftLaw(law_text), threads=1)[0])
+    return json.loads(_core.predicted_map(_core.MapConfig(cfg), _core.DriftLaw(law_text), threads=1)[0][0])
 
 
 def test_core_law_and_features_against_independent_references(tmp_path):
@@ -692,3 +692,16 @@ def test_low_branch_rows_are_paired_as_the_slow_flow_stretches_the_branch():
     t.s_up_pcs = None
     s_all = t.branch_rows("L")[0]
     assert np.allclose(_training_samples(t, mf)["L"][0][:, FEATURES.index("s")], s_all[s_all >= np.min(mf.low.s)])
+
+
+@pytest.mark.parametrize("kw, text", [
+    (dict(s_dn="fold"), "invalid parameter `s_dn` = \"fold\": one of 'law', 'hb', 'table', 'none'"),
+    (dict(source="pcs"), "invalid parameter `source` = \"pcs\": 'hb' or 'table'"),
+])
+def test_predict_option_names_are_checked_by_the_core(kw, text):
+    """An unknown jump-down rule or branch source is a one-line ValueError naming the option
+    (the core reads the names, docs/model.md §6.4), before the drift is even looked at."""
+    from beamslider import _core
+    with pytest.raises(ValueError) as e:
+        _core.predict(native(Parameters()), f_ex_hz=124.0, a_ex_m_s2=14.0, s0=0.3, t_end_s=1.0, **kw)
+    assert str(e.value) == text

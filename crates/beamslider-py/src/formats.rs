@@ -5,11 +5,11 @@ use std::path::PathBuf;
 
 use beamslider_core::map::{TableCell, t_end_text, table_of_cells};
 use beamslider_core::{Beam, Branch, manifold, results, signal};
-use numpy::{IntoPyArray, PyArray1, PyReadonlyArray1};
+use numpy::IntoPyArray;
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 
-use crate::guarded;
+use crate::{In, Out, guarded};
 
 /// The manifold CSV of two sweeps (s, amplitude [m] each), as the core writes it.
 #[pyfunction]
@@ -37,7 +37,7 @@ fn map_text_table(columns: Columns) -> PyResult<(String, String)> {
 
 /// Envelope with the analytic signal by overlapping FFT blocks (docs/model.md §7).
 #[pyfunction]
-fn blocked_envelope<'py>(py: Python<'py>, x: PyReadonlyArray1<'py, f64>, dt_s: f64, window_s: f64, block: usize, margin: usize) -> PyResult<Bound<'py, PyArray1<f64>>> {
+fn blocked_envelope<'py>(py: Python<'py>, x: In<'py>, dt_s: f64, window_s: f64, block: usize, margin: usize) -> PyResult<Out<'py>> {
     let x = x.as_slice()?.to_vec();
     Ok(py.detach(|| guarded(|| signal::blocked_envelope(&x, dt_s, window_s, block, margin)))?.into_pyarray(py))
 }

@@ -10,7 +10,7 @@
 //! argument lists are the API, hence the crate-wide `too_many_arguments`).
 #![allow(clippy::too_many_arguments)]
 
-use std::sync::atomic::AtomicBool;
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
 use beamslider_core::signal::{self, envelope_stream::EnvelopeStream};
 use beamslider_core::{Criteria, Error, Monitor, SuperSlow, dynamics::runner};
@@ -65,16 +65,13 @@ fn guarded<T>(f: impl FnOnce() -> Result<T, Error>) -> Result<T, PyErr> {
     }
 }
 
-/// `threads` of a batch: None (one per core) or >= 1 (checked by the core).
-fn check_threads(threads: Option<usize>) -> PyResult<()> {
-    guarded(|| runner::check_threads(threads))
-}
-
 /// Run `work` with the interpreter released on the core's watched worker thread
 /// ([`runner::watched`]); every `period_ms`, and once more at the end, the calling thread
 /// re-attaches, runs pending signal handlers (Ctrl-C) and calls `poll(py)` (progress callbacks).
 /// An exception there sets `cancel` and is raised once the work has stopped.
-fn detached<T: Send>(py: Python<'_>, cancel: &AtomicBool, period_ms: u64, work: impl FnOnce() -> Result<T, Error> + Send, poll: impl Fn(Python<'_>) -> PyResult<()> + Sync) -> PyResult<T> {
+fn detached<T: Send>(
+    py: Python<'_>, cancel: &AtomicBool, period_ms: u64, work: impl FnOnce() -> Result<T, Error> + Send, poll: impl Fn(Python<'_>) -> PyResult<()> + Sync,
+) -> PyResult<T> {
     let poll = |py: Python<'_>| py.check_signals().and_then(|()| poll(py));
     let mut err: Option<PyErr> = None;
     let period = std::time::Duration::from_millis(period_ms);
@@ -87,6 +84,26 @@ fn detached<T: Send>(py: Python<'_>, cancel: &AtomicBool, period_ms: u64, work: 
     Ok(out)
 }
 
+/// Progress (callback, done, total) of work on other threads; [`detached`]'s polls report it
+/// to `callback(done, total)` once the total is known (> 0).
+struct Progress(Option<Py<PyAny>>, AtomicUsize, AtomicUsize);
+
+impl Progress {
+    fn new(callback: Option<Py<PyAny>>, total: usize) -> Self {
+        Progress(callback, AtomicUsize::new(0), AtomicUsize::new(total))
+    }
+
+    fn set(&self, done: usize, total: usize) {
+        self.1.store(done, Ordering::Relaxed);
+        self.2.store(total, Ordering::Relaxed);
+    }
+
+    fn report(&self, py: Python<'_>) -> PyResult<()> {
+        let (done, total) = (self.1.load(Ordering::Relaxed), self.2.load(Ordering::Relaxed));
+        self.0.as_ref().filter(|_| total > 0).map_or(Ok(()), |cb| cb.call1(py, (done, total)).map(drop))
+    }
+}
+
 /// Monitor that re-attaches to Python every poll: pending signal handlers (Ctrl-C) and the
 /// progress callback `callback(t_done, t_total)` run there; an exception stops the run.
 /// `on_start()` is called once the run's inputs are checked, before its first step.
@@ -97,19 +114,21 @@ struct PyMonitor {
 }
 
 impl PyMonitor {
-    fn new(callback: Option<Py<PyAny>>, on_start: Option<Py<PyAny>>) -> Self {
-        PyMonitor { callback, on_start, error: None }
-    }
-
     /// Call `f(*args)` (if any) attached, after the signal handlers; false (and the error kept) on an exception.
     fn call<A: for<'py> pyo3::call::PyCallArgs<'py>>(error: &mut Option<PyErr>, f: Option<&Py<PyAny>>, args: A) -> bool {
-        error.is_none() && Python::attach(|py| py.check_signals().and_then(|()| f.map_or(Ok(()), |f| f.call1(py, args).map(drop)))).map_err(|e| *error = Some(e)).is_ok()
+        error.is_none()
+            && Python::attach(|py| py.check_signals().and_then(|()| f.map_or(Ok(()), |f| f.call1(py, args).map(drop)))).map_err(|e| *error = Some(e)).is_ok()
     }
+}
 
-    /// The run's outcome, or the exception a callback raised.
-    fn outcome<T>(mut self, r: PyResult<T>) -> PyResult<T> {
-        self.error.take().map_or(r, Err)
-    }
+/// Run `work` with the interpreter released under a [`PyMonitor`] of `callback` and `on_start`:
+/// its outcome, or the exception a callback raised.
+fn monitored<T: Send>(
+    py: Python<'_>, callback: Option<Py<PyAny>>, on_start: Option<Py<PyAny>>, work: impl FnOnce(&mut dyn Monitor) -> Result<T, Error> + Send,
+) -> PyResult<T> {
+    let mut monitor = PyMonitor { callback, on_start, error: None };
+    let outcome = py.detach(|| guarded(|| work(&mut monitor)));
+    monitor.error.take().map_or(outcome, Err)
 }
 
 impl Monitor for PyMonitor {

@@ -6,11 +6,12 @@
 use std::path::PathBuf;
 use std::sync::atomic::AtomicBool;
 
-use beamslider_core::map::{MapSession, WireJob, run_chunk};
-use beamslider_core::{MapConfig, MapRow, MapRunOptions, ResultsLock};
+use beamslider_core::map::{DEFAULT_RECORD_EVERY, MapSession, WireJob, run_chunk};
+use beamslider_core::{Axis, Criteria, Grid, MapConfig, MapRow, MapRunOptions, ResultsLock};
 use pyo3::prelude::*;
 use pyo3::types::PyType;
 
+use crate::params::PyParams;
 use crate::{detached, guarded};
 
 /// A map configuration (core `MapConfig`) parsed and checked once: `MapConfig(toml_text)`; the
@@ -25,10 +26,18 @@ pub struct PyMapConfig {
 impl PyMapConfig {
     #[new]
     fn new(text: &str) -> PyResult<Self> {
-        let cfg = guarded(|| MapConfig::from_toml_str(text))?;
-        let g = &cfg.grid;
-        let axes = guarded(|| Ok((g.f_ex_hz.values("grid.f_ex_hz")?, g.a_ex_m_s2.values("grid.a_ex_m_s2")?, g.s0.values("grid.s0")?)))?;
-        Ok(PyMapConfig { cfg, axes })
+        Self::checked(guarded(|| MapConfig::from_toml_str(text))?)
+    }
+
+    /// A configuration from its parts, without TOML: the parameters `params` (a `Params`), the
+    /// grid's axes as lists, the duration [s] and the recording interval; default criteria.
+    #[staticmethod]
+    #[pyo3(signature = (params, *, f_ex_hz, a_ex_m_s2, s0, duration_s, record_every=DEFAULT_RECORD_EVERY))]
+    fn of(params: &Bound<'_, PyParams>, f_ex_hz: Vec<f64>, a_ex_m_s2: Vec<f64>, s0: Vec<f64>, duration_s: f64, record_every: usize) -> PyResult<Self> {
+        let grid = Grid { f_ex_hz: Axis::List(f_ex_hz), a_ex_m_s2: Axis::List(a_ex_m_s2), s0: Axis::List(s0) };
+        let params = params.get().0.get().clone();
+        let cfg = MapConfig { duration_s, dt_s: None, record_every, grid, params, criteria: Criteria::default() };
+        Self::checked(guarded(|| cfg.validate().map(|()| cfg))?)
     }
 
     /// The paper's operating map.
@@ -60,6 +69,15 @@ impl PyMapConfig {
 
     fn __reduce__<'py>(slf: &Bound<'py, Self>) -> (Bound<'py, PyType>, (String,)) {
         (slf.get_type(), (slf.get().toml(),))
+    }
+}
+
+impl PyMapConfig {
+    /// A checked configuration with its axes' values.
+    fn checked(cfg: MapConfig) -> PyResult<Self> {
+        let g = &cfg.grid;
+        let axes = guarded(|| Ok((g.f_ex_hz.values("grid.f_ex_hz")?, g.a_ex_m_s2.values("grid.a_ex_m_s2")?, g.s0.values("grid.s0")?)))?;
+        Ok(PyMapConfig { cfg, axes })
     }
 }
 

@@ -2,8 +2,8 @@
 //! value by type and validates once in the core; runs take the object as it is (no TOML, no
 //! second check). The field table (names, symbols, meanings, units, allowed values) is the core's.
 
-use beamslider_core::params::{FIELDS, Valid};
 use beamslider_core::Params;
+use beamslider_core::params::{FIELDS, Valid};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyDict, PyString};

@@ -7,23 +7,22 @@ use beamslider_core::superslow::law::{self, DriftLaw};
 use beamslider_core::superslow::predict::{self as pred, Drift, PredictOptions, SDnRule, Source, TableDrift};
 use beamslider_core::superslow::slowflow::SlowBranch;
 use beamslider_core::superslow::{HbBranch, HbManifold, HbOptions, hb_manifold};
-use beamslider_core::{Error, MapConfig, MapRow, MapRunOptions};
+use beamslider_core::{Error, MapRow, MapRunOptions};
 use pyo3::exceptions::{PyKeyboardInterrupt, PyValueError};
 use pyo3::prelude::*;
-use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering::Relaxed};
+use std::sync::atomic::{AtomicBool, Ordering::Relaxed};
 
-use crate::{detached, guarded, maprun::PyMapConfig, params::PyParams};
+use crate::{Progress, detached, guarded, json, maprun::PyMapConfig, params::PyParams};
 
 type Branch = (Vec<f64>, Vec<f64>, Vec<f64>);
 type Table = (Branch, Branch, Option<f64>, Option<f64>);
 type Path = Option<std::path::PathBuf>;
-fn branch(b: Branch) -> SlowBranch { SlowBranch { s: b.0, amplitude_h: b.1, v_per_s: b.2 } }
-macro_rules! js { ($x:expr) => { serde_json::to_string(&$x).map_err(|e| crate::SimulationError::new_err(format!("internal error: {e}"))) } }
-fn bad(field: &str, v: &str, allowed: &str) -> PyErr { PyValueError::new_err(Error::invalid(field, format!("{v:?}"), allowed).to_string()) }
+fn branch(b: Branch) -> SlowBranch {
+    SlowBranch { s: b.0, amplitude_h: b.1, v_per_s: b.2 }
+}
 fn options(n_modes: usize, d_eff: Option<f64>, s_dn: &str) -> PyResult<PredictOptions> {
-    let rules = [("law", SDnRule::Law), ("hb", SDnRule::Hb), ("table", SDnRule::Table), ("none", SDnRule::None)];
-    let rule = rules.iter().find(|r| r.0 == s_dn).ok_or_else(|| bad("s_dn", s_dn, "one of 'law', 'hb', 'table', 'none'"))?.1;
-    Ok(PredictOptions { hb: HbOptions { n_modes, d_eff, ..PredictOptions::default().hb }, s_dn: rule, ..PredictOptions::default() })
+    let s_dn = guarded(|| SDnRule::named(s_dn))?;
+    Ok(PredictOptions { hb: HbOptions { n_modes, d_eff, ..PredictOptions::default().hb }, s_dn, ..PredictOptions::default() })
 }
 /// A drift law (docs/model.md §6.3) parsed and checked once from its file's JSON text.
 #[pyclass(name = "DriftLaw", module = "beamslider._core", frozen)]
@@ -31,61 +30,99 @@ pub struct PyDriftLaw(DriftLaw);
 #[pymethods]
 impl PyDriftLaw {
     #[new]
-    fn new(text: &str) -> PyResult<Self> { Ok(PyDriftLaw(guarded(|| DriftLaw::from_json_str(text))?)) }
+    fn new(text: &str) -> PyResult<Self> {
+        Ok(PyDriftLaw(guarded(|| DriftLaw::from_json_str(text))?))
+    }
     /// V and the outside flag per row of law inputs `x` (rows of FEATURES) with Λ_g `lift_off`.
     #[pyo3(signature = (*, high, x, lift_off))]
     fn evaluate(&self, high: bool, x: Vec<[f64; law::NF]>, lift_off: Vec<f64>) -> PyResult<(Vec<f64>, Vec<bool>)> {
-        if x.len() != lift_off.len() { return Err(PyValueError::new_err("invalid parameter `x`: one lift_off per row")); }
+        if x.len() != lift_off.len() {
+            return Err(PyValueError::new_err("invalid parameter `x`: one lift_off per row"));
+        }
         Ok(x.iter().zip(&lift_off).map(|(r, &l)| self.0.evaluate(high, r, l)).unzip())
     }
     /// The monostability vote at (ln Â_L at the HB fold, s_up).
-    fn monostable(&self, x: [f64; 2]) -> bool { self.0.monostable_at(&x) }
+    fn monostable(&self, x: [f64; 2]) -> bool {
+        self.0.monostable_at(&x)
+    }
 }
 /// The law's jump-down position (docs/model.md §6.4, core `predict::law_s_dn`) on an HB high branch given by its points (s, Â).
 #[pyfunction]
 #[pyo3(signature = (s, amplitude_h, *, f_ex_hz, a_ex_m_s2, rho_c, s_p, thickness_m))]
 pub fn law_s_dn(s: Vec<f64>, amplitude_h: Vec<f64>, f_ex_hz: f64, a_ex_m_s2: f64, rho_c: f64, s_p: f64, thickness_m: f64) -> PyResult<Option<f64>> {
-    if s.len() != amplitude_h.len() { return Err(PyValueError::new_err("invalid parameter `amplitude_h`: one per s")); }
+    if s.len() != amplitude_h.len() {
+        return Err(PyValueError::new_err("invalid parameter `amplitude_h`: one per s"));
+    }
     let m = HbManifold { high: HbBranch { s, amplitude_h, ..HbBranch::default() }, ..HbManifold::default() };
     Ok(pred::law_s_dn(&m, f_ex_hz, a_ex_m_s2, rho_c, s_p, thickness_m))
 }
 /// Layer-(a) features (docs/model.md §6.3) at `s` on one branch of the HB manifold: JSON list.
 #[pyfunction]
 #[pyo3(signature = (params, *, f_ex_hz, a_ex_m_s2, high, s, n_modes=5, d_eff=None))]
-pub fn hb_features(py: Python<'_>, params: &Bound<'_, PyParams>, f_ex_hz: f64, a_ex_m_s2: f64, high: bool, s: Vec<f64>, n_modes: usize, d_eff: Option<f64>) -> PyResult<String> {
+pub fn hb_features(
+    py: Python<'_>, params: &Bound<'_, PyParams>, f_ex_hz: f64, a_ex_m_s2: f64, high: bool, s: Vec<f64>, n_modes: usize, d_eff: Option<f64>,
+) -> PyResult<String> {
     let (params, opts) = (params.get().0.clone(), HbOptions { n_modes, d_eff, ..HbOptions::default() });
-    js!(py.detach(|| guarded(|| law::features(&params, &hb_manifold(&params, f_ex_hz, a_ex_m_s2, &opts)?, f_ex_hz, a_ex_m_s2, high, &s)))?)
+    json(&py.detach(|| guarded(|| law::features(&params, &hb_manifold(&params, f_ex_hz, a_ex_m_s2, &opts)?, f_ex_hz, a_ex_m_s2, high, &s)))?)
 }
 /// One operating point by the reduced model, drift a law (`DriftLaw`) or a PCS table ((low, high, s_up, s_dn)): JSON.
 #[pyfunction]
 #[pyo3(signature = (params, *, f_ex_hz, a_ex_m_s2, s0, t_end_s, law=None, table=None, s_dn="law", source="hb", n_modes=5, d_eff=None, v_dead=0.0, build_up_s=None, build_up_drift=true, robustness=true))]
-pub fn predict(py: Python<'_>, params: &Bound<'_, PyParams>, f_ex_hz: f64, a_ex_m_s2: f64, s0: f64, t_end_s: f64, law: Option<&Bound<'_, PyDriftLaw>>, table: Option<Table>, s_dn: &str, source: &str, n_modes: usize, d_eff: Option<f64>, v_dead: f64, build_up_s: Option<f64>, build_up_drift: bool, robustness: bool) -> PyResult<String> {
-    let source = match source { "hb" => Source::Hb, "table" => Source::Table, _ => return Err(bad("source", source, "'hb' or 'table'")) };
+pub fn predict(
+    py: Python<'_>, params: &Bound<'_, PyParams>, f_ex_hz: f64, a_ex_m_s2: f64, s0: f64, t_end_s: f64, law: Option<&Bound<'_, PyDriftLaw>>,
+    table: Option<Table>, s_dn: &str, source: &str, n_modes: usize, d_eff: Option<f64>, v_dead: f64, build_up_s: Option<f64>, build_up_drift: bool,
+    robustness: bool,
+) -> PyResult<String> {
+    let source = guarded(|| Source::named(source))?;
     let opts = PredictOptions { v_dead, build_up_s, build_up_drift, robustness, source, ..options(n_modes, d_eff, s_dn)? };
     let (params, law) = (params.get().0.clone(), law.map(|l| &l.get().0));
     let table = table.map(|(lo, hi, su, sd)| TableDrift::new(branch(lo), branch(hi), su, sd));
-    let drift = match (law, &table) { (Some(l), None) => Drift::Law(l), (None, Some(t)) => Drift::Table(t), _ => return Err(bad("drift", "", "one of law and table")) };
-    js!(py.detach(|| guarded(|| pred::predict_drift(&params, &*law::beam_for(&params, n_modes)?, drift, f_ex_hz, a_ex_m_s2, s0, t_end_s, &opts)))?)
+    let drift = match (law, &table) {
+        (Some(l), None) => Drift::Law(l),
+        (None, Some(t)) => Drift::Table(t),
+        _ => return Err(crate::to_py(Error::invalid("drift", "\"\"", "one of law and table"))),
+    };
+    json(&py.detach(|| guarded(|| pred::predict_drift(&params, &*law::beam_for(&params, n_modes)?, drift, f_ex_hz, a_ex_m_s2, s0, t_end_s, &opts)))?)
 }
 /// Interval [ms] of the interpreter's polls (Ctrl-C, progress) while a predicted map runs (the
 /// wait itself ends as soon as the map is done).
 const POLL_MS: u64 = 100;
-/// A map predicted by the core (`map --predictor`; interpreter released, Ctrl-C stops it, `progress(done, total)`): rows, JSON.
-fn run_map(py: Python<'_>, cfg: &MapConfig, law: &DriftLaw, popts: &PredictOptions, out: Path, resume: bool, threads: Option<usize>, progress: Option<Py<PyAny>>) -> PyResult<Vec<String>> {
-    crate::check_threads(threads)?;
-    let (cancel, done, total) = (AtomicBool::new(false), AtomicUsize::new(0), guarded(|| cfg.points())?.len());
-    let poll = |py: Python<'_>| progress.as_ref().map_or(Ok(()), |cb| cb.call1(py, (done.load(Relaxed), total)).map(|_| ()));
-    let opts = MapRunOptions { out, resume, threads, extend: false };
-    let run = || pred::run_predicted_map(cfg, law, popts, &opts, &cancel, &|n: usize, _t: usize, _r: &MapRow| done.store(n, Relaxed));
-    let outcome = detached(py, &cancel, POLL_MS, run, poll)?;
-    if outcome.cancelled || cancel.load(Relaxed) { return Err(PyKeyboardInterrupt::new_err("map interrupted")); }
-    Ok(outcome.rows.iter().map(MapRow::to_json).collect())
+/// The drift of a predicted map: a drift law, or a design law blended for the map's parameters.
+#[derive(FromPyObject)]
+pub enum MapLaw<'py> {
+    Drift(Bound<'py, PyDriftLaw>),
+    Design(Bound<'py, PyDesignLaw>),
 }
-/// A map predicted by the core with a drift law: see `run_map`.
+/// A map predicted by the core (`map --predictor`; interpreter released, Ctrl-C stops it, `progress(done, total)`) with a
+/// drift law or a design law (blended for the configuration's parameters; `s_dn="hb"` drops its learnt jump-down):
+/// (rows as JSON, why the design lies outside the design law).
 #[pyfunction]
 #[pyo3(signature = (config, law, *, out=None, resume=false, threads=None, n_modes=5, d_eff=None, s_dn="law", progress=None))]
-pub fn predicted_map(py: Python<'_>, config: &Bound<'_, PyMapConfig>, law: &Bound<'_, PyDriftLaw>, out: Path, resume: bool, threads: Option<usize>, n_modes: usize, d_eff: Option<f64>, s_dn: &str, progress: Option<Py<PyAny>>) -> PyResult<Vec<String>> {
-    run_map(py, &config.get().cfg, &law.get().0, &options(n_modes, d_eff, s_dn)?, out, resume, threads, progress)
+pub fn predicted_map(
+    py: Python<'_>, config: &Bound<'_, PyMapConfig>, law: MapLaw<'_>, out: Path, resume: bool, threads: Option<usize>, n_modes: usize, d_eff: Option<f64>,
+    s_dn: &str, progress: Option<Py<PyAny>>,
+) -> PyResult<(Vec<String>, Vec<String>)> {
+    guarded(|| beamslider_core::dynamics::runner::check_threads(threads))?;
+    let cfg = &config.get().cfg;
+    let (blended, mut why);
+    why = Vec::new();
+    let (law, s_dn) = match &law {
+        MapLaw::Drift(l) => (&l.get().0, s_dn),
+        MapLaw::Design(d) => {
+            let design = &d.get().0;
+            (blended, why) = py.detach(|| guarded(|| design.law_for_rule(&cfg.effective_params(), s_dn != "hb")))?;
+            (&blended, if s_dn == "hb" { "law" } else { s_dn })
+        }
+    };
+    let popts = options(n_modes, d_eff, s_dn)?;
+    let (cancel, progress) = (AtomicBool::new(false), Progress::new(progress, guarded(|| cfg.points())?.len()));
+    let opts = MapRunOptions { out, resume, threads, extend: false };
+    let run = || pred::run_predicted_map(cfg, law, &popts, &opts, &cancel, &|n: usize, t: usize, _r: &MapRow| progress.set(n, t));
+    let outcome = detached(py, &cancel, POLL_MS, run, |py| progress.report(py))?;
+    if outcome.cancelled || cancel.load(Relaxed) {
+        return Err(PyKeyboardInterrupt::new_err("map interrupted"));
+    }
+    Ok((outcome.rows.iter().map(MapRow::to_json).collect(), why))
 }
 /// Design coordinates (docs/model.md §6.5) of `params` relative to `base`, in the core's order.
 #[pyfunction]
@@ -99,18 +136,13 @@ pub struct PyDesignLaw(DesignLaw);
 #[pymethods]
 impl PyDesignLaw {
     #[new]
-    fn new(py: Python<'_>, text: &str, source: &str) -> PyResult<Self> { Ok(PyDesignLaw(py.detach(|| guarded(|| DesignLaw::from_json_str(text, source)))?)) }
+    fn new(py: Python<'_>, text: &str, source: &str) -> PyResult<Self> {
+        Ok(PyDesignLaw(py.detach(|| guarded(|| DesignLaw::from_json_str(text, source)))?))
+    }
     /// The blended law of design `params` (law-file JSON) and why it lies outside the law.
     fn law_for(&self, py: Python<'_>, params: &Bound<'_, PyParams>) -> PyResult<(String, Vec<String>)> {
         let p = params.get().0.clone();
         py.detach(|| guarded(|| self.0.law_file_for(&p).map(|(f, why)| (f.to_json(), why))))
-    }
-    /// A map predicted with the law blended for the configuration's parameters (`run_map`): (rows, why outside).
-    #[pyo3(signature = (config, *, out=None, resume=false, threads=None, n_modes=5, d_eff=None, s_dn="law", progress=None))]
-    fn predicted_map(&self, py: Python<'_>, config: &Bound<'_, PyMapConfig>, out: Path, resume: bool, threads: Option<usize>, n_modes: usize, d_eff: Option<f64>, s_dn: &str, progress: Option<Py<PyAny>>) -> PyResult<(Vec<String>, Vec<String>)> {
-        let (cfg, popts) = (&config.get().cfg, options(n_modes, d_eff, if s_dn == "hb" { "law" } else { s_dn })?);
-        let (law, why) = py.detach(|| guarded(|| self.0.law_for_rule(&cfg.effective_params(), s_dn != "hb")))?;
-        Ok((run_map(py, cfg, &law, &popts, out, resume, threads, progress)?, why))
     }
 }
 

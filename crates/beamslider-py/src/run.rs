@@ -16,7 +16,7 @@ use pyo3::types::PyDict;
 use pythonize::pythonize;
 
 use crate::params::PyParams;
-use crate::{PyMonitor, detached, guarded};
+use crate::{Out, detached, guarded, json, monitored};
 
 /// Names of the recorded columns and their channels.
 const RECORDED: [(&str, Channel); 6] =
@@ -43,21 +43,18 @@ fn spec(f_ex_hz: f64, a_ex_m_s2: f64, s0: f64, t_end_s: f64, model: &str, s_pcs:
 /// does before its first step, run nothing and return None.
 #[pyfunction]
 #[pyo3(signature = (params, *, f_ex_hz, a_ex_m_s2, s0, t_end_s, model, s_pcs=None, record_every=10, progress=None, out=None, window_s=1.0, columns=2000, on_start=None, check_only=false))]
-fn simulate<'py>(py: Python<'py>, params: &Bound<'py, PyParams>, f_ex_hz: f64, a_ex_m_s2: f64, s0: f64, t_end_s: f64, model: &str,
-    s_pcs: Option<f64>, record_every: usize, progress: Option<Py<PyAny>>, out: Option<std::path::PathBuf>, window_s: f64, columns: usize,
-    on_start: Option<Py<PyAny>>, check_only: bool) -> PyResult<Option<Bound<'py, PyDict>>> {
+fn simulate<'py>(
+    py: Python<'py>, params: &Bound<'py, PyParams>, f_ex_hz: f64, a_ex_m_s2: f64, s0: f64, t_end_s: f64, model: &str, s_pcs: Option<f64>, record_every: usize,
+    progress: Option<Py<PyAny>>, out: Option<std::path::PathBuf>, window_s: f64, columns: usize, on_start: Option<Py<PyAny>>, check_only: bool,
+) -> PyResult<Option<Bound<'py, PyDict>>> {
     let spec = spec(f_ex_hz, a_ex_m_s2, s0, t_end_s, model, s_pcs, record_every)?;
     if check_only {
         let model = model_of(py, params)?;
         return guarded(|| check(&model, &spec)).map(|()| None);
     }
     let valid = params.get().0.clone();
-    let mut monitor = PyMonitor::new(progress, on_start);
-    let outcome = py.detach(|| {
-        let output = out.as_deref().map_or(Output::Memory, |path| Output::File { path, format: None, overview: Some((columns, window_s)) });
-        guarded(|| run(&Model::of(&valid)?, &spec, output, &mut monitor))
-    });
-    let r = monitor.outcome(outcome)?;
+    let output = || out.as_deref().map_or(Output::Memory, |path| Output::File { path, format: None, overview: Some((columns, window_s)) });
+    let r = monitored(py, progress, on_start, |m| run(&Model::of(&valid)?, &spec, output(), m))?;
     if let Status::Interrupted { t_s } = r.summary.status {
         return Err(PyKeyboardInterrupt::new_err(format!("interrupted at t = {t_s} s")));
     }
@@ -87,13 +84,13 @@ fn physical_manifold_grid(py: Python<'_>, params: &Bound<'_, PyParams>) -> PyRes
 /// `progress(points_done, points_total)` is called after every s.
 #[pyfunction]
 #[pyo3(signature = (params, *, f_ex_hz, a_ex_m_s2, s_values, periods=100, record_periods=25, progress=None))]
-fn super_slow_manifold<'py>(py: Python<'py>, params: &Bound<'py, PyParams>, f_ex_hz: f64, a_ex_m_s2: f64, s_values: Vec<f64>,
-    periods: usize, record_periods: usize, progress: Option<Py<PyAny>>) -> PyResult<Bound<'py, PyAny>> {
+fn super_slow_manifold<'py>(
+    py: Python<'py>, params: &Bound<'py, PyParams>, f_ex_hz: f64, a_ex_m_s2: f64, s_values: Vec<f64>, periods: usize, record_periods: usize,
+    progress: Option<Py<PyAny>>,
+) -> PyResult<Bound<'py, PyAny>> {
     let (excitation, opts) = (Excitation::new(f_ex_hz, a_ex_m_s2), ManifoldOptions { s_values, periods, record_periods });
     let valid = params.get().0.clone();
-    let mut monitor = PyMonitor::new(progress, None);
-    let outcome = py.detach(|| guarded(|| beamslider_core::super_slow_manifold(&Model::of(&valid)?, &excitation, &opts, &mut monitor)));
-    Ok(pythonize(py, &monitor.outcome(outcome)?)?)
+    Ok(pythonize(py, &monitored(py, progress, None, |m| beamslider_core::super_slow_manifold(&Model::of(&valid)?, &excitation, &opts, m))?)?)
 }
 
 /// Free-slider jobs `(params, f_ex_hz, a_ex_m_s2, s0, duration_s)` reduced in the core
@@ -106,10 +103,13 @@ fn super_slow_manifold<'py>(py: Python<'py>, params: &Bound<'py, PyParams>, f_ex
 #[pyfunction]
 #[pyo3(signature = (jobs, *, record_every=5, keep_every=5, window_s=1.0, detrend_s=None, threads=None, on_done=None))]
 #[allow(clippy::type_complexity)]
-fn run_free_slider_batch<'py>(py: Python<'py>, jobs: Vec<(Bound<'py, PyParams>, f64, f64, f64, f64)>, record_every: usize,
-    keep_every: usize, window_s: f64, detrend_s: Option<f64>, threads: Option<usize>, on_done: Option<Py<PyAny>>) -> PyResult<Vec<Bound<'py, PyDict>>> {
+fn run_free_slider_batch<'py>(
+    py: Python<'py>, jobs: Vec<(Bound<'py, PyParams>, f64, f64, f64, f64)>, record_every: usize, keep_every: usize, window_s: f64, detrend_s: Option<f64>,
+    threads: Option<usize>, on_done: Option<Py<PyAny>>,
+) -> PyResult<Vec<Reduced<'py>>> {
     let red = Reduction { record_every, keep_every, window_s, detrend_s };
-    let jobs: Vec<Job> = jobs.into_iter().map(|(p, f_ex_hz, a_ex_m_s2, s0, duration_s)| Job { params: p.get().0.clone(), f_ex_hz, a_ex_m_s2, s0, duration_s }).collect();
+    let jobs: Vec<Job> =
+        jobs.into_iter().map(|(p, f_ex_hz, a_ex_m_s2, s0, duration_s)| Job { params: p.get().0.clone(), f_ex_hz, a_ex_m_s2, s0, duration_s }).collect();
     let (cancel, fresh) = (AtomicBool::new(false), AtomicUsize::new(0));
     let poll = |py: Python<'_>| {
         let n = fresh.swap(0, Ordering::Relaxed);
@@ -120,25 +120,21 @@ fn run_free_slider_batch<'py>(py: Python<'py>, jobs: Vec<(Bound<'py, PyParams>, 
     };
     let outcome = detached(py, &cancel, 50, || reduced::run_batch(&jobs, &red, threads, &cancel, on_one), poll)?;
     let results = outcome.ok_or_else(|| PyKeyboardInterrupt::new_err("discover runs interrupted"))?;
-    results
+    Ok(results
         .into_iter()
-        .map(|r| {
-            let d = PyDict::new(py);
-            match r {
-                Ok(x) => {
-                    for (k, v) in [("t", x.t), ("s", x.s), ("amplitude_h", x.amplitude_h)] {
-                        d.set_item(k, v.into_pyarray(py))?;
-                    }
-                    d.set_item("status", x.status.name())?;
-                }
-                Err(e) => {
-                    d.set_item("error_kind", if matches!(e, Error::InvalidParameter { .. } | Error::Toml { .. }) { "invalid" } else { "numerical" })?;
-                    d.set_item("error", e.to_string())?;
-                }
-            }
-            Ok(d)
+        .map(|r| match r {
+            Ok(x) => Reduced::Done { t: x.t.into_pyarray(py), s: x.s.into_pyarray(py), amplitude_h: x.amplitude_h.into_pyarray(py), status: x.status.name() },
+            Err(e @ (Error::InvalidParameter { .. } | Error::Toml { .. })) => Reduced::Failed { error_kind: "invalid", error: e.to_string() },
+            Err(e) => Reduced::Failed { error_kind: "numerical", error: e.to_string() },
         })
-        .collect()
+        .collect())
+}
+
+/// One job of [`run_free_slider_batch`] as a dict: its reduced signals and status, or its error.
+#[derive(IntoPyObject)]
+enum Reduced<'py> {
+    Done { t: Out<'py>, s: Out<'py>, amplitude_h: Out<'py>, status: &'static str },
+    Failed { error_kind: &'static str, error: String },
 }
 
 /// Virtual ENMA of the beam of `params`; `options_json` holds the fields of the core's
@@ -148,9 +144,7 @@ fn run_free_slider_batch<'py>(py: Python<'py>, jobs: Vec<(Bound<'py, PyParams>, 
 fn virtual_enma(py: Python<'_>, params: &Bound<'_, PyParams>, options_json: &str, progress: Option<Py<PyAny>>) -> PyResult<String> {
     let opts: EnmaOptions = serde_json::from_str(options_json).map_err(|e| PyValueError::new_err(format!("invalid ENMA options: {e}")))?;
     let valid = params.get().0.clone();
-    let mut monitor = PyMonitor::new(progress, None);
-    let out = py.detach(|| guarded(|| serde_json::to_string(&core_enma(&Model::of(&valid)?, &opts, &mut monitor)?).map_err(|e| Error::Numerical(e.to_string()))));
-    monitor.outcome(out)
+    json(&monitored(py, progress, None, |m| core_enma(&Model::of(&valid)?, &opts, m))?)
 }
 
 /// Modal data of the linear beam (core `physics::properties::BeamProperties`, docs/model.md §2

@@ -6,8 +6,8 @@
 use std::sync::Mutex;
 use std::sync::atomic::AtomicBool;
 
-use beamslider_core::study::{StudyPoint, StudyResults, run_points};
 use beamslider_core::MapRow;
+use beamslider_core::study::{StudyPoint, StudyResults, run_points};
 use pyo3::exceptions::PyKeyboardInterrupt;
 use pyo3::prelude::*;
 
@@ -24,10 +24,14 @@ type ChunkPoint = (usize, String, f64, f64, f64, f64);
 /// (at most every 50 ms); Ctrl-C or an exception in `on_rows` cancels the chunk.
 #[pyfunction]
 #[pyo3(signature = (config, points, *, threads=None, on_rows=None))]
-fn run_study_chunk(py: Python<'_>, config: &Bound<'_, PyMapConfig>, points: Vec<ChunkPoint>, threads: Option<usize>, on_rows: Option<Py<PyAny>>) -> PyResult<Vec<String>> {
+fn run_study_chunk(
+    py: Python<'_>, config: &Bound<'_, PyMapConfig>, points: Vec<ChunkPoint>, threads: Option<usize>, on_rows: Option<Py<PyAny>>,
+) -> PyResult<Vec<String>> {
     let cfg = &config.get().cfg;
-    let points: Vec<StudyPoint> =
-        points.into_iter().map(|(index, params_toml, f_ex_hz, a_ex_m_s2, s0, duration_s)| StudyPoint { index, params_toml, f_ex_hz, a_ex_m_s2, s0, duration_s }).collect();
+    let points: Vec<StudyPoint> = points
+        .into_iter()
+        .map(|(index, params_toml, f_ex_hz, a_ex_m_s2, s0, duration_s)| StudyPoint { index, params_toml, f_ex_hz, a_ex_m_s2, s0, duration_s })
+        .collect();
     let (cancel, fresh) = (AtomicBool::new(false), Mutex::new(Vec::new()));
     let drain = |py: Python<'_>| {
         let batch: Vec<String> = std::mem::take(&mut *fresh.lock().unwrap_or_else(|e| e.into_inner()));

@@ -9,14 +9,16 @@ use pyo3::prelude::*;
 use pythonize::pythonize;
 
 use crate::params::PyParams;
-use crate::{detached, guarded, json};
+use crate::{Progress, detached, guarded, json};
+use std::sync::atomic::AtomicBool;
 
 /// HB super-slow manifold (docs/model.md §6.4): the core's `HbManifold` as a dict (its fields).
 #[pyfunction]
 #[pyo3(signature = (params, *, f_ex_hz, a_ex_m_s2, n_modes=5, harmonics=1, d_eff=None, omega1_factor=1.0, s_values=None, max_steps=20_000, max_step=0.05, sample_on_grid=false, static_sag=false))]
-pub fn hb_manifold<'py>(py: Python<'py>, params: &Bound<'_, PyParams>, f_ex_hz: f64, a_ex_m_s2: f64, n_modes: usize, harmonics: usize,
-    d_eff: Option<f64>, omega1_factor: f64, s_values: Option<Vec<f64>>, max_steps: usize, max_step: f64, sample_on_grid: bool,
-    static_sag: bool) -> PyResult<Bound<'py, PyAny>> {
+pub fn hb_manifold<'py>(
+    py: Python<'py>, params: &Bound<'_, PyParams>, f_ex_hz: f64, a_ex_m_s2: f64, n_modes: usize, harmonics: usize, d_eff: Option<f64>, omega1_factor: f64,
+    s_values: Option<Vec<f64>>, max_steps: usize, max_step: f64, sample_on_grid: bool, static_sag: bool,
+) -> PyResult<Bound<'py, PyAny>> {
     let params = params.get().0.clone();
     let opts = HbOptions { n_modes, harmonics, d_eff, omega1_factor, s: s_values, max_steps, max_step, sample_on_grid, static_sag, low_branch_only: false };
     Ok(pythonize(py, &py.detach(|| guarded(|| core_hb(&params, f_ex_hz, a_ex_m_s2, &opts)))?)?)
@@ -25,8 +27,9 @@ pub fn hb_manifold<'py>(py: Python<'py>, params: &Bound<'_, PyParams>, f_ex_hz: 
 /// N = 1 closed form (docs/model.md §6.4) on `s_values`: the core's `ClosedFormN1` as a dict.
 #[pyfunction]
 #[pyo3(signature = (params, *, f_ex_hz, a_ex_m_s2, s_values, d_eff=None, omega1_factor=1.0))]
-pub fn hb_closed_form_n1<'py>(py: Python<'py>, params: &Bound<'_, PyParams>, f_ex_hz: f64, a_ex_m_s2: f64, s_values: Vec<f64>,
-    d_eff: Option<f64>, omega1_factor: f64) -> PyResult<Bound<'py, PyAny>> {
+pub fn hb_closed_form_n1<'py>(
+    py: Python<'py>, params: &Bound<'_, PyParams>, f_ex_hz: f64, a_ex_m_s2: f64, s_values: Vec<f64>, d_eff: Option<f64>, omega1_factor: f64,
+) -> PyResult<Bound<'py, PyAny>> {
     let params = params.get().0.clone();
     Ok(pythonize(py, &py.detach(|| guarded(|| closed_form_n1_scaled(&params, f_ex_hz, a_ex_m_s2, &s_values, d_eff, omega1_factor)))?)?)
 }
@@ -51,23 +54,15 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
 /// written so far stay in the file) and raises KeyboardInterrupt.
 #[pyfunction]
 #[pyo3(signature = (params, *, f_ex_hz, a_ex_m_s2, s_values, settle_periods=40, first_settle_periods=400, window_s=1.0, sub_windows=4, mirror=false, out=None, resume=false, progress=None))]
-pub fn drift_table_pcs(py: Python<'_>, params: &Bound<'_, PyParams>, f_ex_hz: f64, a_ex_m_s2: f64, s_values: Vec<f64>,
-    settle_periods: usize, first_settle_periods: usize, window_s: f64, sub_windows: usize, mirror: bool, out: Option<std::path::PathBuf>,
-    resume: bool, progress: Option<Py<PyAny>>) -> PyResult<(String, Vec<String>, usize)> {
-    use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering::Relaxed};
+pub fn drift_table_pcs(
+    py: Python<'_>, params: &Bound<'_, PyParams>, f_ex_hz: f64, a_ex_m_s2: f64, s_values: Vec<f64>, settle_periods: usize, first_settle_periods: usize,
+    window_s: f64, sub_windows: usize, mirror: bool, out: Option<std::path::PathBuf>, resume: bool, progress: Option<Py<PyAny>>,
+) -> PyResult<(String, Vec<String>, usize)> {
     let params = params.get().0.clone();
     let opts = DriftOptions { s_values, settle_periods, first_settle_periods, window_s, sub_windows, mirror };
-    let exc = Excitation::new(f_ex_hz, a_ex_m_s2);
-    let (cancel, done, total) = (AtomicBool::new(false), AtomicUsize::new(0), AtomicUsize::new(0));
-    let poll = |py: Python<'_>| {
-        let t = total.load(Relaxed);
-        progress.as_ref().filter(|_| t > 0).map_or(Ok(()), |cb| cb.call1(py, (done.load(Relaxed), t)).map(|_| ()))
-    };
-    let progress_of = |d, t| {
-        done.store(d, Relaxed);
-        total.store(t, Relaxed);
-    };
-    let table = detached(py, &cancel, 100, || core_drift(&Model::of(&params)?, &exc, &opts, out.as_deref(), resume, &cancel, &progress_of), poll)?;
+    let (exc, cancel, progress) = (Excitation::new(f_ex_hz, a_ex_m_s2), AtomicBool::new(false), Progress::new(progress, 0));
+    let work = || core_drift(&Model::of(&params)?, &exc, &opts, out.as_deref(), resume, &cancel, &|d, t| progress.set(d, t));
+    let table = detached(py, &cancel, 100, work, |py| progress.report(py))?;
     Ok((json(&table.header)?, table.rows.iter().map(json).collect::<PyResult<_>>()?, table.computed))
 }
 

@@ -18,7 +18,7 @@ import numpy as np
 
 from .. import _core, _toml
 from .._util import progress_bar
-from ..params import Parameters, resolve
+from ..params import Parameters, native, resolve
 from ..simulate import SimulationResult
 from ..superslow import BUILTIN_LAW_NOTE, DesignLaw, DriftLaw, default_law
 from .config import MIN_CLASSIFY_S, RESULTS_FILE, criteria_toml, map_config_toml
@@ -333,14 +333,14 @@ def predicted_map(
             raise FileExistsError(f"{path} exists: pass force=True to overwrite or resume=True to continue it")
         if path.exists() and force and not resume:
             path.unlink()
-    cfg = _core.MapConfig(map_config_toml(p, f_ex=[float(v) for v in f_ex], a_ex=[float(v) for v in a_ex], s0=float(s0),
-                                          t_end=float(t_end)))
+    cfg = _core.MapConfig.of(native(p), f_ex_hz=[float(v) for v in f_ex], a_ex_m_s2=[float(v) for v in a_ex], s0=[float(s0)],
+                             duration_s=float(t_end))
     kw = dict(out=None if path is None else str(path), resume=bool(resume), threads=threads, n_modes=int(n_modes), d_eff=d_eff)
     if isinstance(drift, DriftLaw):
         law = drift if s_dn != "hb" else dataclasses.replace(drift, rho_c=0.0)
-        rows = _core.predicted_map(cfg, law.core(), s_dn="none" if s_dn == "none" else "law", **kw)
+        rows, _ = _core.predicted_map(cfg, law.core(), s_dn="none" if s_dn == "none" else "law", **kw)
     else:
-        rows, why = (drift or default_law()).core().predicted_map(cfg, s_dn=s_dn, **kw)
+        rows, why = _core.predicted_map(cfg, (drift or default_law()).core(), s_dn=s_dn, **kw)
         if why:
             import warnings
 

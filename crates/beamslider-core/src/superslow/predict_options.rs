@@ -6,6 +6,7 @@ use super::branch::HbOptions;
 use super::law::DriftLaw;
 use super::slowflow::{SlowBranch, SlowModel};
 use crate::classify::Criteria;
+use crate::error::{Error, Result};
 
 /// Settings of [`predict_point`].
 #[derive(Debug, Clone, PartialEq)]
@@ -77,6 +78,12 @@ impl SDnRule {
             SDnRule::None => "none",
         }
     }
+
+    /// The rule of a name (`law`, `hb`, `table`, `none`); another name is an invalid `s_dn`.
+    pub fn named(name: &str) -> Result<SDnRule> {
+        let rules = [SDnRule::Law, SDnRule::Hb, SDnRule::Table, SDnRule::None];
+        rules.into_iter().find(|r| r.name() == name).ok_or_else(|| Error::invalid("s_dn", format!("{name:?}"), "one of 'law', 'hb', 'table', 'none'"))
+    }
 }
 
 /// Where the reduced model's branches come from (docs/model.md §6.3).
@@ -87,6 +94,17 @@ pub enum Source {
     Hb,
     /// Everything from a PCS drift table (its rows' Â and V, its sweeps' jumps; no layer (a)).
     Table,
+}
+
+impl Source {
+    /// The source of a name (`hb`, `table`); another name is an invalid `source`.
+    pub fn named(name: &str) -> Result<Source> {
+        match name {
+            "hb" => Ok(Source::Hb),
+            "table" => Ok(Source::Table),
+            _ => Err(Error::invalid("source", format!("{name:?}"), "'hb' or 'table'")),
+        }
+    }
 }
 
 /// The drift V(s, branch) of the reduced model: a fitted law (b2) or one operating point's PCS
