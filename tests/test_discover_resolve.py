@@ -244,3 +244,31 @@ def test_a_bad_advice_grid_is_a_one_line_error(grid, tmp_path):
     runs = _runs(tmp_path, bs.Parameters(), points=[(110, 10, 0.3)], duration_s=1)
     with pytest.raises(ValueError, match="advice_grid"):
         dc.discover(measured=runs, effects=["friction_coefficient"], advice_grid=grid)
+
+
+def test_a_negligible_change_that_fits_is_none_only_if_no_relevant_change_is_resolved():
+    """Restitution 0.5 -> 0.3 fits adequately and its 95 % interval excludes 0.5, and a contact
+    spacing moved by a negligible 0.6 % fits too: the data resolve a relevant change, so the
+    negligible one does not make the baseline adequate (not "none"). With restitution's interval
+    reaching 0.5 (not resolved) the negligible change stands: the baseline is adequate."""
+    from beamslider.discover.naming import _judge
+    from beamslider.discover.verdicts import negligible_fits, relevant_resolved
+
+    base = bs.Parameters()
+    spacing = CandidateFit(("contact_spacing",), {"contact_spacing": 0.010062}, {"contact_spacing": 1e-4}, 10.0, 11,
+                           True, 10.0, intervals={"contact_spacing": (0.0098, 0.0103)})
+    rest = CandidateFit(("restitution",), {"restitution": 0.3}, {"restitution": 0.07}, 9.0, 11, True, 9.0,
+                        intervals={"restitution": (0.12, 0.45)})
+    fits = [spacing, rest]
+    reasons = _judge(fits, base, 12, 5.0, 0.3)
+    assert reasons[("restitution",)] == [] and reasons[("contact_spacing",)][0].startswith("negligible change")
+    assert negligible_fits(fits, reasons) == [spacing]
+    assert relevant_resolved(fits, reasons) == [rest]
+    rest.intervals["restitution"] = (0.12, 0.55)
+    reasons = _judge(fits, base, 12, 5.0, 0.3)
+    assert reasons[("restitution",)][0].startswith("not resolved")
+    assert relevant_resolved(fits, reasons) == [] and negligible_fits(fits, reasons) == [spacing]
+    # An inadequate relevant fit does not count: the negligible change fits better.
+    rest.intervals["restitution"] = (0.12, 0.45)
+    rest.adequate = False
+    assert relevant_resolved(fits, _judge(fits, base, 12, 5.0, 0.3)) == []

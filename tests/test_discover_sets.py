@@ -33,13 +33,9 @@ def _alike_model():
     return A, y, model
 
 
-def test_joint_refinement_reaches_the_least_squares_minimum():
-    """Gauss–Newton steps confirmed by 'runs' reach the minimum of the nonlinear least squares
-    (checked against scipy's least_squares, an independent solver) from the point a coordinate pass
-    leaves, and the covariance is (JᵀJ)⁻¹ of the model at the minimum."""
-    from scipy.optimize import least_squares
-
-    A, y, model = _alike_model()
+def _confirmed_runs(model, y):
+    """evaluate / residuals / χ² as :func:`.refine.gauss_newton` takes them: ``evaluate`` 'runs'
+    the model at the points asked (stored by rounded point), the others read what was run."""
     done = {}
 
     def evaluate(us):
@@ -52,6 +48,18 @@ def test_joint_refinement_reaches_the_least_squares_minimum():
     def chi2(u):
         r = residuals(u)
         return float(r @ r)
+
+    return evaluate, residuals, chi2
+
+
+def test_joint_refinement_reaches_the_least_squares_minimum():
+    """Gauss–Newton steps confirmed by 'runs' reach the minimum of the nonlinear least squares
+    (checked against scipy's least_squares, an independent solver) from the point a coordinate pass
+    leaves, and the covariance is (JᵀJ)⁻¹ of the model at the minimum."""
+    from scipy.optimize import least_squares
+
+    A, y, model = _alike_model()
+    evaluate, residuals, chi2 = _confirmed_runs(model, y)
 
     # The coordinate pass: the first parameter with the second at 0, then the second.
     u1 = least_squares(lambda a: model(np.array([a[0], 0.0])) - y, [0.0]).x[0]
@@ -72,18 +80,7 @@ def test_joint_refinement_reaches_the_least_squares_minimum():
 def test_joint_refinement_stops_where_no_step_lowers_chi2():
     """At the minimum already no step is taken (the history has the start only) and the bounds hold."""
     A, y, model = _alike_model()
-    done = {}
-
-    def evaluate(us):
-        for u in us:
-            done[tuple(np.round(u, 12))] = model(np.asarray(u))
-
-    def residuals(u):
-        return done[tuple(np.round(u, 12))] - y
-
-    def chi2(u):
-        r = residuals(u)
-        return float(r @ r)
+    evaluate, residuals, chi2 = _confirmed_runs(model, y)
 
     out = gauss_newton([0.0, 0.0], [0.0, 0.0], [0.1, 0.1], [0.01, 0.01], evaluate, residuals, chi2)
     assert np.all(out.u >= 0) and np.all(out.u <= 0.1)

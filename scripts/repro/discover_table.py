@@ -4,7 +4,10 @@ slider-level data synthesised from a truth model (in-library and out-of-library 
 negligible change, the baseline itself).
 
 Usage:  python3 scripts/repro/discover_table.py [--duration 60] [--out docs/results/discover/table.md] [--cases a,b] [--rows-only] [--s0-offset 0.0015]
-                                          [--ops "104,14,0.3;126,10,0.3;124,14,0.3"] [--max-effects 1]
+                                          [--ops "104,14,0.3;126,10,0.3;124,14,0.3"] [--max-effects 1] [--resume] [--json-dir DIR]
+
+``--resume``: the cases whose rows --out already holds (same label) are kept, not re-run; ``--json-dir``:
+each case's full report (every fitted set with its reasons and intervals) as DIR/CASE.json.
 
 Data: `synthesize_slider_runs` of the truth at the operating points (default: the three reference points,
 s noise 0.001, seed 3); baseline: the prototype; candidates: all slider-level effects, or all but
@@ -17,6 +20,7 @@ and printed with the load average.
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import sys
 import tempfile
@@ -94,17 +98,33 @@ def main() -> int:
     ap.add_argument("--cases", default=",".join(CASES))
     ap.add_argument("--force", action="store_true", help="overwrite --out")
     ap.add_argument("--rows-only", action="store_true", help="print the table rows only, --out is not written")
+    ap.add_argument("--resume", action="store_true",
+                    help="keep the rows --out already holds for the cases asked (same label) and run only the others")
+    ap.add_argument("--json-dir", type=Path, default=None, help="write each case's report.json there as CASE.json")
     ap.add_argument("--s0-offset", type=float, default=0.0,
                     help="the truth runs start this far off the s0 their files name (no inverse crime; default 0)")
     args = ap.parse_args()
     ops = [tuple(float(v) for v in part.split(",")) for part in args.ops.split(";") if part.strip()]
-    if args.out.exists() and not args.force and not args.rows_only:
+    if args.out.exists() and not args.force and not args.rows_only and not args.resume:
         print(f"error: {args.out} exists (use --force to overwrite)", file=sys.stderr)
         return 1
     rows = ["| hidden truth | candidates | verdict | named: fitted ± stderr [95 % interval] | truth | gap before → after | gap beyond the noise before → after | wall time (load), CPU time of all threads |",
             "|---|---|---|---|---|---|---|---|"]
+    done = {}
+    if args.resume and args.out.exists():
+        for line in args.out.read_text(encoding="utf-8").splitlines():
+            if line.startswith("| ") and not line.startswith(("| hidden truth", "|---")):
+                done[line.split(" | ")[0][2:]] = line
+    if args.json_dir is not None:
+        args.json_dir.mkdir(parents=True, exist_ok=True)
     for key in args.cases.split(","):
         label, spec, effects = CASES[key]
+        if args.s0_offset:
+            label = f"{label} (truth runs from s0 + {args.s0_offset:g})"
+        if label in done:
+            rows.append(done[label])
+            print(f"kept (--resume): {label}", flush=True)
+            continue
         with tempfile.TemporaryDirectory() as tmp:
             truth = truth_of(spec)
             params, chain = truth if isinstance(truth, tuple) else (truth, None)
@@ -120,8 +140,8 @@ def main() -> int:
                           for e in d.named_effects) or "—"
         truth_txt = ", ".join(f"{k} {dc.fmt_value(v)}" for k, v in truth_values(spec).items()) or "—"
         cands = f"all {len(SLIDER)}" if len(effects) == len(SLIDER) else f"all but {set(SLIDER).difference(effects).pop()}"
-        if args.s0_offset:
-            label = f"{label} (truth runs from s0 + {args.s0_offset:g})"
+        if args.json_dir is not None:
+            (args.json_dir / f"{key}.json").write_text(json.dumps(d.to_json(), indent=1), encoding="utf-8")
         line = (f"| {label} | {cands} | {d.verdict} | {named} | {truth_txt} | {d.gap_before:.3g} → {d.gap_after:.3g} | "
                 f"{d.gap_excess_before:.3g} → {d.gap_excess_after:.3g} | {wall:.0f} s (load {load[0]:.1f}), CPU {cpu:.0f} s |")
         rows.append(line)

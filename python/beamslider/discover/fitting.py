@@ -351,8 +351,7 @@ def profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str,
                  model_fn: Optional[Callable[[Parameters], Dict[str, float]]] = None, *, grid_n: int = 9,
                  refine: int = 2, model_many: Optional[ModelMany] = None,
                  ensemble_many: Optional[EnsembleMany] = None, spread0: Optional[Dict[str, float]] = None,
-                 fixed: Optional[Dict[str, float]] = None, start: Optional[Dict[str, float]] = None,
-                 roughness0: Optional[Dict[str, float]] = None, joint: Optional[bool] = None) -> CandidateFit:
+                 fixed: Optional[Dict[str, float]] = None, joint: Optional[bool] = None) -> CandidateFit:
     """Fit for expensive, rough objectives (slider level). Per effect (one coordinate pass): a grid
     scan of χ² over its search range (``grid_n`` points, one batch of runs), then ``refine``
     levels of 7 points spanning ± one step around the best so far (each one batch; the step
@@ -365,9 +364,7 @@ def profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str,
     by the scatter of the last refinement level's χ² about a parabola (:func:`_roughness`)
     where the objective is rough. Several effects: the coordinate pass's point refined jointly
     (:func:`.refine.gauss_newton`, :data:`JOINT_REFINEMENT`), standard errors from its covariance.
-    Intervals at :data:`INTERVAL_LEVEL` (:func:`.verdicts.interval_of`). ``start``: several
-    effects, their values to refine jointly from (e.g. the better single fit's), no coordinate
-    pass; ``roughness0``: each effect's roughness from its single fit (the larger counts);
+    Intervals at :data:`INTERVAL_LEVEL` (:func:`.verdicts.interval_of`).
     ``joint``: refine a set jointly (None: :data:`JOINT_REFINEMENT`).
     ``fixed``: values of further effects held (the joint fit's beam-level part)."""
     many = model_many if model_many is not None else _one_at_a_time(model_fn)  # type: ignore[arg-type]
@@ -419,10 +416,7 @@ def profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str,
     u = np.array([np.clip(e.variable(e.baseline_value(baseline), baseline), e.lower, e.upper) for e in effects])
     samples: List[List[np.ndarray]] = [[] for _ in effects]
     last: List[List[np.ndarray]] = [[] for _ in effects]
-    if start is not None and len(effects) >= 2 and joint_on:
-        u = np.array([np.clip(e.variable(start[e.name], baseline), e.lower, e.upper) if e.name in start else x
-                      for e, x in zip(effects, u)])
-    for i, e in enumerate(effects if start is None or len(effects) < 2 or not joint_on else ()):
+    for i, e in enumerate(effects):
         lo, hi = e.search if math.isfinite(e.search[0]) else (e.lower, e.upper)
         at = lambda x: np.where(np.arange(len(u)) == i, x, u)  # noqa: E731
         grid = list(np.linspace(lo, hi, grid_n))
@@ -483,7 +477,6 @@ def profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str,
         xs = np.array([p[i] for p in samples[i]])
         fs = np.array([chi2(p) for p in samples[i]])
         rough = _roughness(np.array([p[i] for p in last[i]]), np.array([chi2(p) for p in last[i]]))
-        rough = max(rough, (roughness0 or {}).get(e.name, 0.0))
         roughness[e.name] = rough
         values[e.name] = e.value(u[i], baseline)
         if refined is not None:

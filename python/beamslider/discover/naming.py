@@ -20,8 +20,8 @@ from .models import (ENSEMBLE_S0_SHIFTS, Ensemble, Modes, RunCache, batch_slider
                      data_modes, ensemble_slider_features, levels_for, measured_slider_features,
                      simulated_enma_features)
 from .separability import slider_sensitivities
-from .verdicts import (ADVICE_GRID, EXTENDING_PAIRS, GUIDED_PAIRS, advise, confounded_group, interval_of, rank_pairs,
-                       unresolved_reasons)
+from .verdicts import (ADVICE_GRID, EXTENDING_PAIRS, GUIDED_PAIRS, advise, confounded_group, interval_of,
+                       negligible_fits, rank_pairs, relevant_resolved, unresolved_reasons)
 
 
 def _progress_bar(enabled: Optional[bool], total: int, desc: str):
@@ -513,13 +513,9 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
                         exceeds_uncertainty=bool(abs(before[k] - f.value) > 2 * sig(k, spread_base)))
                 for k, f in meas.items()}
     # "none" also when an adequate fit needs only a negligible change (and may fail the gap share):
-    # the data are explained without a physically relevant change.
-    # Every parameter of the set negligible (a relevant one beside a negligible one is not "none").
-    negligible = [f for f in fits if verdicts[f.effects] and f.adequate
-                  and all(any(r.startswith(f"negligible change of {EFFECTS[e].field}:") for r in verdicts[f.effects])
-                          for e in f.effects)
-                  and all(r.startswith(("negligible change", "small share of the gap", "not resolved"))
-                          for r in verdicts[f.effects])]
+    # the data are explained without a physically relevant change — unless a relevant change is
+    # resolved (an adequate set whose intervals exclude the baseline; not named for another reason).
+    negligible = negligible_fits(fits, verdicts) if best is None and not relevant_resolved(fits, verdicts) else []
     unresolved: Dict[str, Any] = {}
     if chi2_0 <= chi2_quantile(n):
         verdict = "none"
@@ -536,7 +532,7 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
         # contains the baseline).
         unres = [f for f in fits if f.adequate and not f.screened and any(r.startswith("not resolved") for r in verdicts[f.effects])
                  and not any(r.startswith("negligible change") for r in verdicts[f.effects])]
-        if unres:
+        if unres and not relevant_resolved(fits, verdicts):
             u = min(unres, key=lambda f: f.chi2)
             unresolved = dict(effects=list(u.effects), values=u.values, stderrs=u.stderrs, chi2=u.chi2,
                               reasons=verdicts[u.effects])

@@ -114,7 +114,10 @@ def verdict_line(d: Discovery) -> str:
                 f"({vals}), not resolved by these runs ({why})" + (f"; to resolve it, {adv}" if adv else ""))
     if d.verdict == "unexplained":
         off = ", ".join(f"{f['feature']} z = {f['z']:+.1f}" for f in d.features_off[:3])
-        best = d.rejected[0] if d.rejected else None
+        # A relevant change the data resolve, adequate but not named, before the lowest χ².
+        resolved = [r for r in d.rejected if not any(x.startswith(("negligible change", "not resolved", "screened out",
+                                                                    "not adequate")) for x in r["reasons"])]
+        best = resolved[0] if resolved else d.rejected[0] if d.rejected else None
         why = (f"; best candidate {' + '.join(best['effects'])} rejected: {best['reasons'][0]}" if best else "")
         return f"unexplained discrepancy (gap {d.gap_before:.3g}; off: {off or 'no single feature beyond 2 sigma'}){why}"
     neg = _negligible(d)

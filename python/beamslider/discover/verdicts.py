@@ -56,6 +56,31 @@ def unresolved_reasons(f: CandidateFit, base: Parameters) -> List[str]:
     return out
 
 
+def negligible_fits(fits: Sequence[CandidateFit], reasons: Dict[Tuple[str, ...], List[str]]) -> List[CandidateFit]:
+    """Adequate sets whose every parameter moved by a negligible amount (and whose other reasons
+    are at most a small share of the gap or an unresolved interval): the data are explained
+    without a physically relevant change, if no relevant change is resolved
+    (:func:`relevant_resolved`)."""
+    return [f for f in fits if reasons[f.effects] and f.adequate and not f.screened
+            and all(any(r.startswith(f"negligible change of {EFFECTS[e].field}:") for r in reasons[f.effects])
+                    for e in f.effects)
+            and all(r.startswith(("negligible change", "small share of the gap", "not resolved"))
+                    for r in reasons[f.effects])]
+
+
+def relevant_resolved(fits: Sequence[CandidateFit], reasons: Dict[Tuple[str, ...], List[str]]) -> List[CandidateFit]:
+    """Adequate sets, fitted in full, whose every parameter moved by a relevant amount and whose
+    every interval (:func:`interval_of`) excludes the baseline, best first: the data resolve a
+    relevant change away from the baseline. Then a negligible change that also fits
+    (:func:`negligible_fits`) does not make the baseline adequate — a chaotic realisation near the
+    baseline that happens to fit is not evidence against a change the data resolve — and the
+    verdict is not "none" (docs/model.md §9.1, "Resolved")."""
+    out = [f for f in fits if f.adequate and not f.screened
+           and not any(r.startswith(("negligible change", "not resolved", "screened out", "not adequate"))
+                       for r in reasons[f.effects])]
+    return sorted(out, key=lambda f: f.chi2)
+
+
 def signature(f: CandidateFit, before: Dict[str, float], sig: Dict[str, float]) -> Dict[str, float]:
     """The feature changes of fit ``f`` from the baseline (``before``), in units of ``sig``."""
     return {k: (f.predicted[k] - before[k]) / sig[k] for k in sig
