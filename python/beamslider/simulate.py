@@ -470,4 +470,4 @@ def blocked_envelope(t: Any, w: Any, window: float = 1.0, *, block: int = 2**19,
     if len(w) < 2:
         raise ValueError("need at least two samples")
     x = np.ascontiguousarray(w, dtype=float)
-    return _core.blocked_envelope(x, float(t[1] - t[0]), float(window), int(block), int(margin))
+    return _core.envelope(x, float(t[1] - t[0]), float(window), block=int(block), margin=int(margin))

@@ -195,6 +195,14 @@ pub struct Criteria {
     pub relax_min_cycles: usize,
 }
 
+impl Criteria {
+    /// Thresholds from TOML keys of [`Criteria`] (missing keys take their defaults); None: the defaults.
+    pub fn from_toml_str(text: Option<&str>) -> Result<Self> {
+        let read = |t: &str| toml::from_str(t).map_err(|e| Error::invalid("criteria", "(TOML)", e.to_string().trim_end()));
+        text.map_or_else(|| Ok(Criteria::default()), read)
+    }
+}
+
 impl Default for Criteria {
     fn default() -> Self {
         Criteria {

@@ -57,6 +57,11 @@ pub enum Error {
 pub type Result<T> = std::result::Result<T, Error>;
 
 impl Error {
+    /// Whether the input was bad (an invalid parameter or unreadable TOML), not the computation.
+    pub fn is_input(&self) -> bool {
+        matches!(self, Error::InvalidParameter { .. } | Error::Toml { .. })
+    }
+
     /// Shorthand for [`Error::InvalidParameter`].
     pub fn invalid(field: &str, value: impl std::fmt::Display, allowed: &str) -> Self {
         Error::InvalidParameter {

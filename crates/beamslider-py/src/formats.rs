@@ -1,15 +1,13 @@
 //! Conversions for the core's formats and formulas: the manifold CSV, the map's letter table,
-//! the blocked envelope, the backbone and the JSON-lines results files (design runs).
+//! the backbone and the JSON-lines results files (design runs).
 
 use std::path::PathBuf;
 
-use beamslider_core::map::{TableCell, t_end_text, table_of_cells};
-use beamslider_core::{Beam, Branch, manifold, results, signal};
-use numpy::IntoPyArray;
-use pyo3::exceptions::PyValueError;
+use beamslider_core::map::table_of_columns;
+use beamslider_core::{Beam, Branch, manifold, results};
 use pyo3::prelude::*;
 
-use crate::{In, Out, guarded};
+use crate::guarded;
 
 /// The manifold CSV of two sweeps (s, amplitude [m] each), as the core writes it.
 #[pyfunction]
@@ -19,27 +17,12 @@ fn manifold_csv(up_s: Vec<f64>, up_amplitude_m: Vec<f64>, down_s: Vec<f64>, down
 
 type Columns = (Vec<f64>, Vec<f64>, Vec<f64>, Vec<f64>, Vec<String>, Vec<String>, Vec<bool>);
 
-fn cells((s0, f, a, t, status, behaviour, settled): Columns) -> PyResult<Vec<TableCell>> {
-    let n = s0.len();
-    if [f.len(), a.len(), t.len(), status.len(), behaviour.len(), settled.len()].iter().any(|&k| k != n) {
-        return Err(PyValueError::new_err("invalid parameter `table`: the columns must have the same length"));
-    }
-    Ok((0..n).map(|i| TableCell::new(s0[i], f[i], a[i], t[i], &status[i], &behaviour[i], settled[i])).collect())
-}
-
 /// The letter table of a map and its "t_end = … s" text, from its columns (s0, f_ex, a_ex,
 /// t_end, status, behaviour, settled).
 #[pyfunction]
 fn map_text_table(columns: Columns) -> PyResult<(String, String)> {
-    let cells = cells(columns)?;
-    Ok((table_of_cells(&cells), t_end_text(&cells)))
-}
-
-/// Envelope with the analytic signal by overlapping FFT blocks (docs/model.md §7).
-#[pyfunction]
-fn blocked_envelope<'py>(py: Python<'py>, x: In<'py>, dt_s: f64, window_s: f64, block: usize, margin: usize) -> PyResult<Out<'py>> {
-    let x = x.as_slice()?.to_vec();
-    Ok(py.detach(|| guarded(|| signal::blocked_envelope(&x, dt_s, window_s, block, margin)))?.into_pyarray(py))
+    let (s0, f, a, t, status, behaviour, settled) = columns;
+    guarded(|| table_of_columns(&s0, &f, &a, &t, &status, &behaviour, &settled))
 }
 
 /// Squared backbone frequencies (ω² + ¾ b a²)/M₁ at the amplitudes a.
@@ -65,6 +48,6 @@ fn append_json_lines(py: Python<'_>, path: PathBuf, lines: Vec<String>, good_len
 
 /// Register the format functions in the `_core` module.
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
-    crate::export!(m, manifold_csv, map_text_table, blocked_envelope, backbone_omega2, read_json_lines, append_json_lines);
+    crate::export!(m, manifold_csv, map_text_table, backbone_omega2, read_json_lines, append_json_lines);
     Ok(())
 }

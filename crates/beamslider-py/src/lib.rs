@@ -15,8 +15,9 @@ use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use beamslider_core::signal::{self, envelope_stream::EnvelopeStream};
 use beamslider_core::{Criteria, Error, Monitor, SuperSlow, dynamics::runner};
 use numpy::{IntoPyArray, PyArray1, PyReadonlyArray1};
-use pyo3::exceptions::{PyBlockingIOError, PyException, PyKeyboardInterrupt, PyOSError, PyValueError};
+use pyo3::exceptions::{PyBlockingIOError, PyException, PyKeyboardInterrupt, PyOSError, PyTypeError, PyValueError};
 use pyo3::prelude::*;
+use pyo3::types::PyDict;
 
 mod formats;
 mod maprun;
@@ -41,12 +42,17 @@ fn json<T: serde::Serialize>(value: &T) -> PyResult<String> {
     serde_json::to_string(value).map_err(|e| SimulationError::new_err(format!("internal error: {e}")))
 }
 
+/// Keyword arguments as the core's settings `T` (missing keys: its defaults; unknown or mistyped: `TypeError`).
+fn kwargs<T: serde::de::DeserializeOwned>(py: Python<'_>, options: Option<&Bound<'_, PyDict>>) -> PyResult<T> {
+    pythonize::depythonize(&options.cloned().unwrap_or_else(|| PyDict::new(py))).map_err(|e| PyTypeError::new_err(format!("invalid keyword argument: {e}")))
+}
+
 /// Map a core error to the Python exception of its class.
 fn to_py(e: Error) -> PyErr {
     let msg = e.to_string();
     #[allow(unreachable_patterns)]
     match e {
-        Error::InvalidParameter { .. } | Error::Toml { .. } => PyValueError::new_err(msg),
+        _ if e.is_input() => PyValueError::new_err(msg),
         Error::Io { source, .. } => match source.raw_os_error() {
             Some(code) => PyOSError::new_err((code, msg)),
             None => PyOSError::new_err(msg),
@@ -159,12 +165,14 @@ fn moving_average<'py>(py: Python<'py>, x: In<'py>, window: usize) -> PyResult<O
     Ok(py.detach(|| signal::moving_average(&x, window)).into_pyarray(py))
 }
 
-/// Envelope of docs/model.md §7: |Hilbert(x)|, then a moving average over `window_s` seconds of
-/// samples spaced `dt_s`.
+/// Envelope of docs/model.md §7 (`window_s` moving average of |analytic signal| of samples spaced
+/// `dt_s`); with `block`, the analytic signal by overlapping FFT blocks (`margin` samples each side).
 #[pyfunction]
-fn envelope<'py>(py: Python<'py>, x: In<'py>, dt_s: f64, window_s: f64) -> PyResult<Out<'py>> {
+#[pyo3(signature = (x, dt_s, window_s, *, block=None, margin=0))]
+fn envelope<'py>(py: Python<'py>, x: In<'py>, dt_s: f64, window_s: f64, block: Option<usize>, margin: usize) -> PyResult<Out<'py>> {
     let x = x.as_slice()?.to_vec();
-    Ok(py.detach(|| guarded(|| signal::envelope_checked(&x, dt_s, window_s)))?.into_pyarray(py))
+    let env = || block.map_or_else(|| signal::envelope_checked(&x, dt_s, window_s), |b| signal::blocked_envelope(&x, dt_s, window_s, b, margin));
+    Ok(py.detach(|| guarded(env))?.into_pyarray(py))
 }
 
 /// The super-slow signals a map point is classified from (core `signal::envelope_stream`,
@@ -183,10 +191,7 @@ fn super_slow_signals<'py>(py: Python<'py>, w: In<'py>, s: In<'py>, dt_s: f64, t
 #[pyfunction]
 #[pyo3(signature = (s, amplitude_h, dt_s, *, t0_s=0.0, criteria_toml=None))]
 fn classify(py: Python<'_>, s: In<'_>, amplitude_h: In<'_>, dt_s: f64, t0_s: f64, criteria_toml: Option<&str>) -> PyResult<String> {
-    let criteria: Criteria = match criteria_toml {
-        Some(text) => toml::from_str(text).map_err(|e| PyValueError::new_err(format!("cannot read criteria: {}", e.to_string().trim_end())))?,
-        None => Criteria::default(),
-    };
+    let criteria = guarded(|| Criteria::from_toml_str(criteria_toml))?;
     let x = SuperSlow { t0_s, dt_s, s: s.as_slice()?.to_vec(), amplitude_h: amplitude_h.as_slice()?.to_vec() };
     json(&py.detach(|| guarded(|| beamslider_core::classify(&x, &criteria)))?)
 }

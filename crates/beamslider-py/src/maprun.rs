@@ -75,9 +75,7 @@ impl PyMapConfig {
 impl PyMapConfig {
     /// A checked configuration with its axes' values.
     fn checked(cfg: MapConfig) -> PyResult<Self> {
-        let g = &cfg.grid;
-        let axes = guarded(|| Ok((g.f_ex_hz.values("grid.f_ex_hz")?, g.a_ex_m_s2.values("grid.a_ex_m_s2")?, g.s0.values("grid.s0")?)))?;
-        Ok(PyMapConfig { cfg, axes })
+        Ok(PyMapConfig { axes: guarded(|| cfg.axes())?, cfg })
     }
 }
 

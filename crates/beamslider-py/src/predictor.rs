@@ -6,9 +6,9 @@ use beamslider_core::superslow::design_law::{DesignLaw, design_coordinates as co
 use beamslider_core::superslow::law::{self, DriftLaw};
 use beamslider_core::superslow::predict::{self as pred, Drift, PredictOptions, SDnRule, Source, TableDrift};
 use beamslider_core::superslow::slowflow::SlowBranch;
-use beamslider_core::superslow::{HbBranch, HbManifold, HbOptions, hb_manifold};
+use beamslider_core::superslow::{HbOptions, hb_manifold};
 use beamslider_core::{Error, MapRow, MapRunOptions};
-use pyo3::exceptions::{PyKeyboardInterrupt, PyValueError};
+use pyo3::exceptions::PyKeyboardInterrupt;
 use pyo3::prelude::*;
 use std::sync::atomic::{AtomicBool, Ordering::Relaxed};
 
@@ -36,10 +36,7 @@ impl PyDriftLaw {
     /// V and the outside flag per row of law inputs `x` (rows of FEATURES) with Λ_g `lift_off`.
     #[pyo3(signature = (*, high, x, lift_off))]
     fn evaluate(&self, high: bool, x: Vec<[f64; law::NF]>, lift_off: Vec<f64>) -> PyResult<(Vec<f64>, Vec<bool>)> {
-        if x.len() != lift_off.len() {
-            return Err(PyValueError::new_err("invalid parameter `x`: one lift_off per row"));
-        }
-        Ok(x.iter().zip(&lift_off).map(|(r, &l)| self.0.evaluate(high, r, l)).unzip())
+        guarded(|| self.0.evaluate_rows(high, &x, &lift_off))
     }
     /// The monostability vote at (ln Â_L at the HB fold, s_up).
     fn monostable(&self, x: [f64; 2]) -> bool {
@@ -50,11 +47,7 @@ impl PyDriftLaw {
 #[pyfunction]
 #[pyo3(signature = (s, amplitude_h, *, f_ex_hz, a_ex_m_s2, rho_c, s_p, thickness_m))]
 pub fn law_s_dn(s: Vec<f64>, amplitude_h: Vec<f64>, f_ex_hz: f64, a_ex_m_s2: f64, rho_c: f64, s_p: f64, thickness_m: f64) -> PyResult<Option<f64>> {
-    if s.len() != amplitude_h.len() {
-        return Err(PyValueError::new_err("invalid parameter `amplitude_h`: one per s"));
-    }
-    let m = HbManifold { high: HbBranch { s, amplitude_h, ..HbBranch::default() }, ..HbManifold::default() };
-    Ok(pred::law_s_dn(&m, f_ex_hz, a_ex_m_s2, rho_c, s_p, thickness_m))
+    guarded(|| pred::law_s_dn_on_high(s, amplitude_h, f_ex_hz, a_ex_m_s2, rho_c, s_p, thickness_m))
 }
 /// Layer-(a) features (docs/model.md §6.3) at `s` on one branch of the HB manifold: JSON list.
 #[pyfunction]

@@ -7,8 +7,8 @@ use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use beamslider_core::enma::{EnmaOptions, virtual_enma as core_enma};
 use beamslider_core::physics::BeamProperties;
 use beamslider_core::signal::reduced::{self, Job, Reduction};
-use beamslider_core::signal::run::{Output, RunSpec, check, model_named, run};
-use beamslider_core::{Channel, Error, Excitation, ManifoldOptions, Model, Status};
+use beamslider_core::signal::run::{Output, RECORDED, RunSpec, check, run};
+use beamslider_core::{Excitation, ManifoldOptions, Model, Status};
 use numpy::IntoPyArray;
 use pyo3::exceptions::{PyKeyboardInterrupt, PyValueError};
 use pyo3::prelude::*;
@@ -18,18 +18,9 @@ use pythonize::pythonize;
 use crate::params::PyParams;
 use crate::{Out, detached, guarded, json, monitored};
 
-/// Names of the recorded columns and their channels.
-const RECORDED: [(&str, Channel); 6] =
-    [("t_s", Channel::Time), ("w_4L7_m", Channel::W4L7), ("s", Channel::S), ("xC_m", Channel::XC), ("zC_m", Channel::ZC), ("beta_rad", Channel::Beta)];
-
 fn model_of(py: Python<'_>, p: &Bound<'_, PyParams>) -> PyResult<Model> {
     let valid = p.get().0.clone();
     py.detach(|| guarded(|| Model::of(&valid)))
-}
-
-fn spec(f_ex_hz: f64, a_ex_m_s2: f64, s0: f64, t_end_s: f64, model: &str, s_pcs: Option<f64>, record_every: usize) -> PyResult<RunSpec> {
-    let model = guarded(|| model_named(model, s_pcs, s0))?;
-    Ok(RunSpec { model, s0, excitation: Excitation::new(f_ex_hz, a_ex_m_s2), duration_s: t_end_s, record_every, channels: RECORDED.map(|c| c.1).to_vec() })
 }
 
 /// Integrate the FS / PCS / beam-only model (docs/model.md §5–6) and return a dict with the recorded
@@ -47,7 +38,7 @@ fn simulate<'py>(
     py: Python<'py>, params: &Bound<'py, PyParams>, f_ex_hz: f64, a_ex_m_s2: f64, s0: f64, t_end_s: f64, model: &str, s_pcs: Option<f64>, record_every: usize,
     progress: Option<Py<PyAny>>, out: Option<std::path::PathBuf>, window_s: f64, columns: usize, on_start: Option<Py<PyAny>>, check_only: bool,
 ) -> PyResult<Option<Bound<'py, PyDict>>> {
-    let spec = spec(f_ex_hz, a_ex_m_s2, s0, t_end_s, model, s_pcs, record_every)?;
+    let spec = guarded(|| RunSpec::recorded(model, s_pcs, s0, Excitation::new(f_ex_hz, a_ex_m_s2), t_end_s, record_every))?;
     if check_only {
         let model = model_of(py, params)?;
         return guarded(|| check(&model, &spec)).map(|()| None);
@@ -124,8 +115,7 @@ fn run_free_slider_batch<'py>(
         .into_iter()
         .map(|r| match r {
             Ok(x) => Reduced::Done { t: x.t.into_pyarray(py), s: x.s.into_pyarray(py), amplitude_h: x.amplitude_h.into_pyarray(py), status: x.status.name() },
-            Err(e @ (Error::InvalidParameter { .. } | Error::Toml { .. })) => Reduced::Failed { error_kind: "invalid", error: e.to_string() },
-            Err(e) => Reduced::Failed { error_kind: "numerical", error: e.to_string() },
+            Err(e) => Reduced::Failed { error_kind: if e.is_input() { "invalid" } else { "numerical" }, error: e.to_string() },
         })
         .collect())
 }

@@ -6,21 +6,21 @@ use beamslider_core::superslow::drift::{DriftOptions, drift_table_pcs as core_dr
 use beamslider_core::superslow::{HbOptions, backbone, closed_form_n1_scaled, hb_manifold as core_hb};
 use beamslider_core::{Excitation, Model};
 use pyo3::prelude::*;
+use pyo3::types::PyDict;
 use pythonize::pythonize;
 
 use crate::params::PyParams;
-use crate::{Progress, detached, guarded, json};
+use crate::{Progress, detached, guarded, json, kwargs};
 use std::sync::atomic::AtomicBool;
 
-/// HB super-slow manifold (docs/model.md §6.4): the core's `HbManifold` as a dict (its fields).
+/// HB super-slow manifold (docs/model.md §6.4): the core's `HbManifold` as a dict (its fields);
+/// `options`: fields of the core's `HbOptions` (`s_values` for `s`).
 #[pyfunction]
-#[pyo3(signature = (params, *, f_ex_hz, a_ex_m_s2, n_modes=5, harmonics=1, d_eff=None, omega1_factor=1.0, s_values=None, max_steps=20_000, max_step=0.05, sample_on_grid=false, static_sag=false))]
+#[pyo3(signature = (params, *, f_ex_hz, a_ex_m_s2, **options))]
 pub fn hb_manifold<'py>(
-    py: Python<'py>, params: &Bound<'_, PyParams>, f_ex_hz: f64, a_ex_m_s2: f64, n_modes: usize, harmonics: usize, d_eff: Option<f64>, omega1_factor: f64,
-    s_values: Option<Vec<f64>>, max_steps: usize, max_step: f64, sample_on_grid: bool, static_sag: bool,
+    py: Python<'py>, params: &Bound<'_, PyParams>, f_ex_hz: f64, a_ex_m_s2: f64, options: Option<&Bound<'_, PyDict>>,
 ) -> PyResult<Bound<'py, PyAny>> {
-    let params = params.get().0.clone();
-    let opts = HbOptions { n_modes, harmonics, d_eff, omega1_factor, s: s_values, max_steps, max_step, sample_on_grid, static_sag, low_branch_only: false };
+    let (params, opts): (_, HbOptions) = (params.get().0.clone(), kwargs(py, options)?);
     Ok(pythonize(py, &py.detach(|| guarded(|| core_hb(&params, f_ex_hz, a_ex_m_s2, &opts)))?)?)
 }
 
@@ -47,19 +47,18 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     Ok(())
 }
 
-/// Drift table V(s, branch) from the PCS model (docs/model.md §6.4). Returns
-/// (header JSON, rows as JSON texts in production order, rows computed now). Rows are appended
-/// to `out` as produced; `resume` continues an existing file with the same settings.
-/// `progress(done, total)` is called from the calling thread; Ctrl-C stops both sweeps (rows
-/// written so far stay in the file) and raises KeyboardInterrupt.
+/// Drift table V(s, branch) from the PCS model (docs/model.md §6.4); `options`: fields of the
+/// core's `DriftOptions`. Returns (header JSON, rows as JSON texts in production order, rows
+/// computed now). Rows are appended to `out` as produced; `resume` continues an existing file with
+/// the same settings. `progress(done, total)` is called from the calling thread; Ctrl-C stops both
+/// sweeps (rows written so far stay in the file) and raises KeyboardInterrupt.
 #[pyfunction]
-#[pyo3(signature = (params, *, f_ex_hz, a_ex_m_s2, s_values, settle_periods=40, first_settle_periods=400, window_s=1.0, sub_windows=4, mirror=false, out=None, resume=false, progress=None))]
+#[pyo3(signature = (params, *, f_ex_hz, a_ex_m_s2, out=None, resume=false, progress=None, **options))]
 pub fn drift_table_pcs(
-    py: Python<'_>, params: &Bound<'_, PyParams>, f_ex_hz: f64, a_ex_m_s2: f64, s_values: Vec<f64>, settle_periods: usize, first_settle_periods: usize,
-    window_s: f64, sub_windows: usize, mirror: bool, out: Option<std::path::PathBuf>, resume: bool, progress: Option<Py<PyAny>>,
+    py: Python<'_>, params: &Bound<'_, PyParams>, f_ex_hz: f64, a_ex_m_s2: f64, out: Option<std::path::PathBuf>, resume: bool, progress: Option<Py<PyAny>>,
+    options: Option<&Bound<'_, PyDict>>,
 ) -> PyResult<(String, Vec<String>, usize)> {
-    let params = params.get().0.clone();
-    let opts = DriftOptions { s_values, settle_periods, first_settle_periods, window_s, sub_windows, mirror };
+    let (params, opts): (_, DriftOptions) = (params.get().0.clone(), kwargs(py, options)?);
     let (exc, cancel, progress) = (Excitation::new(f_ex_hz, a_ex_m_s2), AtomicBool::new(false), Progress::new(progress, 0));
     let work = || core_drift(&Model::of(&params)?, &exc, &opts, out.as_deref(), resume, &cancel, &|d, t| progress.set(d, t));
     let table = detached(py, &cancel, 100, work, |py| progress.report(py))?;

@@ -212,11 +212,15 @@ impl MapConfig {
         Ok(())
     }
 
+    /// The grid's axes' values: (f_ex [Hz], a_ex [m/s²], s₀).
+    pub fn axes(&self) -> Result<(Vec<f64>, Vec<f64>, Vec<f64>)> {
+        let g = &self.grid;
+        Ok((g.f_ex_hz.values("grid.f_ex_hz")?, g.a_ex_m_s2.values("grid.a_ex_m_s2")?, g.s0.values("grid.s0")?))
+    }
+
     /// All grid points (s₀ slowest, then a_ex, f_ex fastest).
     pub fn points(&self) -> Result<Vec<MapPoint>> {
-        let f = self.grid.f_ex_hz.values("grid.f_ex_hz")?;
-        let a = self.grid.a_ex_m_s2.values("grid.a_ex_m_s2")?;
-        let s = self.grid.s0.values("grid.s0")?;
+        let (f, a, s) = self.axes()?;
         for &x in &f {
             Excitation::new(x, 1.0).validate()?;
         }

@@ -33,4 +33,4 @@ pub use crate::results::{EndState, MapPoint, MapRow};
 pub use config::{Axis, DEFAULT_RECORD_EVERY, Grid, MAX_POINTS, MapConfig, RESULTS_FILE};
 pub use run::{Job, MapOutcome, MapResults, MapRunOptions, Progress, continue_point, error_row, preflight, run_job, run_jobs, run_point, upgrade_row};
 pub use session::{MapSession, WireJob, run_chunk, run_map};
-pub use table::{TableCell, marked_unsettled, t_end_text, table_of_cells, text_table};
+pub use table::{TableCell, marked_unsettled, t_end_text, table_of_cells, table_of_columns, text_table};

@@ -2,6 +2,7 @@
 
 use crate::classify::Behaviour;
 use crate::dynamics::simulation::Status;
+use crate::error::{Error, Result};
 use crate::results::{MapRow, STATUS_PREDICTED};
 
 /// One point of the letter table: what the table shows of a map row.
@@ -38,6 +39,19 @@ impl TableCell {
     fn done(&self) -> bool {
         self.status == Status::Completed.name() || self.status == STATUS_PREDICTED
     }
+}
+
+/// The letter table of columns of a map's rows (s₀, f_ex, a_ex, t_end, status, behaviour, settled)
+/// and its [`t_end_text`]; the columns must have one length.
+pub fn table_of_columns(
+    s0: &[f64], f_ex_hz: &[f64], a_ex_m_s2: &[f64], t_end_s: &[f64], status: &[String], behaviour: &[String], settled: &[bool],
+) -> Result<(String, String)> {
+    let n = s0.len();
+    if [f_ex_hz.len(), a_ex_m_s2.len(), t_end_s.len(), status.len(), behaviour.len(), settled.len()].iter().any(|&k| k != n) {
+        return Err(Error::invalid("table", "(columns)", "the columns must have the same length"));
+    }
+    let cells: Vec<TableCell> = (0..n).map(|i| TableCell::new(s0[i], f_ex_hz[i], a_ex_m_s2[i], t_end_s[i], &status[i], &behaviour[i], settled[i])).collect();
+    Ok((table_of_cells(&cells), t_end_text(&cells)))
 }
 
 /// "t_end = 120 s", or for an extended map "t_end = 120 s (settled points kept from 60 s)";

@@ -30,6 +30,19 @@ pub struct RunSpec {
     pub channels: Vec<Channel>,
 }
 
+/// The columns a front end records by default, with their names (docs/model.md §5): t, w(4L/7),
+/// s, x_C, z_C, β.
+pub const RECORDED: [(&str, Channel); 6] =
+    [("t_s", Channel::Time), ("w_4L7_m", Channel::W4L7), ("s", Channel::S), ("xC_m", Channel::XC), ("zC_m", Channel::ZC), ("beta_rad", Channel::Beta)];
+
+impl RunSpec {
+    /// The run of the model named `name` ([`model_named`]) recording the [`RECORDED`] columns.
+    pub fn recorded(name: &str, s_pcs: Option<f64>, s0: f64, excitation: Excitation, duration_s: f64, record_every: usize) -> Result<Self> {
+        let model = model_named(name, s_pcs, s0)?;
+        Ok(RunSpec { model, s0, excitation, duration_s, record_every, channels: RECORDED.map(|c| c.1).to_vec() })
+    }
+}
+
 /// Where the rows go.
 pub enum Output<'a> {
     /// Columns in memory ([`RunOutput::columns`]).

@@ -45,7 +45,8 @@ use crate::dynamics::record::{Channel, MemoryRecorder, NullRecorder};
 use crate::signal::hilbert_envelope;
 use crate::dynamics::simulation::{CancelFlag, Excitation, Model, RunOptions, SliderModel, State, Status};
 
-/// Settings of [`drift_table_pcs`] (the defaults of docs/model.md §6.3).
+/// Settings of [`drift_table_pcs`] (the defaults of docs/model.md §6.3; `s_values` is required
+/// when read from keyword arguments, the other fields take their defaults).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct DriftOptions {
@@ -53,15 +54,36 @@ pub struct DriftOptions {
     /// this order, the down sweep in reverse).
     pub s_values: Vec<f64>,
     /// Settling periods at each s after a step (default 40).
+    #[serde(default = "defaults::settle")]
     pub settle_periods: usize,
     /// Settling periods at the first s of a sweep, from rest (default 400).
+    #[serde(default = "defaults::first_settle")]
     pub first_settle_periods: usize,
     /// Least length of the record window [s] (default 1).
+    #[serde(default = "defaults::window")]
     pub window_s: f64,
     /// Sub-windows for the standard error (default 4).
+    #[serde(default = "defaults::sub_windows")]
     pub sub_windows: usize,
     /// Run at 1 − s (the far half) instead of s.
+    #[serde(default)]
     pub mirror: bool,
+}
+
+/// The defaults of [`DriftOptions`] (docs/model.md §6.3).
+mod defaults {
+    pub fn settle() -> usize {
+        40
+    }
+    pub fn first_settle() -> usize {
+        400
+    }
+    pub fn window() -> f64 {
+        1.0
+    }
+    pub fn sub_windows() -> usize {
+        4
+    }
 }
 
 impl DriftOptions {

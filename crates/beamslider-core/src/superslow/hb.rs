@@ -21,8 +21,10 @@ pub(super) struct PointOut {
     pub(super) state: Vec<f64>,
 }
 
-/// Settings of [`super::hb_manifold`] and of the system it continues ([`HbSystem`]).
-#[derive(Debug, Clone, PartialEq)]
+/// Settings of [`super::hb_manifold`] and of the system it continues ([`HbSystem`]); read from
+/// keyword arguments by the binding (missing fields take their defaults).
+#[derive(Debug, Clone, PartialEq, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct HbOptions {
     /// Retained beam modes N (1..=20; default 5).
     pub n_modes: usize,
@@ -36,6 +38,7 @@ pub struct HbOptions {
     pub omega1_factor: f64,
     /// Slider positions, strictly increasing, within [B/(2L), 0.5]: the continuation runs over
     /// [s[0], s[last]] (default: 201 values from B/(2L) to 0.5).
+    #[serde(alias = "s_values")]
     pub s: Option<Vec<f64>>,
     /// Cap of continuation steps per run (default 20 000).
     pub max_steps: usize,

@@ -327,6 +327,14 @@ impl DriftLaw {
         !(f_ex_hz >= f0 - 1e-9 && f_ex_hz <= f1 + 1e-9 && a_ex >= a0 - 1e-9 && a_ex <= a1 + 1e-9)
     }
 
+    /// [`DriftLaw::evaluate`] per row of `x` with its Λ_g in `lift_off`: (V, outside) per row.
+    pub fn evaluate_rows(&self, high: bool, x: &[[f64; NF]], lift_off: &[f64]) -> Result<(Vec<f64>, Vec<bool>)> {
+        if x.len() != lift_off.len() {
+            return Err(Error::invalid("x", x.len(), "one lift_off per row"));
+        }
+        Ok(x.iter().zip(lift_off).map(|(r, &l)| self.evaluate(high, r, l)).unzip())
+    }
+
     /// V at the features `x` (law inputs, [`FEATURES`]) on the high (`high`) or low branch, and
     /// whether `x` lies outside the training range. `lift_off` = Λ_g (V = 0 where < Λ_c).
     pub fn evaluate(&self, high: bool, x: &[f64; NF], lift_off: f64) -> (f64, bool) {

@@ -89,6 +89,15 @@ pub const S_DN_MIN: f64 = 0.2;
 /// With `s_p` > 0 (the law's `jump_down_s`: the PCS high branches end at one position) the high
 /// branch ends at s_p if ρ(s_p) ≤ ρ_c (Â_H interpolated linearly; None if the branch does not
 /// reach s_p), else it does not end.
+pub fn law_s_dn_on_high(s: Vec<f64>, amplitude_h: Vec<f64>, f_ex_hz: f64, a_ex: f64, rho_c: f64, s_p: f64, thickness_m: f64) -> Result<Option<f64>> {
+    if s.len() != amplitude_h.len() {
+        return Err(Error::invalid("amplitude_h", amplitude_h.len(), "one per s"));
+    }
+    let m = HbManifold { high: super::branch::HbBranch { s, amplitude_h, ..Default::default() }, ..Default::default() };
+    Ok(law_s_dn(&m, f_ex_hz, a_ex, rho_c, s_p, thickness_m))
+}
+
+/// [`law_s_dn_on_high`] on the high branch of an HB manifold.
 pub fn law_s_dn(manifold: &HbManifold, f_ex_hz: f64, a_ex: f64, rho_c: f64, s_p: f64, thickness_m: f64) -> Option<f64> {
     let hb = &manifold.high;
     if hb.s.is_empty() || !(rho_c > 0.0) {
