@@ -41,6 +41,16 @@ def positive_int(name: str, value: Any) -> int:
     return v
 
 
+def write_text_atomic(path: "os.PathLike[str]", text: str) -> None:
+    """``text`` written under a temporary name and renamed: a reader sees the old file or the new
+    one, never a half-written one (another process resuming the same folder reads it)."""
+    path = os.fspath(path)
+    tmp = os.path.join(os.path.dirname(path), f".{os.path.basename(path)}.partial-{os.getpid()}")
+    with open(tmp, "w", encoding="utf-8") as f:
+        f.write(text)
+    os.replace(tmp, path)
+
+
 @contextlib.contextmanager
 def progress_bar(enabled: Optional[bool], total: float, desc: str, unit: str) -> Iterator[Optional[Callable[[float, float], None]]]:
     """A tqdm bar driven by the core's monitor callback ``(done, total)``; None when disabled.

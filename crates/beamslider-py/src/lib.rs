@@ -12,8 +12,9 @@
 
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
+use beamslider_core::dynamics::runner::{self, SharedMonitor};
 use beamslider_core::signal::{self, envelope_stream::EnvelopeStream};
-use beamslider_core::{Criteria, Error, Monitor, SuperSlow, dynamics::runner};
+use beamslider_core::{Criteria, Error, Monitor, SuperSlow};
 use numpy::{IntoPyArray, PyArray1, PyReadonlyArray1};
 use pyo3::exceptions::{PyBlockingIOError, PyException, PyKeyboardInterrupt, PyOSError, PyTypeError, PyValueError};
 use pyo3::prelude::*;
@@ -110,42 +111,22 @@ impl Progress {
     }
 }
 
-/// Monitor that re-attaches to Python every poll: pending signal handlers (Ctrl-C) and the
-/// progress callback `callback(t_done, t_total)` run there; an exception stops the run.
-/// `on_start()` is called once the run's inputs are checked, before its first step.
-struct PyMonitor {
-    callback: Option<Py<PyAny>>,
-    on_start: Option<Py<PyAny>>,
-    error: Option<PyErr>,
-}
-
-impl PyMonitor {
-    /// Call `f(*args)` (if any) attached, after the signal handlers; false (and the error kept) on an exception.
-    fn call<A: for<'py> pyo3::call::PyCallArgs<'py>>(error: &mut Option<PyErr>, f: Option<&Py<PyAny>>, args: A) -> bool {
-        error.is_none()
-            && Python::attach(|py| py.check_signals().and_then(|()| f.map_or(Ok(()), |f| f.call1(py, args).map(drop)))).map_err(|e| *error = Some(e)).is_ok()
-    }
-}
-
-/// Run `work` with the interpreter released under a [`PyMonitor`] of `callback` and `on_start`:
-/// its outcome, or the exception a callback raised.
+/// Run `work` with the interpreter released under the core's `SharedMonitor`: the calling thread
+/// ([`detached`], every 50 ms) calls `on_start()` once the run's inputs are checked (the run waits
+/// for it before its first step) and `callback(t_done, t_total)` with the latest progress.
 fn monitored<T: Send>(
     py: Python<'_>, callback: Option<Py<PyAny>>, on_start: Option<Py<PyAny>>, work: impl FnOnce(&mut dyn Monitor) -> Result<T, Error> + Send,
 ) -> PyResult<T> {
-    let mut monitor = PyMonitor { callback, on_start, error: None };
-    let outcome = py.detach(|| guarded(|| work(&mut monitor)));
-    monitor.error.take().map_or(outcome, Err)
-}
-
-impl Monitor for PyMonitor {
-    fn poll(&mut self, t_s: f64, t_end_s: f64) -> bool {
-        Self::call(&mut self.error, self.callback.as_ref(), (t_s, t_end_s))
-    }
-
-    fn start(&mut self) -> bool {
-        let cb = self.on_start.take();
-        Self::call(&mut self.error, cb.as_ref(), ())
-    }
+    let cancel = AtomicBool::new(false);
+    let shared = SharedMonitor::new(&cancel, on_start.is_some());
+    let poll = |py: Python<'_>| {
+        if let Some(f) = on_start.as_ref().filter(|_| shared.waiting()) {
+            f.call0(py)?;
+            shared.open();
+        }
+        callback.as_ref().zip(shared.take_progress()).map_or(Ok(()), |(cb, p)| cb.call1(py, p).map(drop))
+    };
+    detached(py, &cancel, 50, || work(&mut &shared), poll)
 }
 
 /// Rows a run records: the start state and every `record_every`-th of round(t_end/dt) steps.

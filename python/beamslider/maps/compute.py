@@ -17,7 +17,7 @@ from typing import Any, Dict, List, Optional, Sequence, Union
 import numpy as np
 
 from .. import _core, _toml
-from .._util import progress_bar
+from .._util import progress_bar, write_text_atomic
 from ..params import Parameters, native, resolve
 from ..simulate import SimulationResult
 from ..superslow import BUILTIN_LAW_NOTE, DesignLaw, DriftLaw, default_law
@@ -178,7 +178,7 @@ def run_map_config(config_toml: Union[str, "_core.MapConfig"], *, out: Optional[
         run = _core.MapRun(cfg, out=results, resume=resume, extend=extend)
         try:
             if out is not None:
-                (Path(out) / "map.toml").write_text(saved_toml, encoding="utf-8")
+                write_text_atomic(Path(out) / "map.toml", saved_toml)
             with progress_bar(progress, total, "map", "pts") as bar:
                 watch = _watching(results, bar)
                 if client is None:

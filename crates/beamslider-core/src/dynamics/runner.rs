@@ -16,16 +16,66 @@
 //!   its job function instead.
 //!
 //! [`watched`] runs a whole batch on a worker thread while the calling thread polls (Ctrl-C,
-//! progress bars): the one watcher loop of every front end.
+//! progress bars): the one watcher loop of every front end. A single run watched that way reports
+//! to a [`SharedMonitor`], which the watcher reads.
 
 use std::any::Any;
 use std::sync::Mutex;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU8, Ordering};
 use std::time::Duration;
 
 use rayon::prelude::*;
 
+use crate::dynamics::simulation::Monitor;
 use crate::error::{Error, Result};
+
+/// A run's monitor read by a watcher on another thread ([`watched`]): the latest progress and the
+/// cancellation flag; with a start gate, [`Monitor::start`] waits until the watcher opens it
+/// ([`SharedMonitor::open`], e.g. after a front end's hook) or cancels the run.
+pub struct SharedMonitor<'a> {
+    cancel: &'a AtomicBool,
+    progress: Mutex<Option<(f64, f64)>>,
+    /// 0: no gate or open, 1: gated, 2: the run waits at the gate.
+    gate: AtomicU8,
+}
+
+impl<'a> SharedMonitor<'a> {
+    /// A monitor of the flag `cancel`, its start gated (`gated`) or not.
+    pub fn new(cancel: &'a AtomicBool, gated: bool) -> Self {
+        SharedMonitor { cancel, progress: Mutex::new(None), gate: AtomicU8::new(u8::from(gated)) }
+    }
+
+    /// The progress (done, total) polled since the last call, if any.
+    pub fn take_progress(&self) -> Option<(f64, f64)> {
+        self.progress.lock().unwrap_or_else(|e| e.into_inner()).take()
+    }
+
+    /// Whether the run waits at its start gate (its inputs checked, nothing written yet).
+    pub fn waiting(&self) -> bool {
+        self.gate.load(Ordering::Acquire) == 2
+    }
+
+    /// Let the run start.
+    pub fn open(&self) {
+        self.gate.store(0, Ordering::Release);
+    }
+}
+
+impl Monitor for &SharedMonitor<'_> {
+    fn poll(&mut self, t_s: f64, t_end_s: f64) -> bool {
+        *self.progress.lock().unwrap_or_else(|e| e.into_inner()) = Some((t_s, t_end_s));
+        !self.cancel.load(Ordering::Relaxed)
+    }
+
+    fn start(&mut self) -> bool {
+        if self.gate.compare_exchange(1, 2, Ordering::AcqRel, Ordering::Acquire).is_ok() {
+            while self.gate.load(Ordering::Acquire) != 0 && !self.cancel.load(Ordering::Relaxed) {
+                std::thread::sleep(Duration::from_millis(1));
+            }
+        }
+        !self.cancel.load(Ordering::Relaxed)
+    }
+}
 
 /// Outcome of [`run_batch`].
 #[derive(Debug, Clone)]
@@ -150,6 +200,30 @@ pub fn watched<T: Send>(cancel: &AtomicBool, period: Duration, work: impl FnOnce
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_gated_start_waits_for_the_watcher_and_a_refused_one_cancels() {
+        for open in [true, false] {
+            let cancel = AtomicBool::new(false);
+            let m = SharedMonitor::new(&cancel, true);
+            let mut seen = None;
+            let work = || {
+                let mut run = &m;
+                let started = run.start();
+                run.poll(2.0, 4.0);
+                Ok(started)
+            };
+            let out = watched(&cancel, Duration::from_millis(2), work, || {
+                seen = seen.or(m.take_progress());
+                if m.waiting() && open {
+                    m.open();
+                }
+                open
+            });
+            assert_eq!(out.unwrap(), open);
+            assert_eq!(seen.or(m.take_progress()), Some((2.0, 4.0)));
+        }
+    }
 
     #[test]
     fn watched_returns_when_the_work_ends_not_at_the_next_poll() {
