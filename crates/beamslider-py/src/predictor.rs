@@ -4,25 +4,22 @@
 
 use beamslider_core::superslow::design_law::{DesignLaw, design_coordinates as core_coordinates};
 use beamslider_core::superslow::law::{self, DriftLaw};
-use beamslider_core::superslow::predict::{self as pred, Drift, PredictOptions, SDnRule, Source, TableDrift};
+use beamslider_core::superslow::predict::{self as pred, Drift, PredictArgs, TableDrift};
 use beamslider_core::superslow::slowflow::SlowBranch;
 use beamslider_core::superslow::{HbOptions, hb_manifold};
 use beamslider_core::{Error, MapRow, MapRunOptions};
 use pyo3::exceptions::PyKeyboardInterrupt;
 use pyo3::prelude::*;
+use pyo3::types::PyDict;
 use std::sync::atomic::{AtomicBool, Ordering::Relaxed};
 
-use crate::{Progress, detached, guarded, json, maprun::PyMapConfig, params::PyParams};
+use crate::{Progress, detached, guarded, json, kwargs, maprun::PyMapConfig, params::PyParams};
 
 type Branch = (Vec<f64>, Vec<f64>, Vec<f64>);
 type Table = (Branch, Branch, Option<f64>, Option<f64>);
 type Path = Option<std::path::PathBuf>;
 fn branch(b: Branch) -> SlowBranch {
     SlowBranch { s: b.0, amplitude_h: b.1, v_per_s: b.2 }
-}
-fn options(n_modes: usize, d_eff: Option<f64>, s_dn: &str) -> PyResult<PredictOptions> {
-    let s_dn = guarded(|| SDnRule::named(s_dn))?;
-    Ok(PredictOptions { hb: HbOptions { n_modes, d_eff, ..PredictOptions::default().hb }, s_dn, ..PredictOptions::default() })
 }
 /// A drift law (docs/model.md §6.3) parsed and checked once from its file's JSON text.
 #[pyclass(name = "DriftLaw", module = "beamslider._core", frozen)]
@@ -58,16 +55,16 @@ pub fn hb_features(
     let (params, opts) = (params.get().0.clone(), HbOptions { n_modes, d_eff, ..HbOptions::default() });
     json(&py.detach(|| guarded(|| law::features(&params, &hb_manifold(&params, f_ex_hz, a_ex_m_s2, &opts)?, f_ex_hz, a_ex_m_s2, high, &s)))?)
 }
-/// One operating point by the reduced model, drift a law (`DriftLaw`) or a PCS table ((low, high, s_up, s_dn)): JSON.
+/// One operating point by the reduced model, drift a law (`DriftLaw`) or a PCS table ((low, high, s_up, s_dn)): JSON;
+/// `options`: the core's `PredictArgs`.
 #[pyfunction]
-#[pyo3(signature = (params, *, f_ex_hz, a_ex_m_s2, s0, t_end_s, law=None, table=None, s_dn="law", source="hb", n_modes=5, d_eff=None, v_dead=0.0, build_up_s=None, build_up_drift=true, robustness=true))]
+#[pyo3(signature = (params, *, f_ex_hz, a_ex_m_s2, s0, t_end_s, law=None, table=None, **options))]
 pub fn predict(
     py: Python<'_>, params: &Bound<'_, PyParams>, f_ex_hz: f64, a_ex_m_s2: f64, s0: f64, t_end_s: f64, law: Option<&Bound<'_, PyDriftLaw>>,
-    table: Option<Table>, s_dn: &str, source: &str, n_modes: usize, d_eff: Option<f64>, v_dead: f64, build_up_s: Option<f64>, build_up_drift: bool,
-    robustness: bool,
+    table: Option<Table>, options: Option<&Bound<'_, PyDict>>,
 ) -> PyResult<String> {
-    let source = guarded(|| Source::named(source))?;
-    let opts = PredictOptions { v_dead, build_up_s, build_up_drift, robustness, source, ..options(n_modes, d_eff, s_dn)? };
+    let args: PredictArgs = kwargs(py, options)?;
+    let (opts, n_modes) = (guarded(|| args.options())?, args.n_modes);
     let (params, law) = (params.get().0.clone(), law.map(|l| &l.get().0));
     let table = table.map(|(lo, hi, su, sd)| TableDrift::new(branch(lo), branch(hi), su, sd));
     let drift = match (law, &table) {
@@ -87,27 +84,30 @@ pub enum MapLaw<'py> {
     Design(Bound<'py, PyDesignLaw>),
 }
 /// A map predicted by the core (`map --predictor`; interpreter released, Ctrl-C stops it, `progress(done, total)`) with a
-/// drift law or a design law (blended for the configuration's parameters; `s_dn="hb"` drops its learnt jump-down):
-/// (rows as JSON, why the design lies outside the design law).
+/// drift law or a design law (blended for the configuration's parameters; `s_dn="hb"` drops its learnt jump-down);
+/// `options`: the core's `PredictArgs`. Returns (rows as JSON, why the design lies outside the design law).
 #[pyfunction]
-#[pyo3(signature = (config, law, *, out=None, resume=false, threads=None, n_modes=5, d_eff=None, s_dn="law", progress=None))]
+#[pyo3(signature = (config, law, *, out=None, resume=false, threads=None, progress=None, **options))]
 pub fn predicted_map(
-    py: Python<'_>, config: &Bound<'_, PyMapConfig>, law: MapLaw<'_>, out: Path, resume: bool, threads: Option<usize>, n_modes: usize, d_eff: Option<f64>,
-    s_dn: &str, progress: Option<Py<PyAny>>,
+    py: Python<'_>, config: &Bound<'_, PyMapConfig>, law: MapLaw<'_>, out: Path, resume: bool, threads: Option<usize>, progress: Option<Py<PyAny>>,
+    options: Option<&Bound<'_, PyDict>>,
 ) -> PyResult<(Vec<String>, Vec<String>)> {
     guarded(|| beamslider_core::dynamics::runner::check_threads(threads))?;
-    let cfg = &config.get().cfg;
+    let (cfg, mut args): (_, PredictArgs) = (&config.get().cfg, kwargs(py, options)?);
     let (blended, mut why);
     why = Vec::new();
-    let (law, s_dn) = match &law {
-        MapLaw::Drift(l) => (&l.get().0, s_dn),
+    let law = match &law {
+        MapLaw::Drift(l) => &l.get().0,
         MapLaw::Design(d) => {
-            let design = &d.get().0;
-            (blended, why) = py.detach(|| guarded(|| design.law_for_rule(&cfg.effective_params(), s_dn != "hb")))?;
-            (&blended, if s_dn == "hb" { "law" } else { s_dn })
+            let (design, keep) = (&d.get().0, args.s_dn != "hb");
+            (blended, why) = py.detach(|| guarded(|| design.law_for_rule(&cfg.effective_params(), keep)))?;
+            if args.s_dn == "hb" {
+                args.s_dn = "law".into();
+            }
+            &blended
         }
     };
-    let popts = options(n_modes, d_eff, s_dn)?;
+    let popts = guarded(|| args.options())?;
     let (cancel, progress) = (AtomicBool::new(false), Progress::new(progress, guarded(|| cfg.points())?.len()));
     let opts = MapRunOptions { out, resume, threads, extend: false };
     let run = || pred::run_predicted_map(cfg, law, &popts, &opts, &cancel, &|n: usize, t: usize, _r: &MapRow| progress.set(n, t));

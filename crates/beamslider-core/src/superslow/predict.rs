@@ -24,7 +24,7 @@ use crate::map::{Job, MapConfig, MapOutcome, MapPoint, MapResults, MapRow, MapRu
 use crate::params::Params;
 use crate::physics::beam::Beam;
 pub use crate::results::STATUS_PREDICTED;
-pub use super::predict_options::{Drift, PredictOptions, SDnRule, Source, TableDrift};
+pub use super::predict_options::{Drift, PredictArgs, PredictOptions, SDnRule, Source, TableDrift};
 use super::predict_options::{dead_band, interp};
 
 /// Largest change of the final s [–] under V ± `v_resolution` for which a prediction counts as

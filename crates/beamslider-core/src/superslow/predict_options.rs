@@ -53,6 +53,62 @@ impl Default for PredictOptions {
     }
 }
 
+/// [`PredictOptions`] as a front end's keyword arguments (flat, rules by name; missing keys take
+/// the defaults of [`PredictOptions::default`]).
+#[derive(Debug, Clone, PartialEq, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct PredictArgs {
+    /// Retained beam modes of layer (a).
+    pub n_modes: usize,
+    /// Equivalent damping ratio of layer (a) (None: the parameters' damping ratio).
+    pub d_eff: Option<f64>,
+    /// [`SDnRule`] by name.
+    pub s_dn: String,
+    /// [`Source`] by name.
+    pub source: String,
+    /// [`PredictOptions::v_dead`].
+    pub v_dead: f64,
+    /// [`PredictOptions::build_up_s`].
+    pub build_up_s: Option<f64>,
+    /// [`PredictOptions::build_up_drift`].
+    pub build_up_drift: bool,
+    /// [`PredictOptions::robustness`].
+    pub robustness: bool,
+}
+
+impl Default for PredictArgs {
+    fn default() -> Self {
+        let d = PredictOptions::default();
+        PredictArgs {
+            n_modes: d.hb.n_modes,
+            d_eff: d.hb.d_eff,
+            s_dn: d.s_dn.name().into(),
+            source: "hb".into(),
+            v_dead: d.v_dead,
+            build_up_s: d.build_up_s,
+            build_up_drift: d.build_up_drift,
+            robustness: d.robustness,
+        }
+    }
+}
+
+impl PredictArgs {
+    /// The options these arguments name (an unknown rule or source is an invalid parameter).
+    pub fn options(&self) -> Result<PredictOptions> {
+        let d = PredictOptions::default();
+        Ok(PredictOptions {
+            hb: HbOptions { n_modes: self.n_modes, d_eff: self.d_eff, ..d.hb },
+            s_dn: SDnRule::named(&self.s_dn)?,
+            source: Source::named(&self.source)?,
+            v_dead: self.v_dead,
+            build_up_s: self.build_up_s,
+            build_up_drift: self.build_up_drift,
+            robustness: self.robustness,
+            ..d
+        })
+    }
+}
+
 /// Which jump-down position ends the high branch of the reduced model (docs/model.md §6.4).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum SDnRule {
