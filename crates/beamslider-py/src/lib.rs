@@ -10,11 +10,11 @@
 //! argument lists are the API, hence the crate-wide `too_many_arguments`).
 #![allow(clippy::too_many_arguments)]
 
-use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::atomic::AtomicBool;
 
 use beamslider_core::dynamics::runner::{self, SharedMonitor};
 use beamslider_core::signal::{self, envelope_stream::EnvelopeStream};
-use beamslider_core::{Criteria, Error, Monitor, SuperSlow};
+use beamslider_core::{Criteria, Error, SuperSlow};
 use numpy::{IntoPyArray, PyArray1, PyReadonlyArray1};
 use pyo3::exceptions::{PyBlockingIOError, PyException, PyKeyboardInterrupt, PyOSError, PyTypeError, PyValueError};
 use pyo3::prelude::*;
@@ -91,31 +91,12 @@ fn detached<T: Send>(
     Ok(out)
 }
 
-/// Progress (callback, done, total) of work on other threads; [`detached`]'s polls report it
-/// to `callback(done, total)` once the total is known (> 0).
-struct Progress(Option<Py<PyAny>>, AtomicUsize, AtomicUsize);
-
-impl Progress {
-    fn new(callback: Option<Py<PyAny>>, total: usize) -> Self {
-        Progress(callback, AtomicUsize::new(0), AtomicUsize::new(total))
-    }
-
-    fn set(&self, done: usize, total: usize) {
-        self.1.store(done, Ordering::Relaxed);
-        self.2.store(total, Ordering::Relaxed);
-    }
-
-    fn report(&self, py: Python<'_>) -> PyResult<()> {
-        let (done, total) = (self.1.load(Ordering::Relaxed), self.2.load(Ordering::Relaxed));
-        self.0.as_ref().filter(|_| total > 0).map_or(Ok(()), |cb| cb.call1(py, (done, total)).map(drop))
-    }
-}
-
-/// Run `work` with the interpreter released under the core's `SharedMonitor`: the calling thread
-/// ([`detached`], every 50 ms) calls `on_start()` once the run's inputs are checked (the run waits
-/// for it before its first step) and `callback(t_done, t_total)` with the latest progress.
+/// Run `work` with the interpreter released, reporting to the core's `SharedMonitor` (a run's
+/// monitor, or counts of points): every 50 ms the calling thread ([`detached`]) calls `on_start()`
+/// once a run waits at its start (inputs checked, nothing written) and `callback(done, total)`
+/// with the latest progress.
 fn monitored<T: Send>(
-    py: Python<'_>, callback: Option<Py<PyAny>>, on_start: Option<Py<PyAny>>, work: impl FnOnce(&mut dyn Monitor) -> Result<T, Error> + Send,
+    py: Python<'_>, callback: Option<Py<PyAny>>, on_start: Option<Py<PyAny>>, work: impl FnOnce(&SharedMonitor) -> Result<T, Error> + Send,
 ) -> PyResult<T> {
     let cancel = AtomicBool::new(false);
     let shared = SharedMonitor::new(&cancel, on_start.is_some());
@@ -126,7 +107,7 @@ fn monitored<T: Send>(
         }
         callback.as_ref().zip(shared.take_progress()).map_or(Ok(()), |(cb, p)| cb.call1(py, p).map(drop))
     };
-    detached(py, &cancel, 50, || work(&mut &shared), poll)
+    detached(py, &cancel, 50, || work(&shared), poll)
 }
 
 /// Rows a run records: the start state and every `record_every`-th of round(t_end/dt) steps.

@@ -2,6 +2,7 @@
 //! handles that parse their files once, the law's features and jump-down rule, predicted points
 //! and maps. Conversions only: results cross as the core's JSON.
 
+use beamslider_core::dynamics::runner::SharedMonitor;
 use beamslider_core::superslow::design_law::{DesignLaw, design_coordinates as core_coordinates};
 use beamslider_core::superslow::law::{self, DriftLaw};
 use beamslider_core::superslow::predict::{self as pred, Drift, PredictArgs, TableDrift};
@@ -11,9 +12,8 @@ use beamslider_core::{Error, MapRow, MapRunOptions};
 use pyo3::exceptions::PyKeyboardInterrupt;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use std::sync::atomic::{AtomicBool, Ordering::Relaxed};
 
-use crate::{Progress, detached, guarded, json, kwargs, maprun::PyMapConfig, params::PyParams};
+use crate::{guarded, json, kwargs, maprun::PyMapConfig, monitored, params::PyParams};
 
 type Branch = (Vec<f64>, Vec<f64>, Vec<f64>);
 type Table = (Branch, Branch, Option<f64>, Option<f64>);
@@ -74,9 +74,6 @@ pub fn predict(
     };
     json(&py.detach(|| guarded(|| pred::predict_drift(&params, &*law::beam_for(&params, n_modes)?, drift, f_ex_hz, a_ex_m_s2, s0, t_end_s, &opts)))?)
 }
-/// Interval [ms] of the interpreter's polls (Ctrl-C, progress) while a predicted map runs (the
-/// wait itself ends as soon as the map is done).
-const POLL_MS: u64 = 100;
 /// The drift of a predicted map: a drift law, or a design law blended for the map's parameters.
 #[derive(FromPyObject)]
 pub enum MapLaw<'py> {
@@ -108,11 +105,10 @@ pub fn predicted_map(
         }
     };
     let popts = guarded(|| args.options())?;
-    let (cancel, progress) = (AtomicBool::new(false), Progress::new(progress, guarded(|| cfg.points())?.len()));
     let opts = MapRunOptions { out, resume, threads, extend: false };
-    let run = || pred::run_predicted_map(cfg, law, &popts, &opts, &cancel, &|n: usize, t: usize, _r: &MapRow| progress.set(n, t));
-    let outcome = detached(py, &cancel, POLL_MS, run, |py| progress.report(py))?;
-    if outcome.cancelled || cancel.load(Relaxed) {
+    let run = |m: &SharedMonitor| pred::run_predicted_map(cfg, law, &popts, &opts, m.cancel(), &|n: usize, t: usize, _: &MapRow| m.report(n as f64, t as f64));
+    let outcome = monitored(py, progress, None, run)?;
+    if outcome.cancelled {
         return Err(PyKeyboardInterrupt::new_err("map interrupted"));
     }
     Ok((outcome.rows.iter().map(MapRow::to_json).collect(), why))

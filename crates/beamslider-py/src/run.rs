@@ -45,7 +45,7 @@ fn simulate<'py>(
     }
     let valid = params.get().0.clone();
     let output = || out.as_deref().map_or(Output::Memory, |path| Output::File { path, format: None, overview: Some((columns, window_s)) });
-    let r = monitored(py, progress, on_start, |m| run(&Model::of(&valid)?, &spec, output(), m))?;
+    let r = monitored(py, progress, on_start, |m| run(&Model::of(&valid)?, &spec, output(), &mut &*m))?;
     if let Status::Interrupted { t_s } = r.summary.status {
         return Err(PyKeyboardInterrupt::new_err(format!("interrupted at t = {t_s} s")));
     }
@@ -81,7 +81,7 @@ fn super_slow_manifold<'py>(
 ) -> PyResult<Bound<'py, PyAny>> {
     let (excitation, opts) = (Excitation::new(f_ex_hz, a_ex_m_s2), ManifoldOptions { s_values, periods, record_periods });
     let valid = params.get().0.clone();
-    Ok(pythonize(py, &monitored(py, progress, None, |m| beamslider_core::super_slow_manifold(&Model::of(&valid)?, &excitation, &opts, m))?)?)
+    Ok(pythonize(py, &monitored(py, progress, None, |m| beamslider_core::super_slow_manifold(&Model::of(&valid)?, &excitation, &opts, &mut &*m))?)?)
 }
 
 /// Free-slider jobs `(params, f_ex_hz, a_ex_m_s2, s0, duration_s)` reduced in the core
@@ -134,7 +134,7 @@ enum Reduced<'py> {
 fn virtual_enma(py: Python<'_>, params: &Bound<'_, PyParams>, options_json: &str, progress: Option<Py<PyAny>>) -> PyResult<String> {
     let opts: EnmaOptions = serde_json::from_str(options_json).map_err(|e| PyValueError::new_err(format!("invalid ENMA options: {e}")))?;
     let valid = params.get().0.clone();
-    json(&monitored(py, progress, None, |m| core_enma(&Model::of(&valid)?, &opts, m))?)
+    json(&monitored(py, progress, None, |m| core_enma(&Model::of(&valid)?, &opts, &mut &*m))?)
 }
 
 /// Modal data of the linear beam (core `physics::properties::BeamProperties`, docs/model.md §2

@@ -10,8 +10,8 @@ use pyo3::types::PyDict;
 use pythonize::pythonize;
 
 use crate::params::PyParams;
-use crate::{Progress, detached, guarded, json, kwargs};
-use std::sync::atomic::AtomicBool;
+use crate::{guarded, json, kwargs, monitored};
+use beamslider_core::dynamics::runner::SharedMonitor;
 
 /// HB super-slow manifold (docs/model.md §6.4): the core's `HbManifold` as a dict (its fields);
 /// `options`: fields of the core's `HbOptions` (`s_values` for `s`).
@@ -59,9 +59,9 @@ pub fn drift_table_pcs(
     options: Option<&Bound<'_, PyDict>>,
 ) -> PyResult<(String, Vec<String>, usize)> {
     let (params, opts): (_, DriftOptions) = (params.get().0.clone(), kwargs(py, options)?);
-    let (exc, cancel, progress) = (Excitation::new(f_ex_hz, a_ex_m_s2), AtomicBool::new(false), Progress::new(progress, 0));
-    let work = || core_drift(&Model::of(&params)?, &exc, &opts, out.as_deref(), resume, &cancel, &|d, t| progress.set(d, t));
-    let table = detached(py, &cancel, 100, work, |py| progress.report(py))?;
+    let exc = Excitation::new(f_ex_hz, a_ex_m_s2);
+    let work = |m: &SharedMonitor| core_drift(&Model::of(&params)?, &exc, &opts, out.as_deref(), resume, m.cancel(), &|d, t| m.report(d as f64, t as f64));
+    let table = monitored(py, progress, None, work)?;
     Ok((json(&table.header)?, table.rows.iter().map(json).collect::<PyResult<_>>()?, table.computed))
 }
 

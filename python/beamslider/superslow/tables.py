@@ -129,8 +129,8 @@ def _tqdm_progress(enabled: bool, desc: str):
     bar = tqdm(total=1, desc=desc, unit="pt")
 
     def cb(done, total):
-        bar.total = total
-        bar.n = done
+        bar.total = int(total)
+        bar.n = int(done)
         bar.refresh()
 
     return cb, bar.close

@@ -45,7 +45,17 @@ impl<'a> SharedMonitor<'a> {
         SharedMonitor { cancel, progress: Mutex::new(None), gate: AtomicU8::new(u8::from(gated)) }
     }
 
-    /// The progress (done, total) polled since the last call, if any.
+    /// Record progress (done, total) of work that reports counts, not through a run's [`Monitor`].
+    pub fn report(&self, done: f64, total: f64) {
+        *self.progress.lock().unwrap_or_else(|e| e.into_inner()) = Some((done, total));
+    }
+
+    /// The cancellation flag the watcher sets.
+    pub fn cancel(&self) -> &AtomicBool {
+        self.cancel
+    }
+
+    /// The progress (done, total) reported since the last call, if any.
     pub fn take_progress(&self) -> Option<(f64, f64)> {
         self.progress.lock().unwrap_or_else(|e| e.into_inner()).take()
     }
@@ -63,7 +73,7 @@ impl<'a> SharedMonitor<'a> {
 
 impl Monitor for &SharedMonitor<'_> {
     fn poll(&mut self, t_s: f64, t_end_s: f64) -> bool {
-        *self.progress.lock().unwrap_or_else(|e| e.into_inner()) = Some((t_s, t_end_s));
+        self.report(t_s, t_end_s);
         !self.cancel.load(Ordering::Relaxed)
     }
 
