@@ -18,34 +18,41 @@ use crate::{guarded, json, kwargs, maprun::PyMapConfig, monitored, params::PyPar
 type Branch = (Vec<f64>, Vec<f64>, Vec<f64>);
 type Table = (Branch, Branch, Option<f64>, Option<f64>);
 type Path = Option<std::path::PathBuf>;
+
 fn branch(b: Branch) -> SlowBranch {
     SlowBranch { s: b.0, amplitude_h: b.1, v_per_s: b.2 }
 }
+
 /// A drift law (docs/model.md §6.3) parsed and checked once from its file's JSON text.
 #[pyclass(name = "DriftLaw", module = "beamslider._core", frozen)]
 pub struct PyDriftLaw(DriftLaw);
+
 #[pymethods]
 impl PyDriftLaw {
     #[new]
     fn new(text: &str) -> PyResult<Self> {
         Ok(PyDriftLaw(guarded(|| DriftLaw::from_json_str(text))?))
     }
+
     /// V and the outside flag per row of law inputs `x` (rows of FEATURES) with Λ_g `lift_off`.
     #[pyo3(signature = (*, high, x, lift_off))]
     fn evaluate(&self, high: bool, x: Vec<[f64; law::NF]>, lift_off: Vec<f64>) -> PyResult<(Vec<f64>, Vec<bool>)> {
         guarded(|| self.0.evaluate_rows(high, &x, &lift_off))
     }
+
     /// The monostability vote at (ln Â_L at the HB fold, s_up).
     fn monostable(&self, x: [f64; 2]) -> bool {
         self.0.monostable_at(&x)
     }
 }
+
 /// The law's jump-down position (docs/model.md §6.4, core `predict::law_s_dn`) on an HB high branch given by its points (s, Â).
 #[pyfunction]
 #[pyo3(signature = (s, amplitude_h, *, f_ex_hz, a_ex_m_s2, rho_c, s_p, thickness_m))]
 pub fn law_s_dn(s: Vec<f64>, amplitude_h: Vec<f64>, f_ex_hz: f64, a_ex_m_s2: f64, rho_c: f64, s_p: f64, thickness_m: f64) -> PyResult<Option<f64>> {
     guarded(|| pred::law_s_dn_on_high(s, amplitude_h, f_ex_hz, a_ex_m_s2, rho_c, s_p, thickness_m))
 }
+
 /// Layer-(a) features (docs/model.md §6.3) at `s` on one branch of the HB manifold: JSON list.
 #[pyfunction]
 #[pyo3(signature = (params, *, f_ex_hz, a_ex_m_s2, high, s, n_modes=5, d_eff=None))]
@@ -55,6 +62,7 @@ pub fn hb_features(
     let (params, opts) = (params.get().0.clone(), HbOptions { n_modes, d_eff, ..HbOptions::default() });
     json(&py.detach(|| guarded(|| law::features(&params, &hb_manifold(&params, f_ex_hz, a_ex_m_s2, &opts)?, f_ex_hz, a_ex_m_s2, high, &s)))?)
 }
+
 /// One operating point by the reduced model, drift a law (`DriftLaw`) or a PCS table ((low, high, s_up, s_dn)): JSON;
 /// `options`: the core's `PredictArgs`.
 #[pyfunction]
@@ -74,12 +82,14 @@ pub fn predict(
     };
     json(&py.detach(|| guarded(|| pred::predict_drift(&params, &*law::beam_for(&params, n_modes)?, drift, f_ex_hz, a_ex_m_s2, s0, t_end_s, &opts)))?)
 }
+
 /// The drift of a predicted map: a drift law, or a design law blended for the map's parameters.
 #[derive(FromPyObject)]
 pub enum MapLaw<'py> {
     Drift(Bound<'py, PyDriftLaw>),
     Design(Bound<'py, PyDesignLaw>),
 }
+
 /// A map predicted by the core (`map --predictor`; interpreter released, Ctrl-C stops it, `progress(done, total)`) with a
 /// drift law or a design law (blended for the configuration's parameters; `s_dn="hb"` drops its learnt jump-down);
 /// `options`: the core's `PredictArgs`. Returns (rows as JSON, why the design lies outside the design law).
@@ -113,21 +123,25 @@ pub fn predicted_map(
     }
     Ok((outcome.rows.iter().map(MapRow::to_json).collect(), why))
 }
+
 /// Design coordinates (docs/model.md §6.5) of `params` relative to `base`, in the core's order.
 #[pyfunction]
 pub fn design_coordinates(py: Python<'_>, params: &Bound<'_, PyParams>, base: &Bound<'_, PyParams>) -> PyResult<Vec<f64>> {
     let (p, b) = (params.get().0.clone(), base.get().0.clone());
     py.detach(|| guarded(|| core_coordinates(&p, &b).map(|c| c.to_vec())))
 }
+
 /// A design law (docs/model.md §6.5) parsed once from its file's JSON text (`source` names it).
 #[pyclass(name = "DesignLaw", module = "beamslider._core", frozen)]
 pub struct PyDesignLaw(DesignLaw);
+
 #[pymethods]
 impl PyDesignLaw {
     #[new]
     fn new(py: Python<'_>, text: &str, source: &str) -> PyResult<Self> {
         Ok(PyDesignLaw(py.detach(|| guarded(|| DesignLaw::from_json_str(text, source)))?))
     }
+
     /// The blended law of design `params` (law-file JSON) and why it lies outside the law.
     fn law_for(&self, py: Python<'_>, params: &Bound<'_, PyParams>) -> PyResult<(String, Vec<String>)> {
         let p = params.get().0.clone();
