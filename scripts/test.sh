@@ -129,6 +129,11 @@ for py in "${PYTHONS[@]}"; do
   VENV_PIDS+=($!)
 done
 
+# The Rust sources are formatted by the workspace's rustfmt.toml (a second's check, before any build).
+if command -v rustfmt > /dev/null 2>&1; then
+  cargo fmt --all -- --check > /dev/null || { echo "scripts/test.sh: the Rust sources are not formatted: run cargo fmt --all" >&2; exit 1; }
+fi
+
 # 2. The Rust tests, in the wheel's profile: built here, run in step 3 while the wheel builds.
 #    `--tests` selects the targets with `test = true`: the core's unit tests and the integration
 #    test binaries (one per crate, tests/all/); not the binding's library (`test = false`: it has no

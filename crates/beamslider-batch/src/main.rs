@@ -6,8 +6,8 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use anyhow::{Context, Result, bail};
-use beamslider_core::*;
 use beamslider_core::signal::run::{Output, RunSpec};
+use beamslider_core::*;
 use clap::{Parser, Subcommand, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
 
@@ -292,8 +292,7 @@ fn run_map_command(cfg: &MapConfig, out: &std::path::Path, threads: Option<usize
     let total = cfg.points()?.len();
     let bar = if quiet { ProgressBar::hidden() } else { ProgressBar::new(total as u64) };
     bar.set_style(
-        ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {pos}/{len} points (eta {eta}) {msg}")
-            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+        ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {pos}/{len} points (eta {eta}) {msg}").unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
     let cancel = AtomicBool::new(false);
     let first = std::sync::atomic::AtomicBool::new(true);
@@ -335,7 +334,9 @@ fn run_map_command(cfg: &MapConfig, out: &std::path::Path, threads: Option<usize
     Ok(ExitCode::from(EXIT_FAULT))
 }
 
-fn run_predicted_map_command(cfg: &MapConfig, law_path: &std::path::Path, out: &std::path::Path, threads: Option<usize>, resume: bool, quiet: bool) -> Result<ExitCode> {
+fn run_predicted_map_command(
+    cfg: &MapConfig, law_path: &std::path::Path, out: &std::path::Path, threads: Option<usize>, resume: bool, quiet: bool,
+) -> Result<ExitCode> {
     use std::sync::atomic::AtomicBool;
     let law = superslow::law::DriftLaw::from_file(law_path).with_context(|| format!("cannot use the drift law {}", law_path.display()))?;
     let results = out.join(map::RESULTS_FILE);

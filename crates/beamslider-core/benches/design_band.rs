@@ -30,16 +30,22 @@ fn designs(base: &Params) -> Vec<(String, Params)> {
     };
     vec![
         ("gap 1.11, mu 0.27".into(), with(&|p| (p.gap_ratio, p.friction_coefficient) = (1.11, 0.27))),
-        ("m 40 g, B 9 mm".into(), with(&|p| {
-            p.slider_inertia_kg_m2 *= (0.040 / p.slider_mass_kg) * (9e-3 / p.contact_spacing_m).powi(2);
-            (p.slider_mass_kg, p.contact_spacing_m) = (0.040, 9e-3);
-        })),
+        (
+            "m 40 g, B 9 mm".into(),
+            with(&|p| {
+                p.slider_inertia_kg_m2 *= (0.040 / p.slider_mass_kg) * (9e-3 / p.contact_spacing_m).powi(2);
+                (p.slider_mass_kg, p.contact_spacing_m) = (0.040, 9e-3);
+            }),
+        ),
         ("d 5 mm, e 0.6".into(), with(&|p| (p.com_offset_m, p.restitution) = (5e-3, 0.6))),
         ("gap 1.25, D x1.5".into(), with(&|p| (p.gap_ratio, p.damping_ratio) = (1.25, p.damping_ratio * 1.5))),
-        ("gap 1.06, m 30 g".into(), with(&|p| {
-            p.slider_inertia_kg_m2 *= 0.030 / p.slider_mass_kg;
-            (p.gap_ratio, p.slider_mass_kg) = (1.06, 0.030);
-        })),
+        (
+            "gap 1.06, m 30 g".into(),
+            with(&|p| {
+                p.slider_inertia_kg_m2 *= 0.030 / p.slider_mass_kg;
+                (p.gap_ratio, p.slider_mass_kg) = (1.06, 0.030);
+            }),
+        ),
     ]
 }
 

@@ -37,7 +37,8 @@ fn main() {
             let t1 = Instant::now();
             let (model, _) = slow_model_with(&params, &beam, &m, &law, f, a, opts.nodes).unwrap();
             let t2 = Instant::now();
-            let fo = SlowFlowOptions { t_end_s: 120.0, build_up_s: 3.0 / (params.damping_ratio * 2.0 * std::f64::consts::PI * f), ..SlowFlowOptions::default() };
+            let fo =
+                SlowFlowOptions { t_end_s: 120.0, build_up_s: 3.0 / (params.damping_ratio * 2.0 * std::f64::consts::PI * f), ..SlowFlowOptions::default() };
             let _ = slow_flow(&model, 0.3, &fo).unwrap();
             let t3 = Instant::now();
             let _ = predict_point_with(&params, &beam, &law, f, a, 0.3, 120.0, &opts).unwrap();

@@ -24,13 +24,7 @@ fn one_run(solver: ContactSolver, seconds: f64) -> (f64, RunSummary, usize) {
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
-    let get = |flag: &str, default: f64| {
-        args.iter()
-            .position(|a| a == flag)
-            .and_then(|i| args.get(i + 1))
-            .and_then(|v| v.parse().ok())
-            .unwrap_or(default)
-    };
+    let get = |flag: &str, default: f64| args.iter().position(|a| a == flag).and_then(|i| args.get(i + 1)).and_then(|v| v.parse().ok()).unwrap_or(default);
     let reps = get("--reps", 3.0) as usize;
     let seconds = get("--seconds", 120.0);
     let fast_only = args.iter().any(|a| a == "--fast-only");

@@ -38,18 +38,90 @@ impl Rng {
 }
 
 const TOKENS: &[&str] = &[
-    "nan", "inf", "-inf", "+inf", "-1", "0", "0.0", "-0.0", "1e400", "1e-400", "5e-324", "1e308", "18446744073709551616",
-    "9223372036854775807", "-9223372036854775808", "\"", "'", "[", "]", "{", "}", "=", ",", "\n", "#", "\"fast\"",
-    "\"reference\"", "true", "[grid]", "[params]", "[criteria]", "[[grid]]", "1979-05-27", "0x10", "1_000", "\u{0}",
-    "\u{feff}", "é", "\\", "\"\"\"", "null", "NaN", "{\"index\":", "\"wall_time_s\":", ":", "\r\n", "  ", ".",
+    "nan",
+    "inf",
+    "-inf",
+    "+inf",
+    "-1",
+    "0",
+    "0.0",
+    "-0.0",
+    "1e400",
+    "1e-400",
+    "5e-324",
+    "1e308",
+    "18446744073709551616",
+    "9223372036854775807",
+    "-9223372036854775808",
+    "\"",
+    "'",
+    "[",
+    "]",
+    "{",
+    "}",
+    "=",
+    ",",
+    "\n",
+    "#",
+    "\"fast\"",
+    "\"reference\"",
+    "true",
+    "[grid]",
+    "[params]",
+    "[criteria]",
+    "[[grid]]",
+    "1979-05-27",
+    "0x10",
+    "1_000",
+    "\u{0}",
+    "\u{feff}",
+    "é",
+    "\\",
+    "\"\"\"",
+    "null",
+    "NaN",
+    "{\"index\":",
+    "\"wall_time_s\":",
+    ":",
+    "\r\n",
+    "  ",
+    ".",
 ];
 
 const KEYS: &[&str] = &[
-    "length_m", "thickness_m", "density_kg_m3", "beam_mass_kg", "youngs_modulus_pa", "slider_mass_kg",
-    "slider_inertia_kg_m2", "contact_spacing_m", "com_offset_m", "gap_ratio", "k_r_nm_per_rad", "k_t_n_per_m",
-    "damping_ratio", "damping_ratio_quadratic", "axial_preload_n", "friction_coefficient", "restitution",
-    "gravity_m_s2", "tilt_rad", "n_modes", "dt_s", "contact_solver", "solver_tol_rel", "solver_tol_abs", "solver_max_iter",
-    "duration_s", "record_every", "f_ex_hz", "a_ex_m_s2", "s0", "start", "stop", "step",
+    "length_m",
+    "thickness_m",
+    "density_kg_m3",
+    "beam_mass_kg",
+    "youngs_modulus_pa",
+    "slider_mass_kg",
+    "slider_inertia_kg_m2",
+    "contact_spacing_m",
+    "com_offset_m",
+    "gap_ratio",
+    "k_r_nm_per_rad",
+    "k_t_n_per_m",
+    "damping_ratio",
+    "damping_ratio_quadratic",
+    "axial_preload_n",
+    "friction_coefficient",
+    "restitution",
+    "gravity_m_s2",
+    "tilt_rad",
+    "n_modes",
+    "dt_s",
+    "contact_solver",
+    "solver_tol_rel",
+    "solver_tol_abs",
+    "solver_max_iter",
+    "duration_s",
+    "record_every",
+    "f_ex_hz",
+    "a_ex_m_s2",
+    "s0",
+    "start",
+    "stop",
+    "step",
 ];
 
 fn mutate(rng: &mut Rng, seed: &[u8], other: &[u8]) -> Vec<u8> {
@@ -166,7 +238,8 @@ fn main() {
     let partial_seed = "n_modes = 3\ncontact_solver = \"reference\"\nk_r_nm_per_rad = inf\ndt_s = 1e-5\n".to_string();
     let map_seed = MapConfig::default().to_toml_string();
     let map_seed2 = "duration_s = 3.0\nrecord_every = 10\n[grid]\nf_ex_hz = [110.0, 120.0]\na_ex_m_s2 = { start = 4.0, stop = 8.0, step = 2.0 }\ns0 = 0.3\n[params]\nn_modes = 4\n[criteria]\nhigh_h = 0.3\n".to_string();
-    let mut results_seed = String::from("{\"beamslider_map\":1,\"settings\":{\"params_toml\":\"n_modes = 5\\n\",\"duration_s\":3.0,\"record_every\":20,\"criteria\":{}}}\n");
+    let mut results_seed =
+        String::from("{\"beamslider_map\":1,\"settings\":{\"params_toml\":\"n_modes = 5\\n\",\"duration_s\":3.0,\"record_every\":20,\"criteria\":{}}}\n");
     results_seed.push_str("{\"index\":0,\"f_ex_hz\":110.0,\"a_ex_m_s2\":6.0,\"s0\":0.3,\"t_end_s\":3.0,\"status\":\"completed\",\"behaviour\":\"inactivity\",\"reason\":\"r\",\"s_final\":0.3,\"amplitude_final_h\":0.01,\"amplitude_initial_h\":0.01,\"amplitude_max_h\":0.02,\"s_min\":0.3,\"s_max\":0.3,\"net_travel\":0.0,\"travel_to_centre\":0.0,\"turn_s\":null,\"turn_t_s\":null,\"jump_up_t_s\":[],\"jump_down_t_s\":[],\"steady\":true,\"counters\":{\"steps\":1,\"contact_steps\":0,\"closed_histogram\":[1,0,0,0,0],\"solver_iterations\":0,\"max_iterations\":0,\"cap_hits\":0,\"first_guess_hits\":0,\"linear_solves\":0,\"enumerations\":0,\"fallbacks\":0},\"wall_time_s\":0.1}\n");
     results_seed.push_str("{\"index\":1,\"f_ex_hz\":112.0,\"a_ex_m_s2\":6.0,\"s0\":0.3,\"t_end_s\":0.0,\"status\":\"error\",\"behaviour\":\"undetermined\",\"reason\":\"x\",\"s_final\":null,\"amplitude_final_h\":null,\"amplitude_initial_h\":null,\"amplitude_max_h\":null,\"s_min\":null,\"s_max\":null,\"net_travel\":null,\"travel_to_centre\":null,\"turn_s\":null,\"turn_t_s\":null,\"jump_up_t_s\":[],\"jump_down_t_s\":[],\"steady\":false,\"counters\":{\"steps\":0,\"contact_steps\":0,\"closed_histogram\":[0,0,0,0,0],\"solver_iterations\":0,\"max_iterations\":0,\"cap_hits\":0,\"first_guess_hits\":0,\"linear_solves\":0,\"enumerations\":0,\"fallbacks\":0},\"wall_time_s\":0.0}\n");
 
@@ -191,21 +264,24 @@ fn main() {
     let mut accepted = [0u64; 3];
     let mut findings: Vec<(String, PathBuf, String)> = Vec::new();
     // Watchdog: an input that runs for more than 5 s is a hang; save it and stop.
-    let current: std::sync::Arc<std::sync::Mutex<Option<(Instant, &'static str, Vec<u8>)>>> = Default::default();
+    type Current = std::sync::Arc<std::sync::Mutex<Option<(Instant, &'static str, Vec<u8>)>>>;
+    let current: Current = Default::default();
     {
         let current = current.clone();
         let dir = findings_dir.clone();
-        std::thread::spawn(move || loop {
-            std::thread::sleep(Duration::from_millis(200));
-            let g = current.lock().unwrap_or_else(|e| e.into_inner());
-            if let Some((t0, name, input)) = g.as_ref()
-                && t0.elapsed() > Duration::from_secs(5)
-            {
-                let _ = std::fs::create_dir_all(&dir);
-                let file = dir.join(format!("{name}-hang.txt"));
-                let _ = std::fs::write(&file, input);
-                println!("fuzz_readers: finding in {name}: hang (> 5 s) on the input saved to {}", file.display());
-                std::process::exit(1);
+        std::thread::spawn(move || {
+            loop {
+                std::thread::sleep(Duration::from_millis(200));
+                let g = current.lock().unwrap_or_else(|e| e.into_inner());
+                if let Some((t0, name, input)) = g.as_ref()
+                    && t0.elapsed() > Duration::from_secs(5)
+                {
+                    let _ = std::fs::create_dir_all(&dir);
+                    let file = dir.join(format!("{name}-hang.txt"));
+                    let _ = std::fs::write(&file, input);
+                    println!("fuzz_readers: finding in {name}: hang (> 5 s) on the input saved to {}", file.display());
+                    std::process::exit(1);
+                }
             }
         });
     }
@@ -225,16 +301,16 @@ fn main() {
             Ok(Ok(())) if slow => Some(format!("took {:.1} s", t0.elapsed().as_secs_f64())),
             Ok(Ok(())) => None,
             Ok(Err(e)) => Some(e),
-            Err(p) => Some(format!(
-                "panic: {}",
-                p.downcast_ref::<&str>().map(|s| s.to_string()).or_else(|| p.downcast_ref::<String>().cloned()).unwrap_or_default()
-            )),
+            Err(p) => {
+                Some(format!("panic: {}", p.downcast_ref::<&str>().map(|s| s.to_string()).or_else(|| p.downcast_ref::<String>().cloned()).unwrap_or_default()))
+            }
         };
         if problem.is_none() && std::str::from_utf8(&input).is_ok() {
-            accepted[t] += (t == 2 || match t {
-                0 => Params::from_toml_str(std::str::from_utf8(&input).unwrap()).is_ok(),
-                _ => MapConfig::from_toml_str(std::str::from_utf8(&input).unwrap()).is_ok(),
-            }) as u64;
+            accepted[t] += (t == 2
+                || match t {
+                    0 => Params::from_toml_str(std::str::from_utf8(&input).unwrap()).is_ok(),
+                    _ => MapConfig::from_toml_str(std::str::from_utf8(&input).unwrap()).is_ok(),
+                }) as u64;
         }
         if let Some(what) = problem {
             let _ = std::fs::create_dir_all(&findings_dir);

@@ -37,9 +37,7 @@ fn main() {
             t.push(t0.elapsed().as_secs_f64());
         }
         let cf_only_ms = median(t) * 1e3;
-        let mut line = format!(
-            "({f:>5}, {a:>4}) closed form N=1, 201 s: median {cf_only_ms:.4} ms (incl. modes {cf_ms:.4} ms)"
-        );
+        let mut line = format!("({f:>5}, {a:>4}) closed form N=1, 201 s: median {cf_only_ms:.4} ms (incl. modes {cf_ms:.4} ms)");
         for n in [1usize, 2, 5] {
             let o = HbOptions { n_modes: n, ..HbOptions::default() };
             let mut t = Vec::new();

@@ -61,28 +61,25 @@ fn run(f: f64, a: f64, solver: ContactSolver, seconds: f64) -> Outcome {
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
-    let get = |flag: &str, d: f64| {
-        args.iter().position(|a| a == flag).and_then(|i| args.get(i + 1)).and_then(|v| v.parse().ok()).unwrap_or(d)
-    };
+    let get = |flag: &str, d: f64| args.iter().position(|a| a == flag).and_then(|i| args.get(i + 1)).and_then(|v| v.parse().ok()).unwrap_or(d);
     let seconds = get("--seconds", 120.0);
     let threads = get("--threads", 2.0) as usize;
     let points = [(124.0, 14.0), (104.0, 14.0), (124.0, 6.0), (126.0, 10.0)];
-    let jobs: Vec<(f64, f64, ContactSolver)> = points
-        .iter()
-        .flat_map(|&(f, a)| [(f, a, ContactSolver::Fast), (f, a, ContactSolver::Reference)])
-        .collect();
+    let jobs: Vec<(f64, f64, ContactSolver)> = points.iter().flat_map(|&(f, a)| [(f, a, ContactSolver::Fast), (f, a, ContactSolver::Reference)]).collect();
     let next = std::sync::atomic::AtomicUsize::new(0);
     let results = std::sync::Mutex::new(vec![None; jobs.len()].into_iter().map(|_: Option<()>| None).collect::<Vec<Option<Outcome>>>());
     std::thread::scope(|sc| {
         for _ in 0..threads.max(1) {
-            sc.spawn(|| loop {
-                let i = next.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
-                if i >= jobs.len() {
-                    break;
+            sc.spawn(|| {
+                loop {
+                    let i = next.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+                    if i >= jobs.len() {
+                        break;
+                    }
+                    let (f, a, solver) = jobs[i];
+                    let o = run(f, a, solver, seconds);
+                    results.lock().unwrap()[i] = Some(o);
                 }
-                let (f, a, solver) = jobs[i];
-                let o = run(f, a, solver, seconds);
-                results.lock().unwrap()[i] = Some(o);
             });
         }
     });
@@ -109,7 +106,6 @@ fn main() {
             let dp = (fast.period - refr.period).abs() / refr.period;
             let pass = dr <= 0.01 && dp <= 0.10;
             format!("|d range s| = {dr:.4} (<= 0.01), |d period|/period = {:.1} % (<= 10 %): {}", 100.0 * dp, if pass { "PASS" } else { "FAIL" })
-                + if pass { "" } else { "" }
         } else {
             let ds = (fast.final_s - refr.final_s).abs();
             let da = (fast.final_amp - refr.final_amp).abs() / refr.final_amp;

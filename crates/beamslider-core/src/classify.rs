@@ -132,10 +132,13 @@ impl Behaviour {
 
     /// Parse a name as written by [`Behaviour::name`].
     pub fn parse(name: &str) -> Result<Behaviour> {
-        Behaviour::ALL
-            .into_iter()
-            .find(|b| b.name() == name)
-            .ok_or_else(|| Error::invalid("behaviour", name, "one of inactivity, trivial_adaption, signature_move, relaxation_oscillation, self_damping, not_settled, undetermined"))
+        Behaviour::ALL.into_iter().find(|b| b.name() == name).ok_or_else(|| {
+            Error::invalid(
+                "behaviour",
+                name,
+                "one of inactivity, trivial_adaption, signature_move, relaxation_oscillation, self_damping, not_settled, undetermined",
+            )
+        })
     }
 }
 
@@ -411,9 +414,7 @@ pub fn classify(x: &SuperSlow, c: &Criteria) -> Result<Classification> {
     let trend_a = fitted_change(a_drift);
     // The ranges of the final window hold: at most creeping (docs/classify.md, "Settled").
     let in_range = duration >= c.steady_window_s && st_hi - st_lo < c.steady_s && at_hi - at_lo < c.steady_rel * a_final + c.steady_abs_h;
-    let steady = in_range
-        && drift_s.abs() < c.steady_drift_s
-        && trend_a.abs() < c.steady_trend_rel * mean(a_drift) + c.steady_trend_abs_h;
+    let steady = in_range && drift_s.abs() < c.steady_drift_s && trend_a.abs() < c.steady_trend_rel * mean(a_drift) + c.steady_trend_abs_h;
     let still = x.s.iter().all(|s| (s - s0).abs() <= c.still_s);
 
     // s′: distance from the nearer clamping of the start's half (mirrored on the far half).
@@ -492,7 +493,14 @@ pub fn classify(x: &SuperSlow, c: &Criteria) -> Result<Classification> {
         if a_final >= c.high_h {
             let dip = sp0 - sp.iter().copied().fold(f64::INFINITY, f64::min);
             if !jump_down.is_empty() {
-                (Behaviour::Undetermined, "steady_high", format!("high final level {a_final:.2} h, but the high branch was lost once (jump down at t = {:.1} s) and regained without recurrence", jump_down[0]))
+                (
+                    Behaviour::Undetermined,
+                    "steady_high",
+                    format!(
+                        "high final level {a_final:.2} h, but the high branch was lost once (jump down at t = {:.1} s) and regained without recurrence",
+                        jump_down[0]
+                    ),
+                )
             } else if let Some(&tj) = jump_up.first() {
                 // Phase 1: the low branch up to the jump; phase 2: after the jump, back towards the
                 // centre from the closest approach to the clamping around the jump.
@@ -506,17 +514,38 @@ pub fn classify(x: &SuperSlow, c: &Criteria) -> Result<Classification> {
                     None => "no turning point".into(),
                 };
                 if d1 > c.still_s {
-                    (Behaviour::Undetermined, "steady_high", format!("jump up at t = {tj:.1} s after a low-branch phase towards the centre ({d1:+.3}), high final level {a_final:.2} h: neither signature move (phase 1 towards the clamping) nor trivial adaption (no jump)"))
+                    (
+                        Behaviour::Undetermined,
+                        "steady_high",
+                        format!(
+                            "jump up at t = {tj:.1} s after a low-branch phase towards the centre ({d1:+.3}), high final level {a_final:.2} h: neither signature move (phase 1 towards the clamping) nor trivial adaption (no jump)"
+                        ),
+                    )
                 } else if back <= c.turn_s {
-                    (Behaviour::Undetermined, "steady_high", format!("jump up at t = {tj:.1} s to a high final level {a_final:.2} h, but no high-branch phase back towards the centre ({back:+.3})"))
+                    (
+                        Behaviour::Undetermined,
+                        "steady_high",
+                        format!("jump up at t = {tj:.1} s to a high final level {a_final:.2} h, but no high-branch phase back towards the centre ({back:+.3})"),
+                    )
                 } else {
-                    let p1 = if d1 < -c.still_s { format!("low branch towards the clamping ({d1:+.3})") } else { format!("low branch, slider stuck ({d1:+.3})") };
-                    (Behaviour::SignatureMove, "steady_high", format!("phases: {p1}, jump up at t = {tj:.1} s, {how}, high branch back towards the centre ({back:+.3}), {steady_word}high level {a_final:.2} h"))
+                    let p1 =
+                        if d1 < -c.still_s { format!("low branch towards the clamping ({d1:+.3})") } else { format!("low branch, slider stuck ({d1:+.3})") };
+                    (
+                        Behaviour::SignatureMove,
+                        "steady_high",
+                        format!(
+                            "phases: {p1}, jump up at t = {tj:.1} s, {how}, high branch back towards the centre ({back:+.3}), {steady_word}high level {a_final:.2} h"
+                        ),
+                    )
                 }
             } else if (sp_final - sp0).abs() > c.still_s {
                 let side = if sp_final > sp0 { "towards the centre" } else { "towards the clamping, from a start nearer the centre than the final position" };
                 let dip_note = if dip > c.still_s && sp_final > sp0 { format!(" after a first dip of {dip:.3} towards the clamping") } else { String::new() };
-                (Behaviour::TrivialAdaption, "steady_high", format!("high level {a_final:.2} h reached without a jump, travelling {side} ({:+.3}){dip_note}", sp_final - sp0))
+                (
+                    Behaviour::TrivialAdaption,
+                    "steady_high",
+                    format!("high level {a_final:.2} h reached without a jump, travelling {side} ({:+.3}){dip_note}", sp_final - sp0),
+                )
             } else {
                 (Behaviour::Undetermined, "steady_high", format!("high final level {a_final:.2} h without a jump and without net travel"))
             }
@@ -527,13 +556,25 @@ pub fn classify(x: &SuperSlow, c: &Criteria) -> Result<Classification> {
             let last = match events.last() {
                 Some(&(t, up)) => {
                     let d = sp_final - sp_at(t);
-                    format!(", since the jump {} at t = {t:.1} s {} ({d:+.3})", if up { "up" } else { "down" }, if d < 0.0 { "towards the clamping" } else { "towards the centre" })
+                    format!(
+                        ", since the jump {} at t = {t:.1} s {} ({d:+.3})",
+                        if up { "up" } else { "down" },
+                        if d < 0.0 { "towards the clamping" } else { "towards the centre" }
+                    )
                 }
                 None => String::new(),
             };
-            (Behaviour::SelfDamping, "steady_low", format!("travelled {side} ({:+.3}{last}) to a {steady_word}low, harmonic level {a_final:.3} h", sp_final - sp0))
+            (
+                Behaviour::SelfDamping,
+                "steady_low",
+                format!("travelled {side} ({:+.3}{last}) to a {steady_word}low, harmonic level {a_final:.3} h", sp_final - sp0),
+            )
         } else {
-            (Behaviour::Undetermined, "steady_intermediate", format!("final level {a_final:.3} h between the low ({}) and high ({}) thresholds", c.low_h, c.high_h))
+            (
+                Behaviour::Undetermined,
+                "steady_intermediate",
+                format!("final level {a_final:.3} h between the low ({}) and high ({}) thresholds", c.low_h, c.high_h),
+            )
         }
     };
     let (b, phase, reason, settled): (Behaviour, String, String, bool) = if still && steady {
@@ -577,11 +618,11 @@ pub fn classify(x: &SuperSlow, c: &Criteria) -> Result<Classification> {
         let (cand, _, cand_reason) = by_level();
         let keeps = in_range
             && match cand {
-            Behaviour::TrivialAdaption => d * (sp_final - sp0).signum() > -c.steady_drift_s,
-            Behaviour::SignatureMove => d > -c.steady_drift_s,
-            Behaviour::SelfDamping => !still,
-            _ => false,
-        };
+                Behaviour::TrivialAdaption => d * (sp_final - sp0).signum() > -c.steady_drift_s,
+                Behaviour::SignatureMove => d > -c.steady_drift_s,
+                Behaviour::SelfDamping => !still,
+                _ => false,
+            };
         if keeps {
             (cand, format!("{branch}_{tr}"), format!("{cand_reason}; not settled at t = {:.1} s: {drift_text}", x.t(n - 1)), false)
         } else {

@@ -25,9 +25,9 @@
 use nalgebra::{SMatrix, SVector};
 use serde::{Deserialize, Serialize};
 
-use crate::error::{Error, Result};
-use crate::dynamics::simulation::{Model, Monitor, POLL_EVERY};
 use crate::dynamics::beam_only::beam_integrator;
+use crate::dynamics::simulation::{Model, Monitor, POLL_EVERY};
+use crate::error::{Error, Result};
 
 /// Number of response points x = L/6 … 5L/6 (the paper's multi-point vibrometer).
 pub const N_POINTS: usize = 5;
@@ -243,8 +243,7 @@ pub fn virtual_enma(model: &Model, opts: &EnmaOptions, monitor: &mut dyn Monitor
     opts.validate(l)?;
     let n = beam.n;
     let x_pts: [f64; N_POINTS] = std::array::from_fn(|j| (j + 1) as f64 * l / 6.0);
-    let phi_pts: Vec<[f64; N_POINTS]> =
-        (0..n).map(|m| std::array::from_fn(|j| beam.phi_exact(m, x_pts[j]))).collect();
+    let phi_pts: Vec<[f64; N_POINTS]> = (0..n).map(|m| std::array::from_fn(|j| beam.phi_exact(m, x_pts[j]))).collect();
     let sensor_x = opts.sensor_x_m.unwrap_or(0.5 * l);
     let phi_sensor: Vec<f64> = (0..n).map(|m| beam.phi_exact(m, sensor_x)).collect();
     let sigma = (beam.gamma[0] * phi_sensor[0]).signum();
@@ -263,8 +262,7 @@ pub fn virtual_enma(model: &Model, opts: &EnmaOptions, monitor: &mut dyn Monitor
 
     let dt = p.dt_s;
     // The stepper's beam-only path (one integrator and one set of beam forces in the crate).
-    let mut beam_int = beam_integrator(beam, p)
-        .ok_or_else(|| Error::invalid("n_modes", beam.n, "must lie in 1..=20"))?;
+    let mut beam_int = beam_integrator(beam, p).ok_or_else(|| Error::invalid("n_modes", beam.n, "must lie in 1..=20"))?;
     let mut theta = 0.0_f64;
     let mut t = 0.0_f64;
     let mut steps: u64 = 0;
@@ -304,9 +302,7 @@ pub fn virtual_enma(model: &Model, opts: &EnmaOptions, monitor: &mut dyn Monitor
                 return Err(Error::Interrupted { t_s: t });
             }
             if stepped.is_err() {
-                return Err(Error::Numerical(format!(
-                    "virtual ENMA blew up at t = {t:.6} s (level {a} m/s²); try a smaller dt_s"
-                )));
+                return Err(Error::Numerical(format!("virtual ENMA blew up at t = {t:.6} s (level {a} m/s²); try a smaller dt_s")));
             }
             let w_s = sensor_w(beam_int.q());
             let w_pts = points_w(beam_int.q());
@@ -357,8 +353,7 @@ pub fn virtual_enma(model: &Model, opts: &EnmaOptions, monitor: &mut dyn Monitor
             }
             let held = t - t_level;
             let steady = hist.len() == opts.settle_periods && {
-                let (mut amin, mut amax, mut wmin, mut wmax, mut emax) =
-                    (f64::INFINITY, 0.0_f64, f64::INFINITY, 0.0_f64, 0.0_f64);
+                let (mut amin, mut amax, mut wmin, mut wmax, mut emax) = (f64::INFINITY, 0.0_f64, f64::INFINITY, 0.0_f64, 0.0_f64);
                 for &(am, w, e) in &hist {
                     amin = amin.min(am);
                     amax = amax.max(am);
@@ -366,9 +361,7 @@ pub fn virtual_enma(model: &Model, opts: &EnmaOptions, monitor: &mut dyn Monitor
                     wmax = wmax.max(w);
                     emax = emax.max(e.abs());
                 }
-                emax < opts.phase_tol_rad
-                    && amax - amin < opts.amplitude_tol * amax
-                    && wmax - wmin < opts.frequency_tol * wmax
+                emax < opts.phase_tol_rad && amax - amin < opts.amplitude_tol * amax && wmax - wmin < opts.frequency_tol * wmax
             };
             if steady || held >= opts.max_hold_s {
                 converged = steady;
@@ -383,18 +376,9 @@ pub fn virtual_enma(model: &Model, opts: &EnmaOptions, monitor: &mut dyn Monitor
 /// Evaluate the accumulated window of one level (docs/model.md §9).
 #[allow(clippy::too_many_arguments)]
 fn evaluate(
-    model: &Model,
-    run: Run,
-    a: f64,
-    fit: &Fit,
-    x_pts: &[f64; N_POINTS],
-    settle_time_s: f64,
-    converged: bool,
-    phase_error_rad: f64,
+    model: &Model, run: Run, a: f64, fit: &Fit, x_pts: &[f64; N_POINTS], settle_time_s: f64, converged: bool, phase_error_rad: f64,
 ) -> Result<EnmaPoint> {
-    let c = fit
-        .solve()
-        .ok_or_else(|| Error::Numerical("degenerate ENMA evaluation window".into()))?;
+    let c = fit.solve().ok_or_else(|| Error::Numerical("degenerate ENMA evaluation window".into()))?;
     let omega = fit.omega_sum / fit.samples as f64;
     // Complex amplitude ŵ = Re − i Im for w = Re cos θ + Im sin θ.
     let re: Vec<f64> = (0..N_POINTS).map(|j| c[(0, j)]).collect();
@@ -407,9 +391,7 @@ fn evaluate(
     let norm2: f64 = re.iter().zip(&im).map(|(r, i)| r * r + i * i).sum();
     let damping = sum_re.hypot(sum_im) * a / (2.0 * norm2 * omega * omega);
     // Shape: project onto the phase of the largest response, normalise to magnitude 1.
-    let jmax = (0..N_POINTS)
-        .max_by(|&i, &j| re[i].hypot(im[i]).total_cmp(&re[j].hypot(im[j])))
-        .unwrap_or(mid);
+    let jmax = (0..N_POINTS).max_by(|&i, &j| re[i].hypot(im[i]).total_cmp(&re[j].hypot(im[j]))).unwrap_or(mid);
     let (pr, pi) = (re[jmax], im[jmax]);
     let pn = pr.hypot(pi).max(f64::MIN_POSITIVE);
     let shape = (0..N_POINTS).map(|j| (re[j] * pr + im[j] * pi) / (pn * pn)).collect();
@@ -441,9 +423,9 @@ pub fn backbone_rad_s(model: &Model, amplitude_h: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::Params;
     use crate::dynamics::record::NullRecorder;
     use crate::dynamics::simulation::{Excitation, RunOptions, SliderModel, State};
-    use crate::Params;
 
     /// The ENMA integrator at a fixed frequency is the stepper's beam-only model (same scheme,
     /// same forces, preload and amplitude-dependent damping included).
@@ -462,11 +444,7 @@ mod tests {
         }
         let n = model.beam.n;
         let start = State { t_s: 0.0, q: vec![0.0; n], u: vec![0.0; n], slider_q: [0.0; 3], slider_u: [0.0; 3] };
-        let opts = RunOptions {
-            model: SliderModel::BeamOnly,
-            duration_s: steps as f64 * dt,
-            ..RunOptions::free(Excitation::new(f, a), 0.0)
-        };
+        let opts = RunOptions { model: SliderModel::BeamOnly, duration_s: steps as f64 * dt, ..RunOptions::free(Excitation::new(f, a), 0.0) };
         let r = model.run(&start, &opts, &mut NullRecorder, &mut ()).unwrap();
         let scale = b.q().iter().fold(0.0_f64, |m, v| m.max(v.abs()));
         assert!(scale > 1e-6);

@@ -64,11 +64,7 @@ impl Error {
 
     /// Shorthand for [`Error::InvalidParameter`].
     pub fn invalid(field: &str, value: impl std::fmt::Display, allowed: &str) -> Self {
-        Error::InvalidParameter {
-            field: field.to_string(),
-            value: short_value(value.to_string()),
-            allowed: allowed.to_string(),
-        }
+        Error::InvalidParameter { field: field.to_string(), value: short_value(value.to_string()), allowed: allowed.to_string() }
     }
 }
 

@@ -15,6 +15,9 @@
 //! - [`superslow`]: the harmonic-balance manifold, the drift law, the slow flow and predicted
 //!   maps (§6.3–§6.4).
 #![warn(missing_docs)]
+// Numerical kernels index several arrays with one loop variable (the equations of docs/model.md
+// read that way), and the input checks write `!(x > 0.0)` so that NaN fails with the out-of-range values.
+#![allow(clippy::needless_range_loop, clippy::neg_cmp_op_on_partial_ord, clippy::nonminimal_bool)]
 
 mod arith;
 pub mod classify;
@@ -32,10 +35,7 @@ pub mod superslow;
 
 pub use classify::{Behaviour, Classification, Criteria, SuperSlow, classify};
 pub use dynamics::record::{Channel, ColumnRecorder, CsvRecorder, MemoryRecorder, NullRecorder, Recorder, Tee};
-pub use dynamics::simulation::{
-    CancelFlag, Checkpoint, Excitation, Model, Monitor, RunOptions, RunSummary, SliderModel, State, Status,
-    set_simd,
-};
+pub use dynamics::simulation::{CancelFlag, Checkpoint, Excitation, Model, Monitor, RunOptions, RunSummary, SliderModel, State, Status, set_simd};
 pub use dynamics::stepper::{Counters, StepperMemory};
 pub use enma::{EnmaOptions, EnmaPoint, EnmaResult, virtual_enma};
 pub use error::{Error, Result};

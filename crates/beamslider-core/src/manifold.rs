@@ -7,12 +7,12 @@
 
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
-use crate::error::{Error, Result};
-use crate::dynamics::runner;
 use crate::dynamics::record::{Channel, MemoryRecorder, NullRecorder};
-use crate::signal::hilbert_envelope;
+use crate::dynamics::runner;
 use crate::dynamics::simulation::{Excitation, Model, Monitor, RunOptions, SliderModel, State, Status};
 use crate::dynamics::stepper::Counters;
+use crate::error::{Error, Result};
+use crate::signal::hilbert_envelope;
 
 /// Settings of the continuation.
 #[derive(Debug, Clone, PartialEq)]
@@ -28,11 +28,7 @@ pub struct ManifoldOptions {
 impl ManifoldOptions {
     /// The reference settings: s = 0, 0.005, …, 0.5, 100 periods, last 25 recorded.
     pub fn reference() -> Self {
-        ManifoldOptions {
-            s_values: (0..=100).map(|i| i as f64 * 0.005).collect(),
-            periods: 100,
-            record_periods: 25,
-        }
+        ManifoldOptions { s_values: (0..=100).map(|i| i as f64 * 0.005).collect(), periods: 100, record_periods: 25 }
     }
 
     /// Physical sweep: the reference grid from the first s whose contact points lie on the beam.
@@ -89,12 +85,7 @@ pub fn csv_text(up: &Branch, down: &Branch) -> String {
 }
 
 /// Compute the super-slow manifold at one excitation.
-pub fn super_slow_manifold(
-    model: &Model,
-    excitation: &Excitation,
-    opts: &ManifoldOptions,
-    monitor: &mut dyn Monitor,
-) -> Result<Manifold> {
+pub fn super_slow_manifold(model: &Model, excitation: &Excitation, opts: &ManifoldOptions, monitor: &mut dyn Monitor) -> Result<Manifold> {
     excitation.validate()?;
     if opts.s_values.is_empty() {
         return Err(Error::invalid("s_values", "[]", "need at least one slider position"));
@@ -103,11 +94,7 @@ pub fn super_slow_manifold(
         return Err(Error::invalid("s_values", "non-finite", "all s must be finite"));
     }
     if opts.record_periods == 0 || opts.record_periods > opts.periods {
-        return Err(Error::invalid(
-            "record_periods",
-            opts.record_periods,
-            "must lie in 1..=periods",
-        ));
+        return Err(Error::invalid("record_periods", opts.record_periods, "must lie in 1..=periods"));
     }
     let start = model.initial_state_pcs(excitation)?;
     let down: Vec<f64> = opts.s_values.iter().rev().copied().collect();
@@ -141,22 +128,28 @@ pub fn super_slow_manifold(
         Ok((branch, counters))
     };
     let progress = || f64::from_bits(done[0].load(Ordering::Relaxed)) + f64::from_bits(done[1].load(Ordering::Relaxed));
-    let both = runner::watched(&cancel, std::time::Duration::from_millis(10), || {
-        std::thread::scope(|sc| {
-            let dn = sc.spawn(|| runner::catch_panic(|| sweep(1, &down)));
-            let up = runner::catch_panic(|| sweep(0, &opts.s_values));
-            let dn = dn.join().unwrap_or_else(|p| Err(runner::panic_message(p.as_ref())));
-            let internal = |what: String| Error::Numerical(format!("internal error: {what}"));
-            match (up.unwrap_or_else(|w| Err(internal(w))), dn.unwrap_or_else(|w| Err(internal(w)))) {
-                (Ok(u), Ok(d)) => Ok((u, d)),
-                // the error that stopped the other sweep, not the other's interruption
-                (Err(e @ Error::Interrupted { .. }), Err(f)) | (Err(f), Err(e @ Error::Interrupted { .. })) => {
-                    if matches!(f, Error::Interrupted { .. }) { Err(e) } else { Err(f) }
-                }
-                (Err(e), _) | (_, Err(e)) => Err(e),
-            }
-        })
-    }, || monitor.poll(progress(), total as f64));
+    let both =
+        runner::watched(
+            &cancel,
+            std::time::Duration::from_millis(10),
+            || {
+                std::thread::scope(|sc| {
+                    let dn = sc.spawn(|| runner::catch_panic(|| sweep(1, &down)));
+                    let up = runner::catch_panic(|| sweep(0, &opts.s_values));
+                    let dn = dn.join().unwrap_or_else(|p| Err(runner::panic_message(p.as_ref())));
+                    let internal = |what: String| Error::Numerical(format!("internal error: {what}"));
+                    match (up.unwrap_or_else(|w| Err(internal(w))), dn.unwrap_or_else(|w| Err(internal(w)))) {
+                        (Ok(u), Ok(d)) => Ok((u, d)),
+                        // the error that stopped the other sweep, not the other's interruption
+                        (Err(e @ Error::Interrupted { .. }), Err(f)) | (Err(f), Err(e @ Error::Interrupted { .. })) => {
+                            if matches!(f, Error::Interrupted { .. }) { Err(e) } else { Err(f) }
+                        }
+                        (Err(e), _) | (_, Err(e)) => Err(e),
+                    }
+                })
+            },
+            || monitor.poll(progress(), total as f64),
+        );
     let ((up, cu), (dn, cd)) = both?;
     if cancel.load(Ordering::Relaxed) {
         return Err(Error::Interrupted { t_s: 0.0 });
@@ -188,12 +181,7 @@ impl Monitor for SubMonitor<'_> {
 }
 
 fn one_point(
-    model: &Model,
-    excitation: &Excitation,
-    opts: &ManifoldOptions,
-    s: f64,
-    start: &State,
-    monitor: &mut SubMonitor,
+    model: &Model, excitation: &Excitation, opts: &ManifoldOptions, s: f64, start: &State, monitor: &mut SubMonitor,
 ) -> Result<(f64, State, Counters)> {
     let dt = model.params.dt_s;
     let period = excitation.period_s();
@@ -211,12 +199,7 @@ fn one_point(
     };
     let a = model.run(start, &settle, &mut NullRecorder, monitor)?;
     check(&a.status, s)?;
-    let rec_opts = RunOptions {
-        duration_s: n_rec as f64 * dt,
-        record_every: 1,
-        channels: vec![Channel::W4L7],
-        ..settle
-    };
+    let rec_opts = RunOptions { duration_s: n_rec as f64 * dt, record_every: 1, channels: vec![Channel::W4L7], ..settle };
     let mut rec = MemoryRecorder::new();
     let b = model.run(&a.state, &rec_opts, &mut rec, monitor)?;
     check(&b.status, s)?;

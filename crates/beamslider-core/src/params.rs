@@ -148,24 +148,74 @@ pub const FIELDS: [Field; 25] = [
     Field { name: "youngs_modulus_pa", symbol: "E", meaning: "Young's modulus", unit: "Pa", allowed: "finite, > 0" },
     Field { name: "slider_mass_kg", symbol: "m", meaning: "Slider mass", unit: "kg", allowed: "finite, > 0" },
     Field { name: "slider_inertia_kg_m2", symbol: "J_C", meaning: "Slider rotary inertia about its centre of mass", unit: "kg m²", allowed: "finite, > 0" },
-    Field { name: "contact_spacing_m", symbol: "B", meaning: "Horizontal distance between the two contact points on one side", unit: "m", allowed: "finite, > 0, < `length_m`" },
-    Field { name: "com_offset_m", symbol: "d", meaning: "Distance from the slider's geometric centre down to its centre of mass", unit: "m", allowed: "finite, ≥ 0" },
-    Field { name: "gap_ratio", symbol: "R/h", meaning: "Relative inner height of the slider opening (> 1)", unit: "-", allowed: "finite, > 1, `gap_ratio`·`thickness_m` < `length_m`" },
-    Field { name: "k_r_nm_per_rad", symbol: "k_r", meaning: "Rotational clamping stiffness at each end; `inf` = ideal clamping", unit: "N m/rad", allowed: "> 0, `inf` allowed (ideal clamping)" },
-    Field { name: "k_t_n_per_m", symbol: "k_t", meaning: "Axial clamping stiffness; `inf` = ideal clamping", unit: "N/m", allowed: "> 0, `inf` allowed (ideal clamping)" },
+    Field {
+        name: "contact_spacing_m",
+        symbol: "B",
+        meaning: "Horizontal distance between the two contact points on one side",
+        unit: "m",
+        allowed: "finite, > 0, < `length_m`",
+    },
+    Field {
+        name: "com_offset_m",
+        symbol: "d",
+        meaning: "Distance from the slider's geometric centre down to its centre of mass",
+        unit: "m",
+        allowed: "finite, ≥ 0",
+    },
+    Field {
+        name: "gap_ratio",
+        symbol: "R/h",
+        meaning: "Relative inner height of the slider opening (> 1)",
+        unit: "-",
+        allowed: "finite, > 1, `gap_ratio`·`thickness_m` < `length_m`",
+    },
+    Field {
+        name: "k_r_nm_per_rad",
+        symbol: "k_r",
+        meaning: "Rotational clamping stiffness at each end; `inf` = ideal clamping",
+        unit: "N m/rad",
+        allowed: "> 0, `inf` allowed (ideal clamping)",
+    },
+    Field {
+        name: "k_t_n_per_m",
+        symbol: "k_t",
+        meaning: "Axial clamping stiffness; `inf` = ideal clamping",
+        unit: "N/m",
+        allowed: "> 0, `inf` allowed (ideal clamping)",
+    },
     Field { name: "damping_ratio", symbol: "D", meaning: "Modal damping ratio of all modes", unit: "-", allowed: "finite, ≥ 0" },
     Field { name: "damping_ratio_quadratic", symbol: "D₂", meaning: "Amplitude growth of the damping ratio", unit: "-", allowed: "finite, ≥ 0" },
-    Field { name: "axial_preload_n", symbol: "H₀", meaning: "Static axial force in the beam, tension positive (adds H0 K q to the modal forces)", unit: "N", allowed: "finite; a compression below the buckling load of the retained modes" },
+    Field {
+        name: "axial_preload_n",
+        symbol: "H₀",
+        meaning: "Static axial force in the beam, tension positive (adds H0 K q to the modal forces)",
+        unit: "N",
+        allowed: "finite; a compression below the buckling load of the retained modes",
+    },
     Field { name: "friction_coefficient", symbol: "μ", meaning: "Coulomb friction coefficient", unit: "-", allowed: "finite, ≥ 0" },
     Field { name: "restitution", symbol: "ε_N", meaning: "Normal restitution coefficient (tangential eps_T = 0)", unit: "-", allowed: "in [0, 1]" },
     Field { name: "gravity_m_s2", symbol: "g", meaning: "Gravitational acceleration, acting on the slider only", unit: "m/s²", allowed: "finite, ≥ 0" },
     Field { name: "tilt_rad", symbol: "α", meaning: "Tilt alpha of the frame about the transverse axis", unit: "rad", allowed: "finite, −π/2 < α < π/2" },
     Field { name: "n_modes", symbol: "N", meaning: "Number of retained beam modes (1..20)", unit: "-", allowed: "integer 1..20" },
-    Field { name: "dt_s", symbol: "Δt", meaning: "Fixed time step", unit: "s", allowed: "finite, > 0; below the stability limit ≈ 2/ω_N of the highest mode; ≥ 10 steps per excitation period" },
-    Field { name: "contact_solver", symbol: "—", meaning: "Local contact solver (docs/model.md §5): \"fast\" (exact) or \"reference\" (Gauss–Seidel of the paper)", unit: "-", allowed: "\"fast\" or \"reference\"" },
+    Field {
+        name: "dt_s",
+        symbol: "Δt",
+        meaning: "Fixed time step",
+        unit: "s",
+        allowed: "finite, > 0; below the stability limit ≈ 2/ω_N of the highest mode; ≥ 10 steps per excitation period",
+    },
+    Field {
+        name: "contact_solver",
+        symbol: "—",
+        meaning: "Local contact solver (docs/model.md §5): \"fast\" (exact) or \"reference\" (Gauss–Seidel of the paper)",
+        unit: "-",
+        allowed: "\"fast\" or \"reference\"",
+    },
     Field { name: "solver_tol_rel", symbol: "—", meaning: "Relative stop tolerance of the Gauss–Seidel solver", unit: "-", allowed: "finite, > 0" },
     Field { name: "solver_tol_abs", symbol: "—", meaning: "Absolute stop tolerance of the Gauss–Seidel solver", unit: "N s", allowed: "finite, ≥ 0" },
-    Field { name: "solver_max_iter", symbol: "—", meaning: "Iteration cap of the Gauss–Seidel solver (sweeps per step)", unit: "-", allowed: "integer ≥ 1" },
+    Field {
+        name: "solver_max_iter", symbol: "—", meaning: "Iteration cap of the Gauss–Seidel solver (sweeps per step)", unit: "-", allowed: "integer ≥ 1"
+    },
 ];
 
 /// Calls of [`Params::validate`] in this process (every check of a parameter set counts).
@@ -251,10 +301,7 @@ impl<'a> From<&'a Valid> for ParamsArg<'a> {
 impl Params {
     /// Parse from TOML text (missing keys take their defaults, unknown keys are errors), then validate.
     pub fn from_toml_str(text: &str) -> Result<Self> {
-        let p: Params = toml::from_str(text).map_err(|e| Error::Toml {
-            path: None,
-            message: e.to_string().trim_end().to_string(),
-        })?;
+        let p: Params = toml::from_str(text).map_err(|e| Error::Toml { path: None, message: e.to_string().trim_end().to_string() })?;
         p.validate()?;
         Ok(p)
     }
@@ -262,15 +309,9 @@ impl Params {
     /// Read and validate a TOML file.
     pub fn from_toml_file(path: impl AsRef<Path>) -> Result<Self> {
         let path = path.as_ref();
-        let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
-            path: path.display().to_string(),
-            source,
-        })?;
+        let text = std::fs::read_to_string(path).map_err(|source| Error::Io { path: path.display().to_string(), source })?;
         Self::from_toml_str(&text).map_err(|e| match e {
-            Error::Toml { message, .. } => Error::Toml {
-                path: Some(path.display().to_string()),
-                message,
-            },
+            Error::Toml { message, .. } => Error::Toml { path: Some(path.display().to_string()), message },
             other => other,
         })
     }
@@ -321,10 +362,7 @@ impl Params {
     /// Write the parameters as a TOML file.
     pub fn to_toml_file(&self, path: impl AsRef<Path>) -> Result<()> {
         let path = path.as_ref();
-        std::fs::write(path, self.to_toml_string()).map_err(|source| Error::Io {
-            path: path.display().to_string(),
-            source,
-        })
+        std::fs::write(path, self.to_toml_string()).map_err(|source| Error::Io { path: path.display().to_string(), source })
     }
 
     /// Check every field; the error names the field and the allowed range.
@@ -347,10 +385,7 @@ impl Params {
                 return Err(Error::invalid(field, v, "must be finite and > 0"));
             }
         }
-        for (field, v) in [
-            ("k_r_nm_per_rad", self.k_r_nm_per_rad),
-            ("k_t_n_per_m", self.k_t_n_per_m),
-        ] {
+        for (field, v) in [("k_r_nm_per_rad", self.k_r_nm_per_rad), ("k_t_n_per_m", self.k_t_n_per_m)] {
             if v.is_nan() || v <= 0.0 {
                 return Err(Error::invalid(field, v, "must be > 0 (inf = ideal clamping)"));
             }
@@ -372,11 +407,7 @@ impl Params {
             return Err(Error::invalid("axial_preload_n", self.axial_preload_n, "must be finite"));
         }
         if !(self.gap_ratio.is_finite() && self.gap_ratio > 1.0) {
-            return Err(Error::invalid(
-                "gap_ratio",
-                self.gap_ratio,
-                "R/h must be finite and > 1 (the slider needs a clearance)",
-            ));
+            return Err(Error::invalid("gap_ratio", self.gap_ratio, "R/h must be finite and > 1 (the slider needs a clearance)"));
         }
         if !(self.restitution.is_finite() && (0.0..=1.0).contains(&self.restitution)) {
             return Err(Error::invalid("restitution", self.restitution, "must lie in [0, 1]"));
@@ -391,19 +422,11 @@ impl Params {
             return Err(Error::invalid("solver_max_iter", 0, "must be >= 1"));
         }
         if self.contact_spacing_m >= self.length_m {
-            return Err(Error::invalid(
-                "contact_spacing_m",
-                self.contact_spacing_m,
-                "must be smaller than the beam length length_m",
-            ));
+            return Err(Error::invalid("contact_spacing_m", self.contact_spacing_m, "must be smaller than the beam length length_m"));
         }
         // The slider opening must be physically meaningful: d and R/2 small against L.
         if self.gap_ratio * self.thickness_m >= self.length_m {
-            return Err(Error::invalid(
-                "gap_ratio",
-                self.gap_ratio,
-                "opening height R = gap_ratio * thickness_m must be smaller than length_m",
-            ));
+            return Err(Error::invalid("gap_ratio", self.gap_ratio, "opening height R = gap_ratio * thickness_m must be smaller than length_m"));
         }
         Ok(())
     }
@@ -458,11 +481,7 @@ mod tests {
 
     #[test]
     fn infinite_clamping_round_trips() {
-        let p = Params {
-            k_r_nm_per_rad: f64::INFINITY,
-            k_t_n_per_m: f64::INFINITY,
-            ..Params::default()
-        };
+        let p = Params { k_r_nm_per_rad: f64::INFINITY, k_t_n_per_m: f64::INFINITY, ..Params::default() };
         let text = p.to_toml_string();
         assert!(text.contains("inf"));
         assert_eq!(Params::from_toml_str(&text).unwrap(), p);

@@ -16,12 +16,12 @@ use std::sync::atomic::AtomicBool;
 
 use rayon::prelude::*;
 
-use crate::error::{Error, Result};
-use crate::map::{self, MapConfig, MapPoint, MapRow};
-use crate::results::{self, ResultsLock};
-use crate::params::Params;
 use crate::dynamics::runner::{run_batch, with_threads};
 use crate::dynamics::simulation::Model;
+use crate::error::{Error, Result};
+use crate::map::{self, MapConfig, MapPoint, MapRow};
+use crate::params::Params;
+use crate::results::{self, ResultsLock};
 
 /// One point of a study: its own parameters, operating point and duration.
 #[derive(Debug, Clone, PartialEq)]
@@ -47,11 +47,7 @@ pub struct StudyPoint {
 /// sorted by index, `None` when cancelled before all points were done. A study row keeps the
 /// classification, not the end state (it is not extended in time).
 pub fn run_points(
-    cfg: &MapConfig,
-    points: &[StudyPoint],
-    threads: Option<usize>,
-    cancel: &AtomicBool,
-    on_row: impl FnMut(&MapRow) -> Result<()> + Send,
+    cfg: &MapConfig, points: &[StudyPoint], threads: Option<usize>, cancel: &AtomicBool, on_row: impl FnMut(&MapRow) -> Result<()> + Send,
 ) -> Result<Option<Vec<MapRow>>> {
     for (i, p) in points.iter().enumerate() {
         if !(p.duration_s.is_finite() && p.duration_s > 0.0) {
@@ -148,7 +144,15 @@ impl StudyResults {
         let lock = ResultsLock::acquire(path)?;
         let mut old = if exists { results::read_results(path)? } else { results::ResultsFile::default() };
         if old.settings.is_some() && old.version != results::FORMAT_VERSION {
-            return Err(Error::invalid("resume", path.display(), &format!("the results file has format version {} (rows without the settled flag, no end states to reclassify); this version resumes only version {} studies: start a new study", old.version, results::FORMAT_VERSION)));
+            return Err(Error::invalid(
+                "resume",
+                path.display(),
+                &format!(
+                    "the results file has format version {} (rows without the settled flag, no end states to reclassify); this version resumes only version {} studies: start a new study",
+                    old.version,
+                    results::FORMAT_VERSION
+                ),
+            ));
         }
         if old.settings.is_some() && (old.settings != Some(cfg.settings()) || old.study.as_ref() != Some(&study)) {
             return Err(Error::invalid("resume", path.display(), "the results file was written by another study configuration"));
@@ -162,9 +166,10 @@ impl StudyResults {
             results::write_line(&mut f, path, &header)?;
         }
         for row in std::mem::take(&mut old.rows) {
-            let ok = out.info.get(&row.index).is_some_and(|i| {
-                (row.f_ex_hz, row.a_ex_m_s2, row.s0) == (i.f_ex_hz, i.a_ex_m_s2, i.s0) && row.extra.get("params") == Some(&i.params)
-            });
+            let ok = out
+                .info
+                .get(&row.index)
+                .is_some_and(|i| (row.f_ex_hz, row.a_ex_m_s2, row.s0) == (i.f_ex_hz, i.a_ex_m_s2, i.s0) && row.extra.get("params") == Some(&i.params));
             if !ok {
                 return Err(Error::invalid("resume", format!("{}, row {}", path.display(), row.index), "this row does not belong to this study"));
             }

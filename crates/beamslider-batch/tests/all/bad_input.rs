@@ -218,7 +218,8 @@ fn map_results_file_bad_input_overwrites_nothing() {
     assert_eq!(lines.len(), 3);
     // (results file body, extra args, config, words)
     let other = d.join("other.toml");
-    std::fs::write(&other, "duration_s = 0.3\nrecord_every = 10\n[grid]\nf_ex_hz = [120.0, 124.0]\na_ex_m_s2 = 6.0\n[params]\nfriction_coefficient = 0.3\n").unwrap();
+    std::fs::write(&other, "duration_s = 0.3\nrecord_every = 10\n[grid]\nf_ex_hz = [120.0, 124.0]\na_ex_m_s2 = 6.0\n[params]\nfriction_coefficient = 0.3\n")
+        .unwrap();
     let garbled_middle = format!("{}\n{{\"index\":0,\"f_ex\n{}\n", lines[0], lines[2]);
     let garbled_last = format!("{}\n{}\nnot json at all\n", lines[0], lines[1]);
     let bad_header = format!("{{\"beamslider_map\":99,\"settings\":{{}}}}\n{}\n", lines[1]);
@@ -269,7 +270,11 @@ fn solver_cap_hits_are_reported_per_run() {
     assert!(hits > 0, "{err}");
     // Map rows carry the counters of their run.
     let cfg = d.join("map.toml");
-    std::fs::write(&cfg, "duration_s = 0.2\nrecord_every = 10\n[grid]\nf_ex_hz = 124.0\na_ex_m_s2 = 14.0\n[params]\ncontact_solver = \"reference\"\nsolver_max_iter = 1\n").unwrap();
+    std::fs::write(
+        &cfg,
+        "duration_s = 0.2\nrecord_every = 10\n[grid]\nf_ex_hz = 124.0\na_ex_m_s2 = 14.0\n[params]\ncontact_solver = \"reference\"\nsolver_max_iter = 1\n",
+    )
+    .unwrap();
     let o = bin().args(["map", "-q", "-c"]).arg(&cfg).arg("-o").arg(d.join("m")).output().unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let row = std::fs::read_to_string(d.join("m/map.jsonl")).unwrap().lines().nth(1).unwrap().to_string();
@@ -302,7 +307,8 @@ fn map_with_failing_points_finishes_the_others_and_lists_failures() {
 fn sigterm_and_sigint_during_a_map_then_resume_loses_nothing() {
     let d = tmp("signals");
     let cfg = d.join("map-config.toml");
-    std::fs::write(&cfg, "duration_s = 10.0\nrecord_every = 10\n[grid]\nf_ex_hz = { start = 110.0, stop = 130.0, step = 2.0 }\na_ex_m_s2 = [6.0, 14.0]\n").unwrap();
+    std::fs::write(&cfg, "duration_s = 10.0\nrecord_every = 10\n[grid]\nf_ex_hz = { start = 110.0, stop = 130.0, step = 2.0 }\na_ex_m_s2 = [6.0, 14.0]\n")
+        .unwrap();
     let n_points = 22; // 10 s a point: long enough (about 1 s in all on one thread) for the signal to land mid-map on an idle machine
     let full = d.join("full");
     let st = bin().args(["map", "-q", "-j", "2", "-c"]).arg(&cfg).arg("-o").arg(&full).stdout(Stdio::null()).status().unwrap();

@@ -20,11 +20,7 @@ fn simulate_writes_csv_with_header() {
     let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("bsb-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let out = dir.join("run.csv");
-    let st = bin()
-        .args(["simulate", "-q", "--duration", "0.05", "--out"])
-        .arg(&out)
-        .status()
-        .unwrap();
+    let st = bin().args(["simulate", "-q", "--duration", "0.05", "--out"]).arg(&out).status().unwrap();
     assert!(st.success());
     let text = std::fs::read_to_string(&out).unwrap();
     let mut lines = text.lines();

@@ -11,11 +11,7 @@ fn killed_map_resumes_without_loss_or_duplicates() {
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
     let cfg = dir.join("map.toml");
-    std::fs::write(
-        &cfg,
-        "duration_s = 3.0\n[grid]\nf_ex_hz = { start = 110.0, stop = 130.0, step = 2.0 }\na_ex_m_s2 = [6.0, 10.0, 14.0]\n",
-    )
-    .unwrap();
+    std::fs::write(&cfg, "duration_s = 3.0\n[grid]\nf_ex_hz = { start = 110.0, stop = 130.0, step = 2.0 }\na_ex_m_s2 = [6.0, 10.0, 14.0]\n").unwrap();
     let n_points = 33;
     // Uninterrupted reference.
     let st = bin().args(["map", "-q", "-j", "2", "-c"]).arg(&cfg).arg("-o").arg(dir.join("full")).stdout(Stdio::null()).status().unwrap();

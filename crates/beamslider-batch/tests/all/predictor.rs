@@ -34,7 +34,17 @@ fn predicted_map_writes_resumes_and_refuses() {
     assert_eq!(first.len(), 2);
     assert!(first.iter().all(|r| r.contains("\"status\":\"predicted\"")), "{first:?}");
     // Existing results: refused without --resume; an FS map does not resume a predicted one.
-    let st = bin().args(["map", "-q", "-c"]).arg(&cfg).arg("-o").arg(&out).arg("--predictor").arg(&law).stderr(Stdio::null()).stdout(Stdio::null()).status().unwrap();
+    let st = bin()
+        .args(["map", "-q", "-c"])
+        .arg(&cfg)
+        .arg("-o")
+        .arg(&out)
+        .arg("--predictor")
+        .arg(&law)
+        .stderr(Stdio::null())
+        .stdout(Stdio::null())
+        .status()
+        .unwrap();
     assert!(!st.success());
     let o = bin().args(["map", "-q", "--resume", "-c"]).arg(&cfg).arg("-o").arg(&out).output().unwrap();
     assert!(!o.status.success());

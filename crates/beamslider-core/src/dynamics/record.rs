@@ -51,11 +51,7 @@ impl Channel {
             _ => match n.strip_prefix("w@").map(str::parse::<f64>) {
                 Some(Ok(x)) if x.is_finite() => Channel::WAt(x),
                 _ => {
-                    return Err(Error::invalid(
-                        "channel",
-                        n,
-                        "one of t, w, w@X (X in m), s, xc, zc, beta, q, u, uslider, p",
-                    ));
+                    return Err(Error::invalid("channel", n, "one of t, w, w@X (X in m), s, xc, zc, beta, q, u, uslider, p"));
                 }
             },
         })
@@ -74,9 +70,7 @@ impl Channel {
             Channel::ModalQ => (1..=n_modes).map(|i| format!("q{i}")).collect(),
             Channel::ModalU => (1..=n_modes).map(|i| format!("u{i}")).collect(),
             Channel::SliderU => vec!["uxC".into(), "uzC".into(), "ubeta".into()],
-            Channel::Percussions => (1..=4)
-                .flat_map(|i| [format!("PN{i}"), format!("PT{i}")])
-                .collect(),
+            Channel::Percussions => (1..=4).flat_map(|i| [format!("PN{i}"), format!("PT{i}")]).collect(),
         }
     }
 
@@ -197,11 +191,7 @@ pub struct CsvRecorder<W: Write> {
 impl<W: Write> CsvRecorder<W> {
     /// CSV into `out`; `path` names it in error messages.
     pub fn new(out: W, path: &str) -> Self {
-        CsvRecorder {
-            out,
-            path: path.to_string(),
-            line: String::new(),
-        }
+        CsvRecorder { out, path: path.to_string(), line: String::new() }
     }
 
     /// Flush and return the writer.
@@ -211,10 +201,7 @@ impl<W: Write> CsvRecorder<W> {
     }
 
     fn io(&self, source: std::io::Error) -> Error {
-        Error::Io {
-            path: self.path.clone(),
-            source,
-        }
+        Error::Io { path: self.path.clone(), source }
     }
 }
 
@@ -232,10 +219,7 @@ impl<W: Write> Recorder for CsvRecorder<W> {
             let _ = write!(self.line, "{v:e}");
         }
         self.line.push('\n');
-        self.out.write_all(self.line.as_bytes()).map_err(|e| Error::Io {
-            path: self.path.clone(),
-            source: e,
-        })
+        self.out.write_all(self.line.as_bytes()).map_err(|e| Error::Io { path: self.path.clone(), source: e })
     }
 }
 

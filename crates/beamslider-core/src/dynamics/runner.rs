@@ -98,11 +98,7 @@ pub struct BatchOutcome<R> {
 
 /// The text of a panic payload (`&str` or `String`; "unknown panic" otherwise).
 pub fn panic_message(payload: &(dyn Any + Send)) -> String {
-    payload
-        .downcast_ref::<&str>()
-        .map(|s| s.to_string())
-        .or_else(|| payload.downcast_ref::<String>().cloned())
-        .unwrap_or_else(|| "unknown panic".into())
+    payload.downcast_ref::<&str>().map(|s| s.to_string()).or_else(|| payload.downcast_ref::<String>().cloned()).unwrap_or_else(|| "unknown panic".into())
 }
 
 /// Run `f`; a panic becomes `Err(its message)`.
@@ -139,11 +135,7 @@ pub fn with_threads<T: Send>(threads: Option<usize>, work: impl FnOnce() -> T + 
 /// when it saw the cancellation flag. `on_done(&result)` is called under one lock for every
 /// finished result before it is kept (an error stops the batch).
 pub fn run_batch<J, R>(
-    jobs: &[J],
-    threads: Option<usize>,
-    cancel: &AtomicBool,
-    run: impl Fn(&J) -> Result<Option<R>> + Sync,
-    on_done: impl FnMut(&R) -> Result<()> + Send,
+    jobs: &[J], threads: Option<usize>, cancel: &AtomicBool, run: impl Fn(&J) -> Result<Option<R>> + Sync, on_done: impl FnMut(&R) -> Result<()> + Send,
 ) -> Result<BatchOutcome<R>>
 where
     J: Sync,
@@ -240,10 +232,15 @@ mod tests {
         let cancel = AtomicBool::new(false);
         let t0 = std::time::Instant::now();
         let mut polls = 0;
-        let out = watched(&cancel, Duration::from_secs(30), || Ok(7), || {
-            polls += 1;
-            true
-        });
+        let out = watched(
+            &cancel,
+            Duration::from_secs(30),
+            || Ok(7),
+            || {
+                polls += 1;
+                true
+            },
+        );
         assert_eq!(out.unwrap(), 7);
         assert_eq!(polls, 0);
         assert!(t0.elapsed() < Duration::from_secs(10), "waited {:?}", t0.elapsed());
@@ -254,10 +251,16 @@ mod tests {
         let jobs: Vec<u64> = (0..50).collect();
         let cancel = AtomicBool::new(false);
         let mut seen = Vec::new();
-        let out = run_batch(&jobs, Some(2), &cancel, |j| Ok(Some(j * j)), |r: &u64| {
-            seen.push(*r);
-            Ok(())
-        })
+        let out = run_batch(
+            &jobs,
+            Some(2),
+            &cancel,
+            |j| Ok(Some(j * j)),
+            |r: &u64| {
+                seen.push(*r);
+                Ok(())
+            },
+        )
         .unwrap();
         assert!(!out.cancelled);
         let mut got = out.results.clone();
@@ -289,13 +292,19 @@ mod tests {
     fn cancelled_jobs_are_reported() {
         let jobs: Vec<u32> = (0..10).collect();
         let cancel = AtomicBool::new(false);
-        let out = run_batch(&jobs, Some(1), &cancel, |&j| {
-            if j == 4 {
-                cancel.store(true, Ordering::Relaxed);
-                return Ok(None);
-            }
-            Ok(Some(j))
-        }, |_: &u32| Ok(()))
+        let out = run_batch(
+            &jobs,
+            Some(1),
+            &cancel,
+            |&j| {
+                if j == 4 {
+                    cancel.store(true, Ordering::Relaxed);
+                    return Ok(None);
+                }
+                Ok(Some(j))
+            },
+            |_: &u32| Ok(()),
+        )
         .unwrap();
         assert!(out.cancelled && out.results.len() < jobs.len());
     }
@@ -304,15 +313,20 @@ mod tests {
     fn watched_polls_until_done_and_cancels_when_poll_says_so() {
         let cancel = AtomicBool::new(false);
         let mut polls = 0;
-        let r = watched(&cancel, Duration::from_millis(1), || {
-            while !cancel.load(Ordering::Relaxed) {
-                std::thread::sleep(Duration::from_millis(1));
-            }
-            Ok(7)
-        }, || {
-            polls += 1;
-            polls < 3
-        });
+        let r = watched(
+            &cancel,
+            Duration::from_millis(1),
+            || {
+                while !cancel.load(Ordering::Relaxed) {
+                    std::thread::sleep(Duration::from_millis(1));
+                }
+                Ok(7)
+            },
+            || {
+                polls += 1;
+                polls < 3
+            },
+        );
         assert_eq!(r.unwrap(), 7);
         assert_eq!(polls, 3);
         let e = watched(&AtomicBool::new(false), Duration::from_millis(1), || -> Result<()> { panic!("boom") }, || true).unwrap_err();

@@ -3,13 +3,13 @@
 
 use std::sync::atomic::{AtomicBool, Ordering};
 
-use crate::physics::beam::Beam;
+use crate::dynamics::record::{Channel, Recorder};
+use crate::dynamics::stepper::{Counters, Kinematics, StateN, StepFault, Stepper, StepperMemory};
 use crate::error::{Error, Result};
 use crate::params::{Params, ParamsArg, Valid};
-use crate::dynamics::record::{Channel, Recorder};
-use crate::physics::slider::Slider;
+use crate::physics::beam::Beam;
 pub use crate::physics::excitation::Excitation;
-use crate::dynamics::stepper::{Counters, Kinematics, StateN, StepFault, Stepper, StepperMemory};
+use crate::physics::slider::Slider;
 
 /// Which model to integrate (docs/model.md §6).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -79,12 +79,12 @@ impl Status {
     pub fn message(&self) -> String {
         match self {
             Status::Completed => "completed".into(),
-            Status::LeftBeam { t_s, x_m } => format!(
-                "stopped at t = {t_s:.6} s: a contact point of the slider left the free length of the beam (x = {x_m:.6} m)"
-            ),
-            Status::Diverged { t_s } => format!(
-                "stopped at t = {t_s:.6} s: the state blew up (non-finite values or the slider left the beam); try a smaller dt_s"
-            ),
+            Status::LeftBeam { t_s, x_m } => {
+                format!("stopped at t = {t_s:.6} s: a contact point of the slider left the free length of the beam (x = {x_m:.6} m)")
+            }
+            Status::Diverged { t_s } => {
+                format!("stopped at t = {t_s:.6} s: the state blew up (non-finite values or the slider left the beam); try a smaller dt_s")
+            }
             Status::Interrupted { t_s } => format!("interrupted at t = {t_s:.6} s"),
         }
     }
@@ -110,14 +110,7 @@ pub struct RunOptions {
 impl RunOptions {
     /// Free-slider run with the default channels, recording every 10th step.
     pub fn free(excitation: Excitation, duration_s: f64) -> Self {
-        RunOptions {
-            excitation,
-            model: SliderModel::Free,
-            duration_s,
-            record_every: 10,
-            channels: Channel::defaults(),
-            audit_contacts: false,
-        }
+        RunOptions { excitation, model: SliderModel::Free, duration_s, record_every: 10, channels: Channel::defaults(), audit_contacts: false }
     }
 }
 
@@ -224,14 +217,7 @@ impl Model {
         let p = &self.params;
         let half = 0.5 * p.contact_spacing_m / p.length_m;
         if !(s0.is_finite() && s0 - half >= 0.0 && s0 + half <= 1.0) {
-            return Err(Error::invalid(
-                "s0",
-                s0,
-                &format!(
-                    "the slider's contact points must lie on the beam: {half:.4} <= s0 <= {:.4}",
-                    1.0 - half
-                ),
-            ));
+            return Err(Error::invalid("s0", s0, &format!("the slider's contact points must lie on the beam: {half:.4} <= s0 <= {:.4}", 1.0 - half)));
         }
         Ok(self.at_rest(s0 * p.length_m, excitation))
     }
@@ -246,13 +232,7 @@ impl Model {
     fn at_rest(&self, x_c_m: f64, excitation: &Excitation) -> State {
         let (w0, _, _) = excitation.at(0.0);
         let n = self.beam.n;
-        State {
-            t_s: 0.0,
-            q: vec![0.0; n],
-            u: vec![0.0; n],
-            slider_q: [x_c_m, -self.params.com_offset_m + w0, 0.0],
-            slider_u: [0.0; 3],
-        }
+        State { t_s: 0.0, q: vec![0.0; n], u: vec![0.0; n], slider_q: [x_c_m, -self.params.com_offset_m + w0, 0.0], slider_u: [0.0; 3] }
     }
 
     /// The initial state of a run of `model` (docs/model.md §5–6): [`Self::initial_state`] at s₀ for
@@ -286,11 +266,7 @@ impl Model {
         }
         let n = self.beam.n;
         if start.q.len() != n || start.u.len() != n {
-            return Err(Error::invalid(
-                "state",
-                format!("{} modal coordinates", start.q.len()),
-                &format!("the model has {n} modes"),
-            ));
+            return Err(Error::invalid("state", format!("{} modal coordinates", start.q.len()), &format!("the model has {n} modes")));
         }
         let finite = start.q.iter().chain(&start.u).chain(&start.slider_q).chain(&start.slider_u);
         if !start.t_s.is_finite() || finite.into_iter().any(|v| !v.is_finite()) {
@@ -312,26 +288,14 @@ impl Model {
     }
 
     /// Integrate from `start` for `opts.duration_s`, streaming rows into `rec`.
-    pub fn run(
-        &self,
-        start: &State,
-        opts: &RunOptions,
-        rec: &mut dyn Recorder,
-        monitor: &mut dyn Monitor,
-    ) -> Result<RunSummary> {
+    pub fn run(&self, start: &State, opts: &RunOptions, rec: &mut dyn Recorder, monitor: &mut dyn Monitor) -> Result<RunSummary> {
         self.check_run(start, opts)?;
         Ok(self.dispatch(start, None, opts, rec, monitor)?.0)
     }
 
     /// As [`Model::run`], and also return the checkpoint at the end of the run (meaningful when
     /// the status is `Completed`).
-    pub fn run_checkpointed(
-        &self,
-        start: &State,
-        opts: &RunOptions,
-        rec: &mut dyn Recorder,
-        monitor: &mut dyn Monitor,
-    ) -> Result<(RunSummary, Checkpoint)> {
+    pub fn run_checkpointed(&self, start: &State, opts: &RunOptions, rec: &mut dyn Recorder, monitor: &mut dyn Monitor) -> Result<(RunSummary, Checkpoint)> {
         self.check_run(start, opts)?;
         self.dispatch(start, None, opts, rec, monitor)
     }
@@ -341,28 +305,21 @@ impl Model {
     /// counted from the start; the checkpoint's own row is not repeated), counters and end state
     /// are bitwise those of the run that went there without stopping, given the same model and
     /// options.
-    pub fn run_from(
-        &self,
-        checkpoint: &Checkpoint,
-        opts: &RunOptions,
-        rec: &mut dyn Recorder,
-        monitor: &mut dyn Monitor,
-    ) -> Result<(RunSummary, Checkpoint)> {
+    pub fn run_from(&self, checkpoint: &Checkpoint, opts: &RunOptions, rec: &mut dyn Recorder, monitor: &mut dyn Monitor) -> Result<(RunSummary, Checkpoint)> {
         self.check_run(&checkpoint.state, opts)?;
         let total = (opts.duration_s / self.params.dt_s).round() as u64;
         if checkpoint.step > total {
-            return Err(Error::invalid("duration_s", opts.duration_s, &format!("the checkpoint is already at step {} (t = {} s)", checkpoint.step, checkpoint.state.t_s)));
+            return Err(Error::invalid(
+                "duration_s",
+                opts.duration_s,
+                &format!("the checkpoint is already at step {} (t = {} s)", checkpoint.step, checkpoint.state.t_s),
+            ));
         }
         self.dispatch(&checkpoint.state, Some(checkpoint), opts, rec, monitor)
     }
 
     fn dispatch(
-        &self,
-        start: &State,
-        resume: Option<&Checkpoint>,
-        opts: &RunOptions,
-        rec: &mut dyn Recorder,
-        monitor: &mut dyn Monitor,
+        &self, start: &State, resume: Option<&Checkpoint>, opts: &RunOptions, rec: &mut dyn Recorder, monitor: &mut dyn Monitor,
     ) -> Result<(RunSummary, Checkpoint)> {
         let n = self.beam.n;
         macro_rules! go {
@@ -382,22 +339,11 @@ fn to_state_n<const N: usize>(s: &State) -> StateN<N> {
     let mut ub = [0.0; N];
     qb.copy_from_slice(&s.q);
     ub.copy_from_slice(&s.u);
-    StateN {
-        qb,
-        ub,
-        qs: s.slider_q,
-        us: s.slider_u,
-    }
+    StateN { qb, ub, qs: s.slider_q, us: s.slider_u }
 }
 
 fn from_state_n<const N: usize>(s: &StateN<N>, t_s: f64) -> State {
-    State {
-        t_s,
-        q: s.qb.to_vec(),
-        u: s.ub.to_vec(),
-        slider_q: s.qs,
-        slider_u: s.us,
-    }
+    State { t_s, q: s.qb.to_vec(), u: s.ub.to_vec(), slider_q: s.qs, slider_u: s.us }
 }
 
 /// Fills one output row from the state.
@@ -474,10 +420,7 @@ pub fn set_simd(enabled: bool) {
 fn run_n<const N: usize>(run: Run<'_>, rec: &mut dyn Recorder, monitor: &mut dyn Monitor) -> Result<(RunSummary, Checkpoint)> {
     #[cfg(target_arch = "x86_64")]
     {
-        if SIMD.load(Ordering::Relaxed)
-            && std::arch::is_x86_feature_detected!("avx2")
-            && std::arch::is_x86_feature_detected!("fma")
-        {
+        if SIMD.load(Ordering::Relaxed) && std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma") {
             // SAFETY: the CPU supports AVX2 and FMA, checked just above.
             return unsafe { run_n_avx2::<N>(run, rec, monitor) };
         }
@@ -516,11 +459,7 @@ fn run_n_generic<const N: usize>(run: Run<'_>, rec: &mut dyn Recorder, monitor: 
     let slider = Slider::new(p);
     let writer = RowWriter {
         phi_4l7: model.beam.phi_row(4.0 / 7.0 * l),
-        phi_at: opts
-            .channels
-            .iter()
-            .filter_map(|c| if let Channel::WAt(x) = c { Some(model.beam.phi_row(*x)) } else { None })
-            .collect(),
+        phi_at: opts.channels.iter().filter_map(|c| if let Channel::WAt(x) = c { Some(model.beam.phi_row(*x)) } else { None }).collect(),
         channels: opts.channels.clone(),
         length: l,
         s_fixed: if let SliderModel::PseudoConstrained { s } = opts.model { Some(s) } else { None },
@@ -586,12 +525,5 @@ fn run_n_generic<const N: usize>(run: Run<'_>, rec: &mut dyn Recorder, monitor: 
     monitor.poll(good_t, t_end);
     let state = from_state_n(&good, good_t);
     let checkpoint = Checkpoint { t_origin_s: t0, step: good_k, state: state.clone(), memory: stepper.memory() };
-    Ok((
-        RunSummary {
-            status,
-            state,
-            counters: stepper.counters,
-        },
-        checkpoint,
-    ))
+    Ok((RunSummary { status, state, counters: stepper.counters }, checkpoint))
 }

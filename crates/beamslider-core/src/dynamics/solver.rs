@@ -41,22 +41,12 @@ pub enum ContactMode {
     SlideNeg,
 }
 
-const ALL_MODES: [ContactMode; 4] = [
-    ContactMode::Stick,
-    ContactMode::Open,
-    ContactMode::SlidePos,
-    ContactMode::SlideNeg,
-];
+const ALL_MODES: [ContactMode; 4] = [ContactMode::Stick, ContactMode::Open, ContactMode::SlidePos, ContactMode::SlideNeg];
 
 impl LocalProblem {
     /// Empty problem for k contacts.
     pub fn new(k: usize, mu: f64) -> Self {
-        LocalProblem {
-            k,
-            g: [[0.0; DIM]; DIM],
-            c: [0.0; DIM],
-            mu,
-        }
+        LocalProblem { k, g: [[0.0; DIM]; DIM], c: [0.0; DIM], mu }
     }
 
     /// ξ = G P + c.
@@ -119,13 +109,7 @@ pub struct SolveInfo {
 }
 
 /// Reference solver of docs/model.md §5. `p` holds the warm start on entry and the result on exit.
-pub fn gauss_seidel(
-    prob: &LocalProblem,
-    p: &mut [f64; DIM],
-    tol_rel: f64,
-    tol_abs: f64,
-    max_iter: u32,
-) -> SolveInfo {
+pub fn gauss_seidel(prob: &LocalProblem, p: &mut [f64; DIM], tol_rel: f64, tol_abs: f64, max_iter: u32) -> SolveInfo {
     let k = prob.k;
     let m = 2 * k;
     let g = &prob.g;
@@ -134,11 +118,7 @@ pub fn gauss_seidel(
     let dominant = (0..m).all(|a| 2.0 * g[a][a].abs() >= row_sum(a));
     let mut r = [0.0; MAX_CLOSED];
     for i in 0..k {
-        r[i] = if dominant {
-            1.0 / g[2 * i][2 * i].max(g[2 * i + 1][2 * i + 1])
-        } else {
-            1.0 / row_sum(2 * i).max(row_sum(2 * i + 1))
-        };
+        r[i] = if dominant { 1.0 / g[2 * i][2 * i].max(g[2 * i + 1][2 * i + 1]) } else { 1.0 / row_sum(2 * i).max(row_sum(2 * i + 1)) };
     }
     let mut info = SolveInfo::default();
     loop {
@@ -183,12 +163,7 @@ const EXACT_TOL: f64 = 1e-10;
 /// Exact solver. `modes[i]` holds the guess for contact i on entry (the previous step's
 /// pattern) and the found pattern on exit; `p` receives the percussions. Falls back to
 /// Gauss–Seidel with tolerances 1e-12 / 1e-16 N s when no pattern fits.
-pub fn exact(
-    prob: &LocalProblem,
-    modes: &mut [ContactMode; MAX_CLOSED],
-    p: &mut [f64; DIM],
-    max_iter: u32,
-) -> SolveInfo {
+pub fn exact(prob: &LocalProblem, modes: &mut [ContactMode; MAX_CLOSED], p: &mut [f64; DIM], max_iter: u32) -> SolveInfo {
     match prob.k {
         0 => {
             *p = [0.0; DIM];
@@ -204,12 +179,7 @@ pub fn exact(
 /// [`exact`] for K closed contacts known at compile time (`prob.k` must equal K). Kept out of
 /// line: it does not depend on the number of modes, so one copy per K serves every N.
 #[inline(never)]
-pub fn exact_k<const K: usize>(
-    prob: &LocalProblem,
-    modes: &mut [ContactMode; MAX_CLOSED],
-    p: &mut [f64; DIM],
-    max_iter: u32,
-) -> SolveInfo {
+pub fn exact_k<const K: usize>(prob: &LocalProblem, modes: &mut [ContactMode; MAX_CLOSED], p: &mut [f64; DIM], max_iter: u32) -> SolveInfo {
     debug_assert_eq!(prob.k, K);
     let k = K;
     let mut info = SolveInfo::default();
@@ -272,14 +242,7 @@ fn try_pattern<const K: usize>(prob: &LocalProblem, trial: &[ContactMode; MAX_CL
 ///   stick:  G P = −c (2×2), needs P_N ≥ 0 and |P_T| ≤ μ P_N;
 ///   slide σ: (G_NN − σμ G_NT) P_N = −c_N, P_T = −σμ P_N, needs P_N ≥ 0 and σ ξ_T ≥ 0.
 #[inline(always)]
-fn exact_single(
-    prob: &LocalProblem,
-    modes: &mut [ContactMode; MAX_CLOSED],
-    p: &mut [f64; DIM],
-    max_iter: u32,
-    sv: f64,
-    p_floor: f64,
-) -> SolveInfo {
+fn exact_single(prob: &LocalProblem, modes: &mut [ContactMode; MAX_CLOSED], p: &mut [f64; DIM], max_iter: u32, sv: f64, p_floor: f64) -> SolveInfo {
     let g = &prob.g;
     let c = &prob.c;
     let mu = prob.mu;
@@ -312,7 +275,11 @@ fn exact_single(
         let row = |a: usize| c[a] + g[a][0] * pn + g[a][1] * pt;
         let next = match trial {
             ContactMode::Open => {
-                if row(0) < -tv { ContactMode::Stick } else { trial }
+                if row(0) < -tv {
+                    ContactMode::Stick
+                } else {
+                    trial
+                }
             }
             ContactMode::Stick => {
                 if pn < -tp {
@@ -350,13 +317,7 @@ fn exact_single(
 /// Steps 2 and 3 of [`exact`]: all 4^k patterns, then Gauss–Seidel (rare; kept out of line).
 #[inline(never)]
 fn enumerate_patterns<const K: usize>(
-    prob: &LocalProblem,
-    modes: &mut [ContactMode; MAX_CLOSED],
-    p: &mut [f64; DIM],
-    max_iter: u32,
-    mut info: SolveInfo,
-    sv: f64,
-    p_floor: f64,
+    prob: &LocalProblem, modes: &mut [ContactMode; MAX_CLOSED], p: &mut [f64; DIM], max_iter: u32, mut info: SolveInfo, sv: f64, p_floor: f64,
 ) -> SolveInfo {
     let k = prob.k;
     let mut trial = *modes;
@@ -459,11 +420,7 @@ fn solve_pair(prob: &LocalProblem, modes: &[ContactMode; MAX_CLOSED]) -> Option<
     const NO: usize = usize::MAX;
     let stick = |col: usize| Unknown { col, tangent_col: NO, factor: 0.0 };
     // Sliding contact i: P_T = −σμ P_N.
-    let slide = |i: usize| Unknown {
-        col: 2 * i,
-        tangent_col: 2 * i + 1,
-        factor: if modes[i] == SlidePos { -prob.mu } else { prob.mu },
-    };
+    let slide = |i: usize| Unknown { col: 2 * i, tangent_col: 2 * i + 1, factor: if modes[i] == SlidePos { -prob.mu } else { prob.mu } };
     let class = |m: ContactMode| match m {
         Open => 0,
         Stick => 1,
@@ -559,11 +516,7 @@ fn gauss_solve<const M: usize>(a: &mut [[f64; M]; M], mut b: [f64; M], amax: f64
 /// sliding ones ξ_N = 0 and P_T on the cone, open ones P = 0).
 #[inline(always)]
 fn check_pattern<const K: usize>(
-    prob: &LocalProblem,
-    modes: &[ContactMode; MAX_CLOSED],
-    p: &[f64; DIM],
-    sv: f64,
-    p_floor: f64,
+    prob: &LocalProblem, modes: &[ContactMode; MAX_CLOSED], p: &[f64; DIM], sv: f64, p_floor: f64,
 ) -> Option<[ContactMode; MAX_CLOSED]> {
     let m = 2 * K;
     let mut pmax: f64 = 0.0;

@@ -4,12 +4,12 @@
 use serde::{Deserialize, Serialize};
 
 use crate::arith::{dot, fma};
+use crate::dynamics::solver::{self, ContactMode, LocalProblem};
+use crate::params::{ContactSolver, Params};
 use crate::physics::beam::Beam;
 use crate::physics::contact::{Jacobians, finish, may_close, probe_checked};
 use crate::physics::excitation::{BaseState, Excitation};
-use crate::params::{ContactSolver, Params};
 use crate::physics::slider::{DIM, MAX_CLOSED, N_CONTACTS, Slider, ZETA_Z};
-use crate::dynamics::solver::{self, ContactMode, LocalProblem};
 
 /// Counters of a run, reported with every result (and, without `max_residual`, in every row of a
 /// map or study results file).
@@ -289,10 +289,7 @@ impl<'a, const N: usize> Stepper<'a, N> {
             preload: beam.preload_n,
             damp2: (p.damping_ratio_quadratic > 0.0).then(|| {
                 let h2 = p.thickness_m * p.thickness_m;
-                (
-                    std::array::from_fn(|i| 8.0 * p.damping_ratio_quadratic * beam.omega[i] / h2),
-                    std::array::from_fn(|i| beam.phi_exact(i, 0.5 * p.length_m)),
-                )
+                (std::array::from_fn(|i| 8.0 * p.damping_ratio_quadratic * beam.omega[i] / h2), std::array::from_fn(|i| beam.phi_exact(i, 0.5 * p.length_m)))
             }),
             dt: p.dt_s,
             eps_n: p.restitution,
@@ -363,11 +360,7 @@ impl<'a, const N: usize> Stepper<'a, N> {
         // u_free = u_B + M⁻¹ h_M Δt with −h = D u_B + Ω² q_M + F_nl K q_M + γ ẅ₀.
         let mut vb = [0.0; N];
         for i in 0..N {
-            let minus_h = fma(
-                self.gamma[i],
-                w0_ddot,
-                fma(fnl, kq[i], fma(self.omega2[i], qm[i], self.damp[i] * ub[i])),
-            );
+            let minus_h = fma(self.gamma[i], w0_ddot, fma(fnl, kq[i], fma(self.omega2[i], qm[i], self.damp[i] * ub[i])));
             vb[i] = fma(-dt, minus_h, ub[i]);
         }
         if let Some((d2, phi_mid)) = &self.damp2 {
@@ -423,11 +416,7 @@ impl<'a, const N: usize> Stepper<'a, N> {
             for i in 0..N {
                 s.qb[i] = fma(half, s.ub[i], qm[i]);
             }
-            return if s.ub.iter().all(|v| v.is_finite()) {
-                Ok(())
-            } else {
-                Err(StepFault::NonFinite)
-            };
+            return if s.ub.iter().all(|v| v.is_finite()) { Ok(()) } else { Err(StepFault::NonFinite) };
         }
         // h_M of the slider: m (g sin α, −g cos α, 0) (docs/model.md §3, frame tilt α).
         let vs0 = if self.gravity_x != 0.0 { fma(dt, self.gravity_x, s.us[0]) } else { s.us[0] };
@@ -667,7 +656,6 @@ impl<'a, const N: usize> Stepper<'a, N> {
     }
 }
 
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -684,4 +672,3 @@ mod tests {
         assert_eq!(sin_cos_small(0.3), 0.3f64.sin_cos());
     }
 }
-

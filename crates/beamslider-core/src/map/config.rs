@@ -49,7 +49,11 @@ impl Axis {
                 }
                 let n = ((stop - start) / step + 1e-3).floor() + 1.0;
                 if !(n <= MAX_POINTS as f64) {
-                    return Err(Error::invalid(field, format!("{{start={start}, stop={stop}, step={step}}}"), &format!("gives {n:e} values; at most {MAX_POINTS}")));
+                    return Err(Error::invalid(
+                        field,
+                        format!("{{start={start}, stop={stop}, step={step}}}"),
+                        &format!("gives {n:e} values; at most {MAX_POINTS}"),
+                    ));
                 }
                 (0..n as usize).map(|i| ((start + i as f64 * step) * 1e9).round() / 1e9).collect()
             }
@@ -92,7 +96,6 @@ fn default_s0() -> Axis {
 fn default_duration() -> f64 {
     120.0
 }
-
 
 fn default_record_every() -> usize {
     DEFAULT_RECORD_EVERY
@@ -154,7 +157,6 @@ impl Default for MapConfig {
     }
 }
 
-
 impl MapConfig {
     /// Parse TOML text and validate.
     pub fn from_toml_str(text: &str) -> Result<MapConfig> {
@@ -205,7 +207,11 @@ impl MapConfig {
             return Err(Error::invalid(
                 "record_every",
                 self.record_every,
-                &format!("samples every {:.3e} s at dt = {dt:e} s; the classification needs a sample at least every {max_sample} s (record_every <= {})", self.record_every as f64 * dt, (max_sample / dt).floor()),
+                &format!(
+                    "samples every {:.3e} s at dt = {dt:e} s; the classification needs a sample at least every {max_sample} s (record_every <= {})",
+                    self.record_every as f64 * dt,
+                    (max_sample / dt).floor()
+                ),
             ));
         }
         self.points()?;

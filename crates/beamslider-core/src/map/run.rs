@@ -14,7 +14,10 @@ use crate::dynamics::runner::{catch_panic, run_batch};
 use crate::dynamics::simulation::{CancelFlag, Checkpoint, Excitation, Model, RunOptions, SliderModel, Status};
 use crate::dynamics::stepper::Counters;
 use crate::error::{Error, Result};
-use crate::results::{FORMAT_VERSION, EndState, MapPoint, MapRow, ResultsFile, ResultsLock, STATUS_ERROR, header_line_predictor, io_err, latest, open_append, read_results, write_line};
+use crate::results::{
+    EndState, FORMAT_VERSION, MapPoint, MapRow, ResultsFile, ResultsLock, STATUS_ERROR, header_line_predictor, io_err, latest, open_append, read_results,
+    write_line,
+};
 use crate::signal::envelope_stream::EnvelopeStream;
 
 /// Feeds w(4L/7) and s of every recorded row (channels [W4L7, S]) into the super-slow stream.
@@ -66,7 +69,9 @@ pub fn continue_point(model: &Model, cfg: &MapConfig, row: &MapRow, cancel: &Ato
 }
 
 #[allow(clippy::too_many_arguments)]
-fn finish_point(model: &Model, cfg: &MapConfig, p: &MapPoint, status: Status, counters: &Counters, cp: Checkpoint, stream: EnvelopeStream, t0: Instant) -> Result<Option<MapRow>> {
+fn finish_point(
+    model: &Model, cfg: &MapConfig, p: &MapPoint, status: Status, counters: &Counters, cp: Checkpoint, stream: EnvelopeStream, t0: Instant,
+) -> Result<Option<MapRow>> {
     if let Status::Interrupted { .. } = status {
         return Ok(None);
     }
@@ -254,7 +259,11 @@ fn check_settings(cfg: &MapConfig, opts: &MapRunOptions, path: &Path, old: &Resu
     let new = cfg.settings();
     if old.settings.is_some() && old.version < 2 {
         let what = if opts.extend { "extend_to" } else { "resume" };
-        return Err(Error::invalid(what, path.display(), &format!("the results file has format version {} (rows classified by older rules, no end states); start a new map", old.version)));
+        return Err(Error::invalid(
+            what,
+            path.display(),
+            &format!("the results file has format version {} (rows classified by older rules, no end states); start a new map", old.version),
+        ));
     }
     let Some(s) = &old.settings else {
         if opts.extend {
@@ -266,18 +275,32 @@ fn check_settings(cfg: &MapConfig, opts: &MapRunOptions, path: &Path, old: &Resu
         let mut same = s.clone();
         same.duration_s = new.duration_s;
         if same != new {
-            return Err(Error::invalid("extend_to", path.display(), "the results file was written with other settings (parameters, record_every or criteria); only the duration may change"));
+            return Err(Error::invalid(
+                "extend_to",
+                path.display(),
+                "the results file was written with other settings (parameters, record_every or criteria); only the duration may change",
+            ));
         }
         if s.duration_s > new.duration_s {
             return Err(Error::invalid("extend_to", new.duration_s, &format!("must exceed the map's t_end ({} s)", s.duration_s)));
         }
-        if let Some(r) = old.rows.iter().find(|r| (!r.settled || matches!(r.behaviour, Behaviour::NotSettled | Behaviour::Undetermined)) && r.status == Status::Completed.name() && r.end.is_none()) {
-            return Err(Error::invalid("extend_to", path.display(), &format!("point #{} (f_ex = {} Hz, a_ex = {} m/s^2, s0 = {}) has no saved end state", r.index, r.f_ex_hz, r.a_ex_m_s2, r.s0)));
+        if let Some(r) = old.rows.iter().find(|r| {
+            (!r.settled || matches!(r.behaviour, Behaviour::NotSettled | Behaviour::Undetermined)) && r.status == Status::Completed.name() && r.end.is_none()
+        }) {
+            return Err(Error::invalid(
+                "extend_to",
+                path.display(),
+                &format!("point #{} (f_ex = {} Hz, a_ex = {} m/s^2, s0 = {}) has no saved end state", r.index, r.f_ex_hz, r.a_ex_m_s2, r.s0),
+            ));
         }
         return Ok(());
     }
     if *s != new {
-        return Err(Error::invalid("resume", path.display(), "the results file was written with other settings (parameters, duration, record_every or criteria); only the grid may change"));
+        return Err(Error::invalid(
+            "resume",
+            path.display(),
+            "the results file was written with other settings (parameters, duration, record_every or criteria); only the grid may change",
+        ));
     }
     if old.predictor.as_ref() != predictor {
         let what = match (&old.predictor, predictor) {

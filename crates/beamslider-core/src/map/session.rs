@@ -156,8 +156,7 @@ mod tests {
     use super::*;
 
     fn tiny() -> MapConfig {
-        let mut cfg = MapConfig::default();
-        cfg.duration_s = 0.05;
+        let mut cfg = MapConfig { duration_s: 0.05, ..MapConfig::default() };
         cfg.grid.f_ex_hz = crate::map::Axis::List(vec![120.0, 124.0]);
         cfg.grid.a_ex_m_s2 = crate::map::Axis::List(vec![14.0]);
         cfg

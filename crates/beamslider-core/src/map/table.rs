@@ -33,7 +33,15 @@ impl TableCell {
     }
 
     fn of(r: &MapRow) -> TableCell {
-        TableCell { s0: r.s0, f_ex_hz: r.f_ex_hz, a_ex_m_s2: r.a_ex_m_s2, t_end_s: r.t_end_s, status: r.status.clone(), letter: r.behaviour.letter(), marked: marked_unsettled(r) }
+        TableCell {
+            s0: r.s0,
+            f_ex_hz: r.f_ex_hz,
+            a_ex_m_s2: r.a_ex_m_s2,
+            t_end_s: r.t_end_s,
+            status: r.status.clone(),
+            letter: r.behaviour.letter(),
+            marked: marked_unsettled(r),
+        }
     }
 
     fn done(&self) -> bool {
@@ -119,7 +127,10 @@ pub fn table_of_cells(cells: &[TableCell]) -> String {
         for a in as_.iter().rev() {
             let _ = write!(out, "{:>6} ", format!("{a}"));
             for f in &fs {
-                let c = sub.iter().find(|r| r.f_ex_hz == *f && r.a_ex_m_s2 == *a).map_or(".".to_string(), |r| format!("{}{}", r.letter, if r.marked { "*" } else { "" }));
+                let c = sub
+                    .iter()
+                    .find(|r| r.f_ex_hz == *f && r.a_ex_m_s2 == *a)
+                    .map_or(".".to_string(), |r| format!("{}{}", r.letter, if r.marked { "*" } else { "" }));
                 let _ = write!(out, "{c:>4}");
             }
             out.push('\n');

@@ -117,27 +117,19 @@ impl Beam {
             }
             coef.push(a);
         }
-        let gamma = coef
-            .iter()
-            .zip(&lambda)
-            .map(|(a, &lam)| rho_a * l * gl.integrate(|xi| phi_basis(a, lam, xi)))
-            .collect();
+        let gamma = coef.iter().zip(&lambda).map(|(a, &lam)| rho_a * l * gl.integrate(|xi| phi_basis(a, lam, xi))).collect();
         let mut k = vec![0.0; n * n];
         for i in 0..n {
             for j in 0..=i {
                 // φ'(x) = (1/L) dφ/dξ ; ∫₀ᴸ φᵢ'φⱼ' dx = (1/L) ∫₀¹ φᵢ,ξ φⱼ,ξ dξ.
-                let v = gl.integrate(|xi| {
-                    dphi_basis(&coef[i], lambda[i], xi) * dphi_basis(&coef[j], lambda[j], xi)
-                }) / l;
+                let v = gl.integrate(|xi| dphi_basis(&coef[i], lambda[i], xi) * dphi_basis(&coef[j], lambda[j], xi)) / l;
                 k[i * n + j] = v;
                 k[j * n + i] = v;
             }
         }
         if p.axial_preload_n < 0.0 {
             // Compression: diag(ω²) + H₀ K must stay positive definite (below buckling).
-            let stiff = nalgebra::DMatrix::from_fn(n, n, |i, j| {
-                (if i == j { omega[i] * omega[i] } else { 0.0 }) + p.axial_preload_n * k[i * n + j]
-            });
+            let stiff = nalgebra::DMatrix::from_fn(n, n, |i, j| (if i == j { omega[i] * omega[i] } else { 0.0 }) + p.axial_preload_n * k[i * n + j]);
             if stiff.cholesky().is_none() {
                 return Err(crate::error::Error::invalid(
                     "axial_preload_n",
@@ -162,19 +154,7 @@ impl Beam {
                 1.01 * m / l
             })
             .collect();
-        Ok(Beam {
-            slope_bound,
-            n,
-            length_m: l,
-            lambda,
-            omega,
-            gamma,
-            k,
-            k_ax: p.axial_stiffness(),
-            preload_n: p.axial_preload_n,
-            coef,
-            table,
-        })
+        Ok(Beam { slope_bound, n, length_m: l, lambda, omega, gamma, k, k_ax: p.axial_stiffness(), preload_n: p.axial_preload_n, coef, table })
     }
 
     /// Natural frequencies fₙ = ωₙ/2π [Hz].
@@ -236,21 +216,13 @@ impl Beam {
     /// Mode values φ₁..φ_N at a located x (table inside its range, closed form outside).
     #[inline(always)]
     pub fn phi_n<const N: usize>(&self, loc: &Loc) -> [f64; N] {
-        if loc.inside {
-            self.table.horner_n::<N>(loc.j, 0, loc.u)
-        } else {
-            std::array::from_fn(|m| self.phi_exact(m, loc.x))
-        }
+        if loc.inside { self.table.horner_n::<N>(loc.j, 0, loc.u) } else { std::array::from_fn(|m| self.phi_exact(m, loc.x)) }
     }
 
     /// Mode slopes φ₁'..φ_N' (x-derivatives) at a located x.
     #[inline(always)]
     pub fn dphi_n<const N: usize>(&self, loc: &Loc) -> [f64; N] {
-        if loc.inside {
-            self.table.horner_n::<N>(loc.j, 1, loc.u)
-        } else {
-            std::array::from_fn(|m| self.dphi_exact(m, loc.x))
-        }
+        if loc.inside { self.table.horner_n::<N>(loc.j, 1, loc.u) } else { std::array::from_fn(|m| self.dphi_exact(m, loc.x)) }
     }
 
     /// Mode values at x (exact).
@@ -317,9 +289,7 @@ impl Beam {
     /// Linear modal stiffness diag(ωₙ²) + H₀ K (the axial preload's geometric stiffness) [s⁻²].
     pub fn linear_stiffness(&self) -> nalgebra::DMatrix<f64> {
         let n = self.n;
-        nalgebra::DMatrix::from_fn(n, n, |i, j| {
-            (if i == j { self.omega[i] * self.omega[i] } else { 0.0 }) + self.preload_n * self.k[i * n + j]
-        })
+        nalgebra::DMatrix::from_fn(n, n, |i, j| (if i == j { self.omega[i] * self.omega[i] } else { 0.0 }) + self.preload_n * self.k[i * n + j])
     }
 
     /// Single-mode hardening coefficient b = (k_ax/2) K₁₁² of mode 1 (docs/model.md §9) [1/(kg m² s²)]:
@@ -386,9 +356,7 @@ impl Beam {
                 vector: v,
             };
         }
-        let stiff = nalgebra::DMatrix::from_fn(n, n, |i, j| {
-            (if i == j { self.omega[i] * self.omega[i] } else { 0.0 }) + self.preload_n * self.k[i * n + j]
-        });
+        let stiff = nalgebra::DMatrix::from_fn(n, n, |i, j| (if i == j { self.omega[i] * self.omega[i] } else { 0.0 }) + self.preload_n * self.k[i * n + j]);
         let eig = nalgebra::SymmetricEigen::new(stiff);
         let low = (0..n).min_by(|&a, &b| eig.eigenvalues[a].total_cmp(&eig.eigenvalues[b])).unwrap_or(0);
         let mut v: Vec<f64> = eig.eigenvectors.column(low).iter().copied().collect();
@@ -428,7 +396,6 @@ pub struct FirstMode {
     pub vector: Vec<f64>,
 }
 
-
 #[cfg(test)]
 mod tests {
     /// Regression (found by the fuzzer): a denormal k_r made EI/(k_r L) infinite and nalgebra's
@@ -467,8 +434,7 @@ mod tests {
             let b = beam(&q);
             let m = b.first_mode(q.thickness_m);
             let n = b.n;
-            let pert: f64 =
-                (1..n).map(|j| (h0 * b.k[j]).powi(2) / (b.omega[j].powi(2) - b.omega[0].powi(2))).sum();
+            let pert: f64 = (1..n).map(|j| (h0 * b.k[j]).powi(2) / (b.omega[j].powi(2) - b.omega[0].powi(2))).sum();
             let err = m.omega_rayleigh_rad_s.powi(2) - m.omega_rad_s.powi(2);
             assert!(err > 0.0, "H0 = {h0}: Rayleigh must be an upper bound");
             // The next term is of third order: the mismatch shrinks in proportion to H₀
@@ -499,11 +465,7 @@ mod tests {
 
     #[test]
     fn clamped_limit() {
-        let p = Params {
-            k_r_nm_per_rad: f64::INFINITY,
-            k_t_n_per_m: f64::INFINITY,
-            ..Params::default()
-        };
+        let p = Params { k_r_nm_per_rad: f64::INFINITY, k_t_n_per_m: f64::INFINITY, ..Params::default() };
         let b = beam(&p);
         assert!((b.lambda[0] - 4.730041).abs() < 5e-7, "{}", b.lambda[0]);
         assert!((b.frequencies_hz()[0] - 274.187).abs() < 1e-3);
@@ -524,8 +486,7 @@ mod tests {
         let rho_a = p.beam_mass_kg / p.length_m;
         for i in 0..b.n {
             for j in 0..b.n {
-                let m = rho_a * p.length_m
-                    * gl.integrate(|xi| b.phi_exact(i, xi * p.length_m) * b.phi_exact(j, xi * p.length_m));
+                let m = rho_a * p.length_m * gl.integrate(|xi| b.phi_exact(i, xi * p.length_m) * b.phi_exact(j, xi * p.length_m));
                 let expect = if i == j { 1.0 } else { 0.0 };
                 assert!((m - expect).abs() < 1e-10, "M[{i}{j}] = {m}");
             }
@@ -551,12 +512,8 @@ mod tests {
                 let l = b.length_m;
                 let mut phi = vec![0.0; n_modes];
                 let mut dphi = vec![0.0; n_modes];
-                let amp: Vec<f64> = (0..n_modes)
-                    .map(|m| (0..200).map(|i| b.phi_exact(m, i as f64 * l / 199.0).abs()).fold(0.0, f64::max))
-                    .collect();
-                let damp: Vec<f64> = (0..n_modes)
-                    .map(|m| (0..200).map(|i| b.dphi_exact(m, i as f64 * l / 199.0).abs()).fold(0.0, f64::max))
-                    .collect();
+                let amp: Vec<f64> = (0..n_modes).map(|m| (0..200).map(|i| b.phi_exact(m, i as f64 * l / 199.0).abs()).fold(0.0, f64::max)).collect();
+                let damp: Vec<f64> = (0..n_modes).map(|m| (0..200).map(|i| b.dphi_exact(m, i as f64 * l / 199.0).abs()).fold(0.0, f64::max)).collect();
                 let mut worst: f64 = 0.0;
                 for i in 0..=20011 {
                     let x = l * (-0.2 + 1.4 * i as f64 / 20011.0);
@@ -602,4 +559,3 @@ mod tests {
         assert!((ratio - 0.522).abs() < 1e-3, "{ratio}");
     }
 }
-

@@ -26,13 +26,7 @@ pub struct ClosedContact<const N: usize> {
 #[cfg(test)]
 impl<const N: usize> ClosedContact<N> {
     /// Placeholder value (no contact).
-    pub const EMPTY: Self = ClosedContact {
-        index: 0,
-        gap_n: 0.0,
-        wb: [[0.0; N]; 2],
-        ws: [[0.0; 3]; 2],
-        wtilde: [0.0; 2],
-    };
+    pub const EMPTY: Self = ClosedContact { index: 0, gap_n: 0.0, wb: [[0.0; N]; 2], ws: [[0.0; 3]; 2], wtilde: [0.0; 2] };
 }
 
 /// W of the closed contacts of one step, transposed: column a = 2j + r belongs to the j-th
@@ -174,16 +168,7 @@ pub fn may_close(i: usize, z_p: f64, w0: f64, w: f64, half_thickness: f64) -> bo
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 pub fn finish<const N: usize>(
-    beam: &Beam,
-    slider: &Slider,
-    i: usize,
-    pr: &Probe<N>,
-    sin_b: f64,
-    cos_b: f64,
-    q: &[f64; N],
-    base: BaseState,
-    out: &mut Jacobians<N>,
-    j: usize,
+    beam: &Beam, slider: &Slider, i: usize, pr: &Probe<N>, sin_b: f64, cos_b: f64, q: &[f64; N], base: BaseState, out: &mut Jacobians<N>, j: usize,
 ) -> bool {
     let zz = ZETA_Z[i];
     let hh = slider.half_thickness;
@@ -252,11 +237,11 @@ mod tests {
         let (sb, cb) = qsm[2].sin_cos();
         let mut out = Vec::new();
         for i in 0..4 {
-            let (_, c) = kinematics::<5>(&model.beam, &slider, i, Pose { x_kin: qsm[0], z_c: qsm[1], sin_b: sb, cos_b: cb }, &qm, BaseState { w0: 0.0, w0_dot: 0.0 });
+            let (_, c) =
+                kinematics::<5>(&model.beam, &slider, i, Pose { x_kin: qsm[0], z_c: qsm[1], sin_b: sb, cos_b: cb }, &qm, BaseState { w0: 0.0, w0_dot: 0.0 });
             if let Some(c) = c {
-                let v = |ubv: &[f64], usv: [f64; 3]| -> f64 {
-                    (0..5).map(|m| c.wb[0][m] * ubv[m]).sum::<f64>() + (0..3).map(|m| c.ws[0][m] * usv[m]).sum::<f64>()
-                };
+                let v =
+                    |ubv: &[f64], usv: [f64; 3]| -> f64 { (0..5).map(|m| c.wb[0][m] * ubv[m]).sum::<f64>() + (0..3).map(|m| c.ws[0][m] * usv[m]).sum::<f64>() };
                 out.push((v(ub, us), v(ue_b, ue_s)));
             }
         }

@@ -8,6 +8,6 @@ pub mod properties;
 pub mod slider;
 
 pub use beam::{Beam, FirstMode, Loc};
-pub use properties::BeamProperties;
 pub use excitation::{BaseState, Excitation};
+pub use properties::BeamProperties;
 pub use slider::Slider;

@@ -52,9 +52,8 @@ pub(super) fn phi_derivative(a: &[f64; 4], lam: f64, xi: f64, k: usize) -> f64 {
         2 => (-s, -c),
         _ => (-c, s),
     };
-    let sign = if k % 2 == 0 { 1.0 } else { -1.0 };
-    lam.powi(k as i32)
-        * (a[0] * sk + a[1] * ck + sign * a[2] * (-lam * xi).exp() + a[3] * (-lam * (1.0 - xi)).exp())
+    let sign = if k.is_multiple_of(2) { 1.0 } else { -1.0 };
+    lam.powi(k as i32) * (a[0] * sk + a[1] * ck + sign * a[2] * (-lam * xi).exp() + a[3] * (-lam * (1.0 - xi)).exp())
 }
 
 /// Boundary matrix B(λ) of docs/model.md §2 in the exponential basis, rows scaled by 1/(κλ)
@@ -64,10 +63,22 @@ pub(super) fn boundary_matrix(eps: f64, lam: f64) -> Matrix4<f64> {
     let (s, c) = lam.sin_cos();
     let el = eps * lam;
     Matrix4::new(
-        0.0, 1.0, 1.0, e, // φ(0) = 0
-        -1.0, -el, el + 1.0, (el - 1.0) * e, // ε φ''(0)/λ² − φ'(0)/λ = 0
-        s, c, e, 1.0, // φ(1) = 0
-        -el * s + c, -el * c - s, (el - 1.0) * e, el + 1.0, // ε φ''(1)/λ² + φ'(1)/λ = 0
+        0.0,
+        1.0,
+        1.0,
+        e, // φ(0) = 0
+        -1.0,
+        -el,
+        el + 1.0,
+        (el - 1.0) * e, // ε φ''(0)/λ² − φ'(0)/λ = 0
+        s,
+        c,
+        e,
+        1.0, // φ(1) = 0
+        -el * s + c,
+        -el * c - s,
+        (el - 1.0) * e,
+        el + 1.0, // ε φ''(1)/λ² + φ'(1)/λ = 0
     )
 }
 
@@ -108,11 +119,7 @@ pub(super) fn find_roots(eps: f64, n: usize) -> Result<Vec<f64>> {
         a = b;
         fa = fb;
         if a > 10.0 * (n as f64 + 2.0) * std::f64::consts::PI {
-            return Err(Error::Numerical(format!(
-                "found only {} of {} beam eigenvalues",
-                roots.len(),
-                n
-            )));
+            return Err(Error::Numerical(format!("found only {} of {} beam eigenvalues", roots.len(), n)));
         }
     }
     Ok(roots)
@@ -127,14 +134,8 @@ pub(super) fn null_vector(eps: f64, lam: f64) -> Result<[f64; 4]> {
     }
     let svd = SVD::try_new(b, false, true, 5.0 * f64::EPSILON, 10_000) // the tolerance of `SVD::new`
         .ok_or_else(|| Error::Numerical("SVD of the boundary matrix did not converge".into()))?;
-    let v_t = svd
-        .v_t
-        .ok_or_else(|| Error::Numerical("SVD of the boundary matrix failed".into()))?;
-    let (imin, _) = svd
-        .singular_values
-        .iter()
-        .enumerate()
-        .fold((0, f64::INFINITY), |acc, (i, &s)| if s < acc.1 { (i, s) } else { acc });
+    let v_t = svd.v_t.ok_or_else(|| Error::Numerical("SVD of the boundary matrix failed".into()))?;
+    let (imin, _) = svd.singular_values.iter().enumerate().fold((0, f64::INFINITY), |acc, (i, &s)| if s < acc.1 { (i, s) } else { acc });
     let mut a = [v_t[(imin, 0)], v_t[(imin, 1)], v_t[(imin, 2)], v_t[(imin, 3)]];
     if a[0] < 0.0 {
         for v in a.iter_mut() {
@@ -219,13 +220,7 @@ impl ModeTable {
                 }
             }
         }
-        ModeTable {
-            n,
-            x_scale: 1.0 / (width * length_m),
-            x_offset: -TABLE_XI_MIN / width,
-            intervals_f: intervals as f64,
-            data,
-        }
+        ModeTable { n, x_scale: 1.0 / (width * length_m), x_offset: -TABLE_XI_MIN / width, intervals_f: intervals as f64, data }
     }
 
     /// Locate x [m] (no division): interval index and local variable u ∈ [−1, 1].

@@ -36,18 +36,9 @@ impl Slider {
         let r = p.opening_m();
         let mut r_cp = [[0.0; 2]; N_CONTACTS];
         for i in 0..N_CONTACTS {
-            r_cp[i] = [
-                ZETA_X[i] * 0.5 * p.contact_spacing_m,
-                ZETA_Z[i] * 0.5 * r + p.com_offset_m,
-            ];
+            r_cp[i] = [ZETA_X[i] * 0.5 * p.contact_spacing_m, ZETA_Z[i] * 0.5 * r + p.com_offset_m];
         }
-        Slider {
-            mass: p.slider_mass_kg,
-            inertia: p.slider_inertia_kg_m2,
-            r_cp,
-            half_thickness: 0.5 * p.thickness_m,
-            com_offset: p.com_offset_m,
-        }
+        Slider { mass: p.slider_mass_kg, inertia: p.slider_inertia_kg_m2, r_cp, half_thickness: 0.5 * p.thickness_m, com_offset: p.com_offset_m }
     }
 
     /// Inertial position r_Pᵢ = (x, z) + A(β) r_CPᵢ with A(β) = [[cos β, sin β], [−sin β, cos β]].

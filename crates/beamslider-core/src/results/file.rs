@@ -22,7 +22,6 @@ pub const FORMAT_VERSION: u32 = 3;
 /// completed row reclassified from the signals of its end state (docs/model.md §8).
 pub const READABLE_VERSIONS: [u32; 3] = [1, 2, 3];
 
-
 /// What decides a row besides the grid point: written to the results header, compared on resume.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Settings {
@@ -77,7 +76,10 @@ impl ResultsFile {
     /// text; None for a file without a header.
     pub fn header_json(&self) -> Option<String> {
         let s = self.settings.as_ref()?;
-        Some(serde_json::to_string(&Header { beamslider_map: self.version, settings: s.clone(), study: self.study.clone(), predictor: self.predictor.clone() }).expect("header serialises"))
+        Some(
+            serde_json::to_string(&Header { beamslider_map: self.version, settings: s.clone(), study: self.study.clone(), predictor: self.predictor.clone() })
+                .expect("header serialises"),
+        )
     }
 }
 
@@ -122,7 +124,11 @@ pub fn read_results(path: &Path) -> Result<ResultsFile> {
             match serde_json::from_str::<Header>(text) {
                 Ok(h) => {
                     if !READABLE_VERSIONS.contains(&h.beamslider_map) {
-                        return Err(Error::invalid("results file", path.display(), &format!("format version {} (this build reads {FORMAT_VERSION})", h.beamslider_map)));
+                        return Err(Error::invalid(
+                            "results file",
+                            path.display(),
+                            &format!("format version {} (this build reads {FORMAT_VERSION})", h.beamslider_map),
+                        ));
                     }
                     out.version = h.beamslider_map;
                     out.settings = Some(h.settings);
@@ -185,7 +191,8 @@ pub(crate) fn header_line_with(s: &Settings, study: Option<&serde_json::Value>) 
 }
 
 pub(crate) fn header_line_predictor(s: &Settings, predictor: Option<&serde_json::Value>) -> String {
-    serde_json::to_string(&Header { beamslider_map: FORMAT_VERSION, settings: s.clone(), study: None, predictor: predictor.cloned() }).expect("header serialises")
+    serde_json::to_string(&Header { beamslider_map: FORMAT_VERSION, settings: s.clone(), study: None, predictor: predictor.cloned() })
+        .expect("header serialises")
 }
 
 /// Append one line and flush it to the operating system.

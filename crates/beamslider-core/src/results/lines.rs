@@ -35,7 +35,11 @@ pub fn read_json_lines(path: &Path, key: &str, version: u64) -> Result<JsonLines
         let v: serde_json::Value = serde_json::from_str(line)
             .map_err(|_| Error::invalid("results file", format!("{}:{}", path.display(), k + 1), "this line is damaged (not JSON)"))?;
         if k == 0 && v.get(key) != Some(&serde_json::json!(version)) {
-            return Err(Error::invalid("results file", path.display(), &format!("not a beamslider results file of this kind (line 1 without \"{key}\": {version})")));
+            return Err(Error::invalid(
+                "results file",
+                path.display(),
+                &format!("not a beamslider results file of this kind (line 1 without \"{key}\": {version})"),
+            ));
         }
     }
     Ok(JsonLines { lines, good_len: good as u64, truncated: good < data.len() })

@@ -152,8 +152,8 @@ mod tests {
     #[test]
     fn one_writer_while_others_release_and_retake() {
         // Threads hammer acquire/release: never two holders at once (the counter stays at 0 or 1).
-        use std::sync::atomic::{AtomicUsize, Ordering};
         use std::sync::Arc;
+        use std::sync::atomic::{AtomicUsize, Ordering};
         let dir = std::env::temp_dir().join(format!("bs-lock-race-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         let results = Arc::new(dir.join("map.jsonl"));

@@ -262,7 +262,10 @@ impl MapRow {
     /// creeping) or is undetermined (settled at a level between the thresholds, which a longer
     /// run may still leave), with an end state before `t_end_s`: continued by an extension.
     pub fn continuable(&self, t_end_s: f64) -> bool {
-        (!self.settled || matches!(self.behaviour, Behaviour::NotSettled | Behaviour::Undetermined)) && self.status == Status::Completed.name() && self.end.is_some() && self.t_end_s < t_end_s
+        (!self.settled || matches!(self.behaviour, Behaviour::NotSettled | Behaviour::Undetermined))
+            && self.status == Status::Completed.name()
+            && self.end.is_some()
+            && self.t_end_s < t_end_s
     }
 
     /// The `settled` flag of a row written before the flag existed (format version 2): settled

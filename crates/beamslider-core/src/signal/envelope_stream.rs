@@ -258,7 +258,7 @@ pub mod hexf {
 
     /// Decode (None when malformed).
     pub fn decode(s: &str) -> Option<Vec<f64>> {
-        if s.len() % 16 != 0 || !s.is_ascii() {
+        if !s.len().is_multiple_of(16) || !s.is_ascii() {
             return None;
         }
         (0..s.len() / 16).map(|i| u64::from_str_radix(&s[16 * i..16 * i + 16], 16).ok().map(f64::from_bits)).collect()

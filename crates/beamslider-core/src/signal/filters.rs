@@ -25,7 +25,7 @@ impl Analytic {
         // Weights: 1 at DC (and Nyquist for even n), 2 for positive frequencies, 0 for negative.
         let half = n / 2;
         for (k, v) in buf.iter_mut().enumerate() {
-            let w = if k == 0 || (n % 2 == 0 && k == half) {
+            let w = if k == 0 || (n.is_multiple_of(2) && k == half) {
                 1.0
             } else if k < n.div_ceil(2) {
                 2.0
@@ -139,11 +139,7 @@ pub fn envelope_checked(x: &[f64], dt_s: f64, window_s: f64) -> Result<Vec<f64>>
 
 /// `value` finite and > 0, or an error naming `field` (`unit` appended to the rule).
 pub fn positive(field: &str, value: f64, unit: &str) -> Result<()> {
-    if value.is_finite() && value > 0.0 {
-        Ok(())
-    } else {
-        Err(Error::invalid(field, value, &format!("must be finite and > 0{unit}")))
-    }
+    if value.is_finite() && value > 0.0 { Ok(()) } else { Err(Error::invalid(field, value, &format!("must be finite and > 0{unit}"))) }
 }
 
 #[cfg(test)]

@@ -9,8 +9,8 @@ use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 
-use crate::error::{Error, Result};
 use crate::dynamics::record::{CsvRecorder, Recorder};
+use crate::error::{Error, Result};
 
 /// Format of a trajectory file.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -194,10 +194,7 @@ impl Recorder for FileRecorder {
 /// Options of the stored `.npy` members (zip64 when a member may exceed 4 GiB).
 fn npz_options(rows: u64) -> zip::write::SimpleFileOptions {
     let large = rows.saturating_mul(8) >= u32::MAX as u64 - 4096;
-    zip::write::SimpleFileOptions::default()
-        .compression_method(zip::CompressionMethod::Stored)
-        .large_file(large)
-        .with_alignment(64)
+    zip::write::SimpleFileOptions::default().compression_method(zip::CompressionMethod::Stored).large_file(large).with_alignment(64)
 }
 
 fn zip_err(path: &Path) -> impl Fn(zip::result::ZipError) -> Error + '_ {
@@ -209,12 +206,7 @@ fn zip_err(path: &Path) -> impl Fn(zip::result::ZipError) -> Error + '_ {
 /// `fill(writer, k)` writes or skips the values of member k. Returns the offset of each member's
 /// first value.
 fn npz_members<W: Write + std::io::Seek>(
-    out: W,
-    names: &[String],
-    rows: u64,
-    crcs: &[u32],
-    mut fill: impl FnMut(&mut W, usize) -> std::io::Result<()>,
-    path: &Path,
+    out: W, names: &[String], rows: u64, crcs: &[u32], mut fill: impl FnMut(&mut W, usize) -> std::io::Result<()>, path: &Path,
 ) -> Result<(Vec<u64>, W)> {
     let zerr = zip_err(path);
     let mut z = zip::ZipWriter::new(out);
@@ -299,10 +291,17 @@ struct NpzStream {
 impl NpzStream {
     fn start(tmp: &Path, names: &[String], expected: u64) -> Result<NpzStream> {
         use std::sync::mpsc;
-        let (offsets, _) = npz_members(Counter::default(), names, expected, &vec![0; names.len()], |w, _| {
-            use std::io::Seek;
-            w.seek(std::io::SeekFrom::Current(expected as i64 * 8)).map(|_| ())
-        }, tmp)?;
+        let (offsets, _) = npz_members(
+            Counter::default(),
+            names,
+            expected,
+            &vec![0; names.len()],
+            |w, _| {
+                use std::io::Seek;
+                w.seek(std::io::SeekFrom::Current(expected as i64 * 8)).map(|_| ())
+            },
+            tmp,
+        )?;
         let file = File::create(tmp).map_err(|e| io_err(tmp, e))?;
         let cols = names.len().max(1);
         let cap = (NPZ_CHUNK_BYTES / (8 * cols)).max(64);
@@ -390,10 +389,17 @@ impl NpzStream {
         }
         let crcs: Vec<u32> = crcs.into_iter().map(|h| h.finalize()).collect();
         let f = std::fs::OpenOptions::new().write(true).open(tmp).map_err(|e| io_err(tmp, e))?;
-        let (offsets, w) = npz_members(BufWriter::with_capacity(1 << 16, f), &self.names, rows, &crcs, |w, _| {
-            use std::io::Seek;
-            w.seek(std::io::SeekFrom::Current(rows as i64 * 8)).map(|_| ())
-        }, tmp)?;
+        let (offsets, w) = npz_members(
+            BufWriter::with_capacity(1 << 16, f),
+            &self.names,
+            rows,
+            &crcs,
+            |w, _| {
+                use std::io::Seek;
+                w.seek(std::io::SeekFrom::Current(rows as i64 * 8)).map(|_| ())
+            },
+            tmp,
+        )?;
         if offsets != self.offsets {
             return Err(Error::Numerical("internal error: the NPZ layout changed between the plan and the commit".into()));
         }
@@ -433,12 +439,7 @@ impl NpzStream {
 /// every column, buffers handed back for reuse; every [`NPZ_SYNC_BYTES`] a syncing thread is
 /// asked to flush the file to disk (it runs beside the writer, so neither waits for the disk).
 fn npz_writer(
-    mut file: File,
-    sync_file: File,
-    rx: std::sync::mpsc::Receiver<Chunk>,
-    free: std::sync::mpsc::Sender<Vec<u8>>,
-    offsets: Vec<u64>,
-    cap: usize,
+    mut file: File, sync_file: File, rx: std::sync::mpsc::Receiver<Chunk>, free: std::sync::mpsc::Sender<Vec<u8>>, offsets: Vec<u64>, cap: usize,
     mut crcs: Vec<crc32fast::Hasher>,
 ) -> WriterResult {
     use std::io::Seek;
@@ -446,9 +447,7 @@ fn npz_writer(
     let syncer = std::thread::Builder::new().name("beamslider-npz-sync".into()).spawn(move || {
         while sync_rx.recv().is_ok() {
             while sync_rx.try_recv().is_ok() {}
-            if let Err(e) = sync_file.sync_data() {
-                return Err(e);
-            }
+            sync_file.sync_data()?;
         }
         Ok(())
     })?;
@@ -458,9 +457,7 @@ fn npz_writer(
         for (k, &off) in offsets.iter().enumerate() {
             let col = &chunk.bytes[k * cap * 8..(k * cap + chunk.rows) * 8];
             crcs[k].update(col);
-            result = file
-                .seek(std::io::SeekFrom::Start(off + chunk.first_row * 8))
-                .and_then(|_| file.write_all(col));
+            result = file.seek(std::io::SeekFrom::Start(off + chunk.first_row * 8)).and_then(|_| file.write_all(col));
             if result.is_err() {
                 break;
             }

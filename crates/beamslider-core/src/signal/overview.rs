@@ -11,9 +11,9 @@
 //!   argmin/argmax), in time order, then the extremes of the remainder (the same samples as
 //!   `beamslider.plotting.decimate_minmax`).
 
-use crate::signal::envelope_stream::EnvelopeStream;
-use crate::error::Result;
 use crate::dynamics::record::Recorder;
+use crate::error::Result;
+use crate::signal::envelope_stream::EnvelopeStream;
 
 /// The extremes of one run of samples.
 #[derive(Debug, Clone, Copy)]
@@ -43,11 +43,8 @@ impl Extremes {
 
     /// The two samples in time order (a remainder lists a sample that is both only once).
     fn emit(&self, t: &mut Vec<f64>, y: &mut Vec<f64>, dedup: bool) {
-        let (a, b) = if self.i_min <= self.i_max {
-            ((self.t_min, self.v_min), (self.t_max, self.v_max))
-        } else {
-            ((self.t_max, self.v_max), (self.t_min, self.v_min))
-        };
+        let (a, b) =
+            if self.i_min <= self.i_max { ((self.t_min, self.v_min), (self.t_max, self.v_max)) } else { ((self.t_max, self.v_max), (self.t_min, self.v_min)) };
         t.push(a.0);
         y.push(a.1);
         if !(dedup && self.i_min == self.i_max) {
@@ -150,17 +147,7 @@ impl OverviewRecorder {
     pub fn new(expected_rows: u64, columns: usize, dt_s: f64, record_every: usize) -> OverviewRecorder {
         let k = record_every.max(1);
         let stride = ((crate::signal::envelope_stream::DEFAULT_RECORD_EVERY as f64 / k as f64).round() as u64).max(1);
-        OverviewRecorder {
-            expected_rows,
-            columns,
-            stride,
-            sample_dt_s: dt_s * k as f64 * stride as f64,
-            idx: None,
-            skip: 0,
-            w: None,
-            s: None,
-            signals: None,
-        }
+        OverviewRecorder { expected_rows, columns, stride, sample_dt_s: dt_s * k as f64 * stride as f64, idx: None, skip: 0, w: None, s: None, signals: None }
     }
 
     /// The overview (see [`Overview`]).

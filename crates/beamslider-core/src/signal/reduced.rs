@@ -121,7 +121,9 @@ pub fn run_one(job: &Job, red: &Reduction, cancel: &AtomicBool) -> Result<Option
 
 /// Run `jobs` in parallel on `threads` workers (None: one per core); `on_done()` after each
 /// finished job. Returns one result per job in job order, or None when cancelled.
-pub fn run_batch(jobs: &[Job], red: &Reduction, threads: Option<usize>, cancel: &AtomicBool, on_done: impl Fn() + Send + Sync) -> Result<Option<Vec<Result<Reduced>>>> {
+pub fn run_batch(
+    jobs: &[Job], red: &Reduction, threads: Option<usize>, cancel: &AtomicBool, on_done: impl Fn() + Send + Sync,
+) -> Result<Option<Vec<Result<Reduced>>>> {
     runner::check_threads(threads)?;
     red.check()?;
     let indexed: Vec<(usize, &Job)> = jobs.iter().enumerate().collect();

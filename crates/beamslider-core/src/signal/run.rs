@@ -106,7 +106,9 @@ pub fn model_named(name: &str, s_pcs: Option<f64>, s0: f64) -> Result<SliderMode
         "fs" => Ok(SliderModel::Free),
         "pcs" => Ok(SliderModel::PseudoConstrained { s: s_pcs.unwrap_or(s0) }),
         "beam" => Ok(SliderModel::BeamOnly),
-        other => Err(Error::invalid("model", format!("{other:?}"), r#"must be one of "fs" (free slider), "pcs" (pseudo-constrained slider), "beam" (beam only)"#)),
+        other => {
+            Err(Error::invalid("model", format!("{other:?}"), r#"must be one of "fs" (free slider), "pcs" (pseudo-constrained slider), "beam" (beam only)"#))
+        }
     }
 }
 

@@ -125,14 +125,7 @@ pub fn closed_form_n1(params: &Params, f_ex_hz: f64, a_ex: f64, s: &[f64], d_eff
 }
 
 /// [`closed_form_n1`] with ω₁ → `omega1_factor`·ω₁.
-pub fn closed_form_n1_scaled(
-    params: &Params,
-    f_ex_hz: f64,
-    a_ex: f64,
-    s: &[f64],
-    d_eff: Option<f64>,
-    omega1_factor: f64,
-) -> Result<ClosedFormN1> {
+pub fn closed_form_n1_scaled(params: &Params, f_ex_hz: f64, a_ex: f64, s: &[f64], d_eff: Option<f64>, omega1_factor: f64) -> Result<ClosedFormN1> {
     params.validate()?;
     check_inputs(params, f_ex_hz, a_ex, s, d_eff)?;
     let beam = Beam::new(&Params { n_modes: 1, ..params.clone() })?;
@@ -157,13 +150,7 @@ fn check_inputs(params: &Params, f_ex_hz: f64, a_ex: f64, s: &[f64], d_eff: Opti
 /// [`closed_form_n1_scaled`] with the beam's modes given (computed once per parameter set:
 /// `Beam::new` costs more than the closed form itself). `beam` must come from `params`.
 pub fn closed_form_n1_with_beam(
-    beam: &Beam,
-    params: &Params,
-    f_ex_hz: f64,
-    a_ex: f64,
-    s: &[f64],
-    d_eff: Option<f64>,
-    omega1_factor: f64,
+    beam: &Beam, params: &Params, f_ex_hz: f64, a_ex: f64, s: &[f64], d_eff: Option<f64>, omega1_factor: f64,
 ) -> Result<ClosedFormN1> {
     check_inputs(params, f_ex_hz, a_ex, s, d_eff)?;
     let n1 = n1_model(beam, params, f_ex_hz, a_ex, d_eff, omega1_factor)?;

@@ -28,13 +28,7 @@ pub(super) struct ContWork {
 impl ContWork {
     pub(super) fn new(sys: &HbSystem) -> RefCell<ContWork> {
         let d = sys.nx + 1;
-        RefCell::new(ContWork {
-            eval: EvalWork::new(sys),
-            bordered: LuWork::new(d),
-            jx: LuWork::new(sys.nx),
-            rhs: DVector::zeros(d),
-            diff: DVector::zeros(d),
-        })
+        RefCell::new(ContWork { eval: EvalWork::new(sys), bordered: LuWork::new(d), jx: LuWork::new(sys.nx), rhs: DVector::zeros(d), diff: DVector::zeros(d) })
     }
 }
 
@@ -238,7 +232,13 @@ impl Continuation<'_> {
             run.points.push((c.y.clone(), st));
             y = c.y;
             t = t_new;
-            h = if c.iters <= 3 { (h * 1.5).min(self.h_max) } else if c.iters >= 6 { h * 0.6 } else { h };
+            h = if c.iters <= 3 {
+                (h * 1.5).min(self.h_max)
+            } else if c.iters >= 6 {
+                h * 0.6
+            } else {
+                h
+            };
         }
         run
     }
@@ -248,14 +248,19 @@ impl Continuation<'_> {
 /// (the lowest-amplitude solution reached from rest).
 pub(super) fn solve_from_rest(sys: &HbSystem, s: f64, opts: &HbOptions) -> Result<DVector<f64>> {
     let n2 = sys.nx;
-    let cont = Continuation { sys, par: Param::Load { s }, max_steps: opts.max_steps, h_max: opts.max_step * 5.0, h_min: 1e-10, stop_at_fold: false, work: ContWork::new(sys) };
+    let cont = Continuation {
+        sys,
+        par: Param::Load { s },
+        max_steps: opts.max_steps,
+        h_max: opts.max_step * 5.0,
+        h_min: 1e-10,
+        stop_at_fold: false,
+        work: ContWork::new(sys),
+    };
     let y0 = DVector::zeros(n2 + 1);
     let run = cont.trace(y0, 1.0, -1.0, 1.0);
     if !run.complete {
-        return Err(Error::Numerical(format!(
-            "HB: continuation in the excitation level at s = {s} did not reach a_ex within {} steps",
-            run.steps
-        )));
+        return Err(Error::Numerical(format!("HB: continuation in the excitation level at s = {s} did not reach a_ex within {} steps", run.steps)));
     }
     let (y, _) = run.points.last().cloned().ok_or_else(|| Error::Numerical("HB: empty load continuation".into()))?;
     if (y[n2] - 1.0).abs() > 1e-12 {
@@ -278,11 +283,7 @@ pub(super) fn check_grid(s: &[f64], lo: f64, hi: f64) -> Result<()> {
     }
     let tol = 1e-12;
     if s[0] < lo - tol || s[s.len() - 1] > hi + tol {
-        return Err(Error::invalid(
-            "s",
-            format!("[{}, {}]", s[0], s[s.len() - 1]),
-            &format!("slider positions must lie in [B/(2L), {hi}] = [{lo}, {hi}]"),
-        ));
+        return Err(Error::invalid("s", format!("[{}, {}]", s[0], s[s.len() - 1]), &format!("slider positions must lie in [B/(2L), {hi}] = [{lo}, {hi}]")));
     }
     Ok(())
 }
@@ -309,7 +310,15 @@ pub fn hb_manifold<'a>(params: impl Into<ParamsArg<'a>>, f_ex_hz: f64, a_ex: f64
     }
     let (s_lo, s_hi) = (grid[0], grid[grid.len() - 1]);
     let n2 = sys.nx;
-    let cont = Continuation { sys: &sys, par: Param::S { load: 1.0 }, max_steps: opts.max_steps, h_max: opts.max_step, h_min: 1e-10, stop_at_fold: false, work: ContWork::new(&sys) };
+    let cont = Continuation {
+        sys: &sys,
+        par: Param::S { load: 1.0 },
+        max_steps: opts.max_steps,
+        h_max: opts.max_step,
+        h_min: 1e-10,
+        stop_at_fold: false,
+        work: ContWork::new(&sys),
+    };
     let mut out = HbManifold {
         s_range: (s_lo, s_hi),
         n_modes: sys.n,
@@ -324,10 +333,8 @@ pub fn hb_manifold<'a>(params: impl Into<ParamsArg<'a>>, f_ex_hz: f64, a_ex: f64
     out.steps = up.steps + down.steps;
     for (name, run) in [("upward", &up), ("downward", &down)] {
         if !run.complete {
-            out.warnings.push(format!(
-                "{name} continuation stopped after {} steps before leaving [{s_lo}, {s_hi}] (max_steps = {})",
-                run.steps, opts.max_steps
-            ));
+            out.warnings
+                .push(format!("{name} continuation stopped after {} steps before leaving [{s_lo}, {s_hi}] (max_steps = {})", run.steps, opts.max_steps));
         }
     }
     let to_branch = |pts: &[(DVector<f64>, bool)]| {

@@ -46,7 +46,8 @@ pub const COORDINATES: [&str; 9] = [
 ];
 
 /// Fields that are not coordinates: a design that changes one of them lies outside the law.
-pub const FIXED: [&str; 8] = ["length_m", "thickness_m", "density_kg_m3", "beam_mass_kg", "damping_ratio_quadratic", "axial_preload_n", "gravity_m_s2", "tilt_rad"];
+pub const FIXED: [&str; 8] =
+    ["length_m", "thickness_m", "density_kg_m3", "beam_mass_kg", "damping_ratio_quadratic", "axial_preload_n", "gravity_m_s2", "tilt_rad"];
 
 /// Grid of Â/max Â_H on which a blended law is materialised (start, stop, nodes).
 pub const GRID_AMP: (f64, f64, usize) = (0.0, 1.25, 26);
@@ -230,8 +231,7 @@ impl DesignLaw {
                 }
             }
             let lf: LawFile = serde_json::from_value(law.clone()).map_err(|er| bad(source, &format!("designs[{i}].law: {er}")))?;
-            let law = DriftLaw::from_law_file(lf.clone())
-                .map_err(|er| bad(source, &format!("designs[{i}].law: {}", er.to_string().replace('\n', " "))))?;
+            let law = DriftLaw::from_law_file(lf.clone()).map_err(|er| bad(source, &format!("designs[{i}].law: {}", er.to_string().replace('\n', " "))))?;
             unit.push(u);
             files.push(lf);
             laws.push(law);

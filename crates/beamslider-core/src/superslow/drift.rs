@@ -40,10 +40,10 @@ use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
 use serde::{Deserialize, Serialize};
 
-use crate::error::{Error, Result};
 use crate::dynamics::record::{Channel, MemoryRecorder, NullRecorder};
-use crate::signal::hilbert_envelope;
 use crate::dynamics::simulation::{CancelFlag, Excitation, Model, RunOptions, SliderModel, State, Status};
+use crate::error::{Error, Result};
+use crate::signal::hilbert_envelope;
 
 /// Settings of [`drift_table_pcs`] (the defaults of docs/model.md §6.3; `s_values` is required
 /// when read from keyword arguments, the other fields take their defaults).
@@ -117,7 +117,11 @@ impl DriftOptions {
             }
         }
         if self.s_values.iter().any(|s| !(s.is_finite() && *s >= s_min - 1e-12 && *s <= 0.5 + 1e-12)) {
-            return Err(Error::invalid("s_values", "out of range", &format!("all s must lie in [{s_min:.6}, 0.5] (the half near the clamping; `mirror` gives the other half)")));
+            return Err(Error::invalid(
+                "s_values",
+                "out of range",
+                &format!("all s must lie in [{s_min:.6}, 0.5] (the half near the clamping; `mirror` gives the other half)"),
+            ));
         }
         if self.settle_periods == 0 || self.first_settle_periods == 0 {
             return Err(Error::invalid("settle_periods", 0, "must be >= 1"));
@@ -271,8 +275,8 @@ pub fn read_drift_table(path: &Path) -> Result<(DriftHeader, Vec<DriftRow>)> {
         Some(l) => l.map_err(|e| io(path, e))?,
         None => return Err(Error::invalid("drift table", path.display(), "the file is empty (no header line)")),
     };
-    let header: DriftHeader = serde_json::from_str(&first)
-        .map_err(|e| Error::invalid("drift table", path.display(), &format!("first line is not a drift-table header: {e}")))?;
+    let header: DriftHeader =
+        serde_json::from_str(&first).map_err(|e| Error::invalid("drift table", path.display(), &format!("first line is not a drift-table header: {e}")))?;
     if header.format != FORMAT {
         return Err(Error::invalid("drift table", path.display(), "not a beamslider drift table"));
     }
@@ -298,12 +302,7 @@ pub fn read_drift_table(path: &Path) -> Result<(DriftHeader, Vec<DriftRow>)> {
 /// `progress(done, total)` is called after every row (from the worker threads); setting `cancel`
 /// stops both sweeps (Error::Interrupted; finished rows stay in the file).
 pub fn drift_table_pcs(
-    model: &Model,
-    excitation: &Excitation,
-    opts: &DriftOptions,
-    out: Option<&Path>,
-    resume: bool,
-    cancel: &AtomicBool,
+    model: &Model, excitation: &Excitation, opts: &DriftOptions, out: Option<&Path>, resume: bool, cancel: &AtomicBool,
     progress: &(dyn Fn(usize, usize) + Sync),
 ) -> Result<DriftTable> {
     excitation.validate()?;
@@ -386,12 +385,7 @@ pub fn drift_table_pcs(
 
 /// One sweep; `prior` are its rows read from the file (continued from the last one).
 fn sweep(
-    model: &Model,
-    excitation: &Excitation,
-    opts: &DriftOptions,
-    dir: Sweep,
-    prior: Vec<DriftRow>,
-    cancel: &AtomicBool,
+    model: &Model, excitation: &Excitation, opts: &DriftOptions, dir: Sweep, prior: Vec<DriftRow>, cancel: &AtomicBool,
     write_row: &(dyn Fn(&DriftRow) -> Result<()> + Sync),
 ) -> Result<Vec<DriftRow>> {
     let grid: Vec<f64> = match dir {

@@ -119,11 +119,7 @@ impl HbSystem {
             return Err(Error::invalid("n_modes", opts.n_modes, "must lie in 1..=20"));
         }
         if !matches!(opts.harmonics, 1 | 3 | 5 | 7) {
-            return Err(Error::invalid(
-                "harmonics",
-                opts.harmonics,
-                "must be 1, 3, 5 or 7 (odd harmonics up to H; even harmonics alone are not excited)",
-            ));
+            return Err(Error::invalid("harmonics", opts.harmonics, "must be 1, 3, 5 or 7 (odd harmonics up to H; even harmonics alone are not excited)"));
         }
         check_d_eff(opts.d_eff)?;
         if !(opts.omega1_factor.is_finite() && opts.omega1_factor > 0.0) {
@@ -142,20 +138,14 @@ impl HbSystem {
         let e_diag = omega.iter().map(|w| omega_ex * 2.0 * d * w).collect();
         let x_mid = 0.5 * p.length_m;
         let d2 = (p.damping_ratio_quadratic > 0.0).then(|| {
-            let kappa = omega
-                .iter()
-                .map(|w| 2.0 * w * p.damping_ratio_quadratic * omega_ex / (p.thickness_m * p.thickness_m))
-                .collect();
+            let kappa = omega.iter().map(|w| 2.0 * w * p.damping_ratio_quadratic * omega_ex / (p.thickness_m * p.thickness_m)).collect();
             (kappa, beam.phi_row(x_mid))
         });
         let p47 = beam.phi_row(4.0 / 7.0 * p.length_m);
-        let phi_max = (0..=200)
-            .map(|i| beam.phi_exact(0, p.length_m * i as f64 / 200.0).abs())
-            .fold(0.0, f64::max);
+        let phi_max = (0..=200).map(|i| beam.phi_exact(0, p.length_m * i as f64 / 200.0).abs()).fold(0.0, f64::max);
         let q_ref = p.thickness_m / phi_max;
         let f_ref = omega[0] * omega[0] * q_ref;
-        let mhb = (opts.harmonics > 1 || opts.static_sag)
-            .then(|| mhb::Mhb::new(n, opts.harmonics, opts.static_sag, p.slider_mass_kg * p.gravity_m_s2));
+        let mhb = (opts.harmonics > 1 || opts.static_sag).then(|| mhb::Mhb::new(n, opts.harmonics, opts.static_sag, p.slider_mass_kg * p.gravity_m_s2));
         let nx = mhb.as_ref().map_or(2 * n, |m| m.nx);
         let terms = HbTerms {
             n,
@@ -256,9 +246,7 @@ impl HbSystem {
             y[self.n + i] = v[i] / self.q_ref;
         }
         y[self.nx] = s;
-        let y = self
-            .newton_fixed(&y, Param::S { load: 1.0 })
-            .ok_or_else(|| Error::Numerical(format!("HB Newton did not converge at s = {s}")))?;
+        let y = self.newton_fixed(&y, Param::S { load: 1.0 }).ok_or_else(|| Error::Numerical(format!("HB Newton did not converge at s = {s}")))?;
         Ok(self.uv(&y))
     }
 
@@ -414,9 +402,7 @@ impl HbSystem {
                 let dot = |a: &[f64], b: &[f64]| DVectorView::from_slice(a, n).dot(&DVectorView::from_slice(b, n));
                 let (pu, du, ddu) = (dot(phi, us), dot(dphi, us), dot(ddphi, us));
                 let (pv, dv, ddv) = (dot(phi, vs), dot(dphi, vs), dot(ddphi, vs));
-                let dm = |i: usize, pw: f64, dw: f64, ddw: f64| {
-                    (self.mass * (dphi[i] * pw + phi[i] * dw) + self.j_g * (ddphi[i] * dw + dphi[i] * ddw)) * l
-                };
+                let dm = |i: usize, pw: f64, dw: f64, ddw: f64| (self.mass * (dphi[i] * pw + phi[i] * dw) + self.j_g * (ddphi[i] * dw + dphi[i] * ddw)) * l;
                 for i in 0..n {
                     let (dmu, dmv) = (dm(i, pu, du, ddu), dm(i, pv, dv, ddv));
                     jp[i] = (-om2 * dmu - load * l * self.mass * dphi[i] * self.a_ex) / self.f_ref;

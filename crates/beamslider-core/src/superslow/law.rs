@@ -25,7 +25,6 @@ use crate::error::{Error, Result};
 use crate::params::Params;
 use crate::physics::beam::Beam;
 
-
 /// Inputs of the law, in this order (as `beamslider.drift_law.FEATURES`).
 pub const FEATURES: [&str; 2] = ["amp_rel", "s"];
 /// Number of inputs.

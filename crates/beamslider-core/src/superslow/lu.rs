@@ -3,7 +3,6 @@
 
 use nalgebra::{DMatrix, DVector};
 
-
 /// LU factorisation with partial pivoting, in place on a reused square matrix `a`: the operations
 /// of nalgebra's `LU::new`, `solve` and `determinant` in the same order (pivot = the first entry
 /// of largest modulus, multipliers scaled by the pivot's reciprocal, a zero pivot column skipped,

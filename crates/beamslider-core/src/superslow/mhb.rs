@@ -304,7 +304,13 @@ impl Mhb {
             let k = self.orders[h];
             for part in 0..parts(h) {
                 let ro = self.offsets[h] + part * n;
-                let (rw, row_sin) = if k == 0 { (1.0 / nt as f64, false) } else if part == 0 { (2.0 / nt as f64, false) } else { (-2.0 / nt as f64, true) };
+                let (rw, row_sin) = if k == 0 {
+                    (1.0 / nt as f64, false)
+                } else if part == 0 {
+                    (2.0 / nt as f64, false)
+                } else {
+                    (-2.0 / nt as f64, true)
+                };
                 for (l, &kl) in self.orders.iter().enumerate() {
                     for cpart in 0..parts(l) {
                         let co = self.offsets[l] + cpart * n;

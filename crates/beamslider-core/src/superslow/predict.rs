@@ -8,13 +8,14 @@
 //! Closed form: the manifold and the features (layer (a)). Fitted: V (the law's samples are PCS
 //! drift tables of the training points).
 
-
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
 use super::branch::HbManifold;
 use super::continuation::hb_manifold;
 use super::law::{DriftLaw, Features, MONO_NODES, beam_for, features_with};
+pub use super::predict_options::{Drift, PredictArgs, PredictOptions, SDnRule, Source, TableDrift};
+use super::predict_options::{dead_band, interp};
 use super::slowflow::{EventKind, Prediction, SlowBranch, SlowFlowOptions, SlowModel, slow_flow};
 use crate::classify::Behaviour;
 use crate::dynamics::runner::run_batch;
@@ -24,8 +25,6 @@ use crate::map::{Job, MapConfig, MapOutcome, MapPoint, MapResults, MapRow, MapRu
 use crate::params::Params;
 use crate::physics::beam::Beam;
 pub use crate::results::STATUS_PREDICTED;
-pub use super::predict_options::{Drift, PredictArgs, PredictOptions, SDnRule, Source, TableDrift};
-use super::predict_options::{dead_band, interp};
 
 /// Largest change of the final s [–] under V ± `v_resolution` for which a prediction counts as
 /// robust (the tolerance on the final s of a run; not applied to a relaxation
@@ -146,7 +145,9 @@ pub fn slow_model(params: &Params, manifold: &HbManifold, law: &DriftLaw, f_ex_h
 }
 
 /// [`slow_model`] with the beam of [`beam_for`] built once by the caller.
-pub fn slow_model_with(params: &Params, beam: &Beam, manifold: &HbManifold, law: &DriftLaw, f_ex_hz: f64, a_ex: f64, nodes: usize) -> Result<(SlowModel, bool)> {
+pub fn slow_model_with(
+    params: &Params, beam: &Beam, manifold: &HbManifold, law: &DriftLaw, f_ex_hz: f64, a_ex: f64, nodes: usize,
+) -> Result<(SlowModel, bool)> {
     slow_model_masked(params, beam, manifold, law, f_ex_hz, a_ex, nodes, SDnRule::Law).map(|b| (b.model, b.extrapolated))
 }
 
@@ -186,7 +187,9 @@ fn s_dn_source(s_dn: Option<f64>, hb: Option<f64>, rule: SDnRule) -> &'static st
 
 /// [`slow_model_with`] under a jump-down rule, also returning what [`Built`] holds.
 #[allow(clippy::too_many_arguments)]
-fn slow_model_masked(params: &Params, beam: &Beam, manifold: &HbManifold, law: &DriftLaw, f_ex_hz: f64, a_ex: f64, nodes: usize, rule: SDnRule) -> Result<Built> {
+fn slow_model_masked(
+    params: &Params, beam: &Beam, manifold: &HbManifold, law: &DriftLaw, f_ex_hz: f64, a_ex: f64, nodes: usize, rule: SDnRule,
+) -> Result<Built> {
     let mut moving: Moving = [Vec::new(), Vec::new()];
     let mut all_feats: [Vec<Features>; 2] = [Vec::new(), Vec::new()];
     let mut extrapolated = !law.outside_design.is_empty() || law.outside_points(f_ex_hz, a_ex);
@@ -244,10 +247,20 @@ fn slow_model_masked(params: &Params, beam: &Beam, manifold: &HbManifold, law: &
 /// between the table's rows) or, with [`Source::Table`] or when the table's jump-down lies below
 /// the HB jump-up (no coexistence in the combined model), the table's own branches.
 #[allow(clippy::too_many_arguments)]
-fn table_slow_model(params: &Params, beam: &Beam, manifold: Option<&HbManifold>, table: &TableDrift, f_ex_hz: f64, a_ex: f64, opts: &PredictOptions) -> Result<Built> {
+fn table_slow_model(
+    params: &Params, beam: &Beam, manifold: Option<&HbManifold>, table: &TableDrift, f_ex_hz: f64, a_ex: f64, opts: &PredictOptions,
+) -> Result<Built> {
     let own = |note: Option<String>| {
         let src = if table.own.high_ends_in_fold { "table" } else { "none" };
-        Built { model: table.own.clone(), extrapolated: false, moving: [Vec::new(), Vec::new()], features: [Vec::new(), Vec::new()], s_dn_source: src, monostable: false, note }
+        Built {
+            model: table.own.clone(),
+            extrapolated: false,
+            moving: [Vec::new(), Vec::new()],
+            features: [Vec::new(), Vec::new()],
+            s_dn_source: src,
+            monostable: false,
+            note,
+        }
     };
     let Some(manifold) = manifold else { return Ok(own(None)) };
     let s_dn = match opts.s_dn {
@@ -301,7 +314,8 @@ fn monostable_low(params: &Params, beam: &Beam, manifold: &HbManifold, law: &Dri
     let s: Vec<f64> = (0..MONO_NODES).map(|i| lo + (su - lo) * i as f64 / MONO_NODES as f64).collect();
     let feats = features_with(params, beam, manifold, f_ex_hz, a_ex, true, &s)?;
     let a_max = manifold.high.amplitude_h.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-    let mut br = SlowBranch { s: s.clone(), amplitude_h: Vec::with_capacity(s.len() + model.low.s.len()), v_per_s: Vec::with_capacity(s.len() + model.low.s.len()) };
+    let mut br =
+        SlowBranch { s: s.clone(), amplitude_h: Vec::with_capacity(s.len() + model.low.s.len()), v_per_s: Vec::with_capacity(s.len() + model.low.s.len()) };
     for f in &feats {
         let amp = f.amplitude_h.min(a_su);
         let capped = Features { amp_rel: amp / a_max, amplitude_h: amp, ..*f };
@@ -338,14 +352,18 @@ pub fn predict_point(params: &Params, law: &DriftLaw, f_ex_hz: f64, a_ex: f64, s
 
 /// [`predict_point`] with the beam of [`beam_for`] (`opts.hb.n_modes` modes) built once by the caller.
 #[allow(clippy::too_many_arguments)]
-pub fn predict_point_with(params: &Params, beam: &Beam, law: &DriftLaw, f_ex_hz: f64, a_ex: f64, s0: f64, t_end_s: f64, opts: &PredictOptions) -> Result<PointPrediction> {
+pub fn predict_point_with(
+    params: &Params, beam: &Beam, law: &DriftLaw, f_ex_hz: f64, a_ex: f64, s0: f64, t_end_s: f64, opts: &PredictOptions,
+) -> Result<PointPrediction> {
     predict_drift(params, beam, Drift::Law(law), f_ex_hz, a_ex, s0, t_end_s, opts)
 }
 
 /// [`predict_point_with`] with either kind of drift ([`Drift`]): a law (b2) or a PCS table (b1,
 /// also with [`Source::Table`]); the options' jump-down rule, dead band and build-up apply.
 #[allow(clippy::too_many_arguments)]
-pub fn predict_drift(params: &Params, beam: &Beam, drift: Drift<'_>, f_ex_hz: f64, a_ex: f64, s0: f64, t_end_s: f64, opts: &PredictOptions) -> Result<PointPrediction> {
+pub fn predict_drift(
+    params: &Params, beam: &Beam, drift: Drift<'_>, f_ex_hz: f64, a_ex: f64, s0: f64, t_end_s: f64, opts: &PredictOptions,
+) -> Result<PointPrediction> {
     let lo = params.s_min();
     if !(s0.is_finite() && s0 >= lo - 1e-12 && s0 <= 1.0 - lo + 1e-12) {
         return Err(Error::invalid("s0", s0, &format!("must lie on the beam, {lo:.4} <= s0 <= {:.4}", 1.0 - lo)));
@@ -386,7 +404,13 @@ pub fn predict_drift(params: &Params, beam: &Beam, drift: Drift<'_>, f_ex_hz: f6
             if d > 0.0 { 3.0 / (d * 2.0 * std::f64::consts::PI * f_ex_hz) } else { 0.0 }
         }
     };
-    let fo = SlowFlowOptions { t_end_s, criteria: opts.criteria.clone(), build_up_s: build_up.min(t_end_s), build_up_drift: opts.build_up_drift, ..SlowFlowOptions::default() };
+    let fo = SlowFlowOptions {
+        t_end_s,
+        criteria: opts.criteria.clone(),
+        build_up_s: build_up.min(t_end_s),
+        build_up_drift: opts.build_up_drift,
+        ..SlowFlowOptions::default()
+    };
     let model = dead_band(&built.model, opts.v_dead);
     let flow = slow_flow(&model, s0, &fo)?;
     let t3 = Instant::now();
@@ -476,7 +500,9 @@ pub fn header_value(law: &DriftLaw, opts: &PredictOptions) -> serde_json::Value 
 /// appending each row to the results file as the FS maps do ([`MapResults`]: lock, resume,
 /// header; the header also holds the predictor, [`header_value`]). A failed point becomes a row
 /// with status `error`; `cancel` stops the map keeping the finished rows.
-pub fn run_predicted_map(cfg: &MapConfig, law: &DriftLaw, popts: &PredictOptions, opts: &MapRunOptions, cancel: &AtomicBool, progress: Progress<'_>) -> Result<MapOutcome> {
+pub fn run_predicted_map(
+    cfg: &MapConfig, law: &DriftLaw, popts: &PredictOptions, opts: &MapRunOptions, cancel: &AtomicBool, progress: Progress<'_>,
+) -> Result<MapOutcome> {
     if opts.extend {
         return Err(Error::invalid("extend_to", cfg.duration_s, "a predicted map is not extended (predict it for the longer duration)"));
     }
@@ -516,7 +542,6 @@ pub fn run_predicted_map(cfg: &MapConfig, law: &DriftLaw, popts: &PredictOptions
     )?;
     Ok(results.finish())
 }
-
 
 /// The slow flow's nodes on one branch of the HB manifold (docs/model.md §6.4): `nodes` values
 /// spaced evenly over the branch's s range, the high branch cut at the jump-down s_dn; None when

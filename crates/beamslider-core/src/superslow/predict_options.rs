@@ -228,7 +228,6 @@ pub(super) fn dead_band(model: &SlowModel, v_dead: f64) -> SlowModel {
     m
 }
 
-
 #[cfg(test)]
 mod tests {
     use super::*;

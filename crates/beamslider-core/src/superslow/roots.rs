@@ -22,8 +22,11 @@ pub(super) fn zeros_from_values(f: &dyn Fn(f64) -> f64, grid: &[f64], vals: &[f6
             out.push(grid[i]);
             continue;
         }
-        if i + 1 < grid.len() && vals[i + 1] != 0.0 && vals[i].signum() != vals[i + 1].signum()
-            && vals[i].is_finite() && vals[i + 1].is_finite()
+        if i + 1 < grid.len()
+            && vals[i + 1] != 0.0
+            && vals[i].signum() != vals[i + 1].signum()
+            && vals[i].is_finite()
+            && vals[i + 1].is_finite()
             && let Ok(z) = brent(f, grid[i], grid[i + 1], tol, 200)
         {
             out.push(z);

@@ -28,9 +28,9 @@
 use serde::{Deserialize, Serialize};
 
 use crate::classify::{Classification, Criteria, SuperSlow, classify};
-use crate::superslow::drift::BranchLabel;
 use crate::error::{Error, Result};
 use crate::signal::moving_average;
+use crate::superslow::drift::BranchLabel;
 
 /// One branch of the reduced model on its nodes (half coordinate, increasing s).
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
@@ -161,7 +161,15 @@ pub struct SlowFlowOptions {
 
 impl Default for SlowFlowOptions {
     fn default() -> Self {
-        SlowFlowOptions { t_end_s: 120.0, dt_out_s: 0.2, smooth_s: 1.0, criteria: Criteria::default(), max_events: 100_000, build_up_s: 0.0, build_up_drift: false }
+        SlowFlowOptions {
+            t_end_s: 120.0,
+            dt_out_s: 0.2,
+            smooth_s: 1.0,
+            criteria: Criteria::default(),
+            max_events: 100_000,
+            build_up_s: 0.0,
+            build_up_drift: false,
+        }
     }
 }
 
@@ -315,7 +323,11 @@ pub fn slow_flow(model: &SlowModel, s0: f64, opts: &SlowFlowOptions) -> Result<P
             let (kind, to) = if beta == BranchLabel::L { (EventKind::JumpUp, BranchLabel::H) } else { (EventKind::JumpDown, BranchLabel::L) };
             events.push(Event { kind, t_s: t, s: glob(s) });
             if !model.branch(to).contains(s) {
-                warnings.push(format!("{} at s = {:.4}: the other branch does not exist there; the slider stays", if kind == EventKind::JumpUp { "jump up" } else { "jump down" }, glob(s)));
+                warnings.push(format!(
+                    "{} at s = {:.4}: the other branch does not exist there; the slider stays",
+                    if kind == EventKind::JumpUp { "jump up" } else { "jump down" },
+                    glob(s)
+                ));
                 segs.push(rest(t, s, beta));
                 break;
             }
@@ -336,11 +348,7 @@ pub fn slow_flow(model: &SlowModel, s0: f64, opts: &SlowFlowOptions) -> Result<P
         }
         // The cell in the direction of motion.
         let n = br.s.len();
-        let i = if up {
-            br.s.partition_point(|&x| x <= s).saturating_sub(1).min(n - 2)
-        } else {
-            br.s.partition_point(|&x| x < s).saturating_sub(1).min(n - 2)
-        };
+        let i = if up { br.s.partition_point(|&x| x <= s).saturating_sub(1).min(n - 2) } else { br.s.partition_point(|&x| x < s).saturating_sub(1).min(n - 2) };
         let (sa, sb) = (br.s[i], br.s[i + 1]);
         let (va, vb) = (br.v_per_s[i], br.v_per_s[i + 1]);
         let b = (vb - va) / (sb - sa);

@@ -1,8 +1,8 @@
 //! Behaviour classification (MODEL.md §8) on synthetic super-slow signals of each type, and on the
 //! four representative operating points of the paper (slow: `cargo test --release -- --ignored`).
 
-use beamslider_core::{Behaviour, Criteria, Excitation, Model, Params, SuperSlow, classify};
 use beamslider_core::map::{MapConfig, MapPoint, run_point};
+use beamslider_core::{Behaviour, Criteria, Excitation, Model, Params, SuperSlow, classify};
 
 const DT: f64 = 0.05;
 const T_END: f64 = 120.0;
@@ -95,10 +95,7 @@ fn relaxation_oscillation_recurrent_jumps() {
 #[test]
 fn self_damping_towards_clamping_low_level() {
     // s keeps moving towards the clamping; a small bump of the amplitude, then 0.01 h.
-    let x = signals(
-        |t| ramp(t, 0.0, 45.0, 0.3, 0.097),
-        |t| build_up(t, 0.028) + 0.02 * (-((t - 20.0) / 4.0).powi(2)).exp() - ramp(t, 20.0, 45.0, 0.0, 0.018),
-    );
+    let x = signals(|t| ramp(t, 0.0, 45.0, 0.3, 0.097), |t| build_up(t, 0.028) + 0.02 * (-((t - 20.0) / 4.0).powi(2)).exp() - ramp(t, 20.0, 45.0, 0.0, 0.018));
     let c = decide(&x);
     assert_eq!(c.behaviour, Behaviour::SelfDamping, "{c:?}");
     assert!(c.steady && c.amplitude_final_h < 0.02 && (c.s_final - 0.097).abs() < 1e-3);

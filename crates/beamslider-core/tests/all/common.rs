@@ -25,27 +25,16 @@ pub fn read_reference(file: &str) -> Table {
     let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{path}: {e}"));
     let mut lines = text.lines().filter(|l| !l.starts_with('#') && !l.trim().is_empty());
     let names = lines.next().unwrap().split(',').map(|s| s.trim().to_string()).collect();
-    let rows = lines
-        .map(|l| l.split(',').map(|v| v.trim().parse::<f64>().unwrap()).collect())
-        .collect();
+    let rows = lines.map(|l| l.split(',').map(|v| v.trim().parse::<f64>().unwrap()).collect()).collect();
     Table { names, rows }
 }
 
 /// All channels the golden files hold.
 pub fn golden_channels(l: f64) -> Vec<Channel> {
-    vec![
-        Channel::Time,
-        Channel::W4L7,
-        Channel::WAt(0.5 * l),
-        Channel::XC,
-        Channel::ZC,
-        Channel::Beta,
-        Channel::ModalQ,
-        Channel::ModalU,
-        Channel::SliderU,
-    ]
+    vec![Channel::Time, Channel::W4L7, Channel::WAt(0.5 * l), Channel::XC, Channel::ZC, Channel::Beta, Channel::ModalQ, Channel::ModalU, Channel::SliderU]
 }
 
+#[allow(clippy::too_many_arguments)] // the run's settings, as the tests name them
 pub fn run_audit(params: Params, model: SliderModel, f: f64, a: f64, s0: f64, t_end: f64, every: usize, audit: bool) -> (MemoryRecorder, RunSummary) {
     run_impl(params, model, f, a, s0, t_end, every, audit)
 }
@@ -54,6 +43,7 @@ pub fn run(params: Params, model: SliderModel, f: f64, a: f64, s0: f64, t_end: f
     run_impl(params, model, f, a, s0, t_end, every, false)
 }
 
+#[allow(clippy::too_many_arguments)]
 fn run_impl(params: Params, model: SliderModel, f: f64, a: f64, s0: f64, t_end: f64, every: usize, audit: bool) -> (MemoryRecorder, RunSummary) {
     let m = Model::new(params).unwrap();
     let exc = Excitation::new(f, a);
@@ -61,14 +51,8 @@ fn run_impl(params: Params, model: SliderModel, f: f64, a: f64, s0: f64, t_end: 
         SliderModel::Free => m.initial_state(s0, &exc).unwrap(),
         _ => m.initial_state_pcs(&exc).unwrap(),
     };
-    let opts = RunOptions {
-        excitation: exc,
-        model,
-        duration_s: t_end,
-        record_every: every,
-        channels: golden_channels(m.params.length_m),
-        audit_contacts: audit,
-    };
+    let opts =
+        RunOptions { excitation: exc, model, duration_s: t_end, record_every: every, channels: golden_channels(m.params.length_m), audit_contacts: audit };
     let mut rec = MemoryRecorder::new();
     let sum = m.run(&start, &opts, &mut rec, &mut ()).unwrap();
     (rec, sum)

@@ -2,18 +2,12 @@
 //! golden trajectory is a property of the reference stop rule; an exact solver is compared with
 //! Gauss–Seidel at 1e-12 / 1e-16 N s instead).
 
-use beamslider_core::*;
 use crate::common::*;
+use beamslider_core::*;
 
 /// The reference solver converged tightly (1e-12 relative, 1e-16 N s).
 fn tight_reference() -> Params {
-    Params {
-        contact_solver: ContactSolver::Reference,
-        solver_tol_rel: 1e-12,
-        solver_tol_abs: 1e-16,
-        solver_max_iter: 1_000_000,
-        ..Params::default()
-    }
+    Params { contact_solver: ContactSolver::Reference, solver_tol_rel: 1e-12, solver_tol_abs: 1e-16, solver_max_iter: 1_000_000, ..Params::default() }
 }
 
 #[test]

@@ -1,7 +1,7 @@
 //! Reproduction of the reference trajectories (docs/model.md §5–6) with the reference contact solver.
 
-use beamslider_core::*;
 use crate::common::*;
+use beamslider_core::*;
 
 fn reference_params() -> Params {
     Params { contact_solver: ContactSolver::Reference, ..Params::default() }

@@ -192,7 +192,12 @@ fn extended_map_rows_are_bitwise_those_of_the_longer_map() {
     let path = dir.join("map.jsonl");
     let short = run_map(&cfg(3.0), &MapRunOptions { out: Some(path.clone()), resume: false, threads: Some(2), extend: false }, &cancel, &none).unwrap();
     // Continued: every row with settled = false, and the undetermined ones.
-    let unsettled: Vec<usize> = short.rows.iter().filter(|r| !r.settled || matches!(r.behaviour, beamslider_core::Behaviour::NotSettled | beamslider_core::Behaviour::Undetermined)).map(|r| r.index).collect();
+    let unsettled: Vec<usize> = short
+        .rows
+        .iter()
+        .filter(|r| !r.settled || matches!(r.behaviour, beamslider_core::Behaviour::NotSettled | beamslider_core::Behaviour::Undetermined))
+        .map(|r| r.index)
+        .collect();
     assert!(!unsettled.is_empty() && unsettled.len() < short.rows.len(), "need both kinds: {:?}", short.rows.iter().map(|r| r.behaviour).collect::<Vec<_>>());
     assert!(short.rows.iter().all(|r| r.end.is_some()));
     // Extend: only the not-settled points run.
@@ -218,9 +223,12 @@ fn extended_map_rows_are_bitwise_those_of_the_longer_map() {
     let again = run_map(&cfg(6.0), &MapRunOptions { out: Some(path.clone()), resume: true, threads: Some(2), extend: false }, &cancel, &none).unwrap();
     assert_eq!((again.extended, again.computed), (0, 0));
     // Extending to a shorter duration, or a map that is not there, is an error naming extend_to.
-    let e = run_map(&cfg(4.0), &MapRunOptions { out: Some(path.clone()), resume: false, threads: Some(2), extend: true }, &cancel, &none).unwrap_err().to_string();
+    let e =
+        run_map(&cfg(4.0), &MapRunOptions { out: Some(path.clone()), resume: false, threads: Some(2), extend: true }, &cancel, &none).unwrap_err().to_string();
     assert!(e.contains("extend_to"), "{e}");
-    let e = run_map(&cfg(6.0), &MapRunOptions { out: Some(dir.join("none.jsonl")), resume: false, threads: Some(2), extend: true }, &cancel, &none).unwrap_err().to_string();
+    let e = run_map(&cfg(6.0), &MapRunOptions { out: Some(dir.join("none.jsonl")), resume: false, threads: Some(2), extend: true }, &cancel, &none)
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("extend_to"), "{e}");
     let _ = std::fs::remove_dir_all(&dir);
 }
@@ -288,7 +296,9 @@ fn version_2_files_read_back_resume_and_extend() {
     // Version 1 is read, never resumed.
     let v1 = v2.replacen("\"beamslider_map\":2", "\"beamslider_map\":1", 1);
     std::fs::write(dir.join("v1.jsonl"), &v1).unwrap();
-    let e = run_map(&cfg(3.0), &MapRunOptions { out: Some(dir.join("v1.jsonl")), resume: true, threads: Some(2), extend: false }, &cancel, &none).unwrap_err().to_string();
+    let e = run_map(&cfg(3.0), &MapRunOptions { out: Some(dir.join("v1.jsonl")), resume: true, threads: Some(2), extend: false }, &cancel, &none)
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("format version 1"), "{e}");
     let _ = std::fs::remove_dir_all(&dir);
 }
@@ -318,7 +328,14 @@ fn run_from_checkpoint_is_bitwise_the_uninterrupted_run() {
     let model = Model::new(Params::default()).unwrap();
     let exc = Excitation::new(124.0, 14.0);
     let start = model.initial_state(0.3, &exc).unwrap();
-    let opts = |d: f64| RunOptions { excitation: exc, model: SliderModel::Free, duration_s: d, record_every: 7, channels: vec![Channel::W4L7, Channel::S, Channel::Percussions], audit_contacts: false };
+    let opts = |d: f64| RunOptions {
+        excitation: exc,
+        model: SliderModel::Free,
+        duration_s: d,
+        record_every: 7,
+        channels: vec![Channel::W4L7, Channel::S, Channel::Percussions],
+        audit_contacts: false,
+    };
     let mut whole = MemoryRecorder::new();
     let (sum_whole, _) = model.run_checkpointed(&start, &opts(0.5), &mut whole, &mut ()).unwrap();
     let mut first = MemoryRecorder::new();

@@ -33,10 +33,7 @@ fn beam_energy_error(dt: f64) -> f64 {
     model.run(&start, &opts, &mut rec, &mut ()).unwrap();
     let e0 = energy(&model, &start.q, &start.u);
     let n = model.beam.n;
-    rec.data
-        .chunks(2 * n)
-        .map(|r| ((energy(&model, &r[..n], &r[n..]) - e0) / e0).abs())
-        .fold(0.0, f64::max)
+    rec.data.chunks(2 * n).map(|r| ((energy(&model, &r[..n], &r[n..]) - e0) / e0).abs()).fold(0.0, f64::max)
 }
 
 #[test]
@@ -107,7 +104,11 @@ fn pcs_geometry_ignores_x_c() {
     model.run(&a, &opts, &mut ra, &mut ()).unwrap();
     model.run(&b, &opts, &mut rb, &mut ()).unwrap();
     let first = ra.data.iter().zip(&rb.data).position(|(a, b)| a != b);
-    assert!(first.is_none(), "PCS contact geometry must not depend on x_C: first difference at {first:?} ({:?})", first.map(|i| (i / ra.names.len(), &ra.names[i % ra.names.len()])));
+    assert!(
+        first.is_none(),
+        "PCS contact geometry must not depend on x_C: first difference at {first:?} ({:?})",
+        first.map(|i| (i / ra.names.len(), &ra.names[i % ra.names.len()]))
+    );
     assert!(common::max_abs(&ra.column("w_4L7_m").unwrap()) > 1e-6, "the beam moved");
 }
 

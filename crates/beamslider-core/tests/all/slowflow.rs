@@ -136,12 +136,8 @@ fn folds_and_zeros_exactly_at_grid_points_do_not_hang() {
 #[test]
 fn empty_coexistence_interval_stops_with_a_warning() {
     // s_dn = s_up = 0.3: both folds at the same s; V drives into the fold from both sides.
-    let m = SlowModel {
-        low: branch(0.3, 0.5, |_| 0.1, |_| -0.01),
-        high: branch(S_MIN, 0.3, |_| 1.0, |_| 0.01),
-        low_ends_in_fold: true,
-        high_ends_in_fold: true,
-    };
+    let m =
+        SlowModel { low: branch(0.3, 0.5, |_| 0.1, |_| -0.01), high: branch(S_MIN, 0.3, |_| 1.0, |_| 0.01), low_ends_in_fold: true, high_ends_in_fold: true };
     let p = slow_flow(&m, 0.4, &SlowFlowOptions::default()).unwrap();
     assert!(!p.warnings.is_empty());
     assert!(p.events.len() < 10);

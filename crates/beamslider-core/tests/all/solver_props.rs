@@ -55,6 +55,7 @@ fn scales(prob: &LocalProblem, p: &[f64; DIM]) -> (f64, f64) {
 
 /// Independent check of the contact laws: `None` when they hold to `tol` (relative), otherwise
 /// which law fails.
+#[allow(clippy::needless_range_loop)] // the complementarity conditions, index by index
 fn violation(prob: &LocalProblem, p: &[f64; DIM], tol: f64) -> Option<String> {
     let m = 2 * prob.k;
     let mut xi = [0.0; DIM];

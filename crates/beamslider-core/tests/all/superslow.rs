@@ -89,13 +89,7 @@ fn folds_from_the_discriminant_match_the_continuation_folds() {
 /// Without the slider (m, J_G → 0) the backbone is MODEL.md §9's ω̃² = ω² + ¾ b* ã².
 #[test]
 fn without_slider_the_backbone_is_the_enma_backbone() {
-    let p = Params {
-        slider_mass_kg: 1e-15,
-        slider_inertia_kg_m2: 1e-21,
-        com_offset_m: 0.0,
-        damping_ratio: 0.0,
-        ..Params::default()
-    };
+    let p = Params { slider_mass_kg: 1e-15, slider_inertia_kg_m2: 1e-21, com_offset_m: 0.0, damping_ratio: 0.0, ..Params::default() };
     let beam = Beam::new(&p).unwrap();
     let (w, bs) = (beam.omega[0], beam.b_star(p.thickness_m));
     let phi_mid = beam.phi_exact(0, 0.5 * p.length_m);

@@ -143,10 +143,7 @@ fn third_harmonic_of_single_mode_matches_duffing_estimate() {
 #[test]
 fn higher_harmonics_are_small_and_converge() {
     let p = Params::default();
-    let ms: Vec<_> = [1usize, 3, 5]
-        .iter()
-        .map(|&h| hb_manifold(&p, 124.0, 14.0, &HbOptions { sample_on_grid: true, ..opts(5, h, false) }).unwrap())
-        .collect();
+    let ms: Vec<_> = [1usize, 3, 5].iter().map(|&h| hb_manifold(&p, 124.0, 14.0, &HbOptions { sample_on_grid: true, ..opts(5, h, false) }).unwrap()).collect();
     for m in &ms {
         assert!(m.warnings.is_empty(), "{:?}", m.warnings);
     }
@@ -160,9 +157,7 @@ fn higher_harmonics_are_small_and_converge() {
     }
     assert!(max3 < 0.05 && max3 > 0.0, "a3/a1 on the high branch up to {max3}");
     assert!(max5 < 0.2 * max3, "a5/a1 up to {max5}, a3/a1 up to {max3}");
-    let diff = |x: &[f64], y: &[f64]| {
-        x.iter().zip(y).filter(|(a, b)| a.is_finite() && b.is_finite()).fold(0.0f64, |m, (a, b)| m.max((a - b).abs()))
-    };
+    let diff = |x: &[f64], y: &[f64]| x.iter().zip(y).filter(|(a, b)| a.is_finite() && b.is_finite()).fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
     // Compare on the part of the high branch away from the folds (s ≤ 0.3 exists for all three).
     let n_lo = m5.s_grid.iter().filter(|&&s| s <= 0.3).count();
     let d13 = diff(&ms[0].high_on_grid[..n_lo], &ms[1].high_on_grid[..n_lo]);

@@ -2,8 +2,8 @@
 //! tilted frame with a beam at rest (a_ex = 0) slides the slider downhill at the incline rate
 //! g (sin α − sign(α) μ cos α), or holds it when |tan α| ≤ μ.
 
-use beamslider_core::*;
 use crate::common::*;
+use beamslider_core::*;
 
 /// FNV-1a over the bits of every recorded value.
 fn fingerprint(rec: &MemoryRecorder) -> u64 {
@@ -19,8 +19,7 @@ fn fingerprint(rec: &MemoryRecorder) -> u64 {
 
 /// Fingerprints of the golden run (124 Hz, 14 m/s², s₀ = 0.3, 0.2 s, every 10th step, the golden
 /// channels) computed by the code before the tilt existed (commit b11187f).
-const BEFORE: [(ContactSolver, u64); 2] =
-    [(ContactSolver::Reference, 0x3582712bfed04686), (ContactSolver::Fast, 0x8e7e98d5bd8da3e8)];
+const BEFORE: [(ContactSolver, u64); 2] = [(ContactSolver::Reference, 0x3582712bfed04686), (ContactSolver::Fast, 0x8e7e98d5bd8da3e8)];
 
 #[test]
 fn level_frame_is_bitwise_unchanged() {
