@@ -61,6 +61,16 @@ def test_simulate_options_and_progress(tmp_path):
     assert "100%" in p.stderr  # progress bar (asked for: stderr is not a terminal here)
 
 
+def test_simulate_without_figure_then_plot_draws_it(tmp_path):
+    p = _ok(run_cli("simulate", "--t-end", "0.2", "--no-manifold", "--no-figure", "--out", "o", "--no-progress",
+                    cwd=tmp_path))
+    stem = tmp_path / "o" / "fs_124Hz_14ms2_s0_0p3"
+    assert sorted(x.name for x in (tmp_path / "o").iterdir()) == [stem.name + ".json", stem.name + ".npz"]
+    assert ".png" not in p.stdout and json.loads(stem.with_suffix(".json").read_text())["complete"] is True
+    _ok(run_cli("plot", str(stem.with_suffix(".json")), "--out", "o", cwd=tmp_path))
+    assert is_png(stem.with_suffix(".png"))
+
+
 def test_manifold_and_plot_round_trip(tmp_path):
     _ok(run_cli("manifold", *FAST_MANIFOLD, "--out", "m", "--no-progress", cwd=tmp_path))
     m = tmp_path / "m"

@@ -33,6 +33,8 @@ def add_parser(sub: Any) -> None:
                     help="trajectory file: npz (NumPy, default; np.load or beamslider.read_trajectory), csv "
                          "(shortest round-trip numbers) or parquet (needs pip install \"beamslider[parquet]\"); "
                          "streamed to disk as the run goes")
+    sp.add_argument("--no-figure", dest="figure", action="store_false",
+                    help="write no <stem>.png (matplotlib costs about a second per run; `beamslider plot` draws it later)")
     add_run_options(sp)
     sp.set_defaults(func=cmd_simulate)
 
@@ -95,10 +97,11 @@ def cmd_simulate(args: argparse.Namespace) -> int:
 
         require_pyarrow()  # the extra named before anything is written
     data_name = f"{stem}.{args.format}"
-    plan_outputs(args, [data_name, f"{stem}.json", f"{stem}.png"] + ([man_name] if man_name else []))
+    png = [f"{stem}.png"] if args.figure else []
+    plan_outputs(args, [data_name, f"{stem}.json"] + png + ([man_name] if man_name else []))
     check_disk(Path(args.out) / data_name, args.t_end, p.dt_s, args.record_every)  # before anything is written
     out = Path(args.out)
-    written = [out / data_name, out / f"{stem}.json", out / f"{stem}.png"]
+    written = [out / data_name, out / f"{stem}.json"] + [out / n for n in png]
     started: Dict[str, Any] = {}
 
     def start() -> None:
@@ -112,7 +115,8 @@ def cmd_simulate(args: argparse.Namespace) -> int:
             "record_every": args.record_every, "params_toml": p.toml_text()})
         # While the core runs (interpreter released) the manifold runs on the other core and
         # matplotlib is imported: the three overlap on a multi-core machine.
-        started["preload"] = _Background(_preload_figure)
+        if args.figure:
+            started["preload"] = _Background(_preload_figure)
         if with_manifold:
             started["manifold"] = _Background(run_manifold, args, p, args.f_ex, args.a_ex)
         started["t0"] = time.perf_counter()
@@ -134,7 +138,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         if man_name:
             (out / man_name).unlink(missing_ok=True)
         raise
-    preload, background = started["preload"], started.get("manifold")
+    preload, background = started.get("preload"), started.get("manifold")
     summary.update({"data": data_name, "format": args.format, "complete": True})
     manifold = None
     if background is not None:
@@ -142,11 +146,12 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         summary["manifold_csv"] = man_name
         written.insert(2, out / man_name)
     write_json_atomic(written[1], summary)
-    preload.result()
-    from ..plotting import plot_operating_point
+    if preload is not None:
+        preload.result()
+        from ..plotting import plot_operating_point
 
-    if not figure(plot_operating_point, result, manifold=manifold, window=args.window, path=written[-1]):
-        written.pop()
+        if not figure(plot_operating_point, result, manifold=manifold, window=args.window, path=written[-1]):
+            written.pop()
     print(f"{result.model.upper()} {args.f_ex:g} Hz, {args.a_ex:g} m/s², {args.t_end:g} s: {result.status}; "
           f"final s = {summary['final_s']:.4f}, amplitude/h = {summary['final_amplitude_over_h']:.3f} "
           f"({wall:.1f} s)")
