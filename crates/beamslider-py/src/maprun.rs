@@ -8,8 +8,10 @@ use std::sync::atomic::AtomicBool;
 
 use beamslider_core::map::{DEFAULT_RECORD_EVERY, MapSession, WireJob, run_chunk};
 use beamslider_core::{Axis, Criteria, Grid, MapConfig, MapRow, MapRunOptions, ResultsLock};
+use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
-use pyo3::types::PyType;
+use pyo3::types::{PyDict, PyType};
+use pythonize::depythonize;
 
 use crate::params::PyParams;
 use crate::{detached, guarded};
@@ -30,13 +32,20 @@ impl PyMapConfig {
     }
 
     /// A configuration from its parts, without TOML: the parameters `params` (a `Params`), the
-    /// grid's axes as lists, the duration [s] and the recording interval; default criteria.
+    /// grid's axes as lists, the duration [s], the recording interval, Δt [s] (None: the
+    /// parameters') and the criteria (thresholds of the core's `Criteria` by name; None: defaults).
     #[staticmethod]
-    #[pyo3(signature = (params, *, f_ex_hz, a_ex_m_s2, s0, duration_s, record_every=DEFAULT_RECORD_EVERY))]
-    fn of(params: &Bound<'_, PyParams>, f_ex_hz: Vec<f64>, a_ex_m_s2: Vec<f64>, s0: Vec<f64>, duration_s: f64, record_every: usize) -> PyResult<Self> {
+    #[pyo3(signature = (params, *, f_ex_hz, a_ex_m_s2, s0, duration_s, record_every=DEFAULT_RECORD_EVERY, dt_s=None, criteria=None))]
+    fn of(
+        params: &Bound<'_, PyParams>, f_ex_hz: Vec<f64>, a_ex_m_s2: Vec<f64>, s0: Vec<f64>, duration_s: f64, record_every: usize, dt_s: Option<f64>,
+        criteria: Option<&Bound<'_, PyDict>>,
+    ) -> PyResult<Self> {
         let grid = Grid { f_ex_hz: Axis::List(f_ex_hz), a_ex_m_s2: Axis::List(a_ex_m_s2), s0: Axis::List(s0) };
-        let params = params.get().0.get().clone();
-        let cfg = MapConfig { duration_s, dt_s: None, record_every, grid, params, criteria: Criteria::default() };
+        let (params, criteria) = (
+            params.get().0.get().clone(),
+            criteria.map_or(Ok(Criteria::default()), |c| depythonize(c)).map_err(|e| PyValueError::new_err(format!("invalid parameter `criteria`: {e}")))?,
+        );
+        let cfg = MapConfig { duration_s, dt_s, record_every, grid, params, criteria };
         Self::checked(guarded(|| cfg.validate().map(|()| cfg))?)
     }
 

@@ -13,7 +13,7 @@ from typing import Any, Dict, List, Optional, Tuple, Union
 import numpy as np
 
 from .. import _core, _toml
-from ..maps.config import map_config_dict
+from ..maps.config import map_config
 from ..params import Parameters
 from ..study.config import Uncertain, sample, uncertain_from_dict
 
@@ -268,9 +268,8 @@ class DesignConfig(_toml.ConfigFile):
     def map_config(self, params: Optional[Parameters] = None) -> "_core.MapConfig":
         """Map configuration of the band (the core's runner reads record_every, dt, criteria from
         it), parsed and checked once by the core."""
-        return _core.MapConfig(_toml.dumps(map_config_dict(params or self.params, f_ex=self.f_ex_hz(), a_ex=self.a_ex_m_s2,
-                                                           s0=self.s0, t_end=self.t_end_s, record_every=self.record_every,
-                                                           criteria=self.criteria or None)))
+        return map_config(params or self.params, f_ex=self.f_ex_hz(), a_ex=self.a_ex_m_s2, s0=self.s0, t_end=self.t_end_s,
+                          record_every=self.record_every, criteria=self.criteria or None)
 
     def design_params(self, x: Any) -> Parameters:
         """The :class:`Parameters` of design vector ``x`` (variables in order). With ``scale_inertia``

@@ -21,7 +21,7 @@ from .._util import progress_bar, write_text_atomic
 from ..params import Parameters, native, resolve
 from ..simulate import SimulationResult
 from ..superslow import BUILTIN_LAW_NOTE, DesignLaw, DriftLaw, default_law
-from .config import MIN_CLASSIFY_S, RESULTS_FILE, criteria_toml, map_config_toml
+from .config import MIN_CLASSIFY_S, RESULTS_FILE, criteria_toml, map_config
 from ..tables import MapTable, RowList
 from .read import check_rows, grid_points, rows_to_table, saved_grid
 
@@ -279,12 +279,10 @@ def operating_map(params: Optional[Parameters] = None, *, f_ex: Any, a_ex: Any, 
         done = json.loads(header)["settings"]["duration_s"] if header else None
         if done not in (float(t_end), te):
             raise ValueError(f"invalid parameter `t_end` = {t_end!r}: the map in {out} was run for {done} s")
-        cfg = map_config_toml(params, f_ex=f_ex, a_ex=a_ex, s0=s0, t_end=te, record_every=record_every,
-                              criteria=criteria)
+        cfg = map_config(params, f_ex=f_ex, a_ex=a_ex, s0=s0, t_end=te, record_every=record_every, criteria=criteria)
         return run_map_config(cfg, out=out, threads=threads, progress=progress, extend=True, scheduler=scheduler,
                               scheduler_file=scheduler_file, chunk_size=chunk_size)
-    cfg = map_config_toml(params, f_ex=f_ex, a_ex=a_ex, s0=s0, t_end=t_end, record_every=record_every,
-                          criteria=criteria)
+    cfg = map_config(params, f_ex=f_ex, a_ex=a_ex, s0=s0, t_end=t_end, record_every=record_every, criteria=criteria)
     return run_map_config(cfg, out=out, resume=resume, threads=threads, progress=progress, scheduler=scheduler,
                           scheduler_file=scheduler_file, chunk_size=chunk_size)
 

@@ -7,7 +7,7 @@ from typing import Any, Dict, List, Optional
 import numpy as np
 
 from .. import _core, _toml
-from ..params import Parameters, resolve
+from ..params import Parameters, native, resolve
 from ..tables import BEHAVIOURS
 
 __all__ = ["BEHAVIOURS", "LABELS", "LETTERS", "MIN_CLASSIFY_S", "RESULTS_FILE", "criteria_toml", "default_map_config",
@@ -74,6 +74,18 @@ def map_config_dict(params: Optional[Parameters] = None, *, f_ex: Any, a_ex: Any
     if criteria:
         d["criteria"] = {str(k): _number(f"criteria.{k}", v) for k, v in criteria.items()}
     return d
+
+
+def map_config(params: Optional[Parameters] = None, *, f_ex: Any, a_ex: Any, s0: Any = 0.3, t_end: float = 120.0,
+               record_every: int = 20, dt_s: Optional[float] = None,
+               criteria: Optional[Dict[str, float]] = None) -> "_core.MapConfig":
+    """The core's map configuration of :func:`map_config_dict`'s arguments, built from the typed
+    parameters (no TOML text) and checked once by the core."""
+    crit = {str(k): _number(f"criteria.{k}", v) for k, v in (criteria or {}).items()}
+    return _core.MapConfig.of(native(resolve(params)), f_ex_hz=_axis("f_ex", f_ex), a_ex_m_s2=_axis("a_ex", a_ex),
+                              s0=_axis("s0", s0), duration_s=float(_number("duration_s", t_end)),
+                              record_every=_integer("record_every", record_every),
+                              dt_s=None if dt_s is None else float(_number("dt_s", dt_s)), criteria=crit or None)
 
 
 def _axis(name: str, values: Any) -> List[float]:

@@ -11,7 +11,7 @@ from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
 import numpy as np
 
 from .. import _core, _toml
-from ..maps.config import map_config_dict
+from ..maps.config import map_config
 from ..params import Parameters
 
 RESULTS_FILE = "study.jsonl"
@@ -269,9 +269,8 @@ class StudyConfig(_toml.ConfigFile):
     def map_config(self) -> "_core.MapConfig":
         """The map configuration the core runs each point with (grid = the operating points), parsed
         and checked once by the core."""
-        return _core.MapConfig(_toml.dumps(map_config_dict(self.params, f_ex=self.f_ex_hz, a_ex=self.a_ex_m_s2, s0=self.s0,
-                                                           t_end=self.duration_s, record_every=self.record_every,
-                                                           dt_s=self.dt_s, criteria=self.criteria)))
+        return map_config(self.params, f_ex=self.f_ex_hz, a_ex=self.a_ex_m_s2, s0=self.s0, t_end=self.duration_s,
+                          record_every=self.record_every, dt_s=self.dt_s, criteria=self.criteria)
 
     def map_toml(self) -> str:
         """The canonical TOML text of :meth:`map_config`."""
