@@ -8,6 +8,7 @@ import json
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 import beamslider
@@ -529,3 +530,22 @@ def test_killed_study_or_design_resumes_to_the_uninterrupted_rows(tmp_path, unin
     assert r.returncode == 0, r.stderr
     assert not [f.name for f in (tmp_path / "o").iterdir() if "partial" in f.name]
     assert _rows(results) == _rows(uninterrupted(cmd))
+
+
+@pytest.mark.parametrize("criteria, key", [
+    ({"high_h": -1.0}, "high_h"), ({"steady_window_s": 0.0}, "steady_window_s"), ({"low_h": 0.5}, "low_h"),
+    ({"jump_ratio": 0.5}, "jump_ratio"), ({"still_s": float("nan")}, "still_s"), ({"relax_min_cycles": 0}, "relax_min_cycles"),
+])
+def test_bad_classification_criteria_are_one_line_errors_naming_the_key(criteria, key):
+    """Thresholds the classification cannot use (docs/classify.md) are refused before any run, by
+    the map configuration (typed or TOML) and by classify itself."""
+    from beamslider import _core
+    from beamslider.maps.config import map_config
+
+    with pytest.raises(ValueError, match=rf"`criteria\.{key}`"):
+        map_config(beamslider.Parameters(), f_ex=[124.0], a_ex=[14.0], t_end=5.0, criteria=criteria)
+    with pytest.raises(ValueError, match=rf"`criteria\.{key}`"):
+        _core.MapConfig(map_config_toml(f_ex=[124.0], a_ex=[14.0], t_end=5.0, criteria=criteria))
+    toml_text = "\n".join(f"{k} = {v!r}" if not isinstance(v, float) or v == v else f"{k} = nan" for k, v in criteria.items())
+    with pytest.raises(ValueError, match=rf"`criteria\.{key}`"):
+        _core.classify(np.full(3, 0.3), np.full(3, 0.1), 0.2, criteria_toml=toml_text)

@@ -202,7 +202,39 @@ impl Criteria {
     /// Thresholds from TOML keys of [`Criteria`] (missing keys take their defaults); None: the defaults.
     pub fn from_toml_str(text: Option<&str>) -> Result<Self> {
         let read = |t: &str| toml::from_str(t).map_err(|e| Error::invalid("criteria", "(TOML)", e.to_string().trim_end()));
-        text.map_or_else(|| Ok(Criteria::default()), read)
+        text.map_or_else(|| Ok(Criteria::default()), read)?.validated()
+    }
+
+    /// The thresholds checked: ≥ 0 (∞ switches a rule off), the windows finite and > 0, `jump_ratio` ≥ 1, `low_h` ≤ `high_h`
+    /// and `relax_min_cycles` ≥ 1 (each error names the key as `criteria.<key>`).
+    pub fn validated(self) -> Result<Self> {
+        let c = &self;
+        let windows = [("jump_window_s", c.jump_window_s), ("steady_window_s", c.steady_window_s), ("steady_drift_window_s", c.steady_drift_window_s)];
+        let others = [("still_s", c.still_s), ("turn_s", c.turn_s), ("jump_abs_h", c.jump_abs_h), ("jump_after_s", c.jump_after_s), ("steady_s", c.steady_s)];
+        let more =
+            [("steady_rel", c.steady_rel), ("steady_abs_h", c.steady_abs_h), ("steady_drift_s", c.steady_drift_s), ("steady_trend_rel", c.steady_trend_rel)];
+        let levels = [("steady_trend_abs_h", c.steady_trend_abs_h), ("high_h", c.high_h), ("low_h", c.low_h)];
+        let bad = |k: &str, v: f64, why: &str| Err(Error::invalid(&format!("criteria.{k}"), v, why));
+        for (k, v) in windows {
+            if !(v.is_finite() && v > 0.0) {
+                return bad(k, v, "must be finite and > 0 (seconds)");
+            }
+        }
+        for (k, v) in others.into_iter().chain(more).chain(levels) {
+            if !(v >= 0.0) {
+                return bad(k, v, "must be >= 0 (inf switches its rule off)");
+            }
+        }
+        if !(c.jump_ratio >= 1.0) {
+            return bad("jump_ratio", c.jump_ratio, "must be >= 1");
+        }
+        if c.low_h > c.high_h {
+            return bad("low_h", c.low_h, &format!("must not exceed high_h = {}", c.high_h));
+        }
+        if c.relax_min_cycles == 0 {
+            return bad("relax_min_cycles", 0.0, "must be >= 1");
+        }
+        Ok(self)
     }
 }
 
@@ -384,6 +416,7 @@ fn jumps(x: &SuperSlow, c: &Criteria) -> (Vec<f64>, Vec<f64>) {
 
 /// Classify one run's super-slow signals by its phases (see the module documentation).
 pub fn classify(x: &SuperSlow, c: &Criteria) -> Result<Classification> {
+    c.clone().validated()?;
     let n = x.s.len();
     if n != x.amplitude_h.len() {
         return Err(Error::invalid("amplitude_h", x.amplitude_h.len(), "s and A must have the same length"));

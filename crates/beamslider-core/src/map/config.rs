@@ -197,6 +197,7 @@ impl MapConfig {
         if self.record_every == 0 {
             return Err(Error::invalid("record_every", 0, "must be >= 1"));
         }
+        self.criteria.clone().validated()?;
         let dt = self.effective_params().dt_s;
         self.effective_params().validate()?;
         crate::signal::output::step_count("duration_s", self.duration_s, dt)?;
