@@ -519,25 +519,6 @@ def test_restitution_is_not_named_where_the_runs_do_not_resolve_it(tmp_path):
     assert d.verdict == "none" and d.named_effects == [], dc.verdict_line(d)
 
 
-@pytest.mark.slow
-def test_restitution_is_named_with_the_issues_60_s_runs(tmp_path):
-    """Restitution 0.3 (baseline 0.5) hidden in the three reference 60-s runs, the truth runs
-    started S0_OFFSET off the named s0, all slider-level candidates: restitution alone is named,
-    within two standard errors of the truth. Its χ² is rough in ε (runs at neighbouring values
-    differ by Δχ² of several units), so the stated error includes that scatter (_roughness):
-    the plain Δχ² = 1 half-width was 0.007 here, a 3.6 σ miss (about 4 minutes)."""
-    slider = [n for n, e in dc.EFFECTS.items() if e.level == "slider"]
-    paths = dc.synthesize_slider_runs(bs.Parameters(restitution=0.3),
-                                      operating_points=[(104, 14, 0.3), (126, 10, 0.3), (124, 14, 0.3)],
-                                      duration_s=60, out_dir=tmp_path, seed=3, s0_offset=S0_OFFSET)
-    d = dc.discover(measured=[bs.read_measurement(p) for p in paths], baseline=bs.Parameters(), effects=slider,
-                    max_effects=1)
-    assert d.verdict == "named" and d.named_effects == ["restitution"], dc.verdict_line(d)
-    p = d.parameters["restitution"]
-    assert abs(p["value"] - 0.3) <= 2 * p["stderr"], p
-    assert p["chi2_roughness"] > 1.0, p
-
-
 def test_rough_profile_widens_the_interval():
     """A χ² scan that scatters about a parabola (single runs of a chaotic objective) gets an interval
     widened by twice the scatter, which covers the parabola's minimum; a smooth one is unchanged."""
