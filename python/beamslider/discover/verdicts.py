@@ -134,19 +134,24 @@ def unnamed_verdict(fits: Sequence[CandidateFit], reasons: Reasons, threshold: f
     negligible fit, None) — the data are explained without a physically relevant change — or
     ("unexplained", None, the best relevant but unresolved set or None). A negligible fit gives
     "none" only if no relevant change is resolved (:func:`relevant_resolved`) and no relevant but
-    unresolved set fits better than it by more than ``threshold`` (the selection's
-    likelihood-ratio threshold for one effect picked from the candidates,
-    :func:`.fitting.lrt_threshold`): then the data prefer that change to the baseline's
-    neighbourhood at the significance that would name it, though they do not locate it well enough
-    to exclude the baseline — "unexplained, best candidate X, not resolved by these runs"
-    (docs/model.md §9.1, "Resolved")."""
+    unresolved set fits clearly better: with each set's χ² charged ``threshold`` per fitted
+    parameter (the selection's likelihood-ratio threshold for one effect picked from the
+    candidates, :func:`.fitting.lrt_threshold`: the price at which the forward selection adds a
+    parameter), the unresolved set beats the best negligible one by more than ``threshold``. Then
+    the data prefer that change to the baseline's neighbourhood at the significance that would name
+    it, though they do not locate it well enough to exclude the baseline — "unexplained, best
+    candidate X, not resolved by these runs" (docs/model.md §9.1, "Resolved")."""
     if relevant_resolved(fits, reasons):
         return "unexplained", None, None
-    unres = relevant_unresolved(fits, reasons)
-    negl = sorted(negligible_fits(fits, reasons), key=lambda f: f.chi2)
-    if negl and not (unres and negl[0].chi2 - unres[0].chi2 > threshold):
-        return "none", negl[0], None
-    return "unexplained", None, (unres[0] if unres else None)
+
+    def charged(f: CandidateFit) -> float:
+        return f.chi2 + threshold * len(f.effects)
+
+    unres = min(relevant_unresolved(fits, reasons), key=charged, default=None)
+    negl = min(negligible_fits(fits, reasons), key=charged, default=None)
+    if negl is not None and not (unres is not None and charged(negl) - charged(unres) > threshold):
+        return "none", negl, None
+    return "unexplained", None, unres
 
 
 def signature(f: CandidateFit, before: Dict[str, float], sig: Dict[str, float]) -> Dict[str, float]:
