@@ -20,8 +20,8 @@ from .models import (ENSEMBLE_S0_SHIFTS, Ensemble, Modes, RunCache, batch_slider
                      data_modes, ensemble_slider_features, levels_for, measured_slider_features,
                      simulated_enma_features)
 from .separability import slider_sensitivities
-from .verdicts import (ADVICE_GRID, EXTENDING_PAIRS, GUIDED_PAIRS, advise, confounded_group, interval_of,
-                       negligible_fits, rank_pairs, relevant_resolved, unresolved_reasons)
+from .verdicts import (ADVICE_GRID, EXTENDING_PAIRS, GUIDED_PAIRS, Reason, Reasons, Why, advise, confounded_group,
+                       interval_of, kinds, negligible_fits, rank_pairs, unnamed_verdict, unresolved_reasons)
 
 
 def _progress_bar(enabled: Optional[bool], total: int, desc: str):
@@ -133,8 +133,7 @@ def _fit_sets(cand_effects: Sequence[Effect], max_effects: int, level: str, base
     return fits
 
 
-def _no_set_can_win(singles: List[CandidateFit], judge: Callable[[List[CandidateFit]], Dict[Tuple[str, ...], List[str]]]
-                    ) -> bool:
+def _no_set_can_win(singles: List[CandidateFit], judge: Callable[[List[CandidateFit]], Reasons]) -> bool:
     """Whether fitting sets is pointless: a single candidate passes the naming rule with a χ²
     below the least likelihood-ratio threshold for adding an effect (:func:`.fitting.lrt_threshold`
     with m = 1, 6.63): the selection would name it, and no set (χ² ≥ 0) can beat it by the threshold."""
@@ -240,28 +239,29 @@ def _fit_sets_joint(cand_effects: Sequence[Effect], max_effects: int, base: Para
 
 
 def _judge(fits: Sequence[CandidateFit], base: Parameters, n: int, excess_before: float,
-           gap_ratio: float) -> Dict[Tuple[str, ...], List[str]]:
+           gap_ratio: float) -> Reasons:
     """The naming rule per fitted set: the reasons it may not be named (empty: it may). Not
     adequate (χ² > χ²₀.₉₉(n − k)); a parameter moved by less than its relevance threshold; a
     small share of the gap beyond the noise (:func:`excess`: sqrt(max(χ² − (n − k), 0)/n) >
     gap_ratio × the baseline's sqrt(max(χ²₀ − n, 0)/n)); a parameter whose interval contains its
     baseline value (not resolved, :func:`.verdicts.unresolved_reasons`)."""
-    out: Dict[Tuple[str, ...], List[str]] = {}
+    out: Reasons = {}
     for f in fits:
-        reasons = []
+        reasons: List[Reason] = []
         if f.screened:
-            reasons.append(f"screened out: its coarse scan's chi2 = {f.chi2:.3g} is more than {SCREEN_MARGIN:g} "
-                           f"above the best coarse chi2 (not fitted in full)")
+            reasons.append(Reason(Why.SCREENED, f"screened out: its coarse scan's chi2 = {f.chi2:.3g} is more than "
+                                                f"{SCREEN_MARGIN:g} above the best coarse chi2 (not fitted in full)"))
         elif not f.adequate:
-            reasons.append(f"not adequate: chi2 = {f.chi2:.3g} > chi2_0.99({f.dof}) = {chi2_quantile(f.dof):.3g}")
+            reasons.append(Reason(Why.NOT_ADEQUATE, f"not adequate: chi2 = {f.chi2:.3g} > chi2_0.99({f.dof}) = "
+                                                    f"{chi2_quantile(f.dof):.3g}"))
         for e in f.effects:
             ok, how = EFFECTS[e].relevant(f.values[e], base)
             if not ok:
-                reasons.append(f"negligible change of {EFFECTS[e].field}: {how}")
+                reasons.append(Reason(Why.NEGLIGIBLE, f"negligible change of {EFFECTS[e].field}: {how}", e))
         g = excess(f.chi2, f.dof, n)
         if g > gap_ratio * excess_before:
-            reasons.append(f"small share of the gap beyond the noise: {excess_before:.3g} -> {g:.3g} "
-                           f"(more than {gap_ratio:g} x)")
+            reasons.append(Reason(Why.SMALL_SHARE, f"small share of the gap beyond the noise: {excess_before:.3g} -> "
+                                                   f"{g:.3g} (more than {gap_ratio:g} x)"))
         reasons += unresolved_reasons(f, base)
         out[f.effects] = reasons
     return out
@@ -482,9 +482,9 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
             updated, after_f, beh_upd, spread_after, counts_after = cand.params, f_c, b_c, sp_c, n_c
         else:
             # The fit's gap was small enough, the full simulation's is not: not named.
-            verdicts[best.effects] = verdicts[best.effects] + [
-                f"small share of the gap beyond the noise in the full simulation of the updated model: "
-                f"{g_c:.3g} > {gap_ratio:g} x {excess_before:.3g}"]
+            verdicts[best.effects] = verdicts[best.effects] + [Reason(
+                Why.SMALL_SHARE, f"small share of the gap beyond the noise in the full simulation of the updated "
+                                 f"model: {g_c:.3g} > {gap_ratio:g} x {excess_before:.3g}")]
             best, alts = None, []
     if measured is not None:
         behaviours["updated"] = beh_upd
@@ -512,10 +512,8 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
                         z_after=(after_f[k] - f.value) / sig(k, spread_after),
                         exceeds_uncertainty=bool(abs(before[k] - f.value) > 2 * sig(k, spread_base)))
                 for k, f in meas.items()}
-    # "none" also when an adequate fit needs only a negligible change (and may fail the gap share):
-    # the data are explained without a physically relevant change — unless a relevant change is
-    # resolved (an adequate set whose intervals exclude the baseline; not named for another reason).
-    negligible = negligible_fits(fits, verdicts) if best is None and not relevant_resolved(fits, verdicts) else []
+    # Nothing named or confounded: "none" where an adequate fit needs only a negligible change —
+    # unless a relevant change is resolved, or fits clearly better unresolved (docs/model.md §9.1).
     unresolved: Dict[str, Any] = {}
     if chi2_0 <= chi2_quantile(n):
         verdict = "none"
@@ -523,19 +521,12 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
         verdict = "named"
     elif confounded:
         verdict = "confounded"
-    elif negligible:
-        # Adequate and closing the gap, but only by a physically negligible change: nothing to name.
-        verdict = "none"
     else:
-        verdict = "unexplained"
-        # The best relevant candidate that fits but that the data do not resolve (its interval
-        # contains the baseline).
-        unres = [f for f in fits if f.adequate and not f.screened and any(r.startswith("not resolved") for r in verdicts[f.effects])
-                 and not any(r.startswith("negligible change") for r in verdicts[f.effects])]
-        if unres and not relevant_resolved(fits, verdicts):
-            u = min(unres, key=lambda f: f.chi2)
+        verdict, _, u = unnamed_verdict(fits, verdicts, lrt_threshold(1, len(cand_effects)))
+        if u is not None:
             unresolved = dict(effects=list(u.effects), values=u.values, stderrs=u.stderrs, chi2=u.chi2,
-                              reasons=verdicts[u.effects])
+                              intervals={e: list(interval_of(u, e)) for e in u.effects},
+                              reasons=verdicts[u.effects], kinds=[r.kind.name for r in verdicts[u.effects]])
     grid = ADVICE_GRID if advice_grid is None else tuple(advice_grid)
     to_advise = confounded.get("group") or unresolved.get("effects")
     if to_advise and measured is not None and grid:
@@ -546,8 +537,10 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
                                                      on_point=lambda: bar.update(1),
                                                      fitted=confounded.get("values"))
         bar.close()
+    negl = negligible_fits(fits, verdicts)
     rejected = [dict(effects=list(f.effects), values=f.values, stderrs=f.stderrs, chi2=f.chi2, dof=f.dof,
-                     reasons=verdicts[f.effects] or ["passes the naming rule, but a simpler or better set was named"])
+                     reasons=verdicts[f.effects] or ["passes the naming rule, but a simpler or better set was named"],
+                     kinds=sorted(k.name for k in kinds(verdicts[f.effects])), negligible=any(f is g for g in negl))
                 for f in sorted(fits, key=lambda f: f.chi2) if best is None or f.effects != best.effects]
     off = sorted(((k, v["z_after"]) for k, v in features.items() if abs(v["z_after"]) > 2), key=lambda x: -abs(x[1]))
     criterion = (f"an effect set is named only if (1) the baseline does not fit, chi2 = {chi2_0:.3g} > chi2_0.99(n={n}) = "

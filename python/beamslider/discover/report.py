@@ -109,14 +109,15 @@ def verdict_line(d: Discovery) -> str:
         adv = u.get("advice", {}).get("text")
         vals = ", ".join(f"{EFFECTS[e].field} = {fmt_value(u['values'][e])} ± {fmt_value(u['stderrs'][e])}"
                          for e in u["effects"])
-        why = u["reasons"][-1].removeprefix("not resolved: ")
+        why = next((r for r, k in zip(u["reasons"], u.get("kinds", ())) if k == "NOT_RESOLVED"),
+                   u["reasons"][-1]).removeprefix("not resolved: ")
         return (f"unexplained discrepancy (gap {d.gap_before:.3g}) - best candidate {' + '.join(u['effects'])} "
                 f"({vals}), not resolved by these runs ({why})" + (f"; to resolve it, {adv}" if adv else ""))
     if d.verdict == "unexplained":
         off = ", ".join(f"{f['feature']} z = {f['z']:+.1f}" for f in d.features_off[:3])
         # A relevant change the data resolve, adequate but not named, before the lowest χ².
-        resolved = [r for r in d.rejected if not any(x.startswith(("negligible change", "not resolved", "screened out",
-                                                                    "not adequate")) for x in r["reasons"])]
+        resolved = [r for r in d.rejected
+                    if not set(r.get("kinds", ())) & {"NEGLIGIBLE", "NOT_RESOLVED", "SCREENED", "NOT_ADEQUATE"}]
         best = resolved[0] if resolved else d.rejected[0] if d.rejected else None
         why = (f"; best candidate {' + '.join(best['effects'])} rejected: {best['reasons'][0]}" if best else "")
         return f"unexplained discrepancy (gap {d.gap_before:.3g}; off: {off or 'no single feature beyond 2 sigma'}){why}"
@@ -132,11 +133,7 @@ def _negligible(d: Discovery) -> List[Any]:
     that does not fit)."""
     if d.verdict != "none":
         return []
-    return [r for r in d.rejected if r["reasons"]
-            and all(any(x.startswith(f"negligible change of {EFFECTS[e].field}:") for x in r["reasons"])
-                    for e in r["effects"])
-            and all(x.startswith(("negligible change", "small share of the gap", "not resolved"))
-                    for x in r["reasons"])]
+    return [r for r in d.rejected if r.get("negligible")]
 
 
 def fmt_value(v: Any) -> str:

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import itertools
 import math
+from enum import Enum
 from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
@@ -43,7 +44,47 @@ def interval_of(f: CandidateFit, e: str) -> Tuple[float, float]:
     return (v - z * se, v + z * se) if math.isfinite(se) else (-math.inf, math.inf)
 
 
-def unresolved_reasons(f: CandidateFit, base: Parameters) -> List[str]:
+class Why(str, Enum):
+    """The kind of a reason why a fitted set may not be named (:class:`Reason`); the verdict's logic
+    reads these, the report shows the reasons' text."""
+
+    SCREENED = "screened out"
+    """Only its coarse scan was made (:data:`.naming.SCREEN_MARGIN`)."""
+    NOT_ADEQUATE = "not adequate"
+    """χ² > χ²₀.₉₉(n − k)."""
+    NEGLIGIBLE = "negligible change"
+    """A parameter moved by less than its relevance threshold."""
+    SMALL_SHARE = "small share of the gap"
+    """The gap beyond the noise shrinks too little (in the fit, or in the full simulation)."""
+    NOT_RESOLVED = "not resolved"
+    """A parameter's interval contains its baseline value (:func:`unresolved_reasons`)."""
+
+
+class Reason(str):
+    """One reason a fitted set may not be named: its text (what the report shows, starting with
+    the kind's words), its :class:`Why` and the effect it concerns (None: the whole set)."""
+
+    kind: Why
+    effect: Optional[str]
+
+    def __new__(cls, kind: Why, text: str, effect: Optional[str] = None) -> "Reason":
+        obj = super().__new__(cls, text)
+        obj.kind, obj.effect = kind, effect
+        return obj
+
+    def __reduce__(self):
+        return (Reason, (self.kind, str(self), self.effect))
+
+
+Reasons = Dict[Tuple[str, ...], List[Reason]]
+
+
+def kinds(reasons: Sequence[Any]) -> set:
+    """The :class:`Why` of each reason (a plain string, e.g. from a report file, has none)."""
+    return {getattr(r, "kind", None) for r in reasons} - {None}
+
+
+def unresolved_reasons(f: CandidateFit, base: Parameters) -> List[Reason]:
     """A reason per parameter of ``f`` whose interval (:func:`interval_of`) contains its baseline
     value: the data do not resolve that change (empty: all resolved)."""
     out = []
@@ -51,24 +92,23 @@ def unresolved_reasons(f: CandidateFit, base: Parameters) -> List[str]:
         lo, hi = interval_of(f, e)
         b = EFFECTS[e].baseline_value(base)
         if lo <= b <= hi:
-            out.append(f"not resolved: the interval [{lo:.4g}, {hi:.4g}] of {EFFECTS[e].field} contains the "
-                       f"baseline {b:.4g}")
+            out.append(Reason(Why.NOT_RESOLVED, f"not resolved: the interval [{lo:.4g}, {hi:.4g}] of {EFFECTS[e].field} "
+                                                f"contains the baseline {b:.4g}", e))
     return out
 
 
-def negligible_fits(fits: Sequence[CandidateFit], reasons: Dict[Tuple[str, ...], List[str]]) -> List[CandidateFit]:
+def negligible_fits(fits: Sequence[CandidateFit], reasons: Reasons) -> List[CandidateFit]:
     """Adequate sets whose every parameter moved by a negligible amount (and whose other reasons
     are at most a small share of the gap or an unresolved interval): the data are explained
     without a physically relevant change, if no relevant change is resolved
-    (:func:`relevant_resolved`)."""
+    (:func:`relevant_resolved`) or fits clearly better unresolved (:func:`unnamed_verdict`)."""
     return [f for f in fits if reasons[f.effects] and f.adequate and not f.screened
-            and all(any(r.startswith(f"negligible change of {EFFECTS[e].field}:") for r in reasons[f.effects])
+            and all(any(getattr(r, "kind", None) is Why.NEGLIGIBLE and r.effect == e for r in reasons[f.effects])
                     for e in f.effects)
-            and all(r.startswith(("negligible change", "small share of the gap", "not resolved"))
-                    for r in reasons[f.effects])]
+            and kinds(reasons[f.effects]) <= {Why.NEGLIGIBLE, Why.SMALL_SHARE, Why.NOT_RESOLVED}]
 
 
-def relevant_resolved(fits: Sequence[CandidateFit], reasons: Dict[Tuple[str, ...], List[str]]) -> List[CandidateFit]:
+def relevant_resolved(fits: Sequence[CandidateFit], reasons: Reasons) -> List[CandidateFit]:
     """Adequate sets, fitted in full, whose every parameter moved by a relevant amount and whose
     every interval (:func:`interval_of`) excludes the baseline, best first: the data resolve a
     relevant change away from the baseline. Then a negligible change that also fits
@@ -76,9 +116,42 @@ def relevant_resolved(fits: Sequence[CandidateFit], reasons: Dict[Tuple[str, ...
     baseline that happens to fit is not evidence against a change the data resolve — and the
     verdict is not "none" (docs/model.md §9.1, "Resolved")."""
     out = [f for f in fits if f.adequate and not f.screened
-           and not any(r.startswith(("negligible change", "not resolved", "screened out", "not adequate"))
-                       for r in reasons[f.effects])]
+           and not kinds(reasons[f.effects]) & {Why.NEGLIGIBLE, Why.NOT_RESOLVED, Why.SCREENED, Why.NOT_ADEQUATE}]
     return sorted(out, key=lambda f: f.chi2)
+
+
+def relevant_unresolved(fits: Sequence[CandidateFit], reasons: Reasons) -> List[CandidateFit]:
+    """Adequate sets, fitted in full, whose every parameter moved by a relevant amount but whose
+    interval contains the baseline for at least one of them, best first."""
+    out = [f for f in fits if f.adequate and not f.screened and Why.NOT_RESOLVED in kinds(reasons[f.effects])
+           and Why.NEGLIGIBLE not in kinds(reasons[f.effects])]
+    return sorted(out, key=lambda f: f.chi2)
+
+
+def unnamed_verdict(fits: Sequence[CandidateFit], reasons: Reasons, threshold: float
+                    ) -> Tuple[str, Optional[CandidateFit], Optional[CandidateFit]]:
+    """The verdict where the baseline does not fit and no set is named or confounded: ("none", the
+    negligible fit, None) — the data are explained without a physically relevant change — or
+    ("unexplained", None, the best relevant but unresolved set or None). A negligible fit gives
+    "none" only if no relevant change is resolved (:func:`relevant_resolved`) and no relevant but
+    unresolved set fits clearly better: with each set's χ² charged ``threshold`` per fitted
+    parameter (the selection's likelihood-ratio threshold for one effect picked from the
+    candidates, :func:`.fitting.lrt_threshold`: the price at which the forward selection adds a
+    parameter), the unresolved set beats the best negligible one by more than ``threshold``. Then
+    the data prefer that change to the baseline's neighbourhood at the significance that would name
+    it, though they do not locate it well enough to exclude the baseline — "unexplained, best
+    candidate X, not resolved by these runs" (docs/model.md §9.1, "Resolved")."""
+    if relevant_resolved(fits, reasons):
+        return "unexplained", None, None
+
+    def charged(f: CandidateFit) -> float:
+        return f.chi2 + threshold * len(f.effects)
+
+    unres = min(relevant_unresolved(fits, reasons), key=charged, default=None)
+    negl = min(negligible_fits(fits, reasons), key=charged, default=None)
+    if negl is not None and not (unres is not None and charged(negl) - charged(unres) > threshold):
+        return "none", negl, None
+    return "unexplained", None, unres
 
 
 def signature(f: CandidateFit, before: Dict[str, float], sig: Dict[str, float]) -> Dict[str, float]:
@@ -95,7 +168,7 @@ def cosine(a: Dict[str, float], b: Dict[str, float]) -> Tuple[float, float, floa
     return (float(x @ y / (na * nb)) if na > 0 and nb > 0 else 0.0), na, nb
 
 
-def confounded_group(best: CandidateFit, fits: Sequence[CandidateFit], reasons: Dict[Tuple[str, ...], List[str]],
+def confounded_group(best: CandidateFit, fits: Sequence[CandidateFit], reasons: Reasons,
                      before: Dict[str, float], sig: Dict[str, float], base: Parameters,
                      delta_chi2: float) -> Optional[Dict[str, Any]]:
     """The candidates that fit as well as the single effect ``best`` — each passing the naming rule
