@@ -384,3 +384,27 @@ def test_papers_map_at_120_s_as_xarray():
         assert ds.behaviour.sel(f_ex_hz=f, a_ex_m_s2=a).item() == "trivial_adaption"
         assert not bool(ds.settled.sel(f_ex_hz=f, a_ex_m_s2=a).item())
         assert float(ds.drift_s.sel(f_ex_hz=f, a_ex_m_s2=a).item()) > 0.005
+
+
+def test_a_design_law_map_with_the_hb_jump_down_is_its_blend_without_the_learnt_rule():
+    """``s_dn='hb'`` with a design law (docs/model.md §6.4–6.5): the core blends the law for the
+    map's parameters with ρ_c = 0 and predicts with the law rule; the same map from that blended
+    law passed as a drift law must agree row for row."""
+    import dataclasses
+
+    from beamslider.maps import predicted_map
+    from beamslider.superslow import design_coordinates, design_params
+    from beamslider.superslow.design_law import default_law
+
+    x = design_coordinates(beamslider.Parameters())
+    x.update(gap_ratio=1.08, slider_mass_kg=0.035, com_offset_m=0.002)
+    p, law = design_params(x), default_law()
+    blended, _note = law.law_for(p)
+    assert blended.rho_c > 0  # else the two rules could not differ
+    grid = dict(f_ex=[104.0, 116.0, 124.0], a_ex=[10.0, 14.0], s0=0.3, t_end=120.0)
+    via_design = predicted_map(p, drift=law, s_dn="hb", **grid)
+    via_blend = predicted_map(p, drift=dataclasses.replace(blended, rho_c=0.0), s_dn="law", **grid)
+    keep = [k for k in via_design[0] if k != "wall_time_s"]
+    assert [[r[k] for k in keep] for r in via_design] == [[r[k] for k in keep] for r in via_blend]
+    learnt = predicted_map(p, drift=law, s_dn="law", **grid)  # the learnt rule changes this grid's rows
+    assert [r["behaviour"] for r in learnt] != [r["behaviour"] for r in via_design]

@@ -40,6 +40,15 @@ pub struct StudyPoint {
     pub duration_s: f64,
 }
 
+/// A point as a front end sends it: (index, parameter TOML, f_ex [Hz], a_ex [m/s²], s₀, duration [s]).
+pub type PointTuple = (usize, String, f64, f64, f64, f64);
+
+impl From<PointTuple> for StudyPoint {
+    fn from((index, params_toml, f_ex_hz, a_ex_m_s2, s0, duration_s): PointTuple) -> Self {
+        StudyPoint { index, params_toml, f_ex_hz, a_ex_m_s2, s0, duration_s }
+    }
+}
+
 /// Run the points of a chunk in parallel on `threads` workers (default one per core).
 /// `cfg` is a map configuration (record_every, dt_s, criteria; its grid and parameters are not
 /// used). Points with the same parameter text share one [`Model`]. `on_row(&row)` sees every

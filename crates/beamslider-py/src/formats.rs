@@ -1,5 +1,4 @@
-//! Conversions for the core's formats and formulas: the manifold CSV, the map's letter table,
-//! the backbone and the JSON-lines results files (design runs).
+//! The core's formats and formulas: the manifold CSV, the map's letter table, the backbone and JSON-lines results files.
 
 use std::path::PathBuf;
 
@@ -17,8 +16,7 @@ fn manifold_csv(up_s: Vec<f64>, up_amplitude_m: Vec<f64>, down_s: Vec<f64>, down
 
 type Columns = (Vec<f64>, Vec<f64>, Vec<f64>, Vec<f64>, Vec<String>, Vec<String>, Vec<bool>);
 
-/// The letter table of a map and its "t_end = … s" text, from its columns (s0, f_ex, a_ex,
-/// t_end, status, behaviour, settled).
+/// The letter table of a map and its "t_end = … s" text, from its columns (core `map::table_of_columns`).
 #[pyfunction]
 fn map_text_table(columns: Columns) -> PyResult<(String, String)> {
     let (s0, f, a, t, status, behaviour, settled) = columns;
@@ -31,8 +29,7 @@ fn backbone_omega2(omega2: f64, b: f64, amplitude: Vec<f64>, m1: f64) -> Vec<f64
     amplitude.iter().map(|&a| Beam::backbone_omega2(omega2, b, a, m1)).collect()
 }
 
-/// The complete lines of a JSON-lines results file whose header has `key` = `version`, the byte
-/// length of the complete part and whether a torn last line was left out.
+/// The complete lines of a JSON-lines results file (core `results::read_json_lines`).
 #[pyfunction]
 fn read_json_lines(py: Python<'_>, path: PathBuf, key: &str, version: u64) -> PyResult<(Vec<String>, u64, bool)> {
     let r = py.detach(|| guarded(|| results::read_json_lines(&path, key, version)))?;

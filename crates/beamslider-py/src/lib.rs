@@ -1,13 +1,6 @@
-//! `beamslider._core`: the thin PyO3 binding of `beamslider-core`.
-//!
-//! It only converts types and errors; the public Python API lives in `python/beamslider/`.
-//! Parameters cross the boundary as the core's validated object (`Params`, module `params`).
-//! Long runs release the interpreter (`py.detach`); a monitor re-attaches every few thousand
-//! steps to run pending signal handlers (Ctrl-C) and the optional progress callback. Core errors
-//! map to Python exceptions: invalid parameter / TOML → `ValueError`, I/O → `OSError`, numerical
-//! failure → `beamslider.SimulationError`, interrupted → `KeyboardInterrupt`. Panics are caught
-//! and reported as `SimulationError`. The functions mirror Python's keyword signatures (their
-//! argument lists are the API, hence the crate-wide `too_many_arguments`).
+//! `beamslider._core`, the PyO3 binding of `beamslider-core`: types and errors only (the Python API is `python/beamslider/`,
+//! these functions' docs `_core.pyi`). Long work runs with the interpreter released ([`detached`]); errors map by class
+//! ([`to_py`]); a panic becomes `SimulationError` ([`guarded`]). Argument lists mirror Python's keyword signatures.
 #![allow(clippy::too_many_arguments)]
 
 use std::sync::atomic::AtomicBool;
@@ -72,10 +65,8 @@ fn guarded<T>(f: impl FnOnce() -> Result<T, Error>) -> Result<T, PyErr> {
     }
 }
 
-/// Run `work` with the interpreter released on the core's watched worker thread
-/// ([`runner::watched`]); every `period_ms`, and once more at the end, the calling thread
-/// re-attaches, runs pending signal handlers (Ctrl-C) and calls `poll(py)` (progress callbacks).
-/// An exception there sets `cancel` and is raised once the work has stopped.
+/// Run `work` on the core's watched thread ([`runner::watched`]) with the interpreter released; every `period_ms`
+/// and at the end this thread runs signal handlers (Ctrl-C) and `poll(py)`. An exception sets `cancel`, raised after the work stops.
 fn detached<T: Send>(
     py: Python<'_>, cancel: &AtomicBool, period_ms: u64, work: impl FnOnce() -> Result<T, Error> + Send, poll: impl Fn(Python<'_>) -> PyResult<()> + Sync,
 ) -> PyResult<T> {
@@ -91,10 +82,8 @@ fn detached<T: Send>(
     Ok(out)
 }
 
-/// Run `work` with the interpreter released, reporting to the core's `SharedMonitor` (a run's
-/// monitor, or counts of points): every 50 ms the calling thread ([`detached`]) calls `on_start()`
-/// once a run waits at its start (inputs checked, nothing written) and `callback(done, total)`
-/// with the latest progress.
+/// [`detached`] work reporting to a `SharedMonitor`: every 50 ms, `on_start()` once the run waits at its start
+/// (inputs checked, nothing written), and `callback(done, total)` with the latest progress.
 fn monitored<T: Send>(
     py: Python<'_>, callback: Option<Py<PyAny>>, on_start: Option<Py<PyAny>>, work: impl FnOnce(&SharedMonitor) -> Result<T, Error> + Send,
 ) -> PyResult<T> {
@@ -127,8 +116,7 @@ fn moving_average<'py>(py: Python<'py>, x: In<'py>, window: usize) -> PyResult<O
     Ok(py.detach(|| signal::moving_average(&x, window)).into_pyarray(py))
 }
 
-/// Envelope of docs/model.md §7 (`window_s` moving average of |analytic signal| of samples spaced
-/// `dt_s`); with `block`, the analytic signal by overlapping FFT blocks (`margin` samples each side).
+/// Envelope of docs/model.md §7 (core `signal::envelope_checked`, or `blocked_envelope` with `block`).
 #[pyfunction]
 #[pyo3(signature = (x, dt_s, window_s, *, block=None, margin=0))]
 fn envelope<'py>(py: Python<'py>, x: In<'py>, dt_s: f64, window_s: f64, block: Option<usize>, margin: usize) -> PyResult<Out<'py>> {
@@ -137,9 +125,7 @@ fn envelope<'py>(py: Python<'py>, x: In<'py>, dt_s: f64, window_s: f64, block: O
     Ok(py.detach(|| guarded(env))?.into_pyarray(py))
 }
 
-/// The super-slow signals a map point is classified from (core `signal::envelope_stream`,
-/// docs/model.md §7) of w(4L/7) [m] and s sampled every `dt_s`: (t0 of the first 0.2-s bin [s],
-/// bin spacing [s], s per bin, A per bin: `window_s` moving average of |analytic signal| / h).
+/// The super-slow signals of w(4L/7) and s (core `signal::envelope_stream`, docs/model.md §7).
 #[pyfunction]
 fn super_slow_signals<'py>(py: Python<'py>, w: In<'py>, s: In<'py>, dt_s: f64, thickness_m: f64, window_s: f64) -> PyResult<(f64, f64, Out<'py>, Out<'py>)> {
     let (w, s) = (w.as_slice()?.to_vec(), s.as_slice()?.to_vec());
@@ -147,9 +133,7 @@ fn super_slow_signals<'py>(py: Python<'py>, w: In<'py>, s: In<'py>, dt_s: f64, t
     Ok((x.t0_s, x.dt_s, x.s.into_pyarray(py), x.amplitude_h.into_pyarray(py)))
 }
 
-/// Behaviour classification (docs/model.md §8) of super-slow signals sampled every `dt_s` (slider
-/// position `s`, amplitude `amplitude_h`); `criteria_toml`: thresholds as TOML keys of the core's
-/// `Criteria` (missing keys take defaults). Returns the classification as JSON text.
+/// Behaviour classification (docs/model.md §8) of super-slow signals: JSON text.
 #[pyfunction]
 #[pyo3(signature = (s, amplitude_h, dt_s, *, t0_s=0.0, criteria_toml=None))]
 fn classify(py: Python<'_>, s: In<'_>, amplitude_h: In<'_>, dt_s: f64, t0_s: f64, criteria_toml: Option<&str>) -> PyResult<String> {
@@ -158,8 +142,7 @@ fn classify(py: Python<'_>, s: In<'_>, amplitude_h: In<'_>, dt_s: f64, t0_s: f64
     json(&py.detach(|| guarded(|| beamslider_core::classify(&x, &criteria)))?)
 }
 
-/// The values of an inclusive range START:STOP:STEP (core `map::Axis`: STOP included when within
-/// STEP/1000 of the grid, values rounded to 1e-9, at most a million); errors name `field`.
+/// The values of an inclusive range START:STOP:STEP (core `map::Axis`); errors name `field`.
 #[pyfunction]
 fn range_values(field: &str, start: f64, stop: f64, step: f64) -> PyResult<Vec<f64>> {
     guarded(|| beamslider_core::Axis::Range { start, stop, step }.values(field))

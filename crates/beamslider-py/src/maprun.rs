@@ -1,7 +1,5 @@
-//! Operating maps (binding of core `map`, docs/model.md §8): `MapConfig`, a configuration parsed
-//! and checked once; `MapRun` wraps a `MapSession` (results locked, checked, jobs planned) whose
-//! jobs run here or elsewhere ([`run_map_chunk`] on a Dask worker); `ResultsLock` for the other
-//! results files.
+//! Operating maps (core `map`, docs/model.md §8): `MapConfig`, `MapRun` (a core `MapSession` whose
+//! jobs run here or in [`run_map_chunk`] on a Dask worker) and `ResultsLock` for other results files.
 
 use std::path::PathBuf;
 use std::sync::atomic::AtomicBool;
@@ -16,24 +14,20 @@ use pythonize::depythonize;
 use crate::params::PyParams;
 use crate::{detached, guarded};
 
-/// A map configuration (core `MapConfig`) parsed and checked once: `MapConfig(toml_text)`; the
-/// map, study and predictor functions take it as it is (pickled as its canonical TOML).
+/// A map configuration (core `MapConfig`) parsed and checked once (pickled as its canonical TOML).
 #[pyclass(name = "MapConfig", module = "beamslider._core", frozen)]
 pub struct PyMapConfig {
     pub cfg: MapConfig,
-    axes: (Vec<f64>, Vec<f64>, Vec<f64>),
 }
 
 #[pymethods]
 impl PyMapConfig {
     #[new]
     fn new(text: &str) -> PyResult<Self> {
-        Self::checked(guarded(|| MapConfig::from_toml_str(text))?)
+        Ok(PyMapConfig { cfg: guarded(|| MapConfig::from_toml_str(text))? })
     }
 
-    /// A configuration from its parts, without TOML: the parameters `params` (a `Params`), the
-    /// grid's axes as lists, the duration [s], the recording interval, Δt [s] (None: the
-    /// parameters') and the criteria (thresholds of the core's `Criteria` by name; None: defaults).
+    /// A configuration from its parts, without TOML (`criteria`: the core's `Criteria` by name).
     #[staticmethod]
     #[pyo3(signature = (params, *, f_ex_hz, a_ex_m_s2, s0, duration_s, record_every=DEFAULT_RECORD_EVERY, dt_s=None, criteria=None))]
     fn of(
@@ -46,14 +40,14 @@ impl PyMapConfig {
             criteria.map_or(Ok(Criteria::default()), |c| depythonize(c)).map_err(|e| PyValueError::new_err(format!("invalid parameter `criteria`: {e}")))?,
         );
         let cfg = MapConfig { duration_s, dt_s, record_every, grid, params, criteria };
-        Self::checked(guarded(|| cfg.validate().map(|()| cfg))?)
+        Ok(PyMapConfig { cfg: guarded(|| cfg.validate().map(|()| cfg))? })
     }
 
     /// The paper's operating map.
     #[staticmethod]
     #[pyo3(name = "default")]
     fn paper() -> PyResult<Self> {
-        Self::new(&MapConfig::default().to_toml_string())
+        Ok(PyMapConfig { cfg: guarded(|| MapConfig::default().validate().map(|()| MapConfig::default()))? })
     }
 
     /// The canonical TOML text (what `map.toml` holds).
@@ -63,13 +57,11 @@ impl PyMapConfig {
 
     /// The grid's axes: (f_ex [Hz], a_ex [m/s²], s0).
     #[getter]
-    fn axes(&self) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
-        self.axes.clone()
+    fn axes(&self) -> PyResult<(Vec<f64>, Vec<f64>, Vec<f64>)> {
+        guarded(|| self.cfg.axes())
     }
 
-    /// Check the map before anything is written: Δt and the results file `out` (exists without
-    /// `resume`, other settings; with `extend`: the map to extend to the configuration's
-    /// duration). Raises what `MapRun` would raise.
+    /// Check the map and its results file before anything is written (core `map::preflight`).
     #[pyo3(signature = (*, out=None, resume=false, extend=false))]
     fn check(&self, py: Python<'_>, out: Option<PathBuf>, resume: bool, extend: bool) -> PyResult<()> {
         let opts = MapRunOptions { out, resume, threads: None, extend };
@@ -81,16 +73,7 @@ impl PyMapConfig {
     }
 }
 
-impl PyMapConfig {
-    /// A checked configuration with its axes' values.
-    fn checked(cfg: MapConfig) -> PyResult<Self> {
-        Ok(PyMapConfig { axes: guarded(|| cfg.axes())?, cfg })
-    }
-}
-
-/// The results of a map: `MapRun(config, out=None, resume=False, extend=False)` checks the
-/// map, takes the lock of `out` (a second writer fails at once: `BlockingIOError` naming the
-/// folder and the holder's PID), cuts off a torn last line, writes the header and plans the jobs.
+/// The results of a map (core `MapSession`: checked, locked, torn line cut, header written, jobs planned).
 #[pyclass(module = "beamslider._core", frozen)]
 pub struct MapRun(MapSession);
 
@@ -115,15 +98,12 @@ impl MapRun {
         self.0.wire_jobs()
     }
 
-    /// Append rows (JSON texts of `run_map_chunk`) computed elsewhere; rows of points already in
-    /// the results are skipped. Returns the number appended.
+    /// Append rows (JSON texts of `run_map_chunk`) computed elsewhere: the number appended.
     fn append(&self, py: Python<'_>, rows: Vec<String>) -> PyResult<usize> {
         py.detach(|| guarded(|| self.0.append_json(&rows)))
     }
 
-    /// Run the remaining jobs here on `threads` threads (default one per core), the interpreter
-    /// released; `progress(done, total)` from the calling thread; Ctrl-C cancels (finished
-    /// points stay in the file) and raises KeyboardInterrupt.
+    /// Run the remaining jobs here, the interpreter released (Ctrl-C: KeyboardInterrupt, finished points kept).
     #[pyo3(signature = (*, threads=None, progress=None))]
     fn run_local(&self, py: Python<'_>, threads: Option<usize>, progress: Option<Py<PyAny>>) -> PyResult<()> {
         let cancel = AtomicBool::new(false);
@@ -131,8 +111,7 @@ impl MapRun {
         detached(py, &cancel, 100, || self.0.run_local(threads, &cancel, None), poll)
     }
 
-    /// Close the results (release the lock) and return (rows of the grid as JSON texts sorted by
-    /// index, the number of continued points). KeyboardInterrupt when points are missing.
+    /// Close the results: (rows as JSON texts by index, continued points); KeyboardInterrupt when points are missing.
     fn finish(&self) -> PyResult<(Vec<String>, usize)> {
         let (rows, extended) = guarded(|| self.0.finish())?;
         Ok((rows.iter().map(MapRow::to_json).collect(), extended))
@@ -144,9 +123,7 @@ impl MapRun {
     }
 }
 
-/// A Dask task of a map: run `jobs` (see `MapRun.jobs`) of the map `config` on `threads`
-/// rayon threads (default 1) with the interpreter released; returns the rows as JSON texts sorted
-/// by grid index. Each row is bitwise the row the local runner writes (but `wall_time_s`).
+/// A Dask task of a map: its rows, as JSON texts sorted by grid index (core `map::run_chunk`).
 #[pyfunction]
 #[pyo3(signature = (config, jobs, *, threads=1))]
 pub fn run_map_chunk(py: Python<'_>, config: &Bound<'_, PyMapConfig>, jobs: Vec<WireJob>, threads: usize) -> PyResult<Vec<String>> {
@@ -154,9 +131,7 @@ pub fn run_map_chunk(py: Python<'_>, config: &Bound<'_, PyMapConfig>, jobs: Vec<
     py.detach(|| guarded(|| run_chunk(cfg, &jobs, threads, &AtomicBool::new(false))))
 }
 
-/// `ResultsLock(path)`: the one-writer lock of a results file (`<path>.lock`), taken at once or
-/// `BlockingIOError` naming the folder and the holder's PID. `release()` or the end of a `with`
-/// block frees it (as does the end of the process).
+/// The one-writer lock of a results file (core `ResultsLock`), taken at once or `BlockingIOError`.
 #[pyclass(module = "beamslider._core", name = "ResultsLock")]
 pub struct PyResultsLock(Option<ResultsLock>);
 

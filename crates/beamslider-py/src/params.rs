@@ -1,6 +1,5 @@
-//! The core's parameters (docs/model.md §1) as a Python object: `Params(**values)` converts each
-//! value by type and validates once in the core; runs take the object as it is (no TOML, no
-//! second check). The field table (names, symbols, meanings, units, allowed values) is the core's.
+//! The core's parameters (docs/model.md §1) as a Python object, validated once in the core; runs
+//! take the object as it is (no TOML, no second check).
 
 use beamslider_core::Params;
 use beamslider_core::params::{FIELDS, Valid};

@@ -1,14 +1,13 @@
-//! Binding of the reduced predictor (docs/model.md §6.3–6.5): the drift law and the design law as
-//! handles that parse their files once, the law's features and jump-down rule, predicted points
-//! and maps. Conversions only: results cross as the core's JSON.
+//! The reduced predictor (docs/model.md §6.3–6.5): drift and design laws as handles parsed once,
+//! the law's features and jump-down rule, predicted points and maps (results as the core's JSON).
 
 use beamslider_core::dynamics::runner::SharedMonitor;
 use beamslider_core::superslow::design_law::{DesignLaw, design_coordinates as core_coordinates};
 use beamslider_core::superslow::law::{self, DriftLaw};
-use beamslider_core::superslow::predict::{self as pred, Drift, PredictArgs, TableDrift};
+use beamslider_core::superslow::predict::{self as pred, Drift, MapDrift, PredictArgs, TableDrift};
 use beamslider_core::superslow::slowflow::SlowBranch;
 use beamslider_core::superslow::{HbOptions, hb_manifold};
-use beamslider_core::{Error, MapRow, MapRunOptions};
+use beamslider_core::{MapRow, MapRunOptions};
 use pyo3::exceptions::PyKeyboardInterrupt;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -63,8 +62,7 @@ pub fn hb_features(
     json(&py.detach(|| guarded(|| law::features(&params, &hb_manifold(&params, f_ex_hz, a_ex_m_s2, &opts)?, f_ex_hz, a_ex_m_s2, high, &s)))?)
 }
 
-/// One operating point by the reduced model, drift a law (`DriftLaw`) or a PCS table ((low, high, s_up, s_dn)): JSON;
-/// `options`: the core's `PredictArgs`.
+/// One operating point by the reduced model (core `predict::predict_drift`): JSON; `options`: the core's `PredictArgs`.
 #[pyfunction]
 #[pyo3(signature = (params, *, f_ex_hz, a_ex_m_s2, s0, t_end_s, law=None, table=None, **options))]
 pub fn predict(
@@ -75,11 +73,7 @@ pub fn predict(
     let (opts, n_modes) = (guarded(|| args.options())?, args.n_modes);
     let (params, law) = (params.get().0.clone(), law.map(|l| &l.get().0));
     let table = table.map(|(lo, hi, su, sd)| TableDrift::new(branch(lo), branch(hi), su, sd));
-    let drift = match (law, &table) {
-        (Some(l), None) => Drift::Law(l),
-        (None, Some(t)) => Drift::Table(t),
-        _ => return Err(crate::to_py(Error::invalid("drift", "\"\"", "one of law and table"))),
-    };
+    let drift = guarded(|| Drift::one_of(law, table.as_ref()))?;
     json(&py.detach(|| guarded(|| pred::predict_drift(&params, &*law::beam_for(&params, n_modes)?, drift, f_ex_hz, a_ex_m_s2, s0, t_end_s, &opts)))?)
 }
 
@@ -90,34 +84,21 @@ pub enum MapLaw<'py> {
     Design(Bound<'py, PyDesignLaw>),
 }
 
-/// A map predicted by the core (`map --predictor`; interpreter released, Ctrl-C stops it, `progress(done, total)`) with a
-/// drift law or a design law (blended for the configuration's parameters; `s_dn="hb"` drops its learnt jump-down);
-/// `options`: the core's `PredictArgs`. Returns (rows as JSON, why the design lies outside the design law).
+/// A map predicted by the core (`predict::run_predicted_map`) with a drift law or a design law blended for its
+/// parameters (`s_dn="hb"`: without its learnt jump-down); `options`: the core's `PredictArgs`.
 #[pyfunction]
 #[pyo3(signature = (config, law, *, out=None, resume=false, threads=None, progress=None, **options))]
 pub fn predicted_map(
     py: Python<'_>, config: &Bound<'_, PyMapConfig>, law: MapLaw<'_>, out: Path, resume: bool, threads: Option<usize>, progress: Option<Py<PyAny>>,
     options: Option<&Bound<'_, PyDict>>,
 ) -> PyResult<(Vec<String>, Vec<String>)> {
-    guarded(|| beamslider_core::dynamics::runner::check_threads(threads))?;
-    let (cfg, mut args): (_, PredictArgs) = (&config.get().cfg, kwargs(py, options)?);
-    let (blended, mut why);
-    why = Vec::new();
-    let law = match &law {
-        MapLaw::Drift(l) => &l.get().0,
-        MapLaw::Design(d) => {
-            let (design, keep) = (&d.get().0, args.s_dn != "hb");
-            (blended, why) = py.detach(|| guarded(|| design.law_for_rule(&cfg.effective_params(), keep)))?;
-            if args.s_dn == "hb" {
-                args.s_dn = "law".into();
-            }
-            &blended
-        }
+    let (cfg, args, opts): (_, PredictArgs, _) = (&config.get().cfg, kwargs(py, options)?, MapRunOptions { out, resume, threads, extend: false });
+    let drift = match &law {
+        MapLaw::Drift(l) => MapDrift::Law(&l.get().0),
+        MapLaw::Design(d) => MapDrift::Design(&d.get().0),
     };
-    let popts = guarded(|| args.options())?;
-    let opts = MapRunOptions { out, resume, threads, extend: false };
-    let run = |m: &SharedMonitor| pred::run_predicted_map(cfg, law, &popts, &opts, m.cancel(), &|n: usize, t: usize, _: &MapRow| m.report(n as f64, t as f64));
-    let outcome = monitored(py, progress, None, run)?;
+    let run = |m: &SharedMonitor| pred::predicted_map(cfg, drift, &args, &opts, m.cancel(), &|n: usize, t: usize, _: &MapRow| m.report(n as f64, t as f64));
+    let (outcome, why) = monitored(py, progress, None, run)?;
     if outcome.cancelled {
         return Err(PyKeyboardInterrupt::new_err("map interrupted"));
     }

@@ -1,6 +1,5 @@
-//! Runs of the model (docs/model.md §5–6, §9): one run (core `signal::run`) and its input check,
-//! the PCS manifold, batches of reduced free-slider runs (core `signal::reduced`), the virtual
-//! ENMA and the beam's modal data (core `physics::properties`). Types and errors only.
+//! Runs of the model (docs/model.md §5–6, §9): one run (core `signal::run`), the PCS manifold, batches
+//! of reduced free-slider runs (`signal::reduced`), the virtual ENMA and the beam's modal data.
 
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
@@ -23,15 +22,7 @@ fn model_of(py: Python<'_>, p: &Bound<'_, PyParams>) -> PyResult<Model> {
     py.detach(|| guarded(|| Model::of(&valid)))
 }
 
-/// Integrate the FS / PCS / beam-only model (docs/model.md §5–6) and return a dict with the recorded
-/// columns (numpy arrays keyed by `t_s`, `w_4L7_m`, `s`, `xC_m`, `zC_m`, `beta_rad`), `status`,
-/// `message`, `counters`, `final_state` (dicts of the core's structs) and `rows`. With `out` (a
-/// `.npz` or `.csv` path) the rows are streamed into that file instead (temporary name, renamed
-/// when the run ends; an interrupted run leaves nothing) and `overview` = ((t, w) or None, (t, s)
-/// or None: min/max decimation to `columns` pixel columns; super-slow (t0 [s], bin spacing [s],
-/// s per bin, amplitude/h per bin; `window_s` moving average) or None). `on_start()` is called
-/// once the inputs are checked, before the first step. `check_only`: check the inputs as the run
-/// does before its first step, run nothing and return None.
+/// One run of the FS / PCS / beam-only model (docs/model.md §5–6, core `signal::run`) as a dict (`_core.pyi`).
 #[pyfunction]
 #[pyo3(signature = (params, *, f_ex_hz, a_ex_m_s2, s0, t_end_s, model, s_pcs=None, record_every=10, progress=None, out=None, window_s=1.0, columns=2000, on_start=None, check_only=false))]
 fn simulate<'py>(
@@ -64,15 +55,13 @@ fn simulate<'py>(
     Ok(Some(d))
 }
 
-/// Default slider positions of the physical manifold sweep (docs/model.md §6): the reference grid
-/// s = 0, 0.005, …, 0.5 from the first s whose contact points lie on the beam.
+/// Default slider positions of the physical manifold sweep (docs/model.md §6).
 #[pyfunction]
 fn physical_manifold_grid(py: Python<'_>, params: &Bound<'_, PyParams>) -> PyResult<Vec<f64>> {
     Ok(ManifoldOptions::physical(&model_of(py, params)?).s_values)
 }
 
-/// Super-slow manifold by PCS continuation (docs/model.md §6): the core's `Manifold` as a dict;
-/// `progress(points_done, points_total)` is called after every s.
+/// Super-slow manifold by PCS continuation (docs/model.md §6): the core's `Manifold` as a dict.
 #[pyfunction]
 #[pyo3(signature = (params, *, f_ex_hz, a_ex_m_s2, s_values, periods=100, record_periods=25, progress=None))]
 fn super_slow_manifold<'py>(
@@ -84,13 +73,7 @@ fn super_slow_manifold<'py>(
     Ok(pythonize(py, &monitored(py, progress, None, |m| beamslider_core::super_slow_manifold(&Model::of(&valid)?, &excitation, &opts, &mut &*m))?)?)
 }
 
-/// Free-slider jobs `(params, f_ex_hz, a_ex_m_s2, s0, duration_s)` reduced in the core
-/// (`signal::reduced`: t, s and A = envelope(w, `window_s`)/h every `keep_every`-th of the samples
-/// recorded every `record_every` steps; with `detrend_s`, w minus its moving average first), in
-/// parallel on `threads` workers with the interpreter released. Returns one dict per job, in job
-/// order: `t`, `s`, `amplitude_h`, `status`, or `error` and `error_kind` ("invalid",
-/// "numerical"). `on_done(n)` gets the runs finished since the last call; Ctrl-C or an exception
-/// in it cancels the batch.
+/// Free-slider runs reduced in the core (`signal::reduced`), in parallel: one dict per job (`_core.pyi`).
 #[pyfunction]
 #[pyo3(signature = (jobs, *, record_every=5, keep_every=5, window_s=1.0, detrend_s=None, threads=None, on_done=None))]
 #[allow(clippy::type_complexity)]
@@ -127,8 +110,7 @@ enum Reduced<'py> {
     Failed { error_kind: &'static str, error: String },
 }
 
-/// Virtual ENMA of the beam of `params`; `options_json` holds the fields of the core's
-/// `EnmaOptions` (missing ones take defaults). Returns the result as JSON text.
+/// Virtual ENMA (docs/model.md §9) with the core's `EnmaOptions` as JSON: the result as JSON text.
 #[pyfunction]
 #[pyo3(signature = (params, options_json, progress=None))]
 fn virtual_enma(py: Python<'_>, params: &Bound<'_, PyParams>, options_json: &str, progress: Option<Py<PyAny>>) -> PyResult<String> {
@@ -137,8 +119,7 @@ fn virtual_enma(py: Python<'_>, params: &Bound<'_, PyParams>, options_json: &str
     json(&monitored(py, progress, None, |m| core_enma(&Model::of(&valid)?, &opts, &mut &*m))?)
 }
 
-/// Modal data of the linear beam (core `physics::properties::BeamProperties`, docs/model.md §2
-/// and §9) as a dict; `phi` holds φₘ at `x_over_l` (N rows).
+/// Modal data of the linear beam (core `BeamProperties`, docs/model.md §2, §9) as a dict.
 #[pyfunction]
 #[pyo3(signature = (params, x_over_l=Vec::new()))]
 fn beam_properties<'py>(py: Python<'py>, params: &Bound<'py, PyParams>, x_over_l: Vec<f64>) -> PyResult<Bound<'py, PyAny>> {

@@ -1,37 +1,24 @@
-//! Uncertainty studies (binding of core `study`, docs/model.md §8): a chunk of study points run by
-//! [`beamslider_core::study::run_points`] (rows in the map row format, as JSON text) and the
-//! study's results file (core `StudyResults`); the reader of map and study results files.
-//! Sampling, statistics and the Dask distribution live in `python/beamslider/study/`.
+//! Uncertainty studies (core `study`, docs/model.md §8): chunks of study points, the study's results
+//! file and the reader of map and study results files; sampling and statistics are Python's.
 
 use std::sync::Mutex;
 use std::sync::atomic::AtomicBool;
 
 use beamslider_core::MapRow;
-use beamslider_core::study::{StudyPoint, StudyResults, run_points};
+use beamslider_core::study::{PointTuple, StudyPoint, StudyResults, run_points};
 use pyo3::exceptions::PyKeyboardInterrupt;
 use pyo3::prelude::*;
 
 use crate::{detached, guarded, maprun::PyMapConfig};
 
-/// One point of a chunk: (index, parameter TOML, f_ex [Hz], a_ex [m/s²], s₀, duration [s]).
-type ChunkPoint = (usize, String, f64, f64, f64, f64);
-
-/// Run a chunk of study points in parallel (`threads` workers, default one per core) with the
-/// interpreter released. `config` is a map configuration (`MapConfig`: record_every, dt_s, criteria; its
-/// grid and parameters are not used); each point brings its own full parameter TOML, operating
-/// point and duration. Returns the rows as JSON texts (map row format, `index` = the point's
-/// index), sorted by index. `on_rows(list_of_json)` gets the rows finished since the last call
-/// (at most every 50 ms); Ctrl-C or an exception in `on_rows` cancels the chunk.
+/// Run a chunk of study points in parallel (core `study::run_points`): rows as JSON texts sorted by index.
 #[pyfunction]
 #[pyo3(signature = (config, points, *, threads=None, on_rows=None))]
 fn run_study_chunk(
-    py: Python<'_>, config: &Bound<'_, PyMapConfig>, points: Vec<ChunkPoint>, threads: Option<usize>, on_rows: Option<Py<PyAny>>,
+    py: Python<'_>, config: &Bound<'_, PyMapConfig>, points: Vec<PointTuple>, threads: Option<usize>, on_rows: Option<Py<PyAny>>,
 ) -> PyResult<Vec<String>> {
     let cfg = &config.get().cfg;
-    let points: Vec<StudyPoint> = points
-        .into_iter()
-        .map(|(index, params_toml, f_ex_hz, a_ex_m_s2, s0, duration_s)| StudyPoint { index, params_toml, f_ex_hz, a_ex_m_s2, s0, duration_s })
-        .collect();
+    let points: Vec<StudyPoint> = points.into_iter().map(StudyPoint::from).collect();
     let (cancel, fresh) = (AtomicBool::new(false), Mutex::new(Vec::new()));
     let drain = |py: Python<'_>| {
         let batch: Vec<String> = std::mem::take(&mut *fresh.lock().unwrap_or_else(|e| e.into_inner()));
@@ -46,10 +33,7 @@ fn run_study_chunk(
     Ok(rows.iter().map(MapRow::to_json).collect())
 }
 
-/// The results of a study (core `study::StudyResults`): the file `path` (None: in memory only),
-/// opened for the map configuration `config` (`MapConfig`), the study configuration `study_json` (header)
-/// and the points `points_json` (a list of objects: index, f_ex_hz, a_ex_m_s2, s0, sample,
-/// point, params); `resume` keeps the rows of an existing file of the same study.
+/// The results of a study (core `study::StudyResults`), in a file or in memory.
 #[pyclass(name = "StudyResults", module = "beamslider._core")]
 struct PyStudyResults(StudyResults);
 
@@ -86,8 +70,7 @@ impl PyStudyResults {
     }
 }
 
-/// Read a results file (map or study): (header as JSON text or None, rows as JSON texts with
-/// all their keys, byte length of the complete part, whether the last line was truncated).
+/// Read a results file (map or study; core `results::read_results`).
 #[pyfunction]
 fn read_results_file(py: Python<'_>, path: std::path::PathBuf) -> PyResult<(Option<String>, Vec<String>, u64, bool)> {
     let r = py.detach(|| guarded(|| beamslider_core::results::read_results(&path)))?;

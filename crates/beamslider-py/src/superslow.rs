@@ -1,6 +1,5 @@
-//! Binding of `beamslider_core::superslow` (docs/model.md §6.3–6.4): the harmonic-balance super-slow
-//! manifold, its N = 1 closed form, the backbone and PCS drift tables (the predictor: `predictor.rs`).
-//! Types and errors only.
+//! Core `superslow` (docs/model.md §6.3–6.4): the harmonic-balance super-slow manifold, its N = 1
+//! closed form, the backbone and PCS drift tables (the predictor: `predictor.rs`).
 
 use beamslider_core::superslow::drift::{DriftOptions, drift_table_pcs as core_drift};
 use beamslider_core::superslow::{HbOptions, backbone, closed_form_n1_scaled, hb_manifold as core_hb};
@@ -13,8 +12,7 @@ use crate::params::PyParams;
 use crate::{guarded, json, kwargs, monitored};
 use beamslider_core::dynamics::runner::SharedMonitor;
 
-/// HB super-slow manifold (docs/model.md §6.4): the core's `HbManifold` as a dict (its fields);
-/// `options`: fields of the core's `HbOptions` (`s_values` for `s`).
+/// HB super-slow manifold (docs/model.md §6.4) as a dict; `options`: the core's `HbOptions`.
 #[pyfunction]
 #[pyo3(signature = (params, *, f_ex_hz, a_ex_m_s2, **options))]
 pub fn hb_manifold<'py>(
@@ -47,11 +45,7 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     Ok(())
 }
 
-/// Drift table V(s, branch) from the PCS model (docs/model.md §6.4); `options`: fields of the
-/// core's `DriftOptions`. Returns (header JSON, rows as JSON texts in production order, rows
-/// computed now). Rows are appended to `out` as produced; `resume` continues an existing file with
-/// the same settings. `progress(done, total)` is called from the calling thread; Ctrl-C stops both
-/// sweeps (rows written so far stay in the file) and raises KeyboardInterrupt.
+/// PCS drift table V(s, branch) (docs/model.md §6.4, core `drift_table_pcs`); `options`: the core's `DriftOptions`.
 #[pyfunction]
 #[pyo3(signature = (params, *, f_ex_hz, a_ex_m_s2, out=None, resume=false, progress=None, **options))]
 pub fn drift_table_pcs(
@@ -65,7 +59,7 @@ pub fn drift_table_pcs(
     Ok((json(&table.header)?, table.rows.iter().map(json).collect::<PyResult<_>>()?, table.computed))
 }
 
-/// Read a drift-table file: (header JSON, rows as JSON texts; a truncated last line is dropped).
+/// Read a drift-table file: (header JSON, rows as JSON texts).
 #[pyfunction]
 pub fn read_drift_table(py: Python<'_>, path: std::path::PathBuf) -> PyResult<(String, Vec<String>)> {
     let (h, rows) = py.detach(|| guarded(|| beamslider_core::superslow::drift::read_drift_table(&path)))?;

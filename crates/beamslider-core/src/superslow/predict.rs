@@ -14,7 +14,7 @@ use std::time::Instant;
 use super::branch::HbManifold;
 use super::continuation::hb_manifold;
 use super::law::{DriftLaw, Features, MONO_NODES, beam_for, features_with};
-pub use super::predict_options::{Drift, PredictArgs, PredictOptions, SDnRule, Source, TableDrift};
+pub use super::predict_options::{Drift, MapDrift, PredictArgs, PredictOptions, SDnRule, Source, TableDrift};
 use super::predict_options::{dead_band, interp};
 use super::slowflow::{EventKind, Prediction, SlowBranch, SlowFlowOptions, SlowModel, slow_flow};
 use crate::classify::Behaviour;
@@ -541,6 +541,27 @@ pub fn run_predicted_map(
         },
     )?;
     Ok(results.finish())
+}
+
+/// A predicted map ([`run_predicted_map`]) with the options `args` names; a design law is blended
+/// for the map's parameters, without its learnt jump-down for `s_dn` = "hb" (which then reads
+/// "law"). Returns the outcome and why the design lies outside the design law.
+pub fn predicted_map(
+    cfg: &MapConfig, drift: MapDrift<'_>, args: &PredictArgs, opts: &MapRunOptions, cancel: &AtomicBool, progress: Progress<'_>,
+) -> Result<(MapOutcome, Vec<String>)> {
+    crate::dynamics::runner::check_threads(opts.threads)?;
+    let (mut args, mut why) = (args.clone(), Vec::new());
+    let blended;
+    let law = match drift {
+        MapDrift::Law(law) => law,
+        MapDrift::Design(design) => {
+            let keep = args.s_dn != SDnRule::Hb.name();
+            (blended, why) = design.law_for_rule(&cfg.effective_params(), keep)?;
+            args.s_dn = if keep { args.s_dn } else { SDnRule::Law.name().into() };
+            &blended
+        }
+    };
+    Ok((run_predicted_map(cfg, law, &args.options()?, opts, cancel, progress)?, why))
 }
 
 /// The slow flow's nodes on one branch of the HB manifold (docs/model.md §6.4): `nodes` values

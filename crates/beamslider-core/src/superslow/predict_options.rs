@@ -3,6 +3,7 @@
 //! one operating point's PCS drift table, [`TableDrift`]).
 
 use super::branch::HbOptions;
+use super::design_law::DesignLaw;
 use super::law::DriftLaw;
 use super::slowflow::{SlowBranch, SlowModel};
 use crate::classify::Criteria;
@@ -83,7 +84,7 @@ impl Default for PredictArgs {
             n_modes: d.hb.n_modes,
             d_eff: d.hb.d_eff,
             s_dn: d.s_dn.name().into(),
-            source: "hb".into(),
+            source: d.source.name().into(),
             v_dead: d.v_dead,
             build_up_s: d.build_up_s,
             build_up_drift: d.build_up_drift,
@@ -153,6 +154,14 @@ pub enum Source {
 }
 
 impl Source {
+    /// The source's name (`hb`, `table`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Source::Hb => "hb",
+            Source::Table => "table",
+        }
+    }
+
     /// The source of a name (`hb`, `table`); another name is an invalid `source`.
     pub fn named(name: &str) -> Result<Source> {
         match name {
@@ -195,6 +204,27 @@ impl TableDrift {
         let rows = [(low.s.clone(), low.v_per_s.clone()), (high.s.clone(), high.v_per_s.clone())];
         let own = SlowModel { low_ends_in_fold: s_up.is_some() && !low.s.is_empty(), high_ends_in_fold: s_dn.is_some() && !high.s.is_empty(), low, high };
         TableDrift { rows, own, s_up, s_dn }
+    }
+}
+
+/// The drift of a predicted map: a fitted law, or a design law (docs/model.md §6.5) blended for
+/// the map's parameters.
+#[derive(Debug, Clone, Copy)]
+pub enum MapDrift<'a> {
+    /// A fitted law, as it is.
+    Law(&'a DriftLaw),
+    /// A design law, blended for the configuration's effective parameters.
+    Design(&'a DesignLaw),
+}
+
+impl<'a> Drift<'a> {
+    /// The drift of one of a law and a table (both or neither: an invalid `drift`).
+    pub fn one_of(law: Option<&'a DriftLaw>, table: Option<&'a TableDrift>) -> Result<Drift<'a>> {
+        match (law, table) {
+            (Some(l), None) => Ok(Drift::Law(l)),
+            (None, Some(t)) => Ok(Drift::Table(t)),
+            _ => Err(Error::invalid("drift", "\"\"", "one of law and table")),
+        }
     }
 }
 
@@ -253,6 +283,19 @@ mod tests {
             assert!((g - w).abs() < 1e-18, "{:?}", d.low.v_per_s);
         }
         assert_eq!(dead_band(&m, 0.0), m);
+    }
+
+    #[test]
+    fn the_drift_is_one_of_a_law_and_a_table() {
+        let table = TableDrift::default();
+        assert!(matches!(Drift::one_of(None, Some(&table)), Ok(Drift::Table(_))));
+        let err = Drift::one_of(None, None).unwrap_err();
+        assert!(err.is_input() && err.to_string().contains("one of law and table"), "{err}");
+    }
+
+    #[test]
+    fn the_default_arguments_name_the_default_options() {
+        assert_eq!(PredictArgs::default().options().unwrap(), PredictOptions::default());
     }
 
     #[test]
