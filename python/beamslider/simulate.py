@@ -177,7 +177,7 @@ class ManifoldResult:
 
 
 MAX_STEPS = 100_000_000_000
-"""Most time steps of one run (the core's ``signal::output::MAX_STEPS``): a longer duration is refused before the run."""
+"""Most time steps of one run (the core's ``dynamics::simulation::MAX_STEPS``): a longer duration is refused before the run."""
 
 
 def simulate(

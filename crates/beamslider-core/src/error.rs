@@ -78,3 +78,8 @@ fn short_value(text: String) -> String {
     }
     text
 }
+
+/// The text of a panic payload (`&str` or `String`; "unknown panic" otherwise).
+pub fn panic_message(payload: &(dyn std::any::Any + Send)) -> String {
+    payload.downcast_ref::<&str>().map(|s| s.to_string()).or_else(|| payload.downcast_ref::<String>().cloned()).unwrap_or_else(|| "unknown panic".into())
+}

@@ -19,7 +19,6 @@
 //! progress bars): the one watcher loop of every front end. A single run watched that way reports
 //! to a [`SharedMonitor`], which the watcher reads.
 
-use std::any::Any;
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicBool, AtomicU8, Ordering};
 use std::time::Duration;
@@ -96,10 +95,7 @@ pub struct BatchOutcome<R> {
     pub cancelled: bool,
 }
 
-/// The text of a panic payload (`&str` or `String`; "unknown panic" otherwise).
-pub fn panic_message(payload: &(dyn Any + Send)) -> String {
-    payload.downcast_ref::<&str>().map(|s| s.to_string()).or_else(|| payload.downcast_ref::<String>().cloned()).unwrap_or_else(|| "unknown panic".into())
-}
+pub use crate::error::panic_message;
 
 /// Run `f`; a panic becomes `Err(its message)`.
 pub fn catch_panic<T>(f: impl FnOnce() -> T) -> std::result::Result<T, String> {

@@ -11,6 +11,27 @@ use crate::physics::beam::Beam;
 pub use crate::physics::excitation::Excitation;
 use crate::physics::slider::Slider;
 
+/// Most time steps of one run (10¹¹: days of computing at the fastest step rate); a longer
+/// duration is a typing error, refused before the run (docs/model.md §5).
+pub const MAX_STEPS: u64 = 100_000_000_000;
+
+/// The number of time steps of a `duration_s`-second run at `dt_s`, round(duration/dt), checked:
+/// an error naming `field`, its value and the limit when it is not finite or exceeds [`MAX_STEPS`].
+pub fn step_count(field: &str, duration_s: f64, dt_s: f64) -> Result<u64> {
+    let steps = (duration_s / dt_s).round();
+    if !(duration_s.is_finite() && duration_s >= 0.0 && steps.is_finite() && steps >= 0.0) {
+        return Err(Error::invalid(field, duration_s, "must be finite and >= 0"));
+    }
+    if steps > MAX_STEPS as f64 {
+        return Err(Error::invalid(
+            field,
+            duration_s,
+            &format!("{steps:.3e} time steps of dt = {dt_s:e} s, more than the limit of {MAX_STEPS:.0e} ({:.3e} s)", MAX_STEPS as f64 * dt_s),
+        ));
+    }
+    Ok(steps as u64)
+}
+
 /// Which model to integrate (docs/model.md §6).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum SliderModel {
@@ -260,7 +281,7 @@ impl Model {
         if !(opts.duration_s.is_finite() && opts.duration_s >= 0.0) {
             return Err(Error::invalid("duration_s", opts.duration_s, "must be finite and >= 0"));
         }
-        crate::signal::output::step_count("duration_s", opts.duration_s, self.params.dt_s)?;
+        step_count("duration_s", opts.duration_s, self.params.dt_s)?;
         if opts.record_every == 0 {
             return Err(Error::invalid("record_every", 0, "must be >= 1"));
         }
@@ -468,7 +489,7 @@ fn run_n_generic<const N: usize>(run: Run<'_>, rec: &mut dyn Recorder, monitor: 
     rec.begin(&names)?;
     let mut row = Vec::with_capacity(names.len());
     let mut st = to_state_n::<N>(start);
-    let steps = crate::signal::output::step_count("duration_s", opts.duration_s, dt)?;
+    let steps = step_count("duration_s", opts.duration_s, dt)?;
     let t_end = t0 + steps as f64 * dt;
     if resume.is_none() {
         writer.fill(&mut row, t0, &st, &stepper.last_p);

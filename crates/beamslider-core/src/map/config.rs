@@ -200,7 +200,7 @@ impl MapConfig {
         self.criteria.clone().validated()?;
         let dt = self.effective_params().dt_s;
         self.effective_params().validate()?;
-        crate::signal::output::step_count("duration_s", self.duration_s, dt)?;
+        crate::dynamics::simulation::step_count("duration_s", self.duration_s, dt)?;
         // The classification samples the run every record_every steps; its envelopes need a
         // sample at least every half bin (docs/model.md §8).
         let max_sample = 0.5 * crate::signal::envelope_stream::BIN_S;

@@ -40,26 +40,7 @@ pub fn recorded_rows(duration_s: f64, dt_s: f64, record_every: usize) -> u64 {
     (steps / record_every.max(1) as u64).saturating_add(1)
 }
 
-/// Most time steps of one run (10¹¹: days of computing at the fastest step rate); a longer
-/// duration is a typing error, refused before the run (docs/model.md §5).
-pub const MAX_STEPS: u64 = 100_000_000_000;
-
-/// The number of time steps of a `duration_s`-second run at `dt_s`, round(duration/dt), checked:
-/// an error naming `field`, its value and the limit when it is not finite or exceeds [`MAX_STEPS`].
-pub fn step_count(field: &str, duration_s: f64, dt_s: f64) -> Result<u64> {
-    let steps = (duration_s / dt_s).round();
-    if !(duration_s.is_finite() && duration_s >= 0.0 && steps.is_finite() && steps >= 0.0) {
-        return Err(Error::invalid(field, duration_s, "must be finite and >= 0"));
-    }
-    if steps > MAX_STEPS as f64 {
-        return Err(Error::invalid(
-            field,
-            duration_s,
-            &format!("{steps:.3e} time steps of dt = {dt_s:e} s, more than the limit of {MAX_STEPS:.0e} ({:.3e} s)", MAX_STEPS as f64 * dt_s),
-        ));
-    }
-    Ok(steps as u64)
-}
+pub use crate::dynamics::simulation::{MAX_STEPS, step_count};
 
 /// Bytes of the recorded arrays of a run (float64 per row and column).
 pub fn recorded_bytes(duration_s: f64, dt_s: f64, record_every: usize, columns: usize) -> f64 {
@@ -370,7 +351,7 @@ impl NpzStream {
         match h.join() {
             Ok(Ok(crcs)) => Ok(crcs),
             Ok(Err(e)) => Err(io_err(&self.tmp, e)),
-            Err(p) => Err(Error::Numerical(format!("internal error in the trajectory writer: {}", crate::dynamics::runner::panic_message(p.as_ref())))),
+            Err(p) => Err(Error::Numerical(format!("internal error in the trajectory writer: {}", crate::error::panic_message(p.as_ref())))),
         }
     }
 

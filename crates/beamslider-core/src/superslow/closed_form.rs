@@ -217,8 +217,8 @@ pub fn backbone<'a>(params: impl Into<crate::params::ParamsArg<'a>>, amplitude_h
     if amplitude_h.len() != s.len() {
         return Err(Error::invalid("s", format!("{} values for {} amplitudes", s.len(), amplitude_h.len()), "must be the same length"));
     }
-    let opts = super::HbOptions { n_modes: 1, omega1_factor, ..super::HbOptions::default() };
-    let sys = super::HbSystem::new(params, 100.0, 1.0, &opts)?;
+    let opts = super::branch::HbOptions { n_modes: 1, omega1_factor, ..super::branch::HbOptions::default() };
+    let sys = super::hb::HbSystem::new(params, 100.0, 1.0, &opts)?;
     Ok(amplitude_h.iter().zip(s).map(|(&a, &x)| sys.backbone_omega(a, x)).collect())
 }
 
