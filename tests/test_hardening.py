@@ -549,3 +549,29 @@ def test_bad_classification_criteria_are_one_line_errors_naming_the_key(criteria
     toml_text = "\n".join(f"{k} = {v!r}" if not isinstance(v, float) or v == v else f"{k} = nan" for k, v in criteria.items())
     with pytest.raises(ValueError, match=rf"`criteria\.{key}`"):
         _core.classify(np.full(3, 0.3), np.full(3, 0.1), 0.2, criteria_toml=toml_text)
+
+
+def test_a_drift_table_has_one_writer_and_damaged_lines_are_named(tmp_path):
+    """Drift tables are results files (docs/model.md §6.3, §8): a second writer is refused at once
+    while the first holds the file, and a damaged line in the middle is an error naming the line."""
+    from beamslider import _core
+    from beamslider.superslow import drift_table, read_drift_table
+
+    short = dict(settle_periods=5, first_settle_periods=20, window_s=0.1, sub_windows=2)
+    out = tmp_path / "d.jsonl"
+    full = drift_table(f_ex=124, a_ex=14, s=[0.3, 0.32], out=out, **short)
+    before = out.read_bytes()
+    with _core.ResultsLock(str(out)):
+        with pytest.raises(BlockingIOError, match="PID"):
+            drift_table(f_ex=124, a_ex=14, s=[0.3, 0.32], out=out, resume=True, **short)
+    assert out.read_bytes() == before
+    again = drift_table(f_ex=124, a_ex=14, s=[0.3, 0.32], out=out, resume=True, **short)
+    assert again.computed == 0 and out.read_bytes() == before
+    np.testing.assert_array_equal(read_drift_table(out).v, full.v)
+    lines = before.decode().splitlines()
+    out.write_text("\n".join(lines[:1] + ["{not json"] + lines[1:]) + "\n")
+    with pytest.raises(ValueError, match="d.jsonl:2"):
+        read_drift_table(out)
+    out.write_text(json.dumps({"format": "something else"}) + "\n")
+    with pytest.raises(ValueError, match="not a beamslider results file of this kind"):
+        read_drift_table(out)

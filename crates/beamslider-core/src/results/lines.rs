@@ -26,6 +26,12 @@ pub struct JsonLines {
 /// complete line must be JSON; a damaged line or a header of another format is an error naming
 /// the file and the line; an incomplete last line is reported as `truncated` and left out.
 pub fn read_json_lines(path: &Path, key: &str, version: u64) -> Result<JsonLines> {
+    read_tagged_lines(path, key, &serde_json::json!(version))
+}
+
+/// [`read_json_lines`] of a format whose header holds `tag` under `key` (a version number, or a
+/// format's name as the drift tables of docs/model.md §6.3 have).
+pub fn read_tagged_lines(path: &Path, key: &str, tag: &serde_json::Value) -> Result<JsonLines> {
     let data = std::fs::read(path).map_err(|e| io_err(path, e))?;
     let good = data.iter().rposition(|&b| b == b'\n').map_or(0, |i| i + 1);
     let text = std::str::from_utf8(&data[..good])
@@ -34,11 +40,11 @@ pub fn read_json_lines(path: &Path, key: &str, version: u64) -> Result<JsonLines
     for (k, line) in lines.iter().enumerate() {
         let v: serde_json::Value = serde_json::from_str(line)
             .map_err(|_| Error::invalid("results file", format!("{}:{}", path.display(), k + 1), "this line is damaged (not JSON)"))?;
-        if k == 0 && v.get(key) != Some(&serde_json::json!(version)) {
+        if k == 0 && v.get(key) != Some(tag) {
             return Err(Error::invalid(
                 "results file",
                 path.display(),
-                &format!("not a beamslider results file of this kind (line 1 without \"{key}\": {version})"),
+                &format!("not a beamslider results file of this kind (line 1 without \"{key}\": {tag})"),
             ));
         }
     }

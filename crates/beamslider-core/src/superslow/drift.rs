@@ -28,12 +28,11 @@
 //! rest of the new branch is covered by the other sweep. Readers keep one row per (s, branch),
 //! preferring the sweep native to the branch (down for L, up for H).
 //!
-//! Rows are appended to a JSON-lines file as they are produced (first line: the settings);
+//! Rows are appended to a results file ([`crate::results`]: one writer, each line synced, a torn
+//! last line cut off) as they are produced (first line: the settings);
 //! each row holds the end state of its runs, so a killed run resumes each sweep from its last
 //! row — bitwise as if it had not stopped (every run starts a fresh stepper from the state).
 
-use std::fs::{File, OpenOptions};
-use std::io::{BufRead, BufReader, Write};
 use std::path::Path;
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
@@ -43,6 +42,7 @@ use serde::{Deserialize, Serialize};
 use crate::dynamics::record::{Channel, MemoryRecorder, NullRecorder};
 use crate::dynamics::simulation::{CancelFlag, Excitation, Model, RunOptions, SliderModel, State, Status};
 use crate::error::{Error, Result};
+use crate::results::{ResultsLock, append_json_lines, read_tagged_lines};
 use crate::signal::hilbert_envelope;
 
 /// Settings of [`drift_table_pcs`] (the defaults of docs/model.md §6.3; `s_values` is required
@@ -262,38 +262,28 @@ impl DriftTable {
 
 const FORMAT: &str = "beamslider drift table";
 
-fn io(path: &Path, e: std::io::Error) -> Error {
-    Error::Io { path: path.display().to_string(), source: e }
+/// One line of a drift-table file (its header or a row).
+fn json_line<T: Serialize>(x: &T) -> Result<String> {
+    serde_json::to_string(x).map_err(|e| Error::Numerical(e.to_string()))
 }
 
-/// Read a drift-table file: the header and the complete rows (a truncated last line, from a
-/// killed run, is dropped).
+/// Read a drift-table file (a results file of [`crate::results`]): the header and the complete
+/// rows (a torn last line, from a killed run, is left out).
 pub fn read_drift_table(path: &Path) -> Result<(DriftHeader, Vec<DriftRow>)> {
-    let f = File::open(path).map_err(|e| io(path, e))?;
-    let mut lines = BufReader::new(f).lines();
-    let first = match lines.next() {
-        Some(l) => l.map_err(|e| io(path, e))?,
-        None => return Err(Error::invalid("drift table", path.display(), "the file is empty (no header line)")),
+    read_with_length(path).map(|(header, rows, _)| (header, rows))
+}
+
+/// [`read_drift_table`] and the byte length of the file's complete part.
+fn read_with_length(path: &Path) -> Result<(DriftHeader, Vec<DriftRow>, u64)> {
+    let file = read_tagged_lines(path, "format", &serde_json::json!(FORMAT))?;
+    let bad = |why: String| Error::invalid("drift table", path.display(), &why);
+    let Some((first, rest)) = file.lines.split_first() else {
+        return Err(bad("the file is empty (no header line)".into()));
     };
-    let header: DriftHeader =
-        serde_json::from_str(&first).map_err(|e| Error::invalid("drift table", path.display(), &format!("first line is not a drift-table header: {e}")))?;
-    if header.format != FORMAT {
-        return Err(Error::invalid("drift table", path.display(), "not a beamslider drift table"));
-    }
-    let mut rows = Vec::new();
-    let all: Vec<String> = lines.collect::<std::io::Result<_>>().map_err(|e| io(path, e))?;
-    let n = all.len();
-    for (i, l) in all.iter().enumerate() {
-        if l.trim().is_empty() {
-            continue;
-        }
-        match serde_json::from_str::<DriftRow>(l) {
-            Ok(r) => rows.push(r),
-            Err(_) if i + 1 == n => {} // truncated last line of a killed run
-            Err(e) => return Err(Error::invalid("drift table", path.display(), &format!("line {}: {e}", i + 2))),
-        }
-    }
-    Ok((header, rows))
+    let header: DriftHeader = serde_json::from_str(first).map_err(|e| bad(format!("first line is not a drift-table header: {e}")))?;
+    let rows = rest.iter().enumerate().filter(|(_, l)| !l.trim().is_empty());
+    let rows = rows.map(|(i, l)| serde_json::from_str(l).map_err(|e| bad(format!("line {}: {e}", i + 2)))).collect::<Result<_>>()?;
+    Ok((header, rows, file.good_len))
 }
 
 /// Measure V(s, β) on both branches at one excitation (docs/model.md §6.3), the two sweeps in
@@ -315,52 +305,32 @@ pub fn drift_table_pcs(
         a_ex_m_s2: excitation.a_ex_m_s2,
         options: opts.clone(),
     };
-    let mut old: Vec<DriftRow> = Vec::new();
-    let file = match out {
-        None => None,
-        Some(p) if p.exists() => {
+    // One writer per file (the results lock); an existing table of the same settings is resumed,
+    // its torn last line cut off before the first append.
+    let (mut old, mut cut, _lock) = (Vec::new(), None, out.map(ResultsLock::acquire).transpose()?);
+    if let Some(p) = out {
+        if p.exists() {
             if !resume {
                 return Err(Error::invalid("out", p.display(), "the drift table exists: resume it (resume / --resume) or choose another file"));
             }
-            let (h, rows) = read_drift_table(p)?;
+            let (h, rows, good_len) = read_with_length(p)?;
             if h != header {
                 return Err(Error::invalid("out", p.display(), "the drift table was made with other parameters, excitation or options: cannot resume it"));
             }
-            old = rows;
-            // Rewrite without a truncated last line before appending.
-            let mut f = File::create(p).map_err(|e| io(p, e))?;
-            writeln!(f, "{}", serde_json::to_string(&header).map_err(|e| Error::Numerical(e.to_string()))?).map_err(|e| io(p, e))?;
-            for r in &old {
-                writeln!(f, "{}", serde_json::to_string(r).map_err(|e| Error::Numerical(e.to_string()))?).map_err(|e| io(p, e))?;
-            }
-            f.flush().map_err(|e| io(p, e))?;
-            Some((p, f))
+            (old, cut) = (rows, Some(good_len));
+        } else {
+            append_json_lines(p, None, &[json_line(&header)?])?;
         }
-        Some(p) => {
-            let mut f = File::create(p).map_err(|e| io(p, e))?;
-            writeln!(f, "{}", serde_json::to_string(&header).map_err(|e| Error::Numerical(e.to_string()))?).map_err(|e| io(p, e))?;
-            f.flush().map_err(|e| io(p, e))?;
-            Some((p, f))
-        }
-    };
-    // Re-open in append mode so that both workers write whole lines.
-    let sink: Option<(&Path, Mutex<File>)> = match file {
-        None => None,
-        Some((p, f)) => {
-            drop(f);
-            Some((p, Mutex::new(OpenOptions::new().append(true).open(p).map_err(|e| io(p, e))?)))
-        }
-    };
+    }
+    let sink = out.map(|p| (p, Mutex::new(cut)));
     let n = opts.s_values.len();
     let total = 2 * n;
     let done = AtomicUsize::new(old.len());
     progress(done.load(Ordering::Relaxed), total);
     let write_row = |r: &DriftRow| -> Result<()> {
-        if let Some((p, m)) = &sink {
-            let line = serde_json::to_string(r).map_err(|e| Error::Numerical(e.to_string()))?;
-            let mut f = m.lock().map_err(|_| Error::Numerical("drift table file lock poisoned".into()))?;
-            writeln!(f, "{line}").map_err(|e| io(p, e))?;
-            f.flush().map_err(|e| io(p, e))?;
+        if let Some((p, cut)) = &sink {
+            let mut cut = cut.lock().unwrap_or_else(|e| e.into_inner());
+            append_json_lines(p, cut.take(), &[json_line(r)?])?;
         }
         let d = done.fetch_add(1, Ordering::Relaxed) + 1;
         progress(d, total);
