@@ -568,6 +568,25 @@ pub fn grazing_factor(c0: f64, c_g: f64, w_re: f64, w_im: f64) -> f64 {
 mod tests {
     use super::*;
 
+    #[test]
+    fn grazing_factor_is_the_largest_root_of_unit_lift_off() {
+        let lift = |c0: f64, cg: f64, wr: f64, wi: f64, r: f64| (c0 + r * wr).hypot(r * wi) / cg;
+        // in phase with the base: |c0 + r w| = c_g at r = (c_g − c0)/w
+        assert!((grazing_factor(0.5, 1.0, 2.0, 0.0) - 0.25).abs() < 1e-15);
+        // general phase: the root is exact and above it the slider lifts off
+        for &(c0, cg, wr, wi) in &[(0.3, 1.0, -0.7, 0.4), (1.4, 1.0, -2.0, 0.3), (0.9, 1.0, 0.1, -3.0)] {
+            let r = grazing_factor(c0, cg, wr, wi);
+            assert!(r.is_finite() && r > 0.0);
+            assert!((lift(c0, cg, wr, wi, r) - 1.0).abs() < 1e-12);
+            assert!(lift(c0, cg, wr, wi, 1.01 * r) > 1.0);
+        }
+        // the base alone lifts off and the relative motion only adds: no grazing level
+        assert_eq!(grazing_factor(1.4, 1.0, 1.0, 0.0), f64::INFINITY);
+        // the relative motion never brings |c0 + r w| down to c_g (discriminant < 0)
+        assert_eq!(grazing_factor(1.4, 1.0, 0.0, 1.0), f64::INFINITY);
+        assert_eq!(grazing_factor(0.5, 1.0, 0.0, 0.0), f64::INFINITY);
+    }
+
     fn law(mono_x: &str, mono_y: &str) -> DriftLaw {
         let text = format!(
             r#"{{"kind": "beamslider drift law", "version": 1, "features": ["amp_rel", "s"], "k": 1,
