@@ -503,6 +503,8 @@ pub fn header_value(law: &DriftLaw, opts: &PredictOptions) -> serde_json::Value 
         },
         "nodes": opts.nodes,
         "build_up": if opts.build_up_drift { "drift" } else { "hold" },
+        // the low branch capped at grazing (docs/model.md §6.3): maps predicted before it are not resumed
+        "low_branch": "grazing",
     })
 }
 
