@@ -125,13 +125,18 @@ def stacked(res, seed: int = 0):
     return within, agree, len(y)
 
 
+def _complete(path: Path) -> bool:
+    """Whether an FS map under --work holds every point of the band (a map.txt is not needed)."""
+    return path.exists() and len(read_rows(path)) == len(F) * len(A)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--work", default="validation-out/design_law_loo", help="FS maps of the training designs (resumable)")
     ap.add_argument("--out", default=str(ROOT / "docs" / "results" / "design_law"))
     ap.add_argument("--stacked", action="store_true", help="also the stacked classifier's cross-validation (scikit-learn)")
     ap.add_argument("--only-computed", action="store_true",
-                    help="only the designs whose FS map under --work is complete (map.txt written); no FS runs")
+                    help="only the designs whose FS map under --work is complete (every point of the band); no FS runs")
     a = ap.parse_args()
     law = default_law()
     x0 = design_coordinates(Parameters())
@@ -143,7 +148,7 @@ def main() -> None:
             continue  # the prototype: its map is the paper's (validate_design_law.py)
         p = design_params(x)
         d = work / f"design_{j:02d}"
-        if a.only_computed and not (d / "map.txt").exists():
+        if a.only_computed and not _complete(d / "map.jsonl"):
             continue
         operating_map(p, f_ex=F, a_ex=A, s0=0.3, t_end=120.0, out=d, resume=(d / "map.jsonl").exists())
         fs = read_rows(d / "map.jsonl")

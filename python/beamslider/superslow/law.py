@@ -37,7 +37,9 @@ def features(manifold, branch: str, s: Sequence[float]) -> Dict[str, np.ndarray]
     ``slope_gap`` θ̂/θ_gap with θ̂ = |Φ'(s)ᵀQ|, θ_gap = (R − h)/B; ``f_slope``
     = −(Ω²/2g) Re[ŵ_abs conj(Φ'(s)ᵀQ)]; ``amplitude`` Â; ``ds_res`` = s − s_res (the first
     linear-resonance position of layer (a), 0.5 if there is none); ``amp_rel`` = Â / max Â of the
-    high branch; ``s`` = s. The core recomputes the manifold from its parameters and settings
+    high branch; ``s`` = s; ``grazing`` Â_g, the amplitude along the node's shape Q at which Λ_g = 1
+    (the largest; ``inf`` where every amplitude lifts the slider off), which caps the low branch in
+    the slow flow (docs/model.md §6.3, "Low branch at grazing"). The core recomputes the manifold from its parameters and settings
     (single-term HB with the manifold's ``n_modes`` and ``d_eff``).
     """
     b = manifold.high if branch == "H" else manifold.low
@@ -53,6 +55,7 @@ def features(manifold, branch: str, s: Sequence[float]) -> Dict[str, np.ndarray]
     keys = ("lift_off", "slope_gap", "f_slope", "ds_res", "amp_rel", "amplitude_h", "s")
     out = {k: np.array([r[k] for r in rows], dtype=float).reshape(s.shape) for k in keys}
     out["amplitude"] = out.pop("amplitude_h")
+    out["grazing"] = np.array([np.inf if r.get("grazing_h") is None else r["grazing_h"] for r in rows], dtype=float).reshape(s.shape)
     return out
 
 

@@ -433,6 +433,10 @@ pub struct Features {
     pub amplitude_h: f64,
     /// s (half coordinate).
     pub s: f64,
+    /// Â_g: the amplitude along this node's HB shape Q at which the slider's absolute acceleration
+    /// amplitude is g (Λ_g = 1, grazing lift-off), the largest such amplitude; ∞ when every
+    /// positive amplitude lifts off (docs/model.md §6.3, "Low branch at grazing").
+    pub grazing_h: f64,
 }
 
 impl Features {
@@ -518,15 +522,18 @@ pub fn features_with(params: &Params, beam: &Beam, manifold: &HbManifold, f_ex_h
             dphi[m] = beam.dphi_exact(m, x);
         }
         let (mut wr, mut wi, mut tr, mut ti) = (a_ex / (omega * omega), 0.0, 0.0, 0.0);
+        let mut rel = 0.0; // Re Φ(s)ᵀQ, the relative displacement (Im Φ(s)ᵀQ is wi)
         for m in 0..n {
             let qr = sorted.lerp(&sorted.qr, n, m, si);
             let qi = sorted.lerp(&sorted.qi, n, m, si);
             wr += phi[m] * qr;
+            rel += phi[m] * qr;
             wi += phi[m] * qi;
             tr += dphi[m] * qr;
             ti += dphi[m] * qi;
         }
         let amp = sorted.lerp(&sorted.a, 1, 0, si);
+        let grazing_h = amp * grazing_factor(a_ex / (omega * omega), g / (omega * omega), rel, wi);
         out.push(Features {
             lift_off: omega * omega * wr.hypot(wi) / g,
             slope_gap: tr.hypot(ti) / theta_gap,
@@ -535,15 +542,50 @@ pub fn features_with(params: &Params, beam: &Beam, manifold: &HbManifold, f_ex_h
             amp_rel: amp / a_max,
             amplitude_h: amp,
             s: si,
+            grazing_h,
         });
     }
     let _ = sorted.n;
     Ok(out)
 }
 
+/// The largest factor r > 0 on the relative displacement w (complex, at the slider) at which the
+/// absolute displacement amplitude |c₀ + r w| equals `c_g` (c₀ = a_ex/Ω² the base's, c_g = g/Ω²):
+/// the larger root of |w|²r² + 2c₀ Re(w) r + c₀² − c_g² = 0; ∞ when there is no positive root
+/// (every amplitude lifts off the slider, or w = 0).
+pub fn grazing_factor(c0: f64, c_g: f64, w_re: f64, w_im: f64) -> f64 {
+    let w2 = w_re * w_re + w_im * w_im;
+    let b = c0 * w_re;
+    let disc = b * b - w2 * (c0 * c0 - c_g * c_g);
+    if w2 <= 0.0 || disc < 0.0 {
+        return f64::INFINITY;
+    }
+    let r = (-b + disc.sqrt()) / w2;
+    if r > 0.0 { r } else { f64::INFINITY }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn grazing_factor_is_the_largest_root_of_unit_lift_off() {
+        let lift = |c0: f64, cg: f64, wr: f64, wi: f64, r: f64| (c0 + r * wr).hypot(r * wi) / cg;
+        // in phase with the base: |c0 + r w| = c_g at r = (c_g − c0)/w
+        assert!((grazing_factor(0.5, 1.0, 2.0, 0.0) - 0.25).abs() < 1e-15);
+        // general phase: the root is exact and above it the slider lifts off
+        for &(c0, cg, wr, wi) in &[(0.3, 1.0, -0.7, 0.4), (1.4, 1.0, -2.0, 0.3), (0.9, 1.0, 0.1, -3.0)] {
+            let r = grazing_factor(c0, cg, wr, wi);
+            assert!(r.is_finite() && r > 0.0);
+            assert!((lift(c0, cg, wr, wi, r) - 1.0).abs() < 1e-12);
+            assert!(lift(c0, cg, wr, wi, 1.01 * r) > 1.0);
+        }
+        // the base alone lifts off and the relative motion only adds: no grazing level
+        assert_eq!(grazing_factor(1.4, 1.0, 1.0, 0.0), f64::INFINITY);
+        // the relative motion never brings |c0 + r w| down to c_g (discriminant < 0)
+        assert_eq!(grazing_factor(1.4, 1.0, 0.0, 1.0), f64::INFINITY);
+        assert_eq!(grazing_factor(0.5, 1.0, 0.0, 0.0), f64::INFINITY);
+    }
 
     fn law(mono_x: &str, mono_y: &str) -> DriftLaw {
         let text = format!(

@@ -235,9 +235,16 @@ fn slow_model_masked(
     }
     model.high_ends_in_fold = s_dn.is_some() && !model.high.s.is_empty();
     let monostable = law.monostable(manifold);
+    let mut grazing: Vec<f64> = all_feats[0].iter().map(|f| f.grazing_h).collect();
     if !model.low.s.is_empty() && monostable {
-        let low_moving = monostable_low(params, beam, manifold, law, f_ex_hz, a_ex, &mut model)?;
+        let (low_moving, low_grazing) = monostable_low(params, beam, manifold, law, f_ex_hz, a_ex, &mut model)?;
         moving = [low_moving.into_iter().chain(moving[0].iter().copied()).collect(), Vec::new()];
+        grazing = low_grazing.into_iter().chain(grazing).collect();
+    }
+    // The low branch at grazing (docs/model.md §6.3): the slider's impacts hold the beam where
+    // its acceleration at the slider is g; V stays that of the HB node (the law's inputs).
+    for (a, g) in model.low.amplitude_h.iter_mut().zip(&grazing) {
+        *a = a.min(*g);
     }
     let source = s_dn_source(model.s_dn(), manifold.s_dn, rule);
     Ok(Built { model, extrapolated, moving, features: all_feats, s_dn_source: source, monostable, note: None })
@@ -301,15 +308,18 @@ fn table_slow_model(
 /// shifted) fold s_up′ the low branch continues along the HB branch that reaches the clamping, on
 /// [`MONO_NODES`] nodes s_min + (s_up′ − s_min)·i/MONO_NODES, with the amplitude capped at the low
 /// branch's amplitude at the fold (no jump) and V from the law's low-branch samples; no high branch.
-/// Returns which of the prepended nodes can move (Λ_g ≥ Λ_c).
-fn monostable_low(params: &Params, beam: &Beam, manifold: &HbManifold, law: &DriftLaw, f_ex_hz: f64, a_ex: f64, model: &mut SlowModel) -> Result<Vec<bool>> {
+/// Returns which of the prepended nodes can move (Λ_g ≥ Λ_c) and their grazing amplitudes
+/// ([`Features::grazing_h`]).
+fn monostable_low(
+    params: &Params, beam: &Beam, manifold: &HbManifold, law: &DriftLaw, f_ex_hz: f64, a_ex: f64, model: &mut SlowModel,
+) -> Result<(Vec<bool>, Vec<f64>)> {
     let (su, a_su) = (model.low.s[0], model.low.amplitude_h[0]);
     let lo = if manifold.high.is_empty() { su } else { manifold.high.s.iter().copied().fold(f64::INFINITY, f64::min) };
     model.high = SlowBranch::default();
     model.low_ends_in_fold = false;
     model.high_ends_in_fold = false;
     if !(lo < su) {
-        return Ok(Vec::new());
+        return Ok((Vec::new(), Vec::new()));
     }
     let s: Vec<f64> = (0..MONO_NODES).map(|i| lo + (su - lo) * i as f64 / MONO_NODES as f64).collect();
     let feats = features_with(params, beam, manifold, f_ex_hz, a_ex, true, &s)?;
@@ -327,7 +337,7 @@ fn monostable_low(params: &Params, beam: &Beam, manifold: &HbManifold, law: &Dri
     br.amplitude_h.extend_from_slice(&model.low.amplitude_h);
     br.v_per_s.extend_from_slice(&model.low.v_per_s);
     model.low = br;
-    Ok(feats.iter().map(|f| f.lift_off >= law.lift_c).collect())
+    Ok((feats.iter().map(|f| f.lift_off >= law.lift_c).collect(), feats.iter().map(|f| f.grazing_h).collect()))
 }
 
 /// `model` with V + `dv` at the nodes that can move.
@@ -493,6 +503,8 @@ pub fn header_value(law: &DriftLaw, opts: &PredictOptions) -> serde_json::Value 
         },
         "nodes": opts.nodes,
         "build_up": if opts.build_up_drift { "drift" } else { "hold" },
+        // the low branch capped at grazing (docs/model.md §6.3): maps predicted before it are not resumed
+        "low_branch": "grazing",
     })
 }
 
