@@ -353,7 +353,7 @@ fn run_predicted_map_command(
     };
     let cancel = AtomicBool::new(false);
     let t0 = std::time::Instant::now();
-    let outcome = superslow::predict::run_predicted_map(cfg, &law, &superslow::predict::PredictOptions::default(), &opts, &cancel, &progress)?;
+    let outcome = superslow::predicted_map::run_predicted_map(cfg, &law, &superslow::predict::PredictOptions::default(), &opts, &cancel, &progress)?;
     bar.finish_and_clear();
     std::fs::write(out.join("map.toml"), cfg.to_toml_string()).with_context(|| format!("cannot write {}", out.join("map.toml").display()))?;
     let table = map::text_table(&outcome.rows);

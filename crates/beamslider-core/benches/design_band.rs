@@ -14,7 +14,8 @@ use std::time::Instant;
 
 use beamslider_core::superslow::design_law::DesignLaw;
 use beamslider_core::superslow::law::beam_for;
-use beamslider_core::superslow::predict::{PredictOptions, predict_point_with, predicted_row};
+use beamslider_core::superslow::predict::{PredictOptions, predict_point_with};
+use beamslider_core::superslow::predicted_map::predicted_row;
 use beamslider_core::*;
 
 fn median(mut v: Vec<f64>) -> f64 {

@@ -6,7 +6,7 @@ use beamslider_core::superslow::design_law::{DesignLaw, design_coordinates as co
 use beamslider_core::superslow::law::{self, DriftLaw};
 use beamslider_core::superslow::predict::{self as pred, Drift, MapDrift, PredictArgs, TableDrift};
 use beamslider_core::superslow::slowflow::SlowBranch;
-use beamslider_core::superslow::{HbOptions, hb_manifold};
+use beamslider_core::superslow::{HbOptions, hb_manifold, predicted_map as map};
 use beamslider_core::{MapRow, MapRunOptions};
 use pyo3::exceptions::PyKeyboardInterrupt;
 use pyo3::prelude::*;
@@ -84,7 +84,7 @@ pub enum MapLaw<'py> {
     Design(Bound<'py, PyDesignLaw>),
 }
 
-/// A map predicted by the core (`predict::run_predicted_map`) with a drift law or a design law blended for its
+/// A map predicted by the core (`predicted_map::run_predicted_map`) with a drift law or a design law blended for its
 /// parameters (`s_dn="hb"`: without its learnt jump-down); `options`: the core's `PredictArgs`.
 #[pyfunction]
 #[pyo3(signature = (config, law, *, out=None, resume=false, threads=None, progress=None, **options))]
@@ -97,7 +97,7 @@ pub fn predicted_map(
         MapLaw::Drift(l) => MapDrift::Law(&l.get().0),
         MapLaw::Design(d) => MapDrift::Design(&d.get().0),
     };
-    let run = |m: &SharedMonitor| pred::predicted_map(cfg, drift, &args, &opts, m.cancel(), &|n: usize, t: usize, _: &MapRow| m.report(n as f64, t as f64));
+    let run = |m: &SharedMonitor| map::predicted_map(cfg, drift, &args, &opts, m.cancel(), &|n: usize, t: usize, _: &MapRow| m.report(n as f64, t as f64));
     let (outcome, why) = monitored(py, progress, None, run)?;
     if outcome.cancelled {
         return Err(PyKeyboardInterrupt::new_err("map interrupted"));

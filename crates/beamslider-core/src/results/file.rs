@@ -42,7 +42,7 @@ struct Header {
     /// A study's configuration (study results files only, [`crate::study::StudyResults`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     study: Option<serde_json::Value>,
-    /// The reduced predictor of a predicted map ([`crate::superslow::predict::run_predicted_map`]).
+    /// The reduced predictor of a predicted map ([`crate::superslow::predicted_map::run_predicted_map`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     predictor: Option<serde_json::Value>,
 }

@@ -48,6 +48,7 @@ mod lu;
 mod mhb;
 pub mod predict;
 mod predict_options;
+pub mod predicted_map;
 mod roots;
 pub mod slowflow;
 
