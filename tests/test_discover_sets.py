@@ -156,6 +156,72 @@ def test_pairs_chosen_by_the_linearised_ranking():
     assert every == {frozenset(p) for p in pairs if "tilt" in p or "com_offset" in p}
 
 
+def _pair_and_changes(com_signature):
+    """A named pair (friction, slider inertia) whose fitted change is (20, 20, 0, 0) in units of the
+    uncertainties, and the linearised model's feature changes of four effects (5 relevance thresholds)."""
+    from beamslider.discover.separability import _bumped
+    from beamslider.discover.effects import EFFECTS
+
+    p = bs.Parameters()
+    best = CandidateFit(("friction_coefficient", "slider_inertia"),
+                        {"friction_coefficient": 0.13, "slider_inertia": 3.44e-6}, {}, 12.0, 10, True, 12.0,
+                        predicted=dict(a=20.0, b=20.0, c=0.0, d=0.0))
+    raw = dict(friction_coefficient=dict(a=1.0, b=0.0, c=0.0, d=0.0), slider_inertia=dict(a=0.0, b=1.0, c=0.0, d=0.0),
+               com_offset=dict(zip("abcd", com_signature)), tilt=dict(a=0.0, b=0.0, c=0.0, d=1.0))
+    asked = []
+
+    def changes(names):
+        asked.append(list(names))
+        return {n: raw[n] for n in names}, {n: _bumped(EFFECTS[n], p, 5.0) for n in names}
+
+    return p, best, changes, asked
+
+
+def test_a_pair_that_moves_the_features_as_another_effect_does_is_confounded():
+    """The set check of docs/model.md §9.1 ("Confounded"), against an independent least-squares
+    reading of the linearised model: a single effect outside the candidates whose change reproduces
+    the pair's within the selection's threshold (residual 1.0 < 11.45) makes the pair a confounded
+    group; one that needs friction beside it (another set) too; an effect that moves a feature the
+    pair leaves alone does not; a fitted set is judged by its own fit."""
+    from beamslider.discover.verdicts import confounded_sets
+
+    lib = ["friction_coefficient", "slider_inertia", "com_offset", "tilt"]
+    before, sig = dict(a=0.0, b=0.0, c=0.0, d=0.0), dict(a=1.0, b=1.0, c=1.0, d=1.0)
+    thr = 11.45
+    # com offset moves a and b alike: alone it reproduces (20, 20) to 800 - 40²/2.0025 = 1.0.
+    p, best, changes, asked = _pair_and_changes((1.0, 1.0, 0.05, 0.0))
+    g = confounded_sets(best, [best], {best.effects: []}, before, sig, p, thr, lib, changes,
+                        candidates=["friction_coefficient", "slider_inertia", "tilt"])
+    assert g is not None and g["sets"] == [["friction_coefficient", "slider_inertia"], ["com_offset"]], g
+    assert g["group"] == ["friction_coefficient", "slider_inertia", "com_offset"]
+    assert g["not_candidates"] == ["com_offset"]
+    v0 = p.com_offset_m
+    moved = changes(["com_offset"])[1]["com_offset"]
+    x = 40.0 / 2.0025  # the least-squares multiple of the 5-threshold change
+    assert g["models"][1]["com_offset"] == pytest.approx(v0 + x * (moved - v0), rel=1e-9)
+    assert "com_offset_m" in g["combination"] and "not among the candidates" in g["explanation"]
+    assert sorted(asked[0]) == sorted(lib)
+    # Half as much on b: alone it leaves 800 - 30²/1.25 = 80; with friction or inertia beside it, nothing.
+    p, best, changes, _ = _pair_and_changes((1.0, 0.5, 0.0, 0.0))
+    g = confounded_sets(best, [best], {best.effects: []}, before, sig, p, thr, lib, changes)
+    assert g is not None and g["sets"][1:] == [["com_offset", "friction_coefficient"], ["com_offset", "slider_inertia"]]
+    # A change of c that the pair does not make: no set reproduces it.
+    p, best, changes, _ = _pair_and_changes((1.0, 0.5, 3.0, 0.0))
+    assert confounded_sets(best, [best], {best.effects: []}, before, sig, p, thr, lib, changes) is None
+    # A fitted set is judged by its fit: within the threshold and alike -> confounded; else not.
+    other = CandidateFit(("com_offset", "tilt"), {"com_offset": 0.006, "tilt": 0.001}, {}, 15.0, 10, True, 15.0,
+                         predicted=dict(a=19.5, b=20.5, c=0.5, d=0.0))
+    g = confounded_sets(best, [best, other], {best.effects: [], other.effects: []}, before, sig, p, thr, lib, changes)
+    assert g is not None and g["sets"][1:] == [["com_offset", "tilt"]] and "fitted" in g["how"]["com_offset+tilt"]
+    other.chi2 = 12.0 + thr + 0.1
+    assert confounded_sets(best, [best, other], {best.effects: [], other.effects: []}, before, sig, p, thr, lib,
+                           changes) is None
+    # A single named effect is left to the single candidates' check (confounded_group).
+    one = CandidateFit(("friction_coefficient",), {"friction_coefficient": 0.13}, {}, 12.0, 11, True, 12.0,
+                       predicted=dict(a=20.0, b=0.0, c=0.0, d=0.0))
+    assert confounded_sets(one, [one], {one.effects: []}, before, sig, p, thr, lib, changes) is None
+
+
 POINTS = [(110, 10, 0.3), (124, 6, 0.3), (116, 10, 0.3)]
 """Three 15-s runs: two effects at once need the third point (with two, friction 0.24 and the
 natural frequencies x 0.985 fit at chi2 0.7 but the detuning's 95 % interval reaches 1.004)."""

@@ -19,8 +19,9 @@ from .fitting import (MODE_CONDITIONING, CandidateFit, Discovery, EnsembleMany, 
 from .models import (ENSEMBLE_S0_SHIFTS, Ensemble, Modes, RunCache, batch_slider_features, beam_surrogate,
                      data_modes, ensemble_slider_features, levels_for, measured_slider_features,
                      simulated_enma_features)
-from .separability import slider_sensitivities
+from .separability import slider_changes, slider_sensitivities
 from .verdicts import (ADVICE_GRID, EXTENDING_PAIRS, GUIDED_PAIRS, Reason, Reasons, Why, advise, confounded_group,
+                       confounded_sets,
                        interval_of, kinds, negligible_fits, rank_pairs, unnamed_verdict, unresolved_reasons)
 
 
@@ -407,7 +408,7 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
         elif level == "slider":
             def guide() -> List[Tuple[Tuple[str, str], float]]:
                 # Every pair with the χ² the linearised model predicts (each may fit badly alone).
-                sens = slider_sensitivities([e.name for e in cand_effects], base, ops, threads=threads)
+                sens = slider_sensitivities([e.name for e in cand_effects], base, ops, threads=threads, cache=run_cache)
                 resid = {k: (meas[k].value - before[k]) / sigma(meas[k], spread_base.get(k, 0.0), runs_base)
                          for k in meas if k in before}
                 ranked = rank_pairs(sens, resid)
@@ -465,7 +466,11 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
     confounded: Dict[str, Any] = {}
     if best is not None and measured is not None:
         sig_base = {k: sigma(meas[k], spread_base.get(k, 0.0), runs_base) for k in meas}
-        group = confounded_group(best, fits, verdicts, before, sig_base, base, lrt_threshold(1, len(cand_effects)))
+        thr = lrt_threshold(1, len(cand_effects))
+        group = confounded_group(best, fits, verdicts, before, sig_base, base, thr) or confounded_sets(
+            best, fits, verdicts, before, sig_base, base, thr, [n for n, e in EFFECTS.items() if e.level == level],
+            lambda names: slider_changes(names, base, ops, threads=threads, cache=run_cache),
+            [e.name for e in cand_effects])
         if group is not None:
             # The data resolve a combination of the group, not which of them: nothing is named.
             confounded = group
@@ -535,7 +540,7 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
                             f"discover: advice for {', '.join(to_advise)} (points)")
         (confounded or unresolved)["advice"] = advise(to_advise, base, ops, grid, threads=threads,
                                                      on_point=lambda: bar.update(1),
-                                                     fitted=confounded.get("values"))
+                                                     fitted=confounded.get("models", confounded.get("values")))
         bar.close()
     negl = negligible_fits(fits, verdicts)
     rejected = [dict(effects=list(f.effects), values=f.values, stderrs=f.stderrs, chi2=f.chi2, dof=f.dof,

@@ -8,7 +8,7 @@ from __future__ import annotations
 import itertools
 import math
 from enum import Enum
-from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple
+from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
@@ -208,18 +208,103 @@ def confounded_group(best: CandidateFit, fits: Sequence[CandidateFit], reasons: 
                               "by its fitted amount explains the data, not which of them changed")
 
 
+def _rho2(v: np.ndarray, cols: List[np.ndarray]) -> Tuple[float, np.ndarray]:
+    """min over x of |v − A x|², A the columns ``cols``, and the minimiser."""
+    A = np.column_stack(cols)
+    x = np.linalg.lstsq(A, v, rcond=None)[0]
+    return float(np.sum((v - A @ x) ** 2)), x
+
+
+def confounded_sets(best: CandidateFit, fits: Sequence[CandidateFit], reasons: Reasons, before: Dict[str, float],
+                    sig: Dict[str, float], base: Parameters, delta_chi2: float, library: Sequence[str],
+                    changes: Callable[[List[str]], Tuple[Dict[str, Dict[str, float]], Dict[str, float]]],
+                    candidates: Optional[Sequence[str]] = None) -> Optional[Dict[str, Any]]:
+    """The sets of no more effects than the set ``best`` (two or more) that move the features as its
+    fit does (docs/model.md §9.1, "Confounded"): then the data resolve that change, not which set
+    made it, and ``best`` is not named. A set C of the ``library`` (the level's effects, candidates
+    or not) other than ``best`` is such a set if its full fit (a candidate set that was fitted)
+    passes the naming rule, fits within ``delta_chi2`` of ``best`` and moves the features alike
+    (|cos θ| ≥ :data:`CONFOUND_COS`); if it was not fitted, if in the linearised model it
+    reproduces the fitted change d of ``best`` within ``delta_chi2`` of how well ``best``'s own
+    signatures do: min_y |d − S_C y|² ≤ min_x |d − S_B x|² + ``delta_chi2`` (S the feature changes
+    of a move by five relevance thresholds in units of ``sig``, from ``changes(names)``: raw feature
+    changes and the moved values; the linearisation's error, common to both to first order, cancels
+    in the difference that the likelihood-ratio test would see). Only minimal sets are kept (one
+    that contains another such set adds nothing; ``candidates``: the effects the user suspects, the
+    others are listed as ``not_candidates``). None if there is no such set."""
+    if len(best.effects) < 2:
+        return None
+    d = signature(best, before, sig)
+    fitted = {frozenset(f.effects): f for f in fits}
+    own = frozenset(best.effects)
+    todo = [frozenset(c) for k in range(1, len(best.effects) + 1) for c in itertools.combinations(library, k)]
+    todo = [c for c in todo if c != own]
+    unfitted = [c for c in todo if c not in fitted]
+    raw, moved = changes(sorted(set().union(*unfitted, own))) if unfitted else ({}, {})
+    sig_of = {e: {k: v / sig[k] for k, v in raw.get(e, {}).items() if k in sig and sig[k] > 0} for e in raw}
+    found: List[Tuple[frozenset, Dict[str, float], str]] = []
+    for c in todo:
+        f = fitted.get(c)
+        if f is not None:
+            if reasons.get(f.effects) or f.chi2 - best.chi2 > delta_chi2:
+                continue
+            cs, _, _ = cosine(d, signature(f, before, sig))
+            if abs(cs) >= CONFOUND_COS:
+                found.append((c, {e: f.values[e] for e in f.effects}, f"fitted: chi2 {f.chi2:.3g}, cos {cs:+.3f}"))
+            continue
+        members = sorted(c | own)
+        if any(not sig_of.get(e) for e in members):
+            continue  # a run of a moved model failed: no signature
+        keys = [k for k in d if all(k in sig_of[e] for e in members)]
+        if len(keys) <= len(c):
+            continue
+        v = np.array([d[k] for k in keys])
+        r_own, _ = _rho2(v, [np.array([sig_of[e][k] for k in keys]) for e in best.effects])
+        names_c = sorted(c)
+        r_c, x = _rho2(v, [np.array([sig_of[e][k] for k in keys]) for e in names_c])
+        if r_c <= r_own + delta_chi2:
+            vals = {e: float(EFFECTS[e].baseline_value(base) + xe * (moved[e] - EFFECTS[e].baseline_value(base)))
+                    for e, xe in zip(names_c, x)}
+            found.append((c, vals, f"linearised: {r_c:.4g} against {r_own:.4g} for {' + '.join(best.effects)}"))
+    found = [t for t in found if not any(o[0] < t[0] for o in found)]
+    if not found:
+        return None
+
+    def says(vals: Dict[str, float]) -> str:
+        return " with ".join(f"{EFFECTS[e].field} {EFFECTS[e].baseline_value(base):.4g} -> {v:.4g}"
+                             for e, v in vals.items())
+
+    mine = {e: best.values[e] for e in best.effects}
+    group = list(best.effects) + [e for c, _, _ in found for e in sorted(c) if e not in best.effects]
+    sets = [list(best.effects)] + [sorted(c) for c, _, _ in found]
+    outside = [e for e in dict.fromkeys(group) if candidates is not None and e not in candidates]
+    return dict(group=list(dict.fromkeys(group)), sets=sets, not_candidates=outside,
+                models=[mine] + [v for _, v, _ in found],
+                values={**{e: v for _, vals, _ in found for e, v in vals.items()}, **mine},
+                chi2={"+".join(best.effects): best.chi2},
+                how={"+".join(sorted(c)): h for c, _, h in found},
+                combination=" = ".join(f"({says(v)})" for v in [mine] + [v for _, v, _ in found])
+                + " (the features' change, linearised)",
+                explanation="the set " + " + ".join(best.effects) + " moves the measured features as "
+                            + "; as ".join(" + ".join(sorted(c)) + f" ({h})" for c, _, h in found)
+                            + " does (χ² within the selection's threshold); the data resolve that change of the "
+                              "features, not which set made it"
+                            + (f" ({', '.join(outside)}: not among the candidates)" if outside else ""))
+
+
 def advise(names: Sequence[str], base: Parameters, ops: Sequence[OperatingPoint],
            grid: Sequence[Tuple[float, float, float]], *, threads: Optional[int] = None,
            on_point: Optional[Callable[[], None]] = None,
-           fitted: Optional[Dict[str, float]] = None) -> Dict[str, Any]:
+           fitted: Optional[Union[Dict[str, float], Sequence[Dict[str, float]]]] = None) -> Dict[str, Any]:
     """The separability tool's advice for candidates the data did not resolve (one name) or
     separate (several): the signatures (:func:`.separability.slider_sensitivities`, features in
     units of their uncertainty for a change of 5 relevance thresholds) at each point of ``grid``
     not yet measured, at the measured points' duration; the point where one candidate moves the
     features most, or where two separate best (min(|z₁|, |z₂|)·sin θ), is recommended.
-    ``fitted``: for a confounded group, each member's fitted value; the separation is then the
-    distance between the features of the fitted models (:func:`fitted_differences`), which stays
-    right where the linearised signatures do not (a large change of one mimicking another).
+    ``fitted``: for a confounded group, each member's fitted value (or each member set's values);
+    the separation is then the distance between the features of the fitted models
+    (:func:`fitted_differences`), which stays right where the linearised signatures do not (a large
+    change of one mimicking another).
     ``on_point``: called after the measured points and after each grid point (progress)."""
     from .separability import slider_sensitivities
 
@@ -255,10 +340,11 @@ def advise(names: Sequence[str], base: Parameters, ops: Sequence[OperatingPoint]
                      + f", against {now:.3g} at the measured points")
 
 
-def fitted_differences(values: Dict[str, float], base: Parameters, ops: Sequence[OperatingPoint], *,
-                       threads: Optional[int] = None) -> Dict[str, Dict[str, float]]:
+def fitted_differences(values: Union[Dict[str, float], Sequence[Dict[str, float]]], base: Parameters,
+                       ops: Sequence[OperatingPoint], *, threads: Optional[int] = None) -> Dict[str, Dict[str, float]]:
     """The features of each single candidate's fitted model (``values``: effect name -> fitted
-    value) at ``ops``, relative to the baseline, in units of the uncertainty: the resolution floor
+    value; or a list of models, each its effects' values: the sets of a confounded group, keyed
+    "a+b") at ``ops``, relative to the baseline, in units of the uncertainty: the resolution floor
     and the largest run-to-run spread (over s0 and s0 ± 0.002) of the baseline and of the fitted
     models — where two explanations that fit the data alike predict differently beyond what their
     own sensitivity to unresolvable perturbations blurs."""
@@ -266,9 +352,10 @@ def fitted_differences(values: Dict[str, float], base: Parameters, ops: Sequence
     from .models import batch_slider_features
     from .._core import SimulationError
 
-    names = list(values)
+    sets = [{n: v} for n, v in values.items()] if isinstance(values, dict) else [dict(v) for v in values]
+    names = ["+".join(v) for v in sets]
     shifts = (0.0, -0.002, 0.002)
-    models = [base] + [realise_model(base, {n: values[n]}) for n in names]
+    models = [base] + [realise_model(base, v) for v in sets]
     res = batch_slider_features([m for m in models for _ in shifts], ops, s0_shifts=list(shifts) * len(models),
                                 threads=threads)
     if any(r is None for r in res):
