@@ -60,13 +60,11 @@ def slider_sensitivities(effects: Sequence[str], baseline: Optional[Parameters],
 
 
 def slider_changes(effects: Sequence[str], baseline: Optional[Parameters], ops: Sequence[OperatingPoint], *,
-                   steps: float = 5.0, threads: Optional[int] = None, cache=None
-                   ) -> Tuple[Dict[str, Dict[str, float]], Dict[str, float]]:
+                   steps: float = 5.0, threads: Optional[int] = None, cache=None) -> Dict[str, Dict[str, float]]:
     """The raw change of each slider feature at ``ops`` when each effect moves by ``steps``
     relevance thresholds from the baseline (one run per effect and point against the baseline's
-    unshifted run; an effect whose runs fail has no changes), and the moved values: the
-    linearised model of :func:`.verdicts.confounded_sets`, whose caller divides by its own
-    uncertainties. ``cache``: the discover's run cache (the runs :func:`slider_sensitivities`
+    unshifted run; an effect whose runs fail has no changes): the linearised model of
+    :func:`.verdicts.confounded_sets`, whose caller divides by its own uncertainties. ``cache``: the discover's run cache (the runs :func:`slider_sensitivities`
     made are not repeated)."""
     base = resolve(baseline)
     moved = {n: _bumped(EFFECTS[n], base, steps) for n in effects}
@@ -75,8 +73,8 @@ def slider_changes(effects: Sequence[str], baseline: Optional[Parameters], ops: 
     if res[0] is None:
         raise SimulationError("the baseline model's runs failed")
     f0 = res[0][0]
-    return ({n: ({} if r is None else {k: r[0][k].value - f0[k].value for k in f0 if k in r[0]})
-             for n, r in zip(effects, res[1:])}, moved)
+    return {n: ({} if r is None else {k: r[0][k].value - f0[k].value for k in f0 if k in r[0]})
+            for n, r in zip(effects, res[1:])}
 
 
 def separability(effects: Optional[Sequence[str]] = None, *, baseline: Optional[Parameters] = None,

@@ -215,80 +215,83 @@ def _rho2(v: np.ndarray, cols: List[np.ndarray]) -> Tuple[float, np.ndarray]:
     return float(np.sum((v - A @ x) ** 2)), x
 
 
+CONFIRM_SINGLES = 2
+"""Of the single effects outside the fitted ones that the linearised model puts within the
+threshold of a named set (:func:`confounded_sets`), this many (the closest) are fitted in full."""
+
+
 def confounded_sets(best: CandidateFit, fits: Sequence[CandidateFit], reasons: Reasons, before: Dict[str, float],
                     sig: Dict[str, float], base: Parameters, delta_chi2: float, library: Sequence[str],
-                    changes: Callable[[List[str]], Tuple[Dict[str, Dict[str, float]], Dict[str, float]]],
+                    changes: Callable[[List[str]], Dict[str, Dict[str, float]]],
+                    confirm: Callable[[str], Tuple[CandidateFit, List[Any]]],
                     candidates: Optional[Sequence[str]] = None) -> Optional[Dict[str, Any]]:
-    """The sets of no more effects than the set ``best`` (two or more) that move the features as its
-    fit does (docs/model.md §9.1, "Confounded"): then the data resolve that change, not which set
-    made it, and ``best`` is not named. A set C of the ``library`` (the level's effects, candidates
-    or not) other than ``best`` is such a set if its full fit (a candidate set that was fitted)
-    passes the naming rule, fits within ``delta_chi2`` of ``best`` and moves the features alike
-    (|cos θ| ≥ :data:`CONFOUND_COS`); if it was not fitted, if in the linearised model it
-    reproduces the fitted change d of ``best`` within ``delta_chi2`` of how well ``best``'s own
-    signatures do: min_y |d − S_C y|² ≤ min_x |d − S_B x|² + ``delta_chi2`` (S the feature changes
-    of a move by five relevance thresholds in units of ``sig``, from ``changes(names)``: raw feature
-    changes and the moved values; the linearisation's error, common to both to first order, cancels
-    in the difference that the likelihood-ratio test would see). Only minimal sets are kept (one
-    that contains another such set adds nothing; ``candidates``: the effects the user suspects, the
-    others are listed as ``not_candidates``). None if there is no such set."""
+    """The single effects and fitted sets of no more effects than the set ``best`` (two or more)
+    that fit as well as it by moving the features as its fit does (docs/model.md §9.1,
+    "Confounded"): then the data resolve that change, not which of them made it, and ``best`` is
+    not named. A fitted set (``fits``) is such a set if it passes the naming rule (no
+    ``reasons``), fits within ``delta_chi2`` of ``best`` and moves the features alike (|cos θ| ≥
+    :data:`CONFOUND_COS`). A single effect of the ``library`` (the level's effects, candidates or
+    not) that was not fitted is first screened in the linearised model: it may reproduce the fitted
+    change d of ``best`` within ``delta_chi2`` of how well ``best``'s own signatures do,
+    min_y |d − s y|² ≤ min_x |d − S_B x|² + ``delta_chi2`` (S the feature changes of a move by five
+    relevance thresholds, ``changes(names)``, in units of ``sig``); the :data:`CONFIRM_SINGLES`
+    closest are fitted in full (``confirm(name)``: the fit and the naming rule's reasons) and
+    judged as the fitted sets. ``candidates``: the effects the user suspects; the others are
+    listed as ``not_candidates``. None if there is no such set."""
     if len(best.effects) < 2:
         return None
     d = signature(best, before, sig)
     fitted = {frozenset(f.effects): f for f in fits}
     own = frozenset(best.effects)
-    todo = [frozenset(c) for k in range(1, len(best.effects) + 1) for c in itertools.combinations(library, k)]
-    todo = [c for c in todo if c != own]
-    unfitted = [c for c in todo if c not in fitted]
-    raw, moved = changes(sorted(set().union(*unfitted, own))) if unfitted else ({}, {})
-    sig_of = {e: {k: v / sig[k] for k, v in raw.get(e, {}).items() if k in sig and sig[k] > 0} for e in raw}
-    found: List[Tuple[frozenset, Dict[str, float], str]] = []
-    for c in todo:
-        f = fitted.get(c)
-        if f is not None:
-            if reasons.get(f.effects) or f.chi2 - best.chi2 > delta_chi2:
+    singles = [e for e in library if frozenset((e,)) not in fitted and e not in own]
+    screened: List[Tuple[float, str]] = []
+    if singles:
+        raw = changes(sorted(set(singles) | own))
+        sig_of = {e: {k: v / sig[k] for k, v in raw.get(e, {}).items() if k in sig and sig[k] > 0} for e in raw}
+        for e in singles:
+            if not sig_of.get(e) or any(not sig_of.get(b) for b in own):
+                continue  # a run of a moved model failed: no signature
+            keys = [k for k in d if k in sig_of[e] and all(k in sig_of[b] for b in own)]
+            if len(keys) <= len(own):
                 continue
-            cs, _, _ = cosine(d, signature(f, before, sig))
-            if abs(cs) >= CONFOUND_COS:
-                found.append((c, {e: f.values[e] for e in f.effects}, f"fitted: chi2 {f.chi2:.3g}, cos {cs:+.3f}"))
+            v = np.array([d[k] for k in keys])
+            r_own, _ = _rho2(v, [np.array([sig_of[b][k] for k in keys]) for b in best.effects])
+            r_e, _ = _rho2(v, [np.array([sig_of[e][k] for k in keys])])
+            if r_e <= r_own + delta_chi2:
+                screened.append((r_e, e))
+    extra = {}
+    for _, e in sorted(screened)[:CONFIRM_SINGLES]:
+        f, why = confirm(e)
+        extra[f.effects] = why
+        fitted[frozenset(f.effects)] = f
+    found: List[Tuple[CandidateFit, str]] = []
+    for c, f in fitted.items():
+        if c == own or len(c) > len(own):
             continue
-        members = sorted(c | own)
-        if any(not sig_of.get(e) for e in members):
-            continue  # a run of a moved model failed: no signature
-        keys = [k for k in d if all(k in sig_of[e] for e in members)]
-        if len(keys) <= len(c):
+        if {**reasons, **extra}.get(f.effects) or f.chi2 - best.chi2 > delta_chi2:
             continue
-        v = np.array([d[k] for k in keys])
-        r_own, _ = _rho2(v, [np.array([sig_of[e][k] for k in keys]) for e in best.effects])
-        names_c = sorted(c)
-        r_c, x = _rho2(v, [np.array([sig_of[e][k] for k in keys]) for e in names_c])
-        if r_c <= r_own + delta_chi2:
-            vals = {e: float(EFFECTS[e].baseline_value(base) + xe * (moved[e] - EFFECTS[e].baseline_value(base)))
-                    for e, xe in zip(names_c, x)}
-            found.append((c, vals, f"linearised: {r_c:.4g} against {r_own:.4g} for {' + '.join(best.effects)}"))
-    found = [t for t in found if not any(o[0] < t[0] for o in found)]
+        cs, _, _ = cosine(d, signature(f, before, sig))
+        if abs(cs) >= CONFOUND_COS:
+            found.append((f, f"chi2 {f.chi2:.3g}, cos {cs:+.3f}" + (" (fitted to confirm the linearised model)"
+                                                                    if f.effects in extra else "")))
     if not found:
         return None
 
-    def says(vals: Dict[str, float]) -> str:
-        return " with ".join(f"{EFFECTS[e].field} {EFFECTS[e].baseline_value(base):.4g} -> {v:.4g}"
-                             for e, v in vals.items())
+    def says(f: CandidateFit) -> str:
+        return " with ".join(f"{EFFECTS[e].field} {EFFECTS[e].baseline_value(base):.4g} -> {f.values[e]:.4g}"
+                             for e in f.effects)
 
-    mine = {e: best.values[e] for e in best.effects}
-    group = list(best.effects) + [e for c, _, _ in found for e in sorted(c) if e not in best.effects]
-    sets = [list(best.effects)] + [sorted(c) for c, _, _ in found]
-    outside = [e for e in dict.fromkeys(group) if candidates is not None and e not in candidates]
-    return dict(group=list(dict.fromkeys(group)), sets=sets, not_candidates=outside,
-                models=[mine] + [v for _, v, _ in found],
-                values={**{e: v for _, vals, _ in found for e, v in vals.items()}, **mine},
-                chi2={"+".join(best.effects): best.chi2},
-                how={"+".join(sorted(c)): h for c, _, h in found},
-                combination=" = ".join(f"({says(v)})" for v in [mine] + [v for _, v, _ in found])
-                + " (the features' change, linearised)",
-                explanation="the set " + " + ".join(best.effects) + " moves the measured features as "
-                            + "; as ".join(" + ".join(sorted(c)) + f" ({h})" for c, _, h in found)
-                            + " does (χ² within the selection's threshold); the data resolve that change of the "
-                              "features, not which set made it"
+    group = list(dict.fromkeys(list(best.effects) + [e for f, _ in found for e in f.effects]))
+    outside = [e for e in group if candidates is not None and e not in candidates]
+    return dict(group=group, sets=[list(best.effects)] + [list(f.effects) for f, _ in found], not_candidates=outside,
+                models=[{e: f.values[e] for e in f.effects} for f in [best] + [g for g, _ in found]],
+                values={**{e: g.values[e] for g, _ in found for e in g.effects}, **{e: best.values[e] for e in best.effects}},
+                chi2={"+".join(f.effects): f.chi2 for f in [best] + [g for g, _ in found]},
+                combination=" = ".join(f"({says(f)})" for f in [best] + [g for g, _ in found]),
+                explanation="the set " + " + ".join(best.effects) + " fits as well as "
+                            + "; as ".join(" + ".join(f.effects) + f" ({h})" for f, h in found)
+                            + ", moving the measured features alike; the data resolve that change of the features, "
+                              "not which of them made it"
                             + (f" ({', '.join(outside)}: not among the candidates)" if outside else ""))
 
 
