@@ -10,9 +10,11 @@ repeats, each a fresh subprocess) and the verdict.
 reference points, seed 3, the truth runs ``--s0-offset`` off s0), synthesised once before the
 repeats, and the case's candidates (all slider-level ones, or all but the hidden one).
 ``--stages [--fast]``: one discover in this process instead (``--fast``: ``discover(fast=True)``),
-every batch of the core's runner attributed to the stage that asked for it (the baseline's ensemble, the single candidates' coarse scans and full
-fits, the linearised model, the sets' coordinate passes and joint refinements, the full simulation
-of the named set, the advice) with its runs, wall and CPU time: where a discover's time goes.
+every batch of the core's runner attributed to the stage that asked for it (the baseline's
+ensemble, the single candidates' coarse scans or linearised prediction and full fits, the linearised
+model, the sets' coordinate passes and joint refinements, the confounding check of a named set, the
+full simulation of the named set, the advice) with its runs, wall and CPU time: where a discover's
+time goes.
 
 Each repeat runs `python -m beamslider discover --measured FILES --out TMP --force` (all
 candidates: the slider level's physical effects, the contact spacing and the measurement chain;

@@ -433,8 +433,9 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
             fits = _fit_sets(cand_effects, max_effects, level, base, meas, model_fn, diff_step, max_nfev,
                              model_many=model_many, ensemble_many=ensemble_many, spread0=spread_base,
                              progress=progress, guide=guide if len(cand_effects) > 3 else None,
-                             predict=(lambda: predict_singles(cand_effects, base, resid_of(), sig_of(), lambda names, st:
-                                      slider_changes(names, base, ops, steps=st, threads=threads, cache=run_cache)))
+                             predict=(lambda: predict_singles(
+                                 cand_effects, base, resid_of(), sig_of(), lambda names, st: slider_changes(
+                                     names, base, ops, steps=st, threads=threads, cache=run_cache)))
                              if fast and len(cand_effects) > SCREEN_FROM else None,
                              done=lambda singles: _no_set_can_win(
                                  singles, lambda fs: _judge(fs, base, n, excess_before, gap_ratio)))

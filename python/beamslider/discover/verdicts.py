@@ -285,7 +285,8 @@ def confounded_sets(best: CandidateFit, fits: Sequence[CandidateFit], reasons: R
     outside = [e for e in group if candidates is not None and e not in candidates]
     return dict(group=group, sets=[list(best.effects)] + [list(f.effects) for f, _ in found], not_candidates=outside,
                 models=[{e: f.values[e] for e in f.effects} for f in [best] + [g for g, _ in found]],
-                values={**{e: g.values[e] for g, _ in found for e in g.effects}, **{e: best.values[e] for e in best.effects}},
+                values={**{e: g.values[e] for g, _ in found for e in g.effects},
+                        **{e: best.values[e] for e in best.effects}},
                 chi2={"+".join(f.effects): f.chi2 for f in [best] + [g for g, _ in found]},
                 combination=" = ".join(f"({says(f)})" for f in [best] + [g for g, _ in found]),
                 explanation="the set " + " + ".join(best.effects) + " fits as well as "
