@@ -2,7 +2,9 @@
 "Cost"): instead of a coarse scan of every candidate, the linearised model with curvature —
 each candidate's runs moved by ± five relevance thresholds — predicts each single candidate's
 best χ², and only the best predicted are fitted in full; of the sets, only the pair the
-linearised model predicts best. The prediction misleads where the data's gap is small and set
+linearised model predicts best, and only if its predicted χ² beats the best single's fitted χ² by the
+selection's likelihood-ratio threshold (it could not be selected otherwise, as far as the linearised
+model tells; it overestimates the χ² of large changes, so a pair of large effects may be missed). The prediction misleads where the data's gap is small and set
 by the chaotic realisation rather than by the candidate's smooth signature (a detuning of 2 % or
 a tilt of 8 mrad in the reference runs: ranked ninth to eleventh), hence not the default."""
 

@@ -80,7 +80,8 @@ def _fit_sets(cand_effects: Sequence[Effect], max_effects: int, level: str, base
     """Fit every single candidate and the sets of up to ``max_effects`` (:func:`_pairs_to_fit`,
     with the pairs ranked by ``guide``, slider level: :func:`.verdicts.rank_pairs`); no sets if
     ``done(singles)`` (no set can be selected over them, :func:`_no_set_can_win`). ``predict``: the
-    fast path (:mod:`.fast`): singles screened by the linearised model, one pair (the best predicted)."""
+    fast path (:mod:`.fast`): singles screened by the linearised model, and the pair it predicts best
+    only if predicted to beat the best single fitted by the selection's threshold."""
     def fit(combo: Sequence[Effect], refine: int = 2, joint: Optional[bool] = None) -> CandidateFit:
         if level == "beam":
             return fit_candidate(combo, base, meas, model_fn, diff_step=diff_step, max_nfev=max_nfev)
@@ -115,8 +116,9 @@ def _fit_sets(cand_effects: Sequence[Effect], max_effects: int, level: str, base
     if max_effects >= 2 and not (done is not None and done(fits)):
         ranked = guide() if guide is not None else None
         combos = _pairs_to_fit(cand_effects, fits, max_effects, level, ranked)
-        if predict is not None and ranked:
-            combos = [c for c in combos if frozenset(e.name for e in c) == frozenset(ranked[0][0])]
+        if predict is not None and ranked:  # the best predicted pair, if predicted to beat the best single
+            win = ranked[0][1] < min(f.chi2 for f in fits if not f.screened) - lrt_threshold(1, len(cand_effects))
+            combos = [c for c in combos if win and frozenset(e.name for e in c) == frozenset(ranked[0][0])]
         bar.total = len(cand_effects) + len(combos)
         bar.refresh()
         staged = level == "slider" and len(combos) > JOINT_SETS
