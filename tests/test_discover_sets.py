@@ -287,3 +287,34 @@ def test_the_fast_path_predicts_each_single_from_moves_of_five_thresholds():
     tilt = fits[1]
     assert tilt.screened and tilt.linearised and tilt.chi2 == 40.0 and not tilt.adequate
     assert "linearised model predicts chi2 = 40" in _judge(fits, p, 10, 5.0, 0.3)[("tilt",)][0]
+
+
+def test_the_fast_path_fits_the_best_predicted_pair_only_if_it_could_be_selected(monkeypatch):
+    """discover(fast=True): the pair the linearised model predicts best is fitted only if its
+    predicted χ² beats the best single fitted in full by the selection's threshold (for one effect
+    picked from the candidates: lrt_threshold(1, 4) here); the other pairs are never fitted."""
+    from beamslider.discover import naming
+    from beamslider.discover.effects import EFFECTS
+    from beamslider.discover.fitting import lrt_threshold
+
+    names = ["friction_coefficient", "natural_frequency_detuning", "tilt", "clearance"]
+    cands = [EFFECTS[n] for n in names]
+    fitted = []
+
+    def fake_fit(effects, *a, **kw):
+        fitted.append(tuple(e.name for e in effects))
+        c2 = 30.0 if len(effects) == 1 else 2.0
+        return CandidateFit(tuple(e.name for e in effects), {e.name: 0.0 for e in effects}, {}, c2, 10, True, c2)
+
+    monkeypatch.setattr(naming, "profile_fit", fake_fit)
+    pred = {n: (c, 0.0) for n, c in zip(names, [40.0, 50.0, 60.0, 70.0])}
+    thr = lrt_threshold(1, len(names))
+    for best_pair, want in [(30.0 - thr - 0.1, True), (30.0 - thr + 0.1, False)]:
+        fitted.clear()
+        ranked = [(("friction_coefficient", "tilt"), best_pair), (("clearance", "tilt"), best_pair + 1)]
+        fits = naming._fit_sets(cands, 2, "slider", bs.Parameters(), {f"f{i}": None for i in range(11)}, None, None, 0,
+                                guide=lambda: ranked, done=lambda s: False, predict=lambda: pred)
+        pairs = [f for f in fitted if len(f) == 2]
+        assert pairs == ([("friction_coefficient", "tilt")] if want else []), (best_pair, fitted)
+        assert [f for f in fitted if len(f) == 1] == [(n,) for n in names[:3]]  # the three best predicted
+        assert len(fits) == 4 + len(pairs)
