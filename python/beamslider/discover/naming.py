@@ -494,10 +494,10 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
                             ensemble_many=ensemble_many, spread0=spread_base)
             return f, _judge([f], base, n, excess_before, gap_ratio)[f.effects]
 
-        group = confounded_group(best, fits, verdicts, before, sig_base, base, thr) or confounded_sets(
+        group = confounded_group(best, fits, verdicts, before, sig_base, base, thr) or (confounded_sets(
             best, fits, verdicts, before, sig_base, base, thr, [n for n, e in EFFECTS.items() if e.level == level],
             lambda names: slider_changes(names, base, ops, threads=threads, cache=run_cache), confirm,
-            [e.name for e in cand_effects])
+            [e.name for e in cand_effects]) if level == "slider" else None)
         if group is not None:
             # The data resolve a combination of the group, not which of them: nothing is named.
             confounded = group
