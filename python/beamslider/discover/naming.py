@@ -571,7 +571,8 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
         bar.close()
     negl = negligible_fits(fits, verdicts)
     rejected = [dict(effects=list(f.effects), values=f.values, stderrs=f.stderrs, chi2=f.chi2, dof=f.dof,
-                     reasons=verdicts[f.effects] or ["passes the naming rule, but a simpler or better set was named"],
+                     reasons=verdicts[f.effects] or ["passes the naming rule, but " + (
+                         "is confounded (see confounded)" if confounded else "a simpler or better set was named")],
                      kinds=sorted(k.name for k in kinds(verdicts[f.effects])), negligible=any(f is g for g in negl))
                 for f in sorted(fits, key=lambda f: f.chi2) if best is None or f.effects != best.effects]
     off = sorted(((k, v["z_after"]) for k, v in features.items() if abs(v["z_after"]) > 2), key=lambda x: -abs(x[1]))
