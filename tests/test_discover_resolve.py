@@ -248,6 +248,16 @@ def test_a_bad_advice_grid_is_a_one_line_error(grid, tmp_path):
         dc.discover(measured=runs, effects=["friction_coefficient"], advice_grid=grid)
 
 
+def _spacing_and_restitution(spacing, rest, dof):
+    """A contact spacing moved by a negligible 0.6 % and restitution 0.5 -> 0.3, each fitted alone:
+    (χ², standard error, 95 % interval) of each, and their degrees of freedom."""
+    (c_s, se_s, iv_s), (c_r, se_r, iv_r) = spacing, rest
+    return (CandidateFit(("contact_spacing",), {"contact_spacing": 0.010062}, {"contact_spacing": se_s}, c_s, dof,
+                         True, c_s, intervals={"contact_spacing": iv_s}),
+            CandidateFit(("restitution",), {"restitution": 0.3}, {"restitution": se_r}, c_r, dof, True, c_r,
+                         intervals={"restitution": iv_r}))
+
+
 def test_a_negligible_change_that_fits_is_none_only_if_no_relevant_change_is_resolved():
     """Restitution 0.5 -> 0.3 fits adequately and its 95 % interval excludes 0.5, and a contact
     spacing moved by a negligible 0.6 % fits too: the data resolve a relevant change, so the
@@ -256,10 +266,7 @@ def test_a_negligible_change_that_fits_is_none_only_if_no_relevant_change_is_res
     from beamslider.discover.naming import _judge
 
     base = bs.Parameters()
-    spacing = CandidateFit(("contact_spacing",), {"contact_spacing": 0.010062}, {"contact_spacing": 1e-4}, 10.0, 11,
-                           True, 10.0, intervals={"contact_spacing": (0.0098, 0.0103)})
-    rest = CandidateFit(("restitution",), {"restitution": 0.3}, {"restitution": 0.07}, 9.0, 11, True, 9.0,
-                        intervals={"restitution": (0.12, 0.45)})
+    spacing, rest = _spacing_and_restitution((10.0, 1e-4, (0.0098, 0.0103)), (9.0, 0.07, (0.12, 0.45)), dof=11)
     fits = [spacing, rest]
     reasons = _judge(fits, base, 12, 5.0, 0.3)
     assert reasons[("restitution",)] == [] and reasons[("contact_spacing",)][0].startswith("negligible change")
@@ -288,10 +295,7 @@ def test_a_relevant_unresolved_fit_far_better_than_a_negligible_one_is_unexplain
     base = bs.Parameters()
     thr = lrt_threshold(1, 14)
     assert thr == pytest.approx(11.45, abs=0.01)
-    spacing = CandidateFit(("contact_spacing",), {"contact_spacing": 0.010062}, {"contact_spacing": 4e-4}, 18.49, 12,
-                           True, 18.49, intervals={"contact_spacing": (0.009291, 0.01102)})
-    rest = CandidateFit(("restitution",), {"restitution": 0.3}, {"restitution": 0.09}, 2.92, 12, True, 2.92,
-                        intervals={"restitution": (0.2, 0.5431)})
+    spacing, rest = _spacing_and_restitution((18.49, 4e-4, (0.009291, 0.01102)), (2.92, 0.09, (0.2, 0.5431)), dof=12)
     fits = [spacing, rest]
     reasons = _judge(fits, base, 13, 1.25, 0.3)
     assert [r.kind for r in reasons[("restitution",)]] == [Why.NOT_RESOLVED]

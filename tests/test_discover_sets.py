@@ -156,6 +156,82 @@ def test_pairs_chosen_by_the_linearised_ranking():
     assert every == {frozenset(p) for p in pairs if "tilt" in p or "com_offset" in p}
 
 
+def _pair_and_changes(com_signature):
+    """A named pair (friction, slider inertia) whose fitted change is (20, 20, 0, 0) in units of the
+    uncertainties, and the linearised model's feature changes of four effects (5 relevance thresholds)."""
+    best = CandidateFit(("friction_coefficient", "slider_inertia"),
+                        {"friction_coefficient": 0.13, "slider_inertia": 3.44e-6}, {}, 12.0, 10, True, 12.0,
+                        predicted=dict(a=20.0, b=20.0, c=0.0, d=0.0))
+    raw = dict(friction_coefficient=dict(a=1.0, b=0.0, c=0.0, d=0.0), slider_inertia=dict(a=0.0, b=1.0, c=0.0, d=0.0),
+               com_offset=dict(zip("abcd", com_signature)), tilt=dict(a=0.0, b=0.0, c=0.0, d=1.0))
+    asked = []
+
+    def changes(names):
+        asked.append(list(names))
+        return {n: raw[n] for n in names}
+
+    return best, changes, asked
+
+
+def test_a_pair_that_moves_the_features_as_another_effect_does_is_confounded():
+    """The set check of docs/model.md §9.1 ("Confounded"): a single effect outside the candidates
+    whose linearised change reproduces the pair's within the selection's threshold (least squares:
+    residual 800 - 40²/2.0025 = 1.0 against the pair's own 0) is fitted in full; if that fit passes
+    the naming rule within the threshold of the pair's χ², the pair is a confounded group with it.
+    An effect that the linearised model puts farther off, or whose full fit is worse, does not
+    make one; a fitted set is judged by its own fit; a single named effect is left to the single
+    candidates' check."""
+    from beamslider.discover.verdicts import confounded_sets
+
+    p = bs.Parameters()
+    lib = ["friction_coefficient", "slider_inertia", "com_offset", "tilt"]
+    before, sig = dict(a=0.0, b=0.0, c=0.0, d=0.0), dict(a=1.0, b=1.0, c=1.0, d=1.0)
+    thr = 11.45
+    tried = []
+
+    def confirm(chi2, why=()):
+        def fit(name):
+            tried.append(name)
+            return CandidateFit((name,), {name: 0.0058}, {}, chi2, 11, True, chi2,
+                                predicted=dict(a=19.8, b=20.1, c=0.1, d=0.0)), list(why)
+        return fit
+
+    best, changes, asked = _pair_and_changes((1.0, 1.0, 0.05, 0.0))
+    g = confounded_sets(best, [best], {best.effects: []}, before, sig, p, thr, lib, changes, confirm(15.0),
+                        candidates=["friction_coefficient", "slider_inertia", "tilt"])
+    assert tried == ["com_offset"], tried  # tilt is 800 off: not tried
+    assert g is not None and g["sets"] == [["friction_coefficient", "slider_inertia"], ["com_offset"]], g
+    assert g["group"] == ["friction_coefficient", "slider_inertia", "com_offset"]
+    assert g["not_candidates"] == ["com_offset"] and g["models"][1] == {"com_offset": 0.0058}
+    assert "com_offset_m" in g["combination"] and "not among the candidates" in g["explanation"]
+    assert sorted(asked[0]) == sorted(lib)
+    # Its full fit worse by more than the threshold, or failing the naming rule: named.
+    assert confounded_sets(best, [best], {best.effects: []}, before, sig, p, thr, lib, changes,
+                           confirm(12.0 + thr + 0.1)) is None
+    assert confounded_sets(best, [best], {best.effects: []}, before, sig, p, thr, lib, changes,
+                           confirm(13.0, ["not adequate"])) is None
+    # Half as much on b: alone it leaves 800 - 30²/1.25 = 80 (more than the threshold): not even fitted.
+    best, changes, _ = _pair_and_changes((1.0, 0.5, 0.0, 0.0))
+    tried.clear()
+    assert confounded_sets(best, [best], {best.effects: []}, before, sig, p, thr, lib, changes, confirm(12.0)) is None
+    assert tried == []
+    # A fitted set is judged by its fit: within the threshold and alike -> confounded; else not.
+    other = CandidateFit(("com_offset", "tilt"), {"com_offset": 0.006, "tilt": 0.001}, {}, 15.0, 10, True, 15.0,
+                         predicted=dict(a=19.5, b=20.5, c=0.5, d=0.0))
+    g = confounded_sets(best, [best, other], {best.effects: [], other.effects: []}, before, sig, p, thr, lib, changes,
+                        confirm(99.0))
+    assert g is not None and g["sets"][1:] == [["com_offset", "tilt"]], g
+    other.chi2 = 12.0 + thr + 0.1
+    assert confounded_sets(best, [best, other], {best.effects: [], other.effects: []}, before, sig, p, thr, lib,
+                           changes, confirm(99.0)) is None
+    other.chi2, other.predicted = 15.0, dict(a=20.0, b=-20.0, c=0.0, d=0.0)  # fits as well, moves them otherwise
+    assert confounded_sets(best, [best, other], {best.effects: [], other.effects: []}, before, sig, p, thr, lib,
+                           changes, confirm(99.0)) is None
+    one = CandidateFit(("friction_coefficient",), {"friction_coefficient": 0.13}, {}, 12.0, 11, True, 12.0,
+                       predicted=dict(a=20.0, b=0.0, c=0.0, d=0.0))
+    assert confounded_sets(one, [one], {one.effects: []}, before, sig, p, thr, lib, changes, confirm(1.0)) is None
+
+
 POINTS = [(110, 10, 0.3), (124, 6, 0.3), (116, 10, 0.3)]
 """Three 15-s runs: two effects at once need the third point (with two, friction 0.24 and the
 natural frequencies x 0.985 fit at chi2 0.7 but the detuning's 95 % interval reaches 1.004)."""
@@ -180,3 +256,65 @@ def test_two_effects_hidden_together_are_named_together(truth, tmp_path):
         q = d.parameters[e]
         assert abs(q["value"] - v) <= 2 * q["stderr"], (e, q)
         assert not (q["interval"][0] <= q["baseline"] <= q["interval"][1]), (e, q)
+
+
+def test_the_fast_path_predicts_each_single_from_moves_of_five_thresholds():
+    """discover(fast=True) (docs/model.md §9.1, "Cost"): a quadratic per feature through the moves by
+    ± 5 relevance thresholds predicts a candidate's best χ² and value — for data made by that very
+    quadratic at 0.6 of the move, χ² ≈ 0 at the baseline + 0.6 × 5 thresholds; a candidate that
+    moves nothing is predicted at |r|²; only the best predicted are fitted in full, the others kept
+    as screened with their predicted χ² (and the naming rule says so)."""
+    from beamslider.discover.effects import EFFECTS
+    from beamslider.discover.fast import FAST_KEEP, predict_singles, predicted_singles
+    from beamslider.discover.naming import _judge
+
+    p = bs.Parameters()
+    up = dict(friction_coefficient=dict(a=2.0, b=1.0), tilt=dict(a=0.0, b=0.0))
+    down = dict(friction_coefficient=dict(a=-2.0, b=0.2), tilt=dict(a=0.0, b=0.0))
+    x = 0.6
+    resid = dict(a=2.0 * x, b=0.4 * x + 0.6 * x * x)  # a x + c x² with a = (up - down)/2, c = (up + down)/2
+    cands = [EFFECTS["friction_coefficient"], EFFECTS["tilt"]]
+    pred = predict_singles(cands, p, resid, dict(a=1.0, b=1.0), lambda names, st: up if st > 0 else down)
+    chi2, v = pred["friction_coefficient"]
+    assert chi2 == pytest.approx(0.0, abs=0.01) and v == pytest.approx(0.2 + x * 5 * 0.01, abs=0.001)
+    assert pred["tilt"][0] == pytest.approx(resid["a"] ** 2 + resid["b"] ** 2)
+    names = ["friction_coefficient", "tilt", "clearance", "slider_mass"]
+    pred = {n: (c, EFFECTS[n].baseline_value(p)) for n, c in zip(names, [3.0, 40.0, 9.0, 20.0])}
+    fitted = []
+    fits = predicted_singles([EFFECTS[n] for n in names], pred, lambda e: fitted.append(e.name) or CandidateFit(
+        (e.name,), {e.name: 0.25}, {e.name: 0.01}, 2.0, 9, True, 2.0), 10)
+    assert FAST_KEEP == 3 and fitted == ["friction_coefficient", "clearance", "slider_mass"]
+    tilt = fits[1]
+    assert tilt.screened and tilt.linearised and tilt.chi2 == 40.0 and not tilt.adequate
+    assert "linearised model predicts chi2 = 40" in _judge(fits, p, 10, 5.0, 0.3)[("tilt",)][0]
+
+
+def test_the_fast_path_fits_the_best_predicted_pair_only_if_it_could_be_selected(monkeypatch):
+    """discover(fast=True): the pair the linearised model predicts best is fitted only if its
+    predicted χ² beats the best single fitted in full by the selection's threshold (for one effect
+    picked from the candidates: lrt_threshold(1, 4) here); the other pairs are never fitted."""
+    from beamslider.discover import naming
+    from beamslider.discover.effects import EFFECTS
+    from beamslider.discover.fitting import lrt_threshold
+
+    names = ["friction_coefficient", "natural_frequency_detuning", "tilt", "clearance"]
+    cands = [EFFECTS[n] for n in names]
+    fitted = []
+
+    def fake_fit(effects, *a, **kw):
+        fitted.append(tuple(e.name for e in effects))
+        c2 = 30.0 if len(effects) == 1 else 2.0
+        return CandidateFit(tuple(e.name for e in effects), {e.name: 0.0 for e in effects}, {}, c2, 10, True, c2)
+
+    monkeypatch.setattr(naming, "profile_fit", fake_fit)
+    pred = {n: (c, 0.0) for n, c in zip(names, [40.0, 50.0, 60.0, 70.0])}
+    thr = lrt_threshold(1, len(names))
+    for best_pair, want in [(30.0 - thr - 0.1, True), (30.0 - thr + 0.1, False)]:
+        fitted.clear()
+        ranked = [(("friction_coefficient", "tilt"), best_pair), (("clearance", "tilt"), best_pair + 1)]
+        fits = naming._fit_sets(cands, 2, "slider", bs.Parameters(), {f"f{i}": None for i in range(11)}, None, None, 0,
+                                guide=lambda: ranked, done=lambda s: False, predict=lambda: pred)
+        pairs = [f for f in fitted if len(f) == 2]
+        assert pairs == ([("friction_coefficient", "tilt")] if want else []), (best_pair, fitted)
+        assert [f for f in fitted if len(f) == 1] == [(n,) for n in names[:3]]  # the three best predicted
+        assert len(fits) == 4 + len(pairs)

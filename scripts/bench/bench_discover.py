@@ -9,10 +9,12 @@ repeats, each a fresh subprocess) and the verdict.
 ``--case``: the data of that case of `scripts/repro/discover_table.py` (its truth, three runs at the
 reference points, seed 3, the truth runs ``--s0-offset`` off s0), synthesised once before the
 repeats, and the case's candidates (all slider-level ones, or all but the hidden one).
-``--stages``: one discover in this process instead, every batch of the core's runner attributed to
-the stage that asked for it (the baseline's ensemble, the single candidates' coarse scans and full
-fits, the linearised model, the sets' coordinate passes and joint refinements, the full simulation
-of the named set, the advice) with its runs, wall and CPU time: where a discover's time goes.
+``--stages [--fast]``: one discover in this process instead (``--fast``: ``discover(fast=True)``),
+every batch of the core's runner attributed to the stage that asked for it (the baseline's
+ensemble, the single candidates' coarse scans or linearised prediction and full fits, the linearised
+model, the sets' coordinate passes and joint refinements, the confounding check of a named set, the
+full simulation of the named set, the advice) with its runs, wall and CPU time: where a discover's
+time goes.
 
 Each repeat runs `python -m beamslider discover --measured FILES --out TMP --force` (all
 candidates: the slider level's physical effects, the contact spacing and the measurement chain;
@@ -62,11 +64,16 @@ def one(files, effects, max_effects) -> tuple:
 
 
 def stage_of(frames) -> str:
-    """The stage of the innermost discover function on the stack that names one."""
+    """The stage of the innermost discover function on the stack that names one (the confounding
+    check of a named set with its fits as one stage)."""
+    if any(fr.function == "confounded_sets" for fr in frames):
+        return "confounding check of a named set"
     for fr in frames:
         name, loc = fr.function, fr.frame.f_locals
         if name == "slider_sensitivities":
             return "linearised model (signatures)"
+        if name == "predict_singles":
+            return "singles: linearised prediction (fast)"
         if name == "advise":
             return "advice"
         if name == "gauss_newton":
@@ -82,7 +89,7 @@ def stage_of(frames) -> str:
     return "other"
 
 
-def stages(files, effects: str, max_effects: int) -> None:
+def stages(files, effects: str, max_effects: int, fast: bool = False) -> None:
     """One discover in this process with the core's runner counted per stage (:func:`stage_of`)."""
     import collections
     import inspect
@@ -109,7 +116,8 @@ def stages(files, effects: str, max_effects: int) -> None:
     _core.run_free_slider_batch = counted
     try:
         t0, c0 = time.perf_counter(), time.process_time()
-        d = dc.discover(measured=runs, effects=effects.split(",") if effects else None, max_effects=max_effects)
+        d = dc.discover(measured=runs, effects=effects.split(",") if effects else None, max_effects=max_effects,
+                        fast=fast)
         wall, cpu = time.perf_counter() - t0, time.process_time() - c0
     finally:
         _core.run_free_slider_batch = real
@@ -133,6 +141,8 @@ def main() -> int:
     ap.add_argument("--duration", type=float, default=60.0, help="--case: run length [s] (60)")
     ap.add_argument("--s0-offset", type=float, default=0.0015, help="--case: truth runs this far off s0 (0.0015)")
     ap.add_argument("--stages", action="store_true", help="one discover in this process, its runs counted per stage")
+    ap.add_argument("--fast", action="store_true",
+                    help="with --stages: discover(fast=True), the linearised model's screening (docs/model.md §9.1)")
     args = ap.parse_args()
     data_dir = None
     if args.case is not None:
@@ -162,7 +172,7 @@ def main() -> int:
         return 1
     print(f"discover of {len(files)} file(s), {os.cpu_count()} cores, {load()}", flush=True)
     if args.stages:
-        stages(files, args.effects, args.max_effects)
+        stages(files, args.effects, args.max_effects, fast=args.fast)
         return 0
     walls, cpus = [], []
     for i in range(args.repeat):

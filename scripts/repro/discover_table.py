@@ -138,6 +138,18 @@ def main() -> int:
         named = "; ".join(f"{e} {dc.fmt_value(d.parameters[e]['value'])} ± {dc.fmt_value(d.parameters[e]['stderr'])} "
                           f"[{dc.fmt_value(d.parameters[e]['interval'][0])}, {dc.fmt_value(d.parameters[e]['interval'][1])}]"
                           for e in d.named_effects) or "—"
+        if d.verdict == "confounded":  # the group, each member's fitted value (and interval, one effect)
+            c = d.confounded
+            named += " (the group: " + "; ".join(
+                f"{e} {dc.fmt_value(c['values'][e])}" + (f" [{dc.fmt_value(c['intervals'][e][0])}, "
+                                                         f"{dc.fmt_value(c['intervals'][e][1])}]"
+                                                         if e in c.get("intervals", {}) else "")
+                for e in c["group"] if e in c.get("values", {})) + ")"
+        elif d.unresolved:
+            u = d.unresolved
+            named += " (best candidate, not resolved: " + "; ".join(
+                f"{e} {dc.fmt_value(u['values'][e])} [{dc.fmt_value(u['intervals'][e][0])}, "
+                f"{dc.fmt_value(u['intervals'][e][1])}]" for e in u["effects"]) + ")"
         truth_txt = ", ".join(f"{k} {dc.fmt_value(v)}" for k, v in truth_values(spec).items()) or "—"
         cands = f"all {len(SLIDER)}" if len(effects) == len(SLIDER) else f"all but {set(SLIDER).difference(effects).pop()}"
         if args.json_dir is not None:

@@ -22,7 +22,10 @@ model is missing, add it, and show the disagreement shrink.
    noise, sqrt(max(χ² − E[χ²], 0)/n), shrinks to ≤ ``gap_ratio`` (0.3) of itself; else
    "unexplained"; and only if each parameter's 95 % interval excludes its baseline value (else
    "unexplained — best candidate X, not resolved", with advice); single candidates that fit equally
-   by moving the features alike are reported as a ``confounded`` group (:mod:`.verdicts`). Slider level: a model's features are the mean of an ensemble of runs from
+   by moving the features alike are reported as a ``confounded`` group, and so is a named set
+   that a single effect of the library (a candidate or not: screened in the linearised model,
+   confirmed by its full fit) fits as well (:mod:`.verdicts`). Slider level: a model's features
+   are the mean of an ensemble of runs from
    s0 + (0, ±0.001, ±0.002), their spread part of the uncertainty (the final state of a long run
    depends on such unresolvable perturbations). The end-state features are bimodal across such
    perturbations (jumped up yet or not, the phase of a relaxation cycle), so they are compared

@@ -73,6 +73,8 @@ class CandidateFit:
     (:func:`_roughness`); the interval's threshold is χ²_min + 1 + 2·roughness."""
     screened: bool = False
     """Slider level: only the coarse scan was made (:data:`.naming.SCREEN_MARGIN`)."""
+    linearised: bool = False
+    """Screened by the linearised model's prediction only (the fast path, :mod:`.fast`)."""
 
 
 @dataclass

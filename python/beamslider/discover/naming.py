@@ -19,8 +19,10 @@ from .fitting import (MODE_CONDITIONING, CandidateFit, Discovery, EnsembleMany, 
 from .models import (ENSEMBLE_S0_SHIFTS, Ensemble, Modes, RunCache, batch_slider_features, beam_surrogate,
                      data_modes, ensemble_slider_features, levels_for, measured_slider_features,
                      simulated_enma_features)
-from .separability import slider_sensitivities
+from .fast import FAST_KEEP, predict_singles, predicted_singles
+from .separability import slider_changes, slider_sensitivities
 from .verdicts import (ADVICE_GRID, EXTENDING_PAIRS, GUIDED_PAIRS, Reason, Reasons, Why, advise, confounded_group,
+                       confounded_sets,
                        interval_of, kinds, negligible_fits, rank_pairs, unnamed_verdict, unresolved_reasons)
 
 
@@ -73,10 +75,13 @@ def _fit_sets(cand_effects: Sequence[Effect], max_effects: int, level: str, base
               ensemble_many: Optional[EnsembleMany] = None, spread0: Optional[Dict[str, float]] = None,
               progress: bool = False,
               guide: Optional[Callable[[], List[Tuple[Tuple[str, str], float]]]] = None,
-              done: Optional[Callable[[List[CandidateFit]], bool]] = None) -> List[CandidateFit]:
+              done: Optional[Callable[[List[CandidateFit]], bool]] = None,
+              predict: Optional[Callable[[], Dict[str, Tuple[float, float]]]] = None) -> List[CandidateFit]:
     """Fit every single candidate and the sets of up to ``max_effects`` (:func:`_pairs_to_fit`,
     with the pairs ranked by ``guide``, slider level: :func:`.verdicts.rank_pairs`); no sets if
-    ``done(singles)`` (no set can be selected over them, :func:`_no_set_can_win`)."""
+    ``done(singles)`` (no set can be selected over them, :func:`_no_set_can_win`). ``predict``: the
+    fast path (:mod:`.fast`): singles screened by the linearised model, and the pair it predicts best
+    only if predicted to beat the best single fitted by the selection's threshold."""
     def fit(combo: Sequence[Effect], refine: int = 2, joint: Optional[bool] = None) -> CandidateFit:
         if level == "beam":
             return fit_candidate(combo, base, meas, model_fn, diff_step=diff_step, max_nfev=max_nfev)
@@ -85,7 +90,10 @@ def _fit_sets(cand_effects: Sequence[Effect], max_effects: int, level: str, base
 
     bar = _progress_bar(progress, len(cand_effects), f"discover ({level}): fits")
     fits: List[CandidateFit] = []
-    if level == "slider" and len(cand_effects) > SCREEN_FROM:
+    if predict is not None:
+        fits = predicted_singles(cand_effects, predict(), lambda e: fit((e,)), len(meas))
+        bar.update(len(cand_effects))
+    elif level == "slider" and len(cand_effects) > SCREEN_FROM:
         # Coarse scans of every candidate first (grid and one ensemble: runs the full fits reuse),
         # full fits only of those whose coarse χ² is within SCREEN_MARGIN of the best.
         coarse = []
@@ -108,6 +116,9 @@ def _fit_sets(cand_effects: Sequence[Effect], max_effects: int, level: str, base
     if max_effects >= 2 and not (done is not None and done(fits)):
         ranked = guide() if guide is not None else None
         combos = _pairs_to_fit(cand_effects, fits, max_effects, level, ranked)
+        if predict is not None and ranked:  # the best predicted pair, if predicted to beat the best single
+            win = ranked[0][1] < min(f.chi2 for f in fits if not f.screened) - lrt_threshold(1, len(cand_effects))
+            combos = [c for c in combos if win and frozenset(e.name for e in c) == frozenset(ranked[0][0])]
         bar.total = len(cand_effects) + len(combos)
         bar.refresh()
         staged = level == "slider" and len(combos) > JOINT_SETS
@@ -250,7 +261,9 @@ def _judge(fits: Sequence[CandidateFit], base: Parameters, n: int, excess_before
         reasons: List[Reason] = []
         if f.screened:
             reasons.append(Reason(Why.SCREENED, f"screened out: its coarse scan's chi2 = {f.chi2:.3g} is more than "
-                                                f"{SCREEN_MARGIN:g} above the best coarse chi2 (not fitted in full)"))
+                                                f"{SCREEN_MARGIN:g} above the best coarse chi2 (not fitted in full)"
+                                  if not f.linearised else f"screened out: the linearised model predicts chi2 = "
+                                                           f"{f.chi2:.3g}, not among the best {FAST_KEEP} (fast path)"))
         elif not f.adequate:
             reasons.append(Reason(Why.NOT_ADEQUATE, f"not adequate: chi2 = {f.chi2:.3g} > chi2_0.99({f.dof}) = "
                                                     f"{chi2_quantile(f.dof):.3g}"))
@@ -270,8 +283,8 @@ def _judge(fits: Sequence[CandidateFit], base: Parameters, n: int, excess_before
 def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequence[Measurement]] = None,
              baseline: Optional[Parameters] = None, effects: Optional[Sequence[str]] = None,
              max_effects: int = 2, progress: bool = False, gap_ratio: float = 0.3,
-             threads: Optional[int] = None,
-             advice_grid: Optional[Sequence[Tuple[float, float, float]]] = None) -> Discovery:
+             threads: Optional[int] = None, advice_grid: Optional[Sequence[Tuple[float, float, float]]] = None,
+             fast: bool = False) -> Discovery:
     """Find the effects the ``baseline`` model misses, from beam-level ENMA data (``enma_data``),
     slider-level free-slider runs (``measured``, files of the published format) or both (one joint
     fit over both feature sets: beam-level effects from both, slider-level ones from the runs),
@@ -283,7 +296,8 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
     the core's runner for the free-slider runs (None: one per core). ``advice_grid``: operating
     points (f_ex, a_ex, s0) among which the separability tool looks for the run that would resolve
     an unresolved best candidate or separate a confounded group (None:
-    :data:`.verdicts.ADVICE_GRID`; empty: no advice runs)."""
+    :data:`.verdicts.ADVICE_GRID`; empty: no advice runs). ``fast``: slider level, the single
+    candidates screened by the linearised model instead of coarse scans and one pair (:mod:`.fast`)."""
     import time
 
     t0 = time.perf_counter()
@@ -405,18 +419,26 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
                 fits = [fit_candidate([EFFECTS[e] for e in f.effects], base, meas, model_fn, diff_step=diff_step,
                                        max_nfev=max_nfev) for f in fits]
         elif level == "slider":
+            def sig_of() -> Dict[str, float]:
+                return {k: sigma(meas[k], spread_base.get(k, 0.0), runs_base) for k in meas}
+
+            def resid_of() -> Dict[str, float]:
+                return {k: (meas[k].value - before[k]) / s for k, s in sig_of().items() if k in before}
+
             def guide() -> List[Tuple[Tuple[str, str], float]]:
                 # Every pair with the χ² the linearised model predicts (each may fit badly alone).
-                sens = slider_sensitivities([e.name for e in cand_effects], base, ops, threads=threads)
-                resid = {k: (meas[k].value - before[k]) / sigma(meas[k], spread_base.get(k, 0.0), runs_base)
-                         for k in meas if k in before}
-                ranked = rank_pairs(sens, resid)
+                sens = slider_sensitivities([e.name for e in cand_effects], base, ops, threads=threads, cache=run_cache)
+                ranked = rank_pairs(sens, resid_of())
                 guided.extend(dict(pair=list(p), predicted_chi2=c) for p, c in ranked[:GUIDED_PAIRS])
                 return ranked
 
             fits = _fit_sets(cand_effects, max_effects, level, base, meas, model_fn, diff_step, max_nfev,
                              model_many=model_many, ensemble_many=ensemble_many, spread0=spread_base,
                              progress=progress, guide=guide if len(cand_effects) > 3 else None,
+                             predict=(lambda: predict_singles(
+                                 cand_effects, base, resid_of(), sig_of(), lambda names, st: slider_changes(
+                                     names, base, ops, steps=st, threads=threads, cache=run_cache)))
+                             if fast and len(cand_effects) > SCREEN_FROM else None,
                              done=lambda singles: _no_set_can_win(
                                  singles, lambda fs: _judge(fs, base, n, excess_before, gap_ratio)))
         else:
@@ -465,7 +487,17 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
     confounded: Dict[str, Any] = {}
     if best is not None and measured is not None:
         sig_base = {k: sigma(meas[k], spread_base.get(k, 0.0), runs_base) for k in meas}
-        group = confounded_group(best, fits, verdicts, before, sig_base, base, lrt_threshold(1, len(cand_effects)))
+        thr = lrt_threshold(1, len(cand_effects))
+
+        def confirm(name: str) -> Tuple[CandidateFit, List[Reason]]:
+            f = profile_fit((EFFECTS[name],), base, meas, model_fn, model_many=model_many,
+                            ensemble_many=ensemble_many, spread0=spread_base)
+            return f, _judge([f], base, n, excess_before, gap_ratio)[f.effects]
+
+        group = confounded_group(best, fits, verdicts, before, sig_base, base, thr) or (confounded_sets(
+            best, fits, verdicts, before, sig_base, base, thr, [n for n, e in EFFECTS.items() if e.level == level],
+            lambda names: slider_changes(names, base, ops, threads=threads, cache=run_cache), confirm,
+            [e.name for e in cand_effects]) if level == "slider" else None)
         if group is not None:
             # The data resolve a combination of the group, not which of them: nothing is named.
             confounded = group
@@ -535,11 +567,12 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
                             f"discover: advice for {', '.join(to_advise)} (points)")
         (confounded or unresolved)["advice"] = advise(to_advise, base, ops, grid, threads=threads,
                                                      on_point=lambda: bar.update(1),
-                                                     fitted=confounded.get("values"))
+                                                     fitted=confounded.get("models", confounded.get("values")))
         bar.close()
     negl = negligible_fits(fits, verdicts)
     rejected = [dict(effects=list(f.effects), values=f.values, stderrs=f.stderrs, chi2=f.chi2, dof=f.dof,
-                     reasons=verdicts[f.effects] or ["passes the naming rule, but a simpler or better set was named"],
+                     reasons=verdicts[f.effects] or ["passes the naming rule, but " + (
+                         "is confounded (see confounded)" if confounded else "a simpler or better set was named")],
                      kinds=sorted(k.name for k in kinds(verdicts[f.effects])), negligible=any(f is g for g in negl))
                 for f in sorted(fits, key=lambda f: f.chi2) if best is None or f.effects != best.effects]
     off = sorted(((k, v["z_after"]) for k, v in features.items() if abs(v["z_after"]) > 2), key=lambda x: -abs(x[1]))

@@ -29,17 +29,19 @@ def _bumped(e: Effect, p: Parameters, steps: float) -> float:
 
 
 def slider_sensitivities(effects: Sequence[str], baseline: Optional[Parameters], ops: Sequence[OperatingPoint], *,
-                         steps: float = 5.0, threads: Optional[int] = None) -> Dict[str, Dict[str, float]]:
+                         steps: float = 5.0, threads: Optional[int] = None, cache=None
+                         ) -> Dict[str, Dict[str, float]]:
     """Change of each slider feature at ``ops``, in units of its uncertainty — the resolution floor
     (:data:`FLOORS`) combined with the model's run-to-run spread (runs from s0 ± 0.002, as in
     :func:`discover`) — when each effect moves by ``steps`` relevance thresholds from the
     baseline (one FS run per effect and point; the measurement chain's candidates other than the
-    excitation level re-read the baseline's run, docs/model.md §9.1)."""
+    excitation level re-read the baseline's run, docs/model.md §9.1). ``cache``: a run cache
+    (:func:`.models.batch_slider_features`)."""
     base = resolve(baseline)
     models = [base, base, base] + [realise_model(base, {n: _bumped(EFFECTS[n], base, steps)}) for n in effects]
     # All runs as one batch of the core's parallel runner.
     res = batch_slider_features(models, ops, s0_shifts=[0.0, -0.002, 0.002] + [0.0] * len(effects),
-                                threads=threads)
+                                threads=threads, cache=cache)
     if res[0] is None:
         raise SimulationError("the baseline model's runs failed")
     f0 = res[0][0]
@@ -55,6 +57,25 @@ def slider_sensitivities(effects: Sequence[str], baseline: Optional[Parameters],
         f = r[0]
         out[name] = {k: (f[k].value - f0[k].value) / sig[k] for k in f0 if k in f}
     return out
+
+
+def slider_changes(effects: Sequence[str], baseline: Optional[Parameters], ops: Sequence[OperatingPoint], *,
+                   steps: float = 5.0, threads: Optional[int] = None, cache=None) -> Dict[str, Dict[str, float]]:
+    """The raw change of each slider feature at ``ops`` when each effect moves by ``steps``
+    relevance thresholds from the baseline (one run per effect and point against the baseline's
+    unshifted run; an effect whose runs fail has no changes): the linearised model of
+    :func:`.verdicts.confounded_sets` and :mod:`.fast`, whose callers divide by their own
+    uncertainties. ``cache``: the discover's run cache (the runs :func:`slider_sensitivities` made
+    are not repeated)."""
+    base = resolve(baseline)
+    moved = {n: _bumped(EFFECTS[n], base, steps) for n in effects}
+    models = [base] + [realise_model(base, {n: moved[n]}) for n in effects]
+    res = batch_slider_features(models, ops, threads=threads, cache=cache)
+    if res[0] is None:
+        raise SimulationError("the baseline model's runs failed")
+    f0 = res[0][0]
+    return {n: ({} if r is None else {k: r[0][k].value - f0[k].value for k in f0 if k in r[0]})
+            for n, r in zip(effects, res[1:])}
 
 
 def separability(effects: Optional[Sequence[str]] = None, *, baseline: Optional[Parameters] = None,

@@ -8,7 +8,7 @@ from __future__ import annotations
 import itertools
 import math
 from enum import Enum
-from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple
+from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
@@ -208,18 +208,107 @@ def confounded_group(best: CandidateFit, fits: Sequence[CandidateFit], reasons: 
                               "by its fitted amount explains the data, not which of them changed")
 
 
+def _rho2(v: np.ndarray, cols: List[np.ndarray]) -> Tuple[float, np.ndarray]:
+    """min over x of |v − A x|², A the columns ``cols``, and the minimiser."""
+    A = np.column_stack(cols)
+    x = np.linalg.lstsq(A, v, rcond=None)[0]
+    return float(np.sum((v - A @ x) ** 2)), x
+
+
+CONFIRM_SINGLES = 2
+"""Of the single effects outside the fitted ones that the linearised model puts within the
+threshold of a named set (:func:`confounded_sets`), this many (the closest) are fitted in full."""
+
+
+def confounded_sets(best: CandidateFit, fits: Sequence[CandidateFit], reasons: Reasons, before: Dict[str, float],
+                    sig: Dict[str, float], base: Parameters, delta_chi2: float, library: Sequence[str],
+                    changes: Callable[[List[str]], Dict[str, Dict[str, float]]],
+                    confirm: Callable[[str], Tuple[CandidateFit, List[Any]]],
+                    candidates: Optional[Sequence[str]] = None) -> Optional[Dict[str, Any]]:
+    """The single effects and fitted sets of no more effects than the set ``best`` (two or more)
+    that fit as well as it by moving the features as its fit does (docs/model.md §9.1,
+    "Confounded"): then the data resolve that change, not which of them made it, and ``best`` is
+    not named. A fitted set (``fits``) is such a set if it passes the naming rule (no
+    ``reasons``), fits within ``delta_chi2`` of ``best`` and moves the features alike (|cos θ| ≥
+    :data:`CONFOUND_COS`). A single effect of the ``library`` (the level's effects, candidates or
+    not) that was not fitted is first screened in the linearised model: it may reproduce the fitted
+    change d of ``best`` within ``delta_chi2`` of how well ``best``'s own signatures do,
+    min_y |d − s y|² ≤ min_x |d − S_B x|² + ``delta_chi2`` (S the feature changes of a move by five
+    relevance thresholds, ``changes(names)``, in units of ``sig``); the :data:`CONFIRM_SINGLES`
+    closest are fitted in full (``confirm(name)``: the fit and the naming rule's reasons) and
+    judged as the fitted sets. ``candidates``: the effects the user suspects; the others are
+    listed as ``not_candidates``. None if there is no such set."""
+    if len(best.effects) < 2:
+        return None
+    d = signature(best, before, sig)
+    fitted = {frozenset(f.effects): f for f in fits}
+    own = frozenset(best.effects)
+    singles = [e for e in library if frozenset((e,)) not in fitted and e not in own]
+    screened: List[Tuple[float, str]] = []
+    if singles:
+        raw = changes(sorted(set(singles) | own))
+        sig_of = {e: {k: v / sig[k] for k, v in raw.get(e, {}).items() if k in sig and sig[k] > 0} for e in raw}
+        for e in singles:
+            if not sig_of.get(e) or any(not sig_of.get(b) for b in own):
+                continue  # a run of a moved model failed: no signature
+            keys = [k for k in d if k in sig_of[e] and all(k in sig_of[b] for b in own)]
+            if len(keys) <= len(own):
+                continue
+            v = np.array([d[k] for k in keys])
+            r_own, _ = _rho2(v, [np.array([sig_of[b][k] for k in keys]) for b in best.effects])
+            r_e, _ = _rho2(v, [np.array([sig_of[e][k] for k in keys])])
+            if r_e <= r_own + delta_chi2:
+                screened.append((r_e, e))
+    extra = {}
+    for _, e in sorted(screened)[:CONFIRM_SINGLES]:
+        f, why = confirm(e)
+        extra[f.effects] = why
+        fitted[frozenset(f.effects)] = f
+    found: List[Tuple[CandidateFit, str]] = []
+    for c, f in fitted.items():
+        if c == own or len(c) > len(own):
+            continue
+        if {**reasons, **extra}.get(f.effects) or f.chi2 - best.chi2 > delta_chi2:
+            continue
+        cs, _, _ = cosine(d, signature(f, before, sig))
+        if abs(cs) >= CONFOUND_COS:
+            found.append((f, f"chi2 {f.chi2:.3g}, cos {cs:+.3f}" + (" (fitted to confirm the linearised model)"
+                                                                    if f.effects in extra else "")))
+    if not found:
+        return None
+
+    def says(f: CandidateFit) -> str:
+        return " with ".join(f"{EFFECTS[e].field} {EFFECTS[e].baseline_value(base):.4g} -> {f.values[e]:.4g}"
+                             for e in f.effects)
+
+    group = list(dict.fromkeys(list(best.effects) + [e for f, _ in found for e in f.effects]))
+    outside = [e for e in group if candidates is not None and e not in candidates]
+    return dict(group=group, sets=[list(best.effects)] + [list(f.effects) for f, _ in found], not_candidates=outside,
+                models=[{e: f.values[e] for e in f.effects} for f in [best] + [g for g, _ in found]],
+                values={**{e: g.values[e] for g, _ in found for e in g.effects},
+                        **{e: best.values[e] for e in best.effects}},
+                chi2={"+".join(f.effects): f.chi2 for f in [best] + [g for g, _ in found]},
+                combination=" = ".join(f"({says(f)})" for f in [best] + [g for g, _ in found]),
+                explanation="the set " + " + ".join(best.effects) + " fits as well as "
+                            + "; as ".join(" + ".join(f.effects) + f" ({h})" for f, h in found)
+                            + ", moving the measured features alike; the data resolve that change of the features, "
+                              "not which of them made it"
+                            + (f" ({', '.join(outside)}: not among the candidates)" if outside else ""))
+
+
 def advise(names: Sequence[str], base: Parameters, ops: Sequence[OperatingPoint],
            grid: Sequence[Tuple[float, float, float]], *, threads: Optional[int] = None,
            on_point: Optional[Callable[[], None]] = None,
-           fitted: Optional[Dict[str, float]] = None) -> Dict[str, Any]:
+           fitted: Optional[Union[Dict[str, float], Sequence[Dict[str, float]]]] = None) -> Dict[str, Any]:
     """The separability tool's advice for candidates the data did not resolve (one name) or
     separate (several): the signatures (:func:`.separability.slider_sensitivities`, features in
     units of their uncertainty for a change of 5 relevance thresholds) at each point of ``grid``
     not yet measured, at the measured points' duration; the point where one candidate moves the
     features most, or where two separate best (min(|z₁|, |z₂|)·sin θ), is recommended.
-    ``fitted``: for a confounded group, each member's fitted value; the separation is then the
-    distance between the features of the fitted models (:func:`fitted_differences`), which stays
-    right where the linearised signatures do not (a large change of one mimicking another).
+    ``fitted``: for a confounded group, each member's fitted value (or each member set's values);
+    the separation is then the distance between the features of the fitted models
+    (:func:`fitted_differences`), which stays right where the linearised signatures do not (a large
+    change of one mimicking another).
     ``on_point``: called after the measured points and after each grid point (progress)."""
     from .separability import slider_sensitivities
 
@@ -255,10 +344,11 @@ def advise(names: Sequence[str], base: Parameters, ops: Sequence[OperatingPoint]
                      + f", against {now:.3g} at the measured points")
 
 
-def fitted_differences(values: Dict[str, float], base: Parameters, ops: Sequence[OperatingPoint], *,
-                       threads: Optional[int] = None) -> Dict[str, Dict[str, float]]:
+def fitted_differences(values: Union[Dict[str, float], Sequence[Dict[str, float]]], base: Parameters,
+                       ops: Sequence[OperatingPoint], *, threads: Optional[int] = None) -> Dict[str, Dict[str, float]]:
     """The features of each single candidate's fitted model (``values``: effect name -> fitted
-    value) at ``ops``, relative to the baseline, in units of the uncertainty: the resolution floor
+    value; or a list of models, each its effects' values: the sets of a confounded group, keyed
+    "a+b") at ``ops``, relative to the baseline, in units of the uncertainty: the resolution floor
     and the largest run-to-run spread (over s0 and s0 ± 0.002) of the baseline and of the fitted
     models — where two explanations that fit the data alike predict differently beyond what their
     own sensitivity to unresolvable perturbations blurs."""
@@ -266,9 +356,10 @@ def fitted_differences(values: Dict[str, float], base: Parameters, ops: Sequence
     from .models import batch_slider_features
     from .._core import SimulationError
 
-    names = list(values)
+    sets = [{n: v} for n, v in values.items()] if isinstance(values, dict) else [dict(v) for v in values]
+    names = ["+".join(v) for v in sets]
     shifts = (0.0, -0.002, 0.002)
-    models = [base] + [realise_model(base, {n: values[n]}) for n in names]
+    models = [base] + [realise_model(base, v) for v in sets]
     res = batch_slider_features([m for m in models for _ in shifts], ops, s0_shifts=list(shifts) * len(models),
                                 threads=threads)
     if any(r is None for r in res):
