@@ -141,3 +141,11 @@ def test_closed_pipe_exits_quietly(tmp_path):
     assert p.wait(timeout=120) == 141, err
     assert "Broken pipe" not in err and "Traceback" not in err, err
     assert (tmp_path / "o" / "predict_124Hz_14ms2_s0_0p3.json").exists()
+
+
+def test_discover_fast_is_for_the_slider_level_only(tmp_path):
+    """``discover --fast`` screens slider-level candidates (docs/model.md §9.1); without measured
+    runs, or with ENMA data, it is an error before anything runs."""
+    r = run_cli("discover", "--fast", cwd=tmp_path)
+    assert r.returncode == 1 and "--fast: only for the slider level" in r.stderr
+    assert not (tmp_path / "beamslider-out").exists()
