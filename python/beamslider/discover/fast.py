@@ -18,6 +18,7 @@ import numpy as np
 from ..params import Parameters
 from .effects import Effect
 from .fitting import CandidateFit, chi2_quantile
+from .separability import bumped
 
 FAST_KEEP = 3
 """Single candidates fitted in full: the best predicted."""
@@ -34,8 +35,6 @@ def predict_singles(cands: Sequence[Effect], base: Parameters, resid: Dict[str, 
     quadratic per feature, Δ(x) = a x + c x² with x in units of the move; χ²(x) = Σ (r − Δ(x)/σ)²
     (``resid``: the data's residuals r from the baseline in units of ``sig``; a feature that a
     move loses counts r²) is minimised over 201 points of the candidate's search range."""
-    from .separability import _bumped
-
     names = [e.name for e in cands]
     up, down = changes(names, STEPS), changes(names, -STEPS)
     keys = [k for k in resid if sig.get(k, 0) > 0]
@@ -43,7 +42,7 @@ def predict_singles(cands: Sequence[Effect], base: Parameters, resid: Dict[str, 
     out: Dict[str, Tuple[float, float]] = {}
     for e in cands:
         b = e.baseline_value(base)
-        step = _bumped(e, base, STEPS) - b
+        step = bumped(e, base, STEPS) - b
         dp = np.array([up.get(e.name, {}).get(k, math.nan) / sig[k] for k in keys])
         dm = np.array([down.get(e.name, {}).get(k, math.nan) / sig[k] for k in keys])
         ok = np.isfinite(dp) & np.isfinite(dm)

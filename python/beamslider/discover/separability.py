@@ -17,7 +17,7 @@ from .._core import SimulationError
 from .models import OperatingPoint, batch_slider_features
 
 
-def _bumped(e: Effect, p: Parameters, steps: float) -> float:
+def bumped(e: Effect, p: Parameters, steps: float) -> float:
     """The parameter of ``e`` moved from its value in ``p`` by ``steps`` relevance thresholds."""
     b = e.baseline_value(p)
     if e.relevance_kind == "compliance":
@@ -38,7 +38,7 @@ def slider_sensitivities(effects: Sequence[str], baseline: Optional[Parameters],
     excitation level re-read the baseline's run, docs/model.md §9.1). ``cache``: a run cache
     (:func:`.models.batch_slider_features`)."""
     base = resolve(baseline)
-    models = [base, base, base] + [realise_model(base, {n: _bumped(EFFECTS[n], base, steps)}) for n in effects]
+    models = [base, base, base] + [realise_model(base, {n: bumped(EFFECTS[n], base, steps)}) for n in effects]
     # All runs as one batch of the core's parallel runner.
     res = batch_slider_features(models, ops, s0_shifts=[0.0, -0.002, 0.002] + [0.0] * len(effects),
                                 threads=threads, cache=cache)
@@ -68,7 +68,7 @@ def slider_changes(effects: Sequence[str], baseline: Optional[Parameters], ops: 
     uncertainties. ``cache``: the discover's run cache (the runs :func:`slider_sensitivities` made
     are not repeated)."""
     base = resolve(baseline)
-    moved = {n: _bumped(EFFECTS[n], base, steps) for n in effects}
+    moved = {n: bumped(EFFECTS[n], base, steps) for n in effects}
     models = [base] + [realise_model(base, {n: moved[n]}) for n in effects]
     res = batch_slider_features(models, ops, threads=threads, cache=cache)
     if res[0] is None:
