@@ -253,6 +253,28 @@ def _jam_report(records: List[Dict[str, Any]]) -> Dict[str, Any]:
             "smallest_moving_gap_ratio": min(moving) if moving else None, "text": text}
 
 
+def recheck_choice(search: Sequence[Dict[str, Any]], c: DesignConfig) -> List[str]:
+    """Keys of the ``c.recheck`` best feasible designs of the search, by score; with
+    ``c.recheck_spacing`` > 0 each one differs from those already chosen by at least that share of
+    the range of some variable (Chebyshev distance in the unit box of the bounds), so that the FS
+    re-checks test distinct designs rather than near-copies of the predictor's optimum."""
+    lo = np.array([v.low for v in c.variables])
+    span = np.array([v.high - v.low for v in c.variables])
+    span[span <= 0] = 1.0
+    ranked = sorted((r for r in search if r["feasible"]), key=lambda r: -r["score"])
+    keys: List[str] = []
+    units: List[np.ndarray] = []
+    for r in ranked:
+        if len(keys) == c.recheck:
+            break
+        u = (np.asarray(r["x"], dtype=float) - lo) / span
+        if r["key"] in keys or any(np.max(np.abs(u - v)) < c.recheck_spacing for v in units):
+            continue
+        keys.append(r["key"])
+        units.append(u)
+    return keys
+
+
 def optimise(config: Union[DesignConfig, str, Path], *, out: Optional[Union[str, Path]] = None, resume: bool = False,
              scheduler: Any = None, scheduler_file: Optional[str] = None, threads: Optional[int] = None,
              task_threads: int = 1, progress: Optional[bool] = False, check_t_end_s: Optional[float] = None,
@@ -317,13 +339,7 @@ def optimise(config: Union[DesignConfig, str, Path], *, out: Optional[Union[str,
             inside = all(v.low <= x <= v.high for v, x in zip(c.variables, px))
             named = ([("prototype", px)] if inside else []) + [("best", np.array(best["x"]))]
             if c.evaluator == "predictor" and c.recheck > 0:
-                ranked = sorted((r for r in search if r["feasible"]), key=lambda r: -r["score"])
-                seen: List[str] = []
-                for r in ranked:
-                    if r["key"] not in seen:
-                        seen.append(r["key"])
-                    if len(seen) == c.recheck:
-                        break
+                seen = recheck_choice(search, c)
                 named += [(f"recheck_{i}", np.array(writer.get(k)["x"])) for i, k in enumerate(seen)]
             named += [(f"ref_{n}", c.reference_x(v)) for n, v in c.reference.items()]
             recs = s.evaluate([x for _, x in named], evaluator="fs", mode="nominal", t_end=t_check, samples=[{}],
