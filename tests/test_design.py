@@ -284,24 +284,27 @@ def test_reference_design_errors():
         DesignConfig.from_toml_text("[design]\ngap_ratio = [1.02, 1.2]\n[reference]\na = 3\n")
 
 
-def test_recheck_spacing_picks_distinct_designs_in_rank_order():
-    """With ``recheck_spacing`` the re-checked designs are the best by score that differ from every
-    one chosen before by at least that share of some variable's range; at 0 they are the best as
-    ranked. Infeasible designs are never chosen, and the spacing survives a TOML round trip."""
+def test_recheck_tolerance_spreads_the_rechecks_over_the_designs_the_predictor_cannot_tell_apart():
+    """With ``recheck_tolerance_hz`` the re-checks are the best design and then, in turn, the one
+    farthest (unit box of the bounds) from those chosen among the designs scoring within the
+    tolerance of the best; infeasible and worse designs are never chosen. At 0 they are the best
+    as ranked, and the option is absent from the file's header so older runs still resume."""
     from beamslider.design.optimise import recheck_choice
 
     cfg = tiny(variables=[dict(name="gap_ratio", low=1.01, high=1.21), dict(name="slider_mass_kg", low=0.02, high=0.06)],
-               recheck=3, recheck_spacing=0.1)
+               recheck=3, recheck_tolerance_hz=3.0)
     rows = [dict(key="a", x=[1.050, 0.040], score=30.0, feasible=True),
-            dict(key="b", x=[1.051, 0.041], score=29.9, feasible=True),   # 0.005 / 0.025 of the ranges from a
-            dict(key="c", x=[1.080, 0.040], score=29.0, feasible=True),   # 0.15 of gap_ratio's range from a
-            dict(key="d", x=[1.150, 0.050], score=99.0, feasible=False),
-            dict(key="e", x=[1.051, 0.048], score=28.0, feasible=True),   # 0.2 of the mass range from a and c
-            dict(key="f", x=[1.200, 0.060], score=27.0, feasible=True)]
-    assert recheck_choice(rows, cfg) == ["a", "c", "e"]
-    assert DesignConfig.from_toml_text(cfg.to_toml_text()).recheck_spacing == 0.1
+            dict(key="b", x=[1.051, 0.041], score=29.9, feasible=True),
+            dict(key="c", x=[1.090, 0.040], score=29.0, feasible=True),   # 0.2 of the R/h range from a
+            dict(key="d", x=[1.200, 0.060], score=99.0, feasible=False),  # infeasible: never
+            dict(key="e", x=[1.051, 0.056], score=28.0, feasible=True),   # 0.4 of the mass range from a
+            dict(key="f", x=[1.210, 0.020], score=26.0, feasible=True),   # 4 Hz below the best: never
+            dict(key="a", x=[1.050, 0.040], score=30.0, feasible=True)]   # the same design again
+    assert recheck_choice(rows, cfg) == ["a", "e", "c"]
+    assert DesignConfig.from_toml_text(cfg.to_toml_text()).recheck_tolerance_hz == 3.0
     plain = tiny(variables=cfg.variables, recheck=3)
     assert recheck_choice(rows, plain) == ["a", "b", "c"]
-    assert "recheck_spacing" not in plain.to_dict()["optimiser"]
-    with pytest.raises(ValueError, match="recheck_spacing"):
-        tiny(recheck_spacing=1.5)
+    assert "recheck_tolerance_hz" not in plain.to_dict()["optimiser"]
+    assert recheck_choice(rows[:1], cfg) == ["a"]
+    with pytest.raises(ValueError, match="recheck_tolerance_hz"):
+        tiny(recheck_tolerance_hz=-1.0)

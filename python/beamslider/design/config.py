@@ -65,7 +65,7 @@ init = "latinhypercube"
 include_prototype = true         # the base parameters are a member of the first population
 scale_inertia = true             # J_C scaled with m (B/B0)^2 when slider_mass_kg / contact_spacing_m vary
 recheck = 2                      # FS re-checks of the best designs (predictor search)
-recheck_spacing = 0.0            # re-checked designs differ by >= this share of some variable's range
+recheck_tolerance_hz = 0.0       # > 0: re-check designs spread over those scoring within this of the best
 
 # [reference.fs_only_best]       # named designs re-checked with FS beside the search's best
 # gap_ratio = 1.064              # (variables not given keep the base value)
@@ -162,9 +162,11 @@ class DesignConfig(_toml.ConfigFile):
     include_prototype: bool = True
     scale_inertia: bool = True
     recheck: int = 2
-    recheck_spacing: float = 0.0
-    """The re-checked designs differ pairwise by at least this share of the range of some variable
-    (Chebyshev distance in the unit box of the bounds); 0 re-checks the best designs as ranked."""
+    recheck_tolerance_hz: float = 0.0
+    """Scores the predictor does not tell apart [Hz]: with a value > 0 the re-checked designs are
+    the best one and then, in turn, the design farthest from those chosen (in the unit box of the
+    bounds) among the designs whose score lies within this of the best; 0 re-checks the best
+    designs as ranked."""
     uncertain: List[Uncertain] = field(default_factory=list)
     sampling_method: str = "lhs"
     samples: int = 4
@@ -221,9 +223,9 @@ class DesignConfig(_toml.ConfigFile):
         for k in ("popsize", "maxiter", "record_every", "samples", "chunk_size"):
             setattr(self, k, _int(k, getattr(self, k), 0 if k == "maxiter" else 1))
         self.recheck = _int("recheck", self.recheck, 0)
-        self.recheck_spacing = _num("recheck_spacing", self.recheck_spacing)
-        if not 0.0 <= self.recheck_spacing <= 1.0:
-            raise ValueError(f"invalid parameter `recheck_spacing` = {self.recheck_spacing}: must lie in [0, 1]")
+        self.recheck_tolerance_hz = _num("recheck_tolerance_hz", self.recheck_tolerance_hz)
+        if not self.recheck_tolerance_hz >= 0.0:
+            raise ValueError(f"invalid parameter `recheck_tolerance_hz` = {self.recheck_tolerance_hz}: must be >= 0")
         self.sampling_seed = _int("sampling.seed", self.sampling_seed, 0)
         if self.init not in INITS:
             raise ValueError(f"invalid parameter `optimiser.init` = {self.init!r}: must be one of {', '.join(INITS)}")
@@ -351,8 +353,8 @@ class DesignConfig(_toml.ConfigFile):
                           "mutation": list(self.mutation), "recombination": self.recombination,
                           "include_prototype": self.include_prototype, "scale_inertia": self.scale_inertia,
                           "recheck": self.recheck, "chunk_size": self.chunk_size}
-        if self.recheck_spacing > 0:  # absent at 0, so files written before the option still resume
-            d["optimiser"]["recheck_spacing"] = self.recheck_spacing
+        if self.recheck_tolerance_hz > 0:  # absent at 0, so files written before the option still resume
+            d["optimiser"]["recheck_tolerance_hz"] = self.recheck_tolerance_hz
         d["params"] = self.params.to_dict()
         if self.criteria:
             d["criteria"] = dict(self.criteria)
@@ -374,7 +376,7 @@ class DesignConfig(_toml.ConfigFile):
                     "objective": ("maximise", "robust", "quantile", "harvest_weight_hz"),
                     "constraints": ("max_slider_mass_kg", "min_gap_ratio"),
                     "optimiser": ("popsize", "maxiter", "init", "mutation", "recombination", "include_prototype",
-                                  "scale_inertia", "recheck", "recheck_spacing", "chunk_size"),
+                                  "scale_inertia", "recheck", "recheck_tolerance_hz", "chunk_size"),
                     "sampling": ("method", "samples", "seed"), "params": None, "criteria": None, "uncertain": None,
                     "reference": None}
         top = ("evaluator", "drift_law", "seed")

@@ -254,25 +254,28 @@ def _jam_report(records: List[Dict[str, Any]]) -> Dict[str, Any]:
 
 
 def recheck_choice(search: Sequence[Dict[str, Any]], c: DesignConfig) -> List[str]:
-    """Keys of the ``c.recheck`` best feasible designs of the search, by score; with
-    ``c.recheck_spacing`` > 0 each one differs from those already chosen by at least that share of
-    the range of some variable (Chebyshev distance in the unit box of the bounds), so that the FS
-    re-checks test distinct designs rather than near-copies of the predictor's optimum."""
+    """Keys of the designs to re-check with FS: the ``c.recheck`` best feasible designs by score, or,
+    with ``c.recheck_tolerance_hz`` > 0, the best one and then, in turn, the design farthest from
+    those chosen (Euclidean distance in the unit box of the bounds; the better score breaks ties)
+    among the designs that score within the tolerance of the best (farthest-point sampling of the
+    set the predictor does not tell apart, docs/validation/design_law.md)."""
+    ranked: List[Dict[str, Any]] = []
+    for r in sorted((r for r in search if r["feasible"]), key=lambda r: -r["score"]):
+        if all(r["key"] != q["key"] for q in ranked):
+            ranked.append(r)
+    if c.recheck_tolerance_hz <= 0 or not ranked:
+        return [r["key"] for r in ranked[:c.recheck]]
+    near = [r for r in ranked if r["score"] >= ranked[0]["score"] - c.recheck_tolerance_hz]
     lo = np.array([v.low for v in c.variables])
     span = np.array([v.high - v.low for v in c.variables])
-    span[span <= 0] = 1.0
-    ranked = sorted((r for r in search if r["feasible"]), key=lambda r: -r["score"])
-    keys: List[str] = []
-    units: List[np.ndarray] = []
-    for r in ranked:
-        if len(keys) == c.recheck:
-            break
-        u = (np.asarray(r["x"], dtype=float) - lo) / span
-        if r["key"] in keys or any(np.max(np.abs(u - v)) < c.recheck_spacing for v in units):
-            continue
-        keys.append(r["key"])
-        units.append(u)
-    return keys
+    u = (np.array([r["x"] for r in near], dtype=float) - lo) / np.where(span > 0, span, 1.0)
+    chosen = [0]
+    gap = np.linalg.norm(u - u[0], axis=1)
+    while len(chosen) < min(c.recheck, len(near)):
+        k = int(np.argmax(gap))  # first of the largest: the better score among equals
+        chosen.append(k)
+        gap = np.minimum(gap, np.linalg.norm(u - u[k], axis=1))
+    return [near[k]["key"] for k in chosen]
 
 
 def optimise(config: Union[DesignConfig, str, Path], *, out: Optional[Union[str, Path]] = None, resume: bool = False,
