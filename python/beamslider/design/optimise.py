@@ -260,8 +260,10 @@ def recheck_choice(search: Sequence[Dict[str, Any]], c: DesignConfig) -> List[st
     among the designs that score within the tolerance of the best (farthest-point sampling of the
     set the predictor does not tell apart, docs/validation/design_law.md)."""
     ranked: List[Dict[str, Any]] = []
+    keys = set()
     for r in sorted((r for r in search if r["feasible"]), key=lambda r: -r["score"]):
-        if all(r["key"] != q["key"] for q in ranked):
+        if r["key"] not in keys:
+            keys.add(r["key"])
             ranked.append(r)
     if c.recheck_tolerance_hz <= 0 or not ranked:
         return [r["key"] for r in ranked[:c.recheck]]
