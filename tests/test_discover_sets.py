@@ -410,3 +410,27 @@ def test_staged_sets_are_refined_by_the_predicted_step(monkeypatch):
     assert min(f.chi2 for f in fits if len(f.effects) == 2) == 10.0
     assert {frozenset(r["effects"]) for r in record if r["refined"]} == refined
     assert [r["chi2"] for r in record if frozenset(r["effects"]) == hidden] == [10.0]
+
+
+def test_the_fast_path_leaves_out_mode_features_where_the_baseline_misses_the_data_mode():
+    """fast.predict_singles: at an operating point where none of the baseline's runs ends in the
+    data's mode, the end-state features' changes from the baseline's run are those of a run in
+    another mode (a mode switch: hundreds of uncertainties), no signature of the candidate; they
+    count as they are, and the candidate is predicted from the other features (here: exactly)."""
+    from beamslider.discover.effects import EFFECTS
+    from beamslider.discover.fast import predict_singles
+
+    p = bs.Parameters()
+    tag = "126Hz_10ms2_s00.3"
+    keys = [f"speed_early@{tag}", f"amplitude_final_h@{tag}", f"s_final@{tag}"]
+    up = {"tilt": {keys[0]: 7.5, keys[1]: -1180.0, keys[2]: 30.0}}
+    down = {"tilt": {keys[0]: -3.7, keys[1]: 515.0, keys[2]: 17.5}}
+    x = 0.8
+    resid = {keys[0]: (7.5 + 3.7) / 2 * x + (7.5 - 3.7) / 2 * x * x, keys[1]: -1.0, keys[2]: -1.0}
+    sig = {k: 1.0 for k in keys}
+    cands = [EFFECTS["tilt"]]
+    changes = lambda names, st: up if st > 0 else down  # noqa: E731
+    chi2, v = predict_singles(cands, p, resid, sig, changes, {tag: 0})["tilt"]
+    assert chi2 == pytest.approx(2.0, abs=0.01) and v == pytest.approx(x * 5 * 0.002, abs=2e-4)
+    # With the baseline in the data's mode there, the mode features are its signature too.
+    assert predict_singles(cands, p, resid, sig, changes, {tag: 3})["tilt"][0] > 30  # the best is near no tilt

@@ -420,7 +420,7 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
                 if not changes:
                     changes.update(slider_changes([e.name for e in cand_effects], base, ops, threads=threads,
                                                   cache=run_cache))
-                return step_chi2(f, changes, meas, sig_of(), base, modes)
+                return step_chi2(f, changes, meas, sig_of(), base, modes, counts_base)
 
             fits = _fit_sets(cand_effects, max_effects, level, base, meas, model_fn, diff_step, max_nfev,
                              model_many=model_many, ensemble_many=ensemble_many, spread0=spread_base,
@@ -428,7 +428,7 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
                              step=step, record=refined_sets,
                              predict=(lambda: predict_singles(
                                  cand_effects, base, resid_of(), sig_of(), lambda names, st: slider_changes(
-                                     names, base, ops, steps=st, threads=threads, cache=run_cache)))
+                                     names, base, ops, steps=st, threads=threads, cache=run_cache), counts_base))
                              if fast and len(cand_effects) > SCREEN_FROM else None,
                              done=lambda singles: _no_set_can_win(
                                  singles, lambda fs: _judge(fs, base, n, excess_before, gap_ratio)))

@@ -194,14 +194,16 @@ STEP_MOVES = 5.0
 
 
 def step_chi2(fit, changes: Dict[str, Dict[str, float]], meas: Dict, sig: Dict[str, float], base,
-              modes: Optional[Dict] = None) -> float:
+              modes: Optional[Dict] = None, counts: Optional[Dict[str, int]] = None) -> float:
     """The χ² a joint refinement of a set's coordinate-pass point ``fit`` is predicted to reach: one
     Gauss–Newton step on the linearised model, min over δ of |r + S δ|² with r the residuals of the
     pass's fitted features (``fit.predicted``, in units of ``sig``) and S the feature changes of
     each effect moved by :data:`STEP_MOVES` relevance thresholds from the baseline (``changes``,
     raw, :func:`.separability.slider_changes`), δ bounded to each effect's search range; the gain
-    |r|² − min |r + S δ|² taken off the pass's χ² (its mode terms unchanged). Features of an
-    operating point whose data mode the fitted features miss (``modes``) are not residuals.
+    |r|² − min |r + S δ|² taken off the pass's χ² (its mode terms unchanged). Mode features of an
+    operating point whose data mode the fitted features miss (``modes``), or none of the baseline's
+    runs reached (``counts``: per point, the baseline's runs in the data's mode; the changes there
+    are those of a run in another mode), are left out.
     The pass point's χ² if the linearised model has no column for an effect (docs/model.md §9.1)."""
     from scipy.optimize import lsq_linear
 
@@ -216,7 +218,8 @@ def step_chi2(fit, changes: Dict[str, Dict[str, float]], meas: Dict, sig: Dict[s
     def missed(k: str) -> bool:
         t = tag_of(k)
         md = (modes or {}).get(t) if t is not None else None
-        return md is not None and is_mode_feature(k) and run_mode(fit.predicted, t) != md
+        return is_mode_feature(k) and ((md is not None and run_mode(fit.predicted, t) != md)
+                                       or (counts or {}).get(t, 1) == 0)
 
     keys = [k for k in meas if k in sig and sig[k] > 0 and math.isfinite(fit.predicted.get(k, math.nan))
             and not missed(k) and all(math.isfinite(changes[e.name].get(k, math.nan)) for e in effects)]
