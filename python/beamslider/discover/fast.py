@@ -4,9 +4,10 @@ each candidate's runs moved by ± five relevance thresholds — predicts each si
 best χ², and only the best predicted are fitted in full; of the sets, only the pair the
 linearised model predicts best, and only if its predicted χ² beats the best single's fitted χ² by the
 selection's likelihood-ratio threshold (it could not be selected otherwise, as far as the linearised
-model tells; it overestimates the χ² of large changes, so a pair of large effects may be missed). The prediction misleads where the data's gap is small and set
-by the chaotic realisation rather than by the candidate's smooth signature (a detuning of 2 % or
-a tilt of 8 mrad in the reference runs: ranked ninth to eleventh), hence not the default."""
+model tells; it overestimates the χ² of large changes, so a pair of large effects may be missed). The end-state
+features of an operating point where the baseline misses the data's mode enter no quadratic (their
+changes are a mode switch, not the candidate's signature). Not the default: the prediction has been
+checked on the table's cases only."""
 
 from __future__ import annotations
 

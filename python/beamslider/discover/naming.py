@@ -420,7 +420,9 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
                 if not changes:
                     changes.update(slider_changes([e.name for e in cand_effects], base, ops, threads=threads,
                                                   cache=run_cache))
-                return step_chi2(f, changes, meas, sig_of(), base, modes, counts_base)
+                # In the fit's own uncertainties (its spread), as its χ².
+                sig_f = {k: sigma(meas[k], f.model_spread.get(k, spread_base.get(k, 0.0)), runs_base) for k in meas}
+                return step_chi2(f, changes, meas, sig_f, base, modes, counts_base)
 
             fits = _fit_sets(cand_effects, max_effects, level, base, meas, model_fn, diff_step, max_nfev,
                              model_many=model_many, ensemble_many=ensemble_many, spread0=spread_base,

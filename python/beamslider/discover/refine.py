@@ -199,8 +199,9 @@ def step_chi2(fit, changes: Dict[str, Dict[str, float]], meas: Dict, sig: Dict[s
     Gauss–Newton step on the linearised model, min over δ of |r + S δ|² with r the residuals of the
     pass's fitted features (``fit.predicted``, in units of ``sig``) and S the feature changes of
     each effect moved by :data:`STEP_MOVES` relevance thresholds from the baseline (``changes``,
-    raw, :func:`.separability.slider_changes`), δ bounded to each effect's search range; the gain
-    |r|² − min |r + S δ|² taken off the pass's χ² (its mode terms unchanged). Mode features of an
+    raw, :func:`.separability.slider_changes`, also in units of ``sig``: the fit's own uncertainties),
+    δ bounded to each effect's search range; the gain |r|² − min |r + S δ|² taken off the pass's χ²
+    (its mode terms unchanged), at least 0. Mode features of an
     operating point whose data mode the fitted features miss (``modes``), or none of the baseline's
     runs reached (``counts``: per point, the baseline's runs in the data's mode; the changes there
     are those of a run in another mode), are left out.
@@ -238,7 +239,7 @@ def step_chi2(fit, changes: Dict[str, Dict[str, float]], meas: Dict, sig: Dict[s
     hi_a = np.where(hi_a - lo_a > 0, hi_a, lo_a + 1e-12)  # a fixed effect: a vanishing interval
     x = lsq_linear(S, -r, bounds=(lo_a, hi_a)).x
     gain = float(r @ r - np.sum((r + S @ x) ** 2))
-    return float(fit.chi2) - max(gain, 0.0)
+    return max(float(fit.chi2) - max(gain, 0.0), 0.0)
 
 
 def sets_to_refine(pass_chi2: Sequence[float], predicted: Optional[Sequence[float]], guided: Optional[int],
@@ -247,7 +248,10 @@ def sets_to_refine(pass_chi2: Sequence[float], predicted: Optional[Sequence[floa
     ``keep`` − 1 best by the pass's χ² and ``guided`` (the pair the linearised model predicts best
     from the baseline), filled up to ``keep`` by the pass's χ²; and every set whose χ² after a
     Gauss–Newton step from its pass point (``predicted``, :func:`step_chi2`) is within ``margin``
-    of the least so predicted, in the order of that prediction (docs/model.md §9.1, "Cost")."""
+    of the best pass's χ², in the order of that prediction (docs/model.md §9.1, "Cost"). The
+    linearised model overestimates the gain of large moves: compared with one another, the
+    predictions would favour the sets it overestimates most; compared with a χ² a set reached,
+    an overestimate costs a refinement, not a set."""
     n = len(pass_chi2)
     by_pass = sorted(range(n), key=lambda i: pass_chi2[i])
     order = by_pass[:max(keep - 1, 0)]
@@ -255,7 +259,7 @@ def sets_to_refine(pass_chi2: Sequence[float], predicted: Optional[Sequence[floa
         order.append(guided)
     order += [i for i in by_pass if i not in order][:max(keep - len(order), 0)]
     if predicted is not None and len(predicted) == n and n:
-        best = min(predicted)
+        best = min(pass_chi2)
         order += [i for i in sorted(range(n), key=lambda i: predicted[i])
                   if predicted[i] <= best + margin and i not in order]
     return order
