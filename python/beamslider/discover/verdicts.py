@@ -408,14 +408,18 @@ linearised model predicts to fit best (:func:`rank_pairs`), so that two effects 
 alone are still tried together."""
 
 
-def rank_pairs(sens: Dict[str, Dict[str, float]], resid: Dict[str, float]) -> List[Tuple[Tuple[str, str], float]]:
+def rank_pairs(sens: Dict[str, Dict[str, float]], resid: Dict[str, float],
+               frozen: Sequence[str] = ()) -> List[Tuple[Tuple[str, str], float]]:
     """Every pair of candidates with the χ² the linearised model predicts for its best fit:
     min over x of |r − S x|², S the two signatures (feature changes in units of the uncertainty per
     step, :func:`.separability.slider_sensitivities`) over the features both move, r the data's
-    residuals from the baseline in the same units (features outside S count r²). Best first."""
+    residuals from the baseline in the same units (features outside S count r²). ``frozen``:
+    features counted as they are (the mode features of an operating point where no baseline run
+    is in the data's mode: their changes are a mode switch, as in :mod:`.fast`). Best first."""
     out = []
+    skip = set(frozen)
     for a, b in itertools.combinations(sorted(sens), 2):
-        keys = [k for k in resid if k in sens[a] and k in sens[b]]
+        keys = [k for k in resid if k in sens[a] and k in sens[b] and k not in skip]
         r = np.array([resid[k] for k in keys])
         A = np.column_stack([[sens[a][k] for k in keys], [sens[b][k] for k in keys]]) if keys else np.zeros((0, 2))
         rest = float(sum(v * v for k, v in resid.items() if k not in keys))
