@@ -433,3 +433,16 @@ def test_the_fast_path_leaves_out_mode_features_where_the_baseline_misses_the_da
     assert chi2 == pytest.approx(2.0, abs=0.01) and v == pytest.approx(x * 5 * 0.002, abs=2e-4)
     # With the baseline in the data's mode there, the mode features are its signature too.
     assert predict_singles(cands, p, resid, sig, changes, {tag: 3})["tilt"][0] > 30  # the best is near no tilt
+
+
+def test_the_pair_ranking_leaves_out_mode_features_the_baseline_misses():
+    """verdicts.rank_pairs with ``frozen``: a mode feature whose signature is a mode switch (huge)
+    makes the true pair look bad; counted as it is, the true pair ranks first."""
+    from beamslider.discover.verdicts import rank_pairs
+
+    sens = {"a": {"x": 1.0, "y": 0.0, "m": -900.0}, "b": {"x": 0.0, "y": 1.0, "m": 400.0},
+            "c": {"x": 0.5, "y": 0.5, "m": 0.0}}
+    resid = {"x": 3.0, "y": -2.0, "m": -1.0}
+    assert rank_pairs(sens, resid)[0][0] != ("a", "b")
+    best, chi2 = rank_pairs(sens, resid, ["m"])[0]
+    assert best == ("a", "b") and chi2 == pytest.approx(1.0)
