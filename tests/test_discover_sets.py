@@ -140,7 +140,7 @@ def test_pairs_chosen_by_the_linearised_ranking():
     """With a ranking, the pairs fitted are the three best-predicted that extend each of the two
     best singles and the three best-predicted overall; without one, every pair that extends them."""
     from beamslider.discover.effects import EFFECTS
-    from beamslider.discover.naming import _pairs_to_fit
+    from beamslider.discover.verdicts import pairs_to_fit as _pairs_to_fit
 
     names = ["friction_coefficient", "natural_frequency_detuning", "tilt", "com_offset", "clearance", "restitution"]
     cands = [EFFECTS[n] for n in names]
@@ -318,3 +318,131 @@ def test_the_fast_path_fits_the_best_predicted_pair_only_if_it_could_be_selected
         assert pairs == ([("friction_coefficient", "tilt")] if want else []), (best_pair, fitted)
         assert [f for f in fitted if len(f) == 1] == [(n,) for n in names[:3]]  # the three best predicted
         assert len(fits) == 4 + len(pairs)
+
+
+def test_a_gauss_newton_step_from_the_pass_point_predicts_the_refined_chi2():
+    """refine.step_chi2: with features exactly linear in two effects, the χ² predicted after one
+    step from a pass point that stopped short is the least-squares minimum (here the noise floor,
+    the pass's mode terms kept)."""
+    from beamslider.discover.effects import EFFECTS
+    from beamslider.discover.features import Feature
+    from beamslider.discover.refine import STEP_MOVES, step_chi2
+    from beamslider.discover.separability import bumped
+
+    base = bs.Parameters()
+    names = ["friction_coefficient", "natural_frequency_detuning"]
+    keys = [f"f{i}" for i in range(5)]
+    cols = {"friction_coefficient": [10.0, 8.0, 12.0, 5.0, 10.0], "natural_frequency_detuning": [9.0, 10.0, 10.0, 6.0, -11.0]}
+    noise = np.array([0.3, -0.2, 0.1, 0.0, -0.1])
+    d = {n: bumped(EFFECTS[n], base, STEP_MOVES) - EFFECTS[n].baseline_value(base) for n in names}
+    truth = {n: EFFECTS[n].baseline_value(base) + x * d[n] for n, x in zip(names, (0.4, -0.3))}
+
+    def features(vals):
+        return {k: sum(cols[n][i] * (vals[n] - EFFECTS[n].baseline_value(base)) / d[n] for n in names)
+                for i, k in enumerate(keys)}
+
+    meas = {k: Feature(k, v + e, 1.0) for (k, v), e in zip(features(truth).items(), noise)}
+    sig = {k: 1.0 for k in keys}
+    # The coordinate pass stopped short: friction took up part of the detuning's share.
+    at = {"friction_coefficient": truth["friction_coefficient"] - 0.2 * d["friction_coefficient"],
+          "natural_frequency_detuning": EFFECTS["natural_frequency_detuning"].baseline_value(base)}
+    pred = features(at)
+    r = np.array([(pred[k] - meas[k].value) for k in keys])
+    fit = CandidateFit(tuple(names), at, {}, float(r @ r) + 2.0, 3, False, 0.0, predicted=pred)
+    changes = {n: {k: cols[n][i] for i, k in enumerate(keys)} for n in names}
+    A = np.column_stack([cols[n] for n in names])
+    floor = float(np.sum((noise - A @ np.linalg.lstsq(A, noise, rcond=None)[0]) ** 2))
+    got = step_chi2(fit, changes, meas, sig, base)
+    assert got == pytest.approx(floor + 2.0, abs=1e-6)
+    assert got < fit.chi2 - 5
+    # Without a column for one of the effects, no prediction: the pass's χ².
+    assert step_chi2(fit, {names[0]: changes[names[0]]}, meas, sig, base) == fit.chi2
+
+
+def test_the_joint_refinement_goes_to_every_set_predicted_to_come_near_the_best():
+    """refine.sets_to_refine: the two best by the pass's χ² and the pair predicted best from the
+    baseline, and beside them each set whose χ² predicted after a Gauss–Newton step is within the
+    margin of the best pass's χ² (a set whose pass stopped far short is refined too)."""
+    from beamslider.discover.refine import sets_to_refine
+
+    passes = [25.6, 35.0, 38.6, 47.2, 52.6, 73.6, 160.3, 666.5]
+    steps = [22.0, 33.0, 30.0, 45.0, 28.9, 70.0, 150.0, 600.0]
+    got = sets_to_refine(passes, steps, 2, 3, 11.45)
+    assert got == [0, 1, 2, 4]  # 25.6 + 11.45 = 37.05: 28.9 in, 45 and 70 out
+    assert sets_to_refine(passes, None, 2, 3, 11.45) == [0, 1, 2]  # no prediction: the fixed three
+    assert sets_to_refine(passes, steps[:4] + [37.0] + steps[5:], 6, 3, 11.45) == [0, 1, 6, 2, 4]
+    assert sets_to_refine(passes, steps[:4] + [37.1] + steps[5:], 6, 3, 11.45) == [0, 1, 6, 2]
+
+
+def test_staged_sets_are_refined_by_the_predicted_step(monkeypatch):
+    """naming._fit_sets with more sets than JOINT_SETS: every set gets the coordinate pass; the joint
+    refinement goes to the fixed ones and to the set whose predicted step brings it near the best,
+    and the report's record says which."""
+    from beamslider.discover import naming
+    from beamslider.discover.effects import EFFECTS
+
+    names = ["friction_coefficient", "natural_frequency_detuning", "tilt", "clearance", "slider_mass"]
+    cands = [EFFECTS[n] for n in names]
+    calls = []
+    pass_of = {frozenset(p): 40.0 + 5 * i for i, p in enumerate(itertools.combinations(names, 2))}
+    hidden = frozenset(["natural_frequency_detuning", "slider_mass"])
+    pass_of[hidden] = 90.0
+
+    def fake_fit(effects, *a, joint=None, refine=2, **kw):
+        key = frozenset(e.name for e in effects)
+        calls.append((key, joint))
+        c2 = 100.0 if len(effects) == 1 else (pass_of[key] if joint is False else
+                                               (10.0 if key == hidden else pass_of[key] - 1))
+        return CandidateFit(tuple(e.name for e in effects), {e.name: 0.0 for e in effects}, {}, c2, 10, False, c2)
+
+    monkeypatch.setattr(naming, "profile_fit", fake_fit)
+    monkeypatch.setattr(naming, "SCREEN_FROM", 10)
+    first = [("friction_coefficient", "tilt"), ("friction_coefficient", "clearance"),
+             ("friction_coefficient", "natural_frequency_detuning"), ("natural_frequency_detuning", "slider_mass")]
+    ranked = [(p, 50.0) for p in first + [p for p in itertools.combinations(names, 2) if p not in first]]
+    record = []
+    fits = naming._fit_sets(cands, 2, "slider", bs.Parameters(), {f"f{i}": None for i in range(14)}, None, None, 0,
+                            guide=lambda: ranked, done=lambda s: False,
+                            step=lambda f: 45.0 if frozenset(f.effects) == hidden else f.chi2 + 20, record=record)
+    refined = {k for k, j in calls if j is None and len(k) == 2}
+    assert hidden in refined and len(refined) == naming.JOINT_SETS + 1
+    assert min(f.chi2 for f in fits if len(f.effects) == 2) == 10.0
+    assert {frozenset(r["effects"]) for r in record if r["refined"]} == refined
+    assert [r["chi2"] for r in record if frozenset(r["effects"]) == hidden] == [10.0]
+
+
+def test_the_fast_path_leaves_out_mode_features_where_the_baseline_misses_the_data_mode():
+    """fast.predict_singles: at an operating point where none of the baseline's runs ends in the
+    data's mode, the end-state features' changes from the baseline's run are those of a run in
+    another mode (a mode switch: hundreds of uncertainties), no signature of the candidate; they
+    count as they are, and the candidate is predicted from the other features (here: exactly)."""
+    from beamslider.discover.effects import EFFECTS
+    from beamslider.discover.fast import predict_singles
+
+    p = bs.Parameters()
+    tag = "126Hz_10ms2_s00.3"
+    keys = [f"speed_early@{tag}", f"amplitude_final_h@{tag}", f"s_final@{tag}"]
+    up = {"tilt": {keys[0]: 7.5, keys[1]: -1180.0, keys[2]: 30.0}}
+    down = {"tilt": {keys[0]: -3.7, keys[1]: 515.0, keys[2]: 17.5}}
+    x = 0.8
+    resid = {keys[0]: (7.5 + 3.7) / 2 * x + (7.5 - 3.7) / 2 * x * x, keys[1]: -1.0, keys[2]: -1.0}
+    sig = {k: 1.0 for k in keys}
+    cands = [EFFECTS["tilt"]]
+    changes = lambda names, st: up if st > 0 else down  # noqa: E731
+    chi2, v = predict_singles(cands, p, resid, sig, changes, {tag: 0})["tilt"]
+    assert chi2 == pytest.approx(2.0, abs=0.01) and v == pytest.approx(x * 5 * 0.002, abs=2e-4)
+    # With the baseline in the data's mode there, the mode features are its signature too.
+    assert predict_singles(cands, p, resid, sig, changes, {tag: 3})["tilt"][0] > 30  # the best is near no tilt
+
+
+def test_the_pair_ranking_leaves_out_mode_features_the_baseline_misses():
+    """verdicts.rank_pairs with ``frozen``: a mode feature whose signature is a mode switch (huge)
+    makes the true pair look bad; counted as it is, the true pair ranks first."""
+    from beamslider.discover.verdicts import rank_pairs
+
+    sens = {"a": {"x": 1.0, "y": 0.0, "m": -900.0}, "b": {"x": 0.0, "y": 1.0, "m": 400.0},
+            "c": {"x": 0.5, "y": 0.5, "m": 0.0}}
+    resid = {"x": 3.0, "y": -2.0, "m": -1.0}
+    assert rank_pairs(sens, resid)[0][0] != ("a", "b")
+    best, chi2 = rank_pairs(sens, resid, ["m"])[0]
+    assert best == ("a", "b") and chi2 == pytest.approx(1.0)

@@ -127,10 +127,15 @@ class Discovery:
     """Slider level: the pairs fitted because the linearised model predicts them to fit best
     (:func:`.verdicts.rank_pairs`), with that prediction."""
 
+    joint_refinement: List[Dict[str, Any]] = field(default_factory=list)
+    """Slider level, where the sets were staged: per set its coordinate pass's χ², the χ² a
+    Gauss–Newton step from there is predicted to reach (:func:`.refine.step_chi2`), whether it was
+    refined jointly (:func:`.refine.sets_to_refine`) and its final χ²."""
+
     def to_json(self) -> Dict[str, Any]:
         return _json_safe(dict(
             verdict=self.verdict, confounded=self.confounded, unresolved=self.unresolved,
-            guided_pairs=self.guided_pairs, level=self.level, named_effects=self.named_effects, parameters=self.parameters,
+            guided_pairs=self.guided_pairs, joint_refinement=self.joint_refinement, level=self.level, named_effects=self.named_effects, parameters=self.parameters,
             rejected=self.rejected, features_off=self.features_off, gap_ratio=self.gap_ratio,
             gap_before=self.gap_before, gap_after=self.gap_after, gap_measure=GAP_MEASURE,
             gap_excess_before=self.gap_excess_before, gap_excess_after=self.gap_excess_after,

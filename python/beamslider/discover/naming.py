@@ -3,7 +3,6 @@ selection by likelihood-ratio tests (see the package docstring); the fits are :m
 
 from __future__ import annotations
 
-import itertools
 import math
 from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple
 
@@ -17,13 +16,13 @@ from .features import Feature, enma_features
 from .fitting import (MODE_CONDITIONING, CandidateFit, Discovery, EnsembleMany, ModelMany, chi2_quantile, excess,
                       fit_candidate, gap_of, lrt_threshold, missing_z, profile_fit, select, sigma)
 from .models import (ENSEMBLE_S0_SHIFTS, Ensemble, Modes, RunCache, batch_slider_features, beam_surrogate,
-                     data_modes, ensemble_slider_features, levels_for, measured_slider_features,
-                     simulated_enma_features)
+                     data_modes, ensemble_slider_features, is_mode_feature, levels_for, measured_slider_features,
+                     simulated_enma_features, tag_of)
 from .fast import FAST_KEEP, predict_singles, predicted_singles
+from .refine import sets_to_refine, step_chi2
 from .separability import slider_changes, slider_sensitivities
-from .verdicts import (ADVICE_GRID, EXTENDING_PAIRS, GUIDED_PAIRS, Reason, Reasons, Why, advise, confounded_group,
-                       confounded_sets,
-                       interval_of, kinds, negligible_fits, rank_pairs, unnamed_verdict, unresolved_reasons)
+from .verdicts import (ADVICE_GRID, GUIDED_PAIRS, Reason, Reasons, Why, advise, confounded_group, confounded_sets,
+                       pairs_to_fit, interval_of, kinds, negligible_fits, rank_pairs, unnamed_verdict, unresolved_reasons)
 
 
 def _progress_bar(enabled: Optional[bool], total: int, desc: str):
@@ -41,34 +40,6 @@ def _progress_bar(enabled: Optional[bool], total: int, desc: str):
     return tqdm(total=total, desc=desc, unit="fit", disable=not enabled, leave=False)
 
 
-def _pairs_to_fit(cand_effects: Sequence[Effect], singles: List[CandidateFit], max_effects: int, level: str,
-                  ranked: Optional[List[Tuple[Tuple[str, str], float]]] = None) -> List[Tuple[Effect, ...]]:
-    """The sets of 2..max_effects effects to fit: all at the beam level (cheap surrogate); at the
-    slider and joint levels those that extend one of the two best singles, and (joint) every set
-    of beam-level effects only (their slider part is one evaluation). ``ranked``: every pair with
-    the χ² the linearised model predicts for it (:func:`.verdicts.rank_pairs`, slider level);
-    then of the pairs that extend one of the two best singles only the
-    :data:`.verdicts.EXTENDING_PAIRS` predicted best for each are fitted, and beside them the
-    :data:`.verdicts.GUIDED_PAIRS` predicted best overall."""
-    top = [f.effects[0] for f in sorted(singles, key=lambda f: f.chi2)[:2]]
-    out: List[Tuple[Effect, ...]] = []
-    for k in range(2, max_effects + 1):
-        if k == 2 and ranked is not None and level == "slider":
-            want: List[frozenset] = []
-            for t in top:
-                want += [frozenset(p) for p, _ in ranked if t in p][:EXTENDING_PAIRS]
-            want += [frozenset(p) for p, _ in ranked[:GUIDED_PAIRS]]
-            for combo in itertools.combinations(cand_effects, 2):
-                if frozenset(e.name for e in combo) in want:
-                    out.append(combo)
-            continue
-        for combo in itertools.combinations(cand_effects, k):
-            names = {e.name for e in combo}
-            if level == "beam" or set(top) & names or (level == "joint" and all(e.level == "beam" for e in combo)):
-                out.append(combo)
-    return out
-
-
 def _fit_sets(cand_effects: Sequence[Effect], max_effects: int, level: str, base: Parameters,
               meas: Dict[str, Feature], model_fn: Callable[[Parameters], Dict[str, float]],
               diff_step: Optional[float], max_nfev: int, *, model_many: Optional[ModelMany] = None,
@@ -76,12 +47,17 @@ def _fit_sets(cand_effects: Sequence[Effect], max_effects: int, level: str, base
               progress: bool = False,
               guide: Optional[Callable[[], List[Tuple[Tuple[str, str], float]]]] = None,
               done: Optional[Callable[[List[CandidateFit]], bool]] = None,
-              predict: Optional[Callable[[], Dict[str, Tuple[float, float]]]] = None) -> List[CandidateFit]:
-    """Fit every single candidate and the sets of up to ``max_effects`` (:func:`_pairs_to_fit`,
+              predict: Optional[Callable[[], Dict[str, Tuple[float, float]]]] = None,
+              step: Optional[Callable[[CandidateFit], float]] = None,
+              record: Optional[List[Dict[str, Any]]] = None) -> List[CandidateFit]:
+    """Fit every single candidate and the sets of up to ``max_effects`` (:func:`.verdicts.pairs_to_fit`,
     with the pairs ranked by ``guide``, slider level: :func:`.verdicts.rank_pairs`); no sets if
     ``done(singles)`` (no set can be selected over them, :func:`_no_set_can_win`). ``predict``: the
     fast path (:mod:`.fast`): singles screened by the linearised model, and the pair it predicts best
-    only if predicted to beat the best single fitted by the selection's threshold."""
+    only if predicted to beat the best single fitted by the selection's threshold. ``step``: a set's
+    χ² predicted after a Gauss–Newton step from its coordinate pass (:func:`.refine.step_chi2`),
+    which chooses the sets refined jointly (:func:`.refine.sets_to_refine`); ``record``: one entry
+    per set so staged (pass and predicted χ², refined or not)."""
     def fit(combo: Sequence[Effect], refine: int = 2, joint: Optional[bool] = None) -> CandidateFit:
         if level == "beam":
             return fit_candidate(combo, base, meas, model_fn, diff_step=diff_step, max_nfev=max_nfev)
@@ -115,7 +91,7 @@ def _fit_sets(cand_effects: Sequence[Effect], max_effects: int, level: str, base
             bar.update(1)
     if max_effects >= 2 and not (done is not None and done(fits)):
         ranked = guide() if guide is not None else None
-        combos = _pairs_to_fit(cand_effects, fits, max_effects, level, ranked)
+        combos = pairs_to_fit(cand_effects, fits, max_effects, level, ranked)
         if predict is not None and ranked:  # the best predicted pair, if predicted to beat the best single
             win = ranked[0][1] < min(f.chi2 for f in fits if not f.screened) - lrt_threshold(1, len(cand_effects))
             combos = [c for c in combos if win and frozenset(e.name for e in c) == frozenset(ranked[0][0])]
@@ -129,16 +105,18 @@ def _fit_sets(cand_effects: Sequence[Effect], max_effects: int, level: str, base
             bar.update(1)
         if staged:
             names = [frozenset(e.name for e in c) for c in combos]
-            order = sorted(range(len(sets)), key=lambda i: sets[i].chi2)[:JOINT_SETS - 1]
             top = [frozenset(p) for p, _ in (ranked or [])[:1]]
-            order += [i for i in range(len(sets)) if names[i] in top and i not in order]
-            if len(order) < JOINT_SETS:
-                order += [i for i in sorted(range(len(sets)), key=lambda i: sets[i].chi2)
-                          if i not in order][:JOINT_SETS - len(order)]
+            passes = [s.chi2 for s in sets]
+            steps = [step(s) for s in sets] if step is not None else None
+            order = sets_to_refine(passes, steps, next((i for i in range(len(sets)) if names[i] in top), None),
+                                   JOINT_SETS, lrt_threshold(1, len(cand_effects)))
             bar.total += len(order)
             for i in order:
                 sets[i] = fit(combos[i])  # the coordinate pass's runs are cached
                 bar.update(1)
+            if record is not None:
+                record.extend(dict(effects=sorted(names[i]), pass_chi2=passes[i], step_chi2=None if steps is None
+                                   else steps[i], refined=i in order, chi2=sets[i].chi2) for i in range(len(sets)))
         fits += sets
     bar.close()
     return fits
@@ -166,9 +144,11 @@ SCREEN_KEEP = 3
 """At least this many single candidates (the best coarse ones) are fitted in full."""
 
 JOINT_SETS = 3
-"""Slider level, with more sets to fit than this: all get the coordinate pass, and only this many
-the joint refinement (:func:`.fitting.profile_fit`): the best by the pass's χ² and the pair the
-linearised model predicts best (the refinement costs ensembles of runs at every point)."""
+"""Slider level, with more sets to fit than this: all get the coordinate pass, and at least this
+many the joint refinement (:func:`.fitting.profile_fit`): the best by the pass's χ² and the pair the
+linearised model predicts best, and beside them every set predicted by a Gauss–Newton step from its
+pass point to come within the selection's threshold of the least so predicted
+(:func:`.refine.sets_to_refine`; the refinement costs ensembles of runs at every point)."""
 
 
 def _fit_sets_joint(cand_effects: Sequence[Effect], max_effects: int, base: Parameters,
@@ -241,7 +221,7 @@ def _fit_sets_joint(cand_effects: Sequence[Effect], max_effects: int, base: Para
     bar = _progress_bar(progress, len(cand_effects), "discover (joint): fits")
     fits = fit_sets([(e,) for e in cand_effects], bar)
     if max_effects >= 2:
-        combos = _pairs_to_fit(cand_effects, fits, max_effects, "joint")
+        combos = pairs_to_fit(cand_effects, fits, max_effects, "joint")
         bar.total = len(cand_effects) + len(combos)
         bar.refresh()
         fits += fit_sets(combos, bar)
@@ -397,6 +377,7 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
     excess_before = excess(chi2_0, n, n)
     fits: List[CandidateFit] = []
     guided: List[Dict[str, Any]] = []
+    refined_sets: List[Dict[str, Any]] = []
 
     def refit_beam_bias(fits_b: List[CandidateFit]) -> None:
         """Re-centre the surrogate's bias correction at the model the likelihood-ratio selection
@@ -428,16 +409,29 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
             def guide() -> List[Tuple[Tuple[str, str], float]]:
                 # Every pair with the χ² the linearised model predicts (each may fit badly alone).
                 sens = slider_sensitivities([e.name for e in cand_effects], base, ops, threads=threads, cache=run_cache)
-                ranked = rank_pairs(sens, resid_of())
+                ranked = rank_pairs(sens, resid_of(), [k for k in meas if is_mode_feature(k) and
+                                                       counts_base.get(tag_of(k) or "", 1) == 0])
                 guided.extend(dict(pair=list(p), predicted_chi2=c) for p, c in ranked[:GUIDED_PAIRS])
                 return ranked
+
+            changes: Dict[str, Dict[str, float]] = {}
+
+            def step(f: CandidateFit) -> float:
+                # The linearised model's columns: the runs the pair ranking made (cached).
+                if not changes:
+                    changes.update(slider_changes([e.name for e in cand_effects], base, ops, threads=threads,
+                                                  cache=run_cache))
+                # In the fit's own uncertainties (its spread), as its χ².
+                sig_f = {k: sigma(meas[k], f.model_spread.get(k, spread_base.get(k, 0.0)), runs_base) for k in meas}
+                return step_chi2(f, changes, meas, sig_f, base, modes, counts_base)
 
             fits = _fit_sets(cand_effects, max_effects, level, base, meas, model_fn, diff_step, max_nfev,
                              model_many=model_many, ensemble_many=ensemble_many, spread0=spread_base,
                              progress=progress, guide=guide if len(cand_effects) > 3 else None,
+                             step=step, record=refined_sets,
                              predict=(lambda: predict_singles(
                                  cand_effects, base, resid_of(), sig_of(), lambda names, st: slider_changes(
-                                     names, base, ops, steps=st, threads=threads, cache=run_cache)))
+                                     names, base, ops, steps=st, threads=threads, cache=run_cache), counts_base))
                              if fast and len(cand_effects) > SCREEN_FROM else None,
                              done=lambda singles: _no_set_can_win(
                                  singles, lambda fs: _judge(fs, base, n, excess_before, gap_ratio)))
@@ -590,7 +584,7 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
                      time.perf_counter() - t0, verdict=verdict, rejected=rejected,
                      features_off=[dict(feature=k, z=z) for k, z in off], gap_ratio=gap_ratio,
                      gap_excess_before=excess_before, gap_excess_after=excess_after,
-                     confounded=confounded, unresolved=unresolved, guided_pairs=guided,
+                     confounded=confounded, unresolved=unresolved, guided_pairs=guided, joint_refinement=refined_sets,
                      modes={t: dict(ends_high=md[0], turning_point=md[1], runs=runs_base,
                                     baseline_runs_in_mode=counts_base.get(t), updated_runs_in_mode=counts_after.get(t))
                             for t, md in (modes or {}).items() if md is not None})

@@ -186,3 +186,80 @@ def single_run_residuals(model_of: Callable[[np.ndarray], Optional[Dict[str, flo
         miss = unpredicted(m) if m is not None else set()
         return residual_vector(m, names, y, sig(), lambda k: tag_of(k) in miss and is_mode_feature(k))
     return residuals
+
+
+STEP_MOVES = 5.0
+"""The linearised model's columns: the feature changes of a move by this many relevance thresholds
+(:func:`.separability.slider_changes`, as the pair ranking and the set check use)."""
+
+
+def step_chi2(fit, changes: Dict[str, Dict[str, float]], meas: Dict, sig: Dict[str, float], base,
+              modes: Optional[Dict] = None, counts: Optional[Dict[str, int]] = None) -> float:
+    """The χ² a joint refinement of a set's coordinate-pass point ``fit`` is predicted to reach: one
+    Gauss–Newton step on the linearised model, min over δ of |r + S δ|² with r the residuals of the
+    pass's fitted features (``fit.predicted``, in units of ``sig``) and S the feature changes of
+    each effect moved by :data:`STEP_MOVES` relevance thresholds from the baseline (``changes``,
+    raw, :func:`.separability.slider_changes`, also in units of ``sig``: the fit's own uncertainties),
+    δ bounded to each effect's search range; the gain |r|² − min |r + S δ|² taken off the pass's χ²
+    (its mode terms unchanged), at least 0. Mode features of an
+    operating point whose data mode the fitted features miss (``modes``), or none of the baseline's
+    runs reached (``counts``: per point, the baseline's runs in the data's mode; the changes there
+    are those of a run in another mode), are left out.
+    The pass point's χ² if the linearised model has no column for an effect (docs/model.md §9.1)."""
+    from scipy.optimize import lsq_linear
+
+    from .effects import EFFECTS
+    from .models import is_mode_feature, run_mode, tag_of
+    from .separability import bumped
+
+    effects = [EFFECTS[e] for e in fit.effects]
+    if not fit.predicted or any(not changes.get(e.name) for e in effects):
+        return float(fit.chi2)
+
+    def missed(k: str) -> bool:
+        t = tag_of(k)
+        md = (modes or {}).get(t) if t is not None else None
+        return is_mode_feature(k) and ((md is not None and run_mode(fit.predicted, t) != md)
+                                       or (counts or {}).get(t, 1) == 0)
+
+    keys = [k for k in meas if k in sig and sig[k] > 0 and math.isfinite(fit.predicted.get(k, math.nan))
+            and not missed(k) and all(math.isfinite(changes[e.name].get(k, math.nan)) for e in effects)]
+    if len(keys) <= len(effects):
+        return float(fit.chi2)
+    r = np.array([(fit.predicted[k] - meas[k].value) / sig[k] for k in keys])
+    S = np.column_stack([[changes[e.name][k] / sig[k] for k in keys] for e in effects])
+    lo, hi = [], []
+    for e in effects:
+        d = bumped(e, base, STEP_MOVES) - e.baseline_value(base)
+        a, b = e.search if math.isfinite(e.search[0]) else (e.lower, e.upper)
+        ends = [(e.value(v, base) - fit.values[e.name]) / d for v in (a, b)] if d != 0 else [0.0, 0.0]
+        lo.append(min(ends + [0.0]))
+        hi.append(max(ends + [0.0]))
+    lo_a, hi_a = np.array(lo), np.array(hi)
+    hi_a = np.where(hi_a - lo_a > 0, hi_a, lo_a + 1e-12)  # a fixed effect: a vanishing interval
+    x = lsq_linear(S, -r, bounds=(lo_a, hi_a)).x
+    gain = float(r @ r - np.sum((r + S @ x) ** 2))
+    return max(float(fit.chi2) - max(gain, 0.0), 0.0)
+
+
+def sets_to_refine(pass_chi2: Sequence[float], predicted: Optional[Sequence[float]], guided: Optional[int],
+                   keep: int, margin: float) -> List[int]:
+    """Which sets (indices) get the joint refinement after every set's coordinate pass: the
+    ``keep`` − 1 best by the pass's χ² and ``guided`` (the pair the linearised model predicts best
+    from the baseline), filled up to ``keep`` by the pass's χ²; and every set whose χ² after a
+    Gauss–Newton step from its pass point (``predicted``, :func:`step_chi2`) is within ``margin``
+    of the best pass's χ², in the order of that prediction (docs/model.md §9.1, "Cost"). The
+    linearised model overestimates the gain of large moves: compared with one another, the
+    predictions would favour the sets it overestimates most; compared with a χ² a set reached,
+    an overestimate costs a refinement, not a set."""
+    n = len(pass_chi2)
+    by_pass = sorted(range(n), key=lambda i: pass_chi2[i])
+    order = by_pass[:max(keep - 1, 0)]
+    if guided is not None and 0 <= guided < n and guided not in order:
+        order.append(guided)
+    order += [i for i in by_pass if i not in order][:max(keep - len(order), 0)]
+    if predicted is not None and len(predicted) == n and n:
+        best = min(pass_chi2)
+        order += [i for i in sorted(range(n), key=lambda i: predicted[i])
+                  if predicted[i] <= best + margin and i not in order]
+    return order
