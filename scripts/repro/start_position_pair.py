@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""The paper's start-position pair (Fig. 12, "var_start_pos"; issue 15): the operating map
+"""The paper's start-position pair (Fig. 12, "var_start_pos"): the operating map
 (f_ex = 100, 102, …, 130 Hz × a_ex = 4, 6, …, 16 m/s², 120 s) from s0 = 0.3 and from s0 = 0.4,
 side by side, with the points whose behaviour changes with s0 outlined.
 
