@@ -19,7 +19,7 @@ import numpy as np
 from ..params import Parameters
 from .effects import Effect
 from .fitting import CandidateFit, chi2_quantile
-from .models import is_mode_feature, tag_of
+from .models import unreached_mode_features
 from .separability import bumped
 
 FAST_KEEP = 3
@@ -44,7 +44,8 @@ def predict_singles(cands: Sequence[Effect], base: Parameters, resid: Dict[str, 
     names = [e.name for e in cands]
     up, down = changes(names, STEPS), changes(names, -STEPS)
     keys = [k for k in resid if sig.get(k, 0) > 0]
-    frozen = np.array([is_mode_feature(k) and (counts or {}).get(tag_of(k) or "", 1) == 0 for k in keys], dtype=bool)
+    off = unreached_mode_features(keys, counts)
+    frozen = np.array([k in off for k in keys], dtype=bool)
     r = np.array([resid[k] for k in keys])
     out: Dict[str, Tuple[float, float]] = {}
     for e in cands:

@@ -238,6 +238,15 @@ def is_mode_feature(name: str) -> bool:
     return "@" in name and name.split("@", 1)[0] in MODE_FEATURES
 
 
+def unreached_mode_features(keys, counts: Optional[Dict[str, int]]) -> set:
+    """The mode features among ``keys`` at operating points where none of the baseline's runs ends
+    in the data's mode (``counts``: per tag, the baseline's runs in it; a tag not in it counts as
+    reached): their changes from the baseline are a mode switch, no candidate's signature, so the
+    linearised model leaves them out (docs/model.md §9.1)."""
+    counts = counts or {}
+    return {k for k in keys if is_mode_feature(k) and counts.get(tag_of(k) or "", 1) == 0}
+
+
 def mode_penalty(k: int, runs: int) -> float:
     """−2 log of the probability of the data's mode, relative to a mode all ``runs`` runs share:
     2 log((R + ½)/(k + ½)) for ``k`` of R runs in it (the ½: Jeffreys' estimate, so that a mode

@@ -16,8 +16,8 @@ from .features import Feature, enma_features
 from .fitting import (MODE_CONDITIONING, CandidateFit, Discovery, EnsembleMany, ModelMany, chi2_quantile, excess,
                       fit_candidate, gap_of, lrt_threshold, missing_z, profile_fit, select, sigma)
 from .models import (ENSEMBLE_S0_SHIFTS, Ensemble, Modes, RunCache, batch_slider_features, beam_surrogate,
-                     data_modes, ensemble_slider_features, is_mode_feature, levels_for, measured_slider_features,
-                     simulated_enma_features, tag_of)
+                     data_modes, ensemble_slider_features, levels_for, measured_slider_features,
+                     simulated_enma_features, unreached_mode_features)
 from .fast import FAST_KEEP, predict_singles, predicted_singles
 from .refine import sets_to_refine, step_chi2
 from .separability import slider_changes, slider_sensitivities
@@ -409,8 +409,7 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
             def guide() -> List[Tuple[Tuple[str, str], float]]:
                 # Every pair with the χ² the linearised model predicts (each may fit badly alone).
                 sens = slider_sensitivities([e.name for e in cand_effects], base, ops, threads=threads, cache=run_cache)
-                ranked = rank_pairs(sens, resid_of(), [k for k in meas if is_mode_feature(k) and
-                                                       counts_base.get(tag_of(k) or "", 1) == 0])
+                ranked = rank_pairs(sens, resid_of(), unreached_mode_features(meas, counts_base))
                 guided.extend(dict(pair=list(p), predicted_chi2=c) for p, c in ranked[:GUIDED_PAIRS])
                 return ranked
 

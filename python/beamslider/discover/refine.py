@@ -15,6 +15,10 @@ from typing import Callable, Dict, List, Optional, Sequence
 
 import numpy as np
 
+from .effects import EFFECTS
+from .models import is_mode_feature, run_mode, tag_of, unreached_mode_features
+from .separability import bumped
+
 
 MAX_STEPS = 4
 """Gauss–Newton steps at most (each: 2k runs for the Jacobian, 3 trial points)."""
@@ -161,8 +165,6 @@ class EnsembleObjective:
                 self.cache[self._key(u)] = e
 
     def residuals(self, u: np.ndarray) -> np.ndarray:
-        from .models import is_mode_feature, tag_of
-
         e = self.cache.get(self._key(u))
         if e is None:
             return np.full(len(self.names), math.nan)
@@ -179,8 +181,6 @@ def single_run_residuals(model_of: Callable[[np.ndarray], Optional[Dict[str, flo
                          ) -> Callable[[np.ndarray], np.ndarray]:
     """Residuals of single runs (no ensembles): ``unpredicted(model)`` the operating points whose
     mode the run misses (their mode features are not residuals)."""
-    from .models import is_mode_feature, tag_of
-
     def residuals(p: np.ndarray) -> np.ndarray:
         m = model_of(p)
         miss = unpredicted(m) if m is not None else set()
@@ -208,19 +208,15 @@ def step_chi2(fit, changes: Dict[str, Dict[str, float]], meas: Dict, sig: Dict[s
     The pass point's χ² if the linearised model has no column for an effect (docs/model.md §9.1)."""
     from scipy.optimize import lsq_linear
 
-    from .effects import EFFECTS
-    from .models import is_mode_feature, run_mode, tag_of
-    from .separability import bumped
-
     effects = [EFFECTS[e] for e in fit.effects]
     if not fit.predicted or any(not changes.get(e.name) for e in effects):
         return float(fit.chi2)
+    unreached = unreached_mode_features(meas, counts)
 
     def missed(k: str) -> bool:
         t = tag_of(k)
         md = (modes or {}).get(t) if t is not None else None
-        return is_mode_feature(k) and ((md is not None and run_mode(fit.predicted, t) != md)
-                                       or (counts or {}).get(t, 1) == 0)
+        return k in unreached or (is_mode_feature(k) and md is not None and run_mode(fit.predicted, t) != md)
 
     keys = [k for k in meas if k in sig and sig[k] > 0 and math.isfinite(fit.predicted.get(k, math.nan))
             and not missed(k) and all(math.isfinite(changes[e.name].get(k, math.nan)) for e in effects)]
