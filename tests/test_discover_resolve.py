@@ -58,6 +58,8 @@ def test_chain_map_matches_the_signal_level_errors(tmp_path):
     for k, f in f0.items():
         expect = chain_map(k, f.value, m)
         tol = 3e-3 * abs(expect)  # measured: within 1e-3 (the feature windows are not rescaled by tau)
+        if k.startswith("f_recorded@"):
+            tol = 1e-5 * abs(expect)  # a spectral peak: the stamps' scale exactly
         assert f1[k].value == pytest.approx(expect, abs=tol), k
         assert abs(f1[k].value - f.value) > 5 * tol, k  # the errors do show (2.5-7.5 %)
     # The model side: the runner's features of the model seen through the chain, the same map.
@@ -66,6 +68,27 @@ def test_chain_map_matches_the_signal_level_errors(tmp_path):
         assert through[0][k].value == pytest.approx(chain_map(k, f.value, m), rel=1e-12), k
     with pytest.raises(ValueError, match="measurement-chain"):
         dc.synthesize_slider_runs(p, out_dir=tmp_path / "bad", chain=dict(gain=1.0), **kw)
+
+
+def test_the_recorded_frequency_is_the_spectral_peak_against_the_stamps():
+    """recorded_frequency: a sine of known frequency (closed form) sampled at 1e-4 s, amplitude
+    modulated as a slider run's envelope is, with noise: the peak within 1e-5 of the truth, and f/τ
+    from stamps τ t; the segments' scatter as its error. The model records f_ex (chain: f_ex/τ)."""
+    from beamslider.discover.features import recorded_frequency
+
+    rng = np.random.default_rng(4)
+    t = np.arange(0, 20, 1e-4)
+    f = 123.4567
+    v = (0.2 + 0.15 * np.tanh(t - 8)) * np.sin(2 * np.pi * f * t + 0.3) + 0.002 * rng.standard_normal(len(t))
+    got, se = recorded_frequency(t, v, 124.0)
+    assert got == pytest.approx(f, rel=1e-5) and 0 < se < 1e-3 * f
+    got, _ = recorded_frequency(1.004 * t, v, 124.0)
+    assert got == pytest.approx(f / 1.004, rel=1e-5)
+    p = bs.Parameters()
+    ops = [dc.OperatingPoint(124, 6, 0.3, 1.0)]
+    plain, through = batch_slider_features([p, Model(p, (("time_base", 1.004),))], ops)
+    assert plain[0]["f_recorded@124Hz_6ms2_s00.3"].value == 124.0
+    assert through[0]["f_recorded@124Hz_6ms2_s00.3"].value == pytest.approx(124.0 / 1.004, rel=1e-12)
 
 
 def test_identical_runs_are_made_once():

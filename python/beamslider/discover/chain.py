@@ -48,7 +48,8 @@ def chain_map(name: str, value: float, m: Model) -> float:
     """The slider-level feature ``name`` (``<feature>@<tag>``) of value ``value`` as the chain of
     ``m`` reports it (docs/model.md §9.1): the velocity gain G and the time base τ (stamps τ t)
     scale the amplitude integrated from the velocity by G τ; the camera reports s as o + k s, so
-    positions map to o + k s and speeds to k/τ times the true ones."""
+    positions map to o + k s and speeds to k/τ times the true ones; the stamps record the
+    excitation frequency as f_ex/τ."""
     if not m.chain:
         return value
     base = name.split("@", 1)[0]
@@ -59,6 +60,8 @@ def chain_map(name: str, value: float, m: Model) -> float:
         return value * k / tau
     if base in ("s_turning", "s_final"):
         return o + k * value
+    if base == "f_recorded":
+        return value / tau
     return value
 
 

@@ -29,7 +29,7 @@ class Feature:
 FLOORS = dict(f0_hz=("rel", 1e-4), b_star=("rel", 2e-3), damping_0=("abs", 1e-6), damping_2=("abs", 2e-6),
               shape_L6=("abs", 2e-4), shape_L3=("abs", 2e-4),
               speed_early=("abs", 2e-4), speed_late=("abs", 2e-4), s_turning=("abs", 2e-3),
-              s_final=("abs", 2e-3), amplitude_final_h=("rel", 0.02))
+              s_final=("abs", 2e-3), amplitude_final_h=("rel", 0.02), f_recorded=("rel", 1e-4))
 
 DESCRIPTIONS = dict(
     f0_hz=("Hz", "linear natural frequency of mode 1 (backbone fit at a~ = 0)"),
@@ -43,6 +43,8 @@ DESCRIPTIONS = dict(
     s_turning=("-", "turning point: extreme s before the slider reverses (signature move)"),
     s_final=("-", "final slider position (mean over the last second)"),
     amplitude_final_h=("-", "final beam amplitude at 4L/7 over h (envelope, last second)"),
+    f_recorded=("Hz", "excitation frequency as recorded: spectral peak of the beam velocity near f_ex, "
+                      "against the file's time stamps"),
 )
 
 
@@ -150,6 +152,45 @@ def slider_features(t: np.ndarray, s: np.ndarray, amplitude_h: np.ndarray, *, ta
         add("s_turning", float(sm[ext]), noise_s / math.sqrt(k))
     behaviour = classify(t, s, a).behaviour
     return out, behaviour
+
+
+RECORDED_SEGMENTS = 4
+"""Segments of a run whose peak frequencies give the scatter of :func:`recorded_frequency`."""
+
+
+def _peak_hz(t: np.ndarray, v: np.ndarray, f_ex: float) -> float:
+    """Frequency of the largest peak of the Hann-windowed spectrum of ``v`` within f_ex/1.15 …
+    f_ex/0.85 (a time base within ±15 %), interpolated by a parabola through the log-magnitudes of
+    the peak's bin and its neighbours (Gaussian interpolation)."""
+    n = len(v)
+    dt = (float(t[-1]) - float(t[0])) / max(n - 1, 1)
+    if n < 16 or dt <= 0:
+        return math.nan
+    mag = np.abs(np.fft.rfft((v - np.mean(v)) * np.hanning(n)))
+    df = 1.0 / (n * dt)
+    band = np.flatnonzero((np.arange(len(mag)) * df >= f_ex / 1.15) & (np.arange(len(mag)) * df <= f_ex / 0.85))
+    band = band[(band > 0) & (band < len(mag) - 1)]
+    if len(band) == 0:
+        return math.nan
+    i = int(band[np.argmax(mag[band])])
+    a, b, c = np.log(np.maximum(mag[i - 1:i + 2], 1e-300))
+    den = a - 2 * b + c
+    return float((i + (0.5 * (a - c) / den if den < 0 else 0.0)) * df)
+
+
+def recorded_frequency(t: np.ndarray, velocity: np.ndarray, f_ex: float) -> Tuple[float, float]:
+    """The excitation frequency as a run's time stamps record it [Hz], with its standard error: the
+    peak of the beam velocity's spectrum near ``f_ex`` over the whole run (:func:`_peak_hz`), the
+    error from the scatter of the peaks of :data:`RECORDED_SEGMENTS` equal segments. The model
+    runs at f_ex exactly; a time base τ (samples stamped τ t, docs/model.md §9.1) records f_ex/τ."""
+    t = np.asarray(t, dtype=float)
+    v = np.asarray(velocity, dtype=float)
+    f = _peak_hz(t, v, f_ex)
+    m = len(t) // RECORDED_SEGMENTS
+    segs = np.array([_peak_hz(t[j * m:(j + 1) * m], v[j * m:(j + 1) * m], f_ex) for j in range(RECORDED_SEGMENTS)])
+    segs = segs[np.isfinite(segs)]
+    se = float(np.std(segs, ddof=1) / math.sqrt(len(segs))) if len(segs) > 1 else math.nan
+    return f, se
 
 
 # --- candidate effects ----------------------------------------------------------------------------

@@ -16,7 +16,7 @@ from ..enma import EnmaData
 from ..measurement import DISPLACEMENT_DETREND_S, Measurement
 from ..params import Parameters, native
 from .chain import Model, as_model, chain_features, excitation_factor
-from .features import Feature, make_feature, enma_features, slider_features
+from .features import Feature, make_feature, enma_features, recorded_frequency, slider_features
 
 
 _X5 = [1 / 6, 1 / 3, 1 / 2, 2 / 3, 5 / 6]
@@ -94,6 +94,9 @@ def measured_slider_features(runs: Sequence[Measurement]) -> Tuple[Dict[str, Fea
             amp = m.envelope(1.0) / h
             keep = m.t <= op.duration_s + 1e-9
             fe, beh = slider_features(m.t[keep], m.s[keep], amp[keep], tag=op.tag, noise_s=_noise_of(m.s))
+            f_rec, se_rec = recorded_frequency(m.t[keep], m.velocity[keep], f)
+            if math.isfinite(f_rec):
+                fe[f"f_recorded@{op.tag}"] = make_feature(f"f_recorded@{op.tag}", f_rec, se_rec)
             per.append(fe)
             behaviours[op.tag] = beh
         for name in per[0]:
@@ -174,10 +177,17 @@ def batch_slider_features(params_list: Sequence[Union[Parameters, Model]], ops: 
             if r is None:
                 ok = False
                 continue
-            feats.update(chain_features(r[0], m))
+            feats.update(chain_features(with_recorded_frequency(r[0], op), m))
             behaviours[op.tag] = r[1]
         out.append((feats, behaviours) if ok else None)
     return out
+
+
+def with_recorded_frequency(feats: Dict[str, Feature], op: OperatingPoint) -> Dict[str, Feature]:
+    """A model run's features with the excitation frequency it records (``f_recorded``): f_ex
+    itself, the run's time being exact (:func:`.features.recorded_frequency`)."""
+    name = f"f_recorded@{op.tag}"
+    return {**feats, name: make_feature(name, op.f_ex, 0.0)}
 
 
 def _features_of_run(r: Dict[str, Any], tag: str) -> Optional[Tuple[Dict[str, Feature], str]]:
@@ -355,7 +365,7 @@ def model_slider_features(params: Parameters, ops: Sequence[OperatingPoint], *, 
         if "error" in r:
             raise (ValueError if r["error_kind"] == "invalid" else _core.SimulationError)(f"{op.tag}: {r['error']}")
         fe, beh = slider_features(r["t"], r["s"], r["amplitude_h"], tag=op.tag)
-        feats.update(fe)
+        feats.update(with_recorded_frequency(fe, op))
         behaviours[op.tag] = beh
     return feats, behaviours
 
