@@ -91,6 +91,22 @@ def test_the_recorded_frequency_is_the_spectral_peak_against_the_stamps():
     assert through[0]["f_recorded@124Hz_6ms2_s00.3"].value == pytest.approx(124.0 / 1.004, rel=1e-12)
 
 
+def test_the_advice_separates_the_camera_offset_from_its_scale_from_another_start():
+    """A camera offset o and a scale k with o = (k - 1)·0.32 report the same positions where the
+    slider stays near s = 0.3: the runs from s0 = 0.3 hardly tell them apart (the fitted models of
+    the discover table, 10-s runs: distance 0.5 at (124, 14) and (104, 14)), a run from s0 = 0.15
+    does (3.4 at (124, 14)), and the default advice grid offers it (verdicts.ADVICE_GRID)."""
+    from beamslider.discover.verdicts import ADVICE_GRID, advise
+
+    p = bs.Parameters()
+    fit = {"position_scale": 1.0361, "position_offset": 0.011667}
+    ops = [dc.OperatingPoint(124, 14, 0.3, 10.0), dc.OperatingPoint(104, 14, 0.3, 10.0)]
+    a = advise(list(fit), p, ops, ADVICE_GRID, fitted=fit)
+    assert a["recommended"]["s0"] == 0.15 and a["recommended"]["score"] > 3 * a["at_measured_points"] > 0, a
+    only_03 = advise(list(fit), p, ops, [g for g in ADVICE_GRID if g[2] == 0.3], fitted=fit)
+    assert only_03["recommended"]["score"] < a["recommended"]["score"] / 2, only_03
+
+
 def test_identical_runs_are_made_once():
     """The chain's feature-level candidates re-read the baseline's runs: a cache of runs makes each
     run once (results identical to fresh runs)."""

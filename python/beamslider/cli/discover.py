@@ -38,7 +38,8 @@ def add_parser(sub: Any) -> None:
     sp.add_argument("--advice-grid", metavar="LIST",
                     help="slider level: operating points f_ex,a_ex,s0 separated by ';' among which the separability "
                          "tool looks for the run that would resolve an unresolved candidate or separate a "
-                         "confounded group (default: seven points of the paper's map; 'none': no advice runs)")
+                         "confounded group (default: seven points of the paper's map, from s0 = 0.3 and from 0.15; "
+                         "'none': no advice runs)")
     add_common(sp, window=False, force=True)
     sp.set_defaults(func=cmd_discover)
 

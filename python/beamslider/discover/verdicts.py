@@ -23,11 +23,14 @@ CONFOUND_COS = 0.95
 combination (the separability tool's threshold, :func:`.separability.separability`)."""
 
 
-ADVICE_GRID: Tuple[Tuple[float, float, float], ...] = (
-    (104.0, 14.0, 0.3), (110.0, 10.0, 0.3), (116.0, 10.0, 0.3), (120.0, 6.0, 0.3), (124.0, 6.0, 0.3),
-    (124.0, 14.0, 0.3), (126.0, 10.0, 0.3))
-"""Operating points (f_ex Hz, a_ex m/s², s0) of the paper's map among which the advice looks for
-the measurement that resolves or separates candidates (those already measured are left out)."""
+ADVICE_GRID: Tuple[Tuple[float, float, float], ...] = tuple(
+    (f, a, s0) for s0 in (0.3, 0.15)
+    for f, a in ((104.0, 14.0), (110.0, 10.0), (116.0, 10.0), (120.0, 6.0), (124.0, 6.0), (124.0, 14.0), (126.0, 10.0)))
+"""Operating points (f_ex Hz, a_ex m/s², s0) among which the advice looks for the measurement that
+resolves or separates candidates (those already measured are left out): seven points of the
+paper's map from its s0 = 0.3, and the same from s0 = 0.15, nearer the clamping, where the slider
+ends elsewhere on the beam (what the runs from 0.3 pin at one position, as a camera's offset
+against its scale, separates there)."""
 
 
 def interval_of(f: CandidateFit, e: str) -> Tuple[float, float]:
