@@ -107,6 +107,29 @@ def test_the_advice_separates_the_camera_offset_from_its_scale_from_another_star
     assert only_03["recommended"]["score"] < a["recommended"]["score"] / 2, only_03
 
 
+def test_advice_says_when_no_run_of_its_grid_separates_a_group(monkeypatch):
+    """A confounded group whose fitted models differ by less than WEAK_SEPARATION at every grid point:
+    the advice says so instead of recommending the run; where a point separates them, it is
+    recommended as before."""
+    from beamslider.discover import verdicts
+
+    dist = {(124.0, 6.0): 0.9, (110.0, 10.0): 1.5}
+
+    def fake(values, base, ops, threads=None):
+        d = dist.get((ops[0].f_ex, ops[0].a_ex), 0.5) if len(ops) == 1 else 3.0
+        return {"a": {"x": 0.0}, "b": {"x": d}}
+
+    monkeypatch.setattr(verdicts, "fitted_differences", fake)
+    ops = [dc.OperatingPoint(104, 14, 0.3, 10.0)]
+    grid = [(124, 6, 0.3), (110, 10, 0.3)]
+    a = verdicts.advise(["a", "b"], bs.Parameters(), ops, grid, fitted={"a": 1.0, "b": 2.0})
+    assert a["weak"] and a["text"].startswith("no run of the grid separates them by 2 uncertainties"), a
+    assert (a["recommended"]["f_ex"], a["recommended"]["score"]) == (110, 1.5)
+    dist[(124.0, 6.0)] = 4.0
+    a = verdicts.advise(["a", "b"], bs.Parameters(), ops, grid, fitted={"a": 1.0, "b": 2.0})
+    assert not a["weak"] and a["text"].startswith("add a run at f_ex = 124 Hz"), a
+
+
 def test_identical_runs_are_made_once():
     """The chain's feature-level candidates re-read the baseline's runs: a cache of runs makes each
     run once (results identical to fresh runs)."""

@@ -102,8 +102,9 @@ def verdict_line(d: Discovery) -> str:
     if d.verdict == "confounded":
         c = d.confounded
         adv = c.get("advice", {}).get("text")
+        lead = "; " if c.get("advice", {}).get("weak") else "; to separate them, "
         return (f"confounded: {', '.join(c['group'])} fit equally (the data resolve {c['combination']}, not which of "
-                f"them changed; gap {d.gap_before:.3g})" + (f"; to separate them, {adv}" if adv else ""))
+                f"them changed; gap {d.gap_before:.3g})" + (f"{lead}{adv}" if adv else ""))
     if d.verdict == "unexplained" and d.unresolved:
         u = d.unresolved
         adv = u.get("advice", {}).get("text")

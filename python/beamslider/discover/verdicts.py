@@ -338,13 +338,22 @@ def advise(names: Sequence[str], base: Parameters, ops: Sequence[OperatingPoint]
     assert best is not None
     what = ("distance between the fitted models' features" if fitted else
             "signature norm" if len(names) == 1 else "separation min(|z1|, |z2|) sin(theta)")
-    return dict(names=list(names), measure=what, at_measured_points=now,
+    weak = bool(fitted) and best[1] < WEAK_SEPARATION
+    lead = ("no run of the grid separates them by " + f"{WEAK_SEPARATION:g} uncertainties; the best, a run at "
+            if weak else "add a run at ")
+    return dict(names=list(names), measure=what, at_measured_points=now, weak=weak,
                 recommended=dict(f_ex=best[0][0], a_ex=best[0][1], s0=best[0][2], duration_s=duration,
                                  score=best[1]),
-                text=f"add a run at f_ex = {best[0][0]:g} Hz, a_ex = {best[0][1]:g} m/s^2, s0 = {best[0][2]:g} "
+                text=f"{lead}f_ex = {best[0][0]:g} Hz, a_ex = {best[0][1]:g} m/s^2, s0 = {best[0][2]:g} "
                      f"({duration:g} s): {what} {best[1]:.3g}"
                      + ("" if fitted else " for a change of 5 relevance thresholds")
                      + f", against {now:.3g} at the measured points")
+
+
+WEAK_SEPARATION = 2.0
+"""Distance (units of the uncertainty) between two fitted models' features at one run below which
+the advice says that no run of its grid separates them: such a run adds less than 4 to the χ² of
+the wrong one."""
 
 
 def fitted_differences(values: Union[Dict[str, float], Sequence[Dict[str, float]]], base: Parameters,
