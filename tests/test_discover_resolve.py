@@ -105,29 +105,40 @@ def test_the_advice_separates_the_camera_offset_from_its_scale_from_another_star
     assert a["recommended"]["s0"] == 0.15 and a["recommended"]["score"] > 3 * a["at_measured_points"] > 0, a
     only_03 = advise(list(fit), p, ops, [g for g in ADVICE_GRID if g[2] == 0.3], fitted=fit)
     assert only_03["recommended"]["score"] < a["recommended"]["score"] / 2, only_03
+    # 60 s from s0 = 0.15 at (124, 14) the slider ends at the clamping (s = 0.038, its contact point
+    # 0.3 mm from it): never advised; at (116, 10) it ends at s = 0.065.
+    from beamslider.discover.verdicts import CLAMP_CLEARANCE, fitted_differences
+
+    at = lambda f, a: [dc.OperatingPoint(f, a, 0.15, 60.0)]  # noqa: E731
+    assert fitted_differences(fit, p, at(124, 14), clearance=CLAMP_CLEARANCE) is None
+    assert fitted_differences(fit, p, at(116, 10), clearance=CLAMP_CLEARANCE) is not None
 
 
 def test_advice_says_when_no_run_of_its_grid_separates_a_group(monkeypatch):
     """A confounded group whose fitted models differ by less than WEAK_SEPARATION at every grid point:
     the advice says so instead of recommending the run; where a point separates them, it is
-    recommended as before."""
+    recommended as before; a point where a run ends at the clamping (CLAMP_CLEARANCE) is never."""
     from beamslider.discover import verdicts
 
-    dist = {(124.0, 6.0): 0.9, (110.0, 10.0): 1.5}
+    dist = {(124.0, 6.0): 0.9, (110.0, 10.0): 1.5, (104.0, 10.0): 9.0}
 
-    def fake(values, base, ops, threads=None):
+    def fake(values, base, ops, threads=None, clearance=None):
+        if clearance is not None and ops[0].f_ex == 104.0:
+            return None  # a run ends at the clamping: the point is skipped
         d = dist.get((ops[0].f_ex, ops[0].a_ex), 0.5) if len(ops) == 1 else 3.0
         return {"a": {"x": 0.0}, "b": {"x": d}}
 
     monkeypatch.setattr(verdicts, "fitted_differences", fake)
     ops = [dc.OperatingPoint(104, 14, 0.3, 10.0)]
-    grid = [(124, 6, 0.3), (110, 10, 0.3)]
+    grid = [(124, 6, 0.3), (110, 10, 0.3), (104, 10, 0.3)]
     a = verdicts.advise(["a", "b"], bs.Parameters(), ops, grid, fitted={"a": 1.0, "b": 2.0})
     assert a["weak"] and a["text"].startswith("no run of the grid separates them by 2 uncertainties"), a
     assert (a["recommended"]["f_ex"], a["recommended"]["score"]) == (110, 1.5)
     dist[(124.0, 6.0)] = 4.0
     a = verdicts.advise(["a", "b"], bs.Parameters(), ops, grid, fitted={"a": 1.0, "b": 2.0})
     assert not a["weak"] and a["text"].startswith("add a run at f_ex = 124 Hz"), a
+    a = verdicts.advise(["a", "b"], bs.Parameters(), ops, [(104, 10, 0.3)], fitted={"a": 1.0, "b": 2.0})
+    assert a["recommended"] is None and "clamping" in a["note"], a
 
 
 def test_identical_runs_are_made_once():

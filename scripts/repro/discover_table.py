@@ -74,9 +74,9 @@ CASES = {
 }
 
 EXTRA_OPS = {
-    "spacing-advised": [(124.0, 14.0, 0.15)],  # the advice of the "spacing" row (verdicts.ADVICE_GRID)
-    "offset-advised": [(124.0, 14.0, 0.15)],   # the advice of the "offset" row
-    "scale-advised": [(124.0, 14.0, 0.15)],    # the advice of the "scale" row
+    "spacing-advised": [(110.0, 10.0, 0.3)],   # the advice of the "spacing" row (verdicts.advise)
+    "offset-advised": [(116.0, 10.0, 0.15)],   # the advice of the "offset" row
+    "scale-advised": [(116.0, 10.0, 0.15)],    # the advice of the "scale" row
 }
 """Operating points (f_ex Hz, a_ex m/s², s0) added to --ops for a case: the run that a confounded
 verdict of the same case on the three runs recommends."""

@@ -30,7 +30,8 @@ ADVICE_GRID: Tuple[Tuple[float, float, float], ...] = tuple(
 resolves or separates candidates (those already measured are left out): seven points of the
 paper's map from its s0 = 0.3, and the same from s0 = 0.15, nearer the clamping, where the slider
 ends elsewhere on the beam (what the runs from 0.3 pin at one position, as a camera's offset
-against its scale, separates there)."""
+against its scale, separates there); a point where a run ends at the clamping is skipped
+(:data:`CLAMP_CLEARANCE`)."""
 
 
 def interval_of(f: CandidateFit, e: str) -> Tuple[float, float]:
@@ -320,9 +321,10 @@ def advise(names: Sequence[str], base: Parameters, ops: Sequence[OperatingPoint]
     duration = max(op.duration_s for op in ops)
     if not points:
         return dict(names=list(names), recommended=None, note="every point of the grid is measured already")
-    def score_at(where: Sequence[OperatingPoint]) -> float:
+    def score_at(where: Sequence[OperatingPoint], clearance: Optional[float] = None) -> Optional[float]:
         if fitted:
-            return _score_fitted(fitted_differences(fitted, base, where, threads=threads))
+            diffs = fitted_differences(fitted, base, where, threads=threads, clearance=clearance)
+            return None if diffs is None else _score_fitted(diffs)
         return _score(names, slider_sensitivities(names, base, where, threads=threads))
 
     now = score_at(ops)
@@ -330,12 +332,14 @@ def advise(names: Sequence[str], base: Parameters, ops: Sequence[OperatingPoint]
         on_point()
     best: Optional[Tuple[Tuple[float, float, float], float]] = None
     for g in points:
-        score = score_at([OperatingPoint(*g, duration)])
+        score = score_at([OperatingPoint(*g, duration)], CLAMP_CLEARANCE)
         if on_point is not None:
             on_point()
-        if best is None or score > best[1]:
+        if score is not None and (best is None or score > best[1]):
             best = (g, score)
-    assert best is not None
+    if best is None:
+        return dict(names=list(names), recommended=None,
+                    note="at every point of the grid not yet measured a run ends at the clamping")
     what = ("distance between the fitted models' features" if fitted else
             "signature norm" if len(names) == 1 else "separation min(|z1|, |z2|) sin(theta)")
     weak = bool(fitted) and best[1] < WEAK_SEPARATION
@@ -356,14 +360,24 @@ the advice says that no run of its grid separates them: such a run adds less tha
 the wrong one."""
 
 
+CLAMP_CLEARANCE = 0.01
+"""Advice skips a grid point where a run of the baseline or of a fitted model ends with a contact
+point of the slider closer than this (fraction of L) to a clamping: there the slider sits at the
+end of the modelled free length, and a run of the data from a slightly other s0 may leave it (a
+run from s0 = 0.15 at (124 Hz, 14 m/s²) ends at s = 0.038, its contact point 0.3 mm from the
+clamping; the truth from s0 + 0.0015 left the free length at 43.5 s)."""
+
+
 def fitted_differences(values: Union[Dict[str, float], Sequence[Dict[str, float]]], base: Parameters,
-                       ops: Sequence[OperatingPoint], *, threads: Optional[int] = None) -> Dict[str, Dict[str, float]]:
+                       ops: Sequence[OperatingPoint], *, threads: Optional[int] = None,
+                       clearance: Optional[float] = None) -> Optional[Dict[str, Dict[str, float]]]:
     """The features of each single candidate's fitted model (``values``: effect name -> fitted
     value; or a list of models, each its effects' values: the sets of a confounded group, keyed
     "a+b") at ``ops``, relative to the baseline, in units of the uncertainty: the resolution floor
     and the largest run-to-run spread (over s0 and s0 ± 0.002) of the baseline and of the fitted
     models — where two explanations that fit the data alike predict differently beyond what their
-    own sensitivity to unresolvable perturbations blurs."""
+    own sensitivity to unresolvable perturbations blurs. ``clearance``: None if a run ends with a
+    contact point of the slider (s ± B/2L, B of the baseline) closer than this to a clamping."""
     from .chain import realise_model
     from .models import batch_slider_features
     from .._core import SimulationError
@@ -377,6 +391,12 @@ def fitted_differences(values: Union[Dict[str, float], Sequence[Dict[str, float]
     if any(r is None for r in res):
         raise SimulationError("a run of the fitted models at the advice's operating points failed")
     groups = [[r[0] for r in res[i * len(shifts):(i + 1) * len(shifts)] if r is not None] for i in range(len(models))]
+    if clearance is not None:
+        half = base.contact_spacing_m / (2 * base.length_m)
+        ends = [f.value for m, g in zip(models, groups) if not getattr(m, "chain", ())  # true positions
+                for r in g for k, f in r.items() if k.startswith("s_final@")]
+        if any(min(v - half, 1 - v - half) < clearance for v in ends):
+            return None
     f0 = groups[0][0]
     sig = {}
     for k, f in f0.items():
