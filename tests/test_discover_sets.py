@@ -88,6 +88,39 @@ def test_joint_refinement_stops_where_no_step_lowers_chi2():
     assert fixed.history == [fixed.chi2] and np.array_equal(fixed.u, out.u)
 
 
+def test_the_joint_covariance_is_widened_where_chi2_rises_less_than_the_linearised_model_says():
+    """curvature_widening: a χ² that rises along each effect as (JᵀJ) says leaves the covariance as
+    it is; features that flip between u − h and u + h (a mode boundary) while χ² stays put inflate
+    J, and the variance is widened to the step's (conditional error h); a point clipped at a bound
+    is left alone. Through gauss_newton: the flipping feature's effect gets error h, not (JᵀJ)⁻¹'s."""
+    from beamslider.discover.refine import curvature_widening
+
+    h = 0.01
+    A = np.diag([1e4, 1e6])
+    u = np.zeros(2)
+    plus, minus = [np.array([h, 0.0]), np.array([0.0, h])], [np.array([-h, 0.0]), np.array([0.0, -h])]
+    quad = lambda p: 3.0 + A[0, 0] * p[0] ** 2 + A[1, 1] * p[1] ** 2  # noqa: E731
+    assert curvature_widening(A, u, plus, minus, quad(u), quad) == pytest.approx([1.0, 1.0])
+    flat0 = lambda p: 3.0 + A[1, 1] * p[1] ** 2  # noqa: E731
+    rho = curvature_widening(A, u, plus, minus, flat0(u), flat0)
+    assert rho == pytest.approx([A[0, 0] * h * h, 1.0])  # conditional variance (1/A00)·rho = h²
+    clipped = [np.array([0.0, 0.0]), np.array([0.0, h])]
+    assert curvature_widening(A, u, clipped, minus, flat0(u), flat0)[0] == 1.0
+
+    # Feature 0 flips sign between u0 - h and u0 + h with |r| unchanged (chi2 flat in u0).
+    c = 5.0
+
+    def resid(p):
+        return np.array([c * math.copysign(1.0, math.sin(math.pi * p[0] / (2 * h) + math.pi / 4)),
+                         (p[1] - 0.3) / 0.01, 0.0, 0.0])
+
+    out = gauss_newton([0.0, 0.3], [-1, -1], [1, 1], [h, 1e-4], lambda us: None, resid,
+                       lambda p: float(resid(p) @ resid(p)))
+    assert out.u == pytest.approx([0.0, 0.3])
+    assert math.sqrt(out.cov[0, 0]) == pytest.approx(h, rel=1e-6)  # (JᵀJ)⁻¹ alone: h / c
+    assert math.sqrt(out.cov[1, 1]) == pytest.approx(0.01, rel=1e-3)
+
+
 def test_the_interval_that_names_is_the_95_percent_one():
     """A parabolic profile χ² = ((x − 2)/0.1)²: the Δχ² = 1 interval is ± 0.1, the one that must
     exclude the baseline ± 1.96 · 0.1 (however coarse the scan); a rough profile widens it by 2·roughness."""

@@ -36,7 +36,8 @@ class Refined:
     chi2: float
     cov: Optional[np.ndarray]
     """Covariance of u from the Jacobian at ``u``: (JᵀJ)⁻¹ (residuals in units of their
-    uncertainty); None if J is rank-deficient."""
+    uncertainty), widened per effect where χ² rises less than the linearised model says
+    (:func:`curvature_widening`); None if J is rank-deficient."""
     history: List[float] = field(default_factory=list)
     """χ² at the start and after each accepted step."""
 
@@ -62,10 +63,12 @@ def gauss_newton(u0: Sequence[float], lower: Sequence[float], upper: Sequence[fl
     evaluate([u])
     f = chi2(u)
     history = [f]
+    points: List[List[np.ndarray]] = [[], []]
 
     def jacobian(at: np.ndarray):
         plus = [_clip(at + hs[i] * np.eye(k)[i], lo, hi) for i in range(k)]
         minus = [_clip(at - hs[i] * np.eye(k)[i], lo, hi) for i in range(k)]
+        points[0], points[1] = plus, minus
         evaluate(plus + minus)
         r0 = residuals(at)
         cols = []
@@ -99,8 +102,31 @@ def gauss_newton(u0: Sequence[float], lower: Sequence[float], upper: Sequence[fl
     if len(r) > k:
         A = J.T @ J
         if np.linalg.matrix_rank(A) == k:
-            cov = np.linalg.inv(A)
+            rho = curvature_widening(A, u, points[0], points[1], f, chi2)
+            cov = np.linalg.inv(A) * np.sqrt(np.outer(rho, rho))
     return Refined(u, f, cov, history)
+
+
+def curvature_widening(A: np.ndarray, u: np.ndarray, plus: Sequence[np.ndarray], minus: Sequence[np.ndarray],
+                       f0: float, chi2: Callable[[np.ndarray], float]) -> np.ndarray:
+    """Per effect i, the factor ρᵢ ≥ 1 on the variance: the curvature of χ² along i that the
+    linearised model claims, 2 (JᵀJ)ᵢᵢ, over the one measured at the Jacobian's own points u ± hᵢ
+    (the second difference of χ², at least 2/(h₊h₋): where χ² does not rise over the step, the
+    conditional error is taken as the step itself, a lower bound). Where the features jump between u − h and u + h (a mode boundary, the end state
+    of a run), the central difference inflates J and (JᵀJ)⁻¹ understates the error; χ² itself
+    shows how sharply the data pin the effect (docs/model.md §9.1, "Resolved")."""
+    rho = np.ones(len(u))
+    for i in range(len(u)):
+        hp, hm = float(plus[i][i] - u[i]), float(u[i] - minus[i][i])
+        if hp <= 0 or hm <= 0:
+            continue  # clipped at a bound: no second difference
+        fp, fm = chi2(plus[i]), chi2(minus[i])
+        if not (math.isfinite(fp) and math.isfinite(fm) and math.isfinite(f0)):
+            continue
+        measured = 2 * ((fp - f0) / hp + (fm - f0) / hm) / (hp + hm)
+        measured = max(measured, 2 / (hp * hm))
+        rho[i] = max(1.0, 2 * float(A[i, i]) / measured)
+    return rho
 
 
 def residual_vector(model: Optional[Dict[str, float]], names: Sequence[str], y: np.ndarray, sig: np.ndarray,
