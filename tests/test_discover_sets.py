@@ -121,6 +121,20 @@ def test_the_joint_covariance_is_widened_where_chi2_rises_less_than_the_linearis
     assert math.sqrt(out.cov[1, 1]) == pytest.approx(0.01, rel=1e-3)
 
 
+def test_joint_refinement_steps_to_a_jacobian_point_where_the_linearised_step_fails():
+    """A cliff at u0 + h (a mode boundary) inflates J: the Gauss–Newton step is too short to gain
+    min_gain, while the Jacobian's own point u0 - h, a run already made, fits better; it is taken."""
+    h = 0.01
+
+    def resid(p):
+        r0 = 10.0 if p[0] > 0.5 * h else (p[0] + h) / 0.01
+        return np.array([r0, (p[1] - 0.3) / 0.01, 0.0, 0.0])
+
+    chi2 = lambda p: float(resid(p) @ resid(p))  # noqa: E731
+    out = gauss_newton([0.0, 0.3], [-1, -1], [1, 1], [h, 1e-4], lambda us: None, resid, chi2)
+    assert out.u == pytest.approx([-h, 0.3]) and out.history == pytest.approx([1.0, 0.0], abs=1e-9)
+
+
 def test_the_interval_that_names_is_the_95_percent_one():
     """A parabolic profile χ² = ((x − 2)/0.1)²: the Δχ² = 1 interval is ± 0.1, the one that must
     exclude the baseline ± 1.96 · 0.1 (however coarse the scan); a rough profile widens it by 2·roughness."""

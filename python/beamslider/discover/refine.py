@@ -56,7 +56,8 @@ def gauss_newton(u0: Sequence[float], lower: Sequence[float], upper: Sequence[fl
     fit's χ² of an evaluated point. Per step: the Jacobian by central differences (±``h``,
     clipped to the bounds), the Gauss–Newton step δ = −J⁺r and the Levenberg–Marquardt step
     (JᵀJ + diag JᵀJ)⁻¹(−Jᵀr), trials u + δ, u + δ/2 and the damped step as one batch; the best is
-    taken if it lowers χ² by more than ``min_gain``."""
+    taken if it lowers χ² by more than ``min_gain``; so is the best of the Jacobian's own points
+    u ± h (runs already made) where it lowers χ² more than those trials do."""
     u = np.asarray(u0, dtype=float).copy()
     lo, hi, hs = (np.asarray(v, dtype=float) for v in (lower, upper, h))
     k = len(u)
@@ -91,6 +92,9 @@ def gauss_newton(u0: Sequence[float], lower: Sequence[float], upper: Sequence[fl
             damped = 0.5 * delta
         trials = [_clip(u + delta, lo, hi), _clip(u + 0.5 * delta, lo, hi), _clip(u + damped, lo, hi)]
         evaluate(trials)
+        # The Jacobian's own points u ± h are runs already made: where the linearised step fails
+        # (a mode boundary bends the model), the best of them is a step too (pattern search).
+        trials += points[0] + points[1]
         scores = [chi2(t) for t in trials]
         j = int(np.argmin(scores))
         if not scores[j] < f - min_gain:
