@@ -169,7 +169,8 @@ def _peak_hz(t: np.ndarray, v: np.ndarray, f_ex: float) -> float:
     n_fft = 4 * n  # zero-padded: the interpolation's bias falls with the bin width
     mag = np.abs(np.fft.rfft((v - np.mean(v)) * np.hanning(n), n_fft))
     df = 1.0 / (n_fft * dt)
-    band = np.flatnonzero((np.arange(len(mag)) * df >= f_ex / 1.15) & (np.arange(len(mag)) * df <= f_ex / 0.85))
+    freq = np.arange(len(mag)) * df
+    band = np.flatnonzero((freq >= f_ex / 1.15) & (freq <= f_ex / 0.85))
     band = band[(band > 0) & (band < len(mag) - 1)]
     if len(band) == 0:
         return math.nan
