@@ -121,6 +121,26 @@ def test_the_joint_covariance_is_widened_where_chi2_rises_less_than_the_linearis
     assert math.sqrt(out.cov[1, 1]) == pytest.approx(0.01, rel=1e-3)
 
 
+def test_a_one_sided_cliff_widens_the_error_to_the_flat_side():
+    """curvature_widening measures each side: χ² flat below u (it rises by 0.2 over the step) and a
+    cliff above (a mode boundary, +5,000) give a symmetric second difference steeper than the
+    linearised model's curvature, which would leave (JᵀJ)⁻¹ as it is; the flat side sets the
+    conditional error to the step h. An asymmetric but rising χ² takes the shallower side's curvature."""
+    from beamslider.discover.refine import curvature_widening
+
+    h = 0.01
+    A = np.diag([1e5])
+    u = np.zeros(1)
+    plus, minus = [np.array([h])], [np.array([-h])]
+    cliff = lambda p: 3.0 + (5000.0 if p[0] > h / 2 else 0.0) + 2e3 * p[0] ** 2  # noqa: E731
+    rho = curvature_widening(A, u, plus, minus, cliff(u), cliff)
+    assert rho[0] == pytest.approx(A[0, 0] * h * h)  # conditional variance (1/A00)·rho = h²
+    symmetric = 2 * ((cliff(plus[0]) - cliff(u)) + (cliff(minus[0]) - cliff(u))) / (2 * h * h)
+    assert symmetric > 2 * A[0, 0]  # the symmetric rule would not widen
+    slopes = lambda p: 3.0 + (4e4 if p[0] < 0 else 4e5) * p[0] ** 2  # noqa: E731
+    assert curvature_widening(A, u, plus, minus, slopes(u), slopes)[0] == pytest.approx(A[0, 0] / 4e4)
+
+
 def test_joint_refinement_steps_to_a_jacobian_point_where_the_linearised_step_fails():
     """A cliff at u0 + h (a mode boundary) inflates J: the Gauss–Newton step is too short to gain
     min_gain, while the Jacobian's own point u0 - h, a run already made, fits better; it is taken."""

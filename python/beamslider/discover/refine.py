@@ -114,11 +114,14 @@ def gauss_newton(u0: Sequence[float], lower: Sequence[float], upper: Sequence[fl
 def curvature_widening(A: np.ndarray, u: np.ndarray, plus: Sequence[np.ndarray], minus: Sequence[np.ndarray],
                        f0: float, chi2: Callable[[np.ndarray], float]) -> np.ndarray:
     """Per effect i, the factor ρᵢ ≥ 1 on the variance: the curvature of χ² along i that the
-    linearised model claims, 2 (JᵀJ)ᵢᵢ, over the one measured at the Jacobian's own points u ± hᵢ
-    (the second difference of χ², at least 2/(h₊h₋): where χ² does not rise over the step, the
-    conditional error is taken as the step itself, a lower bound). Where the features jump between u − h and u + h (a mode boundary, the end state
-    of a run), the central difference inflates J and (JᵀJ)⁻¹ understates the error; χ² itself
-    shows how sharply the data pin the effect (docs/model.md §9.1, "Resolved")."""
+    linearised model claims, 2 (JᵀJ)ᵢᵢ, over the one measured at the Jacobian's own points u ± hᵢ.
+    Measured one side at a time, 2 (χ²(u ± hᵢ) − χ²(u))/hᵢ², and the smaller side taken: a cliff on
+    one side (a mode boundary, the end state of a run) makes the symmetric second difference steep
+    while χ² stays flat on the other side, where the error is set. A side where χ² does not rise by
+    1 over its step counts as rising by 1 there (the conditional error is then the step, a lower
+    bound). Where the features jump between u − h and u + h the central difference inflates J and
+    (JᵀJ)⁻¹ understates the error; χ² itself shows how sharply the data pin the effect
+    (docs/model.md §9.1, "Resolved")."""
     rho = np.ones(len(u))
     for i in range(len(u)):
         hp, hm = float(plus[i][i] - u[i]), float(u[i] - minus[i][i])
@@ -127,8 +130,7 @@ def curvature_widening(A: np.ndarray, u: np.ndarray, plus: Sequence[np.ndarray],
         fp, fm = chi2(plus[i]), chi2(minus[i])
         if not (math.isfinite(fp) and math.isfinite(fm) and math.isfinite(f0)):
             continue
-        measured = 2 * ((fp - f0) / hp + (fm - f0) / hm) / (hp + hm)
-        measured = max(measured, 2 / (hp * hm))
+        measured = min(2 * max(fp - f0, 1.0) / hp ** 2, 2 * max(fm - f0, 1.0) / hm ** 2)
         rho[i] = max(1.0, 2 * float(A[i, i]) / measured)
     return rho
 
