@@ -361,22 +361,28 @@ def test_a_relevant_unresolved_fit_far_better_than_a_negligible_one_is_unexplain
     its interval [0.2, 0.543] reaches the baseline 0.5. The difference, 15.6, exceeds the
     selection's likelihood-ratio threshold for one effect of 14 (11.45): "unexplained" with
     restitution as the unresolved best candidate, not "none". Within the threshold the negligible
-    change stands: "none". A negligible pair pays the threshold for its second parameter. A
+    change stands: "none" — if it closes the gap as a named set must (at most 0.3 of the gap beyond
+    the noise left); one that leaves more explains no more than the baseline: "unexplained". A negligible pair pays the threshold for its second parameter. A
     resolved relevant change leaves no best unresolved candidate."""
     from beamslider.discover.naming import _judge
 
     base = bs.Parameters()
+    eb = 5.0  # the gap beyond the noise before: the negligible change closes it as a named set must
     thr = lrt_threshold(1, 14)
     assert thr == pytest.approx(11.45, abs=0.01)
     spacing, rest = _spacing_and_restitution((18.49, 4e-4, (0.009291, 0.01102)), (2.92, 0.09, (0.2, 0.5431)), dof=12)
     fits = [spacing, rest]
-    reasons = _judge(fits, base, 13, 1.25, 0.3)
+    reasons = _judge(fits, base, 13, eb, 0.3)
     assert [r.kind for r in reasons[("restitution",)]] == [Why.NOT_RESOLVED]
-    assert kinds(reasons[("contact_spacing",)]) == {Why.NEGLIGIBLE, Why.SMALL_SHARE, Why.NOT_RESOLVED}
+    assert kinds(reasons[("contact_spacing",)]) == {Why.NEGLIGIBLE, Why.NOT_RESOLVED}
     assert negligible_fits(fits, reasons) == [spacing]
     assert unnamed_verdict(fits, reasons, thr) == ("unexplained", None, rest)
     rest.chi2 = spacing.chi2 - thr + 0.01
-    assert unnamed_verdict(fits, _judge(fits, base, 13, 1.25, 0.3), thr) == ("none", spacing, None)
+    assert unnamed_verdict(fits, _judge(fits, base, 13, eb, 0.3), thr) == ("none", spacing, None)
+    # Before the gap was 1.25 beyond the noise: the negligible change leaves 0.71 of it (> 0.3 x).
+    small = _judge(fits, base, 13, 1.25, 0.3)
+    assert Why.SMALL_SHARE in kinds(small[("contact_spacing",)]) and negligible_fits(fits, small) == []
+    assert unnamed_verdict(fits, small, thr) == ("unexplained", None, rest)
     # A negligible pair is charged its second parameter (the selection's price of adding one): it
     # gives "none" only if it fits at least as well as restitution alone.
     rest.chi2 = 2.92
@@ -384,13 +390,13 @@ def test_a_relevant_unresolved_fit_far_better_than_a_negligible_one_is_unexplain
                         {"com_offset": 5e-5, "tilt": 1e-3}, 4.0, 11, True, 4.0,
                         intervals={"com_offset": (0.0039, 0.0042), "tilt": (-0.002, 0.002)})
     fits3 = [spacing, rest, pair]
-    reasons = _judge(fits3, base, 13, 1.25, 0.3)
+    reasons = _judge(fits3, base, 13, eb, 0.3)
     assert negligible_fits(fits3, reasons) == [spacing, pair]
     assert unnamed_verdict(fits3, reasons, thr) == ("unexplained", None, rest)
     pair.chi2 = 2.5
-    assert unnamed_verdict(fits3, _judge(fits3, base, 13, 1.25, 0.3), thr) == ("none", pair, None)
+    assert unnamed_verdict(fits3, _judge(fits3, base, 13, eb, 0.3), thr) == ("none", pair, None)
     rest.intervals["restitution"] = (0.2, 0.45)
-    assert unnamed_verdict(fits, _judge(fits, base, 13, 1.25, 0.3), thr) == ("unexplained", None, None)
+    assert unnamed_verdict(fits, _judge(fits, base, 13, eb, 0.3), thr) == ("unexplained", None, None)
     # The reasons keep their kind and effect through pickling (a report's reasons are their text).
     import pickle
 

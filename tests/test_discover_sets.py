@@ -247,7 +247,8 @@ def test_a_pair_that_moves_the_features_as_another_effect_does_is_confounded():
     the naming rule within the threshold of the pair's χ², the pair is a confounded group with it.
     An effect that the linearised model puts farther off, or whose full fit is worse, does not
     make one; a fitted set is judged by its own fit; a single named effect is left to the single
-    candidates' check."""
+    candidates' check. Where only effects outside the candidates mimic the pair, the verdict is
+    "unexplained" and says which (docs/model.md §9.1, "Confounded")."""
     from beamslider.discover.verdicts import confounded_sets
 
     p = bs.Parameters()
@@ -271,6 +272,13 @@ def test_a_pair_that_moves_the_features_as_another_effect_does_is_confounded():
     assert g["group"] == ["friction_coefficient", "slider_inertia", "com_offset"]
     assert g["not_candidates"] == ["com_offset"] and g["models"][1] == {"com_offset": 0.0058}
     assert "com_offset_m" in g["combination"] and "not among the candidates" in g["explanation"]
+    assert g["among_candidates"] is False  # only an effect the user did not suspect mimics it: "unexplained"
+    from types import SimpleNamespace
+
+    from beamslider.discover.report import verdict_line
+    line = verdict_line(SimpleNamespace(verdict="unexplained", confounded=g, unresolved={}, gap_before=21.9))
+    assert line.startswith("unexplained discrepancy (gap 21.9) - the best set friction_coefficient + "
+                           "slider_inertia fits as well as com_offset, not among the candidates"), line
     assert sorted(asked[0]) == sorted(lib)
     # Its full fit worse by more than the threshold, or failing the naming rule: named.
     assert confounded_sets(best, [best], {best.effects: []}, before, sig, p, thr, lib, changes,
@@ -288,6 +296,7 @@ def test_a_pair_that_moves_the_features_as_another_effect_does_is_confounded():
     g = confounded_sets(best, [best, other], {best.effects: [], other.effects: []}, before, sig, p, thr, lib, changes,
                         confirm(99.0))
     assert g is not None and g["sets"][1:] == [["com_offset", "tilt"]], g
+    assert g["among_candidates"] is True  # every effect a candidate (none given): "confounded"
     other.chi2 = 12.0 + thr + 0.1
     assert confounded_sets(best, [best, other], {best.effects: [], other.effects: []}, before, sig, p, thr, lib,
                            changes, confirm(99.0)) is None
@@ -385,6 +394,58 @@ def test_the_fast_path_fits_the_best_predicted_pair_only_if_it_could_be_selected
         assert pairs == ([("friction_coefficient", "tilt")] if want else []), (best_pair, fitted)
         assert [f for f in fitted if len(f) == 1] == [(n,) for n in names[:3]]  # the three best predicted
         assert len(fits) == 4 + len(pairs)
+
+
+def test_the_tier_fits_the_best_predicted_and_falls_back_to_the_full_search(monkeypatch):
+    """discover(search="tiered") (docs/model.md §9.1, "Cost"): the best predicted single is fitted in
+    full, the next ones while predicted within TIER_MARGIN of the best fitted χ²; if that settles the
+    answer (a named single below the threshold, every unfitted candidate predicted beyond the margin)
+    the others stay screened and no coarse scan is made; else the full search runs: coarse scans of
+    every candidate (refine=0), as search="full" does."""
+    from beamslider.discover import naming
+    from beamslider.discover.effects import EFFECTS
+    from beamslider.discover.fast import TIER_MARGIN, tiered_singles
+
+    names = ["friction_coefficient", "natural_frequency_detuning", "tilt", "clearance"]
+    cands = [EFFECTS[n] for n in names]
+    chi2_fit = dict(friction_coefficient=4.0, natural_frequency_detuning=30.0, tilt=12.0, clearance=50.0)
+
+    def fake(name):
+        return CandidateFit((name,), {name: 0.0}, {name: 0.01}, chi2_fit[name], 10, True, chi2_fit[name])
+
+    fitted = []
+    for pred_tilt, want, complete in [(4.0 + TIER_MARGIN + 1, ["friction_coefficient"], True),
+                                      (4.0 + TIER_MARGIN - 1, ["friction_coefficient", "tilt"], True)]:
+        fitted.clear()
+        pred = dict(friction_coefficient=(9.0, 0.0), natural_frequency_detuning=(60.0, 0.0), tilt=(pred_tilt, 0.0),
+                    clearance=(80.0, 0.0))
+        fits, ok = tiered_singles(cands, pred, lambda e: fitted.append(e.name) or fake(e.name), 10)
+        assert fitted == want and ok is complete
+        assert [f.effects[0] for f in fits] == names
+        assert all(f.linearised == (f.effects[0] not in want) for f in fits)
+    # More candidates predicted near than may be fitted in full: not complete.
+    pred = {n: (5.0 + i, 0.0) for i, n in enumerate(names)}
+    fitted.clear()
+    assert tiered_singles(cands, pred, lambda e: fitted.append(e.name) or fake(e.name), 10, keep=2) == ([], False)
+
+    # Through _fit_sets: settled -> no coarse scan; not settled -> every candidate scanned coarsely.
+    calls = []
+
+    def fake_fit(effects, *a, refine=2, **kw):
+        calls.append((tuple(e.name for e in effects), refine))
+        return fake(effects[0].name)
+
+    monkeypatch.setattr(naming, "profile_fit", fake_fit)
+    pred = dict(friction_coefficient=(9.0, 0.0), natural_frequency_detuning=(60.0, 0.0), tilt=(60.0, 0.0),
+                clearance=(80.0, 0.0))
+    for settled in (True, False):
+        calls.clear()
+        fits = naming._fit_sets(cands, 1, "slider", bs.Parameters(), {f"f{i}": None for i in range(11)}, None, None, 0,
+                                done=lambda s: settled, predict=lambda: pred, tier=True)
+        coarse = [c for c in calls if c[1] == 0]
+        assert calls[0] == (("friction_coefficient",), 2)
+        assert (coarse == []) if settled else (len(coarse) == len(names))
+        assert len(fits) == len(names) and any(f.linearised for f in fits) == settled
 
 
 def test_a_gauss_newton_step_from_the_pass_point_predicts_the_refined_chi2():

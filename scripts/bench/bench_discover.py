@@ -9,7 +9,7 @@ repeats, each a fresh subprocess) and the verdict.
 ``--case``: the data of that case of `scripts/repro/discover_table.py` (its truth, three runs at the
 reference points, seed 3, the truth runs ``--s0-offset`` off s0), synthesised once before the
 repeats, and the case's candidates (all slider-level ones, or all but the hidden one).
-``--stages [--fast]``: one discover in this process instead (``--fast``: ``discover(fast=True)``),
+``--stages [--search S]``: one discover in this process instead (``--search``: discover's search),
 every batch of the core's runner attributed to the stage that asked for it (the baseline's
 ensemble, the single candidates' coarse scans or linearised prediction and full fits, the linearised
 model, the sets' coordinate passes and joint refinements, the confounding check of a named set, the
@@ -42,13 +42,13 @@ def load() -> str:
     return "load average " + " ".join(f"{x:.2f}" for x in os.getloadavg())
 
 
-def one(files, effects, max_effects) -> tuple:
+def one(files, effects, max_effects, search="tiered") -> tuple:
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp) / "out"
         argv = [sys.executable, "-m", "beamslider", "discover", "--measured", *files, "--out", str(out), "--force"]
         if effects:
             argv += ["--effects", effects]
-        argv += ["--max-effects", str(max_effects)]
+        argv += ["--max-effects", str(max_effects), "--search", search]
         t0 = time.perf_counter()
         p = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
         _, status, usage = os.wait4(p.pid, 0)
@@ -73,7 +73,7 @@ def stage_of(frames) -> str:
         if name == "slider_sensitivities":
             return "linearised model (signatures)"
         if name == "predict_singles":
-            return "singles: linearised prediction (fast)"
+            return "singles: linearised prediction"
         if name == "advise":
             return "advice"
         if name == "gauss_newton":
@@ -89,7 +89,7 @@ def stage_of(frames) -> str:
     return "other"
 
 
-def stages(files, effects: str, max_effects: int, fast: bool = False) -> None:
+def stages(files, effects: str, max_effects: int, search: str = "tiered") -> None:
     """One discover in this process with the core's runner counted per stage (:func:`stage_of`)."""
     import collections
     import inspect
@@ -117,7 +117,7 @@ def stages(files, effects: str, max_effects: int, fast: bool = False) -> None:
     try:
         t0, c0 = time.perf_counter(), time.process_time()
         d = dc.discover(measured=runs, effects=effects.split(",") if effects else None, max_effects=max_effects,
-                        fast=fast)
+                        search=search)
         wall, cpu = time.perf_counter() - t0, time.process_time() - c0
     finally:
         _core.run_free_slider_batch = real
@@ -141,8 +141,9 @@ def main() -> int:
     ap.add_argument("--duration", type=float, default=60.0, help="--case: run length [s] (60)")
     ap.add_argument("--s0-offset", type=float, default=0.0015, help="--case: truth runs this far off s0 (0.0015)")
     ap.add_argument("--stages", action="store_true", help="one discover in this process, its runs counted per stage")
-    ap.add_argument("--fast", action="store_true",
-                    help="with --stages: discover(fast=True), the linearised model's screening (docs/model.md §9.1)")
+    ap.add_argument("--search", choices=("tiered", "full", "fast"), default="tiered",
+                    help="discover's search (docs/model.md §9.1, \"Cost\"): tiered (the default), full or fast")
+    ap.add_argument("--fast", action="store_true", help="the same as --search fast")
     args = ap.parse_args()
     data_dir = None
     if args.case is not None:
@@ -172,11 +173,12 @@ def main() -> int:
         return 1
     print(f"discover of {len(files)} file(s), {os.cpu_count()} cores, {load()}", flush=True)
     if args.stages:
-        stages(files, args.effects, args.max_effects, fast=args.fast)
+        stages(files, args.effects, args.max_effects, search="fast" if args.fast else args.search)
         return 0
     walls, cpus = [], []
     for i in range(args.repeat):
-        wall, cpu, verdict, named = one(files, args.effects, args.max_effects)
+        wall, cpu, verdict, named = one(files, args.effects, args.max_effects,
+                                        "fast" if args.fast else args.search)
         walls.append(wall)
         cpus.append(cpu)
         print(f"  repeat {i + 1}: wall {wall:.1f} s, CPU {cpu:.1f} s, verdict {verdict}: {named} ({load()})", flush=True)

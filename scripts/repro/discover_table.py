@@ -114,6 +114,8 @@ def main() -> int:
     ap.add_argument("--rows-only", action="store_true", help="print the table rows only, --out is not written")
     ap.add_argument("--resume", action="store_true",
                     help="keep the rows --out already holds for the cases asked (same label) and run only the others")
+    ap.add_argument("--search", choices=("tiered", "full", "fast"), default="tiered",
+                    help="discover's search (docs/model.md §9.1, \"Cost\"): tiered (the default), full or fast")
     ap.add_argument("--json-dir", type=Path, default=None, help="write each case's report.json there as CASE.json")
     ap.add_argument("--s0-offset", type=float, default=0.0,
                     help="the truth runs start this far off the s0 their files name (no inverse crime; default 0)")
@@ -147,7 +149,8 @@ def main() -> int:
                                               out_dir=tmp, seed=3, s0_offset=args.s0_offset, chain=chain)
             runs = [bs.read_measurement(p) for p in paths]
             t0, c0 = time.perf_counter(), time.process_time()
-            d = dc.discover(measured=runs, baseline=P, effects=effects, max_effects=args.max_effects, progress=True)
+            d = dc.discover(measured=runs, baseline=P, effects=effects, max_effects=args.max_effects, progress=True,
+                            search=args.search)
             wall, cpu = time.perf_counter() - t0, time.process_time() - c0
             load = os.getloadavg()
         named = "; ".join(f"{e} {dc.fmt_value(d.parameters[e]['value'])} ± {dc.fmt_value(d.parameters[e]['stderr'])} "

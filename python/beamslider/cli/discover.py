@@ -28,9 +28,12 @@ def add_parser(sub: Any) -> None:
     sp.add_argument("--measured", metavar="FILE", nargs="+", help="measured free-slider runs (slider level; with --enma: joint fit)")
     sp.add_argument("--effects", metavar="LIST", help="comma list of candidate effects (default: all of the level)")
     sp.add_argument("--max-effects", type=positive(int), default=2, metavar="K", help="largest set fitted (2)")
-    sp.add_argument("--fast", action="store_true",
-                    help="slider level: screen the single candidates by the linearised model instead of coarse scans, fit one "
-                         "pair at most (several times faster; it may miss effects the full search names, docs/model.md §9.1)")
+    sp.add_argument("--search", choices=("tiered", "full", "fast"), default="tiered",
+                    help="slider level: 'tiered' (default) screens the candidates by the linearised model, fits the best "
+                         "predicted, and runs the full search only where that does not settle the answer; 'full' scans "
+                         "every candidate; 'fast' screens and fits one pair at most (it may miss effects the full search "
+                         "names, docs/model.md §9.1)")
+    sp.add_argument("--fast", action="store_true", help="the same as --search fast")
     sp.add_argument("--gap-ratio", type=float, default=0.3, metavar="R",
                     help="a named effect must leave at most this share of the gap beyond the noise, "
                          "sqrt(max(chi2 - E[chi2], 0)/n) (0.3), else 'unexplained'")
@@ -124,7 +127,9 @@ def cmd_discover(args: argparse.Namespace) -> int:
     plan_outputs(args, REPORT_FILES)  # nothing replaced without --force, before the fit runs
     t0 = time.perf_counter()
     prog = args.progress  # None: a bar on a terminal, a line now and then in a log
-    if args.fast and not (args.measured and not args.enma):
+    if args.fast:
+        args.search = "fast"
+    if args.search == "fast" and not (args.measured and not args.enma):
         raise UserError("--fast: only for the slider level (--measured without --enma)")
     if args.enma and args.measured:
         # Joint fit over the beam (ENMA) and slider (runs) features.
@@ -140,7 +145,7 @@ def cmd_discover(args: argparse.Namespace) -> int:
         baseline = Parameters.from_toml(args.params) if args.params else Parameters()
         runs = [read_measurement(p) for p in args.measured]
         d = dc.discover(measured=runs, baseline=baseline, effects=effects, max_effects=args.max_effects,
-                        gap_ratio=args.gap_ratio, progress=prog, advice_grid=advice, fast=args.fast)
+                        gap_ratio=args.gap_ratio, progress=prog, advice_grid=advice, search=args.search)
     else:
         baseline = (Parameters.from_toml(args.params) if args.params
                     else Parameters(k_r_nm_per_rad=math.inf, k_t_n_per_m=math.inf))

@@ -25,6 +25,10 @@ from .separability import bumped
 FAST_KEEP = 3
 """Single candidates fitted in full: the best predicted."""
 
+TIER_MARGIN = 20.0
+"""The tier (:func:`tiered_singles`): a candidate predicted within this of the best fitted χ² is
+fitted in full (the coarse scan's margin, :data:`.naming.SCREEN_MARGIN`)."""
+
 STEPS = 5.0
 """The linearised model's moves, ± this many relevance thresholds."""
 
@@ -67,10 +71,13 @@ def predict_singles(cands: Sequence[Effect], base: Parameters, resid: Dict[str, 
 
 
 def predicted_singles(cands: Sequence[Effect], pred: Dict[str, Tuple[float, float]],
-                      fit: Callable[[Effect], CandidateFit], n: int) -> List[CandidateFit]:
-    """The :data:`FAST_KEEP` best predicted candidates fitted in full (``fit``), the others kept as
-    screened fits at their predicted χ² and value (``linearised``), in the order of ``cands``."""
-    keep = {e.name for e in sorted(cands, key=lambda e: pred[e.name][0])[:FAST_KEEP]}
+                      fit: Callable[[Effect], CandidateFit], n: int,
+                      keep: Optional[set] = None) -> List[CandidateFit]:
+    """The :data:`FAST_KEEP` best predicted candidates (or those named in ``keep``) fitted in full
+    (``fit``), the others kept as screened fits at their predicted χ² and value (``linearised``), in
+    the order of ``cands``."""
+    if keep is None:
+        keep = {e.name for e in sorted(cands, key=lambda e: pred[e.name][0])[:FAST_KEEP]}
     out = []
     for e in cands:
         if e.name in keep:
@@ -80,3 +87,25 @@ def predicted_singles(cands: Sequence[Effect], pred: Dict[str, Tuple[float, floa
         out.append(CandidateFit((e.name,), {e.name: v}, {e.name: math.inf}, c2, n - 1, c2 <= chi2_quantile(n - 1),
                                 c2 + math.log(n), screened=True, linearised=True))
     return out
+
+
+def tiered_singles(cands: Sequence[Effect], pred: Dict[str, Tuple[float, float]],
+                   fit: Callable[[Effect], CandidateFit], n: int,
+                   keep: int = FAST_KEEP) -> Tuple[List[CandidateFit], bool]:
+    """The screening tier of the default search (docs/model.md §9.1, "Cost"): the best predicted
+    candidate fitted in full, then each next best predicted while its predicted χ² is within
+    :data:`TIER_MARGIN` of the best χ² fitted so far, at most ``keep`` in full; the others kept as
+    screened at their predicted χ² (:func:`predicted_singles`). Returns the fits, in the order of
+    ``cands``, and whether the tier is complete: every candidate left unfitted is predicted beyond
+    the margin (else the caller runs the full search)."""
+    order = sorted(cands, key=lambda e: pred[e.name][0])
+    full: Dict[str, CandidateFit] = {}
+    for e in order:
+        best = min((f.chi2 for f in full.values()), default=math.inf)
+        if full and pred[e.name][0] > best + TIER_MARGIN:
+            break
+        if len(full) == keep:
+            return [], False
+        full[e.name] = fit(e)
+    fits = predicted_singles(cands, pred, lambda e: full[e.name], n, keep=set(full))
+    return fits, True

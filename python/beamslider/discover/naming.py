@@ -18,7 +18,7 @@ from .fitting import (MODE_CONDITIONING, CandidateFit, Discovery, EnsembleMany, 
 from .models import (ENSEMBLE_S0_SHIFTS, Ensemble, Modes, RunCache, batch_slider_features, beam_surrogate,
                      data_modes, ensemble_slider_features, levels_for, measured_slider_features,
                      simulated_enma_features, unreached_mode_features)
-from .fast import FAST_KEEP, predict_singles, predicted_singles
+from .fast import predict_singles, predicted_singles, tiered_singles
 from .refine import sets_to_refine, step_chi2
 from .separability import slider_changes, slider_sensitivities
 from .verdicts import (ADVICE_GRID, GUIDED_PAIRS, Reason, Reasons, Why, advise, confounded_group, confounded_sets,
@@ -49,7 +49,7 @@ def _fit_sets(cand_effects: Sequence[Effect], max_effects: int, level: str, base
               done: Optional[Callable[[List[CandidateFit]], bool]] = None,
               predict: Optional[Callable[[], Dict[str, Tuple[float, float]]]] = None,
               step: Optional[Callable[[CandidateFit], float]] = None,
-              record: Optional[List[Dict[str, Any]]] = None) -> List[CandidateFit]:
+              record: Optional[List[Dict[str, Any]]] = None, tier: bool = False) -> List[CandidateFit]:
     """Fit every single candidate and the sets of up to ``max_effects`` (:func:`.verdicts.pairs_to_fit`,
     with the pairs ranked by ``guide``, slider level: :func:`.verdicts.rank_pairs`); no sets if
     ``done(singles)`` (no set can be selected over them, :func:`_no_set_can_win`). ``predict``: the
@@ -57,7 +57,8 @@ def _fit_sets(cand_effects: Sequence[Effect], max_effects: int, level: str, base
     only if predicted to beat the best single fitted by the selection's threshold. ``step``: a set's
     χ² predicted after a Gauss–Newton step from its coordinate pass (:func:`.refine.step_chi2`),
     which chooses the sets refined jointly (:func:`.refine.sets_to_refine`); ``record``: one entry
-    per set so staged (pass and predicted χ², refined or not)."""
+    per set so staged (pass and predicted χ², refined or not). ``tier`` (with ``predict``): the
+    screening tier first (:func:`.fast.tiered_singles`), the full search only where it does not settle."""
     def fit(combo: Sequence[Effect], refine: int = 2, joint: Optional[bool] = None) -> CandidateFit:
         if level == "beam":
             return fit_candidate(combo, base, meas, model_fn, diff_step=diff_step, max_nfev=max_nfev)
@@ -66,10 +67,19 @@ def _fit_sets(cand_effects: Sequence[Effect], max_effects: int, level: str, base
 
     bar = _progress_bar(progress, len(cand_effects), f"discover ({level}): fits")
     fits: List[CandidateFit] = []
-    if predict is not None:
+    if predict is not None and tier:
+        # The screening tier: settled if its fits leave no set to fit (a named single below the
+        # threshold) and no candidate it left unfitted is predicted near; else the full search, whose
+        # runs the tier's full fits share (cached).
+        fits, complete = tiered_singles(cand_effects, predict(), lambda e: fit((e,)), len(meas))
+        if complete and done is not None and done(fits):
+            bar.update(len(cand_effects))
+        else:
+            fits, predict = [], None
+    elif predict is not None:
         fits = predicted_singles(cand_effects, predict(), lambda e: fit((e,)), len(meas))
         bar.update(len(cand_effects))
-    elif level == "slider" and len(cand_effects) > SCREEN_FROM:
+    if not fits and level == "slider" and len(cand_effects) > SCREEN_FROM:
         # Coarse scans of every candidate first (grid and one ensemble: runs the full fits reuse),
         # full fits only of those whose coarse χ² is within SCREEN_MARGIN of the best.
         coarse = []
@@ -85,7 +95,7 @@ def _fit_sets(cand_effects: Sequence[Effect], max_effects: int, level: str, base
                 c.screened = True
                 fits.append(c)
             bar.update(0.5)
-    else:
+    elif not fits:
         for e in cand_effects:
             fits.append(fit((e,)))
             bar.update(1)
@@ -243,7 +253,7 @@ def _judge(fits: Sequence[CandidateFit], base: Parameters, n: int, excess_before
             reasons.append(Reason(Why.SCREENED, f"screened out: its coarse scan's chi2 = {f.chi2:.3g} is more than "
                                                 f"{SCREEN_MARGIN:g} above the best coarse chi2 (not fitted in full)"
                                   if not f.linearised else f"screened out: the linearised model predicts chi2 = "
-                                                           f"{f.chi2:.3g}, not among the best {FAST_KEEP} (fast path)"))
+                                                           f"{f.chi2:.3g}, not among those fitted in full"))
         elif not f.adequate:
             reasons.append(Reason(Why.NOT_ADEQUATE, f"not adequate: chi2 = {f.chi2:.3g} > chi2_0.99({f.dof}) = "
                                                     f"{chi2_quantile(f.dof):.3g}"))
@@ -264,7 +274,7 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
              baseline: Optional[Parameters] = None, effects: Optional[Sequence[str]] = None,
              max_effects: int = 2, progress: bool = False, gap_ratio: float = 0.3,
              threads: Optional[int] = None, advice_grid: Optional[Sequence[Tuple[float, float, float]]] = None,
-             fast: bool = False) -> Discovery:
+             fast: bool = False, search: str = "tiered") -> Discovery:
     """Find the effects the ``baseline`` model misses, from beam-level ENMA data (``enma_data``),
     slider-level free-slider runs (``measured``, files of the published format) or both (one joint
     fit over both feature sets: beam-level effects from both, slider-level ones from the runs),
@@ -276,12 +286,19 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
     the core's runner for the free-slider runs (None: one per core). ``advice_grid``: operating
     points (f_ex, a_ex, s0) among which the separability tool looks for the run that would resolve
     an unresolved best candidate or separate a confounded group (None:
-    :data:`.verdicts.ADVICE_GRID`; empty: no advice runs). ``fast``: slider level, the single
-    candidates screened by the linearised model instead of coarse scans and one pair (:mod:`.fast`)."""
+    :data:`.verdicts.ADVICE_GRID`; empty: no advice runs). ``search`` (slider level, more than
+    :data:`SCREEN_FROM` candidates; docs/model.md §9.1, "Cost"): ``"tiered"``, the linearised
+    model's screening with full fits of the best predicted first (:func:`.fast.tiered_singles`), the
+    full search only where that does not settle the answer; ``"full"``, coarse scans of every
+    candidate; ``"fast"`` (also ``fast=True``), the screening alone and one pair (:mod:`.fast`)."""
     import time
 
     t0 = time.perf_counter()
     base = resolve(baseline)
+    if search not in ("tiered", "full", "fast"):
+        raise ValueError(f"invalid search = {search!r}: give 'tiered', 'full' or 'fast'")
+    if fast:
+        search = "fast"
     if not (isinstance(gap_ratio, (int, float)) and 0 < gap_ratio <= 1):
         raise ValueError(f"invalid gap_ratio = {gap_ratio!r}: must be in (0, 1]")
     if threads is not None and not (isinstance(threads, int) and threads >= 1):
@@ -431,7 +448,8 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
                              predict=(lambda: predict_singles(
                                  cand_effects, base, resid_of(), sig_of(), lambda names, st: slider_changes(
                                      names, base, ops, steps=st, threads=threads, cache=run_cache), counts_base))
-                             if fast and len(cand_effects) > SCREEN_FROM else None,
+                             if search != "full" and len(cand_effects) > SCREEN_FROM else None,
+                             tier=search == "tiered",
                              done=lambda singles: _no_set_can_win(
                                  singles, lambda fs: _judge(fs, base, n, excess_before, gap_ratio)))
         else:
@@ -544,9 +562,10 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
         verdict = "none"
     elif best is not None:
         verdict = "named"
-    elif confounded:
+    elif confounded and confounded.get("among_candidates", True):
         verdict = "confounded"
     else:
+        # Also a named set that only effects outside the candidates mimic: not established by them.
         verdict, _, u = unnamed_verdict(fits, verdicts, lrt_threshold(1, len(cand_effects)))
         if u is not None:
             unresolved = dict(effects=list(u.effects), values=u.values, stderrs=u.stderrs, chi2=u.chi2,

@@ -114,6 +114,13 @@ def verdict_line(d: Discovery) -> str:
                    u["reasons"][-1]).removeprefix("not resolved: ")
         return (f"unexplained discrepancy (gap {d.gap_before:.3g}) - best candidate {' + '.join(u['effects'])} "
                 f"({vals}), not resolved by these runs ({why})" + (f"; to resolve it, {adv}" if adv else ""))
+    if d.verdict == "unexplained" and d.confounded:
+        c = d.confounded
+        adv = c.get("advice", {}).get("text")
+        lead = "; " if c.get("advice", {}).get("weak") else "; to separate them, "
+        return (f"unexplained discrepancy (gap {d.gap_before:.3g}) - the best set {' + '.join(c['sets'][0])} fits "
+                f"as well as {', '.join(c['not_candidates'])}, not among the candidates (the data resolve "
+                f"{c['combination']}, not which of them changed)" + (f"{lead}{adv}" if adv else ""))
     if d.verdict == "unexplained":
         off = ", ".join(f"{f['feature']} z = {f['z']:+.1f}" for f in d.features_off[:3])
         # A relevant change the data resolve, adequate but not named, before the lowest χ².
@@ -147,6 +154,10 @@ def _markdown(d: Discovery, figs: Sequence[str]) -> str:
     lines = [f"# Discrepancy report ({d.level} level)", "", f"**Verdict: {verdict_line(d)}**", ""]
     if d.named_effects:
         lines.append("**Named effect(s): " + ", ".join(f"`{e}`" for e in d.named_effects) + "**")
+    elif d.verdict == "unexplained" and d.confounded:
+        lines.append(f"**Unexplained discrepancy** — {d.confounded['explanation']}: the candidates do not establish "
+                     f"the change; nothing was added to the model. Resolved combination: "
+                     f"{d.confounded['combination']}.")
     elif d.verdict == "unexplained":
         lines.append("**Unexplained discrepancy** — the baseline does not fit the data and no candidate effect "
                      "passes the naming rule; nothing was added to the model.")

@@ -102,14 +102,16 @@ def unresolved_reasons(f: CandidateFit, base: Parameters) -> List[Reason]:
 
 
 def negligible_fits(fits: Sequence[CandidateFit], reasons: Reasons) -> List[CandidateFit]:
-    """Adequate sets whose every parameter moved by a negligible amount (and whose other reasons
-    are at most a small share of the gap or an unresolved interval): the data are explained
-    without a physically relevant change, if no relevant change is resolved
-    (:func:`relevant_resolved`) or fits clearly better unresolved (:func:`unnamed_verdict`)."""
+    """Adequate sets whose every parameter moved by a negligible amount and that close the gap as
+    a named set must (no small share of the gap beyond the noise; their only other reason an
+    unresolved interval): the data are explained without a physically relevant change, if no
+    relevant change is resolved (:func:`relevant_resolved`) or fits clearly better unresolved
+    (:func:`unnamed_verdict`). A negligible change that leaves more of the gap than the naming rule
+    allows explains no more than the baseline does (docs/model.md §9.1, "Resolved")."""
     return [f for f in fits if reasons[f.effects] and f.adequate and not f.screened
             and all(any(getattr(r, "kind", None) is Why.NEGLIGIBLE and r.effect == e for r in reasons[f.effects])
                     for e in f.effects)
-            and kinds(reasons[f.effects]) <= {Why.NEGLIGIBLE, Why.SMALL_SHARE, Why.NOT_RESOLVED}]
+            and kinds(reasons[f.effects]) <= {Why.NEGLIGIBLE, Why.NOT_RESOLVED}]
 
 
 def relevant_resolved(fits: Sequence[CandidateFit], reasons: Reasons) -> List[CandidateFit]:
@@ -287,7 +289,11 @@ def confounded_sets(best: CandidateFit, fits: Sequence[CandidateFit], reasons: R
 
     group = list(dict.fromkeys(list(best.effects) + [e for f, _ in found for e in f.effects]))
     outside = [e for e in group if candidates is not None and e not in candidates]
+    # Whether the candidates themselves hold another set that fits alike; if every such set needs an
+    # effect the user did not suspect, the candidates leave the data unexplained.
+    among = any(all(e not in outside for e in f.effects) for f, _ in found)
     return dict(group=group, sets=[list(best.effects)] + [list(f.effects) for f, _ in found], not_candidates=outside,
+                among_candidates=among,
                 models=[{e: f.values[e] for e in f.effects} for f in [best] + [g for g, _ in found]],
                 values={**{e: g.values[e] for g, _ in found for e in g.effects},
                         **{e: best.values[e] for e in best.effects}},
