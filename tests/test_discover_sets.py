@@ -440,12 +440,67 @@ def test_the_tier_fits_the_best_predicted_and_falls_back_to_the_full_search(monk
                 clearance=(80.0, 0.0))
     for settled in (True, False):
         calls.clear()
-        fits = naming._fit_sets(cands, 1, "slider", bs.Parameters(), {f"f{i}": None for i in range(11)}, None, None, 0,
-                                done=lambda s: settled, predict=lambda: pred, tier=True)
+        fits = naming._fit_sets(cands, 2, "slider", bs.Parameters(), {f"f{i}": None for i in range(11)}, None, None, 0,
+                                done=lambda s: settled, predict=lambda: pred, tier=True, guide=lambda: [])
         coarse = [c for c in calls if c[1] == 0]
         assert calls[0] == (("friction_coefficient",), 2)
         assert (coarse == []) if settled else (len(coarse) == len(names))
-        assert len(fits) == len(names) and any(f.linearised for f in fits) == settled
+        assert len([f for f in fits if f.linearised]) == (len(names) - 1 if settled else 0)
+    # At most single effects (max_effects 1): a complete tier settles, no set could be fitted.
+    calls.clear()
+    naming._fit_sets(cands, 1, "slider", bs.Parameters(), {f"f{i}": None for i in range(11)}, None, None, 0,
+                     done=lambda s: False, predict=lambda: pred, tier=True)
+    assert not any(r == 0 for _, r in calls)
+
+
+def test_the_tier_settles_a_named_single_only_if_no_pair_with_it_is_predicted_to_gain():
+    """fast.no_pair_gains: the pairs that could change a named single's verdict contain it (the
+    forward selection extends the named single); each is predicted by a Gauss–Newton step from the
+    single's fitted point with the other effect at its baseline. A predicted gain of the least
+    threshold (6.63) or more sends the search on; smaller gains everywhere settle it. Through
+    _fit_sets: settled without coarse scans or pairs."""
+    from beamslider.discover import naming
+    from beamslider.discover.effects import EFFECTS
+    from beamslider.discover.fast import no_pair_gains
+
+    p = bs.Parameters()
+    names = ["friction_coefficient", "natural_frequency_detuning", "tilt"]
+    best = CandidateFit(("friction_coefficient",), {"friction_coefficient": 0.25}, {}, 20.0, 12, True, 20.0,
+                        predicted=dict(a=1.0))
+    singles = [best] + [CandidateFit((n,), {n: 0.0}, {}, 90.0, 12, True, 90.0) for n in names[1:]]
+    asked = []
+
+    def step(gain_of):
+        def f(pair):
+            asked.append((pair.effects, dict(pair.values)))
+            return pair.chi2 - gain_of.get(pair.effects[1], 0.0)
+        return f
+
+    assert no_pair_gains(singles, best, step(dict(tilt=6.5)), p)
+    assert [a[0] for a in asked] == [("friction_coefficient", "natural_frequency_detuning"),
+                                     ("friction_coefficient", "tilt")]
+    assert asked[1][1] == {"friction_coefficient": 0.25, "tilt": EFFECTS["tilt"].baseline_value(p)}
+    assert not no_pair_gains(singles, best, step(dict(tilt=6.7)), p)
+    assert not no_pair_gains(singles, None, step({}), p)
+
+    calls = []
+
+    def fake_fit(effects, *a, refine=2, **kw):
+        calls.append((tuple(e.name for e in effects), refine))
+        return next(f for f in singles if f.effects == tuple(e.name for e in effects))
+
+    monkeypatch = pytest.MonkeyPatch()
+    monkeypatch.setattr(naming, "profile_fit", fake_fit)
+    try:
+        pred = dict(friction_coefficient=(15.0, 0.25), natural_frequency_detuning=(80.0, 1.0), tilt=(80.0, 0.0))
+        for gain, settled in ((1.0, True), (9.0, False)):
+            calls.clear()
+            naming._fit_sets([EFFECTS[n] for n in names], 2, "slider", p, {f"f{i}": None for i in range(13)}, None,
+                             None, 0, done=lambda s: False, predict=lambda: pred, tier=True, named=lambda s: best,
+                             step=step(dict(tilt=gain)), guide=lambda: [])
+            assert (calls == [(("friction_coefficient",), 2)]) == settled, calls  # else the full search
+    finally:
+        monkeypatch.undo()
 
 
 def test_a_gauss_newton_step_from_the_pass_point_predicts_the_refined_chi2():

@@ -17,8 +17,8 @@ from typing import Callable, Dict, List, Optional, Sequence, Tuple
 import numpy as np
 
 from ..params import Parameters
-from .effects import Effect
-from .fitting import CandidateFit, chi2_quantile
+from .effects import EFFECTS, Effect
+from .fitting import CandidateFit, chi2_quantile, lrt_threshold, select
 from .models import unreached_mode_features
 from .separability import bumped
 
@@ -109,3 +109,33 @@ def tiered_singles(cands: Sequence[Effect], pred: Dict[str, Tuple[float, float]]
         full[e.name] = fit(e)
     fits = predicted_singles(cands, pred, lambda e: full[e.name], n, keep=set(full))
     return fits, True
+
+
+def no_pair_gains(singles: List[CandidateFit], best: Optional[CandidateFit],
+                   step: Callable[[CandidateFit], float], base: Parameters) -> bool:
+    """Whether no pair containing the single ``best`` (the one the selection would name) could be
+    selected over it: for every other candidate X, a Gauss–Newton step from ``best``'s fitted point
+    with X at its baseline (:func:`.refine.step_chi2`, both effects free) is predicted to lower χ²
+    by less than the least likelihood-ratio threshold for adding an effect (6.63). The forward
+    selection only extends the named single, so pairs without it cannot change the verdict; the
+    linearised model overestimates the gain of large moves, which errs towards the full search."""
+    if best is None or len(best.effects) != 1 or not best.predicted:
+        return False
+    (a,) = best.effects
+    thr = lrt_threshold(1, 1)
+    for f in singles:
+        x = f.effects[0]
+        if x == a:
+            continue
+        pair = CandidateFit((a, x), {a: best.values[a], x: EFFECTS[x].baseline_value(base)}, {}, best.chi2,
+                            best.dof - 1, best.adequate, best.bic, predicted=best.predicted,
+                            model_spread=best.model_spread)
+        if step(pair) < best.chi2 - thr:
+            return False
+    return True
+
+
+def best_single(singles: List[CandidateFit], reasons: Dict[Tuple[str, ...], list], chi2_0: float,
+                n: int) -> Optional[CandidateFit]:
+    """The single candidate the selection would name among those passing the naming rule."""
+    return select([f for f in singles if not reasons[f.effects] and len(f.effects) == 1], chi2_0, n)[0]

@@ -18,7 +18,8 @@ from .fitting import (MODE_CONDITIONING, CandidateFit, Discovery, EnsembleMany, 
 from .models import (ENSEMBLE_S0_SHIFTS, Ensemble, Modes, RunCache, batch_slider_features, beam_surrogate,
                      data_modes, ensemble_slider_features, levels_for, measured_slider_features,
                      simulated_enma_features, unreached_mode_features)
-from .fast import predict_singles, predicted_singles, tiered_singles
+from .fast import best_single, no_pair_gains, predict_singles, predicted_singles, tiered_singles
+from .joint import fit_sets_joint
 from .refine import sets_to_refine, step_chi2
 from .separability import slider_changes, slider_sensitivities
 from .verdicts import (ADVICE_GRID, GUIDED_PAIRS, Reason, Reasons, Why, advise, confounded_group, confounded_sets,
@@ -49,7 +50,8 @@ def _fit_sets(cand_effects: Sequence[Effect], max_effects: int, level: str, base
               done: Optional[Callable[[List[CandidateFit]], bool]] = None,
               predict: Optional[Callable[[], Dict[str, Tuple[float, float]]]] = None,
               step: Optional[Callable[[CandidateFit], float]] = None,
-              record: Optional[List[Dict[str, Any]]] = None, tier: bool = False) -> List[CandidateFit]:
+              record: Optional[List[Dict[str, Any]]] = None, tier: bool = False,
+              named: Optional[Callable[[List[CandidateFit]], Optional[CandidateFit]]] = None) -> List[CandidateFit]:
     """Fit every single candidate and the sets of up to ``max_effects`` (:func:`.verdicts.pairs_to_fit`,
     with the pairs ranked by ``guide``, slider level: :func:`.verdicts.rank_pairs`); no sets if
     ``done(singles)`` (no set can be selected over them, :func:`_no_set_can_win`). ``predict``: the
@@ -58,7 +60,9 @@ def _fit_sets(cand_effects: Sequence[Effect], max_effects: int, level: str, base
     χ² predicted after a Gauss–Newton step from its coordinate pass (:func:`.refine.step_chi2`),
     which chooses the sets refined jointly (:func:`.refine.sets_to_refine`); ``record``: one entry
     per set so staged (pass and predicted χ², refined or not). ``tier`` (with ``predict``): the
-    screening tier first (:func:`.fast.tiered_singles`), the full search only where it does not settle."""
+    screening tier first (:func:`.fast.tiered_singles`), the full search only where it does not
+    settle: settled if no set can win (``done``) or, for the single ``named(singles)`` would name,
+    no pair containing it is predicted to gain the selection's least threshold (:func:`.fast.no_pair_gains`)."""
     def fit(combo: Sequence[Effect], refine: int = 2, joint: Optional[bool] = None) -> CandidateFit:
         if level == "beam":
             return fit_candidate(combo, base, meas, model_fn, diff_step=diff_step, max_nfev=max_nfev)
@@ -72,7 +76,8 @@ def _fit_sets(cand_effects: Sequence[Effect], max_effects: int, level: str, base
         # threshold) and no candidate it left unfitted is predicted near; else the full search, whose
         # runs the tier's full fits share (cached).
         fits, complete = tiered_singles(cand_effects, predict(), lambda e: fit((e,)), len(meas))
-        if complete and done is not None and done(fits):
+        if complete and (max_effects < 2 or (done is not None and done(fits))
+                         or (step is not None and named is not None and no_pair_gains(fits, named(fits), step, base))):
             bar.update(len(cand_effects))
         else:
             fits, predict = [], None
@@ -159,84 +164,6 @@ many the joint refinement (:func:`.fitting.profile_fit`): the best by the pass's
 linearised model predicts best, and beside them every set predicted by a Gauss–Newton step from its
 pass point to come within the selection's threshold of the least so predicted
 (:func:`.refine.sets_to_refine`; the refinement costs ensembles of runs at every point)."""
-
-
-def _fit_sets_joint(cand_effects: Sequence[Effect], max_effects: int, base: Parameters,
-                    meas_b: Dict[str, Feature], model_b: Callable[[Parameters], Dict[str, float]],
-                    meas_s: Dict[str, Feature], model_many: ModelMany, chi2_b0: float, chi2_s0: float,
-                    *, ensemble_many: Optional[EnsembleMany] = None, spread0: Optional[Dict[str, float]] = None,
-                    progress: bool = False) -> List[CandidateFit]:
-    """Joint fit over beam (ENMA) and slider (run) features, χ² = χ²_beam + χ²_slider. The beam
-    features do not depend on slider-level effects (the ENMA is of the beam alone), so a set's
-    beam-level parameters are fitted to the beam features (weighted least squares on the
-    surrogate; they are far more precise there than in the runs), and its slider-level parameters
-    by the profile fit of the runs with those beam-level values held; a set of beam-level effects
-    only costs one evaluation of the runs. Returns one fit per set, as :func:`_fit_sets`."""
-    names_s = list(meas_s)
-    modes = data_modes(meas_s) if MODE_CONDITIONING else None
-
-    def chi2_s_of(ps: List[Parameters]) -> List[Tuple[float, Dict[str, float], Dict[str, float]]]:
-        """χ² of the runs of each model (with its ensemble's mean and spread when given)."""
-        singles = model_many(ps)
-        ens = ensemble_many(ps, singles) if ensemble_many is not None else [None] * len(ps)
-        out = []
-        for m, e in zip(singles, ens):
-            if m is None:
-                out.append((math.inf, {}, {}))
-                continue
-            mean, sp, runs = (e.mean, e.spread, e.runs) if e is not None else (m, dict(spread0 or {}), 1)
-            counts = e.mode_counts if e is not None else None
-            f = {k: mean[k] for k in names_s if k in mean}
-            out.append((gap_of(f, meas_s, sp, runs, modes, counts)[1], mean, sp))
-        return out
-
-    n = len(meas_b) + len(meas_s)
-
-    def fit_sets(combos: List[Tuple[Effect, ...]], bar) -> List[CandidateFit]:
-        beam_fits: Dict[Tuple[str, ...], CandidateFit] = {}
-        for combo in combos:
-            eb = tuple(e for e in combo if e.level == "beam")
-            if eb and tuple(e.name for e in eb) not in beam_fits:
-                beam_fits[tuple(e.name for e in eb)] = fit_candidate(eb, base, meas_b, model_b, diff_step=None, max_nfev=200)
-        out: List[Optional[CandidateFit]] = [None] * len(combos)
-        # Sets of beam-level effects only: their runs as one batch.
-        only_b = [i for i, c in enumerate(combos) if all(e.level == "beam" for e in c)]
-        if only_b:
-            ps = [realise_effects(base, beam_fits[tuple(e.name for e in combos[i])].values) for i in only_b]
-            for i, (c2, mean, sp) in zip(only_b, chi2_s_of(ps)):
-                bf = beam_fits[tuple(e.name for e in combos[i])]
-                chi2 = bf.chi2 + c2
-                k = len(combos[i])
-                out[i] = CandidateFit(bf.effects, dict(bf.values), dict(bf.stderrs), chi2, n - k,
-                                      chi2 <= chi2_quantile(n - k), chi2 + k * math.log(n), mean, sp)
-                bar.update(1)
-        for i, combo in enumerate(combos):
-            if out[i] is not None:
-                continue
-            eb = tuple(e for e in combo if e.level == "beam")
-            es = [e for e in combo if e.level != "beam"]
-            bf = beam_fits.get(tuple(e.name for e in eb)) if eb else None
-            sf = profile_fit(es, base, meas_s, model_many=model_many, ensemble_many=ensemble_many, spread0=spread0,
-                              fixed=bf.values if bf else None)
-            chi2 = (bf.chi2 if bf else chi2_b0) + sf.chi2
-            k = len(combo)
-            values = {e.name: sf.values[e.name] for e in combo}
-            stderrs = {**(bf.stderrs if bf else {}), **sf.stderrs}
-            out[i] = CandidateFit(tuple(e.name for e in combo), values, stderrs, chi2, n - k,
-                                  chi2 <= chi2_quantile(n - k), chi2 + k * math.log(n), sf.predicted,
-                                  sf.model_spread, sf.intervals, sf.roughness)
-            bar.update(1)
-        return [f for f in out if f is not None]
-
-    bar = _progress_bar(progress, len(cand_effects), "discover (joint): fits")
-    fits = fit_sets([(e,) for e in cand_effects], bar)
-    if max_effects >= 2:
-        combos = pairs_to_fit(cand_effects, fits, max_effects, "joint")
-        bar.total = len(cand_effects) + len(combos)
-        bar.refresh()
-        fits += fit_sets(combos, bar)
-    bar.close()
-    return fits
 
 
 def _judge(fits: Sequence[CandidateFit], base: Parameters, n: int, excess_before: float,
@@ -451,7 +378,9 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
                              if search != "full" and len(cand_effects) > SCREEN_FROM else None,
                              tier=search == "tiered",
                              done=lambda singles: _no_set_can_win(
-                                 singles, lambda fs: _judge(fs, base, n, excess_before, gap_ratio)))
+                                 singles, lambda fs: _judge(fs, base, n, excess_before, gap_ratio)),
+                             named=lambda singles: best_single(
+                                 singles, _judge(singles, base, n, excess_before, gap_ratio), chi2_0, n))
         else:
             assert model_many is not None
             # Beam stage first (cheap): its selection re-centres the surrogate's bias.
@@ -461,7 +390,7 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
                 fits_b = _fit_sets(beam_cands, max_effects, "beam", base, meas_b, model_b, None, 200)
                 refit_beam_bias(fits_b)
             chi2_s0 = gap_of({k: before[k] for k in meas_s}, meas_s, spread_base, runs_base, modes, counts_base)[1]
-            fits = _fit_sets_joint(cand_effects, max_effects, base, meas_b, model_b, meas_s, model_many,
+            fits = fit_sets_joint(cand_effects, max_effects, base, meas_b, model_b, meas_s, model_many,
                                    chi2_b0, chi2_s0, ensemble_many=ensemble_many, spread0=spread_base,
                                    progress=progress)
     verdicts = _judge(fits, base, n, excess_before, gap_ratio)
