@@ -469,3 +469,22 @@ def test_restitution_in_the_issues_60_s_runs_is_the_best_candidate_not_resolved(
     assert min(r["chi2"] for r in negligible) - u["chi2"] > thr, d.rejected
     assert "best candidate restitution" in line and "not resolved by these runs" in line and "add a run" in line
     assert u["advice"]["recommended"] is not None, u["advice"]
+
+
+def test_the_baseline_fits_only_without_a_feature_beyond_the_bonferroni_bound():
+    """fitting.baseline_fits (docs/model.md §9.1): the excitation level 5 % low in the three reference
+    60-s runs gives χ² 28.07 over 16 features, below the 99 % limit 32.0, while one slider speed is
+    off by z = −4.39; the two-sided 99 % bound over 16 features is 3.42 (independent reading:
+    Φ⁻¹(1 − 0.01/32)), so the baseline does not fit. Without that feature (|z| 2.86, the velocity
+    gain of 1.06 in the same runs) it fits; above the χ² limit it never does."""
+    from scipy.stats import norm
+
+    from beamslider.discover.fitting import baseline_fits, chi2_quantile, select, z_bound
+
+    assert z_bound(16) == pytest.approx(norm.ppf(1 - 0.01 / 32)) and z_bound(16) == pytest.approx(3.42, abs=0.01)
+    assert chi2_quantile(16) == pytest.approx(32.0, abs=0.01)
+    assert not baseline_fits(28.07, 16, 4.39)
+    assert baseline_fits(21.4, 16, 2.86) and not baseline_fits(32.1, 16, 0.0)
+    f = CandidateFit(("excitation_gain",), {"excitation_gain": 0.95}, {}, 10.0, 15, True, 10.0)
+    assert select([f], 28.07, 16)[0] is None  # the χ² test alone: the baseline is adequate
+    assert select([f], 28.07, 16, baseline_fits(28.07, 16, 4.39))[0] is f

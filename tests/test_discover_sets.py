@@ -399,7 +399,8 @@ def test_the_fast_path_fits_the_best_predicted_pair_only_if_it_could_be_selected
 def test_the_tier_fits_the_best_predicted_and_falls_back_to_the_full_search(monkeypatch):
     """discover(search="tiered") (docs/model.md §9.1, "Cost"): the best predicted single is fitted in
     full, the next ones while predicted within TIER_MARGIN of the best fitted χ²; if that settles the
-    answer (a named single below the threshold, every unfitted candidate predicted beyond the margin)
+    answer (a named single below the threshold, every unfitted candidate predicted beyond the margin,
+    every fitted one predicted within the margin of its fit)
     the others stay screened and no coarse scan is made; else the full search runs: coarse scans of
     every candidate (refine=0), as search="full" does."""
     from beamslider.discover import naming
@@ -423,6 +424,12 @@ def test_the_tier_fits_the_best_predicted_and_falls_back_to_the_full_search(monk
         assert fitted == want and ok is complete
         assert [f.effects[0] for f in fits] == names
         assert all(f.linearised == (f.effects[0] not in want) for f in fits)
+    # The prediction far off a fitted χ² (a change beyond the quadratic's reach): not complete.
+    pred = dict(friction_coefficient=(4.0 + TIER_MARGIN + 0.5, 0.0), natural_frequency_detuning=(90.0, 0.0),
+                tilt=(90.0, 0.0), clearance=(90.0, 0.0))
+    assert tiered_singles(cands, pred, lambda e: fake(e.name), 10)[1] is False
+    pred["friction_coefficient"] = (4.0 + TIER_MARGIN - 0.5, 0.0)
+    assert tiered_singles(cands, pred, lambda e: fake(e.name), 10)[1] is True
     # More candidates predicted near than may be fitted in full: not complete.
     pred = {n: (5.0 + i, 0.0) for i, n in enumerate(names)}
     fitted.clear()

@@ -30,6 +30,20 @@ from discover_table import CASES, EXTRA_OPS, OPS, P, truth_of  # noqa: E402
 S0_OFFSET = 0.0015
 
 
+HEADER = """# The tiered search against the full search
+
+`python3 scripts/repro/discover_tier_check.py --out docs/results/discover/tier_check.md`: for each case of
+the discover table (docs/results/discover/table.md, the same data: three 60-s runs at the reference points
+plus the case's advised run, seed 3, the truth runs s0 + 0.0015 off), one `discover(search="tiered")`
+with the case's candidates (docs/model.md §9.1, "Cost"). "settled": the tier gave the answer, shown beside
+the table's (the full search's); "not settled": the full search runs from there, sharing the tier's runs,
+so the verdict is the full search's by construction (the check stops at its first coarse scan). Runs: the
+core's runs of the tier (60-s runs); CPU: seconds of all threads of the process, the machine shared with
+other runs (an idle 2-core machine's wall time is about CPU / 2).
+
+"""
+
+
 class Escalated(Exception):
     """The tier did not settle: the full search's coarse scans begin."""
 
@@ -97,7 +111,7 @@ def main() -> int:
     finally:
         naming.profile_fit, _core.run_free_slider_batch = real_fit, real_batch
     if args.out is not None:
-        args.out.write_text("\n".join(rows) + "\n", encoding="utf-8")
+        args.out.write_text(HEADER + "\n".join(rows) + "\n", encoding="utf-8")
     return 0
 
 

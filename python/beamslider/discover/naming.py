@@ -13,7 +13,8 @@ from ..params import Parameters, resolve
 from .chain import Model, realise_model
 from .effects import EFFECTS, Effect, realise_effects
 from .features import Feature, enma_features
-from .fitting import (MODE_CONDITIONING, CandidateFit, Discovery, EnsembleMany, ModelMany, chi2_quantile, excess,
+from .fitting import (MODE_CONDITIONING, CandidateFit, Discovery, EnsembleMany, ModelMany, baseline_fits,
+                      chi2_quantile, excess, z_bound,
                       fit_candidate, gap_of, lrt_threshold, missing_z, profile_fit, select, sigma)
 from .models import (ENSEMBLE_S0_SHIFTS, Ensemble, Modes, RunCache, batch_slider_features, beam_surrogate,
                      data_modes, ensemble_slider_features, levels_for, measured_slider_features,
@@ -318,6 +319,9 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
             before[k] = meas[k].value + missing_z(k, counts_base) * sigma(meas[k], spread_base.get(k, 0.0), runs_base)
     gap_before, chi2_0 = gap_of(before, meas, spread_base, runs_base, modes, counts_base)
     n = len(meas)
+    z_worst = max((abs(before[k] - meas[k].value) / sigma(meas[k], spread_base.get(k, 0.0), runs_base)
+                   for k in meas), default=0.0)
+    base_ok = baseline_fits(chi2_0, n, z_worst)
     excess_before = excess(chi2_0, n, n)
     fits: List[CandidateFit] = []
     guided: List[Dict[str, Any]] = []
@@ -334,11 +338,11 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
             bias.clear()
             bias.update({k: sim_c[k].value - sur_c[k] for k in sim_c if k in sur_c})
 
-    if chi2_0 > chi2_quantile(n):
+    if not base_ok:
         if level == "beam":
             fits = _fit_sets(cand_effects, max_effects, level, base, meas, model_fn, diff_step, max_nfev,
                              progress=progress)
-            best0, _ = select(fits, chi2_0, n)
+            best0, _ = select(fits, chi2_0, n, base_ok)
             if best0 is not None:
                 refit_beam_bias(fits)
                 fits = [fit_candidate([EFFECTS[e] for e in f.effects], base, meas, model_fn, diff_step=diff_step,
@@ -394,7 +398,7 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
                                    chi2_b0, chi2_s0, ensemble_many=ensemble_many, spread0=spread_base,
                                    progress=progress)
     verdicts = _judge(fits, base, n, excess_before, gap_ratio)
-    best, alts = select([f for f in fits if not verdicts[f.effects]], chi2_0, n)
+    best, alts = select([f for f in fits if not verdicts[f.effects]], chi2_0, n, base_ok)
 
     def after_of(p: Model) -> Tuple[Dict[str, float], Dict[str, str], Dict[str, float], Dict[str, int]]:
         # "After": full simulation of the updated model (not the surrogate): virtual ENMA and the
@@ -487,7 +491,7 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
     # Nothing named or confounded: "none" where an adequate fit needs only a negligible change —
     # unless a relevant change is resolved, or fits clearly better unresolved (docs/model.md §9.1).
     unresolved: Dict[str, Any] = {}
-    if chi2_0 <= chi2_quantile(n):
+    if base_ok:
         verdict = "none"
     elif best is not None:
         verdict = "named"
@@ -518,7 +522,8 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
                 for f in sorted(fits, key=lambda f: f.chi2) if best is None or f.effects != best.effects]
     off = sorted(((k, v["z_after"]) for k, v in features.items() if abs(v["z_after"]) > 2), key=lambda x: -abs(x[1]))
     criterion = (f"an effect set is named only if (1) the baseline does not fit, chi2 = {chi2_0:.3g} > chi2_0.99(n={n}) = "
-                 f"{chi2_quantile(n):.2f}; (2) the updated model is adequate, chi2 <= chi2_0.99(n-k); (3) each "
+                 f"{chi2_quantile(n):.2f} or a feature's |z| = {z_worst:.3g} > {z_bound(n):.3g} (99 %, Bonferroni over "
+                 f"the n features); (2) the updated model is adequate, chi2 <= chi2_0.99(n-k); (3) each "
                  f"parameter moved by at least its relevance threshold (EFFECTS[...].relevance); (4) the gap beyond "
                  f"the noise, sqrt(max(chi2 - E[chi2], 0)/n), after <= {gap_ratio:g} x before ({excess_before:.3g}; "
                  f"fit and full simulation); among the sets that pass, forward "
