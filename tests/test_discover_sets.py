@@ -489,6 +489,8 @@ def test_the_tier_settles_a_named_single_only_if_no_pair_with_it_is_predicted_to
     assert asked[1][1] == {"friction_coefficient": 0.25, "tilt": EFFECTS["tilt"].baseline_value(p)}
     assert not no_pair_gains(singles, best, step(dict(tilt=6.7)), p)
     assert not no_pair_gains(singles, None, step({}), p)
+    # A moved run failed: no column for the tilt, nothing predicted for its pair -> not settled.
+    assert not no_pair_gains(singles, best, step({}), p, known=lambda name: name != "tilt")
 
     calls = []
 

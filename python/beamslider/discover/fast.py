@@ -120,13 +120,16 @@ def tiered_singles(cands: Sequence[Effect], pred: Dict[str, Tuple[float, float]]
 
 
 def no_pair_gains(singles: List[CandidateFit], best: Optional[CandidateFit],
-                   step: Callable[[CandidateFit], float], base: Parameters) -> bool:
+                  step: Callable[[CandidateFit], float], base: Parameters,
+                  known: Callable[[str], bool] = lambda name: True) -> bool:
     """Whether no pair containing the single ``best`` (the one the selection would name) could be
     selected over it: for every other candidate X, a Gauss–Newton step from ``best``'s fitted point
     with X at its baseline (:func:`.refine.step_chi2`, both effects free) is predicted to lower χ²
     by less than the least likelihood-ratio threshold for adding an effect (6.63). The forward
     selection only extends the named single, so pairs without it cannot change the verdict; the
-    linearised model overestimates the gain of large moves, which errs towards the full search."""
+    linearised model overestimates the gain of large moves, which errs towards the full search.
+    ``known(name)``: whether the linearised model has the effect's column (asked after each step; a
+    run of the moved model may have failed): without it nothing is predicted, and the answer is no."""
     if best is None or len(best.effects) != 1 or not best.predicted:
         return False
     (a,) = best.effects
@@ -138,7 +141,7 @@ def no_pair_gains(singles: List[CandidateFit], best: Optional[CandidateFit],
         pair = CandidateFit((a, x), {a: best.values[a], x: EFFECTS[x].baseline_value(base)}, {}, best.chi2,
                             best.dof - 1, best.adequate, best.bic, predicted=best.predicted,
                             model_spread=best.model_spread)
-        if step(pair) < best.chi2 - thr:
+        if step(pair) < best.chi2 - thr or not (known(a) and known(x)):
             return False
     return True
 

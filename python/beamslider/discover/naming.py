@@ -52,7 +52,8 @@ def _fit_sets(cand_effects: Sequence[Effect], max_effects: int, level: str, base
               predict: Optional[Callable[[], Dict[str, Tuple[float, float]]]] = None,
               step: Optional[Callable[[CandidateFit], float]] = None,
               record: Optional[List[Dict[str, Any]]] = None, tier: bool = False,
-              named: Optional[Callable[[List[CandidateFit]], Optional[CandidateFit]]] = None) -> List[CandidateFit]:
+              named: Optional[Callable[[List[CandidateFit]], Optional[CandidateFit]]] = None,
+              known: Optional[Callable[[str], bool]] = None) -> List[CandidateFit]:
     """Fit every single candidate and the sets of up to ``max_effects`` (:func:`.verdicts.pairs_to_fit`,
     with the pairs ranked by ``guide``, slider level: :func:`.verdicts.rank_pairs`); no sets if
     ``done(singles)`` (no set can be selected over them, :func:`_no_set_can_win`). ``predict``: the
@@ -63,7 +64,8 @@ def _fit_sets(cand_effects: Sequence[Effect], max_effects: int, level: str, base
     per set so staged (pass and predicted χ², refined or not). ``tier`` (with ``predict``): the
     screening tier first (:func:`.fast.tiered_singles`), the full search only where it does not
     settle: settled if no set can win (``done``) or, for the single ``named(singles)`` would name,
-    no pair containing it is predicted to gain the selection's least threshold (:func:`.fast.no_pair_gains`)."""
+    no pair containing it is predicted to gain the selection's least threshold (:func:`.fast.no_pair_gains`;
+    ``known(name)``: whether ``step`` has the effect's column)."""
     def fit(combo: Sequence[Effect], refine: int = 2, joint: Optional[bool] = None) -> CandidateFit:
         if level == "beam":
             return fit_candidate(combo, base, meas, model_fn, diff_step=diff_step, max_nfev=max_nfev)
@@ -77,8 +79,9 @@ def _fit_sets(cand_effects: Sequence[Effect], max_effects: int, level: str, base
         # threshold) and no candidate it left unfitted is predicted near; else the full search, whose
         # runs the tier's full fits share (cached).
         fits, complete = tiered_singles(cand_effects, predict(), lambda e: fit((e,)), len(meas))
+        gate = step is not None and named is not None
         if complete and (max_effects < 2 or (done is not None and done(fits))
-                         or (step is not None and named is not None and no_pair_gains(fits, named(fits), step, base))):
+                         or (gate and no_pair_gains(fits, named(fits), step, base, known or (lambda e: True)))):
             bar.update(len(cand_effects))
         else:
             fits, predict = [], None
@@ -383,6 +386,7 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
                              tier=search == "tiered",
                              done=lambda singles: _no_set_can_win(
                                  singles, lambda fs: _judge(fs, base, n, excess_before, gap_ratio)),
+                             known=lambda name: bool(changes.get(name)),
                              named=lambda singles: best_single(
                                  singles, _judge(singles, base, n, excess_before, gap_ratio), chi2_0, n))
         else:
