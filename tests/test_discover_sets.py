@@ -496,7 +496,9 @@ def test_the_tier_settles_a_named_single_only_if_no_pair_with_it_is_predicted_to
 
     def fake_fit(effects, *a, refine=2, **kw):
         calls.append((tuple(e.name for e in effects), refine))
-        return next(f for f in singles if f.effects == tuple(e.name for e in effects))
+        names_ = tuple(e.name for e in effects)
+        return next((f for f in singles if f.effects == names_),
+                    CandidateFit(names_, {e: 0.0 for e in names_}, {}, 50.0, 11, True, 50.0))
 
     monkeypatch = pytest.MonkeyPatch()
     monkeypatch.setattr(naming, "profile_fit", fake_fit)
@@ -506,7 +508,8 @@ def test_the_tier_settles_a_named_single_only_if_no_pair_with_it_is_predicted_to
             calls.clear()
             naming._fit_sets([EFFECTS[n] for n in names], 2, "slider", p, {f"f{i}": None for i in range(13)}, None,
                              None, 0, done=lambda s: False, predict=lambda: pred, tier=True, named=lambda s: best,
-                             step=step(dict(tilt=gain)), guide=lambda: [])
+                             step=step(dict(tilt=gain)),
+                             guide=lambda: [(("friction_coefficient", "tilt"), 0.0)])  # a pair predicted to win
             assert (calls == [(("friction_coefficient",), 2)]) == settled, calls  # else the full search
     finally:
         monkeypatch.undo()

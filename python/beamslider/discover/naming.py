@@ -74,6 +74,7 @@ def _fit_sets(cand_effects: Sequence[Effect], max_effects: int, level: str, base
 
     bar = _progress_bar(progress, len(cand_effects), f"discover ({level}): fits")
     fits: List[CandidateFit] = []
+    settled = False  # by the tier: no sets fitted
     if predict is not None and tier:
         # The screening tier: settled if its fits leave no set to fit (a named single below the
         # threshold) and no candidate it left unfitted is predicted near; else the full search, whose
@@ -82,6 +83,7 @@ def _fit_sets(cand_effects: Sequence[Effect], max_effects: int, level: str, base
         gate = step is not None and named is not None
         if complete and (max_effects < 2 or (done is not None and done(fits))
                          or (gate and no_pair_gains(fits, named(fits), step, base, known or (lambda e: True)))):
+            settled = True
             bar.update(len(cand_effects))
         else:
             fits, predict = [], None
@@ -108,7 +110,7 @@ def _fit_sets(cand_effects: Sequence[Effect], max_effects: int, level: str, base
         for e in cand_effects:
             fits.append(fit((e,)))
             bar.update(1)
-    if max_effects >= 2 and not (done is not None and done(fits)):
+    if max_effects >= 2 and not settled and not (done is not None and done(fits)):
         ranked = guide() if guide is not None else None
         combos = pairs_to_fit(cand_effects, fits, max_effects, level, ranked)
         if predict is not None and ranked:  # the best predicted pair, if predicted to beat the best single
