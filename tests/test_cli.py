@@ -148,4 +148,6 @@ def test_discover_fast_is_for_the_slider_level_only(tmp_path):
     runs, or with ENMA data, it is an error before anything runs."""
     r = run_cli("discover", "--fast", cwd=tmp_path)
     assert r.returncode == 1 and "--fast: only for the slider level" in r.stderr
+    r = run_cli("discover", "--search", "fast", cwd=tmp_path)
+    assert r.returncode == 1 and "--search fast: only for the slider level" in r.stderr
     assert not (tmp_path / "beamslider-out").exists()

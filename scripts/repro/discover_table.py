@@ -52,6 +52,10 @@ CASES = {
                  [n for n in SLIDER if n != "slider_mass"]),
     "restitution-out": ("restitution 0.3, restitution not a candidate", dict(restitution=0.3),
                         [n for n in SLIDER if n != "restitution"]),
+    # Restitution 0.3 is mimicked by a negligible change; 0.7 moves these runs' features clearly.
+    "restitution-high": ("restitution 0.7", dict(restitution=0.7), SLIDER),
+    "restitution-high-out": ("restitution 0.7, restitution not a candidate", dict(restitution=0.7),
+                             [n for n in SLIDER if n != "restitution"]),
     "negligible": ("mu = 0.203 (below the 0.01 threshold)", dict(friction_coefficient=0.203), SLIDER),
     "baseline": ("nothing (the prototype)", {}, SLIDER),
     # The contact spacing and the measurement chain (docs/model.md §9.1), by effect name.

@@ -127,10 +127,11 @@ def cmd_discover(args: argparse.Namespace) -> int:
     plan_outputs(args, REPORT_FILES)  # nothing replaced without --force, before the fit runs
     t0 = time.perf_counter()
     prog = args.progress  # None: a bar on a terminal, a line now and then in a log
+    given = "--fast" if args.fast else f"--search {args.search}"
     if args.fast:
         args.search = "fast"
     if args.search == "fast" and not (args.measured and not args.enma):
-        raise UserError("--fast: only for the slider level (--measured without --enma)")
+        raise UserError(f"{given}: only for the slider level (--measured without --enma)")
     if args.enma and args.measured:
         # Joint fit over the beam (ENMA) and slider (runs) features.
         baseline = Parameters.from_toml(args.params) if args.params else Parameters()
