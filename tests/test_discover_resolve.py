@@ -355,6 +355,47 @@ def test_a_negligible_change_that_fits_is_none_only_if_no_relevant_change_is_res
     assert relevant_resolved(fits, _judge(fits, base, 12, 5.0, 0.3)) == []
 
 
+def test_a_relevant_change_that_a_negligible_one_fits_better_is_not_named():
+    """The χ² values of restitution 0.5 -> 0.7 hidden in the three reference 60-s runs with
+    restitution not a candidate (docs/results/discover/table.md): a tilt of 5.6 mrad fits (χ² 16.7)
+    and its interval [1.6, 9.1] mrad excludes 0, but an excitation gain of 1.0125, below its 2 %
+    threshold, fits better (χ² 10.4): the tilt is not named; being resolved it still makes the
+    verdict "unexplained", not "none". Restitution itself, a candidate, fits at χ² 4.1 and is named.
+    A pair is charged its second parameter: it must beat a negligible single by the threshold."""
+    from beamslider.discover.naming import _judge
+    from beamslider.discover.fitting import select
+
+    base = bs.Parameters()
+    thr, eb = lrt_threshold(1, 13), 2.89
+
+    def one(name, value, chi2, iv):
+        return CandidateFit((name,), {name: value}, {name: 1e-3}, chi2, 16, True, chi2, intervals={name: iv})
+
+    tilt = one("tilt", 0.0055556, 16.73, (0.0016, 0.0091))
+    gain = one("excitation_gain", 1.0125, 10.39, (1.004, 1.02))
+    fits = [tilt, gain]
+    plain = _judge(fits, base, 17, eb, 0.3)
+    assert plain[("tilt",)] == [] and negligible_fits(fits, plain) == [gain]
+    assert select([f for f in fits if not plain[f.effects]], 158.6, 17, False)[0] is tilt  # named without the rule
+    reasons = _judge(fits, base, 17, eb, 0.3, thr)
+    assert [r.kind for r in reasons[("tilt",)]] == [Why.NEGLIGIBLE_FITS_BETTER], reasons
+    assert "excitation_gain 1.012" in reasons[("tilt",)][0] and "16.7" in reasons[("tilt",)][0]
+    assert select([f for f in fits if not reasons[f.effects]], 158.6, 17, False)[0] is None
+    assert relevant_resolved(fits, reasons) == [tilt]
+    assert unnamed_verdict(fits, reasons, thr) == ("unexplained", None, None)
+    # Better than the negligible change: named as before (restitution 0.675 at χ² 4.06).
+    rest = one("restitution", 0.675, 4.06, (0.622, 0.713))
+    assert _judge([rest, gain], base, 17, eb, 0.3, thr)[("restitution",)] == []
+    tilt.chi2 = 10.38
+    assert _judge(fits, base, 17, eb, 0.3, thr)[("tilt",)] == []
+    # A pair pays for its second parameter.
+    pair = CandidateFit(("tilt", "restitution"), {"tilt": 0.004, "restitution": 0.6}, {"tilt": 1e-3, "restitution": 0.02},
+                        10.39 - thr + 0.01, 15, True, 0.0, intervals={"tilt": (0.002, 0.006), "restitution": (0.56, 0.64)})
+    assert [r.kind for r in _judge([pair, gain], base, 17, eb, 0.3, thr)[pair.effects]] == [Why.NEGLIGIBLE_FITS_BETTER]
+    pair.chi2 -= 0.02
+    assert _judge([pair, gain], base, 17, eb, 0.3, thr)[pair.effects] == []
+
+
 def test_a_relevant_unresolved_fit_far_better_than_a_negligible_one_is_unexplained():
     """The χ² values of restitution 0.3 hidden in the three 60-s runs (the slow test below): a
     negligible contact-spacing change fits (χ² 18.5), restitution 0.3 fits far better (χ² 2.9) but
@@ -444,7 +485,8 @@ def test_restitution_in_the_issues_60_s_runs_is_the_best_candidate_not_resolved(
     """Restitution 0.3 (baseline 0.5) hidden in the three reference 60-s runs, the truth runs
     started S0_OFFSET off the named s0, all slider-level candidates. Restitution fits best by far
     (χ² about 3 against 18 for a negligible contact-spacing change, beyond the selection's
-    likelihood-ratio threshold of 11.4), but its χ² is rough in ε (runs at neighbouring values
+    likelihood-ratio threshold of 11.4; a negligible change that leaves more of the gap than a named
+    set may does not count at all), but its χ² is rough in ε (runs at neighbouring values
     differ by Δχ² of several units) and its 95 % interval reaches the baseline 0.5: the verdict is
     "unexplained — best candidate restitution, not resolved by these runs" with the run that would
     resolve it, not "none" and not a named restitution (docs/model.md §9.1, "Resolved"; about
@@ -465,8 +507,7 @@ def test_restitution_in_the_issues_60_s_runs_is_the_best_candidate_not_resolved(
     assert EFFECTS["restitution"].relevant(u["values"]["restitution"], d.baseline)[0], u
     thr = lrt_threshold(1, len(slider))
     negligible = [r for r in d.rejected if r["negligible"]]
-    assert negligible and all(len(r["effects"]) == 1 for r in negligible), d.rejected
-    assert min(r["chi2"] for r in negligible) - u["chi2"] > thr, d.rejected
+    assert not negligible or min(r["chi2"] for r in negligible) - u["chi2"] > thr, d.rejected
     assert "best candidate restitution" in line and "not resolved by these runs" in line and "add a run" in line
     assert u["advice"]["recommended"] is not None, u["advice"]
 

@@ -23,8 +23,8 @@ from .fast import best_single, no_pair_gains, predict_singles, predicted_singles
 from .joint import fit_sets_joint
 from .refine import sets_to_refine, step_chi2
 from .separability import slider_changes, slider_sensitivities
-from .verdicts import (ADVICE_GRID, GUIDED_PAIRS, Reason, Reasons, Why, advise, confounded_group, confounded_sets,
-                       pairs_to_fit, interval_of, kinds, negligible_fits, rank_pairs, unnamed_verdict, unresolved_reasons)
+from .verdicts import (ADVICE_GRID, GUIDED_PAIRS, Reason, Reasons, Why, advise, beaten_by_negligible,
+                       confounded_group, confounded_sets, pairs_to_fit, interval_of, kinds, negligible_fits, rank_pairs, unnamed_verdict, unresolved_reasons)
 
 
 def _progress_bar(enabled: Optional[bool], total: int, desc: str):
@@ -173,12 +173,14 @@ pass point to come within the selection's threshold of the least so predicted
 
 
 def _judge(fits: Sequence[CandidateFit], base: Parameters, n: int, excess_before: float,
-           gap_ratio: float) -> Reasons:
+           gap_ratio: float, threshold: Optional[float] = None) -> Reasons:
     """The naming rule per fitted set: the reasons it may not be named (empty: it may). Not
     adequate (χ² > χ²₀.₉₉(n − k)); a parameter moved by less than its relevance threshold; a
     small share of the gap beyond the noise (:func:`excess`: sqrt(max(χ² − (n − k), 0)/n) >
     gap_ratio × the baseline's sqrt(max(χ²₀ − n, 0)/n)); a parameter whose interval contains its
-    baseline value (not resolved, :func:`.verdicts.unresolved_reasons`)."""
+    baseline value (not resolved, :func:`.verdicts.unresolved_reasons`); with ``threshold`` (the
+    selection's price of a parameter), a negligible change that fits as well
+    (:func:`.verdicts.beaten_by_negligible`)."""
     out: Reasons = {}
     for f in fits:
         reasons: List[Reason] = []
@@ -200,7 +202,7 @@ def _judge(fits: Sequence[CandidateFit], base: Parameters, n: int, excess_before
                                                    f"{g:.3g} (more than {gap_ratio:g} x)"))
         reasons += unresolved_reasons(f, base)
         out[f.effects] = reasons
-    return out
+    return out if threshold is None else beaten_by_negligible(fits, out, threshold)
 
 
 def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequence[Measurement]] = None,
@@ -328,6 +330,7 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
                    for k in meas), default=0.0)
     base_ok = baseline_fits(chi2_0, n, z_worst)
     excess_before = excess(chi2_0, n, n)
+    thr_m = lrt_threshold(1, len(cand_effects))  # the selection's price of one parameter
     fits: List[CandidateFit] = []
     guided: List[Dict[str, Any]] = []
     refined_sets: List[Dict[str, Any]] = []
@@ -387,10 +390,10 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
                              if search != "full" and len(cand_effects) > SCREEN_FROM else None,
                              tier=search == "tiered",
                              done=lambda singles: _no_set_can_win(
-                                 singles, lambda fs: _judge(fs, base, n, excess_before, gap_ratio)),
+                                 singles, lambda fs: _judge(fs, base, n, excess_before, gap_ratio, thr_m)),
                              known=lambda name: bool(changes.get(name)),
                              named=lambda singles: best_single(
-                                 singles, _judge(singles, base, n, excess_before, gap_ratio), chi2_0, n))
+                                 singles, _judge(singles, base, n, excess_before, gap_ratio, thr_m), chi2_0, n))
         else:
             assert model_many is not None
             # Beam stage first (cheap): its selection re-centres the surrogate's bias.
@@ -403,7 +406,7 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
             fits = fit_sets_joint(cand_effects, max_effects, base, meas_b, model_b, meas_s, model_many,
                                    chi2_b0, chi2_s0, ensemble_many=ensemble_many, spread0=spread_base,
                                    progress=progress)
-    verdicts = _judge(fits, base, n, excess_before, gap_ratio)
+    verdicts = _judge(fits, base, n, excess_before, gap_ratio, thr_m)
     best, alts = select([f for f in fits if not verdicts[f.effects]], chi2_0, n, base_ok)
 
     def after_of(p: Model) -> Tuple[Dict[str, float], Dict[str, str], Dict[str, float], Dict[str, int]]:
@@ -532,7 +535,8 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
                  f"the n features); (2) the updated model is adequate, chi2 <= chi2_0.99(n-k); (3) each "
                  f"parameter moved by at least its relevance threshold (EFFECTS[...].relevance); (4) the gap beyond "
                  f"the noise, sqrt(max(chi2 - E[chi2], 0)/n), after <= {gap_ratio:g} x before ({excess_before:.3g}; "
-                 f"fit and full simulation); among the sets that pass, forward "
+                 f"fit and full simulation); (5) it fits better than every set of negligible changes, each chi2 "
+                 f"charged {thr_m:.3g} per parameter; among the sets that pass, forward "
                  f"selection by likelihood-ratio tests at 99 %, Bonferroni-corrected for picking the best of m "
                  f"sets (m = {len(cand_effects)}: {lrt_threshold(1, len(cand_effects)):.2f}); otherwise the "
                  f"verdict is 'unexplained' and nothing is added")

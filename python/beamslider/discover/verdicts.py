@@ -62,6 +62,9 @@ class Why(str, Enum):
     """The gap beyond the noise shrinks too little (in the fit, or in the full simulation)."""
     NOT_RESOLVED = "not resolved"
     """A parameter's interval contains its baseline value (:func:`unresolved_reasons`)."""
+    NEGLIGIBLE_FITS_BETTER = "a negligible change fits better"
+    """A negligible change (:func:`negligible_fits`) fits at least as well, each charged the
+    selection's threshold per parameter (:func:`beaten_by_negligible`)."""
 
 
 class Reason(str):
@@ -112,6 +115,27 @@ def negligible_fits(fits: Sequence[CandidateFit], reasons: Reasons) -> List[Cand
             and all(any(getattr(r, "kind", None) is Why.NEGLIGIBLE and r.effect == e for r in reasons[f.effects])
                     for e in f.effects)
             and kinds(reasons[f.effects]) <= {Why.NEGLIGIBLE, Why.NOT_RESOLVED}]
+
+
+def beaten_by_negligible(fits: Sequence[CandidateFit], reasons: Reasons, threshold: float) -> Reasons:
+    """``reasons`` with one more for each set that passes the naming rule but fits no better than
+    the best negligible change (:func:`negligible_fits`), each set's χ² charged ``threshold`` per
+    fitted parameter (the selection's price of a parameter, as in :func:`unnamed_verdict`): the data
+    do not prefer that relevant change to the baseline's neighbourhood, so it is not named
+    (docs/model.md §9.1, "Resolved"). A relevant change that a set with less than a relevance
+    threshold's change fits better is the wrong effect standing in for one the data barely see."""
+    negl = min(negligible_fits(fits, reasons), key=lambda f: f.chi2 + threshold * len(f.effects), default=None)
+    if negl is None:
+        return reasons
+    bar = negl.chi2 + threshold * len(negl.effects)
+    out = dict(reasons)
+    for f in fits:
+        if not reasons[f.effects] and f.chi2 + threshold * len(f.effects) >= bar:
+            vals = ", ".join(f"{EFFECTS[e].field} {f_:.4g}" for e, f_ in negl.values.items())
+            out[f.effects] = [Reason(Why.NEGLIGIBLE_FITS_BETTER, f"a negligible change fits better: {vals} "
+                                     f"(chi2 {negl.chi2:.3g} against {f.chi2:.3g}, each charged {threshold:.3g} "
+                                     f"per parameter)")]
+    return out
 
 
 def relevant_resolved(fits: Sequence[CandidateFit], reasons: Reasons) -> List[CandidateFit]:
