@@ -24,7 +24,8 @@ from .joint import fit_sets_joint
 from .refine import sets_to_refine, step_chi2
 from .separability import slider_changes, slider_sensitivities
 from .verdicts import (ADVICE_GRID, GUIDED_PAIRS, Reason, Reasons, Why, advise, beaten_by_negligible,
-                       confounded_group, confounded_sets, pairs_to_fit, interval_of, kinds, negligible_fits, rank_pairs, unnamed_verdict, unresolved_reasons)
+                       confounded_group, confounded_sets, pairs_to_fit, interval_of, kinds, negligible_fits,
+                       rank_pairs, unnamed_verdict, unresolved_reasons)
 
 
 def _progress_bar(enabled: Optional[bool], total: int, desc: str):
@@ -440,15 +441,14 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
     confounded: Dict[str, Any] = {}
     if best is not None and measured is not None:
         sig_base = {k: sigma(meas[k], spread_base.get(k, 0.0), runs_base) for k in meas}
-        thr = lrt_threshold(1, len(cand_effects))
 
         def confirm(name: str) -> Tuple[CandidateFit, List[Reason]]:
             f = profile_fit((EFFECTS[name],), base, meas, model_fn, model_many=model_many,
                             ensemble_many=ensemble_many, spread0=spread_base)
             return f, _judge([f], base, n, excess_before, gap_ratio)[f.effects]
 
-        group = confounded_group(best, fits, verdicts, before, sig_base, base, thr) or (confounded_sets(
-            best, fits, verdicts, before, sig_base, base, thr, [n for n, e in EFFECTS.items() if e.level == level],
+        group = confounded_group(best, fits, verdicts, before, sig_base, base, thr_m) or (confounded_sets(
+            best, fits, verdicts, before, sig_base, base, thr_m, [n for n, e in EFFECTS.items() if e.level == level],
             lambda names: slider_changes(names, base, ops, threads=threads, cache=run_cache), confirm,
             [e.name for e in cand_effects]) if level == "slider" else None)
         if group is not None:
@@ -508,7 +508,7 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
         verdict = "confounded"
     else:
         # Also a named set that only effects outside the candidates mimic: not established by them.
-        verdict, _, u = unnamed_verdict(fits, verdicts, lrt_threshold(1, len(cand_effects)))
+        verdict, _, u = unnamed_verdict(fits, verdicts, thr_m)
         if u is not None:
             unresolved = dict(effects=list(u.effects), values=u.values, stderrs=u.stderrs, chi2=u.chi2,
                               intervals={e: list(interval_of(u, e)) for e in u.effects},
@@ -538,7 +538,7 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
                  f"fit and full simulation); (5) it fits better than every set of negligible changes, each chi2 "
                  f"charged {thr_m:.3g} per parameter; among the sets that pass, forward "
                  f"selection by likelihood-ratio tests at 99 %, Bonferroni-corrected for picking the best of m "
-                 f"sets (m = {len(cand_effects)}: {lrt_threshold(1, len(cand_effects)):.2f}); otherwise the "
+                 f"sets (m = {len(cand_effects)}: {thr_m:.2f}); otherwise the "
                  f"verdict is 'unexplained' and nothing is added")
     return Discovery(level, named, params_out, features, gap_before, gap_after, chi2_0, fits, criterion, base,
                      updated, behaviours, alts, enma_data if level == "beam" else list(measured or []) if level == "slider"

@@ -128,10 +128,10 @@ def beaten_by_negligible(fits: Sequence[CandidateFit], reasons: Reasons, thresho
     if negl is None:
         return reasons
     bar = negl.chi2 + threshold * len(negl.effects)
+    vals = ", ".join(f"{EFFECTS[e].field} {v:.4g}" for e, v in negl.values.items())
     out = dict(reasons)
     for f in fits:
         if not reasons[f.effects] and f.chi2 + threshold * len(f.effects) >= bar:
-            vals = ", ".join(f"{EFFECTS[e].field} {f_:.4g}" for e, f_ in negl.values.items())
             out[f.effects] = [Reason(Why.NEGLIGIBLE_FITS_BETTER, f"a negligible change fits better: {vals} "
                                      f"(chi2 {negl.chi2:.3g} against {f.chi2:.3g}, each charged {threshold:.3g} "
                                      f"per parameter)")]
