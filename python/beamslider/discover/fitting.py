@@ -366,12 +366,14 @@ def profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str,
     χ² as a spread of the features (σ² = σ_meas² + 2·spread² for one run against one measured
     draw): ``spread0`` (the baseline's) at first, then that of an ensemble of runs
     (``ensemble_many``) at the best coarse point, and at the end that of the ensemble at the
-    fitted point, whose mean gives the fit's χ² (σ² = σ_meas² + (1 + 1/R)·spread²). Standard
+    fitted point, whose mean gives the fit's χ² (σ² = σ_meas² + (1 + 1/R)·spread²); one effect:
+    where the ensemble at the best coarse point fits better than that at the end (single runs
+    switching end states near a mode boundary), that point is the fit. Standard
     error: half the Δχ² = 1 interval of the rescored profile scan (:func:`_interval`), widened
     by the scatter of the last refinement level's χ² about a parabola (:func:`_roughness`)
     where the objective is rough. Several effects: the coordinate pass's point refined jointly
     (:func:`.refine.gauss_newton`, :data:`JOINT_REFINEMENT`), standard errors from its covariance.
-    Intervals at :data:`INTERVAL_LEVEL` (:func:`.verdicts.interval_of`).
+    Intervals at :data:`INTERVAL_LEVEL` (:func:`.verdicts.interval_of`), holding the fitted value.
     ``joint``: refine a set jointly (None: :data:`JOINT_REFINEMENT`).
     ``fixed``: values of further effects held (the joint fit's beam-level part)."""
     many = model_many if model_many is not None else _one_at_a_time(model_fn)  # type: ignore[arg-type]
@@ -415,12 +417,18 @@ def profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str,
     def chi2(u: np.ndarray) -> float:
         return chi2_from(cache[key_of(u)], sig_single())
 
+    def ensemble_chi2(ens: Ensemble, sp: Dict[str, float]) -> float:
+        # The ensemble mean against the data, σ² = σ_meas² + (1 + 1/R)·spread².
+        sig_e = np.sqrt(se ** 2 + (1 + 1 / ens.runs) * np.array([sp.get(kk, 0.0) for kk in names]) ** 2)
+        return chi2_from(ens.mean, sig_e, ens.mode_counts, ens.runs)
+
     def ensemble_at(u: np.ndarray) -> Optional[Ensemble]:
         if ensemble_many is None or cache.get(key_of(u)) is None:
             return None
         return ensemble_many([params_of(u)], [cache[key_of(u)]])[0]
 
     u = np.array([np.clip(e.variable(e.baseline_value(baseline), baseline), e.lower, e.upper) for e in effects])
+    first: Optional[Tuple[np.ndarray, Ensemble]] = None  # the ensemble at the first scan's best point
     samples: List[List[np.ndarray]] = [[] for _ in effects]
     last: List[List[np.ndarray]] = [[] for _ in effects]
     for i, e in enumerate(effects):
@@ -434,6 +442,7 @@ def profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str,
         if i == 0:
             ens = ensemble_at(at(x_best))
             if ens is not None:
+                first = (at(x_best), ens)
                 spread.update(ens.spread)
                 x_best = min(xs, key=lambda x: chi2(at(x)))
         fine = []
@@ -472,8 +481,18 @@ def profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str,
     if ens is not None:
         spread.update(pooled_spread(ens, [[cache[key_of(p)] for p in pts] for pts in last], names, modes))
         predicted = dict(ens.mean)
-        sig_e = np.sqrt(se ** 2 + (1 + 1 / ens.runs) * np.array([spread.get(kk, 0.0) for kk in names]) ** 2)
-        best_chi2 = chi2_from(ens.mean, sig_e, ens.mode_counts, ens.runs)
+        best_chi2 = ensemble_chi2(ens, spread)
+        if first is not None and refined is None and len(effects) == 1 and key_of(first[0]) != key_of(u):
+            # The fit's χ² is that of an ensemble; where the single runs' search left the point whose
+            # ensemble fits better (a rough, mode-switching objective), that point is the fit.
+            sp_first = dict(spread0 or {})
+            sp_first.update(pooled_spread(first[1], [], names, modes))
+            c_first = ensemble_chi2(first[1], sp_first)
+            if c_first < best_chi2:
+                u, ens, best_chi2 = first[0], first[1], c_first
+                spread.clear()
+                spread.update(sp_first)
+                predicted = dict(ens.mean)
     else:
         best_chi2 = chi2(u)
         predicted = dict(cache[key_of(u)] or {})
@@ -498,6 +517,9 @@ def profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str,
             _, lo1, hi1 = _interval(xs, fs, rough)
             su = (hi1 - lo1) / 2 if math.isfinite(lo1) and math.isfinite(hi1) else math.inf
             _, lo_u, hi_u = _interval(xs, fs, rough, delta=z * z)
+            # The interval holds the fitted value (the profile rescored with the fitted point's
+            # spread may have its minimum elsewhere).
+            lo_u, hi_u = min(lo_u, u[i]), max(hi_u, u[i])
         stderrs[e.name] = _stderr_of(e, u[i], su, baseline)
         ok = math.isfinite(su) and math.isfinite(lo_u) and math.isfinite(hi_u)
         ends = sorted((e.value(lo_u, baseline), e.value(hi_u, baseline))) if ok else [-math.inf, math.inf]
