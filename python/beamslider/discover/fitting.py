@@ -367,8 +367,9 @@ def profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str,
     draw): ``spread0`` (the baseline's) at first, then that of an ensemble of runs
     (``ensemble_many``) at the best coarse point, and at the end that of the ensemble at the
     fitted point, whose mean gives the fit's χ² (σ² = σ_meas² + (1 + 1/R)·spread²); one effect:
-    where the ensemble at the best coarse point fits better than that at the end (single runs
-    switching end states near a mode boundary), that point is the fit. Standard
+    where the ensemble at the best coarse point fits better than that at the end by more than
+    :func:`interval_z` squared (single runs switching end states near a mode boundary), that point
+    is the fit. Standard
     error: half the Δχ² = 1 interval of the rescored profile scan (:func:`_interval`), widened
     by the scatter of the last refinement level's χ² about a parabola (:func:`_roughness`)
     where the objective is rough. Several effects: the coordinate pass's point refined jointly
@@ -483,12 +484,13 @@ def profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str,
         predicted = dict(ens.mean)
         best_chi2 = ensemble_chi2(ens, spread)
         if first is not None and refined is None and len(effects) == 1 and key_of(first[0]) != key_of(u):
-            # The fit's χ² is that of an ensemble; where the single runs' search left the point whose
-            # ensemble fits better (a rough, mode-switching objective), that point is the fit.
+            # The fit's χ² is that of an ensemble; where the single runs' search left a point whose
+            # ensemble fits better by more than the intervals' z² (a rough, mode-switching
+            # objective), that point is the fit; within z² the two are alike and the refined one stands.
             sp_first = dict(spread0 or {})
             sp_first.update(pooled_spread(first[1], [], names, modes))
             c_first = ensemble_chi2(first[1], sp_first)
-            if c_first < best_chi2:
+            if c_first < best_chi2 - interval_z() ** 2:
                 u, ens, best_chi2 = first[0], first[1], c_first
                 spread.clear()
                 spread.update(sp_first)
