@@ -158,9 +158,9 @@ SCREEN_FROM = 3
 
 SCREEN_MARGIN = 20.0
 """A coarsely scanned single candidate is fitted in full if its χ² is within this of the best
-coarse χ²: the refinement lowers a coarse minimum by at most (grid step / 2σ)², about 13 for the
-sharpest candidate (slider inertia with the reference runs), and a candidate farther off cannot
-become the best (docs/model.md §9.1)."""
+coarse χ²: the refinement lowered a coarse minimum by at most (grid step / 2σ)², about 13, for the
+sharpest candidate of the table's runs (slider inertia). Not a bound: a valley narrower than the grid
+step lies between its points and is dropped (docs/model.md §9.1, "Cost")."""
 
 SCREEN_KEEP = 3
 """At least this many single candidates (the best coarse ones) are fitted in full."""
