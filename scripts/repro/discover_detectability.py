@@ -8,7 +8,7 @@ verdict other than "none" can then be asked of discover (a rule that said "unexp
 would say it as often for the prototype's own runs).
 
 Usage:  python3 scripts/repro/discover_detectability.py [--truths "restitution=0.3;restitution=0.1;restitution=0.7"]
-                                                  [--seeds 3] [--s0-offsets -0.003,...,0.003] [--duration 60]
+                                                  [--seeds 3] [--s0-offsets=-0.003,...,0.003] [--duration 60]
                                                   [--out docs/results/discover/detectability.md]
 
 ``--truths``: ";"-separated truths, each ","-separated ``effect=value`` pairs (effect names of
@@ -109,7 +109,7 @@ def main() -> int:
                     f"{np.median([r['limit'] for r in res]):.1f} |")
     wall, cpu = time.perf_counter() - t0, time.process_time() - c0
     text = (f"# Which hidden changes the table's runs see\n\nThe baseline's test on runs of each truth (scripts/repro/discover_detectability.py --truths "
-            f"\"{args.truths}\" --seeds {args.seeds} --s0-offsets {args.s0_offsets} --duration {args.duration:g}): "
+            f"\"{args.truths}\" --seeds {args.seeds} --s0-offsets={args.s0_offsets} --duration {args.duration:g}): "
             f"the three reference operating points {OPS}, s noise 0.001; {wall:.0f} s wall, {cpu:.0f} s CPU on "
             f"{os.cpu_count()} cores.\n\n" + "\n".join(rows) + "\n")
     print(text)
