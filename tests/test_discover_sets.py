@@ -402,7 +402,7 @@ def test_the_tier_fits_the_best_predicted_and_falls_back_to_the_full_search(monk
     answer (a named single below the threshold, every unfitted candidate predicted beyond the margin,
     every fitted one predicted within the margin of its fit)
     the others stay screened and no coarse scan is made; else the full search runs: coarse scans of
-    every candidate (refine=0), as search="full" does."""
+    every candidate (refine=naming.SCREEN_REFINE), as search="full" does."""
     from beamslider.discover import naming
     from beamslider.discover.effects import EFFECTS
     from beamslider.discover.fast import TIER_MARGIN, tiered_singles
@@ -449,7 +449,7 @@ def test_the_tier_fits_the_best_predicted_and_falls_back_to_the_full_search(monk
         calls.clear()
         fits = naming._fit_sets(cands, 2, "slider", bs.Parameters(), {f"f{i}": None for i in range(11)}, None, None, 0,
                                 done=lambda s: settled, predict=lambda: pred, tier=True, guide=lambda: [])
-        coarse = [c for c in calls if c[1] == 0]
+        coarse = [c for c in calls if c[1] == naming.SCREEN_REFINE]
         assert calls[0] == (("friction_coefficient",), 2)
         assert (coarse == []) if settled else (len(coarse) == len(names))
         assert len([f for f in fits if f.linearised]) == (len(names) - 1 if settled else 0)
