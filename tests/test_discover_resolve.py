@@ -602,3 +602,20 @@ def test_the_baseline_fits_only_without_a_feature_beyond_the_bonferroni_bound():
     f = CandidateFit(("excitation_gain",), {"excitation_gain": 0.95}, {}, 10.0, 15, True, 10.0)
     assert select([f], 28.07, 16)[0] is None  # the χ² test alone: the baseline is adequate
     assert select([f], 28.07, 16, baseline_fits(28.07, 16, 4.39))[0] is f
+
+
+def test_the_baseline_test_counts_each_feature_in_its_uncertainty_and_a_missing_one_at_five():
+    """fitting.baseline_test (docs/model.md §9.1): z of each feature in sqrt(σ_meas² + (1 + 1/R)·spread²)
+    (here σ_meas 0.3, spread 0.4 over R = 4 runs: sqrt(0.09 + 1.25·0.16) = sqrt(0.29)); a feature the
+    baseline lacks is filled 5 of those uncertainties off (χ² 25); adequacy by χ² and the |z| bound."""
+    from beamslider.discover.features import Feature
+    from beamslider.discover.fitting import baseline_test, chi2_quantile, z_bound
+
+    meas = {"a": Feature("a", 1.0, 0.3), "b": Feature("b", 2.0, 0.3), "c": Feature("c", 0.0, 0.3)}
+    s = math.sqrt(0.09 + 1.25 * 0.16)
+    t = baseline_test({"a": 1.0 + s, "b": 2.0 - 3 * s}, meas, {"a": 0.4, "b": 0.4, "c": 0.4}, 4)
+    assert t.n == 3 and t.chi2 == pytest.approx(1 + 9 + 25) and t.z_worst == pytest.approx(5.0)
+    assert t.before["c"] == pytest.approx(5 * s) and t.gap == pytest.approx(math.sqrt(35 / 3))
+    assert not t.fits and t.chi2 > chi2_quantile(3)
+    t = baseline_test({"a": 1.0 + s, "b": 2.0 - s, "c": 0.0}, meas, {"a": 0.4, "b": 0.4, "c": 0.4}, 4)
+    assert t.chi2 == pytest.approx(2.0) and t.fits and t.z_worst < z_bound(3)

@@ -38,22 +38,15 @@ P = bs.Parameters()
 
 def baseline_test(runs) -> Dict[str, float]:
     """The baseline's test as `discover` makes it before any fit: χ², feature count, the largest
-    |z|, the 99 % quantile, adequacy, the gap beyond the noise (the same functions)."""
+    |z|, the 99 % quantile, adequacy, the gap beyond the noise (`discover.fitting.baseline_test`)."""
     meas, _, ops = models.measured_slider_features(runs)
     modes = models.data_modes(meas) if fitting.MODE_CONDITIONING else None
     ens = models.ensemble_slider_features([P], ops, modes=modes)[0]
     if ens is None:
         raise bs.SimulationError("the prototype's runs failed")
-    spread, nruns = {k: ens.spread.get(k, 0.0) for k in meas}, len(models.ENSEMBLE_S0_SHIFTS)
-    before = dict(ens.mean)
-    for k in meas:
-        if k not in before:
-            before[k] = meas[k].value + fitting.missing_z(k, ens.mode_counts) * fitting.sigma(meas[k], spread[k], nruns)
-    _, chi2 = fitting.gap_of(before, meas, spread, nruns, modes, ens.mode_counts)
-    n = len(meas)
-    z = max(abs(before[k] - meas[k].value) / fitting.sigma(meas[k], spread[k], nruns) for k in meas)
-    return dict(chi2=chi2, n=n, z=z, limit=fitting.chi2_quantile(n), fits=fitting.baseline_fits(chi2, n, z),
-                excess=fitting.excess(chi2, n, n))
+    t = fitting.baseline_test(ens.mean, meas, ens.spread, len(models.ENSEMBLE_S0_SHIFTS), modes, ens.mode_counts)
+    return dict(chi2=t.chi2, n=t.n, z=t.z_worst, limit=fitting.chi2_quantile(t.n), fits=t.fits,
+                excess=fitting.excess(t.chi2, t.n, t.n))
 
 
 def parse_truth(text: str) -> Dict[str, float]:

@@ -277,14 +277,8 @@ def fit_candidate(effects: Sequence[Effect], baseline: Parameters, meas: Dict[st
         se_u = np.sqrt(np.maximum(np.diag(cov_u), 0.0))
     except np.linalg.LinAlgError:
         se_u = np.full(k, math.inf)
-    values, stderrs = {}, {}
-    for e, u, su in zip(effects, best.x, se_u):
-        v = e.value(u, baseline)
-        values[e.name] = v
-        if e.kind == "compliance":
-            stderrs[e.name] = abs(e.scale(baseline) / u ** 2) * su if u > 0 else math.inf
-        else:
-            stderrs[e.name] = abs(e.scale(baseline)) * su
+    values = {e.name: e.value(u, baseline) for e, u in zip(effects, best.x)}
+    stderrs = {e.name: _stderr_of(e, u, su, baseline) for e, u, su in zip(effects, best.x, se_u)}
     dof = n - k
     return CandidateFit(tuple(e.name for e in effects), values, stderrs, chi2, dof,
                         chi2 <= chi2_quantile(dof), chi2 + k * math.log(max(n, 2)))
@@ -557,6 +551,33 @@ def baseline_fits(chi2_0: float, n: int, z_worst: float = 0.0) -> bool:
     feature that agrees: a 5 % excitation-level error moves one slider speed by 4.4 uncertainties,
     which χ² 28.1 over 16 features (limit 32.0) does not show (docs/model.md §9.1)."""
     return chi2_0 <= chi2_quantile(n) and z_worst <= z_bound(n)
+
+
+@dataclass
+class BaselineTest:
+    """The baseline's test before any fit (:func:`baseline_test`)."""
+
+    before: Dict[str, float]
+    """The baseline's features, a feature it lacks filled at :func:`missing_z` uncertainties."""
+    gap: float
+    chi2: float
+    n: int
+    z_worst: float
+    fits: bool
+    """:func:`baseline_fits`."""
+
+
+def baseline_test(model: Dict[str, float], meas: Dict[str, Feature], spread: Optional[Dict[str, float]] = None,
+                  runs: int = 0, modes: Optional[Modes] = None, counts: Optional[Dict[str, int]] = None) -> BaselineTest:
+    """The baseline's features ``model`` (an ensemble: ``spread``, ``runs``, ``counts``) tested against
+    the measured ones: χ² (:func:`gap_of`), the largest |z| and :func:`baseline_fits` (docs/model.md §9.1)."""
+    sp = spread or {}
+    before = dict(model)
+    before.update({k: f.value + missing_z(k, counts) * sigma(f, sp.get(k, 0.0), runs) for k, f in meas.items()
+                   if k not in model})
+    gap, chi2 = gap_of(before, meas, sp, runs, modes, counts)
+    z = max((abs(before[k] - f.value) / sigma(f, sp.get(k, 0.0), runs) for k, f in meas.items()), default=0.0)
+    return BaselineTest(before, gap, chi2, len(meas), z, baseline_fits(chi2, len(meas), z))
 
 
 def select(fits: List[CandidateFit], chi2_0: float, n: int,

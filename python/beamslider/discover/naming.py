@@ -13,7 +13,7 @@ from ..params import Parameters, resolve
 from .chain import Model, realise_model
 from .effects import EFFECTS, Effect, realise_effects
 from .features import Feature, enma_features
-from .fitting import (MODE_CONDITIONING, CandidateFit, Discovery, EnsembleMany, ModelMany, baseline_fits,
+from .fitting import (MODE_CONDITIONING, CandidateFit, Discovery, EnsembleMany, ModelMany, baseline_test,
                       chi2_quantile, excess, z_bound,
                       fit_candidate, gap_of, lrt_threshold, missing_z, profile_fit, select, sigma)
 from .models import (ENSEMBLE_S0_SHIFTS, Ensemble, Modes, RunCache, batch_slider_features, beam_surrogate,
@@ -330,14 +330,8 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
 
     diff_step, max_nfev = None, (200 if level == "beam" else 0)
     # Features the baseline cannot compute (e.g. no turning point) count as a disagreement of 5σ.
-    for k in meas:
-        if k not in before:
-            before[k] = meas[k].value + missing_z(k, counts_base) * sigma(meas[k], spread_base.get(k, 0.0), runs_base)
-    gap_before, chi2_0 = gap_of(before, meas, spread_base, runs_base, modes, counts_base)
-    n = len(meas)
-    z_worst = max((abs(before[k] - meas[k].value) / sigma(meas[k], spread_base.get(k, 0.0), runs_base)
-                   for k in meas), default=0.0)
-    base_ok = baseline_fits(chi2_0, n, z_worst)
+    test = baseline_test(before, meas, spread_base, runs_base, modes, counts_base)
+    before, gap_before, chi2_0, n, z_worst, base_ok = test.before, test.gap, test.chi2, test.n, test.z_worst, test.fits
     excess_before = excess(chi2_0, n, n)
     thr_m = lrt_threshold(1, len(cand_effects))  # the selection's price of one parameter
     fits: List[CandidateFit] = []
