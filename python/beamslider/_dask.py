@@ -144,11 +144,13 @@ def run_chunks(client: Any, func: Callable[..., List[str]], chunks: Sequence[tup
 
     # Ctrl-C inside distributed's `sync` schedules a cancel callback on the client's event loop
     # that can fail there (a NameError in some distributed releases) and log a traceback from the
-    # loop's thread; the run reports the interruption itself, so that logger is quiet while the
-    # chunks run and stays quiet when the run is interrupted.
-    loop_log = logging.getLogger("tornado.application")
-    loop_level = loop_log.level
-    loop_log.setLevel(logging.CRITICAL + 1)
+    # loop's thread, and a scheduler that goes away makes the client's batched comm log its closing
+    # with a traceback (at INFO); the run reports the interruption and the loss itself, so those
+    # loggers are quiet while the chunks run and stay quiet when the run is interrupted.
+    loop_logs = [logging.getLogger(name) for name in ("tornado.application", "distributed.batched")]
+    loop_levels = [log.level for log in loop_logs]
+    for log in loop_logs:
+        log.setLevel(logging.CRITICAL + 1)
     futures = {submit(k, 0): (k, 0) for k in range(len(chunks))}
     done = 0
     trouble_since: Optional[float] = None
@@ -203,7 +205,8 @@ def run_chunks(client: Any, func: Callable[..., List[str]], chunks: Sequence[tup
         for fut in list(futures):
             _quietly(fut.cancel)
         if not interrupted:
-            loop_log.setLevel(loop_level)
+            for log, level in zip(loop_logs, loop_levels):
+                log.setLevel(level)
 
 
 def _workers(client: Any) -> int:
