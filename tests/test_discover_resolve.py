@@ -530,29 +530,6 @@ def test_a_fit_keeps_the_scanned_point_whose_ensemble_fits_better():
     assert min(chi2_single, key=chi2_single.get) < good
 
 
-def test_a_calibrations_scan_pools_no_scatter_into_the_spread():
-    """fitting.profile_fit (docs/model.md §9.1, "One effect"): the fit's spread pools the ensemble's
-    with the scatter of the last refinement level's single runs about a quadratic trend, where the
-    scan changes the physics. A feature-level calibration of the measurement chain re-reads one run
-    along its scan: no scatter, and pooling its zeros would shrink the spread (here the ensemble's
-    1.0 to sqrt(4/8)). A physical candidate with the same smooth runs pools them (the contrast)."""
-    from beamslider.discover.features import Feature
-    from beamslider.discover.fitting import profile_fit
-    from beamslider.discover.models import Ensemble
-
-    base = bs.Parameters()
-
-    def x_of(m, name):
-        return m.value(name) - 1.0 if name == "velocity_gain" else (m.params.friction_coefficient - 0.2) * 4
-
-    meas = {"a": Feature("a", 0.1, 1.0)}
-    for name, want in (("velocity_gain", 1.0), ("friction_coefficient", math.sqrt(4 / 8))):
-        many = lambda ps: [dict(a=x_of(m, name)) for m in ps]  # noqa: E731
-        ens = lambda ps, central: [Ensemble(dict(a=x_of(m, name)), dict(a=1.0), 5, {}) for m in ps]  # noqa: E731
-        f = profile_fit([EFFECTS[name]], base, meas, model_many=many, ensemble_many=ens, spread0=dict(a=1.0))
-        assert f.model_spread["a"] == pytest.approx(want, rel=1e-6), name
-
-
 @pytest.mark.slow
 def test_restitution_in_the_issues_60_s_runs_is_the_best_candidate_not_resolved(tmp_path):
     """Restitution 0.3 (baseline 0.5) hidden in the three reference 60-s runs, the truth runs

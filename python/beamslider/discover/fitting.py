@@ -474,10 +474,7 @@ def profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str,
     n, k = len(names), len(effects) + len(fixed)
     predicted: Dict[str, float] = {}
     if ens is not None:
-        # The scatter of a scan's single runs measures the model's sensitivity only where the scan
-        # changes the physics: a feature-level calibration re-reads one run (no scatter to pool).
-        spread.update(pooled_spread(ens, [[cache[key_of(p)] for p in pts] for e, pts in zip(effects, last)
-                                          if e.chain != "features"], names, modes))
+        spread.update(pooled_spread(ens, [[cache[key_of(p)] for p in pts] for pts in last], names, modes))
         predicted = dict(ens.mean)
         best_chi2 = ensemble_chi2(ens, spread)
         if first is not None and refined is None and len(effects) == 1 and key_of(first[0]) != key_of(u):

@@ -92,9 +92,8 @@ def _fit_sets(cand_effects: Sequence[Effect], max_effects: int, level: str, base
         fits = predicted_singles(cand_effects, predict(), lambda e: fit((e,)), len(meas))
         bar.update(len(cand_effects))
     if not fits and level == "slider" and len(cand_effects) > SCREEN_FROM:
-        # Coarse scans of every candidate first (grid, one refinement level about its best point and
-        # their ensembles: runs the full fits reuse), full fits only of those whose coarse χ² is
-        # within SCREEN_MARGIN of the best.
+        # Coarse scans of every candidate first (grid and one ensemble, SCREEN_REFINE levels: runs
+        # the full fits reuse), full fits only of those whose coarse χ² is within SCREEN_MARGIN of the best.
         coarse = []
         for e in cand_effects:
             coarse.append(fit((e,), refine=SCREEN_REFINE))
@@ -157,18 +156,17 @@ def _no_set_can_win(singles: List[CandidateFit], judge: Callable[[List[Candidate
 SCREEN_FROM = 3
 """Slider level, more candidates than this: each is first scanned coarsely (:func:`_fit_sets`)."""
 
-SCREEN_REFINE = 1
-"""Refinement levels of the coarse scan (:func:`.fitting.profile_fit`): one, 7 points spanning ± one
-grid step about the grid's best point, so that a valley narrower than the grid step beside that point
-is seen (with friction 0.185 hidden, χ² 198 at the grid's best point 0.2, 1.8 at 0.1833;
-docs/model.md §9.1, "Cost")."""
+SCREEN_REFINE = 0
+"""Refinement levels of the coarse scan (:func:`.fitting.profile_fit`): none, the grid and one ensemble.
+One level (7 points spanning ± one grid step about the grid's best point) sees a valley narrower than
+the grid step beside that point (friction 0.185 hidden: χ² 198 at the grid point 0.2, 1.8 at 0.1833)
+but is not the default until the discover table is rerun with it (docs/model.md §9.1, "Cost")."""
 
 SCREEN_MARGIN = 20.0
 """A coarsely scanned single candidate is fitted in full if its χ² is within this of the best
-coarse χ²: the full fit's further refinement level, with a third of the step, lowers a coarse minimum
-by about a ninth of what the first level did (for the sharpest candidate of the table's runs, slider
-inertia, the first lowered it by about 13). Not a bound: a valley narrower than the grid step that
-lies away from the grid's best point is not seen (docs/model.md §9.1, "Cost")."""
+coarse χ²: the refinement lowered a coarse minimum by at most (grid step / 2σ)², about 13, for the
+sharpest candidate of the table's runs (slider inertia). Not a bound: a valley narrower than the grid
+step lies between its points and is dropped (docs/model.md §9.1, "Cost")."""
 
 SCREEN_KEEP = 3
 """At least this many single candidates (the best coarse ones) are fitted in full."""

@@ -39,9 +39,8 @@ def pooled_spread(ens: Ensemble, levels: Sequence[Sequence[Optional[Dict[str, fl
     """The model's spread of each feature at the fitted point, pooled from two measurements of the
     same thing — its sensitivity to what the data cannot resolve: the variance over the ensemble
     of runs (R − 1 degrees of freedom) and the scatter about a quadratic trend of the single runs
-    of the last refinement level of each profile scan in ``levels`` (7 points, 4 degrees of freedom;
-    the trend is what the data resolve, the scatter the roughness; the caller leaves out the scans of
-    a feature-level calibration, whose points re-read one run). Five runs alone give an unstable estimate
+    of the last refinement level of each profile scan (7 points, 4 degrees of freedom; the trend is
+    what the data resolve, the scatter the roughness). Five runs alone give an unstable estimate
     (4 degrees of freedom: at μ = 0.26, 60 s, the final amplitude at 126 Hz spreads by 0.002 over
     the ensemble, by 0.007 over nine perturbations). ``modes``: the data's modes; a mode feature's
     spread comes from the runs in the data's mode only, or, with fewer than
