@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """Whether a hidden change is visible in the discover table's runs at all: the baseline's test
 (docs/model.md §9.1: χ² against its 99 % quantile and the |z| bound) on runs of a truth, repeated
-over slider start offsets (the noise seed barely moves the features) and noise seeds, beside the same test on runs of the prototype itself.
+over slider start offsets (the noise seed barely moves the features) and noise seeds, beside the
+same test on runs of the prototype itself.
 
 A change the runs do not see passes the baseline's test about as often as the prototype does; no
 verdict other than "none" can then be asked of discover (a rule that said "unexplained" there
