@@ -530,6 +530,50 @@ def test_a_fit_keeps_the_scanned_point_whose_ensemble_fits_better():
     assert min(chi2_single, key=chi2_single.get) < good
 
 
+def test_a_rough_scan_that_picks_the_baseline_is_rescored_on_ensembles(monkeypatch):
+    """fitting.profile_fit, one effect (docs/model.md §9.1, "One effect"): single runs that switch end
+    states from one scan point to the next (Δχ² of hundreds) leave the baseline's own run the best, so
+    the scan finds nothing; the ensembles' means are smooth and have their minimum off the grid. The
+    grid rescored on ensembles and refined by Gauss–Newton on their means finds the minimum (the
+    closed form: the means are linear in μ, so one step lands on it) with the Wald interval of the
+    linear model, which excludes the baseline. Without the rescan (threshold infinite) the fit stays
+    at the baseline, so that the test can fail."""
+    from beamslider.discover import fitting
+    from beamslider.discover.features import Feature
+    from beamslider.discover.fitting import profile_fit
+    from beamslider.discover.models import Ensemble
+
+    e, base = EFFECTS["friction_coefficient"], bs.Parameters()
+    truth, b0 = 0.33, 0.2   # off the grid 0.1, 0.15, ..., 0.5; the baseline on it
+
+    def mu(m):
+        return round(float(m.params.friction_coefficient), 9)
+
+    def mean(v):
+        return dict(a=100.0 * (v - truth), b=50.0 * (v - truth))
+
+    def single(v):   # the baseline's own run fits (χ² 9); elsewhere a run ends in another state
+        if v == b0:
+            return dict(a=3.0, b=0.0)
+        m = mean(v)
+        return dict(a=m["a"] + (40.0 if round(v * 3e4) % 2 else -40.0), b=m["b"])
+
+    meas = {k: Feature(k, 0.0, 1.0) for k in ("a", "b")}
+    many = lambda ps: [single(mu(m)) for m in ps]  # noqa: E731
+    ens = lambda ps, central: [Ensemble(mean(mu(m)), dict(a=0.0, b=0.0), 5, {}) for m in ps]  # noqa: E731
+    f = profile_fit([e], base, meas, model_many=many, ensemble_many=ens, spread0=dict(a=0.0, b=0.0))
+    assert f.values[e.name] == pytest.approx(truth, abs=1e-6)
+    assert f.chi2 == pytest.approx(0.0, abs=1e-6)
+    se = 1 / math.sqrt(100.0 ** 2 + 50.0 ** 2)   # (JᵀJ)^-1/2 of the linear means
+    assert f.stderrs[e.name] == pytest.approx(se, rel=1e-3)
+    lo, hi = f.intervals[e.name]
+    assert lo == pytest.approx(truth - 1.96 * se, rel=1e-3) and hi == pytest.approx(truth + 1.96 * se, rel=1e-3)
+    assert lo > b0
+    monkeypatch.setattr(fitting, "ROUGH_RESCAN", math.inf)
+    f = profile_fit([e], base, meas, model_many=many, ensemble_many=ens, spread0=dict(a=0.0, b=0.0))
+    assert f.values[e.name] == pytest.approx(b0)
+
+
 @pytest.mark.slow
 def test_restitution_in_the_issues_60_s_runs_is_the_best_candidate_not_resolved(tmp_path):
     """Restitution 0.3 (baseline 0.5) hidden in the three reference 60-s runs, the truth runs

@@ -104,7 +104,8 @@ def tiered_singles(cands: Sequence[Effect], pred: Dict[str, Tuple[float, float]]
     ``cands``, and whether the tier is complete: every candidate left unfitted is predicted beyond
     the margin, and the prediction of every candidate fitted came within the margin of its fitted χ²
     (the changes lie within the quadratic's reach: a contact spacing 15 % wide, mimicked by the
-    rotary inertia, was predicted at χ² 1,050 and fits at 4.5); else the caller runs the full search."""
+    rotary inertia, was predicted at χ² 1,050 and fits at 4.5); else the caller runs the full search,
+    which keeps the fits made in full (also where more candidates are predicted near than ``keep``)."""
     order = sorted(cands, key=lambda e: pred[e.name][0])
     full: Dict[str, CandidateFit] = {}
     for e in order:
@@ -112,7 +113,7 @@ def tiered_singles(cands: Sequence[Effect], pred: Dict[str, Tuple[float, float]]
         if full and pred[e.name][0] > best + TIER_MARGIN:
             break
         if len(full) == keep:
-            return [], False
+            return predicted_singles(cands, pred, lambda e: full[e.name], n, keep=set(full)), False
         full[e.name] = fit(e)
     fits = predicted_singles(cands, pred, lambda e: full[e.name], n, keep=set(full))
     trusted = all(abs(pred[k][0] - f.chi2) <= TIER_MARGIN for k, f in full.items() if math.isfinite(f.chi2))

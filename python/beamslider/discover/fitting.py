@@ -42,6 +42,14 @@ def interval_z() -> float:
     return float(norm.ppf(0.5 + INTERVAL_LEVEL / 2))
 
 
+ROUGH_RESCAN = 50.0
+"""Slider level, one effect: a fit that ends at the baseline value while the single runs' χ² of its
+last refinement level scatter by more than this about a parabola (:func:`_roughness`, with the
+spread of the ensemble at the scan's first pick) has not located the effect: its single runs switch
+end states from one scan point to the next. Its grid is then rescored on ensembles and the best point refined on ensemble
+means, as a set's is (docs/model.md §9.1, "One effect")."""
+
+
 MODE_CONDITIONING = True
 """Slider level: compare the features that depend on the state a run ends in
 (:data:`.models.MODE_FEATURES`) only with model runs in the data's mode, and charge the mode's
@@ -366,7 +374,10 @@ def profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str,
     is the fit. Standard
     error: half the Δχ² = 1 interval of the rescored profile scan (:func:`_interval`), widened
     by the scatter of the last refinement level's χ² about a parabola (:func:`_roughness`)
-    where the objective is rough. Several effects: the coordinate pass's point refined jointly
+    where the objective is rough; one effect whose fit is the baseline value while its last level
+    is rough (:data:`ROUGH_RESCAN`): its grid rescored on ensembles and the best point refined on
+    their means (:func:`.refine.gauss_newton`), taken with its Wald interval where its ensemble fits
+    better. Several effects: the coordinate pass's point refined jointly on ensemble means
     (:func:`.refine.gauss_newton`, :data:`JOINT_REFINEMENT`), standard errors from its covariance.
     Intervals at :data:`INTERVAL_LEVEL` (:func:`.verdicts.interval_of`), holding the fitted value.
     ``joint``: refine a set jointly (None: :data:`JOINT_REFINEMENT`).
@@ -423,6 +434,8 @@ def profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str,
         return ensemble_many([params_of(u)], [cache[key_of(u)]])[0]
 
     u = np.array([np.clip(e.variable(e.baseline_value(baseline), baseline), e.lower, e.upper) for e in effects])
+    u_base = u.copy()
+    grids: List[List[float]] = []
     first: Optional[Tuple[np.ndarray, Ensemble]] = None  # the ensemble at the first scan's best point
     samples: List[List[np.ndarray]] = [[] for _ in effects]
     last: List[List[np.ndarray]] = [[] for _ in effects]
@@ -430,6 +443,7 @@ def profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str,
         lo, hi = e.search if math.isfinite(e.search[0]) else (e.lower, e.upper)
         at = lambda x: np.where(np.arange(len(u)) == i, x, u)  # noqa: E731
         grid = list(np.linspace(lo, hi, grid_n))
+        grids.append(grid)
         evaluate([at(g) for g in grid])
         xs = list(grid)
         step = (hi - lo) / max(grid_n - 1, 1)
@@ -450,6 +464,9 @@ def profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str,
         u[i] = x_best
         samples[i] = [at(x) for x in xs]
         last[i] = [at(x) for x in fine]
+    # The single runs' roughness about the fit before the spread pools it (ROUGH_RESCAN).
+    rough_pass = (_roughness(np.array([p[0] for p in last[0]]), np.array([chi2(p) for p in last[0]]))
+                  if len(effects) == 1 else 0.0)
     refined = None
     if len(effects) >= 2 and joint_on:
         from .refine import EnsembleObjective, refine_jointly, single_run_residuals
@@ -492,6 +509,36 @@ def profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str,
     else:
         best_chi2 = chi2(u)
         predicted = dict(cache[key_of(u)] or {})
+    rescanned: Optional[Tuple[np.ndarray, np.ndarray]] = None  # the ensembles' profile, where rescanned
+    if (ens is not None and refined is None and len(effects) == 1 and key_of(u) == key_of(u_base)
+            and rough_pass > ROUGH_RESCAN):
+        # Rough single runs found nothing but the baseline: the grid rescored on ensembles (each with
+        # its own spread, as the first pick's), the best refined on their means; taken where its
+        # ensemble fits better by more than z², as the first pick is.
+        from .refine import EnsembleObjective, refine_jointly
+
+        sp_obj = dict(spread0 or {})
+        sp_obj.update(pooled_spread(ens, [], names, modes))
+        obj = EnsembleObjective(evaluate, lambda p: cache[key_of(p)], params_of, ensemble_many, key_of, names, y, se,
+                                sp_obj, ens.runs, lambda m, c, r, sg: chi2_from(m, sg, c, r),
+                                lambda m, c, r: _mode_terms(m, modes, c, r)[0])
+        pts = [u] + [np.array([g]) for g in grids[0]]
+        obj.evaluate(pts)
+        refine_jointly(effects, min(pts, key=obj.chi2), obj.evaluate, obj.residuals, obj.chi2)
+        # Every ensemble made, scored as a fit is: its mean against the data with its own spread.
+        own: Dict[Tuple[float, ...], Tuple[float, Dict[str, float], Ensemble]] = {}
+        for k_, e_ in obj.cache.items():
+            if e_ is not None:
+                sp_k = dict(spread0 or {})
+                sp_k.update(pooled_spread(e_, [], names, modes))
+                own[k_] = (ensemble_chi2(e_, sp_k), sp_k, e_)
+        k_best = min(own, key=lambda k_: own[k_][0], default=None)
+        if k_best is not None and key_of(u) in own and own[k_best][0] < own[key_of(u)][0] - interval_z() ** 2:
+            best_chi2, sp_r, ens = own[k_best]
+            u, predicted = np.array(k_best), dict(ens.mean)
+            spread.clear()
+            spread.update(sp_r)
+            rescanned = (np.array([k_[0] for k_ in own]), np.array([c_ for c_, _, _ in own.values()]))
     values, stderrs, intervals = dict(fixed), {}, {}
     roughness: Dict[str, float] = {}
     z = interval_z()
@@ -510,6 +557,8 @@ def profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str,
             su = math.sqrt(var * widen) if math.isfinite(var) and var >= 0 else math.inf
             lo_u, hi_u = u[i] - z * su, u[i] + z * su
         else:
+            if rescanned is not None:  # one effect rescanned: the profile of its ensembles
+                xs, fs, rough = rescanned[0], rescanned[1], 0.0
             _, lo1, hi1 = _interval(xs, fs, rough)
             su = (hi1 - lo1) / 2 if math.isfinite(lo1) and math.isfinite(hi1) else math.inf
             _, lo_u, hi_u = _interval(xs, fs, rough, delta=z * z)

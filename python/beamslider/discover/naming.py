@@ -76,6 +76,7 @@ def _fit_sets(cand_effects: Sequence[Effect], max_effects: int, level: str, base
     bar = _progress_bar(progress, len(cand_effects), f"discover ({level}): fits")
     fits: List[CandidateFit] = []
     settled = False  # by the tier: no sets fitted
+    tier_full: Dict[str, CandidateFit] = {}  # the tier's fits in full, kept by the full search
     if predict is not None and tier:
         # The screening tier: settled if its fits leave no set to fit (a named single below the
         # threshold) and no candidate it left unfitted is predicted near; else the full search, whose
@@ -87,13 +88,15 @@ def _fit_sets(cand_effects: Sequence[Effect], max_effects: int, level: str, base
             settled = True
             bar.update(len(cand_effects))
         else:
+            tier_full = {f.effects[0]: f for f in fits if not f.screened}
             fits, predict = [], None
     elif predict is not None:
         fits = predicted_singles(cand_effects, predict(), lambda e: fit((e,)), len(meas))
         bar.update(len(cand_effects))
     if not fits and level == "slider" and len(cand_effects) > SCREEN_FROM:
         # Coarse scans of every candidate first (grid and one ensemble, SCREEN_REFINE levels: runs
-        # the full fits reuse), full fits only of those whose coarse χ² is within SCREEN_MARGIN of the best.
+        # the full fits reuse), full fits only of those whose coarse χ² is within SCREEN_MARGIN of the best
+        # and of those the tier fitted in full (a coarse scan's single runs may miss what that fit found).
         coarse = []
         for e in cand_effects:
             coarse.append(fit((e,), refine=SCREEN_REFINE))
@@ -101,7 +104,9 @@ def _fit_sets(cand_effects: Sequence[Effect], max_effects: int, level: str, base
         best = sorted(c.chi2 for c in coarse)
         cut = max(best[0] + SCREEN_MARGIN, best[min(SCREEN_KEEP, len(best)) - 1])
         for e, c in zip(cand_effects, coarse):
-            if c.chi2 <= cut:
+            if e.name in tier_full:
+                fits.append(tier_full[e.name])
+            elif c.chi2 <= cut:
                 fits.append(fit((e,)))
             else:
                 c.screened = True
