@@ -535,8 +535,8 @@ def test_a_rough_scan_that_picks_the_baseline_is_rescored_on_ensembles(monkeypat
     states from one scan point to the next (Δχ² of hundreds) leave the baseline's own run the best, so
     the scan finds nothing; the ensembles' means are smooth and have their minimum off the grid. The
     grid rescored on ensembles and refined by Gauss–Newton on their means finds the minimum (the
-    closed form: the means are linear in μ, so one step lands on it) with the Wald interval of the
-    linear model, which excludes the baseline. Without the rescan (threshold infinite) the fit stays
+    closed form: the means are linear in μ, so one step lands on it); its interval, that of the
+    ensembles' profile, is here the closed form's ±1.96/sqrt(JᵀJ) and excludes the baseline. Without the rescan (threshold infinite) the fit stays
     at the baseline, so that the test can fail."""
     from beamslider.discover import fitting
     from beamslider.discover.features import Feature
@@ -569,6 +569,7 @@ def test_a_rough_scan_that_picks_the_baseline_is_rescored_on_ensembles(monkeypat
     lo, hi = f.intervals[e.name]
     assert lo == pytest.approx(truth - 1.96 * se, rel=1e-3) and hi == pytest.approx(truth + 1.96 * se, rel=1e-3)
     assert lo > b0
+    assert f.roughness[e.name] == 0.0   # the interval is the ensembles' profile's, not widened
     monkeypatch.setattr(fitting, "ROUGH_RESCAN", math.inf)
     f = profile_fit([e], base, meas, model_many=many, ensemble_many=ens, spread0=dict(a=0.0, b=0.0))
     assert f.values[e.name] == pytest.approx(b0)

@@ -545,7 +545,9 @@ def profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str,
     for i, e in enumerate(effects):
         xs = np.array([p[i] for p in samples[i]])
         fs = np.array([chi2(p) for p in samples[i]])
-        rough = _roughness(np.array([p[i] for p in last[i]]), np.array([chi2(p) for p in last[i]]))
+        # Rescanned: the interval is the ensembles' profile's, not widened by the single runs.
+        rough = 0.0 if rescanned is not None else _roughness(np.array([p[i] for p in last[i]]),
+                                                             np.array([chi2(p) for p in last[i]]))
         roughness[e.name] = rough
         values[e.name] = e.value(u[i], baseline)
         if refined is not None:
@@ -558,7 +560,7 @@ def profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str,
             lo_u, hi_u = u[i] - z * su, u[i] + z * su
         else:
             if rescanned is not None:  # one effect rescanned: the profile of its ensembles
-                xs, fs, rough = rescanned[0], rescanned[1], 0.0
+                xs, fs = rescanned
             _, lo1, hi1 = _interval(xs, fs, rough)
             su = (hi1 - lo1) / 2 if math.isfinite(lo1) and math.isfinite(hi1) else math.inf
             _, lo_u, hi_u = _interval(xs, fs, rough, delta=z * z)
