@@ -537,7 +537,7 @@ def test_a_rough_scan_that_picks_the_baseline_is_rescored_on_ensembles(monkeypat
     grid rescored on ensembles and refined by Gauss–Newton on their means finds the minimum (the
     closed form: the means are linear in μ, so one step lands on it); its interval, that of the
     ensembles' profile, is here the closed form's ±1.96/sqrt(JᵀJ) and excludes the baseline. Without the rescan (threshold infinite) the fit stays
-    at the baseline, so that the test can fail."""
+    at the baseline, so that the test can fail; a valley within the relevance threshold is not taken."""
     from beamslider.discover import fitting
     from beamslider.discover.features import Feature
     from beamslider.discover.fitting import profile_fit
@@ -549,8 +549,10 @@ def test_a_rough_scan_that_picks_the_baseline_is_rescored_on_ensembles(monkeypat
     def mu(m):
         return round(float(m.params.friction_coefficient), 9)
 
+    slope = 1.0
+
     def mean(v):
-        return dict(a=100.0 * (v - truth), b=50.0 * (v - truth))
+        return dict(a=100.0 * slope * (v - truth), b=50.0 * slope * (v - truth))
 
     def single(v):   # the baseline's own run fits (χ² 9); elsewhere a run ends in another state
         if v == b0:
@@ -573,6 +575,13 @@ def test_a_rough_scan_that_picks_the_baseline_is_rescored_on_ensembles(monkeypat
     monkeypatch.setattr(fitting, "ROUGH_RESCAN", math.inf)
     f = profile_fit([e], base, meas, model_many=many, ensemble_many=ens, spread0=dict(a=0.0, b=0.0))
     assert f.values[e.name] == pytest.approx(b0)
+    # A sharp valley within friction's relevance threshold (0.01) of the baseline (the baseline's
+    # ensemble at χ² 80): nothing to name, not taken; 0.012 from it, taken.
+    monkeypatch.setattr(fitting, "ROUGH_RESCAN", 50.0)
+    slope = 10.0
+    for truth, taken in ((0.208, False), (0.212, True)):
+        f = profile_fit([e], base, meas, model_many=many, ensemble_many=ens, spread0=dict(a=0.0, b=0.0))
+        assert f.values[e.name] == pytest.approx(truth if taken else b0, abs=1e-6)
 
 
 @pytest.mark.slow

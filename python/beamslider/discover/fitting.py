@@ -47,7 +47,8 @@ ROUGH_RESCAN = 50.0
 last refinement level scatter by more than this about a parabola (:func:`_roughness`, with the
 spread of the ensemble at the scan's first pick) has not located the effect: its single runs switch
 end states from one scan point to the next. Its grid is then rescored on ensembles and the best point refined on ensemble
-means, as a set's is (docs/model.md §9.1, "One effect")."""
+means, as a set's is; that point is the fit where it fits better by more than z² and its change is
+relevant (docs/model.md §9.1, "One effect")."""
 
 
 MODE_CONDITIONING = True
@@ -376,8 +377,8 @@ def profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str,
     by the scatter of the last refinement level's χ² about a parabola (:func:`_roughness`)
     where the objective is rough; one effect whose fit is the baseline value while its last level
     is rough (:data:`ROUGH_RESCAN`): its grid rescored on ensembles and the best point refined on
-    their means (:func:`.refine.gauss_newton`), taken with its Wald interval where its ensemble fits
-    better. Several effects: the coordinate pass's point refined jointly on ensemble means
+    their means (:func:`.refine.gauss_newton`), taken with the ensembles' profile interval where its
+    ensemble fits better by more than z² and its change is relevant. Several effects: the coordinate pass's point refined jointly on ensemble means
     (:func:`.refine.gauss_newton`, :data:`JOINT_REFINEMENT`), standard errors from its covariance.
     Intervals at :data:`INTERVAL_LEVEL` (:func:`.verdicts.interval_of`), holding the fitted value.
     ``joint``: refine a set jointly (None: :data:`JOINT_REFINEMENT`).
@@ -514,7 +515,7 @@ def profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str,
             and rough_pass > ROUGH_RESCAN):
         # Rough single runs found nothing but the baseline: the grid rescored on ensembles (each with
         # its own spread, as the first pick's), the best refined on their means; taken where its
-        # ensemble fits better by more than z², as the first pick is.
+        # ensemble fits better by more than z², as the first pick is, and its change is relevant.
         from .refine import EnsembleObjective, refine_jointly
 
         sp_obj = dict(spread0 or {})
@@ -533,7 +534,8 @@ def profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str,
                 sp_k.update(pooled_spread(e_, [], names, modes))
                 own[k_] = (ensemble_chi2(e_, sp_k), sp_k, e_)
         k_best = min(own, key=lambda k_: own[k_][0], default=None)
-        if k_best is not None and key_of(u) in own and own[k_best][0] < own[key_of(u)][0] - interval_z() ** 2:
+        if (k_best is not None and key_of(u) in own and own[k_best][0] < own[key_of(u)][0] - interval_z() ** 2
+                and effects[0].relevant(effects[0].value(k_best[0], baseline), baseline)[0]):
             best_chi2, sp_r, ens = own[k_best]
             u, predicted = np.array(k_best), dict(ens.mean)
             spread.clear()
