@@ -165,8 +165,7 @@ SCREEN_REFINE = 0
 """Refinement levels of the coarse scan (:func:`.fitting.profile_fit`): none, the grid and one ensemble.
 One level (7 points spanning ± one grid step about the grid's best point) sees a valley narrower than
 the grid step beside that point (friction 0.185 hidden: χ² 198 at the grid point 0.2, 1.8 at 0.1833)
-but is not the default: with it the search fits a pair of calibrations that stands in for a detuning the
-candidates lack, and names it (docs/model.md §9.1, "Cost")."""
+but is not the default: five of the table's rows have not been rerun with it (docs/model.md §9.1, "Cost")."""
 
 SCREEN_MARGIN = 20.0
 """A coarsely scanned single candidate is fitted in full if its χ² is within this of the best
