@@ -532,12 +532,13 @@ def test_a_fit_keeps_the_scanned_point_whose_ensemble_fits_better():
 
 def test_a_rough_scan_that_picks_the_baseline_is_rescored_on_ensembles(monkeypatch):
     """fitting.profile_fit, one effect (docs/model.md §9.1, "One effect"): single runs that switch end
-    states from one scan point to the next (Δχ² of hundreds) leave the baseline's own run the best, so
-    the scan finds nothing; the ensembles' means are smooth and have their minimum off the grid. The
-    grid rescored on ensembles and refined by Gauss–Newton on their means finds the minimum (the
+    states from one scan point to the next (Δχ² of hundreds) leave the baseline's own run the best,
+    so the scan finds nothing; the ensembles' means are smooth and have their minimum off the grid.
+    The grid rescored on ensembles and refined by Gauss–Newton on their means finds the minimum (the
     closed form: the means are linear in μ, so one step lands on it); its interval, that of the
-    ensembles' profile, is here the closed form's ±1.96/sqrt(JᵀJ) and excludes the baseline. Without the rescan (threshold infinite) the fit stays
-    at the baseline, so that the test can fail; a valley within the relevance threshold is not taken."""
+    ensembles' profile, is here the closed form's ±1.96/sqrt(JᵀJ) and excludes the baseline. Without
+    the rescan (threshold infinite) the fit stays at the baseline, so that the test can fail; a
+    valley within the relevance threshold is not taken."""
     from beamslider.discover import fitting
     from beamslider.discover.features import Feature
     from beamslider.discover.fitting import profile_fit

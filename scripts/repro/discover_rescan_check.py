@@ -71,7 +71,8 @@ t0, c0 = time.perf_counter(), time.process_time()
 try:
     d = dc.discover(measured=runs, baseline=P, effects=effects, max_effects=2)
     named = "; ".join(f"{e} {dc.fmt_value(d.parameters[e]['value'])} ± {dc.fmt_value(d.parameters[e]['stderr'])} "
-                      f"[{dc.fmt_value(d.parameters[e]['interval'][0])}, {dc.fmt_value(d.parameters[e]['interval'][1])}]"
+                      f"[{dc.fmt_value(d.parameters[e]['interval'][0])}, "
+                      f"{dc.fmt_value(d.parameters[e]['interval'][1])}]"
                       for e in d.named_effects) or "-"
     print(f"FINISHED {case} ({label}, s0 + {off}): {d.verdict} | {named} | truth {truth_values(spec)} | "
           f"gap {d.gap_before:.3g} -> {d.gap_after:.3g}")

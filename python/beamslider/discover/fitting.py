@@ -46,9 +46,9 @@ ROUGH_RESCAN = 50.0
 """Slider level, one effect: a fit that ends at the baseline value while the single runs' χ² of its
 last refinement level scatter by more than this about a parabola (:func:`_roughness`, with the
 spread of the ensemble at the scan's first pick) has not located the effect: its single runs switch
-end states from one scan point to the next. Its grid is then rescored on ensembles and the best point refined on ensemble
-means, as a set's is; that point is the fit where it fits better by more than z² and its change is
-relevant (docs/model.md §9.1, "One effect")."""
+end states from one scan point to the next. Its grid is then rescored on ensembles and the best point
+refined on ensemble means, as a set's is; that point is the fit where it fits better by more than z²
+and its change is relevant (docs/model.md §9.1, "One effect")."""
 
 
 MODE_CONDITIONING = True
@@ -378,8 +378,9 @@ def profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str,
     where the objective is rough; one effect whose fit is the baseline value while its last level
     is rough (:data:`ROUGH_RESCAN`): its grid rescored on ensembles and the best point refined on
     their means (:func:`.refine.gauss_newton`), taken with the ensembles' profile interval where its
-    ensemble fits better by more than z² and its change is relevant. Several effects: the coordinate pass's point refined jointly on ensemble means
-    (:func:`.refine.gauss_newton`, :data:`JOINT_REFINEMENT`), standard errors from its covariance.
+    ensemble fits better by more than z² and its change is relevant. Several effects: the coordinate
+    pass's point refined jointly on ensemble means (:func:`.refine.gauss_newton`,
+    :data:`JOINT_REFINEMENT`), standard errors from its covariance.
     Intervals at :data:`INTERVAL_LEVEL` (:func:`.verdicts.interval_of`), holding the fitted value.
     ``joint``: refine a set jointly (None: :data:`JOINT_REFINEMENT`).
     ``fixed``: values of further effects held (the joint fit's beam-level part)."""
