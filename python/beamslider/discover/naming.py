@@ -23,9 +23,9 @@ from .fast import best_single, no_pair_gains, predict_singles, predicted_singles
 from .joint import fit_sets_joint
 from .refine import sets_to_refine, step_chi2
 from .separability import slider_changes, slider_sensitivities
-from .verdicts import (ADVICE_GRID, GUIDED_PAIRS, Reason, Reasons, Why, advise, beaten_by_negligible,
-                       confounded_group, confounded_sets, pairs_to_fit, interval_of, kinds, negligible_fits,
-                       rank_pairs, unnamed_verdict, unresolved_reasons)
+from .verdicts import (ADVICE_GRID, CONFIRM_SINGLES, GUIDED_PAIRS, Reason, Reasons, Why, advise,
+                       beaten_by_negligible, confounded_group, confounded_sets, pairs_to_fit, interval_of, kinds,
+                       negligible_fits, outside_fits_better, rank_pairs, unnamed_verdict, unresolved_reasons)
 
 
 def _progress_bar(enabled: Optional[bool], total: int, desc: str):
@@ -444,14 +444,15 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
     beh_upd = behaviours.get("baseline", {})
     updated = base
     confounded: Dict[str, Any] = {}
+
+    def confirm(name: str) -> Tuple[CandidateFit, List[Reason]]:
+        # One effect fitted in full and judged alone by the naming rule.
+        f = profile_fit((EFFECTS[name],), base, meas, model_fn, model_many=model_many,
+                        ensemble_many=ensemble_many, spread0=spread_base)
+        return f, _judge([f], base, n, excess_before, gap_ratio)[f.effects]
+
     if best is not None and measured is not None:
         sig_base = {k: sigma(meas[k], spread_base.get(k, 0.0), runs_base) for k in meas}
-
-        def confirm(name: str) -> Tuple[CandidateFit, List[Reason]]:
-            f = profile_fit((EFFECTS[name],), base, meas, model_fn, model_many=model_many,
-                            ensemble_many=ensemble_many, spread0=spread_base)
-            return f, _judge([f], base, n, excess_before, gap_ratio)[f.effects]
-
         group = confounded_group(best, fits, verdicts, before, sig_base, base, thr_m) or (confounded_sets(
             best, fits, verdicts, before, sig_base, base, thr_m, [n for n, e in EFFECTS.items() if e.level == level],
             lambda names: slider_changes(names, base, ops, threads=threads, cache=run_cache), confirm,
@@ -459,6 +460,28 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
         if group is not None:
             # The data resolve a combination of the group, not which of them: nothing is named.
             confounded = group
+            best, alts = None, []
+    outside = [x for x, e in EFFECTS.items() if e.level == level and x not in {c.name for c in cand_effects}]
+    if best is not None and measured is not None and level == "slider" and outside:
+        # An effect of the library left out of the candidates that fits clearly better: the
+        # candidates do not establish their change (docs/model.md §9.1, "Outside the candidates").
+        sig_o = {k: sigma(meas[k], spread_base.get(k, 0.0), runs_base) for k in meas}
+        pred_o = predict_singles([EFFECTS[x] for x in outside], base,
+                                 {k: (meas[k].value - before[k]) / s for k, s in sig_o.items() if k in before},
+                                 sig_o, lambda names, st: slider_changes(names, base, ops, steps=st, threads=threads,
+                                                                         cache=run_cache), counts_base)
+        bar_o = _progress_bar(progress, min(CONFIRM_SINGLES, len(pred_o)),
+                              "discover: effects not among the candidates (fits)")
+
+        def confirm_o(name: str) -> Tuple[CandidateFit, List[Reason]]:
+            out = confirm(name)
+            bar_o.update(1)
+            return out
+
+        why_o = outside_fits_better(best, pred_o, confirm_o, thr_m)
+        bar_o.close()
+        if why_o is not None:
+            verdicts[best.effects] = verdicts[best.effects] + [why_o]
             best, alts = None, []
     if best is not None:
         cand = realise_model(base, {e: best.values[e] for e in best.effects})
@@ -541,7 +564,8 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
                  f"parameter moved by at least its relevance threshold (EFFECTS[...].relevance); (4) the gap beyond "
                  f"the noise, sqrt(max(chi2 - E[chi2], 0)/n), after <= {gap_ratio:g} x before ({excess_before:.3g}; "
                  f"fit and full simulation); (5) it fits better than every set of negligible changes, each chi2 "
-                 f"charged {thr_m:.3g} per parameter; among the sets that pass, forward "
+                 f"charged {thr_m:.3g} per parameter; (6) slider level: no single effect of the library left out of the candidates "
+                 f"fits better by more than {thr_m:.3g}, each charged it per parameter; among the sets that pass, forward "
                  f"selection by likelihood-ratio tests at 99 %, Bonferroni-corrected for picking the best of m "
                  f"sets (m = {len(cand_effects)}: {thr_m:.2f}); otherwise the "
                  f"verdict is 'unexplained' and nothing is added")

@@ -65,6 +65,9 @@ class Why(str, Enum):
     NEGLIGIBLE_FITS_BETTER = "a negligible change fits better"
     """A negligible change (:func:`negligible_fits`) fits at least as well, each charged the
     selection's threshold per parameter (:func:`beaten_by_negligible`)."""
+    OUTSIDE_FITS_BETTER = "an effect not among the candidates fits better"
+    """An effect of the library the user left out of the candidates fits clearly better
+    (:func:`outside_fits_better`)."""
 
 
 class Reason(str):
@@ -328,6 +331,35 @@ def confounded_sets(best: CandidateFit, fits: Sequence[CandidateFit], reasons: R
                             + ", moving the measured features alike; the data resolve that change of the features, "
                               "not which of them made it"
                             + (f" ({', '.join(outside)}: not among the candidates)" if outside else ""))
+
+
+def outside_fits_better(best: CandidateFit, predicted: Dict[str, Tuple[float, float]],
+                        confirm: Callable[[str], Tuple[CandidateFit, List[Any]]], threshold: float,
+                        keep: int = CONFIRM_SINGLES) -> Optional[Reason]:
+    """A reason not to name the set ``best`` of the candidates: a single effect of the library that
+    is not among them fits the data better by more than ``threshold`` (the selection's price of a
+    parameter), each set's χ² charged ``threshold`` per parameter — χ²_X + t < χ²_best + k t − t —
+    and passes the naming rule alone; then the data prefer that effect to the candidates' set at
+    the significance that would name it, and the candidates do not establish their change
+    (docs/model.md §9.1, "Outside the candidates"). ``predicted``: each left-out effect's best χ²
+    and value by the linearised model (:func:`.fast.predict_singles`); the ``keep`` best predicted
+    are fitted in full (``confirm(name)``: the fit and the naming rule's reasons). None if none
+    does. Only effects the library holds are tried: an effect outside it may still be mimicked."""
+    bar = best.chi2 + (len(best.effects) - 2) * threshold
+    better = []
+    for name in sorted(predicted, key=lambda x: predicted[x][0])[:keep]:
+        f, why = confirm(name)
+        if not why and f.chi2 < bar:
+            better.append(f)
+    if not better:
+        return None
+    f = min(better, key=lambda g: g.chi2)
+    (e,) = f.effects
+    lo, hi = interval_of(f, e)
+    return Reason(Why.OUTSIDE_FITS_BETTER,
+                  f"an effect not among the candidates fits better: {EFFECTS[e].field} {f.values[e]:.4g} "
+                  f"[{lo:.4g}, {hi:.4g}] ({e}: chi2 {f.chi2:.3g} against {best.chi2:.3g}, each charged "
+                  f"{threshold:.3g} per parameter); the candidates do not establish their change")
 
 
 def advise(names: Sequence[str], base: Parameters, ops: Sequence[OperatingPoint],
