@@ -12,22 +12,16 @@ Usage:  python3 scripts/repro/discover_rescan_check.py CASE S0_OFFSET JSON_DIR
 import json, sys, tempfile, time
 from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-import beamslider as bs
 from beamslider import discover as dc
 from beamslider.discover import naming, refine
-from discover_table import CASES, EXTRA_OPS, OPS, P, truth_of, truth_values
+from discover_table import CASES, OPS, P, case_runs, truth_values
 
 if len(sys.argv) != 4 or sys.argv[1] not in CASES:
     sys.exit(__doc__.split("Usage:")[1].strip() + "\nCASE: one of " + ", ".join(CASES))
 case, off, jdir = sys.argv[1], float(sys.argv[2]), sys.argv[3]
 label, spec, effects = CASES[case]
-truth = truth_of(spec)
-params, chain = truth if isinstance(truth, tuple) else (truth, None)
-ops = OPS + [op for op in EXTRA_OPS.get(case, []) if op not in OPS]
 with tempfile.TemporaryDirectory() as tmp:
-    paths = dc.synthesize_slider_runs(params, operating_points=ops, duration_s=60, out_dir=tmp, seed=3,
-                                      s0_offset=off, chain=chain)
-    runs = [bs.read_measurement(p) for p in paths]
+    runs = case_runs(case, OPS, 60.0, off, tmp)
 Path(jdir).mkdir(parents=True, exist_ok=True)
 trig = []
 # The rescan refines one effect on ensembles (sets refine two or more): it ran (taken or not).

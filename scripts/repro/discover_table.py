@@ -97,6 +97,17 @@ def truth_of(spec):
     return bs.Parameters(**{**P.to_dict(), **spec})
 
 
+def case_runs(key: str, ops, duration: float, s0_offset: float, out_dir) -> list:
+    """The measured runs of case ``key``: its truth synthesised at ``ops`` plus the case's advised
+    runs (``EXTRA_OPS``), seed 3, the truth runs ``s0_offset`` off the s0 their files name."""
+    truth = truth_of(CASES[key][1])
+    params, chain = truth if isinstance(truth, tuple) else (truth, None)
+    case_ops = list(ops) + [op for op in EXTRA_OPS.get(key, []) if op not in ops]
+    paths = dc.synthesize_slider_runs(params, operating_points=case_ops, duration_s=duration, out_dir=out_dir,
+                                      seed=3, s0_offset=s0_offset, chain=chain)
+    return [bs.read_measurement(p) for p in paths]
+
+
 def truth_values(spec) -> dict:
     """The hidden values by effect name (for the table's truth column)."""
     if isinstance(spec, str) and spec.startswith("detune:"):
@@ -146,12 +157,7 @@ def main() -> int:
             print(f"kept (--resume): {label}", flush=True)
             continue
         with tempfile.TemporaryDirectory() as tmp:
-            truth = truth_of(spec)
-            params, chain = truth if isinstance(truth, tuple) else (truth, None)
-            case_ops = ops + [op for op in EXTRA_OPS.get(key, []) if op not in ops]
-            paths = dc.synthesize_slider_runs(params, operating_points=case_ops, duration_s=args.duration,
-                                              out_dir=tmp, seed=3, s0_offset=args.s0_offset, chain=chain)
-            runs = [bs.read_measurement(p) for p in paths]
+            runs = case_runs(key, ops, args.duration, args.s0_offset, tmp)
             t0, c0 = time.perf_counter(), time.process_time()
             d = dc.discover(measured=runs, baseline=P, effects=effects, max_effects=args.max_effects, progress=True,
                             search=args.search)

@@ -25,11 +25,10 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-import beamslider as bs  # noqa: E402
 from beamslider import _core  # noqa: E402
 from beamslider import discover as dc  # noqa: E402
 from beamslider.discover import naming  # noqa: E402
-from discover_table import CASES, EXTRA_OPS, OPS, P, truth_of, truth_values  # noqa: E402
+from discover_table import CASES, OPS, P, case_runs, truth_values  # noqa: E402
 
 S0_OFFSET = 0.0015
 
@@ -95,12 +94,7 @@ def main() -> int:
             label, spec, effects = CASES[key]
             full_label = f"{label} (truth runs from s0 + {S0_OFFSET:g})"
             with tempfile.TemporaryDirectory() as tmp:
-                truth = truth_of(spec)
-                params, chain = truth if isinstance(truth, tuple) else (truth, None)
-                ops = OPS + [op for op in EXTRA_OPS.get(key, []) if op not in OPS]
-                paths = dc.synthesize_slider_runs(params, operating_points=ops, duration_s=60.0, out_dir=tmp, seed=3,
-                                                  s0_offset=args.s0_offset, chain=chain)
-                data = [bs.read_measurement(p) for p in paths]
+                data = case_runs(key, OPS, 60.0, args.s0_offset, tmp)
                 runs_done[0] = 0
                 c0 = time.process_time()
                 try:

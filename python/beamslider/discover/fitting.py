@@ -430,6 +430,14 @@ def profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str,
         sig_e = np.sqrt(se ** 2 + (1 + 1 / ens.runs) * np.array([sp.get(kk, 0.0) for kk in names]) ** 2)
         return chi2_from(ens.mean, sig_e, ens.mode_counts, ens.runs)
 
+    def ensemble_objective(sp: Dict[str, float], runs: int):
+        # Ensemble means as the joint refinement's objective, uncertainties fixed by ``sp``.
+        from .refine import EnsembleObjective
+
+        return EnsembleObjective(evaluate, lambda p: cache[key_of(p)], params_of, ensemble_many, key_of, names, y, se,
+                                 sp, runs, lambda m, c, r, sg: chi2_from(m, sg, c, r),
+                                 lambda m, c, r: _mode_terms(m, modes, c, r)[0])
+
     def ensemble_at(u: np.ndarray) -> Optional[Ensemble]:
         if ensemble_many is None or cache.get(key_of(u)) is None:
             return None
@@ -471,7 +479,7 @@ def profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str,
                   if len(effects) == 1 else 0.0)
     refined = None
     if len(effects) >= 2 and joint_on:
-        from .refine import EnsembleObjective, refine_jointly, single_run_residuals
+        from .refine import refine_jointly, single_run_residuals
 
         evaluate([u])
         ens = ensemble_at(u)
@@ -479,10 +487,7 @@ def profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str,
             spread.update(ens.spread)
         if ensemble_many is not None:
             # Ensemble means: single runs are too rough to linearise (docs/model.md §9.1).
-            obj = EnsembleObjective(evaluate, lambda p: cache[key_of(p)], params_of, ensemble_many, key_of, names, y,
-                                    se, spread, ens.runs if ens is not None else 5,
-                                    lambda m, c, r, sg: chi2_from(m, sg, c, r),
-                                    lambda m, c, r: _mode_terms(m, modes, c, r)[0])
+            obj = ensemble_objective(spread, ens.runs if ens is not None else 5)
             refined = refine_jointly(effects, u, obj.evaluate, obj.residuals, obj.chi2)
         else:
             resid = single_run_residuals(lambda p: cache[key_of(p)], names, y, sig_single,
@@ -517,13 +522,11 @@ def profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str,
         # Rough single runs found nothing but the baseline: the grid rescored on ensembles (each with
         # its own spread, as the first pick's), the best refined on their means; taken where its
         # ensemble fits better by more than z², as the first pick is, and its change is relevant.
-        from .refine import EnsembleObjective, refine_jointly
+        from .refine import refine_jointly
 
         sp_obj = dict(spread0 or {})
         sp_obj.update(pooled_spread(ens, [], names, modes))
-        obj = EnsembleObjective(evaluate, lambda p: cache[key_of(p)], params_of, ensemble_many, key_of, names, y, se,
-                                sp_obj, ens.runs, lambda m, c, r, sg: chi2_from(m, sg, c, r),
-                                lambda m, c, r: _mode_terms(m, modes, c, r)[0])
+        obj = ensemble_objective(sp_obj, ens.runs)
         pts = [u] + [np.array([g]) for g in grids[0]]
         obj.evaluate(pts)
         refine_jointly(effects, min(pts, key=obj.chi2), obj.evaluate, obj.residuals, obj.chi2)
