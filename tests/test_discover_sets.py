@@ -400,7 +400,8 @@ def test_the_tier_fits_the_best_predicted_and_falls_back_to_the_full_search(monk
     """discover(search="tiered") (docs/model.md §9.1, "Cost"): the best predicted single is fitted in
     full, the next ones while predicted within TIER_MARGIN of the best fitted χ²; if that settles the
     answer (a named single below the threshold, every unfitted candidate predicted beyond the margin,
-    every fitted one predicted within the margin of its fit)
+    no fitted χ² more than TIER_MARGIN above its prediction; the predictions scaled down where a
+    fitted χ² lies far below its own)
     the others stay screened and no coarse scan is made; else the full search runs: coarse scans of
     every candidate (refine=naming.SCREEN_REFINE), as search="full" does."""
     from beamslider.discover import naming
@@ -424,12 +425,38 @@ def test_the_tier_fits_the_best_predicted_and_falls_back_to_the_full_search(monk
         assert fitted == want and ok is complete
         assert [f.effects[0] for f in fits] == names
         assert all(f.linearised == (f.effects[0] not in want) for f in fits)
-    # The prediction far off a fitted χ² (a change beyond the quadratic's reach): not complete.
-    pred = dict(friction_coefficient=(4.0 + TIER_MARGIN + 0.5, 0.0), natural_frequency_detuning=(90.0, 0.0),
+    # A fitted χ² far above its prediction (a valley the fit missed): not complete.
+    pred = dict(friction_coefficient=(4.0 - TIER_MARGIN - 0.5, 0.0), natural_frequency_detuning=(90.0, 0.0),
                 tilt=(90.0, 0.0), clearance=(90.0, 0.0))
     assert tiered_singles(cands, pred, lambda e: fake(e.name), 10)[1] is False
-    pred["friction_coefficient"] = (4.0 + TIER_MARGIN - 0.5, 0.0)
+    pred["friction_coefficient"] = (4.0 - TIER_MARGIN + 0.5, 0.0)
     assert tiered_singles(cands, pred, lambda e: fake(e.name), 10)[1] is True
+    # A fitted χ² far below its prediction (a change beyond the quadratic's reach): the others'
+    # predictions scaled by that fit's ratio to its prediction (4/64 here), the tier complete only
+    # where they, so scaled, lie beyond the margin.
+    pred = dict(friction_coefficient=(64.0, 0.0), natural_frequency_detuning=(1000.0, 0.0), tilt=(1200.0, 0.0),
+                clearance=(16.0 * (4.0 + TIER_MARGIN + 1.0), 0.0))
+    fitted.clear()
+    fits, ok = tiered_singles(cands, pred, lambda e: fitted.append(e.name) or fake(e.name), 10)
+    assert fitted == ["friction_coefficient"] and ok is True
+    pred["clearance"] = (16.0 * (4.0 + TIER_MARGIN - 1.0), 0.0)
+    fitted.clear()
+    fits, ok = tiered_singles(cands, pred, lambda e: fitted.append(e.name) or fake(e.name), 10)
+    assert fitted == ["friction_coefficient", "clearance"] and ok is True
+    pred["tilt"] = (16.0 * (4.0 + TIER_MARGIN - 1.0), 0.0)
+    fitted.clear()
+    assert tiered_singles(cands, pred, lambda e: fitted.append(e.name) or fake(e.name), 10, keep=2)[1] is False
+    # No candidate fitted so far adequate: the next best predicted is fitted whatever its prediction.
+    def inadequate_friction(name):
+        f = fake(name)
+        f.adequate = name != "friction_coefficient"
+        return f
+
+    pred = dict(friction_coefficient=(9.0, 0.0), natural_frequency_detuning=(60.0, 0.0), tilt=(200.0, 0.0),
+                clearance=(300.0, 0.0))
+    fitted.clear()
+    fits, ok = tiered_singles(cands, pred, lambda e: fitted.append(e.name) or inadequate_friction(e.name), 10)
+    assert fitted == ["friction_coefficient", "natural_frequency_detuning"] and ok is True
     # More candidates predicted near than may be fitted in full: not complete.
     pred = {n: (5.0 + i, 0.0) for i, n in enumerate(names)}
     fitted.clear()
@@ -487,8 +514,9 @@ def test_the_full_search_keeps_a_fit_the_tier_made_in_full(monkeypatch):
     monkeypatch.setattr(naming, "profile_fit", fake_fit)
     cut = max(sorted(coarse.values())[0] + naming.SCREEN_MARGIN, sorted(coarse.values())[naming.SCREEN_KEEP - 1])
     assert coarse["friction_coefficient"] > cut   # the coarse scan alone would screen it out
-    # The tier not complete: friction predicted best but 26 off its fit; or more candidates predicted
-    # near than the tier may fit in full (FAST_KEEP, 3).
+    # The tier not complete: friction predicted best but 26 above its fit, the others' predictions
+    # so scaled (4/30) within the margin; or more candidates predicted near than the tier may fit in
+    # full (FAST_KEEP, 3).
     for pred in (dict(friction_coefficient=(30.0, 0.0), natural_frequency_detuning=(60.0, 0.0), tilt=(60.0, 0.0),
                       clearance=(80.0, 0.0), restitution=(90.0, 0.0)),
                  dict(friction_coefficient=(4.5, 0.0), natural_frequency_detuning=(5.0, 0.0), tilt=(6.0, 0.0),

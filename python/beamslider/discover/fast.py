@@ -98,26 +98,38 @@ def tiered_singles(cands: Sequence[Effect], pred: Dict[str, Tuple[float, float]]
                    fit: Callable[[Effect], CandidateFit], n: int,
                    keep: int = FAST_KEEP) -> Tuple[List[CandidateFit], bool]:
     """The screening tier of the default search (docs/model.md §9.1, "Cost"): the best predicted
-    candidate fitted in full, then each next best predicted while its predicted χ² is within
-    :data:`TIER_MARGIN` of the best χ² fitted so far, at most ``keep`` in full; the others kept as
-    screened at their predicted χ² (:func:`predicted_singles`). Returns the fits, in the order of
-    ``cands``, and whether the tier is complete: every candidate left unfitted is predicted beyond
-    the margin, and the prediction of every candidate fitted came within the margin of its fitted χ²
-    (the changes lie within the quadratic's reach: a contact spacing 15 % wide, mimicked by the
-    rotary inertia, was predicted at χ² 1,050 and fits at 4.5); else the caller runs the full search,
-    which keeps the fits made in full (also where more candidates are predicted near than ``keep``)."""
+    candidate fitted in full, then each next best predicted while its predicted χ², times
+    :func:`tier_scale`, is within :data:`TIER_MARGIN` of the best χ² fitted so far or no candidate
+    fitted so far is adequate, at most ``keep`` in full; the others kept as screened at their
+    predicted χ² (:func:`predicted_singles`).
+    Returns the fits, in the order of ``cands``, and whether the tier is complete: every candidate
+    left unfitted is predicted, so scaled, beyond the margin, and no fitted χ² lies more than
+    :data:`TIER_MARGIN` above its prediction (a valley the fit missed); else the caller runs the
+    full search, which keeps the fits made in full (also where more candidates are predicted near
+    than ``keep``)."""
     order = sorted(cands, key=lambda e: pred[e.name][0])
     full: Dict[str, CandidateFit] = {}
     for e in order:
         best = min((f.chi2 for f in full.values()), default=math.inf)
-        if full and pred[e.name][0] > best + TIER_MARGIN:
+        if (full and pred[e.name][0] * tier_scale(pred, full) > best + TIER_MARGIN
+                and any(f.adequate for f in full.values())):
             break
         if len(full) == keep:
             return predicted_singles(cands, pred, lambda e: full[e.name], n, keep=set(full)), False
         full[e.name] = fit(e)
     fits = predicted_singles(cands, pred, lambda e: full[e.name], n, keep=set(full))
-    trusted = all(abs(pred[k][0] - f.chi2) <= TIER_MARGIN for k, f in full.items() if math.isfinite(f.chi2))
+    trusted = all(f.chi2 - pred[k][0] <= TIER_MARGIN for k, f in full.items() if math.isfinite(f.chi2))
     return fits, trusted
+
+
+def tier_scale(pred: Dict[str, Tuple[float, float]], full: Dict[str, CandidateFit]) -> float:
+    """The factor on the tier's predictions (:func:`tiered_singles`): 1, or, where a fitted χ² lies
+    more than :data:`TIER_MARGIN` below its prediction, the least ratio of such a fitted χ² to its
+    prediction. A change beyond the quadratic's reach is overestimated (R/h 1.08 predicted at χ² 84
+    fits at 7.3); the other candidates' predictions are taken as overestimated by as much."""
+    ratios = [max(f.chi2, 0.0) / pred[k][0] for k, f in full.items()
+              if math.isfinite(f.chi2) and pred[k][0] - f.chi2 > TIER_MARGIN]
+    return min([1.0] + ratios)
 
 
 def no_pair_gains(singles: List[CandidateFit], best: Optional[CandidateFit],

@@ -451,8 +451,9 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
                         ensemble_many=ensemble_many, spread0=spread_base)
         return f, _judge([f], base, n, excess_before, gap_ratio)[f.effects]
 
+    # The features' uncertainties about the baseline (its spread), for the checks of a named set.
+    sig_base = {k: sigma(meas[k], spread_base.get(k, 0.0), runs_base) for k in meas} if measured is not None else {}
     if best is not None and measured is not None:
-        sig_base = {k: sigma(meas[k], spread_base.get(k, 0.0), runs_base) for k in meas}
         group = confounded_group(best, fits, verdicts, before, sig_base, base, thr_m) or (confounded_sets(
             best, fits, verdicts, before, sig_base, base, thr_m, [n for n, e in EFFECTS.items() if e.level == level],
             lambda names: slider_changes(names, base, ops, threads=threads, cache=run_cache), confirm,
@@ -465,10 +466,9 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
     if best is not None and measured is not None and level == "slider" and outside:
         # An effect of the library left out of the candidates that fits clearly better: the
         # candidates do not establish their change (docs/model.md §9.1, "Outside the candidates").
-        sig_o = {k: sigma(meas[k], spread_base.get(k, 0.0), runs_base) for k in meas}
         pred_o = predict_singles([EFFECTS[x] for x in outside], base,
-                                 {k: (meas[k].value - before[k]) / s for k, s in sig_o.items() if k in before},
-                                 sig_o, lambda names, st: slider_changes(names, base, ops, steps=st, threads=threads,
+                                 {k: (meas[k].value - before[k]) / s for k, s in sig_base.items() if k in before},
+                                 sig_base, lambda names, st: slider_changes(names, base, ops, steps=st, threads=threads,
                                                                          cache=run_cache), counts_base)
         bar_o = _progress_bar(progress, min(CONFIRM_SINGLES, len(pred_o)),
                               "discover: effects not among the candidates (fits)")
