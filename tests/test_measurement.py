@@ -104,3 +104,30 @@ def test_empty_and_missing_files(tmp_path):
         read_measurement(_write(tmp_path, "# nothing\n"))
     with pytest.raises(OSError):
         read_measurement(tmp_path / "missing.txt")
+
+
+def test_the_plain_reader_gives_the_line_readers_rows(tmp_path):
+    """read_measurement parses a file of the usual form at once (measurement._plain_rows): the same
+    values, bitwise, as the line-by-line reader that names errors; a file with a header, a comment,
+    a blank line or a bad value goes to that reader (and its error)."""
+    from beamslider import measurement as M
+
+    rng = np.random.default_rng(5)
+    t = np.arange(2000) * 1e-4
+    v, s = rng.normal(size=t.size) * 0.3, 0.3 + 0.01 * rng.random(t.size)
+    lines = [f"{a:.10g}\t{b:.10g}\t{c:.10g}" for a, b, c in zip(t, v, s)]
+    lines[7] = lines[7].replace("\t", " ; ")   # mixed separators
+    text = "\n".join(lines) + "\n"
+    plain = M._plain_rows(text)
+    checked, linenos = M._rows_checked(text, tmp_path / "x.txt")
+    assert plain is not None and plain.tobytes() == checked.tobytes()
+    assert list(linenos[:3]) == [1, 2, 3]
+    for other in ("time\tvel\ts\n" + text, "# note\n" + text, text.replace("\n", "\n\n", 1),
+                  text.replace(lines[5], lines[5] + "\t1"), text.replace(lines[9], lines[9].replace("\t", "\tnan\t", 1))):
+        assert M._plain_rows(other) is None
+    p = tmp_path / "Time_VelBeam_RelSliderPos__fex124_ExcLevel14_RelSliderPosStart03.txt"
+    p.write_text("# note\n" + text.replace(lines[5], lines[5] + "\t1"))
+    with pytest.raises(M.MeasurementFormatError, match=r":7: expected 3 columns"):
+        M.read_measurement(p)
+    p.write_text("time\tvel\ts\n" + text)
+    assert M.read_measurement(p).t.tobytes() == plain[:, 0].tobytes()

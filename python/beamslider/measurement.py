@@ -105,6 +105,60 @@ def _is_number(tok: str) -> bool:
         return False
 
 
+_SEPARATORS = str.maketrans(",;", "  ")
+
+
+def _plain_rows(text: str) -> Optional[np.ndarray]:
+    """The rows of a file of the usual form — every line three finite numbers, time increasing,
+    no header, comment or blank line — parsed at once; None otherwise (:func:`_rows_checked` then
+    reads it line by line and names what is wrong). The same values as that reader's."""
+    lines = text.count("\n") + (0 if text.endswith("\n") else 1)
+    try:
+        flat = np.array(text.translate(_SEPARATORS).split(), dtype=float)
+    except ValueError:
+        return None
+    if lines < 2 or flat.size != 3 * lines:
+        return None
+    data = flat.reshape(-1, 3)
+    if not (np.all(np.isfinite(data)) and np.all(np.diff(data[:, 0]) > 0)):
+        return None
+    return data
+
+
+def _rows_checked(text: str, path: Path) -> Tuple[np.ndarray, np.ndarray]:
+    """The rows of a measured file read line by line, and their line numbers: an optional header
+    line, comments (# or %) and blank lines skipped; :class:`MeasurementFormatError` naming the
+    line for a wrong column count, a non-numeric or non-finite value or a time that does not increase."""
+    rows = []
+    header_seen = False
+    for lineno, raw in enumerate(text.split("\n"), start=1):
+        line = raw.strip()
+        if not line or line[0] in "#%":
+            continue
+        toks = [t for t in _SPLIT.split(line) if t]
+        if not rows and not header_seen and not any(_is_number(t) for t in toks):
+            header_seen = True  # one line of column names before the data
+            continue
+        if len(toks) != 3:
+            raise MeasurementFormatError(
+                f"{path}:{lineno}: expected 3 columns (time, beam velocity, slider position), found {len(toks)}"
+            )
+        try:
+            vals = [float(t) for t in toks]
+        except ValueError:
+            raise MeasurementFormatError(f"{path}:{lineno}: non-numeric value in {line[:60]!r}") from None
+        if not all(np.isfinite(vals)):
+            raise MeasurementFormatError(f"{path}:{lineno}: non-finite value in {line[:60]!r}")
+        if rows and not vals[0] > rows[-1][0][0]:
+            raise MeasurementFormatError(
+                f"{path}:{lineno}: time {vals[0]:g} s does not increase (previous {rows[-1][0][0]:g} s)"
+            )
+        rows.append((vals, lineno))
+    if len(rows) < 2:
+        raise MeasurementFormatError(f"{path}: fewer than two data lines")
+    return np.array([r[0] for r in rows], dtype=float), np.array([r[1] for r in rows])
+
+
 def read_measurement(path: Union[str, "os.PathLike[str]"]) -> Measurement:
     """Read one file of the published measured data set and integrate the velocity to the
     displacement (docs/model.md §7): cumulative sum of velocity times the sampling interval, minus its
@@ -115,39 +169,17 @@ def read_measurement(path: Union[str, "os.PathLike[str]"]) -> Measurement:
     non-finite value, non-increasing time or uneven sampling (a gap), or fewer than two lines.
     """
     path = Path(path)
-    rows = []
-    header_seen = False
     opener = gzip.open if path.name.lower().endswith(".gz") else open
     try:
         with opener(path, "rt", encoding="utf-8-sig", errors="replace") as f:  # -sig: a leading BOM is not data
-            for lineno, raw in enumerate(f, start=1):
-                line = raw.strip()
-                if not line or line[0] in "#%":
-                    continue
-                toks = [t for t in _SPLIT.split(line) if t]
-                if not rows and not header_seen and not any(_is_number(t) for t in toks):
-                    header_seen = True  # one line of column names before the data
-                    continue
-                if len(toks) != 3:
-                    raise MeasurementFormatError(
-                        f"{path}:{lineno}: expected 3 columns (time, beam velocity, slider position), found {len(toks)}"
-                    )
-                try:
-                    vals = [float(t) for t in toks]
-                except ValueError:
-                    raise MeasurementFormatError(f"{path}:{lineno}: non-numeric value in {line[:60]!r}") from None
-                if not all(np.isfinite(vals)):
-                    raise MeasurementFormatError(f"{path}:{lineno}: non-finite value in {line[:60]!r}")
-                if rows and not vals[0] > rows[-1][0][0]:
-                    raise MeasurementFormatError(
-                        f"{path}:{lineno}: time {vals[0]:g} s does not increase (previous {rows[-1][0][0]:g} s)"
-                    )
-                rows.append((vals, lineno))
+            text = f.read()
     except (EOFError, zlib.error, gzip.BadGzipFile) as e:  # a truncated or corrupt .gz
         raise MeasurementFormatError(f"{path}: not a readable gzip file ({e})") from None
-    if len(rows) < 2:
-        raise MeasurementFormatError(f"{path}: fewer than two data lines")
-    data = np.array([r[0] for r in rows], dtype=float)
+    data = _plain_rows(text)
+    if data is not None:
+        linenos = np.arange(1, len(data) + 1)
+    else:
+        data, linenos = _rows_checked(text, path)
     t, v, s = data[:, 0], data[:, 1], data[:, 2]
     steps = np.diff(t)
     dt = float(np.median(steps))
@@ -157,7 +189,7 @@ def read_measurement(path: Union[str, "os.PathLike[str]"]) -> Measurement:
     if uneven.size:
         i = int(uneven[0]) + 1
         raise MeasurementFormatError(
-            f"{path}:{rows[i][1]}: time step {steps[i - 1]:g} s differs from the sampling interval {dt:g} s "
+            f"{path}:{linenos[i]}: time step {steps[i - 1]:g} s differs from the sampling interval {dt:g} s "
             "(missing or extra samples)"
         )
     # s is the slider position relative to the beam length: outside [0, 1] it is not on the beam.
@@ -165,7 +197,7 @@ def read_measurement(path: Union[str, "os.PathLike[str]"]) -> Measurement:
     if off.size:
         i = int(off[0])
         raise MeasurementFormatError(
-            f"{path}:{rows[i][1]}: slider position s = {s[i]:g} outside [0, 1] (s is x/L, relative to the beam length)"
+            f"{path}:{linenos[i]}: slider position s = {s[i]:g} outside [0, 1] (s is x/L, relative to the beam length)"
         )
     f_ex, a_ex, s0 = parse_operating_point(path.name[:-3] if path.name.lower().endswith(".gz") else path.name)
     with np.errstate(over="ignore", invalid="ignore"):

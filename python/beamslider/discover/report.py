@@ -20,6 +20,10 @@ from .verdicts import interval_of
 PathLike = Union[str, "os.PathLike[str]"]
 
 
+PLOT_POINTS = 20000
+"""Points of a line of the report's slider figure, at most about (every k-th sample)."""
+
+
 def write_report(d: Discovery, out_dir: PathLike) -> List[Path]:
     """Write ``updated.toml``, ``report.json``, ``report.md`` and the figures into ``out_dir``."""
     from .._mpl import require_matplotlib
@@ -73,9 +77,11 @@ def write_report(d: Discovery, out_dir: PathLike) -> List[Path]:
         upd_runs = simulate_ops(d.updated, ops)
         fig, axs = plt.subplots(1, len(ms), figsize=(5.5 * len(ms), 4), constrained_layout=True, squeeze=False)
         for ax, m, rb, ru, op in zip(axs[0], ms, base_runs, upd_runs, ops):
-            ax.plot(m.t, m.s, color="0.4", lw=0.8, label="measured")
-            ax.plot(rb.t, rb.s, "--", lw=1.3, label="baseline")
-            ax.plot(ru.t, ru.s, "-", lw=1.3, label="updated")
+            # At most about PLOT_POINTS points a line: the slider moves over seconds, the samples are 0.1 ms.
+            for r, style, kw in ((m, "-", dict(color="0.4", lw=0.8, label="measured")),
+                                 (rb, "--", dict(lw=1.3, label="baseline")), (ru, "-", dict(lw=1.3, label="updated"))):
+                k = max(1, len(r.t) // PLOT_POINTS)
+                ax.plot(r.t[::k], r.s[::k], style, **kw)
             ax.set_title(op.tag.replace("_", " "))
             ax.set_xlabel("t [s]")
             ax.set_ylabel("s = x_C / L [-]")

@@ -11,10 +11,28 @@ struct Analytic {
     inv: std::sync::Arc<dyn rustfft::Fft<f64>>,
 }
 
+/// Lengths whose plans are kept (a discover's runs share one length; the plan of a length with a
+/// large prime factor, such as the 600,001 samples of a 60-s run, costs more than its FFTs).
+const PLANS_KEPT: usize = 8;
+
 impl Analytic {
-    fn new(n: usize) -> Analytic {
+    /// The plans for length `n`: planned once per process and shared (the same plan, so the same
+    /// results, as a fresh planner's); at most [`PLANS_KEPT`] lengths are kept.
+    fn new(n: usize) -> std::sync::Arc<Analytic> {
+        use std::collections::HashMap;
+        use std::sync::{Arc, Mutex, OnceLock};
+        static PLANS: OnceLock<Mutex<HashMap<usize, Arc<Analytic>>>> = OnceLock::new();
+        let mut plans = PLANS.get_or_init(|| Mutex::new(HashMap::new())).lock().unwrap_or_else(|e| e.into_inner());
+        if let Some(a) = plans.get(&n) {
+            return Arc::clone(a);
+        }
+        if plans.len() >= PLANS_KEPT {
+            plans.clear();
+        }
         let mut planner = FftPlanner::<f64>::new();
-        Analytic { fwd: planner.plan_fft_forward(n), inv: planner.plan_fft_inverse(n) }
+        let a = Arc::new(Analytic { fwd: planner.plan_fft_forward(n), inv: planner.plan_fft_inverse(n) });
+        plans.insert(n, Arc::clone(&a));
+        a
     }
 
     /// |analytic signal| of x (length the planned one).
@@ -145,6 +163,25 @@ pub fn positive(field: &str, value: f64, unit: &str) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn shared_plans_give_a_fresh_planners_results() {
+        // A length with a large prime factor (19·1373), planned once and reused: bitwise the
+        // results of a fresh planner's plan, and again on the second call.
+        let n = 19 * 1373;
+        let x: Vec<f64> = (0..n).map(|i| (i as f64 * 0.37).sin() * (1.0 + 0.3 * (i as f64 * 1e-3).cos())).collect();
+        let mut planner = FftPlanner::<f64>::new();
+        let fresh = Analytic { fwd: planner.plan_fft_forward(n), inv: planner.plan_fft_inverse(n) }.magnitude(&x);
+        let first = hilbert_envelope(&x);
+        let second = hilbert_envelope(&x);
+        assert!(fresh.iter().zip(&first).all(|(a, b)| a.to_bits() == b.to_bits()));
+        assert!(first.iter().zip(&second).all(|(a, b)| a.to_bits() == b.to_bits()));
+        // More lengths than are kept: still the same results.
+        for m in 1..=PLANS_KEPT + 2 {
+            assert_eq!(hilbert_envelope(&x[..n - m]).len(), n - m);
+        }
+        assert!(hilbert_envelope(&x).iter().zip(&fresh).all(|(a, b)| a.to_bits() == b.to_bits()));
+    }
 
     #[test]
     fn envelope_of_am_signal() {
