@@ -14,7 +14,7 @@ from beamslider import discover as dc
 from beamslider.discover.chain import Model, chain_map, realise_model
 from beamslider.discover.effects import CHAIN_EFFECTS, EFFECTS
 from beamslider.discover.fitting import CandidateFit, lrt_threshold
-from beamslider.discover.models import batch_slider_features, measured_slider_features
+from beamslider.discover.models import batch_slider_features, measured_slider_features, slider_paths
 from beamslider.discover.verdicts import (Reason, Why, confounded_group, interval_of, kinds, negligible_fits,
                                           outside_fits_better, relevant_resolved, unnamed_verdict,
                                           unresolved_reasons)
@@ -158,6 +158,23 @@ def test_identical_runs_are_made_once():
     assert a[1][0]["amplitude_final_h@110Hz_10ms2_s00.3"].value == pytest.approx(
         1.1 * fresh["amplitude_final_h@110Hz_10ms2_s00.3"].value, rel=1e-12)
     assert b[0][0]["amplitude_final_h@110Hz_10ms2_s00.3"].value != fresh["amplitude_final_h@110Hz_10ms2_s00.3"].value
+
+
+def test_the_reports_slider_paths_are_those_the_chain_records():
+    """The report's figure draws the updated model as its measurement chain would record it: the
+    camera's o + k s, the stamps τ t, the shaker at gain × a_ex (docs/model.md §9.1); an ideal chain
+    draws the simulator's own path (the same s as ``simulate`` at those times)."""
+    p = bs.Parameters()
+    ops = [dc.OperatingPoint(124, 14, 0.3, 1.0)]
+    chain = Model(p, (("position_offset", 0.01), ("position_scale", 1.02), ("time_base", 1.004)))
+    ideal, seen, shaken = slider_paths([p, chain, Model(p, (("excitation_gain", 0.9),))], ops)
+    (t, s), (tc, sc), (tg, sg) = ideal[0], seen[0], shaken[0]
+    assert np.array_equal(tc, 1.004 * t) and np.array_equal(sc, 0.01 + 1.02 * s)
+    run = bs.simulate(p, f_ex=124, a_ex=14, s0=0.3, t_end=1.0, record_every=5)
+    i = np.searchsorted(run.t, t[-1])
+    assert run.t[i] == pytest.approx(t[-1]) and run.s[i] == s[-1]
+    low = bs.simulate(p, f_ex=124, a_ex=0.9 * 14, s0=0.3, t_end=1.0, record_every=5)
+    assert np.array_equal(tg, t) and low.s[i] == sg[-1] != s[-1]
 
 
 def _fit(name, value, interval, chi2=10.0, predicted=None):

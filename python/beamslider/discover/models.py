@@ -118,6 +118,24 @@ def simulate_ops(params: Parameters, ops: Sequence[OperatingPoint], *, s0_shift:
         return list(ex.map(one, ops))
 
 
+def slider_paths(models: Sequence[Union[Parameters, Model]], ops: Sequence[OperatingPoint], *,
+                 threads: Optional[int] = None) -> List[List[Optional[Tuple[np.ndarray, np.ndarray]]]]:
+    """Per model and operating point, the slider's path (t [s], s) as the model's measurement
+    chain would record it — stamps τ t, camera o + k s, the shaker at its excitation factor times
+    a_ex (docs/model.md §9.1) — every 5e-4 s; None where the run fails. One batch of the core's
+    runner (:data:`RUN_RECORD_EVERY`, :data:`RUN_KEEP_EVERY`: the runs of the features)."""
+    ms = [as_model(p) for p in models]
+    jobs = [(native(m.params), op.f_ex, op.a_ex * excitation_factor(m), op.s0, op.duration_s) for m in ms for op in ops]
+    res = _core.run_free_slider_batch(jobs, record_every=RUN_RECORD_EVERY, keep_every=RUN_KEEP_EVERY, window_s=1.0,
+                                      detrend_s=DISPLACEMENT_DETREND_S, threads=threads)
+    out: List[List[Optional[Tuple[np.ndarray, np.ndarray]]]] = []
+    for i, m in enumerate(ms):
+        k, o, tau = m.value("position_scale"), m.value("position_offset"), m.value("time_base")
+        rows = res[i * len(ops):(i + 1) * len(ops)]
+        out.append([None if "error" in r else (tau * np.asarray(r["t"]), o + k * np.asarray(r["s"])) for r in rows])
+    return out
+
+
 RUN_RECORD_EVERY = 5
 """Steps between recorded samples of a model run (Δt = 2e-5 s: 1e-4 s, the measured format's)."""
 RUN_KEEP_EVERY = 5

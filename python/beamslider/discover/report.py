@@ -13,14 +13,15 @@ import numpy as np
 from .. import enma
 from ..enma import EnmaData
 from .effects import EFFECTS
-from .models import OperatingPoint, simulate_ops
+from .chain import as_model, realise_model
+from .models import OperatingPoint, slider_paths
 from .fitting import Discovery, GAP_EXCESS_MEASURE, GAP_MEASURE
 from .verdicts import interval_of
 
 PathLike = Union[str, "os.PathLike[str]"]
 
 
-PLOT_POINTS = 20000
+PLOT_POINTS = 4000
 """Points of a line of the report's slider figure, at most about (every k-th sample)."""
 
 
@@ -73,15 +74,20 @@ def write_report(d: Discovery, out_dir: PathLike) -> List[Path]:
     if runs_d:
         ms = runs_d
         ops = [OperatingPoint(m.f_ex, m.a_ex, m.s0, float(m.t[-1])) for m in ms]
-        base_runs = simulate_ops(d.baseline, ops)
-        upd_runs = simulate_ops(d.updated, ops)
+        # The updated model as its measurement chain records (the chain's named values included).
+        named = {e: float(v["value"]) for e, v in d.parameters.items()}
+        models = [as_model(d.baseline)] + ([realise_model(d.baseline, named)] if named else [])
+        paths = slider_paths(models, ops)
+        base_runs, upd_runs = paths[0], paths[-1]
         fig, axs = plt.subplots(1, len(ms), figsize=(5.5 * len(ms), 4), constrained_layout=True, squeeze=False)
         for ax, m, rb, ru, op in zip(axs[0], ms, base_runs, upd_runs, ops):
             # At most about PLOT_POINTS points a line: the slider moves over seconds, the samples are 0.1 ms.
-            for r, style, kw in ((m, "-", dict(color="0.4", lw=0.8, label="measured")),
+            for r, style, kw in (((m.t, m.s), "-", dict(color="0.4", lw=0.8, label="measured")),
                                  (rb, "--", dict(lw=1.3, label="baseline")), (ru, "-", dict(lw=1.3, label="updated"))):
-                k = max(1, len(r.t) // PLOT_POINTS)
-                ax.plot(r.t[::k], r.s[::k], style, **kw)
+                if r is None:
+                    continue
+                k = max(1, len(r[0]) // PLOT_POINTS)
+                ax.plot(r[0][::k], r[1][::k], style, **kw)
             ax.set_title(op.tag.replace("_", " "))
             ax.set_xlabel("t [s]")
             ax.set_ylabel("s = x_C / L [-]")

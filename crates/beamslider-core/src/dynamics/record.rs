@@ -146,6 +146,12 @@ impl ColumnRecorder {
         ColumnRecorder { names: Vec::new(), columns: Vec::new(), expected_rows }
     }
 
+    /// [`ColumnRecorder::with_rows`] whose columns reuse the vectors `spare` (their memory; their
+    /// contents are cleared when the run begins).
+    pub fn reusing(expected_rows: usize, spare: Vec<Vec<f64>>) -> Self {
+        ColumnRecorder { names: Vec::new(), columns: spare, expected_rows }
+    }
+
     /// One column by name.
     pub fn column(&self, name: &str) -> Option<&Vec<f64>> {
         let c = self.names.iter().position(|n| n == name)?;
@@ -156,9 +162,11 @@ impl ColumnRecorder {
 impl Recorder for ColumnRecorder {
     fn begin(&mut self, names: &[String]) -> Result<()> {
         self.names = names.to_vec();
+        let mut spare = std::mem::take(&mut self.columns);
         self.columns = Vec::with_capacity(names.len());
         for _ in names {
-            let mut v: Vec<f64> = Vec::new();
+            let mut v: Vec<f64> = spare.pop().unwrap_or_default();
+            v.clear();
             v.try_reserve_exact(self.expected_rows).map_err(|_| {
                 Error::invalid(
                     "t_end",

@@ -37,9 +37,23 @@ impl Analytic {
 
     /// |analytic signal| of x (length the planned one).
     fn magnitude(&self, x: &[f64]) -> Vec<f64> {
+        let mut out = Vec::new();
+        self.magnitude_into(x, &mut EnvelopeBuffers::default(), &mut out);
+        out
+    }
+
+    /// [`Analytic::magnitude`] into `out`, the spectrum and the FFTs' scratch in `bufs` (the same
+    /// arithmetic: `process` is `process_with_scratch` with a fresh scratch).
+    fn magnitude_into(&self, x: &[f64], bufs: &mut EnvelopeBuffers, out: &mut Vec<f64>) {
         let n = x.len();
-        let mut buf: Vec<Complex<f64>> = x.iter().map(|&v| Complex::new(v, 0.0)).collect();
-        self.fwd.process(&mut buf);
+        let buf = &mut bufs.spectrum;
+        buf.clear();
+        buf.extend(x.iter().map(|&v| Complex::new(v, 0.0)));
+        let (nf, ni) = (self.fwd.get_inplace_scratch_len(), self.inv.get_inplace_scratch_len());
+        if bufs.scratch.len() < nf.max(ni) {
+            bufs.scratch.resize(nf.max(ni), Complex::new(0.0, 0.0));
+        }
+        self.fwd.process_with_scratch(buf, &mut bufs.scratch[..nf]);
         // Weights: 1 at DC (and Nyquist for even n), 2 for positive frequencies, 0 for negative.
         let half = n / 2;
         for (k, v) in buf.iter_mut().enumerate() {
@@ -52,10 +66,22 @@ impl Analytic {
             };
             *v *= w;
         }
-        self.inv.process(&mut buf);
+        self.inv.process_with_scratch(buf, &mut bufs.scratch[..ni]);
         let scale = 1.0 / n as f64;
-        buf.iter().map(|c| c.norm() * scale).collect()
+        out.clear();
+        out.extend(buf.iter().map(|c| c.norm() * scale));
     }
+}
+
+/// Buffers of [`envelope_every`] kept from call to call (one set per worker): a 60-s run's
+/// spectrum and scratch are tens of MB, which allocated and first touched anew for every run
+/// cost about a tenth of the run.
+#[derive(Debug, Default)]
+pub struct EnvelopeBuffers {
+    spectrum: Vec<Complex<f64>>,
+    scratch: Vec<Complex<f64>>,
+    magnitude: Vec<f64>,
+    prefix: Vec<f64>,
 }
 
 /// |analytic signal| of x: FFT, zero the negative frequencies, double the positive ones, inverse
@@ -109,11 +135,18 @@ pub fn blocked_hilbert_envelope(x: &[f64], block: usize, margin: usize) -> Vec<f
 /// Centred moving average over `window` samples, shrinking at the ends (as MATLAB's `movmean`:
 /// for an even window, window/2 samples before and window/2 − 1 after).
 pub fn moving_average(x: &[f64], window: usize) -> Vec<f64> {
+    moving_average_every(x, window, 1, &mut Vec::new())
+}
+
+/// [`moving_average`] at every `every`-th sample only (samples 0, every, 2·every, …; the same
+/// values), its prefix sums in `prefix`.
+pub fn moving_average_every(x: &[f64], window: usize, every: usize, prefix: &mut Vec<f64>) -> Vec<f64> {
     let n = x.len();
     let window = window.max(1);
     let before = window / 2;
     let after = window - 1 - before;
-    let mut prefix = Vec::with_capacity(n + 1);
+    prefix.clear();
+    prefix.reserve(n + 1);
     prefix.push(0.0);
     let mut acc = 0.0;
     for &v in x {
@@ -121,6 +154,7 @@ pub fn moving_average(x: &[f64], window: usize) -> Vec<f64> {
         prefix.push(acc);
     }
     (0..n)
+        .step_by(every.max(1))
         .map(|i| {
             let lo = i.saturating_sub(before);
             let hi = (i + after + 1).min(n);
@@ -153,6 +187,21 @@ pub fn envelope_checked(x: &[f64], dt_s: f64, window_s: f64) -> Result<Vec<f64>>
     positive("dt_s", dt_s, "")?;
     positive("window", window_s, " (seconds)")?;
     Ok(envelope(x, dt_s, window_s))
+}
+
+/// [`envelope_checked`] at every `every`-th sample only (the same values), with the buffers of
+/// `bufs` (docs/model.md §7).
+pub fn envelope_every(x: &[f64], dt_s: f64, window_s: f64, every: usize, bufs: &mut EnvelopeBuffers) -> Result<Vec<f64>> {
+    positive("dt_s", dt_s, "")?;
+    positive("window", window_s, " (seconds)")?;
+    if x.is_empty() {
+        return Ok(Vec::new());
+    }
+    let mut magnitude = std::mem::take(&mut bufs.magnitude);
+    Analytic::new(x.len()).magnitude_into(x, bufs, &mut magnitude);
+    let out = moving_average_every(&magnitude, window_samples(dt_s, window_s), every, &mut bufs.prefix);
+    bufs.magnitude = magnitude;
+    Ok(out)
 }
 
 /// `value` finite and > 0, or an error naming `field` (`unit` appended to the rule).
