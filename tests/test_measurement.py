@@ -106,6 +106,22 @@ def test_empty_and_missing_files(tmp_path):
         read_measurement(tmp_path / "missing.txt")
 
 
+def test_the_cores_number_parser_rounds_as_python_does():
+    """The plain reader's numbers (core ``measured::plain_numbers``) are bitwise Python's ``float``
+    of each token, for numbers printed in many forms; a token that is not a number gives None."""
+    from beamslider import _core
+
+    rng = np.random.default_rng(11)
+    x = np.concatenate([rng.normal(size=3000) * 10.0 ** rng.integers(-12, 12, 3000), [0.0, -0.0, 1e-308, 5e-324]])
+    forms = [repr, "{:.17g}".format, "{:.6e}".format, "{:.10g}".format, "{:.3f}".format, "{:.25f}".format]
+    toks = [f(float(v)) for v, f in zip(x, (forms[i % len(forms)] for i in range(len(x))))]
+    text = "".join(t + (", ", "\t", "\n", " ; ")[i % 4] for i, t in enumerate(toks))
+    got = _core.plain_numbers(text)
+    assert got is not None and got.tobytes() == np.array([float(t) for t in toks]).tobytes()
+    for bad in ("1 2 x", "1_000 2", "0x10", "1e"):
+        assert _core.plain_numbers(bad) is None
+
+
 def test_the_plain_reader_gives_the_line_readers_rows(tmp_path):
     """read_measurement parses a file of the usual form at once (measurement._plain_rows): the same
     values, bitwise, as the line-by-line reader that names errors; a file with a header, a comment,

@@ -81,6 +81,9 @@ def envelope(
     spaced ``dt_s``; with ``block``, the analytic signal by overlapping FFT blocks (``margin``
     samples each side).
     """
+def plain_numbers(text: str) -> Optional[npt.NDArray[np.float64]]:
+    """The numbers of a measured file's text, separated by whitespace, commas or semicolons, in
+    order (correctly rounded, as ``float``); None if a token is not a number."""
 def classify(
     s: npt.NDArray[np.float64],
     amplitude_h: npt.NDArray[np.float64],

@@ -105,19 +105,13 @@ def _is_number(tok: str) -> bool:
         return False
 
 
-_SEPARATORS = str.maketrans(",;", "  ")
-
-
 def _plain_rows(text: str) -> Optional[np.ndarray]:
     """The rows of a file of the usual form — every line three finite numbers, time increasing,
     no header, comment or blank line — parsed at once; None otherwise (:func:`_rows_checked` then
     reads it line by line and names what is wrong). The same values as that reader's."""
     lines = text.count("\n") + (0 if text.endswith("\n") else 1)
-    try:
-        flat = np.array(text.translate(_SEPARATORS).split(), dtype=float)
-    except ValueError:
-        return None
-    if lines < 2 or flat.size != 3 * lines:
+    flat = _core.plain_numbers(text)
+    if flat is None or lines < 2 or flat.size != 3 * lines:
         return None
     data = flat.reshape(-1, 3)
     if not (np.all(np.isfinite(data)) and np.all(np.diff(data[:, 0]) > 0)):

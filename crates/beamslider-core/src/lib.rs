@@ -26,6 +26,7 @@ pub mod enma;
 pub mod error;
 pub mod manifold;
 pub mod map;
+pub mod measured;
 pub mod params;
 pub mod physics;
 pub mod results;

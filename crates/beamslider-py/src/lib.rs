@@ -125,6 +125,12 @@ fn envelope<'py>(py: Python<'py>, x: In<'py>, dt_s: f64, window_s: f64, block: O
     Ok(py.detach(|| guarded(env))?.into_pyarray(py))
 }
 
+/// The numbers of a measured file's text (core `measured::plain_numbers`), or None if a token is not a number.
+#[pyfunction]
+fn plain_numbers<'py>(py: Python<'py>, text: String) -> PyResult<Option<Out<'py>>> {
+    Ok(py.detach(|| beamslider_core::measured::plain_numbers(&text)).map(|v| v.into_pyarray(py)))
+}
+
 /// The super-slow signals of w(4L/7) and s (core `signal::envelope_stream`, docs/model.md §7).
 #[pyfunction]
 fn super_slow_signals<'py>(py: Python<'py>, w: In<'py>, s: In<'py>, dt_s: f64, thickness_m: f64, window_s: f64) -> PyResult<(f64, f64, Out<'py>, Out<'py>)> {
@@ -155,7 +161,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("RESULTS_FORMAT_VERSION", beamslider_core::results::FORMAT_VERSION)?;
     m.add("MAX_AXIS_VALUES", beamslider_core::map::MAX_POINTS)?;
     m.add("S_DN_MIN", beamslider_core::superslow::predict::S_DN_MIN)?;
-    export!(m, recorded_rows, moving_average, envelope, classify, super_slow_signals, range_values);
+    export!(m, recorded_rows, moving_average, envelope, plain_numbers, classify, super_slow_signals, range_values);
     params::register(m)?;
     run::register(m)?;
     maprun::register(m)?;

@@ -141,6 +141,11 @@ class Discovery:
     Gauss–Newton step from there is predicted to reach (:func:`.refine.step_chi2`), whether it was
     refined jointly (:func:`.refine.sets_to_refine`) and its final χ²."""
 
+    paths: Dict[str, Any] = field(default_factory=dict)
+    """Slider level: the slider's path (t, s) of the ``baseline``'s and the ``updated`` model's run
+    from s0 at each operating point of the data (by its tag), as their measurement chains record it
+    (:func:`.models.slider_paths`; None for a failed run): the report's figure. Not in the JSON."""
+
     def to_json(self) -> Dict[str, Any]:
         return _json_safe(dict(
             verdict=self.verdict, confounded=self.confounded, unresolved=self.unresolved,

@@ -118,38 +118,31 @@ def simulate_ops(params: Parameters, ops: Sequence[OperatingPoint], *, s0_shift:
         return list(ex.map(one, ops))
 
 
-def slider_paths(models: Sequence[Union[Parameters, Model]], ops: Sequence[OperatingPoint], *,
-                 threads: Optional[int] = None) -> List[List[Optional[Tuple[np.ndarray, np.ndarray]]]]:
-    """Per model and operating point, the slider's path (t [s], s) as the model's measurement
-    chain would record it — stamps τ t, camera o + k s, the shaker at its excitation factor times
-    a_ex (docs/model.md §9.1) — every 5e-4 s; None where the run fails. One batch of the core's
-    runner (:data:`RUN_RECORD_EVERY`, :data:`RUN_KEEP_EVERY`: the runs of the features)."""
-    ms = [as_model(p) for p in models]
-    jobs = [(native(m.params), op.f_ex, op.a_ex * excitation_factor(m), op.s0, op.duration_s) for m in ms for op in ops]
-    res = _core.run_free_slider_batch(jobs, record_every=RUN_RECORD_EVERY, keep_every=RUN_KEEP_EVERY, window_s=1.0,
-                                      detrend_s=DISPLACEMENT_DETREND_S, threads=threads)
-    out: List[List[Optional[Tuple[np.ndarray, np.ndarray]]]] = []
-    for i, m in enumerate(ms):
-        k, o, tau = m.value("position_scale"), m.value("position_offset"), m.value("time_base")
-        rows = res[i * len(ops):(i + 1) * len(ops)]
-        out.append([None if "error" in r else (tau * np.asarray(r["t"]), o + k * np.asarray(r["s"])) for r in rows])
-    return out
-
-
 RUN_RECORD_EVERY = 5
 """Steps between recorded samples of a model run (Δt = 2e-5 s: 1e-4 s, the measured format's)."""
 RUN_KEEP_EVERY = 5
 """Of those, every k-th sample of t, s and the 1-s envelope is kept for the features (5e-4 s)."""
 
 
-RunCache = Dict[Tuple[Any, ...], Optional[Tuple[Dict[str, Feature], str]]]
-"""Features and behaviour of runs already made (None: failed), by physical parameters, operating
-point, a_ex and s0 (:func:`batch_slider_features`): the measurement chain's candidates other than
-the excitation level re-read the same runs."""
+PATH_POINTS = 4000
+"""Samples of a run's slider path kept beside its features (about; float32): the report's figure."""
+
+SliderPath = Tuple[np.ndarray, np.ndarray]
+"""A run's slider path: t [s] and s, every k-th sample (:data:`PATH_POINTS`)."""
+
+RunCache = Dict[Tuple[Any, ...], Optional[Tuple[Dict[str, Feature], str, SliderPath]]]
+"""Features, behaviour and slider path of runs already made (None: failed), by physical
+parameters, operating point, a_ex and s0 (:func:`batch_slider_features`): the measurement chain's
+candidates other than the excitation level re-read the same runs. About 32 kB a run."""
 
 
 def _params_key(p: Parameters) -> Tuple[Any, ...]:
     return tuple(sorted(p.to_dict().items()))
+
+
+def _run_key(m: Model, op: OperatingPoint, shift: float) -> Tuple[Any, ...]:
+    """The cache key of model ``m``'s run at ``op`` with s0 shifted by ``shift``."""
+    return (_params_key(m.params), op.tag, op.f_ex, op.a_ex * excitation_factor(m), op.s0 + shift, op.duration_s)
 
 
 def batch_slider_features(params_list: Sequence[Union[Parameters, Model]], ops: Sequence[OperatingPoint], *,
@@ -169,14 +162,12 @@ def batch_slider_features(params_list: Sequence[Union[Parameters, Model]], ops: 
     keys: List[List[Tuple[Any, ...]]] = []
     jobs, todo = [], []
     for m, d in zip(models, shifts):
-        pk = _params_key(m.params)
-        a_fac = excitation_factor(m)
         row = []
         for op in ops:
-            key = (pk, op.tag, op.f_ex, op.a_ex * a_fac, op.s0 + d, op.duration_s)
+            key = _run_key(m, op, d)
             if key not in known and key not in todo:
                 todo.append(key)
-                jobs.append((native(m.params), op.f_ex, op.a_ex * a_fac, op.s0 + d, op.duration_s))
+                jobs.append((native(m.params), op.f_ex, key[3], key[4], op.duration_s))
             row.append(key)
         keys.append(row)
     if jobs:
@@ -201,6 +192,24 @@ def batch_slider_features(params_list: Sequence[Union[Parameters, Model]], ops: 
     return out
 
 
+def slider_paths(models: Sequence[Union[Parameters, Model]], ops: Sequence[OperatingPoint], *,
+                 threads: Optional[int] = None, cache: Optional[RunCache] = None
+                 ) -> List[List[Optional[SliderPath]]]:
+    """Per model and operating point, the slider's path (t [s], s) of its run from s0 as the
+    model's measurement chain would record it — stamps τ t, camera o + k s, the shaker at its
+    excitation factor times a_ex (docs/model.md §9.1) — about :data:`PATH_POINTS` samples; None
+    where the run fails. Runs not in ``cache`` are made (:func:`batch_slider_features`)."""
+    ms = [as_model(p) for p in models]
+    known: RunCache = cache if cache is not None else {}
+    batch_slider_features(ms, ops, threads=threads, cache=known)
+    out: List[List[Optional[SliderPath]]] = []
+    for m in ms:
+        k, o, tau = m.value("position_scale"), m.value("position_offset"), m.value("time_base")
+        runs = [known[_run_key(m, op, 0.0)] for op in ops]
+        out.append([None if r is None else (tau * r[2][0], o + k * r[2][1]) for r in runs])
+    return out
+
+
 def with_recorded_frequency(feats: Dict[str, Feature], op: OperatingPoint) -> Dict[str, Feature]:
     """A model run's features with the excitation frequency it records (``f_recorded``): f_ex
     itself, the run's time being exact (:func:`.features.recorded_frequency`)."""
@@ -208,11 +217,14 @@ def with_recorded_frequency(feats: Dict[str, Feature], op: OperatingPoint) -> Di
     return {**feats, name: make_feature(name, op.f_ex, 0.0)}
 
 
-def _features_of_run(r: Dict[str, Any], tag: str) -> Optional[Tuple[Dict[str, Feature], str]]:
-    """Features of one run of the core's runner, None for a run too short to classify (the slider
-    left the beam early: a failed model, as a run that fails numerically)."""
+def _features_of_run(r: Dict[str, Any], tag: str) -> Optional[Tuple[Dict[str, Feature], str, SliderPath]]:
+    """Features, behaviour and slider path (:data:`PATH_POINTS`) of one run of the core's runner,
+    None for a run too short to classify (the slider left the beam early: a failed model, as a run
+    that fails numerically)."""
     try:
-        return slider_features(r["t"], r["s"], r["amplitude_h"], tag=tag)
+        feats, behaviour = slider_features(r["t"], r["s"], r["amplitude_h"], tag=tag)
+        k = max(1, len(r["t"]) // PATH_POINTS)
+        return feats, behaviour, (r["t"][::k].astype(np.float32), r["s"][::k].astype(np.float32))
     except ValueError:
         return None
 

@@ -18,7 +18,7 @@ from .fitting import (MODE_CONDITIONING, CandidateFit, Discovery, EnsembleMany, 
                       fit_candidate, gap_of, lrt_threshold, missing_z, profile_fit, select, sigma)
 from .models import (ENSEMBLE_S0_SHIFTS, Ensemble, Modes, RunCache, batch_slider_features, beam_surrogate,
                      data_modes, ensemble_slider_features, levels_for, measured_slider_features,
-                     simulated_enma_features, unreached_mode_features)
+                     simulated_enma_features, slider_paths, unreached_mode_features)
 from .fast import best_single, no_pair_gains, predict_singles, predicted_singles, tiered_singles
 from .joint import fit_sets_joint
 from .refine import sets_to_refine, step_chi2
@@ -569,6 +569,13 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
                  f"selection by likelihood-ratio tests at 99 %, Bonferroni-corrected for picking the best of m "
                  f"sets (m = {len(cand_effects)}: {thr_m:.2f}); otherwise the "
                  f"verdict is 'unexplained' and nothing is added")
+    # The report's figure: the slider's paths of the baseline's and the updated model's runs from
+    # s0 (made by the search and the full simulation of the updated model: from the run cache).
+    paths: Dict[str, Any] = {}
+    if measured is not None:
+        upd_model = realise_model(base, {e: best.values[e] for e in named}) if best is not None else Model(base)
+        both = slider_paths([base, upd_model], ops, threads=threads, cache=run_cache)
+        paths = {name: {op.tag: x for op, x in zip(ops, row)} for name, row in zip(("baseline", "updated"), both)}
     return Discovery(level, named, params_out, features, gap_before, gap_after, chi2_0, fits, criterion, base,
                      updated, behaviours, alts, enma_data if level == "beam" else list(measured or []) if level == "slider"
                      else dict(enma=enma_data, measured=list(measured or [])),
@@ -578,4 +585,4 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
                      confounded=confounded, unresolved=unresolved, guided_pairs=guided, joint_refinement=refined_sets,
                      modes={t: dict(ends_high=md[0], turning_point=md[1], runs=runs_base,
                                     baseline_runs_in_mode=counts_base.get(t), updated_runs_in_mode=counts_after.get(t))
-                            for t, md in (modes or {}).items() if md is not None})
+                            for t, md in (modes or {}).items() if md is not None}, paths=paths)

@@ -74,11 +74,12 @@ def write_report(d: Discovery, out_dir: PathLike) -> List[Path]:
     if runs_d:
         ms = runs_d
         ops = [OperatingPoint(m.f_ex, m.a_ex, m.s0, float(m.t[-1])) for m in ms]
-        # The updated model as its measurement chain records (the chain's named values included).
-        named = {e: float(v["value"]) for e, v in d.parameters.items()}
-        models = [as_model(d.baseline)] + ([realise_model(d.baseline, named)] if named else [])
-        paths = slider_paths(models, ops)
-        base_runs, upd_runs = paths[0], paths[-1]
+        if d.paths:
+            base_runs, upd_runs = ([d.paths[k].get(op.tag) for op in ops] for k in ("baseline", "updated"))
+        else:
+            # The updated model as its measurement chain records (the chain's named values included).
+            named = {e: float(v["value"]) for e, v in d.parameters.items()}
+            base_runs, upd_runs = slider_paths([as_model(d.baseline), realise_model(d.baseline, named)], ops)
         fig, axs = plt.subplots(1, len(ms), figsize=(5.5 * len(ms), 4), constrained_layout=True, squeeze=False)
         for ax, m, rb, ru, op in zip(axs[0], ms, base_runs, upd_runs, ops):
             # At most about PLOT_POINTS points a line: the slider moves over seconds, the samples are 0.1 ms.
