@@ -18,7 +18,7 @@ const PLANS_KEPT: usize = 8;
 impl Analytic {
     /// The plans for length `n`: planned once per process and shared (the same plan, so the same
     /// results, as a fresh planner's); at most [`PLANS_KEPT`] lengths are kept.
-    fn new(n: usize) -> std::sync::Arc<Analytic> {
+    fn for_len(n: usize) -> std::sync::Arc<Analytic> {
         use std::collections::HashMap;
         use std::sync::{Arc, Mutex, OnceLock};
         static PLANS: OnceLock<Mutex<HashMap<usize, Arc<Analytic>>>> = OnceLock::new();
@@ -90,7 +90,7 @@ pub fn hilbert_envelope(x: &[f64]) -> Vec<f64> {
     if x.is_empty() {
         return Vec::new();
     }
-    Analytic::new(x.len()).magnitude(x)
+    Analytic::for_len(x.len()).magnitude(x)
 }
 
 /// [`hilbert_envelope`] of a long signal by FFTs of overlapping blocks of `block` samples (a power
@@ -121,7 +121,7 @@ pub fn blocked_hilbert_envelope(x: &[f64], block: usize, margin: usize) -> Vec<f
         a += step;
     }
     // Blocks are independent: a few at a time in parallel (memory: one block per thread).
-    let plan = Analytic::new(block);
+    let plan = Analytic::for_len(block);
     let mut amp = vec![0.0; n];
     for group in parts.chunks(rayon::current_num_threads().max(1)) {
         let done: Vec<Vec<f64>> = group.par_iter().map(|&(a, kept, hi)| plan.magnitude(&x[a..a + block])[kept - a..hi - a].to_vec()).collect();
@@ -198,7 +198,7 @@ pub fn envelope_every(x: &[f64], dt_s: f64, window_s: f64, every: usize, bufs: &
         return Ok(Vec::new());
     }
     let mut magnitude = std::mem::take(&mut bufs.magnitude);
-    Analytic::new(x.len()).magnitude_into(x, bufs, &mut magnitude);
+    Analytic::for_len(x.len()).magnitude_into(x, bufs, &mut magnitude);
     let out = moving_average_every(&magnitude, window_samples(dt_s, window_s), every, &mut bufs.prefix);
     bufs.magnitude = magnitude;
     Ok(out)

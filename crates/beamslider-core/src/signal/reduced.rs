@@ -149,8 +149,8 @@ pub fn run_batch(
         |(i, job)| {
             // A failed job is a result (the fit's bad point); a panic is one too.
             let mut ws = spare.lock().unwrap_or_else(|e| e.into_inner()).pop().unwrap_or_default();
-            let r = runner::catch_panic(|| run_one_in(job, red, cancel, &mut ws))
-                .unwrap_or_else(|what| Err(Error::Numerical(format!("internal error: {what}"))));
+            let r =
+                runner::catch_panic(|| run_one_in(job, red, cancel, &mut ws)).unwrap_or_else(|what| Err(Error::Numerical(format!("internal error: {what}"))));
             spare.lock().unwrap_or_else(|e| e.into_inner()).push(ws);
             Ok(match r {
                 Ok(Some(v)) => Some((*i, Ok(v))),
@@ -198,8 +198,14 @@ mod tests {
             let m = Model::of(&params).unwrap();
             let exc = Excitation::new(124.0, 14.0);
             let start = m.start(SliderModel::Free, s0, &exc).unwrap();
-            let opts = RunOptions { excitation: exc, model: SliderModel::Free, duration_s, record_every: 5,
-                                    channels: vec![Channel::Time, Channel::W4L7, Channel::S], audit_contacts: false };
+            let opts = RunOptions {
+                excitation: exc,
+                model: SliderModel::Free,
+                duration_s,
+                record_every: 5,
+                channels: vec![Channel::Time, Channel::W4L7, Channel::S],
+                audit_contacts: false,
+            };
             let mut rec = ColumnRecorder::with_rows(0);
             m.run(&start, &opts, &mut rec as &mut dyn Recorder, &mut ()).unwrap();
             let (t, w) = (&rec.columns[0], &rec.columns[1]);
