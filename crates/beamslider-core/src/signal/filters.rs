@@ -75,7 +75,7 @@ impl Analytic {
 
 /// Buffers of [`envelope_every`] kept from call to call (one set per worker): a 60-s run's
 /// spectrum and scratch are tens of MB, which allocated and first touched anew for every run
-/// cost about a tenth of the run.
+/// cost about 5 % of the run.
 #[derive(Debug, Default)]
 pub struct EnvelopeBuffers {
     spectrum: Vec<Complex<f64>>,
