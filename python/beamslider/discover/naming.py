@@ -66,7 +66,8 @@ def _fit_sets(cand_effects: Sequence[Effect], max_effects: int, level: str, base
     screening tier first (:func:`.fast.tiered_singles`), the full search only where it does not
     settle: settled if no set can win (``done``) or, for the single ``named(singles)`` would name,
     no pair containing it is predicted to gain the selection's least threshold (:func:`.fast.no_pair_gains`;
-    ``known(name)``: whether ``step`` has the effect's column)."""
+    ``known(name)``: whether ``step`` has the effect's column). ``tier`` without ``predict`` (slider
+    level, few candidates, each fitted in full): no sets where that gate holds."""
     def fit(combo: Sequence[Effect], refine: int = 2, joint: Optional[bool] = None) -> CandidateFit:
         if level == "beam":
             return fit_candidate(combo, base, meas, model_fn, diff_step=diff_step, max_nfev=max_nfev)
@@ -116,6 +117,11 @@ def _fit_sets(cand_effects: Sequence[Effect], max_effects: int, level: str, base
         for e in cand_effects:
             fits.append(fit((e,)))
             bar.update(1)
+        if (tier and max_effects >= 2 and level == "slider" and step is not None and named is not None
+                and no_pair_gains(fits, named(fits), step, base, known or (lambda e: True))):
+            # Few candidates, every single fitted in full: the tier's gate for the pairs, as where the
+            # tier settles (no pair with the single the selection names is predicted to gain).
+            settled = True
     if max_effects >= 2 and not settled and not (done is not None and done(fits)):
         ranked = guide() if guide is not None else None
         combos = pairs_to_fit(cand_effects, fits, max_effects, level, ranked)

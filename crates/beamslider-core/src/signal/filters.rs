@@ -163,6 +163,30 @@ pub fn moving_average_every(x: &[f64], window: usize, every: usize, prefix: &mut
         .collect()
 }
 
+/// `x` minus its centred moving average over `window` samples (the window clipped at the ends,
+/// as [`moving_average_every`]), in place: the detrending of docs/model.md §7. `prefix`: the
+/// prefix sums' buffer, reused across calls. Bitwise the same as subtracting
+/// `moving_average_every(x, window, 1, prefix)`, without the second signal-long vector.
+pub fn subtract_moving_average(x: &mut [f64], window: usize, prefix: &mut Vec<f64>) {
+    let n = x.len();
+    let window = window.max(1);
+    let before = window / 2;
+    let after = window - 1 - before;
+    prefix.clear();
+    prefix.reserve(n + 1);
+    prefix.push(0.0);
+    let mut acc = 0.0;
+    for &v in x.iter() {
+        acc += v;
+        prefix.push(acc);
+    }
+    for (i, v) in x.iter_mut().enumerate() {
+        let lo = i.saturating_sub(before);
+        let hi = (i + after + 1).min(n);
+        *v -= (prefix[hi] - prefix[lo]) / (hi - lo) as f64;
+    }
+}
+
 /// Envelope of docs/model.md §7: |Hilbert(x)| followed by a moving average over `window_s` seconds
 /// of samples spaced `dt_s`.
 pub fn envelope(x: &[f64], dt_s: f64, window_s: f64) -> Vec<f64> {
@@ -274,6 +298,19 @@ mod tests {
                 let direct: f64 = x[lo..hi].iter().sum::<f64>() / (hi - lo) as f64;
                 assert!((m[i] - direct).abs() < 1e-12);
             }
+        }
+    }
+
+    #[test]
+    fn detrending_in_place_is_bitwise_the_subtracted_average() {
+        let x: Vec<f64> = (0..1001).map(|i| (0.37 * i as f64).sin() + 1e-3 * i as f64).collect();
+        let mut prefix = Vec::new();
+        for w in [1, 2, 7, 100, 1000, 2003] {
+            let mean = moving_average_every(&x, w, 1, &mut prefix);
+            let expected: Vec<f64> = x.iter().zip(&mean).map(|(a, m)| a - m).collect();
+            let mut y = x.clone();
+            subtract_moving_average(&mut y, w, &mut prefix);
+            assert_eq!(y, expected, "window {w}");
         }
     }
 }

@@ -11,7 +11,7 @@ use crate::dynamics::runner;
 use crate::dynamics::simulation::{CancelFlag, Excitation, Model, RunOptions, SliderModel, Status};
 use crate::error::{Error, Result};
 use crate::params::Valid;
-use crate::signal::filters::{EnvelopeBuffers, envelope_every, moving_average_every};
+use crate::signal::filters::{EnvelopeBuffers, envelope_every, subtract_moving_average};
 use crate::signal::output::recorded_rows;
 
 /// One run: parameters, f_ex [Hz], a_ex [m/s²], s₀ [-], duration [s].
@@ -122,8 +122,7 @@ pub fn run_one_in(job: &Job, red: &Reduction, cancel: &AtomicBool, ws: &mut Work
     // The detrending also takes a few per cent off the amplitude (|sinc| of the window).
     if let Some(d) = red.detrend_s {
         let k = (d / dt_rec).round().max(1.0).min((2 * w.len() + 1) as f64) as usize;
-        let mean = moving_average_every(&w, k, 1, &mut ws.prefix);
-        w.iter_mut().zip(&mean).for_each(|(x, m)| *x -= m);
+        subtract_moving_average(&mut w, k, &mut ws.prefix);
     }
     let amp = envelope_every(&w, dt_rec, red.window_s, red.keep_every, &mut ws.envelope)?;
     let pick = |v: &[f64]| v.iter().step_by(red.keep_every).copied().collect::<Vec<f64>>();
