@@ -167,17 +167,18 @@ def _no_set_can_win(singles: List[CandidateFit], judge: Callable[[List[Candidate
 SCREEN_FROM = 3
 """Slider level, more candidates than this: each is first scanned coarsely (:func:`_fit_sets`)."""
 
-SCREEN_REFINE = 0
-"""Refinement levels of the coarse scan (:func:`.fitting.profile_fit`): none, the grid and one ensemble.
-One level (7 points spanning ± one grid step about the grid's best point) sees a valley narrower than
-the grid step beside that point (friction 0.185 hidden: χ² 198 at the grid point 0.2, 1.8 at 0.1833)
-but is not the default: five of the table's rows have not been rerun with it (docs/model.md §9.1, "Cost")."""
+SCREEN_REFINE = 1
+"""Refinement levels of the coarse scan (:func:`.fitting.profile_fit`): the grid, one level of 7 points
+spanning ± one grid step about the grid's best point, and the ensembles at the two picks. The level
+sees a valley narrower than the grid step beside that point, which the grid alone drops (friction 0.185
+hidden: χ² 198 at the grid point 0.2, 1.8 at 0.1833; μ = 0.17 hidden: 381 at 0.2, 5.9 fitted in full at
+0.1722; docs/model.md §9.1, "Cost")."""
 
 SCREEN_MARGIN = 20.0
 """A coarsely scanned single candidate is fitted in full if its χ² is within this of the best
-coarse χ²: the refinement lowered a coarse minimum by at most (grid step / 2σ)², about 13, for the
-sharpest candidate of the table's runs (slider inertia). Not a bound: a valley narrower than the grid
-step lies between its points and is dropped (docs/model.md §9.1, "Cost")."""
+coarse χ²: the refinement lowered a grid's minimum by at most (grid step / 2σ)², about 13, for the
+sharpest candidate of the table's runs (slider inertia). Not a bound: a valley narrower than the
+screen's refinement step beside no grid point is still dropped (docs/model.md §9.1, "Cost")."""
 
 SCREEN_KEEP = 3
 """At least this many single candidates (the best coarse ones) are fitted in full."""
