@@ -142,6 +142,14 @@ pub fn moving_average(x: &[f64], window: usize) -> Vec<f64> {
 /// values), its prefix sums in `prefix`.
 pub fn moving_average_every(x: &[f64], window: usize, every: usize, prefix: &mut Vec<f64>) -> Vec<f64> {
     let n = x.len();
+    let mean = windowed_mean(x, window, prefix);
+    (0..n).step_by(every.max(1)).map(mean).collect()
+}
+
+/// The centred moving average of [`moving_average`] as a function of the sample index, from the
+/// prefix sums of `x` (written to `prefix`).
+fn windowed_mean<'a>(x: &[f64], window: usize, prefix: &'a mut Vec<f64>) -> impl Fn(usize) -> f64 + 'a {
+    let n = x.len();
     let window = window.max(1);
     let before = window / 2;
     let after = window - 1 - before;
@@ -153,14 +161,12 @@ pub fn moving_average_every(x: &[f64], window: usize, every: usize, prefix: &mut
         acc += v;
         prefix.push(acc);
     }
-    (0..n)
-        .step_by(every.max(1))
-        .map(|i| {
-            let lo = i.saturating_sub(before);
-            let hi = (i + after + 1).min(n);
-            (prefix[hi] - prefix[lo]) / (hi - lo) as f64
-        })
-        .collect()
+    let prefix = &*prefix;
+    move |i| {
+        let lo = i.saturating_sub(before);
+        let hi = (i + after + 1).min(n);
+        (prefix[hi] - prefix[lo]) / (hi - lo) as f64
+    }
 }
 
 /// `x` minus its centred moving average over `window` samples (the window clipped at the ends,
@@ -168,22 +174,9 @@ pub fn moving_average_every(x: &[f64], window: usize, every: usize, prefix: &mut
 /// prefix sums' buffer, reused across calls. Bitwise the same as subtracting
 /// `moving_average_every(x, window, 1, prefix)`, without the second signal-long vector.
 pub fn subtract_moving_average(x: &mut [f64], window: usize, prefix: &mut Vec<f64>) {
-    let n = x.len();
-    let window = window.max(1);
-    let before = window / 2;
-    let after = window - 1 - before;
-    prefix.clear();
-    prefix.reserve(n + 1);
-    prefix.push(0.0);
-    let mut acc = 0.0;
-    for &v in x.iter() {
-        acc += v;
-        prefix.push(acc);
-    }
+    let mean = windowed_mean(x, window, prefix);
     for (i, v) in x.iter_mut().enumerate() {
-        let lo = i.saturating_sub(before);
-        let hi = (i + after + 1).min(n);
-        *v -= (prefix[hi] - prefix[lo]) / (hi - lo) as f64;
+        *v -= mean(i);
     }
 }
 
