@@ -56,6 +56,8 @@ CASES = {
     "restitution-high": ("restitution 0.7", dict(restitution=0.7), SLIDER),
     "restitution-high-out": ("restitution 0.7, restitution not a candidate", dict(restitution=0.7),
                              [n for n in SLIDER if n != "restitution"]),
+    # A friction valley between the screen's grid points 0.15 and 0.2 (docs/model.md §9.1, "Cost").
+    "friction-low": ("mu = 0.17", dict(friction_coefficient=0.17), SLIDER),
     "negligible": ("mu = 0.203 (below the 0.01 threshold)", dict(friction_coefficient=0.203), SLIDER),
     "baseline": ("nothing (the prototype)", {}, SLIDER),
     # The contact spacing and the measurement chain (docs/model.md §9.1), by effect name.

@@ -74,6 +74,12 @@ def _fit_sets(cand_effects: Sequence[Effect], max_effects: int, level: str, base
         return profile_fit(combo, base, meas, model_fn, model_many=model_many, ensemble_many=ensemble_many,
                             spread0=spread0, refine=refine, joint=joint)
 
+    def pairs_gated(singles: List[CandidateFit]) -> bool:
+        # The tier's gate for the pairs: none with the single the selection would name is
+        # predicted to gain the least threshold (:func:`.fast.no_pair_gains`).
+        return (step is not None and named is not None
+                and no_pair_gains(singles, named(singles), step, base, known or (lambda e: True)))
+
     bar = _progress_bar(progress, len(cand_effects), f"discover ({level}): fits")
     fits: List[CandidateFit] = []
     settled = False  # by the tier: no sets fitted
@@ -83,9 +89,7 @@ def _fit_sets(cand_effects: Sequence[Effect], max_effects: int, level: str, base
         # threshold) and no candidate it left unfitted is predicted near; else the full search, whose
         # runs the tier's full fits share (cached).
         fits, complete = tiered_singles(cand_effects, predict(), lambda e: fit((e,)), len(meas))
-        gate = step is not None and named is not None
-        if complete and (max_effects < 2 or (done is not None and done(fits))
-                         or (gate and no_pair_gains(fits, named(fits), step, base, known or (lambda e: True)))):
+        if complete and (max_effects < 2 or (done is not None and done(fits)) or pairs_gated(fits)):
             settled = True
             bar.update(len(cand_effects))
         else:
@@ -117,8 +121,7 @@ def _fit_sets(cand_effects: Sequence[Effect], max_effects: int, level: str, base
         for e in cand_effects:
             fits.append(fit((e,)))
             bar.update(1)
-        if (tier and max_effects >= 2 and level == "slider" and step is not None and named is not None
-                and no_pair_gains(fits, named(fits), step, base, known or (lambda e: True))):
+        if tier and max_effects >= 2 and level == "slider" and pairs_gated(fits):
             # Few candidates, every single fitted in full: the tier's gate for the pairs, as where the
             # tier settles (no pair with the single the selection names is predicted to gain).
             settled = True
