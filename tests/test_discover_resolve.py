@@ -223,6 +223,61 @@ def _runs(tmp_path, truth, *, chain=None, points=((110, 10, 0.3), (124, 6, 0.3))
     return [bs.read_measurement(q) for q in paths]
 
 
+def test_a_truth_names_effects_of_the_library_as_discover_realises_them():
+    """The synthesiser's truth holds parameters and effects by name: the detuning (no parameter of
+    its own) scales the natural frequencies by its factor, an effect sets its parameter in the units
+    discover reports, and the measurement chain's effects become the model's chain."""
+    from beamslider.discover.synthesize import truth_from_toml_text
+
+    m = truth_from_toml_text("natural_frequency_detuning = 1.03\ncontact_spacing = 0.0115\n"
+                             "excitation_gain = 0.95\nfriction_coefficient = 0.3\n")
+    base = bs.Parameters(friction_coefficient=0.3)
+    assert m.params == dc.realise_effects(base, {"natural_frequency_detuning": 1.03, "contact_spacing": 0.0115})
+    assert m.params.contact_spacing_m == 0.0115 and m.params.friction_coefficient == 0.3
+    f = m.params.natural_frequencies_hz()
+    f0 = bs.Parameters(contact_spacing_m=0.0115).natural_frequencies_hz()
+    assert all(abs(a / b - 1.03) < 1e-12 for a, b in zip(f, f0))
+    assert m.chain == (("excitation_gain", 0.95),)
+    assert truth_from_toml_text("").params == bs.Parameters() and truth_from_toml_text("").chain == ()
+
+
+@pytest.mark.parametrize("text, msg", [
+    ("detuning = 1.03\n", "neither a parameter"),
+    ("slider_mass = 0.05\nslider_mass_kg = 0.05\n", "twice"),
+    ("tilt = 'x'\n", "finite number"),
+    ("clearance = nan\n", "finite number"),
+    ("slider_mass = -1\n", "slider_mass_kg"),
+    ("natural_frequency_detuning = 0\n", "> 0"),
+    ("x = [\n", "invalid TOML"),
+])
+def test_a_bad_truth_is_one_line_from_the_command(text, msg, tmp_path):
+    from conftest import run_cli
+
+    (tmp_path / "t.toml").write_text(text, encoding="utf-8")
+    r = run_cli("synthesize", "slider", "--truth", "t.toml", "--out", str(tmp_path / "o"), cwd=tmp_path, timeout=60)
+    assert r.returncode != 0 and msg in r.stderr and "Traceback" not in r.stderr, r.stderr
+    assert len(r.stderr.strip().splitlines()) == 1 and "t.toml" in r.stderr, r.stderr
+    assert not (tmp_path / "o").exists() or not any((tmp_path / "o").iterdir())
+
+
+def test_the_command_takes_the_truths_effects_and_refuses_a_chain_set_twice(tmp_path):
+    from conftest import run_cli
+
+    (tmp_path / "t.toml").write_text("natural_frequency_detuning = 1.03\nexcitation_gain = 0.95\n", encoding="utf-8")
+    r = run_cli("synthesize", "slider", "--truth", "t.toml", "--points", "124,14,0.3", "--duration", "0.5",
+                "--seed", "4", "--out", "cli", "--no-progress", cwd=tmp_path, timeout=120)
+    assert r.returncode == 0, r.stderr
+    lib = dc.synthesize_slider_runs(dc.realise_effects(bs.Parameters(), {"natural_frequency_detuning": 1.03}),
+                                    operating_points=[(124, 14, 0.3)], duration_s=0.5, out_dir=tmp_path / "lib",
+                                    seed=4, chain={"excitation_gain": 0.95})
+    (cli,) = sorted((tmp_path / "cli").glob("*.txt"))
+    assert cli.name == lib[0].name and cli.read_bytes() == lib[0].read_bytes()
+    for args, msg in ((["slider", "--chain", "excitation_gain=0.9"], "set twice"), (["enma"], "slider runs only")):
+        r = run_cli("synthesize", *args, "--truth", "t.toml", "--out", str(tmp_path / "o"), cwd=tmp_path, timeout=60)
+        assert r.returncode != 0 and msg in r.stderr and "Traceback" not in r.stderr, r.stderr
+        assert len(r.stderr.strip().splitlines()) == 1, r.stderr
+
+
 @pytest.mark.parametrize("args, msg", [
     (["synthesize", "slider", "--chain", "gain=0.9"], "measurement-chain"),
     (["synthesize", "slider", "--chain", "excitation_gain=x"], "--chain"),
@@ -237,7 +292,7 @@ def test_cli_rejects_a_bad_chain_or_advice_grid(args, msg, tmp_path):
 
 
 EXCITATION = dict(excitation_gain=0.95)
-"""The issue's calibration error: the shaker ran 5 % below the level the files name."""
+"""A calibration error of the shaker's control: it ran 5 % below the level the files name."""
 
 
 @pytest.mark.heavy

@@ -51,7 +51,9 @@ def add_parser(sub: Any) -> None:
         description="Write data generated from --truth (TOML) with noise: 'enma' a virtual ENMA CSV "
                     "(enma_data.csv), 'slider' free-slider runs in the published measured format.")
     sp.add_argument("kind", choices=["enma", "slider"])
-    sp.add_argument("--truth", metavar="TOML", help="truth model (default: the prototype)")
+    sp.add_argument("--truth", metavar="TOML",
+                    help="truth model: parameters and, by name, effects of discover's library, e.g. "
+                         "'natural_frequency_detuning = 1.03' (default: the prototype)")
     sp.add_argument("--seed", type=int, default=0, help="noise seed (0)")
     sp.add_argument("--points", metavar="LIST", default="110,10,0.3;124,6,0.3",
                     help="slider: operating points f_ex,a_ex,s0 separated by ';' (110,10,0.3;124,6,0.3)")
@@ -166,8 +168,21 @@ def cmd_discover(args: argparse.Namespace) -> int:
 def cmd_synthesize(args: argparse.Namespace) -> int:
     from .. import discover as dc
 
-    truth = Parameters.from_toml(args.truth) if args.truth else Parameters()
-    chain = _chain(args.chain)
+    from ..discover.synthesize import truth_from_toml
+
+    try:
+        model = truth_from_toml(args.truth) if args.truth else dc.Model(Parameters())
+    except OSError as e:
+        raise UserError(f"cannot read the truth {args.truth}: {e.strerror or e}") from None
+    except ValueError as e:
+        raise UserError(f"cannot read the truth {e}") from None
+    truth, chain = model.params, dict(model.chain)
+    for name, value in _chain(args.chain).items():
+        if name in chain:
+            raise UserError(f"{name} is set twice: in --truth and in --chain")
+        chain[name] = value
+    if args.kind == "enma" and chain:
+        raise UserError(f"the measurement chain ({', '.join(sorted(chain))}) applies to slider runs only, not to 'enma'")
     if args.kind == "enma":
         plan_outputs(args, ["enma_data.csv"])
     else:

@@ -59,7 +59,7 @@ from .chain import Model, realise_model
 from .models import beam_surrogate, measured_slider_features, model_slider_features, OperatingPoint, simulated_enma_features
 from .fitting import CandidateFit, Discovery, GAP_MEASURE, SIGNIFICANCE
 from .naming import discover
-from .synthesize import synthesize_enma, synthesize_slider_runs
+from .synthesize import synthesize_enma, synthesize_slider_runs, truth_from_toml, truth_from_toml_text
 from .report import fmt_value, verdict_line, write_report
 from .separability import separability, slider_sensitivities
 
@@ -67,6 +67,7 @@ __all__ = [
     "beam_surrogate", "CandidateFit", "DESCRIPTIONS", "discover", "Discovery", "Effect", "EFFECTS",
     "enma_features", "Feature", "FLOORS", "GAP_MEASURE", "measured_slider_features", "model_slider_features",
     "OperatingPoint", "SIGNIFICANCE", "simulated_enma_features", "slider_features", "synthesize_enma",
-    "synthesize_slider_runs", "write_report", "verdict_line", "separability", "slider_sensitivities",
+    "synthesize_slider_runs", "truth_from_toml", "truth_from_toml_text", "write_report", "verdict_line",
+    "separability", "slider_sensitivities",
     "realise_effects", "fmt_value", "CHAIN_EFFECTS", "Model", "realise_model",
 ]

@@ -3,6 +3,7 @@ runs in the published measured format."""
 
 from __future__ import annotations
 
+import math
 import os
 from pathlib import Path
 from typing import Dict, List, Optional, Sequence, Tuple, Union
@@ -13,6 +14,8 @@ from .. import _core, enma
 from ..enma import EnmaData
 from ..measurement import write_measurement
 from ..params import Parameters, resolve
+from .chain import Model, realise_model
+from .effects import EFFECTS
 from .models import OperatingPoint, simulate_ops
 
 PathLike = Union[str, "os.PathLike[str]"]
@@ -33,6 +36,42 @@ def synthesize_enma(truth: Optional[Parameters] = None, *, levels_m_s2: Sequence
         noisy.shape = sh
     noisy.source = f"synthetic ENMA (seed {seed})"
     return noisy
+
+
+def truth_from_toml_text(text: str) -> Model:
+    """A truth model from TOML text: parameters (docs/model.md §1, missing ones at their defaults)
+    and, by name, effects of discover's library (docs/model.md §9.1, e.g.
+    ``natural_frequency_detuning = 1.03``, ``contact_spacing = 0.0115``, ``excitation_gain = 0.95``),
+    each in the units ``discover`` reports it in and realised on the parameters as ``discover``
+    realises its candidates; the measurement chain's effects are returned as the model's chain.
+    A key that is neither, or an effect and the parameter it sets both given, is a ``ValueError``."""
+    from .. import _toml
+
+    try:
+        table = _toml.loads(text)
+    except _toml.TOMLDecodeError as e:
+        raise ValueError(f"invalid TOML: {e}") from None
+    fields = set(Parameters().to_dict())
+    effects = {k: v for k, v in table.items() if k in EFFECTS and k not in fields}
+    unknown = sorted(k for k in table if k not in fields and k not in EFFECTS)
+    if unknown:
+        raise ValueError(f"unknown key {unknown[0]!r} in the truth: neither a parameter ({', '.join(sorted(fields))}) "
+                         f"nor an effect of discover's library ({', '.join(EFFECTS)})")
+    for k, v in effects.items():
+        e = EFFECTS[k]
+        if not e.chain and e.realise is None and e.field in table:
+            raise ValueError(f"the truth sets {e.field} twice: as the parameter and as the effect {k!r}")
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+            raise ValueError(f"the truth's effect {k!r} must be a finite number, not {v!r}")
+    params = Parameters.from_toml_text(_toml.dumps({k: v for k, v in table.items() if k not in effects}))
+    return realise_model(params, {k: float(v) for k, v in effects.items()})
+
+
+def truth_from_toml(path: PathLike) -> Model:
+    """:func:`truth_from_toml_text` of the UTF-8 file ``path`` (errors prefixed with the path)."""
+    from .._toml import read_config_file
+
+    return read_config_file(path, truth_from_toml_text)
 
 
 def measured_file_name(f_ex: float, a_ex: float, s0: float) -> str:
