@@ -532,6 +532,50 @@ def test_the_full_search_keeps_a_fit_the_tier_made_in_full(monkeypatch):
         assert by["restitution"].screened and by["restitution"].chi2 == 90.0
 
 
+def test_a_fourth_tier_fit_leaves_the_full_search_as_a_tier_of_three_would(monkeypatch):
+    """naming._fit_sets with fast.TIER_KEEP = 4 and TIER_SHARED = 3 (docs/model.md §9.1, "Cost"): a
+    tier that fits four candidates and does not settle hands the full search its first three fits by
+    prediction; the fourth enters as its coarse scan (here beyond the margin, so screened out, though
+    its full fit was the best), and the full search's fits are those after a tier of three fits."""
+    from beamslider.discover import fast, naming
+    from beamslider.discover.effects import EFFECTS
+
+    assert fast.TIER_KEEP == 4 and fast.TIER_SHARED == 3
+    names = ["friction_coefficient", "natural_frequency_detuning", "tilt", "clearance", "restitution"]
+    cands = [EFFECTS[n] for n in names]
+    coarse = dict(friction_coefficient=10.0, natural_frequency_detuning=30.0, tilt=35.0, clearance=200.0,
+                  restitution=90.0)
+    full = dict(friction_coefficient=4.0, natural_frequency_detuning=25.0, tilt=33.0, clearance=3.0, restitution=80.0)
+    # Four predicted near, the fifth beyond the margin; the tilt's fit 27 above its prediction: not trusted.
+    pred = dict(friction_coefficient=(4.5, 0.0), natural_frequency_detuning=(5.0, 0.0), tilt=(6.0, 0.0),
+                clearance=(7.0, 0.0), restitution=(90.0, 0.0))
+    calls = []
+
+    def fake_fit(effects, *a, refine=2, **kw):
+        n = effects[0].name
+        calls.append((n, refine))
+        c2 = coarse[n] if refine == naming.SCREEN_REFINE else full[n]
+        return CandidateFit((n,), {n: 0.0}, {n: 0.01}, c2, 10, True, c2)
+
+    monkeypatch.setattr(naming, "profile_fit", fake_fit)
+
+    def run():
+        calls.clear()
+        fits = naming._fit_sets(cands, 1, "slider", bs.Parameters(), {f"f{i}": None for i in range(11)}, None, None,
+                                0, done=lambda s: True, predict=lambda: pred, tier=True)
+        return [(f.effects, f.chi2, f.screened) for f in fits], list(calls)
+
+    fits4, calls4 = run()
+    assert [c for c in calls4 if c[1] == 2][:4] == [(n, 2) for n in names[:4]]   # the tier fitted four
+    by = {f[0][0]: f for f in fits4}
+    assert by["clearance"][1:] == (200.0, True)   # its coarse scan, not the tier's fit (3.0)
+    assert all(by[n][1:] == (full[n], False) for n in names[:3])
+    real = fast.tiered_singles
+    monkeypatch.setattr(naming, "tiered_singles", lambda c, p, f, n: real(c, p, f, n, keep=3))
+    fits3, calls3 = run()
+    assert fits3 == fits4 and ("clearance", 2) not in calls3
+
+
 def test_the_tier_settles_a_named_single_only_if_no_pair_with_it_is_predicted_to_gain():
     """fast.no_pair_gains: the pairs that could change a named single's verdict contain it (the
     forward selection extends the named single); each is predicted by a Gauss–Newton step from the

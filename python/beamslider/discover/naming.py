@@ -19,7 +19,7 @@ from .fitting import (MODE_CONDITIONING, CandidateFit, Discovery, EnsembleMany, 
 from .models import (ENSEMBLE_S0_SHIFTS, Ensemble, Modes, RunCache, batch_slider_features, beam_surrogate,
                      data_modes, ensemble_slider_features, levels_for, measured_slider_features,
                      simulated_enma_features, slider_paths, unreached_mode_features)
-from .fast import best_single, no_pair_gains, predict_singles, predicted_singles, tiered_singles
+from .fast import TIER_SHARED, best_single, no_pair_gains, predict_singles, predicted_singles, tiered_singles
 from .joint import fit_sets_joint
 from .refine import sets_to_refine, step_chi2
 from .separability import slider_changes, slider_sensitivities
@@ -88,12 +88,17 @@ def _fit_sets(cand_effects: Sequence[Effect], max_effects: int, level: str, base
         # The screening tier: settled if its fits leave no set to fit (a named single below the
         # threshold) and no candidate it left unfitted is predicted near; else the full search, whose
         # runs the tier's full fits share (cached).
-        fits, complete = tiered_singles(cand_effects, predict(), lambda e: fit((e,)), len(meas))
+        pred = predict()
+        fits, complete = tiered_singles(cand_effects, pred, lambda e: fit((e,)), len(meas))
         if complete and (max_effects < 2 or (done is not None and done(fits)) or pairs_gated(fits)):
             settled = True
             bar.update(len(cand_effects))
         else:
-            tier_full = {f.effects[0]: f for f in fits if not f.screened}
+            # The full search keeps the tier's first TIER_SHARED fits by prediction; a later one, made
+            # to settle the answer, enters as its coarse scan does (from the fit's cached runs), so the
+            # full search's verdict is that of a tier of TIER_SHARED fits.
+            first = sorted((f for f in fits if not f.screened), key=lambda f: pred[f.effects[0]][0])[:TIER_SHARED]
+            tier_full = {f.effects[0]: f for f in first}
             fits, predict = [], None
     elif predict is not None:
         fits = predicted_singles(cand_effects, predict(), lambda e: fit((e,)), len(meas))
