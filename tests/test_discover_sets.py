@@ -489,6 +489,20 @@ def test_the_tier_fits_the_best_predicted_and_falls_back_to_the_full_search(monk
     assert not any(r == 0 for _, r in calls)
 
 
+def _coarse_or_full(coarse, full, calls):
+    """A stand-in for naming.profile_fit: each single candidate's χ² from ``coarse`` for the full
+    search's coarse scan (refine=naming.SCREEN_REFINE), else from ``full``; each call logged in ``calls``."""
+    from beamslider.discover import naming
+
+    def fit(effects, *a, refine=2, **kw):
+        n = effects[0].name
+        calls.append((n, refine))
+        c2 = coarse[n] if refine == naming.SCREEN_REFINE else full[n]
+        return CandidateFit((n,), {n: 0.0}, {n: 0.01}, c2, 10, True, c2)
+
+    return fit
+
+
 def test_the_full_search_keeps_a_fit_the_tier_made_in_full(monkeypatch):
     """naming._fit_sets (docs/model.md §9.1, "Cost"): where the tier does not settle, the full search's
     coarse scans screen each candidate, but one the tier fitted in full keeps that fit though its
@@ -504,14 +518,7 @@ def test_the_full_search_keeps_a_fit_the_tier_made_in_full(monkeypatch):
                   restitution=90.0)
     full = dict(friction_coefficient=4.0, natural_frequency_detuning=25.0, tilt=33.0, clearance=38.0, restitution=80.0)
     calls = []
-
-    def fake_fit(effects, *a, refine=2, **kw):
-        n = effects[0].name
-        calls.append((n, refine))
-        c2 = coarse[n] if refine == naming.SCREEN_REFINE else full[n]
-        return CandidateFit((n,), {n: 0.0}, {n: 0.01}, c2, 10, True, c2)
-
-    monkeypatch.setattr(naming, "profile_fit", fake_fit)
+    monkeypatch.setattr(naming, "profile_fit", _coarse_or_full(coarse, full, calls))
     cut = max(sorted(coarse.values())[0] + naming.SCREEN_MARGIN, sorted(coarse.values())[naming.SCREEN_KEEP - 1])
     assert coarse["friction_coefficient"] > cut   # the coarse scan alone would screen it out
     # The tier not complete: friction predicted best but 26 above its fit, the others' predictions
@@ -550,14 +557,7 @@ def test_a_fourth_tier_fit_leaves_the_full_search_as_a_tier_of_three_would(monke
     pred = dict(friction_coefficient=(4.5, 0.0), natural_frequency_detuning=(5.0, 0.0), tilt=(6.0, 0.0),
                 clearance=(7.0, 0.0), restitution=(90.0, 0.0))
     calls = []
-
-    def fake_fit(effects, *a, refine=2, **kw):
-        n = effects[0].name
-        calls.append((n, refine))
-        c2 = coarse[n] if refine == naming.SCREEN_REFINE else full[n]
-        return CandidateFit((n,), {n: 0.0}, {n: 0.01}, c2, 10, True, c2)
-
-    monkeypatch.setattr(naming, "profile_fit", fake_fit)
+    monkeypatch.setattr(naming, "profile_fit", _coarse_or_full(coarse, full, calls))
 
     def run():
         calls.clear()
