@@ -168,10 +168,8 @@ def cmd_discover(args: argparse.Namespace) -> int:
 def cmd_synthesize(args: argparse.Namespace) -> int:
     from .. import discover as dc
 
-    from ..discover.synthesize import truth_from_toml
-
     try:
-        model = truth_from_toml(args.truth) if args.truth else dc.Model(Parameters())
+        model = dc.truth_from_toml(args.truth) if args.truth else dc.Model(Parameters())
     except OSError as e:
         raise UserError(f"cannot read the truth {args.truth}: {e.strerror or e}") from None
     except ValueError as e:

@@ -15,7 +15,7 @@ from ..enma import EnmaData
 from ..measurement import write_measurement
 from ..params import Parameters, resolve
 from .chain import Model, realise_model
-from .effects import EFFECTS
+from .effects import CHAIN_EFFECTS, EFFECTS
 from .models import OperatingPoint, simulate_ops
 
 PathLike = Union[str, "os.PathLike[str]"]
@@ -99,7 +99,7 @@ def synthesize_slider_runs(truth: Optional[Parameters] = None, *, operating_poin
     ``velocity_gain`` G (velocity × G), ``position_offset`` o and ``position_scale`` k (s written
     as o + k s), ``time_base`` τ (samples stamped τ t)."""
     ch = dict(chain or {})
-    unknown = sorted(set(ch) - {"excitation_gain", "velocity_gain", "position_offset", "position_scale", "time_base"})
+    unknown = sorted(set(ch) - set(CHAIN_EFFECTS))
     if unknown:
         raise ValueError(f"unknown measurement-chain parameter {unknown[0]!r}")
     g, gv = float(ch.get("excitation_gain", 1.0)), float(ch.get("velocity_gain", 1.0))
