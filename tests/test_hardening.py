@@ -423,7 +423,9 @@ def test_ctrl_c_on_a_cluster_map_whose_scheduler_died_exits_130_without_a_traceb
     pytest.importorskip("distributed")
     from conftest import cli_command, default_signals
 
-    env = dict(os.environ, MPLBACKEND="Agg")
+    # PYTHONFAULTHANDLER: a command that has not ended a minute after Ctrl-C is sent SIGABRT, which
+    # prints every thread's stack into the failure message.
+    env = dict(os.environ, MPLBACKEND="Agg", PYTHONFAULTHANDLER="1")
     sched, worker, sched_file = _start_cluster(tmp_path, env)
     try:
         p = subprocess.Popen([*cli_command(), "map", "--f-ex", "100:130:2", "--a-ex", "14", "--t-end", "6", "--no-progress",
@@ -439,8 +441,13 @@ def test_ctrl_c_on_a_cluster_map_whose_scheduler_died_exits_130_without_a_traceb
         try:
             err = p.communicate(timeout=60)[1]
         except subprocess.TimeoutExpired:
-            p.kill()
-            raise
+            p.send_signal(signal.SIGABRT)
+            try:
+                stacks = p.communicate(timeout=30)[1]
+            except subprocess.TimeoutExpired:
+                p.kill()
+                stacks = p.communicate()[1]
+            pytest.fail(f"still running 60 s after Ctrl-C; its threads:\n{stacks}")
     finally:
         for proc in (worker, sched):
             proc.kill()

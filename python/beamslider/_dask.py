@@ -114,11 +114,26 @@ def _silence_distributed() -> None:
         logging.getLogger(name).setLevel(logging.CRITICAL + 1)
 
 
+CLEANUP_TIMEOUT_S = 10.0
+"""The longest a clean-up call to the client (cancelling the chunks left, closing it) may hold up
+the end of a run [s]: a client whose scheduler is gone can wait on its event loop for longer."""
+
+
+def _bounded(call: Callable[[], Any], timeout_s: float = CLEANUP_TIMEOUT_S) -> None:
+    """A clean-up call run quietly in a daemon thread, waited for at most ``timeout_s``: an
+    interrupted or failing run ends promptly even when the client's event loop does not answer."""
+    import threading
+
+    t = threading.Thread(target=_quietly, args=(call,), name="beamslider-dask-cleanup", daemon=True)
+    t.start()
+    t.join(timeout_s)
+
+
 def close_client(client: Any) -> None:
-    """Close a client we own, quietly when its scheduler is gone."""
+    """Close a client we own, quietly when its scheduler is gone, and in bounded time."""
     if getattr(client, "status", "running") != "running":
         _silence_distributed()
-    _quietly(lambda: client.close(timeout=5))
+    _bounded(lambda: client.close(timeout=5))
 
 
 def run_chunks(client: Any, func: Callable[..., List[str]], chunks: Sequence[tuple], *, tag: str,
@@ -202,8 +217,9 @@ def run_chunks(client: Any, func: Callable[..., List[str]], chunks: Sequence[tup
         _silence_distributed()
         raise
     finally:
-        for fut in list(futures):
-            _quietly(fut.cancel)
+        if futures and getattr(client, "status", "running") not in ("closing", "closed"):
+            left = list(futures)
+            _bounded(lambda: client.cancel(left))
         if not interrupted:
             for log, level in zip(loop_logs, loop_levels):
                 log.setLevel(level)
