@@ -5,10 +5,14 @@ repeats, each a fresh subprocess) and the verdict.
     python scripts/bench/bench_discover.py [--repeat 3] [--measured examples/data/*.txt.gz]
                                            [--effects LIST] [--max-effects 2]
                                            [--case restitution [--duration 60] [--s0-offset 0.0015]]
+                                           [--runs FILE]
 
 ``--case``: the data of that case of `scripts/repro/discover_table.py` (its truth, three runs at the
 reference points, seed 3, the truth runs ``--s0-offset`` off s0), synthesised once before the
 repeats, and the case's candidates (all slider-level ones, or all but the hidden one).
+``--runs FILE``: each repeat starts from a copy of the kept runs of an earlier discover (its
+``runs.jsonl``; docs/model.md §9.1, "Kept runs"), e.g. of another case at the same operating points:
+the wall time of a discover warm on those runs. Without it every run is made.
 ``--stages [--search S]``: one discover in this process instead (``--search``: discover's search),
 every batch of the core's runner attributed to the stage that asked for it (the baseline's
 ensemble, the single candidates' coarse scans or linearised prediction and full fits, the linearised
@@ -30,6 +34,7 @@ import argparse
 import glob
 import json
 import os
+import shutil
 import statistics
 import subprocess
 import sys
@@ -42,10 +47,13 @@ def load() -> str:
     return "load average " + " ".join(f"{x:.2f}" for x in os.getloadavg())
 
 
-def one(files, effects, max_effects, search="tiered") -> tuple:
+def one(files, effects, max_effects, search="tiered", runs=None) -> tuple:
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp) / "out"
         argv = [sys.executable, "-m", "beamslider", "discover", "--measured", *files, "--out", str(out), "--force"]
+        if runs is not None:  # the repeat starts from a copy of the kept runs
+            out.mkdir()
+            shutil.copyfile(runs, out / "runs.jsonl")
         if effects:
             argv += ["--effects", effects]
         argv += ["--max-effects", str(max_effects), "--search", search]
@@ -144,6 +152,9 @@ def main() -> int:
     ap.add_argument("--search", choices=("tiered", "full", "fast"), default="tiered",
                     help="discover's search (docs/model.md §9.1, \"Cost\"): tiered (the default), full or fast")
     ap.add_argument("--fast", action="store_true", help="the same as --search fast")
+    ap.add_argument("--runs", metavar="FILE", default=None,
+                    help="kept runs (runs.jsonl of an earlier discover, e.g. of another case at the same points) "
+                         "each repeat starts from (default: none, every run made)")
     args = ap.parse_args()
     data_dir = None
     if args.case is not None:
@@ -178,7 +189,7 @@ def main() -> int:
     walls, cpus = [], []
     for i in range(args.repeat):
         wall, cpu, verdict, named = one(files, args.effects, args.max_effects,
-                                        "fast" if args.fast else args.search)
+                                        "fast" if args.fast else args.search, runs=args.runs)
         walls.append(wall)
         cpus.append(cpu)
         print(f"  repeat {i + 1}: wall {wall:.1f} s, CPU {cpu:.1f} s, verdict {verdict}: {named} ({load()})", flush=True)

@@ -5,6 +5,7 @@ negligible change, the baseline itself).
 
 Usage:  python3 scripts/repro/discover_table.py [--duration 60] [--out docs/results/discover/table.md] [--cases a,b] [--rows-only] [--s0-offset 0.0015]
                                           [--ops "104,14,0.3;126,10,0.3;124,14,0.3"] [--max-effects 1] [--resume] [--json-dir DIR]
+                                          [--runs FILE]
 
 ``--resume``: the cases whose rows --out already holds (same label) are kept, not re-run; ``--json-dir``:
 each case's full report (every fitted set with its reasons and intervals) as DIR/CASE.json.
@@ -134,6 +135,9 @@ def main() -> int:
     ap.add_argument("--search", choices=("tiered", "full", "fast"), default="tiered",
                     help="discover's search (docs/model.md §9.1, \"Cost\"): tiered (the default), full or fast")
     ap.add_argument("--json-dir", type=Path, default=None, help="write each case's report.json there as CASE.json")
+    ap.add_argument("--runs", type=Path, default=None,
+                    help="a file of kept runs the cases share (docs/model.md §9.1, \"Kept runs\"): the same rows, "
+                         "each case making only the runs no case before it made (its wall time then counts those)")
     ap.add_argument("--s0-offset", type=float, default=0.0,
                     help="the truth runs start this far off the s0 their files name (no inverse crime; default 0)")
     args = ap.parse_args()
@@ -162,7 +166,7 @@ def main() -> int:
             runs = case_runs(key, ops, args.duration, args.s0_offset, tmp)
             t0, c0 = time.perf_counter(), time.process_time()
             d = dc.discover(measured=runs, baseline=P, effects=effects, max_effects=args.max_effects, progress=True,
-                            search=args.search)
+                            search=args.search, runs_file=args.runs)
             wall, cpu = time.perf_counter() - t0, time.process_time() - c0
             load = os.getloadavg()
         named = "; ".join(f"{e} {dc.fmt_value(d.parameters[e]['value'])} ± {dc.fmt_value(d.parameters[e]['stderr'])} "

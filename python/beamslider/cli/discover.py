@@ -13,6 +13,7 @@ from __future__ import annotations
 import argparse
 import math
 import time
+from pathlib import Path
 from typing import Any, Dict, List, Tuple
 
 from ..params import Parameters
@@ -43,6 +44,11 @@ def add_parser(sub: Any) -> None:
                          "tool looks for the run that would resolve an unresolved candidate or separate a "
                          "confounded group (default: seven points of the paper's map, from s0 = 0.3 and from 0.15; "
                          "'none': no advice runs)")
+    sp.add_argument("--runs", metavar="FILE",
+                    help="slider level: the file that keeps the free-slider runs made, JSON lines (default: runs.jsonl "
+                         "in --out; 'none': keep none). The runs it holds from the same code are reused: a discover "
+                         "that was interrupted, or is run again on the same operating points, makes only the runs "
+                         "it has not made, with the same verdict")
     add_common(sp, window=False, force=True)
     sp.set_defaults(func=cmd_discover)
 
@@ -71,6 +77,8 @@ def add_parser(sub: Any) -> None:
 
 
 REPORT_FILES = ("updated.toml", "report.json", "report.md", "gap.png", "backbone.png", "slider.png")
+RUNS_FILE = "runs.jsonl"
+"""The default file of discover's kept runs in --out (:class:`beamslider.discover.runstore.RunStore`)."""
 """What ``beamslider discover`` writes (:func:`beamslider.discover.write_report`)."""
 
 
@@ -132,6 +140,13 @@ def cmd_discover(args: argparse.Namespace) -> int:
     given = "--fast" if args.fast else f"--search {args.search}"
     if args.fast:
         args.search = "fast"
+    store = None
+    if args.runs is not None and not args.measured:
+        raise UserError("--runs: only with --measured (the slider level's runs)")
+    if args.measured and (args.runs or "").strip().lower() != "none":
+        from ..discover.runstore import RunStore
+
+        store = RunStore(args.runs if args.runs else Path(args.out) / RUNS_FILE)
     if args.search == "fast" and not (args.measured and not args.enma):
         raise UserError(f"{given}: only for the slider level (--measured without --enma)")
     if args.enma and args.measured:
@@ -139,7 +154,8 @@ def cmd_discover(args: argparse.Namespace) -> int:
         baseline = Parameters.from_toml(args.params) if args.params else Parameters()
         runs = [read_measurement(p) for p in args.measured]
         d = dc.discover(enma_data=enma.read(args.enma), measured=runs, baseline=baseline, effects=effects,
-                        max_effects=args.max_effects, gap_ratio=args.gap_ratio, progress=prog, advice_grid=advice)
+                        max_effects=args.max_effects, gap_ratio=args.gap_ratio, progress=prog, advice_grid=advice,
+                        runs_file=store)
     elif args.enma:
         baseline = Parameters.from_toml(args.params) if args.params else Parameters()
         d = dc.discover(enma_data=enma.read(args.enma), baseline=baseline, effects=effects, max_effects=args.max_effects,
@@ -148,7 +164,8 @@ def cmd_discover(args: argparse.Namespace) -> int:
         baseline = Parameters.from_toml(args.params) if args.params else Parameters()
         runs = [read_measurement(p) for p in args.measured]
         d = dc.discover(measured=runs, baseline=baseline, effects=effects, max_effects=args.max_effects,
-                        gap_ratio=args.gap_ratio, progress=prog, advice_grid=advice, search=args.search)
+                        gap_ratio=args.gap_ratio, progress=prog, advice_grid=advice, search=args.search,
+                        runs_file=store)
     else:
         baseline = (Parameters.from_toml(args.params) if args.params
                     else Parameters(k_r_nm_per_rad=math.inf, k_t_n_per_m=math.inf))
@@ -159,6 +176,8 @@ def cmd_discover(args: argparse.Namespace) -> int:
     written = dc.write_report(d, out)
     print((out / "report.md").read_text(encoding="utf-8").split("\n| feature")[0].rstrip())
     print(f"verdict: {dc.verdict_line(d)}")
+    if store is not None:
+        print(f"runs: {store.loaded} reused from {store.path}, {store.added} made")
     print(f"total {time.perf_counter() - t0:.1f} s")
     for p in written:
         print(f"wrote {p}")

@@ -47,8 +47,8 @@ screened and the pairs chosen by the linearised model (docs/model.md §9.1, "Set
 
 The package is split by step: :mod:`.features` (1), :mod:`.effects` and :mod:`.chain` (2),
 :mod:`.models` (the model side of the features), :mod:`.naming`, :mod:`.refine`, :mod:`.spread` and :mod:`.verdicts` (3),
-:mod:`.report` (4), :mod:`.synthesize` (5) and :mod:`.separability` (identifiability); every
-public name is re-exported here.
+:mod:`.report` (4), :mod:`.synthesize` (5), :mod:`.separability` (identifiability) and
+:mod:`.runstore` (the runs a discover keeps on disk); every public name is re-exported here.
 """
 
 from __future__ import annotations
@@ -59,6 +59,7 @@ from .chain import Model, realise_model
 from .models import beam_surrogate, measured_slider_features, model_slider_features, OperatingPoint, simulated_enma_features
 from .fitting import CandidateFit, Discovery, GAP_MEASURE, SIGNIFICANCE
 from .naming import discover
+from .runstore import RunStore
 from .synthesize import synthesize_enma, synthesize_slider_runs, truth_from_toml, truth_from_toml_text
 from .report import fmt_value, verdict_line, write_report
 from .separability import separability, slider_sensitivities
@@ -69,5 +70,5 @@ __all__ = [
     "OperatingPoint", "SIGNIFICANCE", "simulated_enma_features", "slider_features", "synthesize_enma",
     "synthesize_slider_runs", "truth_from_toml", "truth_from_toml_text", "write_report", "verdict_line",
     "separability", "slider_sensitivities",
-    "realise_effects", "fmt_value", "CHAIN_EFFECTS", "Model", "realise_model",
+    "realise_effects", "fmt_value", "CHAIN_EFFECTS", "Model", "realise_model", "RunStore",
 ]

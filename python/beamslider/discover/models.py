@@ -201,6 +201,11 @@ def slider_paths(models: Sequence[Union[Parameters, Model]], ops: Sequence[Opera
     where the run fails. Runs not in ``cache`` are made (:func:`batch_slider_features`)."""
     ms = [as_model(p) for p in models]
     known: RunCache = cache if cache is not None else {}
+    for m in ms:  # runs kept without their path (.runstore) are made again
+        for op in ops:
+            r = known.get(_run_key(m, op, 0.0))
+            if r is not None and r[2] is None:
+                del known[_run_key(m, op, 0.0)]
     batch_slider_features(ms, ops, threads=threads, cache=known)
     out: List[List[Optional[SliderPath]]] = []
     for m in ms:

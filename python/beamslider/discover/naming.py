@@ -22,6 +22,7 @@ from .models import (ENSEMBLE_S0_SHIFTS, Ensemble, Modes, RunCache, batch_slider
 from .fast import TIER_SHARED, best_single, no_pair_gains, predict_singles, predicted_singles, tiered_singles
 from .joint import fit_sets_joint
 from .refine import sets_to_refine, step_chi2
+from .runstore import RunStore
 from .separability import slider_changes, slider_sensitivities
 from .verdicts import (ADVICE_GRID, CONFIRM_SINGLES, GUIDED_PAIRS, Reason, Reasons, Why, advise,
                        beaten_by_negligible, confounded_group, confounded_sets, pairs_to_fit, interval_of, kinds,
@@ -236,7 +237,7 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
              baseline: Optional[Parameters] = None, effects: Optional[Sequence[str]] = None,
              max_effects: int = 2, progress: bool = False, gap_ratio: float = 0.3,
              threads: Optional[int] = None, advice_grid: Optional[Sequence[Tuple[float, float, float]]] = None,
-             fast: bool = False, search: str = "tiered") -> Discovery:
+             fast: bool = False, search: str = "tiered", runs_file: Optional[Any] = None) -> Discovery:
     """Find the effects the ``baseline`` model misses, from beam-level ENMA data (``enma_data``),
     slider-level free-slider runs (``measured``, files of the published format) or both (one joint
     fit over both feature sets: beam-level effects from both, slider-level ones from the runs),
@@ -252,7 +253,10 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
     :data:`SCREEN_FROM` candidates; docs/model.md §9.1, "Cost"): ``"tiered"``, the linearised
     model's screening with full fits of the best predicted first (:func:`.fast.tiered_singles`), the
     full search only where that does not settle the answer; ``"full"``, coarse scans of every
-    candidate; ``"fast"`` (also ``fast=True``), the screening alone and one pair (:mod:`.fast`)."""
+    candidate; ``"fast"`` (also ``fast=True``), the screening alone and one pair (:mod:`.fast`).
+    ``runs_file``: a JSON-lines file of the free-slider runs, or a :class:`.runstore.RunStore` of
+    one: the runs it holds from the same code are reused, and every run made is appended (None:
+    none kept)."""
     import time
 
     t0 = time.perf_counter()
@@ -296,6 +300,8 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
     counts_base: Dict[str, int] = {}
     bias: Dict[str, float] = {}
     run_cache: RunCache = {}
+    if runs_file is not None and measured is not None:
+        run_cache = runs_file if isinstance(runs_file, RunStore) else RunStore(runs_file)
     if enma_data is not None:
         meas_b = enma_features(enma_data)
         enma_levels = levels_for(enma_data, base)
@@ -564,7 +570,8 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
                             f"discover: advice for {', '.join(to_advise)} (points)")
         (confounded or unresolved)["advice"] = advise(to_advise, base, ops, grid, threads=threads,
                                                      on_point=lambda: bar.update(1),
-                                                     fitted=confounded.get("models", confounded.get("values")))
+                                                     fitted=confounded.get("models", confounded.get("values")),
+                                                     cache=run_cache)
         bar.close()
     negl = negligible_fits(fits, verdicts)
     rejected = [dict(effects=list(f.effects), values=f.values, stderrs=f.stderrs, chi2=f.chi2, dof=f.dof,

@@ -365,7 +365,7 @@ def outside_fits_better(best: CandidateFit, predicted: Dict[str, Tuple[float, fl
 def advise(names: Sequence[str], base: Parameters, ops: Sequence[OperatingPoint],
            grid: Sequence[Tuple[float, float, float]], *, threads: Optional[int] = None,
            on_point: Optional[Callable[[], None]] = None,
-           fitted: Optional[Union[Dict[str, float], Sequence[Dict[str, float]]]] = None) -> Dict[str, Any]:
+           fitted: Optional[Union[Dict[str, float], Sequence[Dict[str, float]]]] = None, cache=None) -> Dict[str, Any]:
     """The separability tool's advice for candidates the data did not resolve (one name) or
     separate (several): the signatures (:func:`.separability.slider_sensitivities`, features in
     units of their uncertainty for a change of 5 relevance thresholds) at each point of ``grid``
@@ -375,7 +375,8 @@ def advise(names: Sequence[str], base: Parameters, ops: Sequence[OperatingPoint]
     the separation is then the distance between the features of the fitted models
     (:func:`fitted_differences`), which stays right where the linearised signatures do not (a large
     change of one mimicking another).
-    ``on_point``: called after the measured points and after each grid point (progress)."""
+    ``on_point``: called after the measured points and after each grid point (progress).
+    ``cache``: a run cache (:func:`.models.batch_slider_features`)."""
     from .separability import slider_sensitivities
 
     measured = {(op.f_ex, op.a_ex, op.s0) for op in ops}
@@ -385,9 +386,9 @@ def advise(names: Sequence[str], base: Parameters, ops: Sequence[OperatingPoint]
         return dict(names=list(names), recommended=None, note="every point of the grid is measured already")
     def score_at(where: Sequence[OperatingPoint], clearance: Optional[float] = None) -> Optional[float]:
         if fitted:
-            diffs = fitted_differences(fitted, base, where, threads=threads, clearance=clearance)
+            diffs = fitted_differences(fitted, base, where, threads=threads, clearance=clearance, cache=cache)
             return None if diffs is None else _score_fitted(diffs)
-        return _score(names, slider_sensitivities(names, base, where, threads=threads))
+        return _score(names, slider_sensitivities(names, base, where, threads=threads, cache=cache))
 
     now = score_at(ops)
     if on_point is not None:
@@ -432,14 +433,15 @@ clamping; the truth from s0 + 0.0015 left the free length at 43.5 s)."""
 
 def fitted_differences(values: Union[Dict[str, float], Sequence[Dict[str, float]]], base: Parameters,
                        ops: Sequence[OperatingPoint], *, threads: Optional[int] = None,
-                       clearance: Optional[float] = None) -> Optional[Dict[str, Dict[str, float]]]:
+                       clearance: Optional[float] = None, cache=None) -> Optional[Dict[str, Dict[str, float]]]:
     """The features of each single candidate's fitted model (``values``: effect name -> fitted
     value; or a list of models, each its effects' values: the sets of a confounded group, keyed
     "a+b") at ``ops``, relative to the baseline, in units of the uncertainty: the resolution floor
     and the largest run-to-run spread (over s0 and s0 ± 0.002) of the baseline and of the fitted
     models — where two explanations that fit the data alike predict differently beyond what their
     own sensitivity to unresolvable perturbations blurs. ``clearance``: None if a run ends with a
-    contact point of the slider (s ± B/2L, B of the baseline) closer than this to a clamping."""
+    contact point of the slider (s ± B/2L, B of the baseline) closer than this to a clamping.
+    ``cache``: a run cache (:func:`.models.batch_slider_features`)."""
     from .chain import realise_model
     from .models import batch_slider_features
     from .._core import SimulationError
@@ -449,7 +451,7 @@ def fitted_differences(values: Union[Dict[str, float], Sequence[Dict[str, float]
     shifts = (0.0, -0.002, 0.002)
     models = [base] + [realise_model(base, v) for v in sets]
     res = batch_slider_features([m for m in models for _ in shifts], ops, s0_shifts=list(shifts) * len(models),
-                                threads=threads)
+                                threads=threads, cache=cache)
     if any(r is None for r in res):
         raise SimulationError("a run of the fitted models at the advice's operating points failed")
     groups = [[r[0] for r in res[i * len(shifts):(i + 1) * len(shifts)] if r is not None] for i in range(len(models))]

@@ -1,0 +1,127 @@
+"""A discover's free-slider runs kept on disk, so that a discover that is interrupted, or run again
+on the same runs' operating points (more candidates, another gap ratio, an added run at the advised
+point, data of another device measured at the same points), makes only the runs it has not made
+yet (docs/model.md §9.1, "Cost").
+
+The file is JSON lines, one run a line: its inputs (the key of :func:`.models.batch_slider_features`:
+physical parameters, operating point, excitation level, s0, duration), the features and behaviour the
+run gave (or that it failed), and a fingerprint of the code that made it. A run is reused only by
+the same code, so a reused run is bitwise the run that would be made (the simulations are
+deterministic): verdicts, values and intervals do not depend on what the file held. The slider
+paths of the report's figures are not kept (about 32 kB a run); the few runs drawn are made again.
+
+Lines are appended with one ``write`` each to a file opened for appending, so two discovers may
+share a file; a line cut short by a killed process is skipped when the file is read.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+from pathlib import Path
+from typing import Any, Dict, Optional, Tuple, Union
+
+from .features import Feature
+
+FORMAT = 1
+"""The version of a line's layout."""
+
+_FINGERPRINT: Optional[str] = None
+
+
+def code_fingerprint() -> str:
+    """A digest of the code that makes a run's features: the core's binary and the package's
+    Python sources (a changed simulator or feature extractor invalidates every kept run)."""
+    global _FINGERPRINT
+    if _FINGERPRINT is None:
+        from .. import _core
+
+        root = Path(__file__).resolve().parent.parent
+        h = hashlib.sha1()
+        files = [Path(_core.__file__).resolve()] + sorted(root.rglob("*.py"))
+        for f in files:
+            h.update(str(f.relative_to(root) if f.is_relative_to(root) else f.name).encode())
+            h.update(f.read_bytes())
+        _FINGERPRINT = h.hexdigest()[:16]
+    return _FINGERPRINT
+
+
+def _key_text(key: Tuple[Any, ...]) -> str:
+    return json.dumps(key, default=float, separators=(",", ":"))
+
+
+def _encode(run: Any) -> Any:
+    if run is None:
+        return None
+    feats, behaviour = run[0], run[1]
+    return {"behaviour": behaviour,
+            "features": {k: [float(f.value), float(f.stderr), f.unit, f.description] for k, f in feats.items()}}
+
+
+def _decode(d: Any) -> Any:
+    if d is None:
+        return None
+    feats = {k: Feature(k, float(v[0]), float(v[1]), str(v[2]), str(v[3])) for k, v in d["features"].items()}
+    return feats, str(d["behaviour"]), None
+
+
+class RunStore(dict):
+    """The run cache of a discover (:data:`.models.RunCache`) backed by a JSON-lines file: the
+    runs the file holds for this code are there from the start, and every run set is appended.
+    Entries read from the file have no slider path (None). ``loaded``: runs read from the file;
+    ``added``: runs appended since."""
+
+    def __init__(self, path: Union[str, os.PathLike]) -> None:
+        super().__init__()
+        self.path = Path(path)
+        self.loaded = 0
+        self.added = 0
+        self._by_text: Dict[str, Tuple[Any, ...]] = {}
+        fp = code_fingerprint()
+        if self.path.is_dir():
+            raise ValueError(f"invalid runs file {self.path}: it is a folder")
+        try:
+            raw = self.path.read_bytes()
+        except FileNotFoundError:
+            raw = b""
+        except OSError as e:
+            raise ValueError(f"cannot read runs file {self.path}: {e.strerror or e}") from None
+        for line in raw.splitlines():
+            try:
+                d = json.loads(line)
+                if not (isinstance(d, dict) and d.get("v") == FORMAT and d.get("code") == fp):
+                    continue
+                key = _to_tuple(json.loads(d["key"]))
+                super().__setitem__(key, _decode(d["run"]))
+                self.loaded += 1
+            except (ValueError, KeyError, TypeError, IndexError):
+                continue  # a line cut short, or not one of ours
+        self._fp = fp
+        self._tail_newline = bool(raw) and not raw.endswith(b"\n")
+        try:  # writable before any run is made
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+            os.close(os.open(self.path, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o644))
+        except OSError as e:
+            raise ValueError(f"cannot write runs file {self.path}: {e.strerror or e}") from None
+
+    def __setitem__(self, key: Tuple[Any, ...], run: Any) -> None:
+        super().__setitem__(key, run)
+        self.added += 1
+        line = json.dumps({"v": FORMAT, "code": self._fp, "key": _key_text(key), "run": _encode(run)},
+                          separators=(",", ":"), allow_nan=True) + "\n"
+        if self._tail_newline:  # the last line of the file was cut short: end it first
+            line = "\n" + line
+            self._tail_newline = False
+        data = line.encode()
+        fd = os.open(self.path, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o644)
+        try:
+            while data:
+                data = data[os.write(fd, data):]
+        finally:
+            os.close(fd)
+
+
+def _to_tuple(x: Any) -> Any:
+    """A key read back from JSON: its lists as the tuples they were."""
+    return tuple(_to_tuple(v) for v in x) if isinstance(x, list) else x

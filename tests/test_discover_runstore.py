@@ -1,0 +1,153 @@
+"""Discover's kept runs (beamslider.discover.runstore, docs/model.md §9.1 "Cost"): a run read back
+is the run that was made, a discover run again on its runs makes none of them and gives the same
+answer as a discover without kept runs, and a damaged or shared file loses nothing it held."""
+
+from __future__ import annotations
+
+import json
+import multiprocessing as mp
+
+import pytest
+
+import beamslider as bs
+from beamslider import _core
+from beamslider import discover as dc
+from beamslider.discover import models
+from beamslider.discover.chain import Model
+from beamslider.discover.models import batch_slider_features
+from beamslider.discover.runstore import RunStore, code_fingerprint
+
+from conftest import run_cli
+
+OPS = [dc.OperatingPoint(124, 6, 0.3, 1.0)]
+
+
+def _values(res):
+    return [None if r is None else ({k: (f.value, f.stderr, f.unit, f.description) for k, f in r[0].items()}, r[1])
+            for r in res]
+
+
+def test_a_kept_run_is_read_back_as_it_was(tmp_path):
+    """Features and behaviour of runs read from the file equal those of the runs made (bitwise),
+    and nothing is run again; a failed run (None) is kept as failed."""
+    p = bs.Parameters()
+    models_ = [p, Model(p, (("excitation_gain", 0.9),)), bs.Parameters(friction_coefficient=0.3)]
+    store = RunStore(tmp_path / "runs.jsonl")
+    made = batch_slider_features(models_, OPS, cache=store)
+    assert store.added == 3 and store.loaded == 0
+    again = RunStore(tmp_path / "runs.jsonl")
+    assert again.loaded == 3 and set(again) == set(store)
+    calls = []
+    real = _core.run_free_slider_batch
+
+    def counting(jobs, **kw):
+        calls.append(len(jobs))
+        return real(jobs, **kw)
+
+    mp_ = pytest.MonkeyPatch()
+    mp_.setattr(_core, "run_free_slider_batch", counting)
+    try:
+        read = batch_slider_features(models_, OPS, cache=again)
+    finally:
+        mp_.undo()
+    assert calls == [] and _values(read) == _values(made)
+    fresh = batch_slider_features(models_, OPS)
+    assert _values(read) == _values(fresh)
+    again[("failed",)] = None
+    assert RunStore(tmp_path / "runs.jsonl")[("failed",)] is None
+
+
+def test_a_line_cut_short_or_of_other_code_is_skipped(tmp_path):
+    """A line cut short by a killed process, a line of another code version and a foreign line are
+    skipped; the next run appended after a cut line is read back."""
+    f = tmp_path / "runs.jsonl"
+    store = RunStore(f)
+    batch_slider_features([bs.Parameters()], OPS, cache=store)
+    good = f.read_text()
+    other = json.loads(good)
+    other["code"] = "0" * 16
+    f.write_text(good + json.dumps(other) + "\n" + "not json\n" + good[: len(good) // 2])
+    store = RunStore(f)
+    assert store.loaded == 1
+    batch_slider_features([bs.Parameters(friction_coefficient=0.25)], OPS, cache=store)
+    assert RunStore(f).loaded == 2 and len(RunStore(f)) == 2
+    assert len(code_fingerprint()) == 16
+
+
+def _append_many(path, start, n):
+    store = RunStore(path)
+    for i in range(start, start + n):
+        store[(("x", float(i)),)] = ({"a": dc.Feature("a", float(i), 0.0)}, "b", None)
+
+
+def test_two_writers_of_one_file_lose_no_line(tmp_path):
+    """Two processes appending to the same file (two discovers sharing their runs): every line is whole."""
+    f = tmp_path / "runs.jsonl"
+    ctx = mp.get_context("spawn")
+    ps = [ctx.Process(target=_append_many, args=(f, k * 1000, 300)) for k in range(2)]
+    for p in ps:
+        p.start()
+    for p in ps:
+        p.join(120)
+    assert all(p.exitcode == 0 for p in ps)
+    store = RunStore(f)
+    assert store.loaded == 600 and sorted(k[0][1] for k in store) == [float(i) for i in range(300)] + [
+        float(i) for i in range(1000, 1300)]
+
+
+def test_a_folder_or_an_unwritable_place_is_a_clear_error(tmp_path):
+    with pytest.raises(ValueError, match="is a folder"):
+        RunStore(tmp_path)
+    (tmp_path / "file").write_text("")
+    with pytest.raises(ValueError, match="cannot (read|write) runs file"):
+        RunStore(tmp_path / "file" / "runs.jsonl")
+
+
+def test_a_discover_run_again_on_its_runs_makes_only_the_figures_runs_and_says_the_same(tmp_path, monkeypatch):
+    """A slider-level discover with its runs kept, then again on the same file: the second makes no
+    run but the few whose paths the report draws, and its answer (verdict, fits, values,
+    intervals, advice) is that of a discover that keeps none."""
+    paths = dc.synthesize_slider_runs(bs.Parameters(friction_coefficient=0.25), operating_points=[(124, 6, 0.3)],
+                                      duration_s=4, out_dir=tmp_path / "data", seed=3, s0_offset=0.0015)
+    runs = [bs.read_measurement(q) for q in paths]
+    kw = dict(measured=runs, effects=["friction_coefficient", "restitution"], advice_grid=[(110, 10, 0.3)])
+    plain = dc.discover(**kw).to_json()
+    first = dc.discover(runs_file=tmp_path / "runs.jsonl", **kw).to_json()
+    jobs = []
+    real = _core.run_free_slider_batch
+
+    def counting(j, **k):
+        jobs.extend(j)
+        return real(j, **k)
+
+    monkeypatch.setattr(_core, "run_free_slider_batch", counting)
+    store = RunStore(tmp_path / "runs.jsonl")
+    second = dc.discover(runs_file=store, **kw).to_json()
+    assert store.loaded > 20
+    assert 0 < len(jobs) <= 2 and store.added == len(jobs)  # the baseline's and the updated model's paths
+    for d in (first, second):
+        d.pop("runtime_s")
+    plain.pop("runtime_s")
+    assert first == plain and second == plain
+
+
+def test_the_command_keeps_its_runs_in_the_output_folder_unless_told(tmp_path):
+    """``beamslider discover --measured`` keeps runs.jsonl in --out and says how many it reused;
+    ``--runs none`` keeps none; ``--runs`` without runs to keep, or on a folder, is one line."""
+    dc.synthesize_slider_runs(bs.Parameters(), operating_points=[(124, 6, 0.3)], duration_s=1,
+                              out_dir=tmp_path / "data", seed=3)
+    data = [str(q) for q in sorted((tmp_path / "data").iterdir())]
+    base = ["discover", "--measured", *data, "--effects", "friction_coefficient", "--advice-grid", "none",
+            "--no-progress"]
+    r = run_cli(*base, "--out", "a", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    assert (tmp_path / "a" / "runs.jsonl").is_file() and "runs: 0 reused from" in r.stdout
+    r = run_cli(*base, "--out", "a", "--force", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    assert "runs: 0 reused" not in r.stdout and " reused from " in r.stdout
+    r = run_cli(*base, "--out", "b", "--runs", "none", cwd=tmp_path)
+    assert r.returncode == 0 and not (tmp_path / "b" / "runs.jsonl").exists(), r.stderr
+    r = run_cli(*base, "--out", "c", "--runs", "data", cwd=tmp_path)
+    assert r.returncode == 1 and "is a folder" in r.stderr and "Traceback" not in r.stderr, r.stderr
+    r = run_cli("discover", "--runs", "x.jsonl", "--out", "d", cwd=tmp_path)
+    assert r.returncode == 1 and "--runs" in r.stderr and "Traceback" not in r.stderr, r.stderr
