@@ -151,3 +151,38 @@ def test_the_command_keeps_its_runs_in_the_output_folder_unless_told(tmp_path):
     assert r.returncode == 1 and "is a folder" in r.stderr and "Traceback" not in r.stderr, r.stderr
     r = run_cli("discover", "--runs", "x.jsonl", "--out", "d", cwd=tmp_path)
     assert r.returncode == 1 and "--runs" in r.stderr and "Traceback" not in r.stderr, r.stderr
+
+
+def test_an_interrupted_discover_keeps_its_runs_and_the_next_goes_on_from_them(tmp_path):
+    """Ctrl-C during a discover: exit 130 without a traceback, the runs made so far kept whole in
+    runs.jsonl; the discover run again reuses every one of them."""
+    import os
+    import signal
+    import subprocess
+    import time
+
+    from conftest import cli_command, default_signals
+
+    dc.synthesize_slider_runs(bs.Parameters(friction_coefficient=0.25), operating_points=[(124, 6, 0.3)],
+                              duration_s=10, out_dir=tmp_path / "data", seed=3, s0_offset=0.0015)
+    data = [str(q) for q in sorted((tmp_path / "data").iterdir())]
+    argv = ["discover", "--measured", *data, "--effects", "friction_coefficient,restitution", "--advice-grid", "none",
+            "--no-progress", "--out", "o"]
+    p = subprocess.Popen([*cli_command(), *argv], cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                         text=True, env=dict(os.environ, MPLBACKEND="Agg"), preexec_fn=default_signals)
+    runs = tmp_path / "o" / "runs.jsonl"
+    t0 = time.time()
+    while time.time() - t0 < 120 and p.poll() is None and not (runs.exists() and len(runs.read_bytes().splitlines()) >= 5):
+        time.sleep(0.02)
+    p.send_signal(signal.SIGINT)
+    try:
+        _, err = p.communicate(timeout=60)
+    except subprocess.TimeoutExpired:
+        p.kill()
+        raise
+    assert p.returncode == 130 and "Traceback" not in err, err
+    kept = RunStore(runs).loaded
+    assert kept >= 5 and not (tmp_path / "o" / "report.json").exists()
+    r = run_cli(*argv, cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    assert f"runs: {kept} reused from" in r.stdout, r.stdout
