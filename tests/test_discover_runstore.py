@@ -5,7 +5,6 @@ answer as a discover without kept runs, and a damaged or shared file loses nothi
 from __future__ import annotations
 
 import json
-import multiprocessing as mp
 
 import pytest
 
@@ -74,25 +73,34 @@ def test_a_line_cut_short_or_of_other_code_is_skipped(tmp_path):
     assert len(code_fingerprint()) == 16
 
 
-def _append_many(path, start, n):
-    store = RunStore(path)
-    for i in range(start, start + n):
-        store[(("x", float(i)),)] = ({"a": dc.Feature("a", float(i), 0.0)}, "b", None)
+WRITER = """
+import sys, time
+from beamslider.discover import Feature, RunStore
+store = RunStore(sys.argv[1])
+while time.time() < float(sys.argv[3]):  # both writers start together
+    pass
+for i in range(int(sys.argv[2]), int(sys.argv[2]) + 3000):
+    store[(("x", float(i)),)] = ({"a": Feature("a", float(i), 0.0, "m", "d" * 2000)}, "b", None)
+"""
 
 
 def test_two_writers_of_one_file_lose_no_line(tmp_path):
     """Two processes appending to the same file (two discovers sharing their runs): every line is whole."""
+    import subprocess
+    import sys
+    import time
+
     f = tmp_path / "runs.jsonl"
-    ctx = mp.get_context("spawn")
-    ps = [ctx.Process(target=_append_many, args=(f, k * 1000, 300)) for k in range(2)]
-    for p in ps:
-        p.start()
-    for p in ps:
-        p.join(120)
-    assert all(p.exitcode == 0 for p in ps)
+    start = time.time() + 5
+    ps = [subprocess.Popen([sys.executable, "-c", WRITER, str(f), str(k * 10000), str(start)]) for k in range(2)]
+    assert [p.wait(timeout=120) for p in ps] == [0, 0]
     store = RunStore(f)
-    assert store.loaded == 600 and sorted(k[0][1] for k in store) == [float(i) for i in range(300)] + [
-        float(i) for i in range(1000, 1300)]
+    assert store.loaded == 6000 and sorted(k[0][1] for k in store) == [float(i) for i in range(3000)] + [
+        float(i) for i in range(10000, 13000)]
+    assert all(len(r[0]["a"].description) == 2000 for r in store.values())
+    # the writers' lines interleave (the test would not show anything otherwise)
+    second = [json.loads(json.loads(line)["key"])[0][1] >= 10000 for line in f.read_text().splitlines()]
+    assert sum(a != b for a, b in zip(second, second[1:])) > 1
 
 
 def test_a_folder_or_an_unwritable_place_is_a_clear_error(tmp_path):
