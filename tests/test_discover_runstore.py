@@ -11,7 +11,6 @@ import pytest
 import beamslider as bs
 from beamslider import _core
 from beamslider import discover as dc
-from beamslider.discover import models
 from beamslider.discover.chain import Model
 from beamslider.discover.models import batch_slider_features
 from beamslider.discover.runstore import RunStore, code_fingerprint
@@ -70,6 +69,12 @@ def test_a_line_cut_short_or_of_other_code_is_skipped(tmp_path):
     assert store.loaded == 1
     batch_slider_features([bs.Parameters(friction_coefficient=0.25)], OPS, cache=store)
     assert RunStore(f).loaded == 2 and len(RunStore(f)) == 2
+    # killed during its first write: the cut line is skipped, the next run read back
+    g = tmp_path / "cut.jsonl"
+    g.write_text(good[:100])
+    store = RunStore(g)
+    store[("k",)] = None
+    assert RunStore(g).loaded == 1
     assert len(code_fingerprint()) == 16
 
 
@@ -103,9 +108,14 @@ def test_two_writers_of_one_file_lose_no_line(tmp_path):
     assert sum(a != b for a, b in zip(second, second[1:])) > 1
 
 
-def test_a_folder_or_an_unwritable_place_is_a_clear_error(tmp_path):
+def test_a_folder_a_foreign_file_or_an_unwritable_place_is_a_clear_error(tmp_path):
+    """Refused before any run, and a file that is not a runs file is left as it was."""
     with pytest.raises(ValueError, match="is a folder"):
         RunStore(tmp_path)
+    (tmp_path / "notes.md").write_text("# my notes\n\nnot runs\n")
+    with pytest.raises(ValueError, match="not a file of runs"):
+        RunStore(tmp_path / "notes.md")
+    assert (tmp_path / "notes.md").read_text() == "# my notes\n\nnot runs\n"
     (tmp_path / "file").write_text("")
     with pytest.raises(ValueError, match="cannot (read|write) runs file"):
         RunStore(tmp_path / "file" / "runs.jsonl")

@@ -20,7 +20,7 @@ import hashlib
 import json
 import os
 from pathlib import Path
-from typing import Any, Dict, Optional, Tuple, Union
+from typing import Any, Optional, Tuple, Union
 
 from .features import Feature
 
@@ -77,7 +77,6 @@ class RunStore(dict):
         self.path = Path(path)
         self.loaded = 0
         self.added = 0
-        self._by_text: Dict[str, Tuple[Any, ...]] = {}
         fp = code_fingerprint()
         if self.path.is_dir():
             raise ValueError(f"invalid runs file {self.path}: it is a folder")
@@ -87,6 +86,10 @@ class RunStore(dict):
             raw = b""
         except OSError as e:
             raise ValueError(f"cannot read runs file {self.path}: {e.strerror or e}") from None
+        whole = raw.split(b"\n")[:-1]  # the lines ended by a newline
+        if whole and not any(_ours(line) for line in whole):
+            raise ValueError(f"invalid runs file {self.path}: it is not a file of runs that discover keeps "
+                             "(give a new file, or that of an earlier discover)")
         for line in raw.splitlines():
             try:
                 d = json.loads(line)
@@ -120,6 +123,15 @@ class RunStore(dict):
                 data = data[os.write(fd, data):]
         finally:
             os.close(fd)
+
+
+def _ours(line: bytes) -> bool:
+    """Whether a whole line is a run of a runs file (of any code version)."""
+    try:
+        d = json.loads(line)
+    except ValueError:
+        return False
+    return isinstance(d, dict) and {"v", "code", "key", "run"} <= set(d)
 
 
 def _to_tuple(x: Any) -> Any:
