@@ -77,9 +77,10 @@ def add_parser(sub: Any) -> None:
 
 
 REPORT_FILES = ("updated.toml", "report.json", "report.md", "gap.png", "backbone.png", "slider.png")
+"""What ``beamslider discover`` writes (:func:`beamslider.discover.write_report`)."""
+
 RUNS_FILE = "runs.jsonl"
 """The default file of discover's kept runs in --out (:class:`beamslider.discover.runstore.RunStore`)."""
-"""What ``beamslider discover`` writes (:func:`beamslider.discover.write_report`)."""
 
 
 def _s0_offset(text: str) -> float:

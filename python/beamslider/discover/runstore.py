@@ -1,7 +1,7 @@
 """A discover's free-slider runs kept on disk, so that a discover that is interrupted, or run again
 on the same runs' operating points (more candidates, another gap ratio, an added run at the advised
 point, data of another device measured at the same points), makes only the runs it has not made
-yet (docs/model.md §9.1, "Cost").
+yet (docs/model.md §9.1, "Kept runs").
 
 The file is JSON lines, one run a line: its inputs (the key of :func:`.models.batch_slider_features`:
 physical parameters, operating point, excitation level, s0, duration), the features and behaviour the
