@@ -298,6 +298,28 @@ def test_long_commands_report_progress_in_a_log(tmp_path, monkeypatch, capsys):
     assert "beamslider: discover (slider): fits 1/4 fit (25 %)" in capsys.readouterr().err
 
 
+def test_a_discover_in_a_log_counts_its_runs_while_a_fit_is_made(tmp_path):
+    """Between two fits done a discover's log still moves: its lines count the runs made so far."""
+    import os
+    import re
+    import subprocess
+
+    import beamslider as bs
+    import beamslider.discover as dc
+    from conftest import cli_command
+
+    dc.synthesize_slider_runs(bs.Parameters(friction_coefficient=0.25), operating_points=[(124, 6, 0.3)],
+                              duration_s=4, out_dir=tmp_path / "data", seed=3, s0_offset=0.0015)
+    data = [str(q) for q in sorted((tmp_path / "data").iterdir())]
+    env = dict(os.environ, MPLBACKEND="Agg", BEAMSLIDER_PROGRESS_INTERVAL_S="0")
+    r = subprocess.run([*cli_command(), "discover", "--measured", *data, "--effects", "friction_coefficient",
+                        "--advice-grid", "none", "--runs", "none", "--out", "d"],
+                       cwd=tmp_path, capture_output=True, text=True, env=env, timeout=120)
+    assert r.returncode == 0, r.stderr
+    counts = [int(m) for m in re.findall(r"discover \(slider\): fits 0/1 fit \(0 %\), (\d+) runs made", r.stderr)]
+    assert len(counts) >= 2 and counts == sorted(counts) and counts[-1] > counts[0], r.stderr
+
+
 def test_short_runs_stay_silent_in_a_log(tmp_path):
     r = run_cli("map", "--f-ex", "120", "--a-ex", "14", "--t-end", "0.3", "-j", "1", "--out", "m", cwd=tmp_path)
     assert r.returncode == 0 and "pts" not in r.stderr, r.stderr

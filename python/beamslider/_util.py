@@ -111,6 +111,7 @@ class LogProgress:
                 interval_s = LOG_INTERVAL_S
         self.total, self.desc, self.unit, self.interval_s = total, desc, unit, interval_s
         self.n = 0.0
+        self.postfix = ""
         self.t0 = self._last = time.monotonic()
 
     def at(self, done: float, total: Optional[float] = None) -> None:
@@ -128,6 +129,12 @@ class LogProgress:
     def refresh(self) -> None:
         pass
 
+    def set_postfix_str(self, s: str = "", refresh: bool = True) -> None:
+        """tqdm's: ``s`` follows the count in the lines (a line if the interval has passed)."""
+        self.postfix = s
+        if refresh:
+            self.at(self.n)
+
     def close(self) -> None:
         pass
 
@@ -136,8 +143,9 @@ class LogProgress:
         frac = self.n / self.total if self.total else 0.0
         count = f"{self.n:.0f}/{self.total:.0f}" if self.unit in ("pts", "fit", "table", "pt", "designs") else f"{self.n:.2f}/{self.total:.2f}"
         left = f", about {_minutes(elapsed * (1 - frac) / frac)} left" if 0 < frac < 1 else ""
+        post = f", {self.postfix}" if self.postfix else ""
         try:
-            print(f"beamslider: {self.desc} {count} {self.unit} ({100 * frac:.0f} %), {_minutes(elapsed)} elapsed{left}",
+            print(f"beamslider: {self.desc} {count} {self.unit} ({100 * frac:.0f} %){post}, {_minutes(elapsed)} elapsed{left}",
                   file=sys.stderr, flush=True)
         except (OSError, ValueError):
             pass

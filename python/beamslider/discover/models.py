@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 import os
 from concurrent.futures import ThreadPoolExecutor
+from contextvars import ContextVar
 from dataclasses import dataclass, field
 from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple, Union
 
@@ -145,6 +146,11 @@ def _run_key(m: Model, op: OperatingPoint, shift: float) -> Tuple[Any, ...]:
     return (_params_key(m.params), op.tag, op.f_ex, op.a_ex * excitation_factor(m), op.s0 + shift, op.duration_s)
 
 
+RUN_PROGRESS: ContextVar[Optional[Callable[[int], None]]] = ContextVar("RUN_PROGRESS", default=None)
+"""Called with the number of runs just made by :func:`batch_slider_features` when it is given no
+``on_run`` of its own (set by the discover's fits for their progress)."""
+
+
 def batch_slider_features(params_list: Sequence[Union[Parameters, Model]], ops: Sequence[OperatingPoint], *,
                           s0_shifts: Optional[Sequence[float]] = None, threads: Optional[int] = None,
                           on_run: Optional[Callable[[int], None]] = None, cache: Optional[RunCache] = None
@@ -173,7 +179,7 @@ def batch_slider_features(params_list: Sequence[Union[Parameters, Model]], ops: 
     if jobs:
         res = _core.run_free_slider_batch(jobs, record_every=RUN_RECORD_EVERY, keep_every=RUN_KEEP_EVERY,
                                           window_s=1.0, detrend_s=DISPLACEMENT_DETREND_S, threads=threads,
-                                          on_done=on_run)
+                                          on_done=on_run or RUN_PROGRESS.get())
         for key, r in zip(todo, res):
             known[key] = None if "error" in r else _features_of_run(r, key[1])
     out: List[Optional[Tuple[Dict[str, Feature], Dict[str, str]]]] = []

@@ -16,7 +16,7 @@ from .features import Feature, enma_features
 from .fitting import (MODE_CONDITIONING, CandidateFit, Discovery, EnsembleMany, ModelMany, baseline_test,
                       chi2_quantile, excess, z_bound,
                       fit_candidate, gap_of, lrt_threshold, missing_z, profile_fit, select, sigma)
-from .models import (ENSEMBLE_S0_SHIFTS, Ensemble, Modes, RunCache, batch_slider_features, beam_surrogate,
+from .models import (ENSEMBLE_S0_SHIFTS, RUN_PROGRESS, Ensemble, Modes, RunCache, batch_slider_features, beam_surrogate,
                      data_modes, ensemble_slider_features, levels_for, measured_slider_features,
                      simulated_enma_features, slider_paths, unreached_mode_features)
 from .fast import TIER_SHARED, best_single, no_pair_gains, predict_singles, predicted_singles, tiered_singles
@@ -42,6 +42,18 @@ def _progress_bar(enabled: Optional[bool], total: int, desc: str):
         enabled = True
 
     return tqdm(total=total, desc=desc, unit="fit", disable=not enabled, leave=False)
+
+
+def _runs_counter(bar: Any) -> Callable[[int], None]:
+    """The core's per-run callback while fits are made (:data:`.models.RUN_PROGRESS`): the runs made
+    so far beside the fits, so that a long fit still shows progress (on a terminal the bar's postfix,
+    in a log a line at most every ``LOG_INTERVAL_S``, :class:`beamslider._util.LogProgress`)."""
+    made = [0]
+
+    def on_runs(n: int) -> None:
+        made[0] += n
+        bar.set_postfix_str(f"{made[0]} runs made", refresh=True)
+    return on_runs
 
 
 def _fit_sets(cand_effects: Sequence[Effect], max_effects: int, level: str, base: Parameters,
@@ -82,85 +94,89 @@ def _fit_sets(cand_effects: Sequence[Effect], max_effects: int, level: str, base
                 and no_pair_gains(singles, named(singles), step, base, known or (lambda e: True)))
 
     bar = _progress_bar(progress, len(cand_effects), f"discover ({level}): fits")
-    fits: List[CandidateFit] = []
-    settled = False  # by the tier: no sets fitted
-    tier_full: Dict[str, CandidateFit] = {}  # the tier's fits in full, kept by the full search
-    if predict is not None and tier:
-        # The screening tier: settled if its fits leave no set to fit (a named single below the
-        # threshold) and no candidate it left unfitted is predicted near; else the full search, whose
-        # runs the tier's full fits share (cached).
-        pred = predict()
-        fits, complete = tiered_singles(cand_effects, pred, lambda e: fit((e,)), len(meas))
-        if complete and (max_effects < 2 or (done is not None and done(fits)) or pairs_gated(fits)):
-            settled = True
-            bar.update(len(cand_effects))
-        else:
-            # The full search keeps the tier's first TIER_SHARED fits by prediction; a later one, made
-            # to settle the answer, enters as its coarse scan does (from the fit's cached runs), so the
-            # full search's verdict is that of a tier of TIER_SHARED fits.
-            first = sorted((f for f in fits if not f.screened), key=lambda f: pred[f.effects[0]][0])[:TIER_SHARED]
-            tier_full = {f.effects[0]: f for f in first}
-            fits, predict = [], None
-    elif predict is not None:
-        fits = predicted_singles(cand_effects, predict(), lambda e: fit((e,)), len(meas))
-        bar.update(len(cand_effects))
-    if not fits and level == "slider" and len(cand_effects) > SCREEN_FROM:
-        # Coarse scans of every candidate first (grid and one ensemble, SCREEN_REFINE levels: runs
-        # the full fits reuse), full fits only of those whose coarse χ² is within SCREEN_MARGIN of the best
-        # and of those the tier fitted in full (a coarse scan's single runs may miss what that fit found).
-        coarse = []
-        for e in cand_effects:
-            coarse.append(fit((e,), refine=SCREEN_REFINE))
-            bar.update(0.5)
-        best = sorted(c.chi2 for c in coarse)
-        cut = max(best[0] + SCREEN_MARGIN, best[min(SCREEN_KEEP, len(best)) - 1])
-        for e, c in zip(cand_effects, coarse):
-            if e.name in tier_full:
-                fits.append(tier_full[e.name])
-            elif c.chi2 <= cut:
-                fits.append(fit((e,)))
+    token = RUN_PROGRESS.set(_runs_counter(bar))
+    try:
+        fits: List[CandidateFit] = []
+        settled = False  # by the tier: no sets fitted
+        tier_full: Dict[str, CandidateFit] = {}  # the tier's fits in full, kept by the full search
+        if predict is not None and tier:
+            # The screening tier: settled if its fits leave no set to fit (a named single below the
+            # threshold) and no candidate it left unfitted is predicted near; else the full search, whose
+            # runs the tier's full fits share (cached).
+            pred = predict()
+            fits, complete = tiered_singles(cand_effects, pred, lambda e: fit((e,)), len(meas))
+            if complete and (max_effects < 2 or (done is not None and done(fits)) or pairs_gated(fits)):
+                settled = True
+                bar.update(len(cand_effects))
             else:
-                c.screened = True
-                fits.append(c)
-            bar.update(0.5)
-    elif not fits:
-        for e in cand_effects:
-            fits.append(fit((e,)))
-            bar.update(1)
-        if tier and max_effects >= 2 and level == "slider" and pairs_gated(fits):
-            # Few candidates, every single fitted in full: the tier's gate for the pairs, as where the
-            # tier settles (no pair with the single the selection names is predicted to gain).
-            settled = True
-    if max_effects >= 2 and not settled and not (done is not None and done(fits)):
-        ranked = guide() if guide is not None else None
-        combos = pairs_to_fit(cand_effects, fits, max_effects, level, ranked)
-        if predict is not None and ranked:  # the best predicted pair, if predicted to beat the best single
-            win = ranked[0][1] < min(f.chi2 for f in fits if not f.screened) - lrt_threshold(1, len(cand_effects))
-            combos = [c for c in combos if win and frozenset(e.name for e in c) == frozenset(ranked[0][0])]
-        bar.total = len(cand_effects) + len(combos)
-        bar.refresh()
-        staged = level == "slider" and len(combos) > JOINT_SETS
-        sets = []
-        for combo in combos:
-            # Many sets: the coordinate pass of each first, the joint refinement of the best below.
-            sets.append(fit(combo, joint=False if staged else None))
-            bar.update(1)
-        if staged:
-            names = [frozenset(e.name for e in c) for c in combos]
-            top = [frozenset(p) for p, _ in (ranked or [])[:1]]
-            passes = [s.chi2 for s in sets]
-            steps = [step(s) for s in sets] if step is not None else None
-            order = sets_to_refine(passes, steps, next((i for i in range(len(sets)) if names[i] in top), None),
-                                   JOINT_SETS, lrt_threshold(1, len(cand_effects)))
-            bar.total += len(order)
-            for i in order:
-                sets[i] = fit(combos[i])  # the coordinate pass's runs are cached
+                # The full search keeps the tier's first TIER_SHARED fits by prediction; a later one, made
+                # to settle the answer, enters as its coarse scan does (from the fit's cached runs), so the
+                # full search's verdict is that of a tier of TIER_SHARED fits.
+                first = sorted((f for f in fits if not f.screened), key=lambda f: pred[f.effects[0]][0])[:TIER_SHARED]
+                tier_full = {f.effects[0]: f for f in first}
+                fits, predict = [], None
+        elif predict is not None:
+            fits = predicted_singles(cand_effects, predict(), lambda e: fit((e,)), len(meas))
+            bar.update(len(cand_effects))
+        if not fits and level == "slider" and len(cand_effects) > SCREEN_FROM:
+            # Coarse scans of every candidate first (grid and one ensemble, SCREEN_REFINE levels: runs
+            # the full fits reuse), full fits only of those whose coarse χ² is within SCREEN_MARGIN of the best
+            # and of those the tier fitted in full (a coarse scan's single runs may miss what that fit found).
+            coarse = []
+            for e in cand_effects:
+                coarse.append(fit((e,), refine=SCREEN_REFINE))
+                bar.update(0.5)
+            best = sorted(c.chi2 for c in coarse)
+            cut = max(best[0] + SCREEN_MARGIN, best[min(SCREEN_KEEP, len(best)) - 1])
+            for e, c in zip(cand_effects, coarse):
+                if e.name in tier_full:
+                    fits.append(tier_full[e.name])
+                elif c.chi2 <= cut:
+                    fits.append(fit((e,)))
+                else:
+                    c.screened = True
+                    fits.append(c)
+                bar.update(0.5)
+        elif not fits:
+            for e in cand_effects:
+                fits.append(fit((e,)))
                 bar.update(1)
-            if record is not None:
-                record.extend(dict(effects=sorted(names[i]), pass_chi2=passes[i], step_chi2=None if steps is None
-                                   else steps[i], refined=i in order, chi2=sets[i].chi2) for i in range(len(sets)))
-        fits += sets
-    bar.close()
+            if tier and max_effects >= 2 and level == "slider" and pairs_gated(fits):
+                # Few candidates, every single fitted in full: the tier's gate for the pairs, as where the
+                # tier settles (no pair with the single the selection names is predicted to gain).
+                settled = True
+        if max_effects >= 2 and not settled and not (done is not None and done(fits)):
+            ranked = guide() if guide is not None else None
+            combos = pairs_to_fit(cand_effects, fits, max_effects, level, ranked)
+            if predict is not None and ranked:  # the best predicted pair, if predicted to beat the best single
+                win = ranked[0][1] < min(f.chi2 for f in fits if not f.screened) - lrt_threshold(1, len(cand_effects))
+                combos = [c for c in combos if win and frozenset(e.name for e in c) == frozenset(ranked[0][0])]
+            bar.total = len(cand_effects) + len(combos)
+            bar.refresh()
+            staged = level == "slider" and len(combos) > JOINT_SETS
+            sets = []
+            for combo in combos:
+                # Many sets: the coordinate pass of each first, the joint refinement of the best below.
+                sets.append(fit(combo, joint=False if staged else None))
+                bar.update(1)
+            if staged:
+                names = [frozenset(e.name for e in c) for c in combos]
+                top = [frozenset(p) for p, _ in (ranked or [])[:1]]
+                passes = [s.chi2 for s in sets]
+                steps = [step(s) for s in sets] if step is not None else None
+                order = sets_to_refine(passes, steps, next((i for i in range(len(sets)) if names[i] in top), None),
+                                       JOINT_SETS, lrt_threshold(1, len(cand_effects)))
+                bar.total += len(order)
+                for i in order:
+                    sets[i] = fit(combos[i])  # the coordinate pass's runs are cached
+                    bar.update(1)
+                if record is not None:
+                    record.extend(dict(effects=sorted(names[i]), pass_chi2=passes[i], step_chi2=None if steps is None
+                                       else steps[i], refined=i in order, chi2=sets[i].chi2) for i in range(len(sets)))
+            fits += sets
+    finally:
+        RUN_PROGRESS.reset(token)
+        bar.close()
     return fits
 
 
