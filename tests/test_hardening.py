@@ -299,7 +299,8 @@ def test_long_commands_report_progress_in_a_log(tmp_path, monkeypatch, capsys):
 
 
 def test_a_discover_in_a_log_counts_its_runs_while_a_fit_is_made(tmp_path):
-    """Between two fits done a discover's log still moves: its lines count the runs made so far."""
+    """Between two fits done a discover's log still moves: its lines count the runs made so far, and
+    once a fit is done they show the lowest χ² fitted so far with its value."""
     import os
     import re
     import subprocess
@@ -318,6 +319,11 @@ def test_a_discover_in_a_log_counts_its_runs_while_a_fit_is_made(tmp_path):
     assert r.returncode == 0, r.stderr
     counts = [int(m) for m in re.findall(r"discover \(slider\): fits 0/1 fit \(0 %\), (\d+) runs made", r.stderr)]
     assert len(counts) >= 2 and counts == sorted(counts) and counts[-1] > counts[0], r.stderr
+    best = re.findall(r"fits 1/1 fit \(100 %\), \d+ runs made, lowest chi2 so far ([0-9.e+-]+) "
+                      r"\(friction_coefficient ([0-9.]+)\)", r.stderr)
+    report = json.loads((tmp_path / "d" / "report.json").read_text())
+    fitted = next(f for f in report["candidates"] if f["effects"] == ["friction_coefficient"])
+    assert best and float(best[-1][1]) == pytest.approx(fitted["values"]["friction_coefficient"], rel=1e-4), r.stderr
 
 
 def test_short_runs_stay_silent_in_a_log(tmp_path):

@@ -22,6 +22,7 @@ from .models import (ENSEMBLE_S0_SHIFTS, RUN_PROGRESS, Ensemble, Modes, RunCache
 from .fast import TIER_SHARED, best_single, no_pair_gains, predict_singles, predicted_singles, tiered_singles
 from .joint import fit_sets_joint
 from .refine import sets_to_refine, step_chi2
+from .report import fmt_value
 from .runstore import RunStore
 from .separability import slider_changes, slider_sensitivities
 from .verdicts import (ADVICE_GRID, CONFIRM_SINGLES, GUIDED_PAIRS, Reason, Reasons, Why, advise,
@@ -44,16 +45,31 @@ def _progress_bar(enabled: Optional[bool], total: int, desc: str):
     return tqdm(total=total, desc=desc, unit="fit", disable=not enabled, leave=False)
 
 
-def _runs_counter(bar: Any) -> Callable[[int], None]:
-    """The core's per-run callback while fits are made (:data:`.models.RUN_PROGRESS`): the runs made
-    so far beside the fits, so that a long fit still shows progress (on a terminal the bar's postfix,
-    in a log a line at most every ``LOG_INTERVAL_S``, :class:`beamslider._util.LogProgress`)."""
-    made = [0]
+class _FitProgress:
+    """What the fits' progress shows beside the count of fits (on a terminal the bar's postfix, in
+    a log a line at most every ``LOG_INTERVAL_S``, :class:`beamslider._util.LogProgress`): the runs
+    made so far (the core's per-run callback, :data:`.models.RUN_PROGRESS`), so that a long fit
+    still shows progress, and the lowest χ² fitted so far with its values (not a verdict: the
+    naming rule and the other candidates come after)."""
 
-    def on_runs(n: int) -> None:
-        made[0] += n
-        bar.set_postfix_str(f"{made[0]} runs made", refresh=True)
-    return on_runs
+    def __init__(self, bar: Any) -> None:
+        self.bar, self.runs, self.best = bar, 0, None
+
+    def __call__(self, n: int) -> None:
+        self.runs += n
+        self._show()
+
+    def saw(self, f: CandidateFit) -> None:
+        if math.isfinite(f.chi2) and (self.best is None or f.chi2 < self.best.chi2):
+            self.best = f
+            self._show()
+
+    def _show(self) -> None:
+        text = f"{self.runs} runs made"
+        if self.best is not None:
+            vals = ", ".join(f"{e} {fmt_value(self.best.values[e])}" for e in self.best.effects)
+            text += f", lowest chi2 so far {self.best.chi2:.3g} ({vals})"
+        self.bar.set_postfix_str(text, refresh=True)
 
 
 def _fit_sets(cand_effects: Sequence[Effect], max_effects: int, level: str, base: Parameters,
@@ -83,9 +99,12 @@ def _fit_sets(cand_effects: Sequence[Effect], max_effects: int, level: str, base
     level, few candidates, each fitted in full): no sets where that gate holds."""
     def fit(combo: Sequence[Effect], refine: int = 2, joint: Optional[bool] = None) -> CandidateFit:
         if level == "beam":
-            return fit_candidate(combo, base, meas, model_fn, diff_step=diff_step, max_nfev=max_nfev)
-        return profile_fit(combo, base, meas, model_fn, model_many=model_many, ensemble_many=ensemble_many,
+            f = fit_candidate(combo, base, meas, model_fn, diff_step=diff_step, max_nfev=max_nfev)
+        else:
+            f = profile_fit(combo, base, meas, model_fn, model_many=model_many, ensemble_many=ensemble_many,
                             spread0=spread0, refine=refine, joint=joint)
+        shown.saw(f)
+        return f
 
     def pairs_gated(singles: List[CandidateFit]) -> bool:
         # The tier's gate for the pairs: none with the single the selection would name is
@@ -94,7 +113,8 @@ def _fit_sets(cand_effects: Sequence[Effect], max_effects: int, level: str, base
                 and no_pair_gains(singles, named(singles), step, base, known or (lambda e: True)))
 
     bar = _progress_bar(progress, len(cand_effects), f"discover ({level}): fits")
-    token = RUN_PROGRESS.set(_runs_counter(bar))
+    shown = _FitProgress(bar)
+    token = RUN_PROGRESS.set(shown)
     try:
         fits: List[CandidateFit] = []
         settled = False  # by the tier: no sets fitted
