@@ -78,12 +78,15 @@ CASES = {
     "spacing-advised": ("contact spacing x 1.15, the advised run added", "effects:contact_spacing=0.0115", SLIDER),
     "offset-advised": ("camera offset 0.012, the advised run added", "effects:position_offset=0.012", SLIDER),
     "scale-advised": ("camera scale 1.035, the advised run added", "effects:position_scale=1.035", SLIDER),
+    "pair-mu-f0-advised": ("mu = 0.24 and f0 x 0.985, the advised run added",
+                           "effects:friction_coefficient=0.24,natural_frequency_detuning=0.985", SLIDER),
 }
 
 EXTRA_OPS = {
     "spacing-advised": [(110.0, 10.0, 0.3)],   # the advice of the "spacing" row (verdicts.advise)
     "offset-advised": [(116.0, 10.0, 0.15)],   # the advice of the "offset" row
     "scale-advised": [(116.0, 10.0, 0.15)],    # the advice of the "scale" row
+    "pair-mu-f0-advised": [(116.0, 10.0, 0.3)],  # the advice of the "pair-mu-f0" row
 }
 """Operating points (f_ex Hz, a_ex m/s², s0) added to --ops for a case: the run that a confounded
 verdict of the same case on the three runs recommends."""
