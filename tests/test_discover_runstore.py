@@ -204,3 +204,16 @@ def test_an_interrupted_discover_keeps_its_runs_and_the_next_goes_on_from_them(t
     r = run_cli(*argv, cwd=tmp_path)
     assert r.returncode == 0, r.stderr
     assert f"runs: {kept} reused from" in r.stdout, r.stdout
+
+
+def test_the_fingerprint_covers_the_run_making_sources_only():
+    """Kept runs survive a change of the search or the rule (they do not make runs) and are
+    refused after a change of the feature extractor (it does)."""
+    from pathlib import Path
+
+    from beamslider.discover import runstore
+
+    root = Path(runstore.__file__).resolve().parent.parent
+    assert all((root / rel).is_file() for rel in runstore.RUN_SOURCES)
+    assert "discover/features.py" in runstore.RUN_SOURCES and "discover/models.py" in runstore.RUN_SOURCES
+    assert not any(rel.endswith(("naming.py", "verdicts.py", "report.py")) for rel in runstore.RUN_SOURCES)

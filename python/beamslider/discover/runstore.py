@@ -30,19 +30,27 @@ FORMAT = 1
 _FINGERPRINT: Optional[str] = None
 
 
+RUN_SOURCES = ("discover/models.py", "discover/features.py", "discover/runstore.py", "measurement.py", "params.py")
+"""The package's sources that turn a run's key into its stored features (with the core's binary):
+the runner's call and settings, the feature extractor, this file's layout, the detrending window and
+the parameters' conversion. The modules that choose which runs to make and judge their features
+(the search, the rule, the report) are not among them: a changed rule re-judges the same runs."""
+
+
 def code_fingerprint() -> str:
-    """A digest of the code that makes a run's features: the core's binary and the package's
-    Python sources (a changed simulator or feature extractor invalidates every kept run)."""
+    """A digest of the code that makes a run's features: the core's binary and :data:`RUN_SOURCES`
+    (a changed simulator or feature extractor invalidates every kept run)."""
     global _FINGERPRINT
     if _FINGERPRINT is None:
         from .. import _core
 
         root = Path(__file__).resolve().parent.parent
         h = hashlib.sha1()
-        files = [Path(_core.__file__).resolve()] + sorted(root.rglob("*.py"))
-        for f in files:
-            h.update(str(f.relative_to(root) if f.is_relative_to(root) else f.name).encode())
-            h.update(f.read_bytes())
+        h.update(Path(_core.__file__).resolve().name.encode())
+        h.update(Path(_core.__file__).resolve().read_bytes())
+        for rel in RUN_SOURCES:
+            h.update(rel.encode())
+            h.update((root / rel).read_bytes())
         _FINGERPRINT = h.hexdigest()[:16]
     return _FINGERPRINT
 
