@@ -15,7 +15,7 @@ Layout (imports run one way only: this file → subcommand modules → shared he
 - one module per subcommand (imported only when its command is run, see ``COMMANDS``), each with
   ``add_parser(sub)`` and its ``cmd_*`` function:
   :mod:`.simulate`, :mod:`.manifold`, :mod:`.compare`, :mod:`.plot`, :mod:`.map`, :mod:`.enma`,
-  :mod:`.hb_manifold`, :mod:`.predict` (``drift-table``, ``fit-law`` and ``predict``), :mod:`.discover` (``discover`` and ``synthesize``), :mod:`.study`, :mod:`.design`;
+  :mod:`.hb_manifold`, :mod:`.predict` (``drift-table``, ``fit-law`` and ``predict``), :mod:`.discover` (``discover`` and ``synthesize``), :mod:`.benchmark` (``discover-benchmark``), :mod:`.study`, :mod:`.design`;
 - shared helpers: :mod:`._common` (errors, exit codes, common options, output planning, ranges),
   :mod:`._files` (stems and the CSV/JSON files of a run), :mod:`._manifold` (the manifold options).
 """
@@ -40,12 +40,12 @@ from ._files import (DEFAULT_MANIFOLD_RECORD, MANIFOLD_HEADER, manifold_file_ste
                      write_manifold_csv, write_simulation_csv)
 
 SUBCOMMAND_MODULES = ("simulate", "manifold", "compare", "map", "plot", "enma", "hb_manifold", "predict", "discover",
-                      "study", "design")
+                      "benchmark", "study", "design")
 """The subcommand modules in the order ``beamslider --help`` lists them."""
 
 COMMANDS = {"simulate": "simulate", "manifold": "manifold", "compare": "compare", "map": "map", "plot": "plot",
             "enma": "enma", "hb-manifold": "hb_manifold", "drift-table": "predict", "fit-law": "predict", "predict": "predict",
-            "discover": "discover", "synthesize": "discover", "study": "study", "design": "design"}
+            "discover": "discover", "synthesize": "discover", "discover-benchmark": "benchmark", "study": "study", "design": "design"}
 """Each command and the module that registers it: ``beamslider simulate ...`` imports only
 ``cli/simulate.py`` and what it needs (no discover, maps, Dask, ...; tests/test_scale.py)."""
 
