@@ -311,8 +311,10 @@ def run_case(case: Case, plan: Plan, *, runs_file: Any = None, advice: bool = Tr
     "confounded" or "unexplained" with an advised run and not already right, synthesise that run
     with the same truth (a new noise seed and start offset, as a lab's next run), add it, and score
     again (``advised``). Returns the case's row (:func:`run_benchmark`)."""
+    from .. import discover as package
     from ..measurement import read_measurement
-    from .naming import discover
+
+    discover = package.discover
 
     base = baseline or Parameters()
     t0, c0 = time.perf_counter(), time.process_time()

@@ -1,0 +1,149 @@
+"""Discover judged at random (docs/model.md §9.2): the cases a seed draws, the one scoring rule, the
+figures, a small benchmark end to end (resumed, refused on other settings) and the advised run."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import pytest
+
+import beamslider as bs
+from beamslider import discover as dc
+from beamslider.discover import benchmark as bm
+from beamslider.discover.effects import EFFECTS
+
+from conftest import run_cli
+
+
+def test_a_seed_draws_the_same_cases_and_their_sizes_lie_where_the_rule_says():
+    a, b = bm.draw_cases(7), bm.draw_cases(7)
+    assert a == b and a != bm.draw_cases(8)
+    assert {k: sum(c.kind == k for c in a) for k in bm.KINDS} == {
+        "nothing": 4, "single": 12, "pair": 6, "outside": 6, "chain+physics": 2}
+    base = bs.Parameters()
+    for c in a:
+        assert 0.0005 <= abs(c.s0_offset) <= 0.003
+        for name, v in c.effects.items():
+            steps = abs(v - EFFECTS[name].baseline_value(base)) / bm.threshold(name, base)
+            assert 1.5 - 1e-9 <= steps <= 6 + 1e-9, (name, v, steps)
+        if c.kind == "outside":
+            assert not c.effects and len(c.outside) == 1 and c.outside_kind in bm.OUTSIDE
+        if c.kind == "chain+physics":
+            assert [bool(EFFECTS[n].chain) for n in c.effects] == [True, False]
+        if c.kind == "pair":
+            assert len(set(c.effects)) == 2
+    assert len({c.noise_seed for c in a}) == len(a)
+    with pytest.raises(ValueError, match="unknown case kind"):
+        bm.draw_cases(1, {"singles": 3})
+
+
+def _answer(verdict, named=None, group=()):
+    return dict(verdict=verdict, named=named or {}, group=list(group), best=[], advice=None)
+
+
+def _named(value, lo, hi):
+    return dict(value=value, stderr=(hi - lo) / 4, interval=[lo, hi])
+
+
+def test_one_rule_scores_every_kind():
+    single = bm.Case(0, "single", {"friction_coefficient": 0.25})
+    assert bm.score_case(single, _answer("named", {"friction_coefficient": _named(0.251, 0.24, 0.26)}))["right"]
+    missed = bm.score_case(single, _answer("named", {"friction_coefficient": _named(0.27, 0.26, 0.28)}))
+    assert not missed["right"] and missed["outcome"].startswith("interval misses") and \
+        missed["covered"] == {"friction_coefficient": False}
+    stand_in = bm.score_case(single, _answer("named", {"com_offset": _named(0.0036, 0.0035, 0.0037)}))
+    assert not stand_in["right"] and "wrong: com_offset" in stand_in["outcome"]
+    extra = bm.score_case(single, _answer("named", {"friction_coefficient": _named(0.25, 0.24, 0.26),
+                                                    "tilt": _named(0.003, 0.002, 0.004)}))
+    assert not extra["right"]
+    assert not bm.score_case(single, _answer("none"))["right"]
+    assert not bm.score_case(single, _answer("confounded", group=["friction_coefficient", "com_offset"]))["right"]
+    nothing = bm.Case(1, "nothing")
+    assert bm.score_case(nothing, _answer("none"))["right"]
+    assert bm.score_case(nothing, _answer("unexplained"))["outcome"] == "false alarm (unexplained)"
+    outside = bm.Case(2, "outside", outside={"damping_ratio": 0.0015}, outside_kind="beam_damping")
+    assert bm.score_case(outside, _answer("unexplained"))["right"]
+    assert bm.score_case(outside, _answer("named", {"restitution": _named(0.6, 0.55, 0.65)}))["outcome"] == \
+        "stand-in named: restitution"
+    conf = bm.score_case(outside, _answer("confounded", group=["tilt", "clearance"]))
+    assert not conf["right"] and conf["outcome"].startswith("confounded stand-ins")
+    assert not bm.score_case(outside, _answer("none"))["right"]
+
+
+def _row(i, kind, truth, answer, right, covered, advised=None, outside_kind=""):
+    r = dict(index=i, kind=kind, truth=truth, outside={}, outside_kind=outside_kind, label="x", answer=answer,
+             score=dict(right=right, outcome="right" if right else "wrong", covered=covered), cpu_s=10.0 * (i + 1))
+    if advised:
+        r["advised"] = advised
+    return r
+
+
+def test_the_figures_count_coverage_false_alarms_and_the_advised_run():
+    rows = [
+        _row(0, "single", {"tilt": 0.006}, _answer("named", {"tilt": _named(0.005, 0.004, 0.0058)}), False,
+             {"tilt": False}),
+        _row(1, "single", {"tilt": 0.006}, _answer("confounded", group=["tilt", "clearance"]), False, {},
+             advised=dict(point=[116, 10, 0.3], answer=_answer("named", {"tilt": _named(0.006, 0.005, 0.007)}),
+                          score=dict(right=True, outcome="right", covered={"tilt": True}))),
+        _row(2, "nothing", {}, _answer("named", {"restitution": _named(0.6, 0.55, 0.65)}), False, {}),
+        _row(3, "nothing", {}, _answer("none"), True, {}),
+        _row(4, "outside", {}, _answer("confounded", group=["tilt", "clearance"]), False, {},
+             outside_kind="beam_damping"),
+    ]
+    s = bm.summarise(rows)
+    assert s["by_kind"]["single"]["first"]["right"] == 0 and s["by_kind"]["single"]["after_advice"]["right"] == 1
+    assert s["coverage"] == dict(inside=1, of=2, rate=0.5)
+    assert s["false_alarms"] == dict(effects_named=1, cases=2, cases_with_alarm=1)
+    assert s["confounded_stand_ins"] == 1 and s["advised_runs"] == 1
+    assert s["confusion"]["tilt"] == {"tilt": 2}
+    assert s["confusion"]["outside: beam_damping"] == {"confounded: clearance + tilt": 1}
+    assert s["cpu_s"]["median"] == 30.0
+    md = bm.summary_markdown(s, rows, seed=3, plan=bm.Plan())
+    assert "| single | 0/2 (0 % ± 0) | 1/2 (50 % ± 35) |" in md
+
+
+def test_a_confounded_answer_takes_the_advised_run_and_is_scored_again(monkeypatch):
+    """The advised point is synthesised with the same truth and added to the case's runs."""
+    calls = []
+
+    class Fake:
+        def __init__(self, verdict, named=(), advice=None):
+            self.verdict, self.named_effects = verdict, list(named)
+            self.parameters = {e: dict(value=0.25, stderr=0.004, interval=[0.24, 0.26]) for e in named}
+            self.confounded = dict(group=["friction_coefficient", "com_offset"],
+                                   advice=dict(recommended=advice)) if verdict == "confounded" else {}
+            self.unresolved, self.rejected = {}, []
+            self.gap_before = self.gap_after = self.gap_excess_before = self.gap_excess_after = self.chi2_before = 1.0
+
+    def fake(*, measured, **kw):
+        calls.append(sorted((m.f_ex, m.a_ex, m.s0) for m in measured))
+        if len(calls) == 1:
+            return Fake("confounded", advice=dict(f_ex=116.0, a_ex=10.0, s0=0.3, duration_s=2.0, score=5.0))
+        return Fake("named", ["friction_coefficient"])
+
+    monkeypatch.setattr(dc, "discover", fake)
+    plan = bm.Plan(operating_points=((124.0, 14.0, 0.3),), duration_s=2.0, candidates=("friction_coefficient",))
+    row = bm.run_case(bm.Case(0, "single", {"friction_coefficient": 0.25}, noise_seed=5, s0_offset=0.001), plan)
+    assert calls == [[(124.0, 14.0, 0.3)], [(116.0, 10.0, 0.3), (124.0, 14.0, 0.3)]]
+    assert not row["score"]["right"] and row["advised"]["score"]["right"]
+    assert row["advised"]["point"] == [116.0, 10.0, 0.3]
+
+
+def test_a_small_benchmark_runs_resumes_and_refuses_other_settings(tmp_path):
+    out = tmp_path / "bench"
+    args = ["discover-benchmark", "--seed", "3", "--cases", "nothing=1,single=1", "--points", "124,14,0.3",
+            "--duration", "4", "--effects", "excitation_gain", "--out", str(out)]
+    r = run_cli(*args, cwd=tmp_path, timeout=300)
+    assert r.returncode == 0, r.stderr
+    rows = [json.loads(l) for l in (out / "cases.jsonl").read_text().splitlines()]
+    assert sorted(r["kind"] for r in rows) == ["nothing", "single"]
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["cases"] == 2 and set(summary["by_kind"]) == {"nothing", "single"}
+    assert all(math.isfinite(r["cpu_s"]) for r in rows)
+    assert "| kind | right (first answer)" in (out / "summary.md").read_text()
+    again = run_cli(*args, cwd=tmp_path)
+    assert again.returncode == 0 and "case " not in again.stdout  # every case kept: none run again
+    assert (out / "cases.jsonl").read_text().count("\n") == 2
+    other = run_cli(*[a if a != "4" else "5" for a in args], cwd=tmp_path)
+    assert other.returncode != 0 and "other settings" in other.stderr
