@@ -147,3 +147,19 @@ def test_a_small_benchmark_runs_resumes_and_refuses_other_settings(tmp_path):
     assert (out / "cases.jsonl").read_text().count("\n") == 2
     other = run_cli(*[a if a != "4" else "5" for a in args], cwd=tmp_path)
     assert other.returncode != 0 and "other settings" in other.stderr
+
+
+def _judged(rows):
+    return sorted((json.dumps({k: v for k, v in r.items() if k not in ("cpu_s", "wall_s")}, sort_keys=True)
+                   for r in rows))
+
+
+def test_a_benchmark_on_a_dask_cluster_gives_the_local_rows(tmp_path, cluster):
+    """Cases as tasks of a two-worker cluster: the same rows as the local run (times aside)."""
+    plan = bm.Plan(operating_points=((124.0, 14.0, 0.3),), duration_s=3.0, candidates=("excitation_gain",))
+    counts = {"nothing": 1, "single": 2}
+    local = bm.run_benchmark(4, counts=counts, plan=plan, out_dir=tmp_path / "local")
+    remote = bm.run_benchmark(4, counts=counts, plan=plan, out_dir=tmp_path / "dask", scheduler=cluster)
+    assert _judged(local.rows) == _judged(remote.rows)
+    assert len((tmp_path / "dask" / "cases.jsonl").read_text().splitlines()) == 3
+    assert json.loads((tmp_path / "dask" / "summary.json").read_text())["cases"] == 3

@@ -28,6 +28,10 @@ def add_parser(sub: Any) -> None:
     sp.add_argument("--no-advice", action="store_true", help="do not take the advised run of a confounded or "
                                                                "unexplained answer")
     sp.add_argument("--out", default="benchmark-out", help="folder of the rows, kept runs and summary (benchmark-out)")
+    sp.add_argument("--scheduler", metavar="ADDRESS",
+                    help="run the cases on a Dask cluster, one case a task: scheduler address, e.g. tcp://host:8786 "
+                         "(docs/cluster.md; --out must be a folder the workers reach, for the kept runs)")
+    sp.add_argument("--scheduler-file", metavar="FILE", help="the Dask cluster of this scheduler file instead of --scheduler")
     sp.add_argument("--progress", dest="progress", action="store_true", default=None,
                     help="discover's progress bar for each case")
     sp.set_defaults(func=cmd_benchmark)
@@ -58,6 +62,8 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
         cases = bm.draw_cases(args.seed, counts, plan=plan)
     except ValueError as e:
         raise UserError(str(e)) from None
+    if args.scheduler and args.scheduler_file:
+        raise UserError("give --scheduler or --scheduler-file, not both")
     out = Path(args.out)
     total = len(cases)
 
@@ -68,7 +74,8 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
 
     try:
         res = bm.run_benchmark(args.seed, counts=counts, plan=plan, out_dir=out, advice=not args.no_advice,
-                               progress=args.progress, on_case=on_case)
+                               progress=args.progress, on_case=on_case,
+                               scheduler=args.scheduler, scheduler_file=args.scheduler_file)
     except ValueError as e:
         raise UserError(str(e)) from None
     print((out / "summary.md").read_text(encoding="utf-8").split("\n## Confusion")[0].rstrip())

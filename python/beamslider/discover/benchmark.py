@@ -389,13 +389,17 @@ def _append_line(path: Path, obj: Dict[str, Any]) -> None:
 def run_benchmark(seed: int, *, counts: Optional[Dict[str, int]] = None, plan: Optional[Plan] = None,
                   out_dir: Optional[PathLike] = None, advice: bool = True, progress: Any = False,
                   cases: Optional[Sequence[Case]] = None, on_case: Optional[Callable[[Dict[str, Any]], None]] = None,
-                  threads: Optional[int] = None) -> BenchmarkResult:
+                  threads: Optional[int] = None, scheduler: Any = None,
+                  scheduler_file: Optional[str] = None) -> BenchmarkResult:
     """Draw the cases of ``seed`` (:func:`draw_cases`; or take ``cases``), run and score each
     (:func:`run_case`) and summarise (:func:`summarise`). With ``out_dir``: the settings in
     ``benchmark.json``, each case's row appended to ``cases.jsonl`` as it finishes, the free-slider
     runs kept in ``runs.jsonl`` (shared by the cases: the scan grids and the baseline's runs do not
     depend on the data) and the summary in ``summary.json`` and ``summary.md``; run again on the same
-    folder it makes only the cases not yet in ``cases.jsonl`` (other settings are refused)."""
+    folder it makes only the cases not yet in ``cases.jsonl`` (other settings are refused).
+    ``scheduler`` / ``scheduler_file``: the cases run as tasks of a Dask cluster (docs/cluster.md), one
+    case a task, each keeping its runs in the same ``runs.jsonl`` (a folder the workers reach); the
+    rows are those of the local run (the simulations are deterministic) but for their times."""
     from .runstore import RunStore
 
     plan = plan or Plan()
@@ -418,17 +422,23 @@ def run_benchmark(seed: int, *, counts: Optional[Dict[str, int]] = None, plan: O
             write_text_atomic(sfile, json.dumps(settings, indent=1))
         done = _read_rows(out / CASES_FILE)
         store = RunStore(out / "runs.jsonl")
-    rows: List[Dict[str, Any]] = []
-    for case in case_list:
-        if case.index in done:
-            rows.append(done[case.index])
-            continue
-        row = run_case(case, plan, runs_file=store, advice=advice, progress=progress, threads=threads)
+    new: Dict[int, Dict[str, Any]] = {}
+
+    def finished(row: Dict[str, Any]) -> None:
         if out is not None:
             _append_line(out / CASES_FILE, row)
-        rows.append(row)
+        new[int(row["index"])] = row
         if on_case is not None:
             on_case(row)
+
+    todo = [c for c in case_list if c.index not in done]
+    if todo and (scheduler is not None or scheduler_file is not None):
+        _run_on_cluster(todo, plan, scheduler, scheduler_file, seed=seed, advice=advice, threads=threads,
+                        runs_path=None if store is None else str(store.path.resolve()), finished=finished)
+    else:
+        for case in todo:
+            finished(run_case(case, plan, runs_file=store, advice=advice, progress=progress, threads=threads))
+    rows = [done.get(c.index) or new[c.index] for c in case_list]
     summary = summarise(rows)
     if out is not None:
         from .._util import write_text_atomic
@@ -440,6 +450,35 @@ def run_benchmark(seed: int, *, counts: Optional[Dict[str, int]] = None, plan: O
 
 def _case_dict(c: Case) -> Dict[str, Any]:
     return asdict(c)
+
+
+def case_task(case: Dict[str, Any], plan: Dict[str, Any], runs_path: Optional[str], advice: bool,
+              threads: Optional[int]) -> List[str]:
+    """A Dask task: one case (as :func:`_case_dict`) of a plan (as :meth:`Plan.to_dict`) run and
+    scored (:func:`run_case`), its row as JSON text."""
+    from .runstore import RunStore
+
+    p = Plan(operating_points=tuple(tuple(x) for x in plan["operating_points"]), duration_s=plan["duration_s"],
+             candidates=tuple(plan["candidates"]), noise_s=plan["noise_s"],
+             noise_velocity_m_s=plan["noise_velocity_m_s"])
+    store = RunStore(runs_path) if runs_path else None
+    row = run_case(Case(**case), p, runs_file=store, advice=advice, threads=threads)
+    return [json.dumps(row, separators=(",", ":"), allow_nan=True)]
+
+
+def _run_on_cluster(cases: Sequence[Case], plan: Plan, scheduler: Any, scheduler_file: Optional[str], *, seed: int,
+                    advice: bool, threads: Optional[int], runs_path: Optional[str],
+                    finished: Callable[[Dict[str, Any]], None]) -> None:
+    from .. import _dask
+
+    client, own = _dask.connect(scheduler, scheduler_file)
+    try:
+        _dask.run_chunks(client, case_task, [(_case_dict(c), plan.to_dict(), runs_path, advice, threads) for c in cases],
+                         tag=f"discover-benchmark-{seed}", on_rows=lambda rows: [finished(json.loads(r)) for r in rows],
+                         resume_hint="run the benchmark again with the same --out to go on from the cases kept")
+    finally:
+        if own:
+            _dask.close_client(client)
 
 
 def _rate(k: int, n: int) -> Dict[str, Any]:
