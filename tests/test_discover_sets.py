@@ -12,9 +12,12 @@ import pytest
 
 import beamslider as bs
 from beamslider import discover as dc
-from beamslider.discover.fitting import CandidateFit, _interval, interval_z
+from beamslider.discover.result import CandidateFit
+from beamslider.discover.fitting import _interval
+from beamslider.discover.stats import interval_z
 from beamslider.discover.refine import gauss_newton
-from beamslider.discover.verdicts import interval_of, unresolved_reasons
+from beamslider.discover.stats import interval_of
+from beamslider.discover.rule import unresolved_reasons
 
 S0_OFFSET = 0.0015
 """The truth runs start off the s0 their files name (no "inverse crime", as tests/test_discover.py)."""
@@ -190,24 +193,24 @@ def test_sets_are_not_fitted_when_no_set_could_be_selected():
     """A single candidate that passes the naming rule with χ² below the least likelihood-ratio
     threshold (6.63) cannot be beaten by any set; one with a larger χ², or one that fails the rule,
     leaves the sets to fit."""
-    from beamslider.discover.fitting import lrt_threshold
-    from beamslider.discover.naming import _no_set_can_win
+    from beamslider.discover.stats import lrt_threshold
+    from beamslider.discover.rule import no_set_can_win
 
     assert lrt_threshold(1, 1) == pytest.approx(6.635, abs=1e-3)
     fits = [_single("friction_coefficient", 5.0, 0.26), _single("tilt", 30.0, 0.004)]
     passes = lambda fs: {f.effects: [] for f in fs}  # noqa: E731
-    assert _no_set_can_win(fits, passes)
+    assert no_set_can_win(fits, passes)
     fits[0].chi2 = 7.0
-    assert not _no_set_can_win(fits, passes)
+    assert not no_set_can_win(fits, passes)
     fits[0].chi2 = 5.0
-    assert not _no_set_can_win(fits, lambda fs: {f.effects: (["not resolved"] if f.chi2 < 6 else []) for f in fs})
+    assert not no_set_can_win(fits, lambda fs: {f.effects: (["not resolved"] if f.chi2 < 6 else []) for f in fs})
 
 
 def test_pairs_chosen_by_the_linearised_ranking():
     """With a ranking, the pairs fitted are the three best-predicted that extend each of the two
     best singles and the three best-predicted overall; without one, every pair that extends them."""
     from beamslider.discover.effects import EFFECTS
-    from beamslider.discover.verdicts import pairs_to_fit as _pairs_to_fit
+    from beamslider.discover.search.pairs import pairs_to_fit as _pairs_to_fit
 
     names = ["friction_coefficient", "natural_frequency_detuning", "tilt", "com_offset", "clearance", "restitution"]
     cands = [EFFECTS[n] for n in names]
@@ -249,7 +252,7 @@ def test_a_pair_that_moves_the_features_as_another_effect_does_is_confounded():
     make one; a fitted set is judged by its own fit; a single named effect is left to the single
     candidates' check. Where only effects outside the candidates mimic the pair, the verdict is
     "unexplained" and says which (docs/model.md §9.1, "Confounded")."""
-    from beamslider.discover.verdicts import confounded_sets
+    from beamslider.discover.confounding import confounded_sets
 
     p = bs.Parameters()
     lib = ["friction_coefficient", "slider_inertia", "com_offset", "tilt"]
@@ -341,8 +344,8 @@ def test_the_fast_path_predicts_each_single_from_moves_of_five_thresholds():
     moves nothing is predicted at |r|²; only the best predicted are fitted in full, the others kept
     as screened with their predicted χ² (and the naming rule says so)."""
     from beamslider.discover.effects import EFFECTS
-    from beamslider.discover.fast import FAST_KEEP, predict_singles, predicted_singles
-    from beamslider.discover.naming import _judge
+    from beamslider.discover.search.linearised import FAST_KEEP, predict_singles, predicted_singles
+    from beamslider.discover.rule import judge
 
     p = bs.Parameters()
     up = dict(friction_coefficient=dict(a=2.0, b=1.0), tilt=dict(a=0.0, b=0.0))
@@ -362,16 +365,16 @@ def test_the_fast_path_predicts_each_single_from_moves_of_five_thresholds():
     assert FAST_KEEP == 3 and fitted == ["friction_coefficient", "clearance", "slider_mass"]
     tilt = fits[1]
     assert tilt.screened and tilt.linearised and tilt.chi2 == 40.0 and not tilt.adequate
-    assert "linearised model predicts chi2 = 40" in _judge(fits, p, 10, 5.0, 0.3)[("tilt",)][0]
+    assert "linearised model predicts chi2 = 40" in judge(fits, p, 10, 5.0, 0.3)[("tilt",)][0]
 
 
 def test_the_fast_path_fits_the_best_predicted_pair_only_if_it_could_be_selected(monkeypatch):
     """discover(fast=True): the pair the linearised model predicts best is fitted only if its
     predicted χ² beats the best single fitted in full by the selection's threshold (for one effect
     picked from the candidates: lrt_threshold(1, 4) here); the other pairs are never fitted."""
-    from beamslider.discover import naming
+    from beamslider.discover.search import sets
     from beamslider.discover.effects import EFFECTS
-    from beamslider.discover.fitting import lrt_threshold
+    from beamslider.discover.stats import lrt_threshold
 
     names = ["friction_coefficient", "natural_frequency_detuning", "tilt", "clearance"]
     cands = [EFFECTS[n] for n in names]
@@ -382,13 +385,13 @@ def test_the_fast_path_fits_the_best_predicted_pair_only_if_it_could_be_selected
         c2 = 30.0 if len(effects) == 1 else 2.0
         return CandidateFit(tuple(e.name for e in effects), {e.name: 0.0 for e in effects}, {}, c2, 10, True, c2)
 
-    monkeypatch.setattr(naming, "profile_fit", fake_fit)
+    monkeypatch.setattr(sets, "profile_fit", fake_fit)
     pred = {n: (c, 0.0) for n, c in zip(names, [40.0, 50.0, 60.0, 70.0])}
     thr = lrt_threshold(1, len(names))
     for best_pair, want in [(30.0 - thr - 0.1, True), (30.0 - thr + 0.1, False)]:
         fitted.clear()
         ranked = [(("friction_coefficient", "tilt"), best_pair), (("clearance", "tilt"), best_pair + 1)]
-        fits = naming._fit_sets(cands, 2, "slider", bs.Parameters(), {f"f{i}": None for i in range(11)}, None, None, 0,
+        fits = sets.fit_sets(cands, 2, "slider", bs.Parameters(), {f"f{i}": None for i in range(11)}, None, None, 0,
                                 guide=lambda: ranked, done=lambda s: False, predict=lambda: pred)
         pairs = [f for f in fitted if len(f) == 2]
         assert pairs == ([("friction_coefficient", "tilt")] if want else []), (best_pair, fitted)
@@ -403,10 +406,10 @@ def test_the_tier_fits_the_best_predicted_and_falls_back_to_the_full_search(monk
     no fitted χ² more than TIER_MARGIN above its prediction; the predictions scaled down where a
     fitted χ² lies far below its own)
     the others stay screened and no coarse scan is made; else the full search runs: coarse scans of
-    every candidate (refine=naming.SCREEN_REFINE), as search="full" does."""
-    from beamslider.discover import naming
+    every candidate (refine=sets.SCREEN_REFINE), as search="full" does."""
+    from beamslider.discover.search import sets
     from beamslider.discover.effects import EFFECTS
-    from beamslider.discover.fast import TIER_MARGIN, tiered_singles
+    from beamslider.discover.search.tiered import TIER_MARGIN, tiered_singles
 
     names = ["friction_coefficient", "natural_frequency_detuning", "tilt", "clearance"]
     cands = [EFFECTS[n] for n in names]
@@ -464,52 +467,52 @@ def test_the_tier_fits_the_best_predicted_and_falls_back_to_the_full_search(monk
     assert not ok and fitted == names[:2]   # the fits made in full are returned, for the full search to keep
     assert [f.effects[0] for f in fits if not f.linearised] == names[:2]
 
-    # Through _fit_sets: settled -> no coarse scan; not settled -> every candidate scanned coarsely.
+    # Through fit_sets: settled -> no coarse scan; not settled -> every candidate scanned coarsely.
     calls = []
 
     def fake_fit(effects, *a, refine=2, **kw):
         calls.append((tuple(e.name for e in effects), refine))
         return fake(effects[0].name)
 
-    monkeypatch.setattr(naming, "profile_fit", fake_fit)
+    monkeypatch.setattr(sets, "profile_fit", fake_fit)
     pred = dict(friction_coefficient=(9.0, 0.0), natural_frequency_detuning=(60.0, 0.0), tilt=(60.0, 0.0),
                 clearance=(80.0, 0.0))
     for settled in (True, False):
         calls.clear()
-        fits = naming._fit_sets(cands, 2, "slider", bs.Parameters(), {f"f{i}": None for i in range(11)}, None, None, 0,
+        fits = sets.fit_sets(cands, 2, "slider", bs.Parameters(), {f"f{i}": None for i in range(11)}, None, None, 0,
                                 done=lambda s: settled, predict=lambda: pred, tier=True, guide=lambda: [])
-        coarse = [c for c in calls if c[1] == naming.SCREEN_REFINE]
+        coarse = [c for c in calls if c[1] == sets.SCREEN_REFINE]
         assert calls[0] == (("friction_coefficient",), 2)
         assert (coarse == []) if settled else (len(coarse) == len(names))
         assert len([f for f in fits if f.linearised]) == (len(names) - 1 if settled else 0)
     # At most single effects (max_effects 1): a complete tier settles, no set could be fitted.
     calls.clear()
-    naming._fit_sets(cands, 1, "slider", bs.Parameters(), {f"f{i}": None for i in range(11)}, None, None, 0,
+    sets.fit_sets(cands, 1, "slider", bs.Parameters(), {f"f{i}": None for i in range(11)}, None, None, 0,
                      done=lambda s: False, predict=lambda: pred, tier=True)
     assert not any(r == 0 for _, r in calls)
 
 
 def _coarse_or_full(coarse, full, calls):
-    """A stand-in for naming.profile_fit: each single candidate's χ² from ``coarse`` for the full
-    search's coarse scan (refine=naming.SCREEN_REFINE), else from ``full``; each call logged in ``calls``."""
-    from beamslider.discover import naming
+    """A stand-in for sets.profile_fit: each single candidate's χ² from ``coarse`` for the full
+    search's coarse scan (refine=sets.SCREEN_REFINE), else from ``full``; each call logged in ``calls``."""
+    from beamslider.discover.search import sets
 
     def fit(effects, *a, refine=2, **kw):
         n = effects[0].name
         calls.append((n, refine))
-        c2 = coarse[n] if refine == naming.SCREEN_REFINE else full[n]
+        c2 = coarse[n] if refine == sets.SCREEN_REFINE else full[n]
         return CandidateFit((n,), {n: 0.0}, {n: 0.01}, c2, 10, True, c2)
 
     return fit
 
 
 def test_the_full_search_keeps_a_fit_the_tier_made_in_full(monkeypatch):
-    """naming._fit_sets (docs/model.md §9.1, "Cost"): where the tier does not settle, the full search's
+    """sets.fit_sets (docs/model.md §9.1, "Cost"): where the tier does not settle, the full search's
     coarse scans screen each candidate, but one the tier fitted in full keeps that fit though its
     coarse χ² is beyond the margin (single runs on the grid missing a valley between its points, as a
     tilt of 8 mrad at another slider start: coarse χ² 59, the baseline's, predicted 10.6, ensembles
     near the truth 6–16). The others are fitted in full only within the margin."""
-    from beamslider.discover import naming
+    from beamslider.discover.search import sets
     from beamslider.discover.effects import EFFECTS
 
     names = ["friction_coefficient", "natural_frequency_detuning", "tilt", "clearance", "restitution"]
@@ -518,8 +521,8 @@ def test_the_full_search_keeps_a_fit_the_tier_made_in_full(monkeypatch):
                   restitution=90.0)
     full = dict(friction_coefficient=4.0, natural_frequency_detuning=25.0, tilt=33.0, clearance=38.0, restitution=80.0)
     calls = []
-    monkeypatch.setattr(naming, "profile_fit", _coarse_or_full(coarse, full, calls))
-    cut = max(sorted(coarse.values())[0] + naming.SCREEN_MARGIN, sorted(coarse.values())[naming.SCREEN_KEEP - 1])
+    monkeypatch.setattr(sets, "profile_fit", _coarse_or_full(coarse, full, calls))
+    cut = max(sorted(coarse.values())[0] + sets.SCREEN_MARGIN, sorted(coarse.values())[sets.SCREEN_KEEP - 1])
     assert coarse["friction_coefficient"] > cut   # the coarse scan alone would screen it out
     # The tier not complete: friction predicted best but 26 above its fit, the others' predictions
     # so scaled (4/30) within the margin; or more candidates predicted near than the tier may fit in
@@ -529,10 +532,10 @@ def test_the_full_search_keeps_a_fit_the_tier_made_in_full(monkeypatch):
                  dict(friction_coefficient=(4.5, 0.0), natural_frequency_detuning=(5.0, 0.0), tilt=(6.0, 0.0),
                       clearance=(7.0, 0.0), restitution=(90.0, 0.0))):
         calls.clear()
-        fits = naming._fit_sets(cands, 2, "slider", bs.Parameters(), {f"f{i}": None for i in range(11)}, None, None,
+        fits = sets.fit_sets(cands, 2, "slider", bs.Parameters(), {f"f{i}": None for i in range(11)}, None, None,
                                 0, done=lambda s: True, predict=lambda: pred, tier=True)
         by = {f.effects[0]: f for f in fits}
-        assert ("clearance", naming.SCREEN_REFINE) in calls  # the full search's coarse scans ran
+        assert ("clearance", sets.SCREEN_REFINE) in calls  # the full search's coarse scans ran
         assert not by["friction_coefficient"].screened and by["friction_coefficient"].chi2 == 4.0
         assert calls.count(("friction_coefficient", 2)) == 1   # the tier's fit, not made again
         assert all(by[n].screened == (coarse[n] > cut) for n in names if n != "friction_coefficient")
@@ -540,14 +543,14 @@ def test_the_full_search_keeps_a_fit_the_tier_made_in_full(monkeypatch):
 
 
 def test_a_fourth_tier_fit_leaves_the_full_search_as_a_tier_of_three_would(monkeypatch):
-    """naming._fit_sets with fast.TIER_KEEP = 4 and TIER_SHARED = 3 (docs/model.md §9.1, "Cost"): a
+    """sets.fit_sets with tiered.TIER_KEEP = 4 and TIER_SHARED = 3 (docs/model.md §9.1, "Cost"): a
     tier that fits four candidates and does not settle hands the full search its first three fits by
     prediction; the fourth enters as its coarse scan (here beyond the margin, so screened out, though
     its full fit was the best), and the full search's fits are those after a tier of three fits."""
-    from beamslider.discover import fast, naming
+    from beamslider.discover.search import sets, tiered
     from beamslider.discover.effects import EFFECTS
 
-    assert fast.TIER_KEEP == 4 and fast.TIER_SHARED == 3
+    assert tiered.TIER_KEEP == 4 and tiered.TIER_SHARED == 3
     names = ["friction_coefficient", "natural_frequency_detuning", "tilt", "clearance", "restitution"]
     cands = [EFFECTS[n] for n in names]
     coarse = dict(friction_coefficient=10.0, natural_frequency_detuning=30.0, tilt=35.0, clearance=200.0,
@@ -557,11 +560,11 @@ def test_a_fourth_tier_fit_leaves_the_full_search_as_a_tier_of_three_would(monke
     pred = dict(friction_coefficient=(4.5, 0.0), natural_frequency_detuning=(5.0, 0.0), tilt=(6.0, 0.0),
                 clearance=(7.0, 0.0), restitution=(90.0, 0.0))
     calls = []
-    monkeypatch.setattr(naming, "profile_fit", _coarse_or_full(coarse, full, calls))
+    monkeypatch.setattr(sets, "profile_fit", _coarse_or_full(coarse, full, calls))
 
     def run():
         calls.clear()
-        fits = naming._fit_sets(cands, 1, "slider", bs.Parameters(), {f"f{i}": None for i in range(11)}, None, None,
+        fits = sets.fit_sets(cands, 1, "slider", bs.Parameters(), {f"f{i}": None for i in range(11)}, None, None,
                                 0, done=lambda s: True, predict=lambda: pred, tier=True)
         return [(f.effects, f.chi2, f.screened) for f in fits], list(calls)
 
@@ -570,21 +573,21 @@ def test_a_fourth_tier_fit_leaves_the_full_search_as_a_tier_of_three_would(monke
     by = {f[0][0]: f for f in fits4}
     assert by["clearance"][1:] == (200.0, True)   # its coarse scan, not the tier's fit (3.0)
     assert all(by[n][1:] == (full[n], False) for n in names[:3])
-    real = fast.tiered_singles
-    monkeypatch.setattr(naming, "tiered_singles", lambda c, p, f, n: real(c, p, f, n, keep=3))
+    real = tiered.tiered_singles
+    monkeypatch.setattr(sets, "tiered_singles", lambda c, p, f, n: real(c, p, f, n, keep=3))
     fits3, calls3 = run()
     assert fits3 == fits4 and ("clearance", 2) not in calls3
 
 
 def test_the_tier_settles_a_named_single_only_if_no_pair_with_it_is_predicted_to_gain():
-    """fast.no_pair_gains: the pairs that could change a named single's verdict contain it (the
+    """tiered.no_pair_gains: the pairs that could change a named single's verdict contain it (the
     forward selection extends the named single); each is predicted by a Gauss–Newton step from the
     single's fitted point with the other effect at its baseline. A predicted gain of the least
     threshold (6.63) or more sends the search on; smaller gains everywhere settle it. Through
-    _fit_sets: settled without coarse scans or pairs."""
-    from beamslider.discover import naming
+    fit_sets: settled without coarse scans or pairs."""
+    from beamslider.discover.search import sets
     from beamslider.discover.effects import EFFECTS
-    from beamslider.discover.fast import no_pair_gains
+    from beamslider.discover.search.tiered import no_pair_gains
 
     p = bs.Parameters()
     names = ["friction_coefficient", "natural_frequency_detuning", "tilt"]
@@ -617,12 +620,12 @@ def test_the_tier_settles_a_named_single_only_if_no_pair_with_it_is_predicted_to
                     CandidateFit(names_, {e: 0.0 for e in names_}, {}, 50.0, 11, True, 50.0))
 
     monkeypatch = pytest.MonkeyPatch()
-    monkeypatch.setattr(naming, "profile_fit", fake_fit)
+    monkeypatch.setattr(sets, "profile_fit", fake_fit)
     try:
         pred = dict(friction_coefficient=(15.0, 0.25), natural_frequency_detuning=(80.0, 1.0), tilt=(80.0, 0.0))
         for gain, settled in ((1.0, True), (9.0, False)):
             calls.clear()
-            naming._fit_sets([EFFECTS[n] for n in names], 2, "slider", p, {f"f{i}": None for i in range(13)}, None,
+            sets.fit_sets([EFFECTS[n] for n in names], 2, "slider", p, {f"f{i}": None for i in range(13)}, None,
                              None, 0, done=lambda s: False, predict=lambda: pred, tier=True, named=lambda s: best,
                              step=step(dict(tilt=gain)),
                              guide=lambda: [(("friction_coefficient", "tilt"), 0.0)])  # a pair predicted to win
@@ -686,10 +689,10 @@ def test_the_joint_refinement_goes_to_every_set_predicted_to_come_near_the_best(
 
 
 def test_staged_sets_are_refined_by_the_predicted_step(monkeypatch):
-    """naming._fit_sets with more sets than JOINT_SETS: every set gets the coordinate pass; the joint
+    """sets.fit_sets with more sets than JOINT_SETS: every set gets the coordinate pass; the joint
     refinement goes to the fixed ones and to the set whose predicted step brings it near the best,
     and the report's record says which."""
-    from beamslider.discover import naming
+    from beamslider.discover.search import sets
     from beamslider.discover.effects import EFFECTS
 
     names = ["friction_coefficient", "natural_frequency_detuning", "tilt", "clearance", "slider_mass"]
@@ -706,29 +709,29 @@ def test_staged_sets_are_refined_by_the_predicted_step(monkeypatch):
                                                (10.0 if key == hidden else pass_of[key] - 1))
         return CandidateFit(tuple(e.name for e in effects), {e.name: 0.0 for e in effects}, {}, c2, 10, False, c2)
 
-    monkeypatch.setattr(naming, "profile_fit", fake_fit)
-    monkeypatch.setattr(naming, "SCREEN_FROM", 10)
+    monkeypatch.setattr(sets, "profile_fit", fake_fit)
+    monkeypatch.setattr(sets, "SCREEN_FROM", 10)
     first = [("friction_coefficient", "tilt"), ("friction_coefficient", "clearance"),
              ("friction_coefficient", "natural_frequency_detuning"), ("natural_frequency_detuning", "slider_mass")]
     ranked = [(p, 50.0) for p in first + [p for p in itertools.combinations(names, 2) if p not in first]]
     record = []
-    fits = naming._fit_sets(cands, 2, "slider", bs.Parameters(), {f"f{i}": None for i in range(14)}, None, None, 0,
+    fits = sets.fit_sets(cands, 2, "slider", bs.Parameters(), {f"f{i}": None for i in range(14)}, None, None, 0,
                             guide=lambda: ranked, done=lambda s: False,
                             step=lambda f: 45.0 if frozenset(f.effects) == hidden else f.chi2 + 20, record=record)
     refined = {k for k, j in calls if j is None and len(k) == 2}
-    assert hidden in refined and len(refined) == naming.JOINT_SETS + 1
+    assert hidden in refined and len(refined) == sets.JOINT_SETS + 1
     assert min(f.chi2 for f in fits if len(f.effects) == 2) == 10.0
     assert {frozenset(r["effects"]) for r in record if r["refined"]} == refined
     assert [r["chi2"] for r in record if frozenset(r["effects"]) == hidden] == [10.0]
 
 
 def test_the_fast_path_leaves_out_mode_features_where_the_baseline_misses_the_data_mode():
-    """fast.predict_singles: at an operating point where none of the baseline's runs ends in the
+    """linearised.predict_singles: at an operating point where none of the baseline's runs ends in the
     data's mode, the end-state features' changes from the baseline's run are those of a run in
     another mode (a mode switch: hundreds of uncertainties), no signature of the candidate; they
     count as they are, and the candidate is predicted from the other features (here: exactly)."""
     from beamslider.discover.effects import EFFECTS
-    from beamslider.discover.fast import predict_singles
+    from beamslider.discover.search.linearised import predict_singles
 
     p = bs.Parameters()
     tag = "126Hz_10ms2_s00.3"
@@ -749,7 +752,7 @@ def test_the_fast_path_leaves_out_mode_features_where_the_baseline_misses_the_da
 def test_the_pair_ranking_leaves_out_mode_features_the_baseline_misses():
     """verdicts.rank_pairs with ``frozen``: a mode feature whose signature is a mode switch (huge)
     makes the true pair look bad; counted as it is, the true pair ranks first."""
-    from beamslider.discover.verdicts import rank_pairs
+    from beamslider.discover.search.pairs import rank_pairs
 
     sens = {"a": {"x": 1.0, "y": 0.0, "m": -900.0}, "b": {"x": 0.0, "y": 1.0, "m": 400.0},
             "c": {"x": 0.5, "y": 0.5, "m": 0.0}}

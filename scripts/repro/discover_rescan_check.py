@@ -13,7 +13,8 @@ import json, sys, tempfile, time
 from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from beamslider import discover as dc
-from beamslider.discover import naming, refine
+from beamslider.discover import refine
+from beamslider.discover.search import sets
 from discover_table import CASES, OPS, P, case_runs, truth_values
 
 if len(sys.argv) != 4 or sys.argv[1] not in CASES:
@@ -32,35 +33,35 @@ def rj(effs, u, *a, **k):
     return orig_rj(effs, u, *a, **k)
 refine.refine_jointly = rj
 tier = {}
-orig_ts = naming.tiered_singles
+orig_ts = sets.tiered_singles
 def ts(cands, pred, fit, n, *a, **k):
     fits, ok = orig_ts(cands, pred, fit, n, *a, **k)
     tier.update({f.effects[0]: f.chi2 for f in fits if not f.screened})
     return fits, ok
-naming.tiered_singles = ts
+sets.tiered_singles = ts
 coarse = {}
-orig_pf = naming.profile_fit
+orig_pf = sets.profile_fit
 def pf(effs, *a, refine=2, **k):
     f = orig_pf(effs, *a, refine=refine, **k)
-    if len(effs) == 1 and refine == naming.SCREEN_REFINE:
+    if len(effs) == 1 and refine == sets.SCREEN_REFINE:
         coarse[effs[0].name] = f.chi2
     return f
-naming.profile_fit = pf
+sets.profile_fit = pf
 def kept():
     if not coarse:
         return []
     best = sorted(coarse.values())
-    cut = max(best[0] + naming.SCREEN_MARGIN, best[min(naming.SCREEN_KEEP, len(best)) - 1])
+    cut = max(best[0] + sets.SCREEN_MARGIN, best[min(sets.SCREEN_KEEP, len(best)) - 1])
     return [f"tier-kept {n}: coarse {coarse[n]:.1f} > cut {cut:.1f}, tier fit {c2:.1f}"
             for n, c2 in tier.items() if n in coarse and coarse[n] > cut]
 class Stop(Exception):
     pass
-orig_ptf = naming.pairs_to_fit
+orig_ptf = sets.pairs_to_fit
 def ptf(*a, **k):
     if not trig and not kept():
         raise Stop
     return orig_ptf(*a, **k)
-naming.pairs_to_fit = ptf
+sets.pairs_to_fit = ptf
 t0, c0 = time.perf_counter(), time.process_time()
 try:
     d = dc.discover(measured=runs, baseline=P, effects=effects, max_effects=2)

@@ -24,7 +24,7 @@ model is missing, add it, and show the disagreement shrink.
    "unexplained — best candidate X, not resolved", with advice); single candidates that fit equally
    by moving the features alike are reported as a ``confounded`` group, and so is a named set
    that a single effect of the library (a candidate or not: screened in the linearised model,
-   confirmed by its full fit) fits as well (:mod:`.verdicts`). Slider level: a model's features
+   confirmed by its full fit) fits as well (:mod:`.confounding`). Slider level: a model's features
    are the mean of an ensemble of runs from
    s0 + (0, ±0.001, ±0.002), their spread part of the uncertainty (the final state of a long run
    depends on such unresolvable perturbations). The end-state features are bimodal across such
@@ -46,9 +46,12 @@ Gauss–Newton on ensemble means, each step confirmed by runs); with many candid
 screened and the pairs chosen by the linearised model (docs/model.md §9.1, "Sets of effects", "Cost").
 
 The package is split by step: :mod:`.features` (1), :mod:`.effects` and :mod:`.chain` (2),
-:mod:`.models` (the model side of the features), :mod:`.naming`, :mod:`.refine`, :mod:`.spread` and :mod:`.verdicts` (3),
-:mod:`.report` (4), :mod:`.synthesize` (5), :mod:`.separability` (identifiability) and
-:mod:`.runstore` (the runs a discover keeps on disk); every public name is re-exported here.
+:mod:`.models` (the model side of the features), :mod:`.workflow` (:func:`discover`), the search
+:mod:`.search` with :mod:`.fitting`, :mod:`.refine` and :mod:`.spread`, the statistics :mod:`.stats`,
+the rule :mod:`.rule` with :mod:`.confounding` and :mod:`.advice` (3), the result types
+:mod:`.result` and :mod:`.report` (4), :mod:`.synthesize` (5), :mod:`.separability`
+(identifiability) and :mod:`.runstore` (the runs a discover keeps on disk); every public name is
+re-exported here.
 """
 
 from __future__ import annotations
@@ -57,8 +60,9 @@ from .features import DESCRIPTIONS, enma_features, Feature, FLOORS, slider_featu
 from .effects import CHAIN_EFFECTS, realise_effects, Effect, EFFECTS
 from .chain import Model, realise_model
 from .models import beam_surrogate, measured_slider_features, model_slider_features, OperatingPoint, simulated_enma_features
-from .fitting import CandidateFit, Discovery, GAP_MEASURE, SIGNIFICANCE
-from .naming import discover
+from .result import CandidateFit, Discovery, GAP_MEASURE
+from .stats import SIGNIFICANCE
+from .workflow import discover
 from .runstore import RunStore
 from .synthesize import synthesize_enma, synthesize_slider_runs, truth_from_toml, truth_from_toml_text
 from .report import fmt_value, verdict_line, write_report

@@ -170,7 +170,7 @@ class EnsembleObjective:
     where single runs scatter by Δχ² of tens between neighbouring parameter values (friction and
     detuning together at (110 Hz, 10 m/s²)). Residuals and χ² with the uncertainties fixed at the
     start (σ² = σ_meas² + (1 + 1/R)·spread²), so that trial points are compared alike; the mode
-    terms as in the fit's χ² (:func:`.fitting._chi2_terms`)."""
+    terms as in the fit's χ² (:func:`.stats.chi2_terms`)."""
 
     def __init__(self, evaluate, central, params_of, ensemble_many, key_of, names, y, se, spread, runs,
                  chi2_of, unpredicted) -> None:

@@ -15,8 +15,8 @@ from ..enma import EnmaData
 from .effects import EFFECTS
 from .chain import as_model, realise_model
 from .models import OperatingPoint, slider_paths
-from .fitting import Discovery, GAP_EXCESS_MEASURE, GAP_MEASURE
-from .verdicts import interval_of
+from .result import Discovery, GAP_EXCESS_MEASURE, GAP_MEASURE
+from .stats import interval_of
 
 PathLike = Union[str, "os.PathLike[str]"]
 

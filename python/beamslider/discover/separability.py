@@ -64,7 +64,7 @@ def slider_changes(effects: Sequence[str], baseline: Optional[Parameters], ops: 
     """The raw change of each slider feature at ``ops`` when each effect moves by ``steps``
     relevance thresholds from the baseline (one run per effect and point against the baseline's
     unshifted run; an effect whose runs fail has no changes): the linearised model of
-    :func:`.verdicts.confounded_sets` and :mod:`.fast`, whose callers divide by their own
+    :func:`.confounding.confounded_sets` and :mod:`.search.linearised`, whose callers divide by their own
     uncertainties. ``cache``: the discover's run cache (the runs :func:`slider_sensitivities` made
     are not repeated)."""
     base = resolve(baseline)

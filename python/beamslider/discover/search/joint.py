@@ -7,13 +7,15 @@ from __future__ import annotations
 import math
 from typing import Callable, Dict, List, Optional, Sequence, Tuple
 
-from ..params import Parameters
-from .effects import Effect, realise_effects
-from .features import Feature
-from .fitting import (MODE_CONDITIONING, CandidateFit, EnsembleMany, ModelMany, chi2_quantile, fit_candidate, gap_of,
-                      profile_fit)
-from .models import data_modes
-from .verdicts import pairs_to_fit
+from ...params import Parameters
+from ..effects import Effect, realise_effects
+from ..features import Feature
+from ..fitting import EnsembleMany, ModelMany, fit_candidate, profile_fit
+from ..models import data_modes
+from ..result import CandidateFit
+from ..stats import MODE_CONDITIONING, chi2_quantile, gap_of
+from .pairs import pairs_to_fit
+from .progress import progress_bar
 
 
 def fit_sets_joint(cand_effects: Sequence[Effect], max_effects: int, base: Parameters,
@@ -26,8 +28,7 @@ def fit_sets_joint(cand_effects: Sequence[Effect], max_effects: int, base: Param
     beam-level parameters are fitted to the beam features (weighted least squares on the
     surrogate; they are far more precise there than in the runs), and its slider-level parameters
     by the profile fit of the runs with those beam-level values held; a set of beam-level effects
-    only costs one evaluation of the runs. Returns one fit per set, as :func:`.naming._fit_sets`."""
-    from .naming import _progress_bar  # the discover's bar (naming imports this module)
+    only costs one evaluation of the runs. Returns one fit per set, as :func:`.search.sets.fit_sets`."""
 
     names_s = list(meas_s)
     modes = data_modes(meas_s) if MODE_CONDITIONING else None
@@ -85,7 +86,7 @@ def fit_sets_joint(cand_effects: Sequence[Effect], max_effects: int, base: Param
             bar.update(1)
         return [f for f in out if f is not None]
 
-    bar = _progress_bar(progress, len(cand_effects), "discover (joint): fits")
+    bar = progress_bar(progress, len(cand_effects), "discover (joint): fits")
     fits = fit_sets([(e,) for e in cand_effects], bar)
     if max_effects >= 2:
         combos = pairs_to_fit(cand_effects, fits, max_effects, "joint")
