@@ -98,8 +98,11 @@ def test_the_advice_separates_the_camera_offset_from_its_scale_from_another_star
     """A camera offset o and a scale k with o = (k - 1)·0.32 report the same positions where the
     slider stays near s = 0.3: the runs from s0 = 0.3 hardly tell them apart (the fitted models of
     the discover table, 10-s runs: distance 0.5 at (124, 14) and (104, 14)), a run from s0 = 0.15
-    does (3.4 at (124, 14)), and the default advice grid offers it (advice.ADVICE_GRID)."""
-    from beamslider.discover.advice import ADVICE_GRID, advise
+    does (3.4 at (124, 14)), and the default advice grid offers it (DiscoverOptions.advice_grid)."""
+    from beamslider.discover.advice import advise
+    from beamslider.discover.options import DEFAULT
+
+    ADVICE_GRID = DEFAULT.advice_grid
 
     p = bs.Parameters()
     fit = {"position_scale": 1.0361, "position_offset": 0.011667}
@@ -110,7 +113,9 @@ def test_the_advice_separates_the_camera_offset_from_its_scale_from_another_star
     assert only_03["recommended"]["score"] < a["recommended"]["score"] / 2, only_03
     # 60 s from s0 = 0.15 at (124, 14) the slider ends at the clamping (s = 0.038, its contact point
     # 0.3 mm from it): never advised; at (116, 10) it ends at s = 0.065.
-    from beamslider.discover.advice import CLAMP_CLEARANCE, fitted_differences
+    from beamslider.discover.advice import fitted_differences
+
+    CLAMP_CLEARANCE = DEFAULT.clamp_clearance
 
     at = lambda f, a: [dc.OperatingPoint(f, a, 0.15, 60.0)]  # noqa: E731
     assert fitted_differences(fit, p, at(124, 14), clearance=CLAMP_CLEARANCE) is None
@@ -118,9 +123,9 @@ def test_the_advice_separates_the_camera_offset_from_its_scale_from_another_star
 
 
 def test_advice_says_when_no_run_of_its_grid_separates_a_group(monkeypatch):
-    """A confounded group whose fitted models differ by less than WEAK_SEPARATION at every grid point:
+    """A confounded group whose fitted models differ by less than options.weak_separation at every grid point:
     the advice says so instead of recommending the run; where a point separates them, it is
-    recommended as before; a point where a run ends at the clamping (CLAMP_CLEARANCE) is never."""
+    recommended as before; a point where a run ends at the clamping (options.clamp_clearance) is never."""
     from beamslider.discover import advice
 
     dist = {(124.0, 6.0): 0.9, (110.0, 10.0): 1.5, (104.0, 10.0): 9.0}
@@ -662,10 +667,12 @@ def test_a_rough_scan_that_picks_the_baseline_is_rescored_on_ensembles(monkeypat
     ensembles' profile, is here the closed form's ±1.96/sqrt(JᵀJ) and excludes the baseline. Without
     the rescan (threshold infinite) the fit stays at the baseline, so that the test can fail; a
     valley within the relevance threshold is not taken."""
-    from beamslider.discover import fitting
+    import dataclasses
+
     from beamslider.discover.features import Feature
     from beamslider.discover.fitting import profile_fit
     from beamslider.discover.models import Ensemble
+    from beamslider.discover.options import DEFAULT
 
     e, base = EFFECTS["friction_coefficient"], bs.Parameters()
     truth, b0 = 0.33, 0.2   # off the grid 0.1, 0.15, ..., 0.5; the baseline on it
@@ -696,12 +703,11 @@ def test_a_rough_scan_that_picks_the_baseline_is_rescored_on_ensembles(monkeypat
     assert lo == pytest.approx(truth - 1.96 * se, rel=1e-3) and hi == pytest.approx(truth + 1.96 * se, rel=1e-3)
     assert lo > b0
     assert f.roughness[e.name] == 0.0   # the interval is the ensembles' profile's, not widened
-    monkeypatch.setattr(fitting, "ROUGH_RESCAN", math.inf)
-    f = profile_fit([e], base, meas, model_many=many, ensemble_many=ens, spread0=dict(a=0.0, b=0.0))
+    f = profile_fit([e], base, meas, model_many=many, ensemble_many=ens, spread0=dict(a=0.0, b=0.0),
+                    options=dataclasses.replace(DEFAULT, rough_rescan=math.inf))
     assert f.values[e.name] == pytest.approx(b0)
     # A sharp valley within friction's relevance threshold (0.01) of the baseline (the baseline's
     # ensemble at χ² 80): nothing to name, not taken; 0.012 from it, taken.
-    monkeypatch.setattr(fitting, "ROUGH_RESCAN", 50.0)
     slope = 10.0
     for truth, taken in ((0.208, False), (0.212, True)):
         f = profile_fit([e], base, meas, model_many=many, ensemble_many=ens, spread0=dict(a=0.0, b=0.0))

@@ -32,6 +32,7 @@ import numpy as np
 import beamslider as bs
 from beamslider import discover as dc
 from beamslider.discover import models, stats
+from beamslider.discover.options import DEFAULT
 
 OPS = [(104.0, 14.0, 0.3), (126.0, 10.0, 0.3), (124.0, 14.0, 0.3)]
 P = bs.Parameters()
@@ -41,7 +42,7 @@ def baseline_test(runs) -> Dict[str, float]:
     """The baseline's test as `discover` makes it before any fit: χ², feature count, the largest
     |z|, the 99 % quantile, adequacy, the gap beyond the noise (`discover.stats.baseline_test`)."""
     meas, _, ops = models.measured_slider_features(runs)
-    modes = models.data_modes(meas) if stats.MODE_CONDITIONING else None
+    modes = models.data_modes(meas) if DEFAULT.mode_conditioning else None
     ens = models.ensemble_slider_features([P], ops, modes=modes)[0]
     if ens is None:
         raise bs.SimulationError("the prototype's runs failed")

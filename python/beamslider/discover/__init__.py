@@ -60,7 +60,8 @@ from .features import DESCRIPTIONS, enma_features, Feature, FLOORS, slider_featu
 from .effects import CHAIN_EFFECTS, realise_effects, Effect, EFFECTS
 from .chain import Model, realise_model
 from .models import beam_surrogate, measured_slider_features, model_slider_features, OperatingPoint, simulated_enma_features
-from .result import CandidateFit, Discovery, GAP_MEASURE
+from .options import DiscoverOptions
+from .result import Because, CandidateFit, Discovery, GAP_MEASURE, Kind, Verdict
 from .stats import SIGNIFICANCE
 from .workflow import discover
 from .runstore import RunStore
@@ -75,4 +76,5 @@ __all__ = [
     "synthesize_slider_runs", "truth_from_toml", "truth_from_toml_text", "write_report", "verdict_line",
     "separability", "slider_sensitivities",
     "realise_effects", "fmt_value", "CHAIN_EFFECTS", "Model", "realise_model", "RunStore",
+    "DiscoverOptions", "Kind", "Because", "Verdict",
 ]

@@ -12,23 +12,14 @@ import numpy as np
 from ..params import Parameters
 from .confounding import cosine
 from .models import OperatingPoint
-
-
-ADVICE_GRID: Tuple[Tuple[float, float, float], ...] = tuple(
-    (f, a, s0) for s0 in (0.3, 0.15)
-    for f, a in ((104.0, 14.0), (110.0, 10.0), (116.0, 10.0), (120.0, 6.0), (124.0, 6.0), (124.0, 14.0), (126.0, 10.0)))
-"""Operating points (f_ex Hz, a_ex m/s², s0) among which the advice looks for the measurement that
-resolves or separates candidates (those already measured are left out): seven points of the
-paper's map from its s0 = 0.3, and the same from s0 = 0.15, nearer the clamping, where the slider
-ends elsewhere on the beam (what the runs from 0.3 pin at one position, as a camera's offset
-against its scale, separates there); a point where a run ends at the clamping is skipped
-(:data:`CLAMP_CLEARANCE`)."""
+from .options import DEFAULT, DiscoverOptions
 
 
 def advise(names: Sequence[str], base: Parameters, ops: Sequence[OperatingPoint],
            grid: Sequence[Tuple[float, float, float]], *, threads: Optional[int] = None,
            on_point: Optional[Callable[[], None]] = None,
-           fitted: Optional[Union[Dict[str, float], Sequence[Dict[str, float]]]] = None, cache=None) -> Dict[str, Any]:
+           fitted: Optional[Union[Dict[str, float], Sequence[Dict[str, float]]]] = None, cache=None,
+           options: DiscoverOptions = DEFAULT) -> Dict[str, Any]:
     """The separability tool's advice for candidates the data did not resolve (one name) or
     separate (several): the signatures (:func:`.separability.slider_sensitivities`, features in
     units of their uncertainty for a change of 5 relevance thresholds) at each point of ``grid``
@@ -39,7 +30,9 @@ def advise(names: Sequence[str], base: Parameters, ops: Sequence[OperatingPoint]
     (:func:`fitted_differences`), which stays right where the linearised signatures do not (a large
     change of one mimicking another).
     ``on_point``: called after the measured points and after each grid point (progress).
-    ``cache``: a run cache (:func:`.models.batch_slider_features`)."""
+    ``cache``: a run cache (:func:`.models.batch_slider_features`). A point where a run ends with a
+    contact point within ``options.clamp_clearance`` of a clamping is skipped; a fitted group no run
+    separates by ``options.weak_separation`` uncertainties is said to be weakly separated."""
     from .separability import slider_sensitivities
 
     measured = {(op.f_ex, op.a_ex, op.s0) for op in ops}
@@ -58,7 +51,7 @@ def advise(names: Sequence[str], base: Parameters, ops: Sequence[OperatingPoint]
         on_point()
     best: Optional[Tuple[Tuple[float, float, float], float]] = None
     for g in points:
-        score = score_at([OperatingPoint(*g, duration)], CLAMP_CLEARANCE)
+        score = score_at([OperatingPoint(*g, duration)], options.clamp_clearance)
         if on_point is not None:
             on_point()
         if score is not None and (best is None or score > best[1]):
@@ -68,8 +61,8 @@ def advise(names: Sequence[str], base: Parameters, ops: Sequence[OperatingPoint]
                     note="at every point of the grid not yet measured a run ends at the clamping")
     what = ("distance between the fitted models' features" if fitted else
             "signature norm" if len(names) == 1 else "separation min(|z1|, |z2|) sin(theta)")
-    weak = bool(fitted) and best[1] < WEAK_SEPARATION
-    lead = ("no run of the grid separates them by " + f"{WEAK_SEPARATION:g} uncertainties; the best, a run at "
+    weak = bool(fitted) and best[1] < options.weak_separation
+    lead = ("no run of the grid separates them by " + f"{options.weak_separation:g} uncertainties; the best, a run at "
             if weak else "add a run at ")
     return dict(names=list(names), measure=what, at_measured_points=now, weak=weak,
                 recommended=dict(f_ex=best[0][0], a_ex=best[0][1], s0=best[0][2], duration_s=duration,
@@ -78,20 +71,6 @@ def advise(names: Sequence[str], base: Parameters, ops: Sequence[OperatingPoint]
                      f"({duration:g} s): {what} {best[1]:.3g}"
                      + ("" if fitted else " for a change of 5 relevance thresholds")
                      + f", against {now:.3g} at the measured points")
-
-
-WEAK_SEPARATION = 2.0
-"""Distance (units of the uncertainty) between two fitted models' features at one run below which
-the advice says that no run of its grid separates them: such a run adds less than 4 to the χ² of
-the wrong one."""
-
-
-CLAMP_CLEARANCE = 0.01
-"""Advice skips a grid point where a run of the baseline or of a fitted model ends with a contact
-point of the slider closer than this (fraction of L) to a clamping: there the slider sits at the
-end of the modelled free length, and a run of the data from a slightly other s0 may leave it (a
-run from s0 = 0.15 at (124 Hz, 14 m/s²) ends at s = 0.038, its contact point 0.3 mm from the
-clamping; the truth from s0 + 0.0015 left the free length at 43.5 s)."""
 
 
 def fitted_differences(values: Union[Dict[str, float], Sequence[Dict[str, float]]], base: Parameters,

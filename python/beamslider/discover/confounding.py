@@ -12,13 +12,9 @@ import numpy as np
 from ..params import Parameters
 from .effects import EFFECTS
 from .result import CandidateFit
-from .rule import Reason, Reasons, Why
+from .reasons import Reason, Reasons, Why
+from .options import DEFAULT, DiscoverOptions
 from .stats import interval_of
-
-
-CONFOUND_COS = 0.95
-"""|cos θ| of the feature changes of two single fits from which they enter the model through one
-combination (the separability tool's threshold, :func:`.separability.separability`)."""
 
 
 def signature(f: CandidateFit, before: Dict[str, float], sig: Dict[str, float]) -> Dict[str, float]:
@@ -37,11 +33,11 @@ def cosine(a: Dict[str, float], b: Dict[str, float]) -> Tuple[float, float, floa
 
 def confounded_group(best: CandidateFit, fits: Sequence[CandidateFit], reasons: Reasons,
                      before: Dict[str, float], sig: Dict[str, float], base: Parameters,
-                     delta_chi2: float) -> Optional[Dict[str, Any]]:
+                     delta_chi2: float, options: DiscoverOptions = DEFAULT) -> Optional[Dict[str, Any]]:
     """The candidates that fit as well as the single effect ``best`` — each passing the naming rule
     alone, χ² within ``delta_chi2`` of it (the selection's likelihood-ratio threshold: the data do
     not prefer one at the significance that named it) — because they move the features alike
-    (|cos θ| ≥ :data:`CONFOUND_COS` between the fits' feature changes): then the data resolve one
+    (|cos θ| ≥ ``options.confound_cos`` between the fits' feature changes): then the data resolve one
     combination of them, not which one. None if there is no such candidate."""
     if len(best.effects) != 1:
         return None
@@ -54,7 +50,7 @@ def confounded_group(best: CandidateFit, fits: Sequence[CandidateFit], reasons: 
         if f.chi2 - best.chi2 > delta_chi2:
             continue
         c, _, _ = cosine(s0, signature(f, before, sig))
-        if abs(c) >= CONFOUND_COS:
+        if abs(c) >= options.confound_cos:
             members.append(f)
             cos[f.effects[0]] = c
     if len(members) < 2:
@@ -67,7 +63,7 @@ def confounded_group(best: CandidateFit, fits: Sequence[CandidateFit], reasons: 
     return dict(group=[f.effects[0] for f in members], cos=cos,
                 chi2={f.effects[0]: f.chi2 for f in members},
                 values={f.effects[0]: f.values[f.effects[0]] for f in members},
-                intervals={f.effects[0]: list(interval_of(f, f.effects[0])) for f in members},
+                intervals={f.effects[0]: list(interval_of(f, f.effects[0], options.interval_level)) for f in members},
                 combination=" + ".join(terms) + " = 1",
                 explanation="each alone fits equally and moves the features alike (linearised: cos of the "
                             "feature changes " + ", ".join(f"{best.effects[0]}/{k} {v:+.3f}" for k, v in cos.items())
@@ -82,26 +78,22 @@ def _rho2(v: np.ndarray, cols: List[np.ndarray]) -> Tuple[float, np.ndarray]:
     return float(np.sum((v - A @ x) ** 2)), x
 
 
-CONFIRM_SINGLES = 2
-"""Of the single effects outside the fitted ones that the linearised model puts within the
-threshold of a named set (:func:`confounded_sets`), this many (the closest) are fitted in full."""
-
-
 def confounded_sets(best: CandidateFit, fits: Sequence[CandidateFit], reasons: Reasons, before: Dict[str, float],
                     sig: Dict[str, float], base: Parameters, delta_chi2: float, library: Sequence[str],
                     changes: Callable[[List[str]], Dict[str, Dict[str, float]]],
                     confirm: Callable[[str], Tuple[CandidateFit, List[Any]]],
-                    candidates: Optional[Sequence[str]] = None) -> Optional[Dict[str, Any]]:
+                    candidates: Optional[Sequence[str]] = None,
+                    options: DiscoverOptions = DEFAULT) -> Optional[Dict[str, Any]]:
     """The single effects and fitted sets of no more effects than the set ``best`` (two or more)
     that fit as well as it by moving the features as its fit does (docs/model.md §9.1,
     "Confounded"): then the data resolve that change, not which of them made it, and ``best`` is
     not named. A fitted set (``fits``) is such a set if it passes the naming rule (no
     ``reasons``), fits within ``delta_chi2`` of ``best`` and moves the features alike (|cos θ| ≥
-    :data:`CONFOUND_COS`). A single effect of the ``library`` (the level's effects, candidates or
+    ``options.confound_cos``). A single effect of the ``library`` (the level's effects, candidates or
     not) that was not fitted is first screened in the linearised model: it may reproduce the fitted
     change d of ``best`` within ``delta_chi2`` of how well ``best``'s own signatures do,
     min_y |d − s y|² ≤ min_x |d − S_B x|² + ``delta_chi2`` (S the feature changes of a move by five
-    relevance thresholds, ``changes(names)``, in units of ``sig``); the :data:`CONFIRM_SINGLES`
+    relevance thresholds, ``changes(names)``, in units of ``sig``); the ``options.confirm_singles``
     closest are fitted in full (``confirm(name)``: the fit and the naming rule's reasons) and
     judged as the fitted sets. ``candidates``: the effects the user suspects; the others are
     listed as ``not_candidates``. None if there is no such set."""
@@ -127,7 +119,7 @@ def confounded_sets(best: CandidateFit, fits: Sequence[CandidateFit], reasons: R
             if r_e <= r_own + delta_chi2:
                 screened.append((r_e, e))
     extra = {}
-    for _, e in sorted(screened)[:CONFIRM_SINGLES]:
+    for _, e in sorted(screened)[:options.confirm_singles]:
         f, why = confirm(e)
         extra[f.effects] = why
         fitted[frozenset(f.effects)] = f
@@ -138,7 +130,7 @@ def confounded_sets(best: CandidateFit, fits: Sequence[CandidateFit], reasons: R
         if {**reasons, **extra}.get(f.effects) or f.chi2 - best.chi2 > delta_chi2:
             continue
         cs, _, _ = cosine(d, signature(f, before, sig))
-        if abs(cs) >= CONFOUND_COS:
+        if abs(cs) >= options.confound_cos:
             found.append((f, f"chi2 {f.chi2:.3g}, cos {cs:+.3f}" + (" (fitted to confirm the linearised model)"
                                                                     if f.effects in extra else "")))
     if not found:
@@ -169,7 +161,7 @@ def confounded_sets(best: CandidateFit, fits: Sequence[CandidateFit], reasons: R
 
 def outside_fits_better(best: CandidateFit, predicted: Dict[str, Tuple[float, float]],
                         confirm: Callable[[str], Tuple[CandidateFit, List[Any]]], threshold: float,
-                        keep: int = CONFIRM_SINGLES) -> Optional[Reason]:
+                        keep: int = DEFAULT.confirm_singles, level: float = DEFAULT.interval_level) -> Optional[Reason]:
     """A reason not to name the set ``best`` of the candidates: a single effect of the library that
     is not among them fits the data better by more than ``threshold`` (the selection's price of a
     parameter), each set's χ² charged ``threshold`` per parameter — χ²_X + t < χ²_best + k t − t —
@@ -189,7 +181,7 @@ def outside_fits_better(best: CandidateFit, predicted: Dict[str, Tuple[float, fl
         return None
     f = min(better, key=lambda g: g.chi2)
     (e,) = f.effects
-    lo, hi = interval_of(f, e)
+    lo, hi = interval_of(f, e, level)
     return Reason(Why.OUTSIDE_FITS_BETTER,
                   f"an effect not among the candidates fits better: {EFFECTS[e].field} {f.values[e]:.4g} "
                   f"[{lo:.4g}, {hi:.4g}] ({e}: chi2 {f.chi2:.3g} against {best.chi2:.3g}, each charged "

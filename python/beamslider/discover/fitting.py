@@ -18,27 +18,16 @@ from .features import Feature
 from .models import Ensemble, data_modes
 from .result import CandidateFit
 from .spread import chi2_roughness, pooled_spread
-from .stats import MODE_CONDITIONING, chi2_quantile, chi2_terms, interval_z, mode_terms
-
-
-JOINT_REFINEMENT = True
-"""Slider level, sets of two or more effects: after the coordinate pass, Gauss–Newton steps on the
-linearised model confirmed by full runs (:func:`.refine.gauss_newton`); False: the coordinate pass
-alone."""
-
-
-ROUGH_RESCAN = 50.0
-"""Slider level, one effect: a fit that ends at the baseline value while the single runs' χ² of its
-last refinement level scatter by more than this about a parabola (:func:`chi2_roughness`, with the
-spread of the ensemble at the scan's first pick) has not located the effect: its single runs switch
-end states from one scan point to the next. Its grid is then rescored on ensembles and the best point
-refined on ensemble means, as a set's is; that point is the fit where it fits better by more than z²
-and its change is relevant (docs/model.md §9.1, "One effect")."""
+from .options import DEFAULT, DiscoverOptions
+from .stats import chi2_quantile, chi2_terms, interval_z, mode_terms
 
 
 def fit_candidate(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str, Feature],
                    model_fn: Callable[[Parameters], Dict[str, float]], *, diff_step: Optional[float],
-                   max_nfev: int) -> CandidateFit:
+                   max_nfev: int, options: DiscoverOptions = DEFAULT) -> CandidateFit:
+    """Beam level: the weighted least-squares fit of ``effects`` on the surrogate ``model_fn``
+    (docs/model.md §9), from the baseline and from a tenth of the bounds; adequate at
+    ``options.significance``."""
     from scipy.optimize import least_squares
 
     names = [k for k in meas]
@@ -79,7 +68,7 @@ def fit_candidate(effects: Sequence[Effect], baseline: Parameters, meas: Dict[st
     stderrs = {e.name: _stderr_of(e, u, su, baseline) for e, u, su in zip(effects, best.x, se_u)}
     dof = n - k
     return CandidateFit(tuple(e.name for e in effects), values, stderrs, chi2, dof,
-                        chi2 <= chi2_quantile(dof), chi2 + k * math.log(max(n, 2)))
+                        chi2 <= chi2_quantile(dof, options.significance), chi2 + k * math.log(max(n, 2)))
 
 
 ModelMany = Callable[[List[Any]], List[Optional[Dict[str, float]]]]
@@ -147,12 +136,14 @@ def _interval(xs: np.ndarray, fs: np.ndarray, rough: float = 0.0, delta: float =
 
 
 def profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str, Feature],
-                 model_fn: Optional[Callable[[Parameters], Dict[str, float]]] = None, *, grid_n: int = 9,
-                 refine: int = 2, model_many: Optional[ModelMany] = None,
-                 ensemble_many: Optional[EnsembleMany] = None, spread0: Optional[Dict[str, float]] = None,
-                 fixed: Optional[Dict[str, float]] = None, joint: Optional[bool] = None) -> CandidateFit:
+                model_fn: Optional[Callable[[Parameters], Dict[str, float]]] = None, *,
+                grid_n: Optional[int] = None, refine: Optional[int] = None, model_many: Optional[ModelMany] = None,
+                ensemble_many: Optional[EnsembleMany] = None, spread0: Optional[Dict[str, float]] = None,
+                fixed: Optional[Dict[str, float]] = None, joint: Optional[bool] = None,
+                options: DiscoverOptions = DEFAULT) -> CandidateFit:
     """Fit for expensive, rough objectives (slider level). Per effect (one coordinate pass): a grid
-    scan of χ² over its search range (``grid_n`` points, one batch of runs), then ``refine``
+    scan of χ² over its search range (``grid_n`` points, None: ``options.grid_points``; one batch of
+    runs), then ``refine`` (None: ``options.refine_levels``)
     levels of 7 points spanning ± one step around the best so far (each one batch; the step
     shrinks 3× per level). The model's sensitivity to what the data cannot resolve enters every
     χ² as a spread of the features (σ² = σ_meas² + 2·spread² for one run against one measured
@@ -165,13 +156,13 @@ def profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str,
     error: half the Δχ² = 1 interval of the rescored profile scan (:func:`_interval`), widened
     by the scatter of the last refinement level's χ² about a parabola (:func:`chi2_roughness`)
     where the objective is rough; one effect whose fit is the baseline value while its last level
-    is rough (:data:`ROUGH_RESCAN`): its grid rescored on ensembles and the best point refined on
+    is rough (``options.rough_rescan``): its grid rescored on ensembles and the best point refined on
     their means (:func:`.refine.gauss_newton`), taken with the ensembles' profile interval where its
     ensemble fits better by more than z² and its change is relevant. Several effects: the coordinate
     pass's point refined jointly on ensemble means (:func:`.refine.gauss_newton`,
-    :data:`JOINT_REFINEMENT`), standard errors from its covariance.
-    Intervals at :data:`INTERVAL_LEVEL` (:func:`.stats.interval_of`), holding the fitted value.
-    ``joint``: refine a set jointly (None: :data:`JOINT_REFINEMENT`).
+    ``options.joint_refinement``), standard errors from its covariance.
+    Intervals at ``options.interval_level`` (:func:`.stats.interval_of`), holding the fitted value.
+    ``joint``: refine a set jointly (None: ``options.joint_refinement``).
     ``fixed``: values of further effects held (the joint fit's beam-level part)."""
     many = model_many if model_many is not None else _one_at_a_time(model_fn)  # type: ignore[arg-type]
     names = list(meas)
@@ -180,8 +171,10 @@ def profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str,
     cache: Dict[Tuple[float, ...], Optional[Dict[str, float]]] = {}
     fixed = dict(fixed or {})
     spread = dict(spread0 or {})
-    modes = data_modes(meas) if MODE_CONDITIONING else None
-    joint_on = JOINT_REFINEMENT if joint is None else bool(joint)
+    modes = data_modes(meas) if options.mode_conditioning else None
+    joint_on = options.joint_refinement if joint is None else bool(joint)
+    grid_n = options.grid_points if grid_n is None else grid_n
+    refine = options.refine_levels if refine is None else refine
 
     def sig_single() -> np.ndarray:
         return np.sqrt(se ** 2 + 2 * np.array([spread.get(k, 0.0) for k in names]) ** 2)
@@ -263,7 +256,7 @@ def profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str,
         u[i] = x_best
         samples[i] = [at(x) for x in xs]
         last[i] = [at(x) for x in fine]
-    # The single runs' roughness about the fit before the spread pools it (ROUGH_RESCAN).
+    # The single runs' roughness about the fit before the spread pools it (options.rough_rescan).
     rough_pass = (chi2_roughness(np.array([p[0] for p in last[0]]), np.array([chi2(p) for p in last[0]]))
                   if len(effects) == 1 else 0.0)
     refined = None
@@ -277,11 +270,11 @@ def profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str,
         if ensemble_many is not None:
             # Ensemble means: single runs are too rough to linearise (docs/model.md §9.1).
             obj = ensemble_objective(spread, ens.runs if ens is not None else 5)
-            refined = refine_jointly(effects, u, obj.evaluate, obj.residuals, obj.chi2)
+            refined = refine_jointly(effects, u, obj.evaluate, obj.residuals, obj.chi2, options)
         else:
             resid = single_run_residuals(lambda p: cache[key_of(p)], names, y, sig_single,
                                          lambda m: mode_terms(m, modes, None, 1)[0])
-            refined = refine_jointly(effects, u, evaluate, resid, chi2)
+            refined = refine_jointly(effects, u, evaluate, resid, chi2, options)
         u = refined.u
     ens = ensemble_at(u)
     n, k = len(names), len(effects) + len(fixed)
@@ -297,7 +290,7 @@ def profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str,
             sp_first = dict(spread0 or {})
             sp_first.update(pooled_spread(first[1], [], names, modes))
             c_first = ensemble_chi2(first[1], sp_first)
-            if c_first < best_chi2 - interval_z() ** 2:
+            if c_first < best_chi2 - interval_z(options.interval_level) ** 2:
                 u, ens, best_chi2 = first[0], first[1], c_first
                 spread.clear()
                 spread.update(sp_first)
@@ -307,7 +300,7 @@ def profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str,
         predicted = dict(cache[key_of(u)] or {})
     rescanned: Optional[Tuple[np.ndarray, np.ndarray]] = None  # the ensembles' profile, where rescanned
     if (ens is not None and refined is None and len(effects) == 1 and key_of(u) == key_of(u_base)
-            and rough_pass > ROUGH_RESCAN):
+            and rough_pass > options.rough_rescan):
         # Rough single runs found nothing but the baseline: the grid rescored on ensembles (each with
         # its own spread, as the first pick's), the best refined on their means; taken where its
         # ensemble fits better by more than z², as the first pick is, and its change is relevant.
@@ -318,7 +311,7 @@ def profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str,
         obj = ensemble_objective(sp_obj, ens.runs)
         pts = [u] + [np.array([g]) for g in grids[0]]
         obj.evaluate(pts)
-        refine_jointly(effects, min(pts, key=obj.chi2), obj.evaluate, obj.residuals, obj.chi2)
+        refine_jointly(effects, min(pts, key=obj.chi2), obj.evaluate, obj.residuals, obj.chi2, options)
         # Every ensemble made, scored as a fit is: its mean against the data with its own spread.
         own: Dict[Tuple[float, ...], Tuple[float, Dict[str, float], Ensemble]] = {}
         for k_, e_ in obj.cache.items():
@@ -327,7 +320,8 @@ def profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str,
                 sp_k.update(pooled_spread(e_, [], names, modes))
                 own[k_] = (ensemble_chi2(e_, sp_k), sp_k, e_)
         k_best = min(own, key=lambda k_: own[k_][0], default=None)
-        if (k_best is not None and key_of(u) in own and own[k_best][0] < own[key_of(u)][0] - interval_z() ** 2
+        if (k_best is not None and key_of(u) in own
+                and own[k_best][0] < own[key_of(u)][0] - interval_z(options.interval_level) ** 2
                 and effects[0].relevant(effects[0].value(k_best[0], baseline), baseline)[0]):
             best_chi2, sp_r, ens = own[k_best]
             u, predicted = np.array(k_best), dict(ens.mean)
@@ -336,7 +330,7 @@ def profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str,
             rescanned = (np.array([k_[0] for k_ in own]), np.array([c_ for c_, _, _ in own.values()]))
     values, stderrs, intervals = dict(fixed), {}, {}
     roughness: Dict[str, float] = {}
-    z = interval_z()
+    z = interval_z(options.interval_level)
     for i, e in enumerate(effects):
         xs = np.array([p[i] for p in samples[i]])
         fs = np.array([chi2(p) for p in samples[i]])
@@ -367,6 +361,6 @@ def profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str,
         ends = sorted((e.value(lo_u, baseline), e.value(hi_u, baseline))) if ok else [-math.inf, math.inf]
         intervals[e.name] = (ends[0], ends[1])
     names_all = tuple(list(fixed) + [e.name for e in effects])
-    return CandidateFit(names_all, values, stderrs, best_chi2, n - k, best_chi2 <= chi2_quantile(n - k),
+    return CandidateFit(names_all, values, stderrs, best_chi2, n - k, best_chi2 <= chi2_quantile(n - k, options.significance),
                         best_chi2 + k * math.log(max(n, 2)), predicted,
                         {kk: spread.get(kk, 0.0) for kk in names}, intervals, roughness)

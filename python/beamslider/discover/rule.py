@@ -1,84 +1,49 @@
-"""The naming rule (docs/model.md §9, §9.1): why a fitted set may not be named, the forward selection
-by likelihood-ratio tests, and the verdict where nothing is named."""
+"""The naming rule (docs/model.md §9, "Naming rule"; §9.1): from the fits of a search, the verdict.
+:func:`decide` states it in order — each fitted set's reasons not to be named (:func:`judge`), the
+forward selection by likelihood-ratio tests (:func:`select`), the confounded groups
+(:mod:`.confounding`), the effects left out of the candidates, the full simulation of the named set,
+and where nothing is named, "none" or "unexplained" (:func:`unnamed_verdict`) with the advice
+(:mod:`.advice`) — and returns the typed :class:`.result.Verdict` the report reads."""
 
 from __future__ import annotations
 
-from enum import Enum
 from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple
 
 from ..params import Parameters
+from .advice import advise
+from .chain import realise_model
+from .confounding import confounded_group, confounded_sets, outside_fits_better
 from .effects import EFFECTS
-from .result import CandidateFit
-from .search.sets import SCREEN_MARGIN
-from .stats import chi2_quantile, excess, interval_of, lrt_threshold
+from .options import DEFAULT, DiscoverOptions
+from .progress import progress_bar
+from .reasons import Reason, Reasons, Why, kinds
+from .result import After, Because, CandidateFit, Kind, Verdict
+from .stats import chi2_quantile, excess, gap_of, interval_of, lrt_threshold, z_bound
 
-
-class Why(str, Enum):
-    """The kind of a reason why a fitted set may not be named (:class:`Reason`); the verdict's logic
-    reads these, the report shows the reasons' text."""
-
-    SCREENED = "screened out"
-    """Only its coarse scan was made (:data:`.search.sets.SCREEN_MARGIN`)."""
-    NOT_ADEQUATE = "not adequate"
-    """χ² > χ²₀.₉₉(n − k)."""
-    NEGLIGIBLE = "negligible change"
-    """A parameter moved by less than its relevance threshold."""
-    SMALL_SHARE = "small share of the gap"
-    """The gap beyond the noise shrinks too little (in the fit, or in the full simulation)."""
-    NOT_RESOLVED = "not resolved"
-    """A parameter's interval contains its baseline value (:func:`unresolved_reasons`)."""
-    NEGLIGIBLE_FITS_BETTER = "a negligible change fits better"
-    """A negligible change (:func:`negligible_fits`) fits at least as well, each charged the
-    selection's threshold per parameter (:func:`beaten_by_negligible`)."""
-    OUTSIDE_FITS_BETTER = "an effect not among the candidates fits better"
-    """An effect of the library the user left out of the candidates fits clearly better
-    (:func:`outside_fits_better`)."""
-
-
-class Reason(str):
-    """One reason a fitted set may not be named: its text (what the report shows, starting with
-    the kind's words), its :class:`Why` and the effect it concerns (None: the whole set)."""
-
-    kind: Why
-    effect: Optional[str]
-
-    def __new__(cls, kind: Why, text: str, effect: Optional[str] = None) -> "Reason":
-        obj = super().__new__(cls, text)
-        obj.kind, obj.effect = kind, effect
-        return obj
-
-    def __reduce__(self):
-        return (Reason, (self.kind, str(self), self.effect))
-
-
-Reasons = Dict[Tuple[str, ...], List[Reason]]
-
-
-def kinds(reasons: Sequence[Any]) -> set:
-    """The :class:`Why` of each reason (a plain string, e.g. from a report file, has none)."""
-    return {getattr(r, "kind", None) for r in reasons} - {None}
+__all__ = ["Reason", "Reasons", "Why", "kinds", "decide", "judge", "select", "criterion"]
 
 
 def judge(fits: Sequence[CandidateFit], base: Parameters, n: int, excess_before: float,
-          gap_ratio: float, threshold: Optional[float] = None) -> Reasons:
+          gap_ratio: float, threshold: Optional[float] = None, options: DiscoverOptions = DEFAULT) -> Reasons:
     """The naming rule per fitted set: the reasons it may not be named (empty: it may). Not
     adequate (χ² > χ²₀.₉₉(n − k)); a parameter moved by less than its relevance threshold; a
     small share of the gap beyond the noise (:func:`excess`: sqrt(max(χ² − (n − k), 0)/n) >
     gap_ratio × the baseline's sqrt(max(χ²₀ − n, 0)/n)); a parameter whose interval contains its
     baseline value (not resolved, :func:`.rule.unresolved_reasons`); with ``threshold`` (the
     selection's price of a parameter), a negligible change that fits as well
-    (:func:`.rule.beaten_by_negligible`)."""
+    (:func:`.rule.beaten_by_negligible`). ``options``: the level of the tests and of the intervals.
+    docs/model.md §9, "Naming rule" (a)–(f)."""
     out: Reasons = {}
     for f in fits:
         reasons: List[Reason] = []
         if f.screened:
             reasons.append(Reason(Why.SCREENED, f"screened out: its coarse scan's chi2 = {f.chi2:.3g} is more than "
-                                                f"{SCREEN_MARGIN:g} above the best coarse chi2 (not fitted in full)"
+                                                f"{options.screen_margin:g} above the best coarse chi2 (not fitted in full)"
                                   if not f.linearised else f"screened out: the linearised model predicts chi2 = "
                                                            f"{f.chi2:.3g}, not among those fitted in full"))
         elif not f.adequate:
             reasons.append(Reason(Why.NOT_ADEQUATE, f"not adequate: chi2 = {f.chi2:.3g} > chi2_0.99({f.dof}) = "
-                                                    f"{chi2_quantile(f.dof):.3g}"))
+                                                    f"{chi2_quantile(f.dof, options.significance):.3g}"))
         for e in f.effects:
             ok, how = EFFECTS[e].relevant(f.values[e], base)
             if not ok:
@@ -87,19 +52,20 @@ def judge(fits: Sequence[CandidateFit], base: Parameters, n: int, excess_before:
         if g > gap_ratio * excess_before:
             reasons.append(Reason(Why.SMALL_SHARE, f"small share of the gap beyond the noise: {excess_before:.3g} -> "
                                                    f"{g:.3g} (more than {gap_ratio:g} x)"))
-        reasons += unresolved_reasons(f, base)
+        reasons += unresolved_reasons(f, base, options.interval_level)
         out[f.effects] = reasons
     return out if threshold is None else beaten_by_negligible(fits, out, threshold)
 
 
 def select(fits: List[CandidateFit], chi2_0: float, n: int,
-           fits_baseline: Optional[bool] = None) -> Tuple[Optional[CandidateFit], List[Tuple[str, ...]]]:
+           fits_baseline: Optional[bool] = None, alpha: float = DEFAULT.significance
+           ) -> Tuple[Optional[CandidateFit], List[Tuple[str, ...]]]:
     """Nothing if the baseline is adequate (``fits_baseline``; None: χ² ≤ χ²_0.99(n)); else forward
     selection by likelihood-ratio tests: the best single effect must beat the baseline, and the
     best larger set containing the current choice must beat it, by more than :func:`lrt_threshold`
     (99 %, corrected for the number of sets the best was picked from)."""
     if fits_baseline is None:
-        fits_baseline = chi2_0 <= chi2_quantile(n)
+        fits_baseline = chi2_0 <= chi2_quantile(n, alpha)
     if fits_baseline or not fits:
         return None, []
     by_size: Dict[int, List[CandidateFit]] = {}
@@ -112,7 +78,7 @@ def select(fits: List[CandidateFit], chi2_0: float, n: int,
         if not pool:
             continue
         top = min(pool, key=lambda c: c.chi2)
-        if best_chi2 - top.chi2 > lrt_threshold(k - best_k, len(pool)):
+        if best_chi2 - top.chi2 > lrt_threshold(k - best_k, len(pool), alpha):
             best, best_chi2, best_k = top, top.chi2, k
         else:
             break
@@ -122,28 +88,29 @@ def select(fits: List[CandidateFit], chi2_0: float, n: int,
     return best, alts
 
 
-def no_set_can_win(singles: List[CandidateFit], judge: Callable[[List[CandidateFit]], Reasons]) -> bool:
+def no_set_can_win(singles: List[CandidateFit], judge: Callable[[List[CandidateFit]], Reasons],
+                   alpha: float = DEFAULT.significance) -> bool:
     """Whether fitting sets is pointless: a single candidate passes the naming rule with a χ²
     below the least likelihood-ratio threshold for adding an effect (:func:`.stats.lrt_threshold`
     with m = 1, 6.63): the selection would name it, and no set (χ² ≥ 0) can beat it by the threshold."""
     reasons = judge(singles)
     ok = [f for f in singles if not reasons[f.effects]]
-    return bool(ok) and min(f.chi2 for f in ok) <= lrt_threshold(1, 1)
+    return bool(ok) and min(f.chi2 for f in ok) <= lrt_threshold(1, 1, alpha)
 
 
 def best_single(singles: List[CandidateFit], reasons: Dict[Tuple[str, ...], list], chi2_0: float,
-                n: int) -> Optional[CandidateFit]:
+                n: int, alpha: float = DEFAULT.significance) -> Optional[CandidateFit]:
     """The single candidate the selection would name among those passing the naming rule (the
     baseline not adequate: the candidates are being fitted)."""
-    return select([f for f in singles if not reasons[f.effects] and len(f.effects) == 1], chi2_0, n, False)[0]
+    return select([f for f in singles if not reasons[f.effects] and len(f.effects) == 1], chi2_0, n, False, alpha)[0]
 
 
-def unresolved_reasons(f: CandidateFit, base: Parameters) -> List[Reason]:
+def unresolved_reasons(f: CandidateFit, base: Parameters, level: float = DEFAULT.interval_level) -> List[Reason]:
     """A reason per parameter of ``f`` whose interval (:func:`interval_of`) contains its baseline
     value: the data do not resolve that change (empty: all resolved)."""
     out = []
     for e in f.effects:
-        lo, hi = interval_of(f, e)
+        lo, hi = interval_of(f, e, level)
         b = EFFECTS[e].baseline_value(base)
         if lo <= b <= hi:
             out.append(Reason(Why.NOT_RESOLVED, f"not resolved: the interval [{lo:.4g}, {hi:.4g}] of {EFFECTS[e].field} "
@@ -229,3 +196,144 @@ def unnamed_verdict(fits: Sequence[CandidateFit], reasons: Reasons, threshold: f
     if negl is not None and not (unres is not None and charged(negl) - charged(unres) > threshold):
         return "none", negl, None
     return "unexplained", None, unres
+
+
+# --- the verdict (docs/model.md §9, "Naming rule") ---------------------------------------------------
+
+def decide(problem: Any, fits: List[CandidateFit]) -> Verdict:
+    """The verdict from the fits of a search, in the order of docs/model.md §9, "Naming rule": the
+    reasons per set (:func:`judge`, (a)–(f)); the forward selection among the sets with none
+    (:func:`select`); a selected set that fits as well as other candidates moving the features alike
+    is confounded (:func:`.confounding.confounded_group`, :func:`.confounding.confounded_sets`), one
+    that an effect left out of the candidates fits clearly better is not named
+    (:func:`.confounding.outside_fits_better`), nor one whose full simulation leaves too large a share
+    of the gap; nothing named, "none" or "unexplained" (:func:`unnamed_verdict`); the advice for a
+    confounded group or an unresolved candidate (:func:`.advice.advise`)."""
+    o = problem.options
+    reasons = judge(fits, problem.base, problem.n, problem.excess_before, o.gap_ratio, problem.thr_m, options=o)
+    best, alts = select([f for f in fits if not reasons[f.effects]], problem.chi2_0, problem.n,
+                        problem.baseline_fits, o.significance)
+    group: Dict[str, Any] = {}
+    if best is not None and problem.measured is not None:
+        group = _confounded(problem, best, fits, reasons) or {}
+        if group:  # the data resolve a combination of the group, not which of them: nothing is named
+            best, alts = None, []
+    if best is not None and problem.measured is not None and problem.level == "slider" and problem.outside:
+        why = _outside_fits_better(problem, best)
+        if why is not None:
+            reasons[best.effects] = reasons[best.effects] + [why]
+            best, alts = None, []
+    after = None
+    if best is not None:
+        after = _after(problem, best)
+        g = excess(gap_of(after.features, problem.meas, after.spread, problem.runs_base, problem.modes,
+                          after.counts)[1], problem.n - len(best.effects), problem.n)
+        if g > o.gap_ratio * problem.excess_before:  # the fit's gap was small enough, the simulation's is not
+            reasons[best.effects] = reasons[best.effects] + [Reason(
+                Why.SMALL_SHARE, f"small share of the gap beyond the noise in the full simulation of the updated "
+                                 f"model: {g:.3g} > {o.gap_ratio:g} x {problem.excess_before:.3g}")]
+            best, alts, after = None, [], None
+    v = Verdict(Kind.NONE, Because.BASELINE_FITS, best, alts, reasons, group, after=after,
+                negligible=sorted(negligible_fits(fits, reasons), key=lambda f: f.chi2),
+                filler="passes the naming rule, but " + ("is confounded (see confounded)" if group
+                                                         else "a simpler or better set was named"))
+    if problem.baseline_fits:
+        pass
+    elif best is not None:
+        v.kind, v.because = Kind.NAMED, Because.NAMED
+    elif group and group.get("among_candidates", True):
+        v.kind, v.because = Kind.CONFOUNDED, Because.CONFOUNDED
+    else:
+        # Also a named set that only effects outside the candidates mimic: not established by them.
+        kind, _, v.unresolved = unnamed_verdict(fits, reasons, problem.thr_m)
+        v.kind = Kind(kind)
+        v.because = (Because.NEGLIGIBLE_CHANGE if v.kind is Kind.NONE else Because.OUTSIDE_CANDIDATES if group
+                     else Because.NOT_RESOLVED if v.unresolved is not None else Because.NO_SET_PASSES)
+        v.best_rejected = _best_rejected(fits, reasons)
+    to_advise = group.get("group") or (list(v.unresolved.effects) if v.unresolved is not None else None)
+    if to_advise and problem.measured is not None and o.advice_grid:
+        v.advice = _advice(problem, to_advise, group)
+    return v
+
+
+def _confounded(problem: Any, best: CandidateFit, fits: List[CandidateFit], reasons: Reasons) -> Optional[Dict[str, Any]]:
+    # The checks of a selected set against the other candidates and the level's library (§9, "confounded").
+    o = problem.options
+    group = confounded_group(best, fits, reasons, problem.before, problem.sig_base, problem.base, problem.thr_m, o)
+    if group is not None or problem.level != "slider":
+        return group
+    return confounded_sets(best, fits, reasons, problem.before, problem.sig_base, problem.base, problem.thr_m,
+                           problem.library, problem.changes, lambda name: _confirm(problem, name),
+                           [e.name for e in problem.candidates], o)
+
+
+def _confirm(problem: Any, name: str) -> Tuple[CandidateFit, List[Reason]]:
+    # One effect fitted in full and judged alone by the naming rule.
+    f = problem.fit((EFFECTS[name],))
+    return f, judge([f], problem.base, problem.n, problem.excess_before, problem.options.gap_ratio,
+                    options=problem.options)[f.effects]
+
+
+def _outside_fits_better(problem: Any, best: CandidateFit) -> Optional[Reason]:
+    # An effect of the library left out of the candidates that fits clearly better: the candidates do
+    # not establish their change (docs/model.md §9.1, "Outside the candidates").
+    o = problem.options
+    pred = problem.predict([EFFECTS[x] for x in problem.outside])
+    bar = progress_bar(problem.progress, min(o.confirm_singles, len(pred)),
+                       "discover: effects not among the candidates (fits)")
+
+    def confirm(name: str) -> Tuple[CandidateFit, List[Reason]]:
+        out = _confirm(problem, name)
+        bar.update(1)
+        return out
+
+    why = outside_fits_better(best, pred, confirm, problem.thr_m, o.confirm_singles, o.interval_level)
+    bar.close()
+    return why
+
+
+def _after(problem: Any, best: CandidateFit) -> After:
+    # The full simulation of the updated model; the fit's spread pools the ensemble with the roughness
+    # of its scan (pooled_spread).
+    a = problem.simulate(realise_model(problem.base, {e: best.values[e] for e in best.effects}))
+    sp = {**a.spread, **{k: v for k, v in best.model_spread.items() if k in a.spread or k in a.features}}
+    return After(problem.filled(a.features, sp, a.counts), a.behaviours, sp, a.counts)
+
+
+def _best_rejected(fits: Sequence[CandidateFit], reasons: Reasons) -> Optional[CandidateFit]:
+    # The set an "unexplained" verdict shows: a relevant change the data resolve, adequate but not
+    # named, before the lowest χ².
+    ranked = sorted(fits, key=lambda f: f.chi2)
+    resolved = [f for f in ranked if not kinds(reasons[f.effects]) & {Why.NEGLIGIBLE, Why.NOT_RESOLVED, Why.SCREENED,
+                                                                      Why.NOT_ADEQUATE}]
+    return resolved[0] if resolved else ranked[0] if ranked else None
+
+
+def _advice(problem: Any, names: List[str], group: Dict[str, Any]) -> Dict[str, Any]:
+    # The run that would separate a confounded group or resolve an unresolved candidate.
+    grid = problem.options.advice_grid
+    done = {(op.f_ex, op.a_ex, op.s0) for op in problem.ops}
+    bar = progress_bar(problem.progress, 1 + sum(tuple(g) not in done for g in grid),
+                       f"discover: advice for {', '.join(names)} (points)")
+    out = advise(names, problem.base, problem.ops, grid, threads=problem.threads, on_point=lambda: bar.update(1),
+                 fitted=group.get("models", group.get("values")), cache=problem.run_cache, options=problem.options)
+    bar.close()
+    return out
+
+
+def criterion(problem: Any) -> str:
+    """The naming rule in one text, with this problem's numbers (``report.json`` ``criterion``)."""
+    o, n = problem.options, problem.n
+    thr = problem.thr_m
+    return (f"an effect set is named only if (1) the baseline does not fit, chi2 = {problem.chi2_0:.3g} > "
+            f"chi2_0.99(n={n}) = {chi2_quantile(n, o.significance):.2f} or a feature's |z| = {problem.z_worst:.3g} > "
+            f"{z_bound(n, o.significance):.3g} (99 %, Bonferroni over "
+            f"the n features); (2) the updated model is adequate, chi2 <= chi2_0.99(n-k); (3) each "
+            f"parameter moved by at least its relevance threshold (EFFECTS[...].relevance); (4) the gap beyond "
+            f"the noise, sqrt(max(chi2 - E[chi2], 0)/n), after <= {o.gap_ratio:g} x before ({problem.excess_before:.3g}; "
+            f"fit and full simulation); (5) it fits better than every set of negligible changes, each chi2 "
+            f"charged {thr:.3g} per parameter; (6) slider level: no single effect of the library left out of the "
+            f"candidates fits better by more than {thr:.3g}, each charged it per parameter; among the sets that pass, "
+            f"forward selection by likelihood-ratio tests at 99 %, Bonferroni-corrected for picking the best of m "
+            f"sets (m = {len(problem.candidates)}: {thr:.2f}); otherwise the "
+            f"verdict is 'unexplained' and nothing is added")

@@ -12,40 +12,32 @@ import numpy as np
 
 from .features import Feature
 from .models import Modes, is_mode_feature, mode_penalty, run_mode, tag_of
+from .options import DEFAULT
 from .result import CandidateFit
 
-
-SIGNIFICANCE = 0.01
-
-
-INTERVAL_LEVEL = 0.95
-"""Confidence level of the interval that must exclude a parameter's baseline value before it is
-named (docs/model.md §9.1, "Resolved"): the profile's Δχ² = z² interval of one effect, the Wald
-interval ± z·se of a set, z = 1.96."""
+SIGNIFICANCE = DEFAULT.significance
+"""The default level of the tests (:attr:`.options.DiscoverOptions.significance`; a name of the
+package's API, not a setting: give ``discover(options=...)``)."""
 
 
-def interval_z() -> float:
-    """z of the two-sided :data:`INTERVAL_LEVEL` interval (1.96 at 95 %)."""
+def interval_z(level: float = DEFAULT.interval_level) -> float:
+    """z of the two-sided ``level`` interval (:attr:`.options.DiscoverOptions.interval_level`: 1.96
+    at 95 %)."""
     from scipy.stats import norm
 
-    return float(norm.ppf(0.5 + INTERVAL_LEVEL / 2))
-
-
-MODE_CONDITIONING = True
-"""Slider level: compare the features that depend on the state a run ends in
-(:data:`.models.MODE_FEATURES`) only with model runs in the data's mode, and charge the mode's
-rarity as a likelihood term (:func:`chi2_terms`). False: one Gaussian over all runs."""
+    return float(norm.ppf(0.5 + level / 2))
 
 
 def excess(chi2: float, dof: int, n: int) -> float:
-    """Gap beyond the noise: sqrt(max(χ² − dof, 0)/n) (:data:`GAP_EXCESS_MEASURE`)."""
+    """Gap beyond the noise: sqrt(max(χ² − dof, 0)/n) (:data:`.result.GAP_EXCESS_MEASURE`)."""
     return math.sqrt(max(chi2 - dof, 0.0) / max(n, 1))
 
 
-def chi2_quantile(dof: int) -> float:
+def chi2_quantile(dof: int, alpha: float = DEFAULT.significance) -> float:
+    """The (1 − ``alpha``) quantile of χ²(dof): an adequate model's χ² is at most this (docs/model.md §9)."""
     from scipy.stats import chi2
 
-    return float(chi2.ppf(1 - SIGNIFICANCE, max(dof, 1)))
+    return float(chi2.ppf(1 - alpha, max(dof, 1)))
 
 
 def sigma(f: Feature, spread: float, runs: int) -> float:
@@ -118,28 +110,28 @@ def gap_of(model: Dict[str, float], meas: Dict[str, Feature], spread: Optional[D
     return float(math.sqrt(chi2 / len(names))), chi2
 
 
-def lrt_threshold(df: int, m: int) -> float:
+def lrt_threshold(df: int, m: int, alpha: float = DEFAULT.significance) -> float:
     """Likelihood-ratio threshold for adding ``df`` effects chosen as the best of ``m`` candidate
     sets: the (1 − α/m) quantile of χ²(df) (Bonferroni for picking the best of m)."""
     from scipy.stats import chi2
 
-    return float(chi2.isf(SIGNIFICANCE / max(m, 1), max(df, 1)))
+    return float(chi2.isf(alpha / max(m, 1), max(df, 1)))
 
 
-def z_bound(n: int) -> float:
+def z_bound(n: int, alpha: float = DEFAULT.significance) -> float:
     """The largest |z| of one of ``n`` features an adequate baseline may show: the two-sided 99 %
     bound, Bonferroni-corrected for the n features (3.42 for 16)."""
     from scipy.stats import norm
 
-    return float(norm.isf(SIGNIFICANCE / (2 * max(n, 1))))
+    return float(norm.isf(alpha / (2 * max(n, 1))))
 
 
-def baseline_fits(chi2_0: float, n: int, z_worst: float = 0.0) -> bool:
+def baseline_fits(chi2_0: float, n: int, z_worst: float = 0.0, alpha: float = DEFAULT.significance) -> bool:
     """Whether the baseline is adequate: χ² ≤ χ²_0.99(n) and no feature beyond :func:`z_bound`
     (``z_worst``: the largest |z| of its features). The omnibus χ² alone loses power with every
     feature that agrees: a 5 % excitation-level error moves one slider speed by 4.4 uncertainties,
     which χ² 28.1 over 16 features (limit 32.0) does not show (docs/model.md §9.1)."""
-    return chi2_0 <= chi2_quantile(n) and z_worst <= z_bound(n)
+    return chi2_0 <= chi2_quantile(n, alpha) and z_worst <= z_bound(n, alpha)
 
 
 @dataclass
@@ -157,7 +149,8 @@ class BaselineTest:
 
 
 def baseline_test(model: Dict[str, float], meas: Dict[str, Feature], spread: Optional[Dict[str, float]] = None,
-                  runs: int = 0, modes: Optional[Modes] = None, counts: Optional[Dict[str, int]] = None) -> BaselineTest:
+                  runs: int = 0, modes: Optional[Modes] = None, counts: Optional[Dict[str, int]] = None,
+                  alpha: float = DEFAULT.significance) -> BaselineTest:
     """The baseline's features ``model`` (an ensemble: ``spread``, ``runs``, ``counts``) tested against
     the measured ones: χ² (:func:`gap_of`), the largest |z| and :func:`baseline_fits` (docs/model.md §9.1)."""
     sp = spread or {}
@@ -166,11 +159,11 @@ def baseline_test(model: Dict[str, float], meas: Dict[str, Feature], spread: Opt
                    if k not in model})
     gap, chi2 = gap_of(before, meas, sp, runs, modes, counts)
     z = max((abs(before[k] - f.value) / sigma(f, sp.get(k, 0.0), runs) for k, f in meas.items()), default=0.0)
-    return BaselineTest(before, gap, chi2, len(meas), z, baseline_fits(chi2, len(meas), z))
+    return BaselineTest(before, gap, chi2, len(meas), z, baseline_fits(chi2, len(meas), z, alpha))
 
 
-def interval_of(f: CandidateFit, e: str) -> Tuple[float, float]:
-    """The :data:`.stats.INTERVAL_LEVEL` (95 %) interval of parameter ``e`` in fit ``f`` that
+def interval_of(f: CandidateFit, e: str, level: float = DEFAULT.interval_level) -> Tuple[float, float]:
+    """The ``level`` (95 %) interval of parameter ``e`` in fit ``f`` that
     the report shows and that must exclude the baseline (docs/model.md §9.1): slider level, the
     profile's Δχ² = z² interval widened by its roughness (one effect, :func:`.fitting._interval`)
     or the joint fit's Wald interval (several, :func:`.refine.gauss_newton`); else the value ±
@@ -179,5 +172,5 @@ def interval_of(f: CandidateFit, e: str) -> Tuple[float, float]:
         lo, hi = f.intervals[e]
         return float(lo), float(hi)
     v, se = f.values[e], f.stderrs.get(e, math.inf)
-    z = interval_z()
+    z = interval_z(level)
     return (v - z * se, v + z * se) if math.isfinite(se) else (-math.inf, math.inf)

@@ -9,19 +9,8 @@ from typing import Dict, List, Optional, Sequence, Tuple
 import numpy as np
 
 from ..effects import Effect
+from ..options import DEFAULT
 from ..result import CandidateFit
-
-
-EXTENDING_PAIRS = 3
-"""Of the pairs that extend one of the two best single candidates, those fitted: the ones the
-linearised model predicts to fit best (:func:`rank_pairs`); the others' full fits cost most of a
-discover's runs and the linearised model ranks them (docs/model.md §9.1, "Sets of effects")."""
-
-
-GUIDED_PAIRS = 3
-"""Pairs fitted beyond those that extend one of the two best single candidates: the ones the
-linearised model predicts to fit best (:func:`rank_pairs`), so that two effects that each fit badly
-alone are still tried together."""
 
 
 def rank_pairs(sens: Dict[str, Dict[str, float]], resid: Dict[str, float],
@@ -49,22 +38,23 @@ def rank_pairs(sens: Dict[str, Dict[str, float]], resid: Dict[str, float],
 
 
 def pairs_to_fit(cand_effects: Sequence[Effect], singles: List[CandidateFit], max_effects: int, level: str,
-                 ranked: Optional[List[Tuple[Tuple[str, str], float]]] = None) -> List[Tuple[Effect, ...]]:
+                 ranked: Optional[List[Tuple[Tuple[str, str], float]]] = None, extending: int = DEFAULT.extending_pairs,
+                 guided: int = DEFAULT.guided_pairs) -> List[Tuple[Effect, ...]]:
     """The sets of 2..max_effects effects to fit: all at the beam level (cheap surrogate); at the
     slider and joint levels those that extend one of the two best singles, and (joint) every set
     of beam-level effects only (their slider part is one evaluation). ``ranked``: every pair with
     the χ² the linearised model predicts for it (:func:`rank_pairs`, slider level);
     then of the pairs that extend one of the two best singles only the
-    :data:`EXTENDING_PAIRS` predicted best for each are fitted, and beside them the
-    :data:`GUIDED_PAIRS` predicted best overall."""
+    ``extending`` (``DiscoverOptions.extending_pairs``) predicted best for each are fitted, and beside them the
+    ``guided`` (``DiscoverOptions.guided_pairs``) predicted best overall."""
     top = [f.effects[0] for f in sorted(singles, key=lambda f: f.chi2)[:2]]
     out: List[Tuple[Effect, ...]] = []
     for k in range(2, max_effects + 1):
         if k == 2 and ranked is not None and level == "slider":
             want: List[frozenset] = []
             for t in top:
-                want += [frozenset(p) for p, _ in ranked if t in p][:EXTENDING_PAIRS]
-            want += [frozenset(p) for p, _ in ranked[:GUIDED_PAIRS]]
+                want += [frozenset(p) for p, _ in ranked if t in p][:extending]
+            want += [frozenset(p) for p, _ in ranked[:guided]]
             for combo in itertools.combinations(cand_effects, 2):
                 if frozenset(e.name for e in combo) in want:
                     out.append(combo)

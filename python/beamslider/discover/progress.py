@@ -6,8 +6,8 @@ from __future__ import annotations
 import math
 from typing import Any, Optional
 
-from ..report import fmt_value
-from ..result import CandidateFit
+from .report import fmt_value
+from .result import CandidateFit
 
 
 def progress_bar(enabled: Optional[bool], total: int, desc: str):
@@ -15,7 +15,7 @@ def progress_bar(enabled: Optional[bool], total: int, desc: str):
     terminal, else a line now and then, :class:`beamslider._util.LogProgress`)."""
     from tqdm.auto import tqdm
 
-    from ..._util import LogProgress, stderr_is_terminal
+    from .._util import LogProgress, stderr_is_terminal
 
     if enabled is None:
         if not stderr_is_terminal():
