@@ -382,7 +382,7 @@ def test_confounded_contact_spacing_and_inertia_and_the_advice_that_separates_th
 def test_linearised_pair_ranking_finds_two_effects_that_fit_badly_alone():
     """Data that are the sum of two candidates' signatures: that pair is predicted to fit exactly
     (χ² 0) although neither fits alone; a pair with a candidate that moves other features does not."""
-    from beamslider.discover.search.pairs import rank_pairs
+    from beamslider.discover.separability import rank_pairs
 
     sens = {"friction_coefficient": {"a": 1.0, "b": 2.0, "c": 0.0, "d": 1.0},
             "natural_frequency_detuning": {"a": -1.0, "b": 1.0, "c": 3.0, "d": 0.0},

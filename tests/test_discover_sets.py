@@ -793,9 +793,9 @@ def test_the_fast_path_leaves_out_mode_features_where_the_baseline_misses_the_da
 
 
 def test_the_pair_ranking_leaves_out_mode_features_the_baseline_misses():
-    """verdicts.rank_pairs with ``frozen``: a mode feature whose signature is a mode switch (huge)
+    """separability.rank_pairs with ``frozen``: a mode feature whose signature is a mode switch (huge)
     makes the true pair look bad; counted as it is, the true pair ranks first."""
-    from beamslider.discover.search.pairs import rank_pairs
+    from beamslider.discover.separability import rank_pairs
 
     sens = {"a": {"x": 1.0, "y": 0.0, "m": -900.0}, "b": {"x": 0.0, "y": 1.0, "m": 400.0},
             "c": {"x": 0.5, "y": 0.5, "m": 0.0}}

@@ -25,8 +25,7 @@ from .refine import step_chi2
 from .result import After, CandidateFit
 from .rule import best_single, judge, no_set_can_win, select
 from .runstore import RunStore
-from .search.pairs import rank_pairs
-from .separability import predict_singles, slider_changes, slider_sensitivities
+from .separability import predict_singles, rank_pairs, slider_changes, slider_sensitivities
 from .stats import baseline_test, excess, gap_of, lrt_threshold, missing_z, sigma
 
 
@@ -197,7 +196,7 @@ class Problem:
 
     def guide(self) -> List[Tuple[Tuple[str, str], float]]:
         """Every pair of candidates with the χ² the linearised model predicts (each may fit badly
-        alone, :func:`.search.pairs.rank_pairs`); the best recorded (``guided_pairs``)."""
+        alone, :func:`.separability.rank_pairs`); the best recorded (``guided_pairs``)."""
         sens = slider_sensitivities([e.name for e in self.candidates], self.base, self.ops, threads=self.threads,
                                     cache=self.run_cache, steps=self.options.linear_steps)
         ranked = rank_pairs(sens, self.resid(), unreached_mode_features(self.meas, self.counts_base))

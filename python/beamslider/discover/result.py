@@ -168,7 +168,7 @@ class Discovery:
 
     guided_pairs: List[Dict[str, Any]] = field(default_factory=list)
     """Slider level: the pairs fitted because the linearised model predicts them to fit best
-    (:func:`.search.pairs.rank_pairs`), with that prediction."""
+    (:func:`.separability.rank_pairs`), with that prediction."""
 
     joint_refinement: List[Dict[str, Any]] = field(default_factory=list)
     """Slider level, where the sets were staged: per set its coordinate pass's χ², the χ² a

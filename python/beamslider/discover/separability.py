@@ -158,3 +158,27 @@ def predict_singles(cands: Sequence[Effect], base: Parameters, resid: Dict[str, 
         j = int(np.argmin(chi2))
         out[e.name] = (float(chi2[j]), float(vals[j]))
     return out
+
+
+def rank_pairs(sens: Dict[str, Dict[str, float]], resid: Dict[str, float],
+               frozen: Sequence[str] = ()) -> List[Tuple[Tuple[str, str], float]]:
+    """Every pair of candidates with the χ² the linearised model predicts for its best fit:
+    min over x of |r − S x|², S the two signatures (feature changes in units of the uncertainty per
+    step, :func:`.separability.slider_sensitivities`) over the features both move, r the data's
+    residuals from the baseline in the same units (features outside S count r²). ``frozen``:
+    features counted as they are (the mode features of an operating point where no baseline run
+    is in the data's mode: their changes are a mode switch, as in :mod:`.search.linearised`). Best first."""
+    out = []
+    skip = set(frozen)
+    for a, b in itertools.combinations(sorted(sens), 2):
+        keys = [k for k in resid if k in sens[a] and k in sens[b] and k not in skip]
+        r = np.array([resid[k] for k in keys])
+        A = np.column_stack([[sens[a][k] for k in keys], [sens[b][k] for k in keys]]) if keys else np.zeros((0, 2))
+        rest = float(sum(v * v for k, v in resid.items() if k not in keys))
+        if len(keys):
+            x, *_ = np.linalg.lstsq(A, r, rcond=None)
+            chi2 = float(np.sum((r - A @ x) ** 2)) + rest
+        else:
+            chi2 = rest
+        out.append(((a, b), chi2))
+    return sorted(out, key=lambda t: t[1])
