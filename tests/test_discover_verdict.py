@@ -157,3 +157,12 @@ def test_the_baseline_case_records_its_verdict_and_options():
                     options=dict(significance=0.01))
     assert d.judgment.kind is d.verdict and d.verdict in ("none", "named", "unexplained", "confounded")
     assert d.options == dc.DiscoverOptions() and d.to_json()["options"]["significance"] == 0.01
+
+
+def test_cli_option_refuses_an_unknown_key(tmp_path, capsys):
+    """``beamslider discover --option KEY=VALUE``: an unknown key is an error before any fit."""
+    from beamslider.cli import main
+
+    assert main(["discover", "--option", "tier_kept=3", "--out", str(tmp_path / "out")]) != 0
+    assert "unknown option 'tier_kept'" in capsys.readouterr().err
+    assert not (tmp_path / "out" / "report.json").exists()
