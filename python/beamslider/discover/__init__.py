@@ -10,7 +10,9 @@ model is missing, add it, and show the disagreement shrink.
 2. **Candidate effects** (:data:`EFFECTS`), each a real extension of the model with a parameter,
    bounds and the features it moves, and the measurement chain's calibrations (:mod:`.chain`,
    docs/model.md §9.1: excitation level, velocity gain, camera offset and scale, time base).
-3. **Naming** (:func:`discover`): every candidate and pairs of them are fitted to the disagreement
+3. **Naming** (:func:`discover`: the problem, :mod:`.problem`; a search strategy, :mod:`.search`; the
+   rule, :mod:`.rule`, stated once in docs/model.md §9, "Naming rule"; the tuning values,
+   :class:`DiscoverOptions`): every candidate and pairs of them are fitted to the disagreement
    (weighted least squares, χ² with the feature uncertainties). Criterion: nothing is named when
    the baseline agrees (χ² ≤ the 99 % quantile of χ²(n)); otherwise forward selection by
    likelihood-ratio tests with the measurement noise: the best single effect is named if it lowers

@@ -201,7 +201,8 @@ def unnamed_verdict(fits: Sequence[CandidateFit], reasons: Reasons, threshold: f
 # --- the verdict (docs/model.md §9, "Naming rule") ---------------------------------------------------
 
 def decide(problem: Any, fits: List[CandidateFit]) -> Verdict:
-    """The verdict from the fits of a search, in the order of docs/model.md §9, "Naming rule": the
+    """The verdict from the fits of a search, in the order of docs/model.md §9, "Naming rule" (its
+    steps numbered in the comments): the
     reasons per set (:func:`judge`, (a)–(f)); the forward selection among the sets with none
     (:func:`select`); a selected set that fits as well as other candidates moving the features alike
     is confounded (:func:`.confounding.confounded_group`, :func:`.confounding.confounded_sets`), one
@@ -210,21 +211,23 @@ def decide(problem: Any, fits: List[CandidateFit]) -> Verdict:
     of the gap; nothing named, "none" or "unexplained" (:func:`unnamed_verdict`); the advice for a
     confounded group or an unresolved candidate (:func:`.advice.advise`)."""
     o = problem.options
+    # Naming rule 2: each set's reasons; 3: the forward selection among the sets with none.
     reasons = judge(fits, problem.base, problem.n, problem.excess_before, o.gap_ratio, problem.thr_m, options=o)
     best, alts = select([f for f in fits if not reasons[f.effects]], problem.chi2_0, problem.n,
                         problem.baseline_fits, o.significance)
     group: Dict[str, Any] = {}
-    if best is not None and problem.measured is not None:
+    if best is not None and problem.measured is not None:  # 4: confounding
         group = _confounded(problem, best, fits, reasons) or {}
         if group:  # the data resolve a combination of the group, not which of them: nothing is named
             best, alts = None, []
     if best is not None and problem.measured is not None and problem.level == "slider" and problem.outside:
+        # 5: an effect left out of the candidates that fits clearly better
         why = _outside_fits_better(problem, best)
         if why is not None:
             reasons[best.effects] = reasons[best.effects] + [why]
             best, alts = None, []
     after = None
-    if best is not None:
+    if best is not None:  # 6: the full simulation of the updated model
         after = _after(problem, best)
         g = excess(gap_of(after.features, problem.meas, after.spread, problem.runs_base, problem.modes,
                           after.counts)[1], problem.n - len(best.effects), problem.n)
@@ -237,14 +240,14 @@ def decide(problem: Any, fits: List[CandidateFit]) -> Verdict:
                 negligible=sorted(negligible_fits(fits, reasons), key=lambda f: f.chi2),
                 filler="passes the naming rule, but " + ("is confounded (see confounded)" if group
                                                          else "a simpler or better set was named"))
-    if problem.baseline_fits:
+    if problem.baseline_fits:  # 1: the baseline's test
         pass
     elif best is not None:
         v.kind, v.because = Kind.NAMED, Because.NAMED
     elif group and group.get("among_candidates", True):
         v.kind, v.because = Kind.CONFOUNDED, Because.CONFOUNDED
     else:
-        # Also a named set that only effects outside the candidates mimic: not established by them.
+        # 7: nothing named; also a named set that only effects outside the candidates mimic.
         kind, _, v.unresolved = unnamed_verdict(fits, reasons, problem.thr_m)
         v.kind = Kind(kind)
         v.because = (Because.NEGLIGIBLE_CHANGE if v.kind is Kind.NONE else Because.OUTSIDE_CANDIDATES if group
