@@ -10,7 +10,7 @@ import math
 from dataclasses import dataclass
 from typing import Any, Dict, Mapping, Tuple, Union
 
-from . import models
+from . import features, models
 
 @dataclass(frozen=True)
 class DiscoverOptions:
@@ -173,12 +173,17 @@ class DiscoverOptions:
         return dataclasses.replace(self, **values) if values else self
 
     def to_json(self) -> Dict[str, Any]:
-        """The values, and those fixed by the code that makes a run (docs/model.md §9.1, "Kept runs":
-        not options, recorded beside them)."""
+        """The values, and beside them those fixed by the code that makes a run's features
+        (``fixed_by_the_runs``: the ensemble's s0 shifts, the modes' levels, the features' smoothing
+        and floors; in :mod:`.models` and :mod:`.features`, whose bytes fingerprint every kept run,
+        docs/model.md §9.1 "Kept runs": not options, recorded)."""
         out: Dict[str, Any] = {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
         out["advice_grid"] = [list(g) for g in self.advice_grid]
         out["fixed_by_the_runs"] = dict(ensemble_s0_shifts=list(models.ENSEMBLE_S0_SHIFTS),
-                                        high_final_h=models.HIGH_FINAL_H, mode_min_dof=models.MODE_MIN_DOF)
+                                        high_final_h=models.HIGH_FINAL_H, mode_min_dof=models.MODE_MIN_DOF,
+                                        turning_smooth_s=features.TURNING_SMOOTH_S,
+                                        recorded_segments=features.RECORDED_SEGMENTS,
+                                        floors={k: list(v) for k, v in features.FLOORS.items()})
         return out
 
 
