@@ -45,6 +45,7 @@ def test_named(tmp_path):
                                            baseline=0.2, relevance="", interval=[0.24, 0.28])}
     d = _discovery(v, ["friction_coefficient"], params)
     assert d.verdict == "named" and d.to_json()["verdict"] == "named"
+    assert str(d.verdict) == "named" and f"{d.verdict}" == "named"   # printed as the string it was
     assert verdict_line(d).startswith("named friction_coefficient (friction_coefficient = 0.26 ± 0.01")
     assert gap_title(d) == "named: friction_coefficient"
     md = _report(d, tmp_path)

@@ -51,6 +51,12 @@ class Kind(str, Enum):
     UNEXPLAINED = "unexplained"
     """The baseline does not fit and no candidate set passes."""
 
+    def __str__(self) -> str:  # printed and formatted as its value, "named", on every Python
+        return self.value
+
+    def __format__(self, spec: str) -> str:
+        return format(self.value, spec)
+
 
 class Because(str, Enum):
     """The branch of the rule that gave the verdict (docs/model.md §9, "Naming rule")."""
