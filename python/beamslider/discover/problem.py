@@ -83,8 +83,6 @@ class Problem:
         self.modes: Optional[Modes] = None
         self.counts_base: Dict[str, int] = {}
         self.bias: Dict[str, float] = {}
-        self.model_many: Optional[ModelMany] = None
-        self.ensemble_many: Optional[EnsembleMany] = None
         if enma_data is not None:
             self._read_enma(enma_data)
         if measured is not None:
@@ -122,12 +120,21 @@ class Problem:
             raise _core.SimulationError("the baseline model's runs at the measured operating points failed")
         self.spread_base = {k: ens_base.spread.get(k, 0.0) for k in self.meas_s}
         self.behaviours = {"measured": beh_meas, "baseline": ens_base.behaviours}
-        self.model_many, self.ensemble_many = self._model_many, self._ensemble_many
         self.meas.update(self.meas_s)
         self.before.update(ens_base.mean)
         self.counts_base = ens_base.mode_counts
 
     # --- the model side ------------------------------------------------------------------------------
+
+    @property
+    def model_many(self) -> Optional[ModelMany]:
+        """Slider level: the features of several models' runs from s0, one batch (None at the beam level)."""
+        return self._model_many if self.measured is not None else None
+
+    @property
+    def ensemble_many(self) -> Optional[EnsembleMany]:
+        """Slider level: the ensembles of several models, their unshifted runs given (None at the beam level)."""
+        return self._ensemble_many if self.measured is not None else None
 
     def _model_many(self, ps: List[Any]) -> List[Optional[Dict[str, float]]]:
         return [None if r is None else {k: f.value for k, f in r[0].items()}
