@@ -289,7 +289,7 @@ def test_long_commands_report_progress_in_a_log(tmp_path, monkeypatch, capsys):
                        cwd=tmp_path, capture_output=True, text=True, env=env, timeout=120)
     assert r.returncode == 0, r.stderr
     assert "beamslider: map 2/2 pts (100 %)" in r.stderr and "\r" not in r.stderr
-    from beamslider.discover.search.progress import progress_bar
+    from beamslider.discover.progress import progress_bar
 
     monkeypatch.setenv("BEAMSLIDER_PROGRESS_INTERVAL_S", "0")
     bar = progress_bar(None, 4, "discover (slider): fits")  # what `discover --measured` gets in a job log

@@ -137,8 +137,11 @@ class DiscoverOptions:
             check(name, isinstance(v, int) and not isinstance(v, bool) and v >= 0, "must be an integer >= 0")
         check("grid_points", isinstance(self.grid_points, int) and self.grid_points >= 3, "must be an integer >= 3")
         check("tier_keep", self.tier_keep >= 1, "must be an integer >= 1")
-        for name in ("screen_margin", "tier_margin", "min_gain", "rough_rescan", "weak_separation",
-                     "clamp_clearance", "linear_steps"):
+        for name in ("screen_margin", "tier_margin", "min_gain", "rough_rescan", "weak_separation"):
+            v = getattr(self, name)  # a margin or a threshold: inf turns its test off
+            check(name, isinstance(v, (int, float)) and not isinstance(v, bool) and not math.isnan(v) and v >= 0,
+                  "must be a number >= 0 (inf: never)")
+        for name in ("clamp_clearance", "linear_steps"):
             v = getattr(self, name)
             check(name, isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) and v >= 0,
                   "must be a finite number >= 0")
