@@ -420,8 +420,8 @@ def test_naming_rule_compares_the_gap_beyond_the_noise():
     adequate fit with chi2 = 13.5 leaves a noise-inclusive gap of 0.98 (> 0.3 x 2.07, the old
     rule rejected it) but nothing beyond the noise; a fit with chi2 = 27 is adequate but leaves
     1.0 beyond the noise (> 0.3 x 1.81); gap_ratio is configurable."""
-    from beamslider.discover.fitting import excess as _excess
-    from beamslider.discover.naming import _judge
+    from beamslider.discover.stats import excess as _excess
+    from beamslider.discover.rule import judge
 
     base = bs.Parameters()
     n, chi2_0 = 14, 60.0
@@ -430,11 +430,11 @@ def test_naming_rule_compares_the_gap_beyond_the_noise():
     good = dc.CandidateFit(("friction_coefficient",), {"friction_coefficient": 0.26}, {"friction_coefficient": 0.002},
                            13.5, 13, True, 0.0)
     part = dc.CandidateFit(("clearance",), {"clearance": 1.08}, {"clearance": 0.001}, 27.0, 13, True, 0.0)
-    v = _judge([good, part], base, n, ex0, 0.3)
+    v = judge([good, part], base, n, ex0, 0.3)
     assert v[good.effects] == []
     assert math.sqrt(13.5 / 14) > 0.3 * math.sqrt(chi2_0 / n)  # the noise-inclusive rule would reject it
     assert len(v[part.effects]) == 1 and v[part.effects][0].startswith("small share of the gap beyond the noise")
-    assert _judge([part], base, n, ex0, 0.6)[part.effects] == []
+    assert judge([part], base, n, ex0, 0.6)[part.effects] == []
 
 
 @pytest.mark.slow
@@ -458,7 +458,7 @@ def test_pooled_model_spread():
     """The model spread pools the ensemble's variance (4 dof) with the scatter of the last scan
     level about a quadratic trend (4 dof): a smooth trend adds nothing, roughness adds its variance."""
     from beamslider.discover.models import Ensemble
-    from beamslider.discover.fitting import pooled_spread as _pooled_spread
+    from beamslider.discover.spread import pooled_spread as _pooled_spread
 
     ens = Ensemble({"a": 1.0, "b": 2.0}, {"a": 0.1, "b": 0.0}, 5, {})
     smooth = [{"a": 1.0 + 0.3 * j + 0.01 * j * j, "b": 2.0} for j in range(7)]
@@ -561,20 +561,20 @@ def test_chi2_charges_an_unpredicted_mode_its_expectation_and_penalty():
     """χ² with modes: where no run of the model is in the data's mode, each mode feature counts 1
     (its expectation) and the mode costs 2 log((R + 1/2)/(1/2)); in the data's mode the features
     count their z², plus the penalty of the mode's rarity; other features are unchanged."""
-    from beamslider.discover.fitting import _chi2_terms
+    from beamslider.discover.stats import chi2_terms
 
     names = ["speed_early@x", "s_final@x", "amplitude_final_h@x"]
     y = np.array([-0.005, 0.26, 0.16])
     sig = np.array([1e-4, 2e-3, 0.01])
     modes = {"x": (False, False)}
     jumped = {"speed_early@x": -0.0052, "s_final@x": 0.33, "amplitude_final_h@x": 1.1}
-    assert _chi2_terms(jumped, names, y, sig) == pytest.approx(4 + (0.07 / 2e-3) ** 2 + (0.94 / 0.01) ** 2)
-    assert _chi2_terms(jumped, names, y, sig, modes) == pytest.approx(4 + 2 + 2 * math.log(3))
-    assert _chi2_terms(jumped, names, y, sig, modes, {"x": 0}, 5) == pytest.approx(4 + 2 + 2 * math.log(11))
+    assert chi2_terms(jumped, names, y, sig) == pytest.approx(4 + (0.07 / 2e-3) ** 2 + (0.94 / 0.01) ** 2)
+    assert chi2_terms(jumped, names, y, sig, modes) == pytest.approx(4 + 2 + 2 * math.log(3))
+    assert chi2_terms(jumped, names, y, sig, modes, {"x": 0}, 5) == pytest.approx(4 + 2 + 2 * math.log(11))
     low = {"speed_early@x": -0.0052, "s_final@x": 0.262, "amplitude_final_h@x": 0.17}
-    assert _chi2_terms(low, names, y, sig, modes) == pytest.approx(4 + 1 + 1)
-    assert _chi2_terms(low, names, y, sig, modes, {"x": 2}, 5) == pytest.approx(4 + 1 + 1 + 2 * math.log(5.5 / 2.5))
-    assert _chi2_terms(None, names, y, sig, modes) == math.inf
+    assert chi2_terms(low, names, y, sig, modes) == pytest.approx(4 + 1 + 1)
+    assert chi2_terms(low, names, y, sig, modes, {"x": 2}, 5) == pytest.approx(4 + 1 + 1 + 2 * math.log(5.5 / 2.5))
+    assert chi2_terms(None, names, y, sig, modes) == math.inf
 
 
 @pytest.mark.heavy

@@ -13,11 +13,13 @@ import beamslider as bs
 from beamslider import discover as dc
 from beamslider.discover.chain import Model, chain_map, realise_model
 from beamslider.discover.effects import CHAIN_EFFECTS, EFFECTS
-from beamslider.discover.fitting import CandidateFit, lrt_threshold
+from beamslider.discover.result import CandidateFit
+from beamslider.discover.stats import lrt_threshold
 from beamslider.discover.models import PATH_POINTS, batch_slider_features, measured_slider_features, slider_paths
-from beamslider.discover.verdicts import (Reason, Why, confounded_group, interval_of, kinds, negligible_fits,
-                                          outside_fits_better, relevant_resolved, unnamed_verdict,
-                                          unresolved_reasons)
+from beamslider.discover.rule import (Reason, Why, kinds, negligible_fits, relevant_resolved, unnamed_verdict,
+                                      unresolved_reasons)
+from beamslider.discover.confounding import confounded_group, outside_fits_better
+from beamslider.discover.stats import interval_of
 
 S0_OFFSET = 0.0015
 """The truth runs start off the s0 their files name (no "inverse crime", as tests/test_discover.py)."""
@@ -96,8 +98,11 @@ def test_the_advice_separates_the_camera_offset_from_its_scale_from_another_star
     """A camera offset o and a scale k with o = (k - 1)·0.32 report the same positions where the
     slider stays near s = 0.3: the runs from s0 = 0.3 hardly tell them apart (the fitted models of
     the discover table, 10-s runs: distance 0.5 at (124, 14) and (104, 14)), a run from s0 = 0.15
-    does (3.4 at (124, 14)), and the default advice grid offers it (verdicts.ADVICE_GRID)."""
-    from beamslider.discover.verdicts import ADVICE_GRID, advise
+    does (3.4 at (124, 14)), and the default advice grid offers it (DiscoverOptions.advice_grid)."""
+    from beamslider.discover.advice import advise
+    from beamslider.discover.options import DEFAULT
+
+    ADVICE_GRID = DEFAULT.advice_grid
 
     p = bs.Parameters()
     fit = {"position_scale": 1.0361, "position_offset": 0.011667}
@@ -108,7 +113,9 @@ def test_the_advice_separates_the_camera_offset_from_its_scale_from_another_star
     assert only_03["recommended"]["score"] < a["recommended"]["score"] / 2, only_03
     # 60 s from s0 = 0.15 at (124, 14) the slider ends at the clamping (s = 0.038, its contact point
     # 0.3 mm from it): never advised; at (116, 10) it ends at s = 0.065.
-    from beamslider.discover.verdicts import CLAMP_CLEARANCE, fitted_differences
+    from beamslider.discover.advice import fitted_differences
+
+    CLAMP_CLEARANCE = DEFAULT.clamp_clearance
 
     at = lambda f, a: [dc.OperatingPoint(f, a, 0.15, 60.0)]  # noqa: E731
     assert fitted_differences(fit, p, at(124, 14), clearance=CLAMP_CLEARANCE) is None
@@ -116,10 +123,10 @@ def test_the_advice_separates_the_camera_offset_from_its_scale_from_another_star
 
 
 def test_advice_says_when_no_run_of_its_grid_separates_a_group(monkeypatch):
-    """A confounded group whose fitted models differ by less than WEAK_SEPARATION at every grid point:
+    """A confounded group whose fitted models differ by less than options.weak_separation at every grid point:
     the advice says so instead of recommending the run; where a point separates them, it is
-    recommended as before; a point where a run ends at the clamping (CLAMP_CLEARANCE) is never."""
-    from beamslider.discover import verdicts
+    recommended as before; a point where a run ends at the clamping (options.clamp_clearance) is never."""
+    from beamslider.discover import advice
 
     dist = {(124.0, 6.0): 0.9, (110.0, 10.0): 1.5, (104.0, 10.0): 9.0}
 
@@ -129,16 +136,16 @@ def test_advice_says_when_no_run_of_its_grid_separates_a_group(monkeypatch):
         d = dist.get((ops[0].f_ex, ops[0].a_ex), 0.5) if len(ops) == 1 else 3.0
         return {"a": {"x": 0.0}, "b": {"x": d}}
 
-    monkeypatch.setattr(verdicts, "fitted_differences", fake)
+    monkeypatch.setattr(advice, "fitted_differences", fake)
     ops = [dc.OperatingPoint(104, 14, 0.3, 10.0)]
     grid = [(124, 6, 0.3), (110, 10, 0.3), (104, 10, 0.3)]
-    a = verdicts.advise(["a", "b"], bs.Parameters(), ops, grid, fitted={"a": 1.0, "b": 2.0})
+    a = advice.advise(["a", "b"], bs.Parameters(), ops, grid, fitted={"a": 1.0, "b": 2.0})
     assert a["weak"] and a["text"].startswith("no run of the grid separates them by 2 uncertainties"), a
     assert (a["recommended"]["f_ex"], a["recommended"]["score"]) == (110, 1.5)
     dist[(124.0, 6.0)] = 4.0
-    a = verdicts.advise(["a", "b"], bs.Parameters(), ops, grid, fitted={"a": 1.0, "b": 2.0})
+    a = advice.advise(["a", "b"], bs.Parameters(), ops, grid, fitted={"a": 1.0, "b": 2.0})
     assert not a["weak"] and a["text"].startswith("add a run at f_ex = 124 Hz"), a
-    a = verdicts.advise(["a", "b"], bs.Parameters(), ops, [(104, 10, 0.3)], fitted={"a": 1.0, "b": 2.0})
+    a = advice.advise(["a", "b"], bs.Parameters(), ops, [(104, 10, 0.3)], fitted={"a": 1.0, "b": 2.0})
     assert a["recommended"] is None and "clamping" in a["note"], a
 
 
@@ -375,7 +382,7 @@ def test_confounded_contact_spacing_and_inertia_and_the_advice_that_separates_th
 def test_linearised_pair_ranking_finds_two_effects_that_fit_badly_alone():
     """Data that are the sum of two candidates' signatures: that pair is predicted to fit exactly
     (χ² 0) although neither fits alone; a pair with a candidate that moves other features does not."""
-    from beamslider.discover.verdicts import rank_pairs
+    from beamslider.discover.separability import rank_pairs
 
     sens = {"friction_coefficient": {"a": 1.0, "b": 2.0, "c": 0.0, "d": 1.0},
             "natural_frequency_detuning": {"a": -1.0, "b": 1.0, "c": 3.0, "d": 0.0},
@@ -411,23 +418,23 @@ def test_a_negligible_change_that_fits_is_none_only_if_no_relevant_change_is_res
     spacing moved by a negligible 0.6 % fits too: the data resolve a relevant change, so the
     negligible one does not make the baseline adequate (not "none"). With restitution's interval
     reaching 0.5 (not resolved) the negligible change stands: the baseline is adequate."""
-    from beamslider.discover.naming import _judge
+    from beamslider.discover.rule import judge
 
     base = bs.Parameters()
     spacing, rest = _spacing_and_restitution((10.0, 1e-4, (0.0098, 0.0103)), (9.0, 0.07, (0.12, 0.45)), dof=11)
     fits = [spacing, rest]
-    reasons = _judge(fits, base, 12, 5.0, 0.3)
+    reasons = judge(fits, base, 12, 5.0, 0.3)
     assert reasons[("restitution",)] == [] and reasons[("contact_spacing",)][0].startswith("negligible change")
     assert negligible_fits(fits, reasons) == [spacing]
     assert relevant_resolved(fits, reasons) == [rest]
     rest.intervals["restitution"] = (0.12, 0.55)
-    reasons = _judge(fits, base, 12, 5.0, 0.3)
+    reasons = judge(fits, base, 12, 5.0, 0.3)
     assert reasons[("restitution",)][0].startswith("not resolved")
     assert relevant_resolved(fits, reasons) == [] and negligible_fits(fits, reasons) == [spacing]
     # An inadequate relevant fit does not count: the negligible change fits better.
     rest.intervals["restitution"] = (0.12, 0.45)
     rest.adequate = False
-    assert relevant_resolved(fits, _judge(fits, base, 12, 5.0, 0.3)) == []
+    assert relevant_resolved(fits, judge(fits, base, 12, 5.0, 0.3)) == []
 
 
 def test_a_relevant_change_that_a_negligible_one_fits_better_is_not_named():
@@ -437,8 +444,8 @@ def test_a_relevant_change_that_a_negligible_one_fits_better_is_not_named():
     threshold, fits better (χ² 10.4): the tilt is not named; being resolved it still makes the
     verdict "unexplained", not "none". Restitution itself, a candidate, fits at χ² 4.1 and is named.
     A pair is charged its second parameter: it must beat a negligible single by the threshold."""
-    from beamslider.discover.naming import _judge
-    from beamslider.discover.fitting import select
+    from beamslider.discover.rule import judge
+    from beamslider.discover.rule import select
 
     base = bs.Parameters()
     thr, eb = lrt_threshold(1, 13), 2.89
@@ -449,10 +456,10 @@ def test_a_relevant_change_that_a_negligible_one_fits_better_is_not_named():
     tilt = one("tilt", 0.0055556, 16.73, (0.0016, 0.0091))
     gain = one("excitation_gain", 1.0125, 10.39, (1.004, 1.02))
     fits = [tilt, gain]
-    plain = _judge(fits, base, 17, eb, 0.3)
+    plain = judge(fits, base, 17, eb, 0.3)
     assert plain[("tilt",)] == [] and negligible_fits(fits, plain) == [gain]
     assert select([f for f in fits if not plain[f.effects]], 158.6, 17, False)[0] is tilt  # named without the rule
-    reasons = _judge(fits, base, 17, eb, 0.3, thr)
+    reasons = judge(fits, base, 17, eb, 0.3, thr)
     assert [r.kind for r in reasons[("tilt",)]] == [Why.NEGLIGIBLE_FITS_BETTER], reasons
     assert "excitation_gain 1.012" in reasons[("tilt",)][0] and "16.7" in reasons[("tilt",)][0]
     assert select([f for f in fits if not reasons[f.effects]], 158.6, 17, False)[0] is None
@@ -460,15 +467,15 @@ def test_a_relevant_change_that_a_negligible_one_fits_better_is_not_named():
     assert unnamed_verdict(fits, reasons, thr) == ("unexplained", None, None)
     # Better than the negligible change: named as before (restitution 0.675 at χ² 4.06).
     rest = one("restitution", 0.675, 4.06, (0.622, 0.713))
-    assert _judge([rest, gain], base, 17, eb, 0.3, thr)[("restitution",)] == []
+    assert judge([rest, gain], base, 17, eb, 0.3, thr)[("restitution",)] == []
     tilt.chi2 = 10.38
-    assert _judge(fits, base, 17, eb, 0.3, thr)[("tilt",)] == []
+    assert judge(fits, base, 17, eb, 0.3, thr)[("tilt",)] == []
     # A pair pays for its second parameter.
     pair = CandidateFit(("tilt", "restitution"), {"tilt": 0.004, "restitution": 0.6}, {"tilt": 1e-3, "restitution": 0.02},
                         10.39 - thr + 0.01, 15, True, 0.0, intervals={"tilt": (0.002, 0.006), "restitution": (0.56, 0.64)})
-    assert [r.kind for r in _judge([pair, gain], base, 17, eb, 0.3, thr)[pair.effects]] == [Why.NEGLIGIBLE_FITS_BETTER]
+    assert [r.kind for r in judge([pair, gain], base, 17, eb, 0.3, thr)[pair.effects]] == [Why.NEGLIGIBLE_FITS_BETTER]
     pair.chi2 -= 0.02
-    assert _judge([pair, gain], base, 17, eb, 0.3, thr)[pair.effects] == []
+    assert judge([pair, gain], base, 17, eb, 0.3, thr)[pair.effects] == []
 
 
 def test_a_set_that_a_left_out_effect_fits_clearly_better_is_not_named():
@@ -478,14 +485,14 @@ def test_a_set_that_a_left_out_effect_fits_clearly_better_is_not_named():
     alone, left out, fits at 4.4: better by more than the selection's threshold with each set
     charged it per parameter (χ²_X + t < χ²_best + 2t − t). Only the best predicted left-out
     effects are fitted, and only one that passes the naming rule alone counts."""
-    from beamslider.discover.naming import _judge
+    from beamslider.discover.rule import judge
 
     base = bs.Parameters()
     thr = lrt_threshold(1, 13)
     pair = CandidateFit(("excitation_gain", "velocity_gain"), {"excitation_gain": 0.929, "velocity_gain": 1.058},
                         {"excitation_gain": 0.026, "velocity_gain": 0.016}, 17.2, 15, True, 0.0,
                         intervals={"excitation_gain": (0.877, 0.981), "velocity_gain": (1.028, 1.089)})
-    assert _judge([pair], base, 17, 1.57, 0.3, thr)[pair.effects] == []
+    assert judge([pair], base, 17, 1.57, 0.3, thr)[pair.effects] == []
 
     def confirm(chi2, iv=(0.9737, 0.9853)):
         calls = []
@@ -494,7 +501,7 @@ def test_a_set_that_a_left_out_effect_fits_clearly_better_is_not_named():
             calls.append(name)
             v, c2, i = (0.9778, chi2, iv) if name == "natural_frequency_detuning" else (0.004, 60.0, (0.002, 0.006))
             f = CandidateFit((name,), {name: v}, {name: 0.0047}, c2, 16, c2 < 32.0, 0.0, intervals={name: i})
-            return f, _judge([f], base, 17, 1.57, 0.3)[f.effects]
+            return f, judge([f], base, 17, 1.57, 0.3)[f.effects]
         return fit, calls
 
     pred = {"natural_frequency_detuning": (9.0, 0.978), "slider_mass": (80.0, 0.05), "tilt": (60.0, 0.004)}
@@ -525,7 +532,7 @@ def test_a_relevant_unresolved_fit_far_better_than_a_negligible_one_is_unexplain
     change stands: "none" — if it closes the gap as a named set must (at most 0.3 of the gap beyond
     the noise left); one that leaves more explains no more than the baseline: "unexplained". A negligible pair pays the threshold for its second parameter. A
     resolved relevant change leaves no best unresolved candidate."""
-    from beamslider.discover.naming import _judge
+    from beamslider.discover.rule import judge
 
     base = bs.Parameters()
     eb = 5.0  # the gap beyond the noise before: the negligible change closes it as a named set must
@@ -533,15 +540,15 @@ def test_a_relevant_unresolved_fit_far_better_than_a_negligible_one_is_unexplain
     assert thr == pytest.approx(11.45, abs=0.01)
     spacing, rest = _spacing_and_restitution((18.49, 4e-4, (0.009291, 0.01102)), (2.92, 0.09, (0.2, 0.5431)), dof=12)
     fits = [spacing, rest]
-    reasons = _judge(fits, base, 13, eb, 0.3)
+    reasons = judge(fits, base, 13, eb, 0.3)
     assert [r.kind for r in reasons[("restitution",)]] == [Why.NOT_RESOLVED]
     assert kinds(reasons[("contact_spacing",)]) == {Why.NEGLIGIBLE, Why.NOT_RESOLVED}
     assert negligible_fits(fits, reasons) == [spacing]
     assert unnamed_verdict(fits, reasons, thr) == ("unexplained", None, rest)
     rest.chi2 = spacing.chi2 - thr + 0.01
-    assert unnamed_verdict(fits, _judge(fits, base, 13, eb, 0.3), thr) == ("none", spacing, None)
+    assert unnamed_verdict(fits, judge(fits, base, 13, eb, 0.3), thr) == ("none", spacing, None)
     # Before the gap was 1.25 beyond the noise: the negligible change leaves 0.71 of it (> 0.3 x).
-    small = _judge(fits, base, 13, 1.25, 0.3)
+    small = judge(fits, base, 13, 1.25, 0.3)
     assert Why.SMALL_SHARE in kinds(small[("contact_spacing",)]) and negligible_fits(fits, small) == []
     assert unnamed_verdict(fits, small, thr) == ("unexplained", None, rest)
     # A negligible pair is charged its second parameter (the selection's price of adding one): it
@@ -551,13 +558,13 @@ def test_a_relevant_unresolved_fit_far_better_than_a_negligible_one_is_unexplain
                         {"com_offset": 5e-5, "tilt": 1e-3}, 4.0, 11, True, 4.0,
                         intervals={"com_offset": (0.0039, 0.0042), "tilt": (-0.002, 0.002)})
     fits3 = [spacing, rest, pair]
-    reasons = _judge(fits3, base, 13, eb, 0.3)
+    reasons = judge(fits3, base, 13, eb, 0.3)
     assert negligible_fits(fits3, reasons) == [spacing, pair]
     assert unnamed_verdict(fits3, reasons, thr) == ("unexplained", None, rest)
     pair.chi2 = 2.5
-    assert unnamed_verdict(fits3, _judge(fits3, base, 13, eb, 0.3), thr) == ("none", pair, None)
+    assert unnamed_verdict(fits3, judge(fits3, base, 13, eb, 0.3), thr) == ("none", pair, None)
     rest.intervals["restitution"] = (0.2, 0.45)
-    assert unnamed_verdict(fits, _judge(fits, base, 13, eb, 0.3), thr) == ("unexplained", None, None)
+    assert unnamed_verdict(fits, judge(fits, base, 13, eb, 0.3), thr) == ("unexplained", None, None)
     # The reasons keep their kind and effect through pickling (a report's reasons are their text).
     import pickle
 
@@ -585,16 +592,17 @@ def test_delta_chi2_interval_of_a_scan():
 def test_rough_profile_widens_the_interval():
     """A χ² scan that scatters about a parabola (single runs of a chaotic objective) gets an interval
     widened by twice the scatter, which covers the parabola's minimum; a smooth one is unchanged."""
-    from beamslider.discover.fitting import _interval, _roughness
+    from beamslider.discover.fitting import _interval
+    from beamslider.discover.spread import chi2_roughness
 
     x = np.linspace(0.2, 0.4, 21)
     smooth = (x - 0.3) ** 2 / 0.01 ** 2
-    assert _roughness(x, smooth) == pytest.approx(0.0, abs=1e-9)
-    assert _interval(x, smooth, _roughness(x, smooth))[1:] == pytest.approx((0.29, 0.31), abs=1e-9)
+    assert chi2_roughness(x, smooth) == pytest.approx(0.0, abs=1e-9)
+    assert _interval(x, smooth, chi2_roughness(x, smooth))[1:] == pytest.approx((0.29, 0.31), abs=1e-9)
     bumps = (x - 0.3) ** 2 / 0.02 ** 2 + np.where(np.arange(x.size) % 2 == 0, 0.0, 6.0)  # minimum 0.3, scatter ~3
     bumps[8] -= 1.5  # the luckiest run at 0.28
-    best, lo, hi = _interval(x, bumps, _roughness(x, bumps))
-    assert best == pytest.approx(0.28) and 2.0 < _roughness(x, bumps) < 4.0
+    best, lo, hi = _interval(x, bumps, chi2_roughness(x, bumps))
+    assert best == pytest.approx(0.28) and 2.0 < chi2_roughness(x, bumps) < 4.0
     assert lo < 0.27 and hi > 0.33
     plain = _interval(x, bumps)
     assert 0.27 < plain[1] and plain[2] < 0.31  # the plain Δχ² = 1 interval: 0.28 (+0.025)
@@ -659,10 +667,12 @@ def test_a_rough_scan_that_picks_the_baseline_is_rescored_on_ensembles(monkeypat
     ensembles' profile, is here the closed form's ±1.96/sqrt(JᵀJ) and excludes the baseline. Without
     the rescan (threshold infinite) the fit stays at the baseline, so that the test can fail; a
     valley within the relevance threshold is not taken."""
-    from beamslider.discover import fitting
+    import dataclasses
+
     from beamslider.discover.features import Feature
     from beamslider.discover.fitting import profile_fit
     from beamslider.discover.models import Ensemble
+    from beamslider.discover.options import DEFAULT
 
     e, base = EFFECTS["friction_coefficient"], bs.Parameters()
     truth, b0 = 0.33, 0.2   # off the grid 0.1, 0.15, ..., 0.5; the baseline on it
@@ -693,12 +703,11 @@ def test_a_rough_scan_that_picks_the_baseline_is_rescored_on_ensembles(monkeypat
     assert lo == pytest.approx(truth - 1.96 * se, rel=1e-3) and hi == pytest.approx(truth + 1.96 * se, rel=1e-3)
     assert lo > b0
     assert f.roughness[e.name] == 0.0   # the interval is the ensembles' profile's, not widened
-    monkeypatch.setattr(fitting, "ROUGH_RESCAN", math.inf)
-    f = profile_fit([e], base, meas, model_many=many, ensemble_many=ens, spread0=dict(a=0.0, b=0.0))
+    f = profile_fit([e], base, meas, model_many=many, ensemble_many=ens, spread0=dict(a=0.0, b=0.0),
+                    options=dataclasses.replace(DEFAULT, rough_rescan=math.inf))
     assert f.values[e.name] == pytest.approx(b0)
     # A sharp valley within friction's relevance threshold (0.01) of the baseline (the baseline's
     # ensemble at χ² 80): nothing to name, not taken; 0.012 from it, taken.
-    monkeypatch.setattr(fitting, "ROUGH_RESCAN", 50.0)
     slope = 10.0
     for truth, taken in ((0.208, False), (0.212, True)):
         f = profile_fit([e], base, meas, model_many=many, ensemble_many=ens, spread0=dict(a=0.0, b=0.0))
@@ -745,7 +754,9 @@ def test_the_baseline_fits_only_without_a_feature_beyond_the_bonferroni_bound():
     gain of 1.06 in the same runs) it fits; above the χ² limit it never does."""
     from scipy.stats import norm
 
-    from beamslider.discover.fitting import baseline_fits, chi2_quantile, select, z_bound
+    from beamslider.discover.stats import baseline_fits, chi2_quantile, z_bound
+
+    from beamslider.discover.rule import select
 
     assert z_bound(16) == pytest.approx(norm.ppf(1 - 0.01 / 32)) and z_bound(16) == pytest.approx(3.42, abs=0.01)
     assert chi2_quantile(16) == pytest.approx(32.0, abs=0.01)
@@ -761,7 +772,7 @@ def test_the_baseline_test_counts_each_feature_in_its_uncertainty_and_a_missing_
     (here σ_meas 0.3, spread 0.4 over R = 4 runs: sqrt(0.09 + 1.25·0.16) = sqrt(0.29)); a feature the
     baseline lacks is filled 5 of those uncertainties off (χ² 25); adequacy by χ² and the |z| bound."""
     from beamslider.discover.features import Feature
-    from beamslider.discover.fitting import baseline_test, chi2_quantile, z_bound
+    from beamslider.discover.stats import baseline_test, chi2_quantile, z_bound
 
     meas = {"a": Feature("a", 1.0, 0.3), "b": Feature("b", 2.0, 0.3), "c": Feature("c", 0.0, 0.3)}
     s = math.sqrt(0.09 + 1.25 * 0.16)

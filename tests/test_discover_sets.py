@@ -12,13 +12,52 @@ import pytest
 
 import beamslider as bs
 from beamslider import discover as dc
-from beamslider.discover.fitting import CandidateFit, _interval, interval_z
+from beamslider.discover.result import CandidateFit
+from beamslider.discover.fitting import _interval
+from beamslider.discover.stats import interval_z
 from beamslider.discover.refine import gauss_newton
-from beamslider.discover.verdicts import interval_of, unresolved_reasons
+from beamslider.discover.stats import interval_of
+from beamslider.discover.rule import unresolved_reasons
 
 S0_OFFSET = 0.0015
 """The truth runs start off the s0 their files name (no "inverse crime", as tests/test_discover.py)."""
 
+
+
+class FakeProblem:
+    """A stand-in for :class:`beamslider.discover.problem.Problem` as a search strategy sees it: each
+    fit by ``fit(effects, refine=..., joint=...)`` (refine None: the options' refine_levels), the
+    linearised model's predictions, the ranked pairs and the steps as given, the rule's gates
+    (``done``: no set can win; ``named``: the single the selection would name) as given."""
+
+    def __init__(self, fit, cands, *, max_effects=2, pred=None, guide=None, done=lambda s: False,
+                 named=lambda s: None, step=lambda f: f.chi2, known=lambda name: True, n=11, options=None):
+        from beamslider.discover.options import DEFAULT
+        from beamslider.discover.problem import SearchRecord
+        from beamslider.discover.stats import lrt_threshold
+
+        self._fit, self.pred, self._guide, self.done, self.named = fit, pred, guide, done, named
+        self.step, self.known = step, known
+        self.level, self.max_effects, self.progress, self.base = "slider", max_effects, False, bs.Parameters()
+        self.meas = {f"f{i}": None for i in range(n)}
+        self.options = options or DEFAULT
+        self.record = SearchRecord()
+        self.thr_m = lrt_threshold(1, len(cands))
+
+    def fit(self, combo, refine=None, joint=None):
+        return self._fit(combo, refine=self.options.refine_levels if refine is None else refine, joint=joint)
+
+    def predict(self, cands):
+        return self.pred
+
+    def guide(self):
+        return self._guide() if self._guide is not None else []
+
+    def no_set_can_win(self, singles):
+        return self.done(singles)
+
+    def best_single(self, singles):
+        return self.named(singles)
 
 def _alike_model():
     """Residuals of two parameters that move the features alike (columns at 0.98 correlation) with
@@ -190,24 +229,24 @@ def test_sets_are_not_fitted_when_no_set_could_be_selected():
     """A single candidate that passes the naming rule with χ² below the least likelihood-ratio
     threshold (6.63) cannot be beaten by any set; one with a larger χ², or one that fails the rule,
     leaves the sets to fit."""
-    from beamslider.discover.fitting import lrt_threshold
-    from beamslider.discover.naming import _no_set_can_win
+    from beamslider.discover.stats import lrt_threshold
+    from beamslider.discover.rule import no_set_can_win
 
     assert lrt_threshold(1, 1) == pytest.approx(6.635, abs=1e-3)
     fits = [_single("friction_coefficient", 5.0, 0.26), _single("tilt", 30.0, 0.004)]
     passes = lambda fs: {f.effects: [] for f in fs}  # noqa: E731
-    assert _no_set_can_win(fits, passes)
+    assert no_set_can_win(fits, passes)
     fits[0].chi2 = 7.0
-    assert not _no_set_can_win(fits, passes)
+    assert not no_set_can_win(fits, passes)
     fits[0].chi2 = 5.0
-    assert not _no_set_can_win(fits, lambda fs: {f.effects: (["not resolved"] if f.chi2 < 6 else []) for f in fs})
+    assert not no_set_can_win(fits, lambda fs: {f.effects: (["not resolved"] if f.chi2 < 6 else []) for f in fs})
 
 
 def test_pairs_chosen_by_the_linearised_ranking():
     """With a ranking, the pairs fitted are the three best-predicted that extend each of the two
     best singles and the three best-predicted overall; without one, every pair that extends them."""
     from beamslider.discover.effects import EFFECTS
-    from beamslider.discover.verdicts import pairs_to_fit as _pairs_to_fit
+    from beamslider.discover.search.pairs import pairs_to_fit as _pairs_to_fit
 
     names = ["friction_coefficient", "natural_frequency_detuning", "tilt", "com_offset", "clearance", "restitution"]
     cands = [EFFECTS[n] for n in names]
@@ -249,7 +288,7 @@ def test_a_pair_that_moves_the_features_as_another_effect_does_is_confounded():
     make one; a fitted set is judged by its own fit; a single named effect is left to the single
     candidates' check. Where only effects outside the candidates mimic the pair, the verdict is
     "unexplained" and says which (docs/model.md §9.1, "Confounded")."""
-    from beamslider.discover.verdicts import confounded_sets
+    from beamslider.discover.confounding import confounded_sets
 
     p = bs.Parameters()
     lib = ["friction_coefficient", "slider_inertia", "com_offset", "tilt"]
@@ -276,7 +315,10 @@ def test_a_pair_that_moves_the_features_as_another_effect_does_is_confounded():
     from types import SimpleNamespace
 
     from beamslider.discover.report import verdict_line
-    line = verdict_line(SimpleNamespace(verdict="unexplained", confounded=g, unresolved={}, gap_before=21.9))
+    from beamslider.discover.result import Because, Kind, Verdict
+
+    line = verdict_line(SimpleNamespace(judgment=Verdict(Kind.UNEXPLAINED, Because.OUTSIDE_CANDIDATES, group=g),
+                                        gap_before=21.9))
     assert line.startswith("unexplained discrepancy (gap 21.9) - the best set friction_coefficient + "
                            "slider_inertia fits as well as com_offset, not among the candidates"), line
     assert sorted(asked[0]) == sorted(lib)
@@ -341,8 +383,10 @@ def test_the_fast_path_predicts_each_single_from_moves_of_five_thresholds():
     moves nothing is predicted at |r|²; only the best predicted are fitted in full, the others kept
     as screened with their predicted χ² (and the naming rule says so)."""
     from beamslider.discover.effects import EFFECTS
-    from beamslider.discover.fast import FAST_KEEP, predict_singles, predicted_singles
-    from beamslider.discover.naming import _judge
+    from beamslider.discover.options import DEFAULT
+    from beamslider.discover.search.common import predicted_singles
+    from beamslider.discover.separability import predict_singles
+    from beamslider.discover.rule import judge
 
     p = bs.Parameters()
     up = dict(friction_coefficient=dict(a=2.0, b=1.0), tilt=dict(a=0.0, b=0.0))
@@ -359,19 +403,20 @@ def test_the_fast_path_predicts_each_single_from_moves_of_five_thresholds():
     fitted = []
     fits = predicted_singles([EFFECTS[n] for n in names], pred, lambda e: fitted.append(e.name) or CandidateFit(
         (e.name,), {e.name: 0.25}, {e.name: 0.01}, 2.0, 9, True, 2.0), 10)
-    assert FAST_KEEP == 3 and fitted == ["friction_coefficient", "clearance", "slider_mass"]
+    assert DEFAULT.fast_keep == 3 and fitted == ["friction_coefficient", "clearance", "slider_mass"]
     tilt = fits[1]
     assert tilt.screened and tilt.linearised and tilt.chi2 == 40.0 and not tilt.adequate
-    assert "linearised model predicts chi2 = 40" in _judge(fits, p, 10, 5.0, 0.3)[("tilt",)][0]
+    assert "linearised model predicts chi2 = 40" in judge(fits, p, 10, 5.0, 0.3)[("tilt",)][0]
 
 
 def test_the_fast_path_fits_the_best_predicted_pair_only_if_it_could_be_selected(monkeypatch):
     """discover(fast=True): the pair the linearised model predicts best is fitted only if its
     predicted χ² beats the best single fitted in full by the selection's threshold (for one effect
     picked from the candidates: lrt_threshold(1, 4) here); the other pairs are never fitted."""
-    from beamslider.discover import naming
     from beamslider.discover.effects import EFFECTS
-    from beamslider.discover.fitting import lrt_threshold
+    from beamslider.discover.options import DEFAULT
+    from beamslider.discover.search import fast
+    from beamslider.discover.stats import lrt_threshold
 
     names = ["friction_coefficient", "natural_frequency_detuning", "tilt", "clearance"]
     cands = [EFFECTS[n] for n in names]
@@ -382,14 +427,12 @@ def test_the_fast_path_fits_the_best_predicted_pair_only_if_it_could_be_selected
         c2 = 30.0 if len(effects) == 1 else 2.0
         return CandidateFit(tuple(e.name for e in effects), {e.name: 0.0 for e in effects}, {}, c2, 10, True, c2)
 
-    monkeypatch.setattr(naming, "profile_fit", fake_fit)
     pred = {n: (c, 0.0) for n, c in zip(names, [40.0, 50.0, 60.0, 70.0])}
     thr = lrt_threshold(1, len(names))
     for best_pair, want in [(30.0 - thr - 0.1, True), (30.0 - thr + 0.1, False)]:
         fitted.clear()
         ranked = [(("friction_coefficient", "tilt"), best_pair), (("clearance", "tilt"), best_pair + 1)]
-        fits = naming._fit_sets(cands, 2, "slider", bs.Parameters(), {f"f{i}": None for i in range(11)}, None, None, 0,
-                                guide=lambda: ranked, done=lambda s: False, predict=lambda: pred)
+        fits = fast.search(FakeProblem(fake_fit, cands, guide=lambda: ranked, pred=pred), cands, DEFAULT)
         pairs = [f for f in fitted if len(f) == 2]
         assert pairs == ([("friction_coefficient", "tilt")] if want else []), (best_pair, fitted)
         assert [f for f in fitted if len(f) == 1] == [(n,) for n in names[:3]]  # the three best predicted
@@ -403,10 +446,13 @@ def test_the_tier_fits_the_best_predicted_and_falls_back_to_the_full_search(monk
     no fitted χ² more than TIER_MARGIN above its prediction; the predictions scaled down where a
     fitted χ² lies far below its own)
     the others stay screened and no coarse scan is made; else the full search runs: coarse scans of
-    every candidate (refine=naming.SCREEN_REFINE), as search="full" does."""
-    from beamslider.discover import naming
+    every candidate (refine=options.screen_refine), as search="full" does."""
     from beamslider.discover.effects import EFFECTS
-    from beamslider.discover.fast import TIER_MARGIN, tiered_singles
+    from beamslider.discover.options import DEFAULT
+    from beamslider.discover.search import tiered
+    from beamslider.discover.search.tiered import tiered_singles
+
+    TIER_MARGIN = DEFAULT.tier_margin
 
     names = ["friction_coefficient", "natural_frequency_detuning", "tilt", "clearance"]
     cands = [EFFECTS[n] for n in names]
@@ -464,53 +510,52 @@ def test_the_tier_fits_the_best_predicted_and_falls_back_to_the_full_search(monk
     assert not ok and fitted == names[:2]   # the fits made in full are returned, for the full search to keep
     assert [f.effects[0] for f in fits if not f.linearised] == names[:2]
 
-    # Through _fit_sets: settled -> no coarse scan; not settled -> every candidate scanned coarsely.
+    # Through the strategy: settled -> no coarse scan; not settled -> every candidate scanned coarsely.
     calls = []
 
     def fake_fit(effects, *a, refine=2, **kw):
         calls.append((tuple(e.name for e in effects), refine))
         return fake(effects[0].name)
 
-    monkeypatch.setattr(naming, "profile_fit", fake_fit)
     pred = dict(friction_coefficient=(9.0, 0.0), natural_frequency_detuning=(60.0, 0.0), tilt=(60.0, 0.0),
                 clearance=(80.0, 0.0))
     for settled in (True, False):
         calls.clear()
-        fits = naming._fit_sets(cands, 2, "slider", bs.Parameters(), {f"f{i}": None for i in range(11)}, None, None, 0,
-                                done=lambda s: settled, predict=lambda: pred, tier=True, guide=lambda: [])
-        coarse = [c for c in calls if c[1] == naming.SCREEN_REFINE]
+        fits = tiered.search(FakeProblem(fake_fit, cands, done=lambda s: settled, pred=pred, guide=lambda: []),
+                             cands, DEFAULT)
+        coarse = [c for c in calls if c[1] == DEFAULT.screen_refine]
         assert calls[0] == (("friction_coefficient",), 2)
         assert (coarse == []) if settled else (len(coarse) == len(names))
         assert len([f for f in fits if f.linearised]) == (len(names) - 1 if settled else 0)
     # At most single effects (max_effects 1): a complete tier settles, no set could be fitted.
     calls.clear()
-    naming._fit_sets(cands, 1, "slider", bs.Parameters(), {f"f{i}": None for i in range(11)}, None, None, 0,
-                     done=lambda s: False, predict=lambda: pred, tier=True)
+    tiered.search(FakeProblem(fake_fit, cands, max_effects=1, pred=pred), cands, DEFAULT)
     assert not any(r == 0 for _, r in calls)
 
 
 def _coarse_or_full(coarse, full, calls):
-    """A stand-in for naming.profile_fit: each single candidate's χ² from ``coarse`` for the full
-    search's coarse scan (refine=naming.SCREEN_REFINE), else from ``full``; each call logged in ``calls``."""
-    from beamslider.discover import naming
+    """A stand-in for the problem's fits: each single candidate's χ² from ``coarse`` for the full
+    search's coarse scan (refine=options.screen_refine), else from ``full``; each call logged in ``calls``."""
+    from beamslider.discover.options import DEFAULT
 
     def fit(effects, *a, refine=2, **kw):
         n = effects[0].name
         calls.append((n, refine))
-        c2 = coarse[n] if refine == naming.SCREEN_REFINE else full[n]
+        c2 = coarse[n] if refine == DEFAULT.screen_refine else full[n]
         return CandidateFit((n,), {n: 0.0}, {n: 0.01}, c2, 10, True, c2)
 
     return fit
 
 
 def test_the_full_search_keeps_a_fit_the_tier_made_in_full(monkeypatch):
-    """naming._fit_sets (docs/model.md §9.1, "Cost"): where the tier does not settle, the full search's
+    """search.tiered (docs/model.md §9.1, "Cost"): where the tier does not settle, the full search's
     coarse scans screen each candidate, but one the tier fitted in full keeps that fit though its
     coarse χ² is beyond the margin (single runs on the grid missing a valley between its points, as a
     tilt of 8 mrad at another slider start: coarse χ² 59, the baseline's, predicted 10.6, ensembles
     near the truth 6–16). The others are fitted in full only within the margin."""
-    from beamslider.discover import naming
     from beamslider.discover.effects import EFFECTS
+    from beamslider.discover.options import DEFAULT
+    from beamslider.discover.search import tiered
 
     names = ["friction_coefficient", "natural_frequency_detuning", "tilt", "clearance", "restitution"]
     cands = [EFFECTS[n] for n in names]
@@ -518,21 +563,20 @@ def test_the_full_search_keeps_a_fit_the_tier_made_in_full(monkeypatch):
                   restitution=90.0)
     full = dict(friction_coefficient=4.0, natural_frequency_detuning=25.0, tilt=33.0, clearance=38.0, restitution=80.0)
     calls = []
-    monkeypatch.setattr(naming, "profile_fit", _coarse_or_full(coarse, full, calls))
-    cut = max(sorted(coarse.values())[0] + naming.SCREEN_MARGIN, sorted(coarse.values())[naming.SCREEN_KEEP - 1])
+    fit = _coarse_or_full(coarse, full, calls)
+    cut = max(sorted(coarse.values())[0] + DEFAULT.screen_margin, sorted(coarse.values())[DEFAULT.screen_keep - 1])
     assert coarse["friction_coefficient"] > cut   # the coarse scan alone would screen it out
     # The tier not complete: friction predicted best but 26 above its fit, the others' predictions
     # so scaled (4/30) within the margin; or more candidates predicted near than the tier may fit in
-    # full (FAST_KEEP, 3).
+    # full (options.fast_keep, 3).
     for pred in (dict(friction_coefficient=(30.0, 0.0), natural_frequency_detuning=(60.0, 0.0), tilt=(60.0, 0.0),
                       clearance=(80.0, 0.0), restitution=(90.0, 0.0)),
                  dict(friction_coefficient=(4.5, 0.0), natural_frequency_detuning=(5.0, 0.0), tilt=(6.0, 0.0),
                       clearance=(7.0, 0.0), restitution=(90.0, 0.0))):
         calls.clear()
-        fits = naming._fit_sets(cands, 2, "slider", bs.Parameters(), {f"f{i}": None for i in range(11)}, None, None,
-                                0, done=lambda s: True, predict=lambda: pred, tier=True)
+        fits = tiered.search(FakeProblem(fit, cands, done=lambda s: True, pred=pred), cands, DEFAULT)
         by = {f.effects[0]: f for f in fits}
-        assert ("clearance", naming.SCREEN_REFINE) in calls  # the full search's coarse scans ran
+        assert ("clearance", DEFAULT.screen_refine) in calls  # the full search's coarse scans ran
         assert not by["friction_coefficient"].screened and by["friction_coefficient"].chi2 == 4.0
         assert calls.count(("friction_coefficient", 2)) == 1   # the tier's fit, not made again
         assert all(by[n].screened == (coarse[n] > cut) for n in names if n != "friction_coefficient")
@@ -540,14 +584,17 @@ def test_the_full_search_keeps_a_fit_the_tier_made_in_full(monkeypatch):
 
 
 def test_a_fourth_tier_fit_leaves_the_full_search_as_a_tier_of_three_would(monkeypatch):
-    """naming._fit_sets with fast.TIER_KEEP = 4 and TIER_SHARED = 3 (docs/model.md §9.1, "Cost"): a
+    """search.tiered with options.tier_keep = 4 and tier_shared = 3 (docs/model.md §9.1, "Cost"): a
     tier that fits four candidates and does not settle hands the full search its first three fits by
     prediction; the fourth enters as its coarse scan (here beyond the margin, so screened out, though
     its full fit was the best), and the full search's fits are those after a tier of three fits."""
-    from beamslider.discover import fast, naming
-    from beamslider.discover.effects import EFFECTS
+    import dataclasses
 
-    assert fast.TIER_KEEP == 4 and fast.TIER_SHARED == 3
+    from beamslider.discover.effects import EFFECTS
+    from beamslider.discover.options import DEFAULT
+    from beamslider.discover.search import tiered
+
+    assert DEFAULT.tier_keep == 4 and DEFAULT.tier_shared == 3
     names = ["friction_coefficient", "natural_frequency_detuning", "tilt", "clearance", "restitution"]
     cands = [EFFECTS[n] for n in names]
     coarse = dict(friction_coefficient=10.0, natural_frequency_detuning=30.0, tilt=35.0, clearance=200.0,
@@ -557,12 +604,12 @@ def test_a_fourth_tier_fit_leaves_the_full_search_as_a_tier_of_three_would(monke
     pred = dict(friction_coefficient=(4.5, 0.0), natural_frequency_detuning=(5.0, 0.0), tilt=(6.0, 0.0),
                 clearance=(7.0, 0.0), restitution=(90.0, 0.0))
     calls = []
-    monkeypatch.setattr(naming, "profile_fit", _coarse_or_full(coarse, full, calls))
+    fit = _coarse_or_full(coarse, full, calls)
 
-    def run():
+    def run(options=DEFAULT):
         calls.clear()
-        fits = naming._fit_sets(cands, 1, "slider", bs.Parameters(), {f"f{i}": None for i in range(11)}, None, None,
-                                0, done=lambda s: True, predict=lambda: pred, tier=True)
+        fits = tiered.search(FakeProblem(fit, cands, max_effects=1, done=lambda s: True, pred=pred, options=options),
+                             cands, options)
         return [(f.effects, f.chi2, f.screened) for f in fits], list(calls)
 
     fits4, calls4 = run()
@@ -570,21 +617,22 @@ def test_a_fourth_tier_fit_leaves_the_full_search_as_a_tier_of_three_would(monke
     by = {f[0][0]: f for f in fits4}
     assert by["clearance"][1:] == (200.0, True)   # its coarse scan, not the tier's fit (3.0)
     assert all(by[n][1:] == (full[n], False) for n in names[:3])
-    real = fast.tiered_singles
-    monkeypatch.setattr(naming, "tiered_singles", lambda c, p, f, n: real(c, p, f, n, keep=3))
-    fits3, calls3 = run()
+    fits3, calls3 = run(dataclasses.replace(DEFAULT, tier_keep=3))
     assert fits3 == fits4 and ("clearance", 2) not in calls3
 
 
 def test_the_tier_settles_a_named_single_only_if_no_pair_with_it_is_predicted_to_gain():
-    """fast.no_pair_gains: the pairs that could change a named single's verdict contain it (the
+    """tiered.no_pair_gains: the pairs that could change a named single's verdict contain it (the
     forward selection extends the named single); each is predicted by a Gauss–Newton step from the
     single's fitted point with the other effect at its baseline. A predicted gain of the least
     threshold (6.63) or more sends the search on; smaller gains everywhere settle it. Through
-    _fit_sets: settled without coarse scans or pairs."""
-    from beamslider.discover import naming
+    the strategy: settled without coarse scans or pairs."""
+    import dataclasses
+
     from beamslider.discover.effects import EFFECTS
-    from beamslider.discover.fast import no_pair_gains
+    from beamslider.discover.options import DEFAULT
+    from beamslider.discover.search import tiered
+    from beamslider.discover.search.common import no_pair_gains
 
     p = bs.Parameters()
     names = ["friction_coefficient", "natural_frequency_detuning", "tilt"]
@@ -616,19 +664,14 @@ def test_the_tier_settles_a_named_single_only_if_no_pair_with_it_is_predicted_to
         return next((f for f in singles if f.effects == names_),
                     CandidateFit(names_, {e: 0.0 for e in names_}, {}, 50.0, 11, True, 50.0))
 
-    monkeypatch = pytest.MonkeyPatch()
-    monkeypatch.setattr(naming, "profile_fit", fake_fit)
-    try:
-        pred = dict(friction_coefficient=(15.0, 0.25), natural_frequency_detuning=(80.0, 1.0), tilt=(80.0, 0.0))
-        for gain, settled in ((1.0, True), (9.0, False)):
-            calls.clear()
-            naming._fit_sets([EFFECTS[n] for n in names], 2, "slider", p, {f"f{i}": None for i in range(13)}, None,
-                             None, 0, done=lambda s: False, predict=lambda: pred, tier=True, named=lambda s: best,
-                             step=step(dict(tilt=gain)),
-                             guide=lambda: [(("friction_coefficient", "tilt"), 0.0)])  # a pair predicted to win
-            assert (calls == [(("friction_coefficient",), 2)]) == settled, calls  # else the full search
-    finally:
-        monkeypatch.undo()
+    pred = dict(friction_coefficient=(15.0, 0.25), natural_frequency_detuning=(80.0, 1.0), tilt=(80.0, 0.0))
+    cands = [EFFECTS[n] for n in names]
+    for gain, settled in ((1.0, True), (9.0, False)):
+        calls.clear()
+        problem = FakeProblem(fake_fit, cands, n=13, pred=pred, named=lambda s: best, step=step(dict(tilt=gain)),
+                              guide=lambda: [(("friction_coefficient", "tilt"), 0.0)])  # a pair predicted to win
+        tiered.search(problem, cands, dataclasses.replace(DEFAULT, screen_from=2))
+        assert (calls == [(("friction_coefficient",), 2)]) == settled, calls  # else the full search
 
 
 def test_a_gauss_newton_step_from_the_pass_point_predicts_the_refined_chi2():
@@ -637,7 +680,8 @@ def test_a_gauss_newton_step_from_the_pass_point_predicts_the_refined_chi2():
     the pass's mode terms kept)."""
     from beamslider.discover.effects import EFFECTS
     from beamslider.discover.features import Feature
-    from beamslider.discover.refine import STEP_MOVES, step_chi2
+    from beamslider.discover.options import DEFAULT
+    from beamslider.discover.refine import step_chi2
     from beamslider.discover.separability import bumped
 
     base = bs.Parameters()
@@ -645,7 +689,7 @@ def test_a_gauss_newton_step_from_the_pass_point_predicts_the_refined_chi2():
     keys = [f"f{i}" for i in range(5)]
     cols = {"friction_coefficient": [10.0, 8.0, 12.0, 5.0, 10.0], "natural_frequency_detuning": [9.0, 10.0, 10.0, 6.0, -11.0]}
     noise = np.array([0.3, -0.2, 0.1, 0.0, -0.1])
-    d = {n: bumped(EFFECTS[n], base, STEP_MOVES) - EFFECTS[n].baseline_value(base) for n in names}
+    d = {n: bumped(EFFECTS[n], base, DEFAULT.linear_steps) - EFFECTS[n].baseline_value(base) for n in names}
     truth = {n: EFFECTS[n].baseline_value(base) + x * d[n] for n, x in zip(names, (0.4, -0.3))}
 
     def features(vals):
@@ -686,11 +730,14 @@ def test_the_joint_refinement_goes_to_every_set_predicted_to_come_near_the_best(
 
 
 def test_staged_sets_are_refined_by_the_predicted_step(monkeypatch):
-    """naming._fit_sets with more sets than JOINT_SETS: every set gets the coordinate pass; the joint
+    """search.full with more sets than options.joint_sets: every set gets the coordinate pass; the joint
     refinement goes to the fixed ones and to the set whose predicted step brings it near the best,
     and the report's record says which."""
-    from beamslider.discover import naming
+    import dataclasses
+
     from beamslider.discover.effects import EFFECTS
+    from beamslider.discover.options import DEFAULT
+    from beamslider.discover.search import full
 
     names = ["friction_coefficient", "natural_frequency_detuning", "tilt", "clearance", "slider_mass"]
     cands = [EFFECTS[n] for n in names]
@@ -706,29 +753,28 @@ def test_staged_sets_are_refined_by_the_predicted_step(monkeypatch):
                                                (10.0 if key == hidden else pass_of[key] - 1))
         return CandidateFit(tuple(e.name for e in effects), {e.name: 0.0 for e in effects}, {}, c2, 10, False, c2)
 
-    monkeypatch.setattr(naming, "profile_fit", fake_fit)
-    monkeypatch.setattr(naming, "SCREEN_FROM", 10)
+    options = dataclasses.replace(DEFAULT, screen_from=10)   # every single fitted in full
     first = [("friction_coefficient", "tilt"), ("friction_coefficient", "clearance"),
              ("friction_coefficient", "natural_frequency_detuning"), ("natural_frequency_detuning", "slider_mass")]
     ranked = [(p, 50.0) for p in first + [p for p in itertools.combinations(names, 2) if p not in first]]
-    record = []
-    fits = naming._fit_sets(cands, 2, "slider", bs.Parameters(), {f"f{i}": None for i in range(14)}, None, None, 0,
-                            guide=lambda: ranked, done=lambda s: False,
-                            step=lambda f: 45.0 if frozenset(f.effects) == hidden else f.chi2 + 20, record=record)
+    problem = FakeProblem(fake_fit, cands, n=14, guide=lambda: ranked, options=options,
+                          step=lambda f: 45.0 if frozenset(f.effects) == hidden else f.chi2 + 20)
+    fits = full.search(problem, cands, options)
+    record = problem.record.refined
     refined = {k for k, j in calls if j is None and len(k) == 2}
-    assert hidden in refined and len(refined) == naming.JOINT_SETS + 1
+    assert hidden in refined and len(refined) == DEFAULT.joint_sets + 1
     assert min(f.chi2 for f in fits if len(f.effects) == 2) == 10.0
     assert {frozenset(r["effects"]) for r in record if r["refined"]} == refined
     assert [r["chi2"] for r in record if frozenset(r["effects"]) == hidden] == [10.0]
 
 
 def test_the_fast_path_leaves_out_mode_features_where_the_baseline_misses_the_data_mode():
-    """fast.predict_singles: at an operating point where none of the baseline's runs ends in the
+    """linearised.predict_singles: at an operating point where none of the baseline's runs ends in the
     data's mode, the end-state features' changes from the baseline's run are those of a run in
     another mode (a mode switch: hundreds of uncertainties), no signature of the candidate; they
     count as they are, and the candidate is predicted from the other features (here: exactly)."""
     from beamslider.discover.effects import EFFECTS
-    from beamslider.discover.fast import predict_singles
+    from beamslider.discover.separability import predict_singles
 
     p = bs.Parameters()
     tag = "126Hz_10ms2_s00.3"
@@ -747,9 +793,9 @@ def test_the_fast_path_leaves_out_mode_features_where_the_baseline_misses_the_da
 
 
 def test_the_pair_ranking_leaves_out_mode_features_the_baseline_misses():
-    """verdicts.rank_pairs with ``frozen``: a mode feature whose signature is a mode switch (huge)
+    """separability.rank_pairs with ``frozen``: a mode feature whose signature is a mode switch (huge)
     makes the true pair look bad; counted as it is, the true pair ranks first."""
-    from beamslider.discover.verdicts import rank_pairs
+    from beamslider.discover.separability import rank_pairs
 
     sens = {"a": {"x": 1.0, "y": 0.0, "m": -900.0}, "b": {"x": 0.0, "y": 1.0, "m": 400.0},
             "c": {"x": 0.5, "y": 0.5, "m": 0.0}}

@@ -289,10 +289,10 @@ def test_long_commands_report_progress_in_a_log(tmp_path, monkeypatch, capsys):
                        cwd=tmp_path, capture_output=True, text=True, env=env, timeout=120)
     assert r.returncode == 0, r.stderr
     assert "beamslider: map 2/2 pts (100 %)" in r.stderr and "\r" not in r.stderr
-    from beamslider.discover.naming import _progress_bar
+    from beamslider.discover.progress import progress_bar
 
     monkeypatch.setenv("BEAMSLIDER_PROGRESS_INTERVAL_S", "0")
-    bar = _progress_bar(None, 4, "discover (slider): fits")  # what `discover --measured` gets in a job log
+    bar = progress_bar(None, 4, "discover (slider): fits")  # what `discover --measured` gets in a job log
     bar.update(1)
     bar.close()
     assert "beamslider: discover (slider): fits 1/4 fit (25 %)" in capsys.readouterr().err

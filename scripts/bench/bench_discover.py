@@ -86,13 +86,13 @@ def stage_of(frames) -> str:
             return "advice"
         if name == "gauss_newton":
             return "sets: joint refinement"
-        if name == "after_of":
+        if name in ("after_of", "simulate"):
             return "full simulation of the named set"
         if name == "profile_fit":
             if len(loc.get("effects", ())) >= 2:
                 return "sets: coordinate pass"
-            return "singles: coarse scan" if loc.get("refine") == 0 else "singles: full fit"
-        if name == "discover":
+            return "singles: coarse scan" if loc.get("refine") == loc["options"].screen_refine else "singles: full fit"
+        if name in ("build", "discover"):
             return "baseline ensemble"
     return "other"
 

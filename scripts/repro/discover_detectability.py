@@ -31,7 +31,8 @@ import numpy as np
 
 import beamslider as bs
 from beamslider import discover as dc
-from beamslider.discover import fitting, models
+from beamslider.discover import models, stats
+from beamslider.discover.options import DEFAULT
 
 OPS = [(104.0, 14.0, 0.3), (126.0, 10.0, 0.3), (124.0, 14.0, 0.3)]
 P = bs.Parameters()
@@ -39,15 +40,15 @@ P = bs.Parameters()
 
 def baseline_test(runs) -> Dict[str, float]:
     """The baseline's test as `discover` makes it before any fit: χ², feature count, the largest
-    |z|, the 99 % quantile, adequacy, the gap beyond the noise (`discover.fitting.baseline_test`)."""
+    |z|, the 99 % quantile, adequacy, the gap beyond the noise (`discover.stats.baseline_test`)."""
     meas, _, ops = models.measured_slider_features(runs)
-    modes = models.data_modes(meas) if fitting.MODE_CONDITIONING else None
+    modes = models.data_modes(meas) if DEFAULT.mode_conditioning else None
     ens = models.ensemble_slider_features([P], ops, modes=modes)[0]
     if ens is None:
         raise bs.SimulationError("the prototype's runs failed")
-    t = fitting.baseline_test(ens.mean, meas, ens.spread, len(models.ENSEMBLE_S0_SHIFTS), modes, ens.mode_counts)
-    return dict(chi2=t.chi2, n=t.n, z=t.z_worst, limit=fitting.chi2_quantile(t.n), fits=t.fits,
-                excess=fitting.excess(t.chi2, t.n, t.n))
+    t = stats.baseline_test(ens.mean, meas, ens.spread, len(models.ENSEMBLE_S0_SHIFTS), modes, ens.mode_counts)
+    return dict(chi2=t.chi2, n=t.n, z=t.z_worst, limit=stats.chi2_quantile(t.n), fits=t.fits,
+                excess=stats.excess(t.chi2, t.n, t.n))
 
 
 def parse_truth(text: str) -> Dict[str, float]:

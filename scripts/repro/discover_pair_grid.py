@@ -22,7 +22,7 @@ import numpy as np
 
 import beamslider as bs
 from beamslider import discover as dc
-from beamslider.discover.fitting import _chi2_terms
+from beamslider.discover.stats import chi2_terms
 from beamslider.discover.models import data_modes, ensemble_slider_features, measured_slider_features
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -64,7 +64,7 @@ def main() -> int:
             print(p, "runs failed")
             continue
         sig = np.sqrt(se ** 2 + (1 + 1 / e.runs) * np.array([e.spread.get(k, 0.0) for k in names]) ** 2)
-        c2 = _chi2_terms(e.mean, names, y, sig, modes, e.mode_counts, e.runs)
+        c2 = chi2_terms(e.mean, names, y, sig, modes, e.mode_counts, e.runs)
         z = " ".join(f"{k}={(e.mean.get(k, math.nan) - v) / s:.1f}" for k, v, s in zip(names, y, sig))
         print(f"{dict(zip(effects, p))}: chi2 {c2:.2f}; runs in the data's mode {e.mode_counts}; z {z}", flush=True)
     print(f"CPU {time.process_time() - c0:.0f} s")

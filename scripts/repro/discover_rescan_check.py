@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Whether the rescan of a rough one-effect fit (docs/model.md §9.1, "One effect": fitting.ROUGH_RESCAN)
+"""Whether the rescan of a rough one-effect fit (docs/model.md §9.1, "One effect": DiscoverOptions.rough_rescan)
 or the full search's keeping of the tier's fits ("Cost") acts on a case of the discover table: the
 case's data as `discover_table.py` makes them (60-s runs at the reference points plus the case's advised
 run, seed 3, the truth runs S0_OFFSET off), one discover with the case's candidates, the search
@@ -13,7 +13,9 @@ import json, sys, tempfile, time
 from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from beamslider import discover as dc
-from beamslider.discover import naming, refine
+from beamslider.discover import problem, refine
+from beamslider.discover.options import DEFAULT
+from beamslider.discover.search import common, tiered
 from discover_table import CASES, OPS, P, case_runs, truth_values
 
 if len(sys.argv) != 4 or sys.argv[1] not in CASES:
@@ -32,35 +34,35 @@ def rj(effs, u, *a, **k):
     return orig_rj(effs, u, *a, **k)
 refine.refine_jointly = rj
 tier = {}
-orig_ts = naming.tiered_singles
+orig_ts = tiered.tiered_singles
 def ts(cands, pred, fit, n, *a, **k):
     fits, ok = orig_ts(cands, pred, fit, n, *a, **k)
     tier.update({f.effects[0]: f.chi2 for f in fits if not f.screened})
     return fits, ok
-naming.tiered_singles = ts
+tiered.tiered_singles = ts
 coarse = {}
-orig_pf = naming.profile_fit
-def pf(effs, *a, refine=2, **k):
+orig_pf = problem.profile_fit
+def pf(effs, *a, refine=None, **k):
     f = orig_pf(effs, *a, refine=refine, **k)
-    if len(effs) == 1 and refine == naming.SCREEN_REFINE:
+    if len(effs) == 1 and refine == DEFAULT.screen_refine:
         coarse[effs[0].name] = f.chi2
     return f
-naming.profile_fit = pf
+problem.profile_fit = pf
 def kept():
     if not coarse:
         return []
     best = sorted(coarse.values())
-    cut = max(best[0] + naming.SCREEN_MARGIN, best[min(naming.SCREEN_KEEP, len(best)) - 1])
+    cut = max(best[0] + DEFAULT.screen_margin, best[min(DEFAULT.screen_keep, len(best)) - 1])
     return [f"tier-kept {n}: coarse {coarse[n]:.1f} > cut {cut:.1f}, tier fit {c2:.1f}"
             for n, c2 in tier.items() if n in coarse and coarse[n] > cut]
 class Stop(Exception):
     pass
-orig_ptf = naming.pairs_to_fit
+orig_ptf = common.pairs_to_fit
 def ptf(*a, **k):
     if not trig and not kept():
         raise Stop
     return orig_ptf(*a, **k)
-naming.pairs_to_fit = ptf
+common.pairs_to_fit = ptf
 t0, c0 = time.perf_counter(), time.process_time()
 try:
     d = dc.discover(measured=runs, baseline=P, effects=effects, max_effects=2)

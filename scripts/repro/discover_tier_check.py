@@ -27,7 +27,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from beamslider import _core  # noqa: E402
 from beamslider import discover as dc  # noqa: E402
-from beamslider.discover import naming  # noqa: E402
+from beamslider.discover import problem  # noqa: E402
+from beamslider.discover.options import DEFAULT  # noqa: E402
 from discover_table import CASES, OPS, P, case_runs, truth_values  # noqa: E402
 
 S0_OFFSET = 0.0015
@@ -74,11 +75,11 @@ def main() -> int:
                     help=f"the truth runs' slider start off the files' s0 ({S0_OFFSET:g}, the table's)")
     args = ap.parse_args()
     known = table_verdicts(args.table)
-    real_fit, real_batch = naming.profile_fit, _core.run_free_slider_batch
+    real_fit, real_batch = problem.profile_fit, _core.run_free_slider_batch
     runs_done = [0]
 
-    def fit(effects, *a, refine=2, **kw):
-        if refine == naming.SCREEN_REFINE:
+    def fit(effects, *a, refine=None, **kw):
+        if refine == DEFAULT.screen_refine:
             raise Escalated
         return real_fit(effects, *a, refine=refine, **kw)
 
@@ -88,7 +89,7 @@ def main() -> int:
 
     rows = ["| case | the table (full search) | tiered search | named − truth, in standard errors | runs | CPU s | agrees |",
             "|---|---|---|---|---|---|---|"]
-    naming.profile_fit, _core.run_free_slider_batch = fit, batch
+    problem.profile_fit, _core.run_free_slider_batch = fit, batch
     try:
         for key in args.cases.split(","):
             label, spec, effects = CASES[key]
@@ -118,7 +119,7 @@ def main() -> int:
             rows.append(f"| {label} | {want}: {want_named} | {said} | {off} | {runs_done[0]} | {cpu:.0f} | {agree} |")
             print(rows[-1], flush=True)
     finally:
-        naming.profile_fit, _core.run_free_slider_batch = real_fit, real_batch
+        problem.profile_fit, _core.run_free_slider_batch = real_fit, real_batch
     if args.out is not None:
         other = args.s0_offset != S0_OFFSET
         signed = f"{'+' if args.s0_offset >= 0 else '−'} {abs(args.s0_offset):g}"

@@ -35,9 +35,13 @@ def add_parser(sub: Any) -> None:
                          "every candidate; 'fast' screens and fits one pair at most (it may miss effects the full search "
                          "names, docs/model.md §9.1)")
     sp.add_argument("--fast", action="store_true", help="the same as --search fast")
-    sp.add_argument("--gap-ratio", type=float, default=0.3, metavar="R",
+    sp.add_argument("--gap-ratio", type=float, default=None, metavar="R",
                     help="a named effect must leave at most this share of the gap beyond the noise, "
                          "sqrt(max(chi2 - E[chi2], 0)/n) (0.3), else 'unexplained'")
+    sp.add_argument("--option", metavar="KEY=VALUE", action="append", default=[],
+                    help="a tuning value of the search or the rule (beamslider.discover.DiscoverOptions, each with "
+                         "its section of docs/model.md §9), e.g. --option tier_keep=3 --option significance=0.005; "
+                         "an unknown key is an error; report.json records them all (options)")
     sp.add_argument("--seed", type=int, default=0, help="noise seed of the paper's synthetic case (0)")
     sp.add_argument("--advice-grid", metavar="LIST",
                     help="slider level: operating points f_ex,a_ex,s0 separated by ';' among which the separability "
@@ -124,16 +128,38 @@ def _points(text: str, option: str = "--points") -> List[Tuple[float, float, flo
     return out
 
 
+def _options(items: List[str]) -> Any:
+    """--option KEY=VALUE ... as a DiscoverOptions (values read as Python literals)."""
+    import ast
+
+    from ..discover import DiscoverOptions
+
+    given: Dict[str, Any] = {}
+    for item in items:
+        key, eq, text = item.partition("=")
+        if not eq or not key.strip():
+            raise UserError(f"--option {item!r}: give KEY=VALUE")
+        try:
+            given[key.strip()] = ast.literal_eval(text.strip())
+        except (ValueError, SyntaxError):
+            raise UserError(f"--option {item!r}: the value must be a number, True/False or a tuple") from None
+    try:
+        return DiscoverOptions.of(given)
+    except (ValueError, TypeError) as e:
+        raise UserError(f"--option: {e}") from None
+
+
 def cmd_discover(args: argparse.Namespace) -> int:
     from .. import discover as dc
     from .. import enma
     from ..measurement import read_measurement
 
+    options = _options(args.option)
     effects = [e.strip() for e in args.effects.split(",") if e.strip()] if args.effects else None
     advice = None
     if args.advice_grid is not None:
         advice = [] if args.advice_grid.strip().lower() == "none" else _points(args.advice_grid, "--advice-grid")
-    if not (0 < args.gap_ratio <= 1):
+    if args.gap_ratio is not None and not (0 < args.gap_ratio <= 1):
         raise UserError(f"--gap-ratio {args.gap_ratio}: must be in (0, 1]")
     plan_outputs(args, REPORT_FILES)  # nothing replaced without --force, before the fit runs
     t0 = time.perf_counter()
@@ -156,23 +182,23 @@ def cmd_discover(args: argparse.Namespace) -> int:
         runs = [read_measurement(p) for p in args.measured]
         d = dc.discover(enma_data=enma.read(args.enma), measured=runs, baseline=baseline, effects=effects,
                         max_effects=args.max_effects, gap_ratio=args.gap_ratio, progress=prog, advice_grid=advice,
-                        runs_file=store)
+                        runs_file=store, options=options)
     elif args.enma:
         baseline = Parameters.from_toml(args.params) if args.params else Parameters()
         d = dc.discover(enma_data=enma.read(args.enma), baseline=baseline, effects=effects, max_effects=args.max_effects,
-                        gap_ratio=args.gap_ratio)
+                        gap_ratio=args.gap_ratio, options=options)
     elif args.measured:
         baseline = Parameters.from_toml(args.params) if args.params else Parameters()
         runs = [read_measurement(p) for p in args.measured]
         d = dc.discover(measured=runs, baseline=baseline, effects=effects, max_effects=args.max_effects,
                         gap_ratio=args.gap_ratio, progress=prog, advice_grid=advice, search=args.search,
-                        runs_file=store)
+                        runs_file=store, options=options)
     else:
         baseline = (Parameters.from_toml(args.params) if args.params
                     else Parameters(k_r_nm_per_rad=math.inf, k_t_n_per_m=math.inf))
         data = dc.synthesize_enma(Parameters(), seed=args.seed)
         d = dc.discover(enma_data=data, baseline=baseline, effects=effects, max_effects=args.max_effects,
-                        gap_ratio=args.gap_ratio)
+                        gap_ratio=args.gap_ratio, options=options)
     out = out_dir(args)
     written = dc.write_report(d, out)
     print((out / "report.md").read_text(encoding="utf-8").split("\n| feature")[0].rstrip())

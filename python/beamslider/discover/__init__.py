@@ -10,7 +10,9 @@ model is missing, add it, and show the disagreement shrink.
 2. **Candidate effects** (:data:`EFFECTS`), each a real extension of the model with a parameter,
    bounds and the features it moves, and the measurement chain's calibrations (:mod:`.chain`,
    docs/model.md §9.1: excitation level, velocity gain, camera offset and scale, time base).
-3. **Naming** (:func:`discover`): every candidate and pairs of them are fitted to the disagreement
+3. **Naming** (:func:`discover`: the problem, :mod:`.problem`; a search strategy, :mod:`.search`; the
+   rule, :mod:`.rule`, stated once in docs/model.md §9, "Naming rule"; the tuning values,
+   :class:`DiscoverOptions`): every candidate and pairs of them are fitted to the disagreement
    (weighted least squares, χ² with the feature uncertainties). Criterion: nothing is named when
    the baseline agrees (χ² ≤ the 99 % quantile of χ²(n)); otherwise forward selection by
    likelihood-ratio tests with the measurement noise: the best single effect is named if it lowers
@@ -24,7 +26,7 @@ model is missing, add it, and show the disagreement shrink.
    "unexplained — best candidate X, not resolved", with advice); single candidates that fit equally
    by moving the features alike are reported as a ``confounded`` group, and so is a named set
    that a single effect of the library (a candidate or not: screened in the linearised model,
-   confirmed by its full fit) fits as well (:mod:`.verdicts`). Slider level: a model's features
+   confirmed by its full fit) fits as well (:mod:`.confounding`). Slider level: a model's features
    are the mean of an ensemble of runs from
    s0 + (0, ±0.001, ±0.002), their spread part of the uncertainty (the final state of a long run
    depends on such unresolvable perturbations). The end-state features are bimodal across such
@@ -46,9 +48,12 @@ Gauss–Newton on ensemble means, each step confirmed by runs); with many candid
 screened and the pairs chosen by the linearised model (docs/model.md §9.1, "Sets of effects", "Cost").
 
 The package is split by step: :mod:`.features` (1), :mod:`.effects` and :mod:`.chain` (2),
-:mod:`.models` (the model side of the features), :mod:`.naming`, :mod:`.refine`, :mod:`.spread` and :mod:`.verdicts` (3),
-:mod:`.report` (4), :mod:`.synthesize` (5), :mod:`.separability` (identifiability) and
-:mod:`.runstore` (the runs a discover keeps on disk); every public name is re-exported here.
+:mod:`.models` (the model side of the features), :mod:`.workflow` (:func:`discover`), the search
+:mod:`.search` with :mod:`.fitting`, :mod:`.refine` and :mod:`.spread`, the statistics :mod:`.stats`,
+the rule :mod:`.rule` with :mod:`.confounding` and :mod:`.advice` (3), the result types
+:mod:`.result` and :mod:`.report` (4), :mod:`.synthesize` (5), :mod:`.separability`
+(identifiability) and :mod:`.runstore` (the runs a discover keeps on disk); every public name is
+re-exported here.
 """
 
 from __future__ import annotations
@@ -57,8 +62,10 @@ from .features import DESCRIPTIONS, enma_features, Feature, FLOORS, slider_featu
 from .effects import CHAIN_EFFECTS, realise_effects, Effect, EFFECTS
 from .chain import Model, realise_model
 from .models import beam_surrogate, measured_slider_features, model_slider_features, OperatingPoint, simulated_enma_features
-from .fitting import CandidateFit, Discovery, GAP_MEASURE, SIGNIFICANCE
-from .naming import discover
+from .options import DiscoverOptions
+from .result import Because, CandidateFit, Discovery, GAP_MEASURE, Kind, Verdict
+from .stats import SIGNIFICANCE
+from .workflow import discover
 from .runstore import RunStore
 from .synthesize import synthesize_enma, synthesize_slider_runs, truth_from_toml, truth_from_toml_text
 from .report import fmt_value, verdict_line, write_report
@@ -71,4 +78,5 @@ __all__ = [
     "synthesize_slider_runs", "truth_from_toml", "truth_from_toml_text", "write_report", "verdict_line",
     "separability", "slider_sensitivities",
     "realise_effects", "fmt_value", "CHAIN_EFFECTS", "Model", "realise_model", "RunStore",
+    "DiscoverOptions", "Kind", "Because", "Verdict",
 ]

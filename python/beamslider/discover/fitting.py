@@ -1,260 +1,33 @@
-"""Fitting the candidate effects for naming the missing effect: weighted least-squares fits of a
-candidate or a set, the χ² criterion with mode conditioning, profile-likelihood intervals and
-forward selection by likelihood-ratio tests (see the package docstring); the search is :mod:`.naming`."""
+"""Fitting the candidate effects: weighted least-squares fits of a candidate or a set (beam level)
+and the profile fit of the free-slider runs (slider level) with its profile-likelihood intervals
+(docs/model.md §9.1, "One effect", "Sets of effects"); the statistics are :mod:`.stats`, the search
+:mod:`.search`."""
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
 from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
 from .. import _core
-from .._json import json_safe as _json_safe
 from ..params import Parameters
 from .chain import Model, as_model, realise_model
 from .effects import Effect, apply_effects
 from .features import Feature
-from .models import Ensemble, Modes, data_modes, is_mode_feature, mode_penalty, run_mode, tag_of
-from .spread import _parabola_scatter, _roughness, pooled_spread  # noqa: F401 (re-exported)
-
-
-SIGNIFICANCE = 0.01
-
-
-INTERVAL_LEVEL = 0.95
-"""Confidence level of the interval that must exclude a parameter's baseline value before it is
-named (docs/model.md §9.1, "Resolved"): the profile's Δχ² = z² interval of one effect, the Wald
-interval ± z·se of a set, z = 1.96."""
-
-
-JOINT_REFINEMENT = True
-"""Slider level, sets of two or more effects: after the coordinate pass, Gauss–Newton steps on the
-linearised model confirmed by full runs (:func:`.refine.gauss_newton`); False: the coordinate pass
-alone."""
-
-
-def interval_z() -> float:
-    """z of the two-sided :data:`INTERVAL_LEVEL` interval (1.96 at 95 %)."""
-    from scipy.stats import norm
-
-    return float(norm.ppf(0.5 + INTERVAL_LEVEL / 2))
-
-
-ROUGH_RESCAN = 50.0
-"""Slider level, one effect: a fit that ends at the baseline value while the single runs' χ² of its
-last refinement level scatter by more than this about a parabola (:func:`_roughness`, with the
-spread of the ensemble at the scan's first pick) has not located the effect: its single runs switch
-end states from one scan point to the next. Its grid is then rescored on ensembles and the best point
-refined on ensemble means, as a set's is; that point is the fit where it fits better by more than z²
-and its change is relevant (docs/model.md §9.1, "One effect")."""
-
-
-MODE_CONDITIONING = True
-"""Slider level: compare the features that depend on the state a run ends in
-(:data:`.models.MODE_FEATURES`) only with model runs in the data's mode, and charge the mode's
-rarity as a likelihood term (:func:`_chi2_terms`). False: one Gaussian over all runs."""
-
-
-# --- features -------------------------------------------------------------------------------------
-
-@dataclass
-class CandidateFit:
-    """One candidate set fitted to the measured features."""
-
-    effects: Tuple[str, ...]
-    values: Dict[str, float]
-    stderrs: Dict[str, float]
-    chi2: float
-    dof: int
-    adequate: bool
-    bic: float
-    predicted: Dict[str, float] = field(default_factory=dict)
-    """Slider level: the features of the fitted model, mean of its ensemble of runs."""
-    model_spread: Dict[str, float] = field(default_factory=dict)
-    """Slider level: their spread over the ensemble (:data:`.models.ENSEMBLE_S0_SHIFTS`)."""
-    intervals: Dict[str, Tuple[float, float]] = field(default_factory=dict)
-    """Slider level: the :data:`INTERVAL_LEVEL` interval of each parameter (one effect: its
-    profile scan's Δχ² = z² interval; several: the joint fit's Wald interval)."""
-    roughness: Dict[str, float] = field(default_factory=dict)
-    """Slider level: scatter of the single-run χ² about a parabola near the minimum
-    (:func:`_roughness`); the interval's threshold is χ²_min + 1 + 2·roughness."""
-    screened: bool = False
-    """Slider level: only the coarse scan was made (:data:`.naming.SCREEN_MARGIN`)."""
-    linearised: bool = False
-    """Screened by the linearised model's prediction only (the fast path, :mod:`.fast`)."""
-
-
-@dataclass
-class Discovery:
-    """Outcome of :func:`discover` (see :func:`write_report`)."""
-
-    level: str
-    named_effects: List[str]
-    parameters: Dict[str, Dict[str, Any]]
-    features: Dict[str, Dict[str, Any]]
-    gap_before: float
-    gap_after: float
-    chi2_before: float
-    candidates: List[CandidateFit]
-    criterion: str
-    baseline: Parameters
-    updated: Parameters
-    behaviours: Dict[str, Dict[str, str]] = field(default_factory=dict)
-    alternatives: List[Tuple[str, ...]] = field(default_factory=list)
-    data: Any = None
-    runtime_s: float = 0.0
-    verdict: str = "none"
-    """``named`` (an effect set passed the naming rule), ``unexplained`` (the baseline does not fit
-    and no candidate set passes), ``confounded`` (candidates that fit equally by moving the
-    features alike: :attr:`confounded`), ``none`` (the baseline fits the data, or only a negligible
-    change is needed)."""
-    rejected: List[Dict[str, Any]] = field(default_factory=list)
-    """Fitted candidate sets not named, each with the reasons."""
-    features_off: List[Dict[str, Any]] = field(default_factory=list)
-    """Features still off after the update (|z| > 2), largest first."""
-    gap_ratio: float = 0.3
-    gap_excess_before: float = 0.0
-    """Gap beyond the noise before: sqrt(max(χ²₀ − n, 0)/n) (:data:`GAP_EXCESS_MEASURE`)."""
-    gap_excess_after: float = 0.0
-    """The same after the update: sqrt(max(χ² − (n − k), 0)/n)."""
-    modes: Dict[str, Dict[str, Any]] = field(default_factory=dict)
-    """Slider level, per operating point: the data's mode (:func:`.models.run_mode`: ends high,
-    has a turning point) and how many of the baseline's and the updated model's ensemble runs end
-    in it (:data:`MODE_CONDITIONING`)."""
-
-    confounded: Dict[str, Any] = field(default_factory=dict)
-    """Verdict ``confounded``: the ``group`` of candidates that fit equally by moving the features
-    alike, the ``combination`` the data resolve, and the ``advice`` (a run that would separate
-    them, :func:`.verdicts.advise`)."""
-    unresolved: Dict[str, Any] = field(default_factory=dict)
-    """Verdict ``unexplained`` with a relevant best candidate whose interval contains the baseline:
-    the candidate, its fit, and the ``advice`` (a run that would resolve it)."""
-
-    guided_pairs: List[Dict[str, Any]] = field(default_factory=list)
-    """Slider level: the pairs fitted because the linearised model predicts them to fit best
-    (:func:`.verdicts.rank_pairs`), with that prediction."""
-
-    joint_refinement: List[Dict[str, Any]] = field(default_factory=list)
-    """Slider level, where the sets were staged: per set its coordinate pass's χ², the χ² a
-    Gauss–Newton step from there is predicted to reach (:func:`.refine.step_chi2`), whether it was
-    refined jointly (:func:`.refine.sets_to_refine`) and its final χ²."""
-
-    paths: Dict[str, Any] = field(default_factory=dict)
-    """Slider level: the slider's path (t, s) of the ``baseline``'s and the ``updated`` model's run
-    from s0 at each operating point of the data (by its tag), as their measurement chains record it
-    (:func:`.models.slider_paths`; None for a failed run): the report's figure. Not in the JSON."""
-
-    def to_json(self) -> Dict[str, Any]:
-        return _json_safe(dict(
-            verdict=self.verdict, confounded=self.confounded, unresolved=self.unresolved,
-            guided_pairs=self.guided_pairs, joint_refinement=self.joint_refinement, level=self.level, named_effects=self.named_effects, parameters=self.parameters,
-            rejected=self.rejected, features_off=self.features_off, gap_ratio=self.gap_ratio,
-            gap_before=self.gap_before, gap_after=self.gap_after, gap_measure=GAP_MEASURE,
-            gap_excess_before=self.gap_excess_before, gap_excess_after=self.gap_excess_after,
-            gap_excess_measure=GAP_EXCESS_MEASURE,
-            chi2_before=self.chi2_before, criterion=self.criterion, features=self.features,
-            behaviours=self.behaviours, alternatives=[list(a) for a in self.alternatives],
-            candidates=[dict(effects=list(c.effects), values=c.values, stderrs=c.stderrs, chi2=c.chi2, dof=c.dof,
-                             adequate=c.adequate, bic=c.bic, intervals=c.intervals, chi2_roughness=c.roughness)
-                        for c in self.candidates],
-            modes=self.modes, baseline=self.baseline.to_dict(), updated=self.updated.to_dict(), runtime_s=self.runtime_s))
-
-
-GAP_MEASURE = ("RMS over the features of (model - measured) / uncertainty (measurement and, slider level, "
-               "the model's spread over its ensemble of runs), sqrt(chi2 / n); slider level, chi2 includes the "
-               "mode terms (end-state features compared within the data's mode)")
-
-
-GAP_EXCESS_MEASURE = ("gap beyond the noise: sqrt(max(chi2 - E[chi2], 0) / n), E[chi2] = n for the baseline "
-                      "and n - k for a model with k fitted parameters; the naming rule compares these")
-
-
-def excess(chi2: float, dof: int, n: int) -> float:
-    """Gap beyond the noise: sqrt(max(χ² − dof, 0)/n) (:data:`GAP_EXCESS_MEASURE`)."""
-    return math.sqrt(max(chi2 - dof, 0.0) / max(n, 1))
-
-
-def chi2_quantile(dof: int) -> float:
-    from scipy.stats import chi2
-
-    return float(chi2.ppf(1 - SIGNIFICANCE, max(dof, 1)))
-
-
-def sigma(f: Feature, spread: float, runs: int) -> float:
-    """Uncertainty of (model − measured) for a model feature that is the mean of ``runs`` runs whose
-    spread is ``spread`` (runs = 0: no model spread): the measured value is one draw of the truth's
-    spread, the model's mean has spread²/runs."""
-    return math.sqrt(f.stderr ** 2 + (spread ** 2 * (1 + 1 / runs) if runs > 0 else 0.0))
-
-
-def _mode_terms(model: Dict[str, float], modes: Optional[Modes], counts: Optional[Dict[str, int]],
-                runs: int) -> Tuple[set, float]:
-    """The operating points (tags) whose mode features the model cannot predict (none of its runs
-    ends in the data's mode, :func:`.models.run_mode`), and the sum of the mode penalties
-    (:func:`.models.mode_penalty`). ``counts``: per tag, how many of the model's ``runs`` runs are
-    in the data's mode (an ensemble); None: ``model`` is one run, whose own mode decides."""
-    unpredicted, pen = set(), 0.0
-    for tag, md in (modes or {}).items():
-        if md is None:
-            continue
-        if counts is not None and tag in counts:
-            k, r = counts[tag], max(runs, 1)
-        else:
-            k, r = (1 if run_mode(model, tag) == md else 0), 1
-        if k == 0:
-            unpredicted.add(tag)
-        pen += mode_penalty(k, r)
-    return unpredicted, pen
-
-
-def _chi2_terms(model: Optional[Dict[str, float]], names: Sequence[str], y: np.ndarray, sig: np.ndarray,
-                modes: Optional[Modes] = None, counts: Optional[Dict[str, int]] = None, runs: int = 1) -> float:
-    """χ² of the measured features ``names`` (values ``y``, uncertainties ``sig``) against
-    ``model``: Σ z² (a feature the model lacks counts as 5σ), where a mode feature of an
-    operating point the model cannot predict in the data's mode counts as its expectation, 1,
-    plus the mode penalties (:func:`_mode_terms`): the likelihood of bimodal features is that of
-    the data's mode times that of the features within it."""
-    if model is None:
-        return math.inf
-    unpredicted, pen = _mode_terms(model, modes, counts, runs)
-    total = pen
-    for k, yk, sk in zip(names, y, sig):
-        if tag_of(k) in unpredicted and is_mode_feature(k):
-            total += 1.0
-        elif k in model and math.isfinite(model[k]):
-            total += ((model[k] - yk) / sk) ** 2
-        else:
-            total += 25.0
-    return float(total)
-
-
-def missing_z(name: str, counts: Optional[Dict[str, int]]) -> float:
-    """z of a feature an ensemble lacks: 1 (its expectation) for a mode feature of an operating
-    point where none of its runs is in the data's mode, 5 otherwise (:func:`_chi2_terms`)."""
-    tag = tag_of(name)
-    return 1.0 if counts and tag in counts and counts[tag] == 0 and is_mode_feature(name) else 5.0
-
-
-def gap_of(model: Dict[str, float], meas: Dict[str, Feature], spread: Optional[Dict[str, float]] = None,
-         runs: int = 0, modes: Optional[Modes] = None, counts: Optional[Dict[str, int]] = None) -> Tuple[float, float]:
-    """(RMS gap sqrt(χ²/n), χ²) of ``model`` against the measured features (:func:`_chi2_terms`;
-    ``spread``/``runs``: the model's ensemble, :func:`sigma`; ``modes``/``counts``: the data's
-    modes and the ensemble's runs in them)."""
-    sp = spread or {}
-    names = list(meas)
-    if not names:
-        return 0.0, 0.0
-    y = np.array([meas[k].value for k in names])
-    sig = np.array([sigma(meas[k], sp.get(k, 0.0), runs) for k in names])
-    chi2 = _chi2_terms(model, names, y, sig, modes, counts, max(runs, 1))
-    return float(math.sqrt(chi2 / len(names))), chi2
+from .models import Ensemble, data_modes
+from .result import CandidateFit
+from .spread import chi2_roughness, pooled_spread
+from .options import DEFAULT, DiscoverOptions
+from .stats import chi2_quantile, chi2_terms, interval_z, mode_terms
 
 
 def fit_candidate(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str, Feature],
                    model_fn: Callable[[Parameters], Dict[str, float]], *, diff_step: Optional[float],
-                   max_nfev: int) -> CandidateFit:
+                   max_nfev: int, options: DiscoverOptions = DEFAULT) -> CandidateFit:
+    """Beam level: the weighted least-squares fit of ``effects`` on the surrogate ``model_fn``
+    (docs/model.md §9), from the baseline and from a tenth of the bounds; adequate at
+    ``options.significance``."""
     from scipy.optimize import least_squares
 
     names = [k for k in meas]
@@ -295,7 +68,7 @@ def fit_candidate(effects: Sequence[Effect], baseline: Parameters, meas: Dict[st
     stderrs = {e.name: _stderr_of(e, u, su, baseline) for e, u, su in zip(effects, best.x, se_u)}
     dof = n - k
     return CandidateFit(tuple(e.name for e in effects), values, stderrs, chi2, dof,
-                        chi2 <= chi2_quantile(dof), chi2 + k * math.log(max(n, 2)))
+                        chi2 <= chi2_quantile(dof, options.significance), chi2 + k * math.log(max(n, 2)))
 
 
 ModelMany = Callable[[List[Any]], List[Optional[Dict[str, float]]]]
@@ -334,7 +107,7 @@ def _interval(xs: np.ndarray, fs: np.ndarray, rough: float = 0.0, delta: float =
     error; :func:`interval_z` squared: the interval that names, docs/model.md §9.1): the outermost
     scan points with χ² ≤ χ²_min + delta, extended to where the profile crosses it by
     interpolation in sqrt(χ² − χ²_min) (the scan's ends if it does not cross). For a rough profile
-    (single-run χ² scattering by ``rough`` about a smooth one, :func:`_roughness`) the threshold is
+    (single-run χ² scattering by ``rough`` about a smooth one, :func:`chi2_roughness`) the threshold is
     χ²_min + delta + 2·rough: the scan points that the scatter cannot tell from the minimum."""
     order = np.argsort(xs)
     xs, fs = xs[order], fs[order]
@@ -363,12 +136,14 @@ def _interval(xs: np.ndarray, fs: np.ndarray, rough: float = 0.0, delta: float =
 
 
 def profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str, Feature],
-                 model_fn: Optional[Callable[[Parameters], Dict[str, float]]] = None, *, grid_n: int = 9,
-                 refine: int = 2, model_many: Optional[ModelMany] = None,
-                 ensemble_many: Optional[EnsembleMany] = None, spread0: Optional[Dict[str, float]] = None,
-                 fixed: Optional[Dict[str, float]] = None, joint: Optional[bool] = None) -> CandidateFit:
+                model_fn: Optional[Callable[[Parameters], Dict[str, float]]] = None, *,
+                grid_n: Optional[int] = None, refine: Optional[int] = None, model_many: Optional[ModelMany] = None,
+                ensemble_many: Optional[EnsembleMany] = None, spread0: Optional[Dict[str, float]] = None,
+                fixed: Optional[Dict[str, float]] = None, joint: Optional[bool] = None,
+                options: DiscoverOptions = DEFAULT) -> CandidateFit:
     """Fit for expensive, rough objectives (slider level). Per effect (one coordinate pass): a grid
-    scan of χ² over its search range (``grid_n`` points, one batch of runs), then ``refine``
+    scan of χ² over its search range (``grid_n`` points, None: ``options.grid_points``; one batch of
+    runs), then ``refine`` (None: ``options.refine_levels``)
     levels of 7 points spanning ± one step around the best so far (each one batch; the step
     shrinks 3× per level). The model's sensitivity to what the data cannot resolve enters every
     χ² as a spread of the features (σ² = σ_meas² + 2·spread² for one run against one measured
@@ -379,15 +154,15 @@ def profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str,
     :func:`interval_z` squared (single runs switching end states near a mode boundary), that point
     is the fit. Standard
     error: half the Δχ² = 1 interval of the rescored profile scan (:func:`_interval`), widened
-    by the scatter of the last refinement level's χ² about a parabola (:func:`_roughness`)
+    by the scatter of the last refinement level's χ² about a parabola (:func:`chi2_roughness`)
     where the objective is rough; one effect whose fit is the baseline value while its last level
-    is rough (:data:`ROUGH_RESCAN`): its grid rescored on ensembles and the best point refined on
+    is rough (``options.rough_rescan``): its grid rescored on ensembles and the best point refined on
     their means (:func:`.refine.gauss_newton`), taken with the ensembles' profile interval where its
     ensemble fits better by more than z² and its change is relevant. Several effects: the coordinate
     pass's point refined jointly on ensemble means (:func:`.refine.gauss_newton`,
-    :data:`JOINT_REFINEMENT`), standard errors from its covariance.
-    Intervals at :data:`INTERVAL_LEVEL` (:func:`.verdicts.interval_of`), holding the fitted value.
-    ``joint``: refine a set jointly (None: :data:`JOINT_REFINEMENT`).
+    ``options.joint_refinement``), standard errors from its covariance.
+    Intervals at ``options.interval_level`` (:func:`.stats.interval_of`), holding the fitted value.
+    ``joint``: refine a set jointly (None: ``options.joint_refinement``).
     ``fixed``: values of further effects held (the joint fit's beam-level part)."""
     many = model_many if model_many is not None else _one_at_a_time(model_fn)  # type: ignore[arg-type]
     names = list(meas)
@@ -396,15 +171,17 @@ def profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str,
     cache: Dict[Tuple[float, ...], Optional[Dict[str, float]]] = {}
     fixed = dict(fixed or {})
     spread = dict(spread0 or {})
-    modes = data_modes(meas) if MODE_CONDITIONING else None
-    joint_on = JOINT_REFINEMENT if joint is None else bool(joint)
+    modes = data_modes(meas) if options.mode_conditioning else None
+    joint_on = options.joint_refinement if joint is None else bool(joint)
+    grid_n = options.grid_points if grid_n is None else grid_n
+    refine = options.refine_levels if refine is None else refine
 
     def sig_single() -> np.ndarray:
         return np.sqrt(se ** 2 + 2 * np.array([spread.get(k, 0.0) for k in names]) ** 2)
 
     def chi2_from(m: Optional[Dict[str, float]], sig: np.ndarray, counts: Optional[Dict[str, int]] = None,
                   runs: int = 1) -> float:
-        return _chi2_terms(m, names, y, sig, modes, counts, runs)
+        return chi2_terms(m, names, y, sig, modes, counts, runs)
 
     def key_of(u: np.ndarray) -> Tuple[float, ...]:
         return tuple(round(float(v), 12) for v in u)
@@ -441,7 +218,7 @@ def profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str,
 
         return EnsembleObjective(evaluate, lambda p: cache[key_of(p)], params_of, ensemble_many, key_of, names, y, se,
                                  sp, runs, lambda m, c, r, sg: chi2_from(m, sg, c, r),
-                                 lambda m, c, r: _mode_terms(m, modes, c, r)[0])
+                                 lambda m, c, r: mode_terms(m, modes, c, r)[0])
 
     def ensemble_at(u: np.ndarray) -> Optional[Ensemble]:
         if ensemble_many is None or cache.get(key_of(u)) is None:
@@ -479,8 +256,8 @@ def profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str,
         u[i] = x_best
         samples[i] = [at(x) for x in xs]
         last[i] = [at(x) for x in fine]
-    # The single runs' roughness about the fit before the spread pools it (ROUGH_RESCAN).
-    rough_pass = (_roughness(np.array([p[0] for p in last[0]]), np.array([chi2(p) for p in last[0]]))
+    # The single runs' roughness about the fit before the spread pools it (options.rough_rescan).
+    rough_pass = (chi2_roughness(np.array([p[0] for p in last[0]]), np.array([chi2(p) for p in last[0]]))
                   if len(effects) == 1 else 0.0)
     refined = None
     if len(effects) >= 2 and joint_on:
@@ -493,11 +270,11 @@ def profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str,
         if ensemble_many is not None:
             # Ensemble means: single runs are too rough to linearise (docs/model.md §9.1).
             obj = ensemble_objective(spread, ens.runs if ens is not None else 5)
-            refined = refine_jointly(effects, u, obj.evaluate, obj.residuals, obj.chi2)
+            refined = refine_jointly(effects, u, obj.evaluate, obj.residuals, obj.chi2, options)
         else:
             resid = single_run_residuals(lambda p: cache[key_of(p)], names, y, sig_single,
-                                         lambda m: _mode_terms(m, modes, None, 1)[0])
-            refined = refine_jointly(effects, u, evaluate, resid, chi2)
+                                         lambda m: mode_terms(m, modes, None, 1)[0])
+            refined = refine_jointly(effects, u, evaluate, resid, chi2, options)
         u = refined.u
     ens = ensemble_at(u)
     n, k = len(names), len(effects) + len(fixed)
@@ -513,7 +290,7 @@ def profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str,
             sp_first = dict(spread0 or {})
             sp_first.update(pooled_spread(first[1], [], names, modes))
             c_first = ensemble_chi2(first[1], sp_first)
-            if c_first < best_chi2 - interval_z() ** 2:
+            if c_first < best_chi2 - interval_z(options.interval_level) ** 2:
                 u, ens, best_chi2 = first[0], first[1], c_first
                 spread.clear()
                 spread.update(sp_first)
@@ -523,7 +300,7 @@ def profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str,
         predicted = dict(cache[key_of(u)] or {})
     rescanned: Optional[Tuple[np.ndarray, np.ndarray]] = None  # the ensembles' profile, where rescanned
     if (ens is not None and refined is None and len(effects) == 1 and key_of(u) == key_of(u_base)
-            and rough_pass > ROUGH_RESCAN):
+            and rough_pass > options.rough_rescan):
         # Rough single runs found nothing but the baseline: the grid rescored on ensembles (each with
         # its own spread, as the first pick's), the best refined on their means; taken where its
         # ensemble fits better by more than z², as the first pick is, and its change is relevant.
@@ -534,7 +311,7 @@ def profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str,
         obj = ensemble_objective(sp_obj, ens.runs)
         pts = [u] + [np.array([g]) for g in grids[0]]
         obj.evaluate(pts)
-        refine_jointly(effects, min(pts, key=obj.chi2), obj.evaluate, obj.residuals, obj.chi2)
+        refine_jointly(effects, min(pts, key=obj.chi2), obj.evaluate, obj.residuals, obj.chi2, options)
         # Every ensemble made, scored as a fit is: its mean against the data with its own spread.
         own: Dict[Tuple[float, ...], Tuple[float, Dict[str, float], Ensemble]] = {}
         for k_, e_ in obj.cache.items():
@@ -543,7 +320,8 @@ def profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str,
                 sp_k.update(pooled_spread(e_, [], names, modes))
                 own[k_] = (ensemble_chi2(e_, sp_k), sp_k, e_)
         k_best = min(own, key=lambda k_: own[k_][0], default=None)
-        if (k_best is not None and key_of(u) in own and own[k_best][0] < own[key_of(u)][0] - interval_z() ** 2
+        if (k_best is not None and key_of(u) in own
+                and own[k_best][0] < own[key_of(u)][0] - interval_z(options.interval_level) ** 2
                 and effects[0].relevant(effects[0].value(k_best[0], baseline), baseline)[0]):
             best_chi2, sp_r, ens = own[k_best]
             u, predicted = np.array(k_best), dict(ens.mean)
@@ -552,13 +330,13 @@ def profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str,
             rescanned = (np.array([k_[0] for k_ in own]), np.array([c_ for c_, _, _ in own.values()]))
     values, stderrs, intervals = dict(fixed), {}, {}
     roughness: Dict[str, float] = {}
-    z = interval_z()
+    z = interval_z(options.interval_level)
     for i, e in enumerate(effects):
         xs = np.array([p[i] for p in samples[i]])
         fs = np.array([chi2(p) for p in samples[i]])
         # Rescanned: the interval is the ensembles' profile's, not widened by the single runs.
-        rough = 0.0 if rescanned is not None else _roughness(np.array([p[i] for p in last[i]]),
-                                                             np.array([chi2(p) for p in last[i]]))
+        rough = 0.0 if rescanned is not None else chi2_roughness(np.array([p[i] for p in last[i]]),
+                                                                 np.array([chi2(p) for p in last[i]]))
         roughness[e.name] = rough
         values[e.name] = e.value(u[i], baseline)
         if refined is not None:
@@ -583,87 +361,6 @@ def profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str,
         ends = sorted((e.value(lo_u, baseline), e.value(hi_u, baseline))) if ok else [-math.inf, math.inf]
         intervals[e.name] = (ends[0], ends[1])
     names_all = tuple(list(fixed) + [e.name for e in effects])
-    return CandidateFit(names_all, values, stderrs, best_chi2, n - k, best_chi2 <= chi2_quantile(n - k),
+    return CandidateFit(names_all, values, stderrs, best_chi2, n - k, best_chi2 <= chi2_quantile(n - k, options.significance),
                         best_chi2 + k * math.log(max(n, 2)), predicted,
                         {kk: spread.get(kk, 0.0) for kk in names}, intervals, roughness)
-
-
-def lrt_threshold(df: int, m: int) -> float:
-    """Likelihood-ratio threshold for adding ``df`` effects chosen as the best of ``m`` candidate
-    sets: the (1 − α/m) quantile of χ²(df) (Bonferroni for picking the best of m)."""
-    from scipy.stats import chi2
-
-    return float(chi2.isf(SIGNIFICANCE / max(m, 1), max(df, 1)))
-
-
-def z_bound(n: int) -> float:
-    """The largest |z| of one of ``n`` features an adequate baseline may show: the two-sided 99 %
-    bound, Bonferroni-corrected for the n features (3.42 for 16)."""
-    from scipy.stats import norm
-
-    return float(norm.isf(SIGNIFICANCE / (2 * max(n, 1))))
-
-
-def baseline_fits(chi2_0: float, n: int, z_worst: float = 0.0) -> bool:
-    """Whether the baseline is adequate: χ² ≤ χ²_0.99(n) and no feature beyond :func:`z_bound`
-    (``z_worst``: the largest |z| of its features). The omnibus χ² alone loses power with every
-    feature that agrees: a 5 % excitation-level error moves one slider speed by 4.4 uncertainties,
-    which χ² 28.1 over 16 features (limit 32.0) does not show (docs/model.md §9.1)."""
-    return chi2_0 <= chi2_quantile(n) and z_worst <= z_bound(n)
-
-
-@dataclass
-class BaselineTest:
-    """The baseline's test before any fit (:func:`baseline_test`)."""
-
-    before: Dict[str, float]
-    """The baseline's features, a feature it lacks filled at :func:`missing_z` uncertainties."""
-    gap: float
-    chi2: float
-    n: int
-    z_worst: float
-    fits: bool
-    """:func:`baseline_fits`."""
-
-
-def baseline_test(model: Dict[str, float], meas: Dict[str, Feature], spread: Optional[Dict[str, float]] = None,
-                  runs: int = 0, modes: Optional[Modes] = None, counts: Optional[Dict[str, int]] = None) -> BaselineTest:
-    """The baseline's features ``model`` (an ensemble: ``spread``, ``runs``, ``counts``) tested against
-    the measured ones: χ² (:func:`gap_of`), the largest |z| and :func:`baseline_fits` (docs/model.md §9.1)."""
-    sp = spread or {}
-    before = dict(model)
-    before.update({k: f.value + missing_z(k, counts) * sigma(f, sp.get(k, 0.0), runs) for k, f in meas.items()
-                   if k not in model})
-    gap, chi2 = gap_of(before, meas, sp, runs, modes, counts)
-    z = max((abs(before[k] - f.value) / sigma(f, sp.get(k, 0.0), runs) for k, f in meas.items()), default=0.0)
-    return BaselineTest(before, gap, chi2, len(meas), z, baseline_fits(chi2, len(meas), z))
-
-
-def select(fits: List[CandidateFit], chi2_0: float, n: int,
-           fits_baseline: Optional[bool] = None) -> Tuple[Optional[CandidateFit], List[Tuple[str, ...]]]:
-    """Nothing if the baseline is adequate (``fits_baseline``; None: χ² ≤ χ²_0.99(n)); else forward
-    selection by likelihood-ratio tests: the best single effect must beat the baseline, and the
-    best larger set containing the current choice must beat it, by more than :func:`lrt_threshold`
-    (99 %, corrected for the number of sets the best was picked from)."""
-    if fits_baseline is None:
-        fits_baseline = chi2_0 <= chi2_quantile(n)
-    if fits_baseline or not fits:
-        return None, []
-    by_size: Dict[int, List[CandidateFit]] = {}
-    for f in fits:
-        by_size.setdefault(len(f.effects), []).append(f)
-    best: Optional[CandidateFit] = None
-    best_chi2, best_k = chi2_0, 0
-    for k in sorted(by_size):
-        pool = [c for c in by_size[k] if best is None or set(best.effects) <= set(c.effects)]
-        if not pool:
-            continue
-        top = min(pool, key=lambda c: c.chi2)
-        if best_chi2 - top.chi2 > lrt_threshold(k - best_k, len(pool)):
-            best, best_chi2, best_k = top, top.chi2, k
-        else:
-            break
-    if best is None:
-        return None, []
-    alts = [c.effects for c in by_size[len(best.effects)] if c.effects != best.effects and c.chi2 - best.chi2 < 2.0]
-    return best, alts

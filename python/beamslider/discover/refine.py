@@ -17,15 +17,8 @@ import numpy as np
 
 from .effects import EFFECTS
 from .models import is_mode_feature, run_mode, tag_of, unreached_mode_features
+from .options import DEFAULT, DiscoverOptions
 from .separability import bumped
-
-
-MAX_STEPS = 4
-"""Gauss–Newton steps at most (each: 2k runs for the Jacobian, 3 trial points)."""
-
-MIN_GAIN = 0.5
-"""A step is taken only if it lowers χ² by more than this (the roughness of single-run χ² is of
-this order where the locomotion is regular); otherwise the refinement stops."""
 
 
 @dataclass
@@ -48,8 +41,8 @@ def _clip(u: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
 
 def gauss_newton(u0: Sequence[float], lower: Sequence[float], upper: Sequence[float], h: Sequence[float],
                  evaluate: Callable[[List[np.ndarray]], None], residuals: Callable[[np.ndarray], np.ndarray],
-                 chi2: Callable[[np.ndarray], float], *, max_steps: int = MAX_STEPS,
-                 min_gain: float = MIN_GAIN) -> Refined:
+                 chi2: Callable[[np.ndarray], float], *, max_steps: int = DEFAULT.gauss_newton_steps,
+                 min_gain: float = DEFAULT.min_gain) -> Refined:
     """Refine ``u0`` jointly. ``evaluate(us)``: make the runs of the points ``us`` (one batch;
     cached by the caller); ``residuals(u)``: (model − measured)/σ per feature of an evaluated
     point (NaN where the model lacks the feature or it is charged as a mode term); ``chi2(u)``: the
@@ -151,17 +144,20 @@ def residual_vector(model: Optional[Dict[str, float]], names: Sequence[str], y: 
 
 
 def refine_jointly(effects: Sequence, u: np.ndarray, evaluate: Callable[[List[np.ndarray]], None],
-                   residuals: Callable[[np.ndarray], np.ndarray], chi2: Callable[[np.ndarray], float]) -> Refined:
+                   residuals: Callable[[np.ndarray], np.ndarray], chi2: Callable[[np.ndarray], float],
+                   options: DiscoverOptions = DEFAULT) -> Refined:
     """:func:`gauss_newton` for a profile fit's point ``u`` of the ``effects``: bounds each
     effect's search range widened by a quarter of its width on both sides (within its bounds),
-    difference steps a third of a grid step of the search range (9 points)."""
+    difference steps a third of a grid step of the search range (9 points); at most
+    ``options.gauss_newton_steps`` steps, each lowering χ² by more than ``options.min_gain``."""
     lower, upper, h = [], [], []
     for e in effects:
         lo, hi = e.search if math.isfinite(e.search[0]) else (e.lower, e.upper)
         lower.append(max(e.lower, lo - (hi - lo) / 4))
         upper.append(min(e.upper, hi + (hi - lo) / 4))
         h.append((hi - lo) / 24)
-    return gauss_newton(u, lower, upper, h, evaluate, residuals, chi2)
+    return gauss_newton(u, lower, upper, h, evaluate, residuals, chi2, max_steps=options.gauss_newton_steps,
+                        min_gain=options.min_gain)
 
 
 class EnsembleObjective:
@@ -170,7 +166,7 @@ class EnsembleObjective:
     where single runs scatter by Δχ² of tens between neighbouring parameter values (friction and
     detuning together at (110 Hz, 10 m/s²)). Residuals and χ² with the uncertainties fixed at the
     start (σ² = σ_meas² + (1 + 1/R)·spread²), so that trial points are compared alike; the mode
-    terms as in the fit's χ² (:func:`.fitting._chi2_terms`)."""
+    terms as in the fit's χ² (:func:`.stats.chi2_terms`)."""
 
     def __init__(self, evaluate, central, params_of, ensemble_many, key_of, names, y, se, spread, runs,
                  chi2_of, unpredicted) -> None:
@@ -220,17 +216,13 @@ def single_run_residuals(model_of: Callable[[np.ndarray], Optional[Dict[str, flo
     return residuals
 
 
-STEP_MOVES = 5.0
-"""The linearised model's columns: the feature changes of a move by this many relevance thresholds
-(:func:`.separability.slider_changes`, as the pair ranking and the set check use)."""
-
-
 def step_chi2(fit, changes: Dict[str, Dict[str, float]], meas: Dict, sig: Dict[str, float], base,
-              modes: Optional[Dict] = None, counts: Optional[Dict[str, int]] = None) -> float:
+              modes: Optional[Dict] = None, counts: Optional[Dict[str, int]] = None,
+              moves: float = DEFAULT.linear_steps) -> float:
     """The χ² a joint refinement of a set's coordinate-pass point ``fit`` is predicted to reach: one
     Gauss–Newton step on the linearised model, min over δ of |r + S δ|² with r the residuals of the
     pass's fitted features (``fit.predicted``, in units of ``sig``) and S the feature changes of
-    each effect moved by :data:`STEP_MOVES` relevance thresholds from the baseline (``changes``,
+    each effect moved by ``moves`` relevance thresholds (``options.linear_steps``) from the baseline (``changes``,
     raw, :func:`.separability.slider_changes`, also in units of ``sig``: the fit's own uncertainties),
     δ bounded to each effect's search range; the gain |r|² − min |r + S δ|² taken off the pass's χ²
     (its mode terms unchanged), at least 0. Mode features of an
@@ -258,7 +250,7 @@ def step_chi2(fit, changes: Dict[str, Dict[str, float]], meas: Dict, sig: Dict[s
     S = np.column_stack([[changes[e.name][k] / sig[k] for k in keys] for e in effects])
     lo, hi = [], []
     for e in effects:
-        d = bumped(e, base, STEP_MOVES) - e.baseline_value(base)
+        d = bumped(e, base, moves) - e.baseline_value(base)
         a, b = e.search if math.isfinite(e.search[0]) else (e.lower, e.upper)
         ends = [(e.value(v, base) - fit.values[e.name]) / d for v in (a, b)] if d != 0 else [0.0, 0.0]
         lo.append(min(ends + [0.0]))

@@ -15,8 +15,10 @@ from ..enma import EnmaData
 from .effects import EFFECTS
 from .chain import as_model, realise_model
 from .models import OperatingPoint, slider_paths
-from .fitting import Discovery, GAP_EXCESS_MEASURE, GAP_MEASURE
-from .verdicts import interval_of
+from .options import DEFAULT
+from .reasons import Why
+from .result import Because, Discovery, GAP_EXCESS_MEASURE, GAP_MEASURE, Kind
+from .stats import interval_of
 
 PathLike = Union[str, "os.PathLike[str]"]
 
@@ -56,7 +58,7 @@ def write_report(d: Discovery, out_dir: PathLike) -> List[Path]:
     ax.axhspan(-2, 2, color="0.85", zorder=0, label="±2 uncertainties")
     ax.set_xticks(x, names, rotation=30, ha="right", fontsize=8)
     ax.set_ylabel("(model − measured) / uncertainty (symlog)")
-    ax.set_title("named: " + (", ".join(d.named_effects) or "nothing (model agrees within uncertainty)"))
+    ax.set_title(gap_title(d))
     ax.legend(fontsize=8)
     ax.grid(alpha=0.3, axis="y")
     fig.savefig(out / "gap.png", dpi=120)
@@ -105,56 +107,56 @@ def write_report(d: Discovery, out_dir: PathLike) -> List[Path]:
 
 
 def verdict_line(d: Discovery) -> str:
-    """The verdict in one line (the CLI prints it)."""
-    if d.verdict == "named":
+    """The verdict in one line (the CLI prints it), from the typed verdict (:attr:`.result.Discovery.judgment`)."""
+    v = d.judgment
+    if v.kind is Kind.NAMED:
         what = ", ".join(f"{e} ({d.parameters[e]['field']} = {fmt_value(d.parameters[e]['value'])} ± "
                          f"{fmt_value(d.parameters[e]['stderr'])}, baseline {fmt_value(d.parameters[e]['baseline'])})"
-                         for e in d.named_effects)
+                         for e in v.named.effects)
         return (f"named {what}; gap {d.gap_before:.3g} -> {d.gap_after:.3g} "
                 f"(beyond the noise {d.gap_excess_before:.3g} -> {d.gap_excess_after:.3g})")
-    if d.verdict == "confounded":
-        c = d.confounded
-        adv = c.get("advice", {}).get("text")
-        lead = "; " if c.get("advice", {}).get("weak") else "; to separate them, "
+    adv = v.advice.get("text")
+    if v.because is Because.CONFOUNDED:
+        c = v.group
+        lead = "; " if v.advice.get("weak") else "; to separate them, "
         return (f"confounded: {', '.join(c['group'])} fit equally (the data resolve {c['combination']}, not which of "
                 f"them changed; gap {d.gap_before:.3g})" + (f"{lead}{adv}" if adv else ""))
-    if d.verdict == "unexplained" and d.unresolved:
-        u = d.unresolved
-        adv = u.get("advice", {}).get("text")
-        vals = ", ".join(f"{EFFECTS[e].field} = {fmt_value(u['values'][e])} ± {fmt_value(u['stderrs'][e])}"
-                         for e in u["effects"])
-        why = next((r for r, k in zip(u["reasons"], u.get("kinds", ())) if k == "NOT_RESOLVED"),
-                   u["reasons"][-1]).removeprefix("not resolved: ")
-        return (f"unexplained discrepancy (gap {d.gap_before:.3g}) - best candidate {' + '.join(u['effects'])} "
+    if v.because is Because.NOT_RESOLVED:
+        u = v.unresolved
+        vals = ", ".join(f"{EFFECTS[e].field} = {fmt_value(u.values[e])} ± {fmt_value(u.stderrs[e])}" for e in u.effects)
+        reasons = v.reasons[u.effects]
+        why = next((r for r in reasons if r.kind is Why.NOT_RESOLVED), reasons[-1]).removeprefix("not resolved: ")
+        return (f"unexplained discrepancy (gap {d.gap_before:.3g}) - best candidate {' + '.join(u.effects)} "
                 f"({vals}), not resolved by these runs ({why})" + (f"; to resolve it, {adv}" if adv else ""))
-    if d.verdict == "unexplained" and d.confounded:
-        c = d.confounded
-        adv = c.get("advice", {}).get("text")
-        lead = "; " if c.get("advice", {}).get("weak") else "; to separate them, "
+    if v.because is Because.OUTSIDE_CANDIDATES:
+        c = v.group
+        lead = "; " if v.advice.get("weak") else "; to separate them, "
         return (f"unexplained discrepancy (gap {d.gap_before:.3g}) - the best set {' + '.join(c['sets'][0])} fits "
                 f"as well as {', '.join(c['not_candidates'])}, not among the candidates (the data resolve "
                 f"{c['combination']}, not which of them changed)" + (f"{lead}{adv}" if adv else ""))
-    if d.verdict == "unexplained":
+    if v.because is Because.NO_SET_PASSES:
         off = ", ".join(f"{f['feature']} z = {f['z']:+.1f}" for f in d.features_off[:3])
-        # A relevant change the data resolve, adequate but not named, before the lowest χ².
-        resolved = [r for r in d.rejected
-                    if not set(r.get("kinds", ())) & {"NEGLIGIBLE", "NOT_RESOLVED", "SCREENED", "NOT_ADEQUATE"}]
-        best = resolved[0] if resolved else d.rejected[0] if d.rejected else None
-        why = (f"; best candidate {' + '.join(best['effects'])} rejected: {best['reasons'][0]}" if best else "")
+        best = v.best_rejected
+        why = f"; best candidate {' + '.join(best.effects)} rejected: {v.why_not(best)[0]}" if best else ""
         return f"unexplained discrepancy (gap {d.gap_before:.3g}; off: {off or 'no single feature beyond 2 sigma'}){why}"
-    neg = _negligible(d)
-    if neg:
-        return (f"none (gap {d.gap_before:.3g} closed by a negligible change: {' + '.join(neg[0]['effects'])}, "
-                f"{neg[0]['reasons'][0]})")
+    if v.because is Because.NEGLIGIBLE_CHANGE:
+        neg = v.negligible[0]
+        return (f"none (gap {d.gap_before:.3g} closed by a negligible change: {' + '.join(neg.effects)}, "
+                f"{v.why_not(neg)[0]})")
     return f"none (the baseline fits: gap {d.gap_before:.3g})"
 
 
-def _negligible(d: Discovery) -> List[Any]:
-    """Rejected sets that fit with only a negligible change (the "none" verdict of a baseline
-    that does not fit)."""
-    if d.verdict != "none":
-        return []
-    return [r for r in d.rejected if r.get("negligible")]
+def gap_title(d: Discovery) -> str:
+    """The title of ``gap.png``, from the typed verdict."""
+    v = d.judgment
+    if v.kind is Kind.NAMED:
+        return "named: " + ", ".join(v.named.effects)
+    if v.kind is Kind.CONFOUNDED:
+        return "confounded: " + ", ".join(v.group["group"]) + " (nothing named)"
+    if v.kind is Kind.UNEXPLAINED:
+        return "unexplained: nothing named (" + v.because.value + ")"
+    return "named: nothing (" + ("only a negligible change is needed" if v.because is Because.NEGLIGIBLE_CHANGE
+                                 else "model agrees within uncertainty") + ")"
 
 
 def fmt_value(v: Any) -> str:
@@ -164,29 +166,29 @@ def fmt_value(v: Any) -> str:
 
 
 def _markdown(d: Discovery, figs: Sequence[str]) -> str:
+    v = d.judgment
+    level = (d.options or DEFAULT).interval_level
     lines = [f"# Discrepancy report ({d.level} level)", "", f"**Verdict: {verdict_line(d)}**", ""]
-    if d.named_effects:
-        lines.append("**Named effect(s): " + ", ".join(f"`{e}`" for e in d.named_effects) + "**")
-    elif d.verdict == "unexplained" and d.confounded:
-        lines.append(f"**Unexplained discrepancy** — {d.confounded['explanation']}: the candidates do not establish "
+    if v.kind is Kind.NAMED:
+        lines.append("**Named effect(s): " + ", ".join(f"`{e}`" for e in v.named.effects) + "**")
+    elif v.because is Because.OUTSIDE_CANDIDATES:
+        lines.append(f"**Unexplained discrepancy** — {v.group['explanation']}: the candidates do not establish "
                      f"the change; nothing was added to the model. Resolved combination: "
-                     f"{d.confounded['combination']}.")
-    elif d.verdict == "unexplained":
+                     f"{v.group['combination']}.")
+    elif v.kind is Kind.UNEXPLAINED:
         lines.append("**Unexplained discrepancy** — the baseline does not fit the data and no candidate effect "
                      "passes the naming rule; nothing was added to the model.")
-    elif d.verdict == "confounded":
-        lines.append(f"**Confounded: {', '.join(f'`{e}`' for e in d.confounded['group'])}** — "
-                     f"{d.confounded['explanation']}; nothing was added to the model. Resolved combination: "
-                     f"{d.confounded['combination']}.")
-    elif _negligible(d):
+    elif v.kind is Kind.CONFOUNDED:
+        lines.append(f"**Confounded: {', '.join(f'`{e}`' for e in v.group['group'])}** — "
+                     f"{v.group['explanation']}; nothing was added to the model. Resolved combination: "
+                     f"{v.group['combination']}.")
+    elif v.because is Because.NEGLIGIBLE_CHANGE:
         lines.append("**Named: nothing** — the data are explained by a change smaller than the candidates' "
                      "relevance thresholds.")
     else:
         lines.append("**Named: nothing** — the baseline agrees with the data within the measurement uncertainty.")
-    for key in ("confounded", "unresolved"):
-        adv = getattr(d, key).get("advice") if getattr(d, key) else None
-        if adv and adv.get("text"):
-            lines += ["", f"Advice (the separability tool): {adv['text']}."]
+    if v.advice.get("text"):
+        lines += ["", f"Advice (the separability tool): {v.advice['text']}."]
     lines += ["", f"Gap ({GAP_MEASURE}): before {d.gap_before:.3g}, after {d.gap_after:.3g} "
               f"(chi2 of the baseline {d.chi2_before:.3g} over {len(d.features)} features); "
               f"{GAP_EXCESS_MEASURE}: before {d.gap_excess_before:.3g}, after {d.gap_excess_after:.3g}.", ""]
@@ -231,8 +233,8 @@ def _markdown(d: Discovery, figs: Sequence[str]) -> str:
     lines += ["", "Candidates (chi2, dof, adequate at 99 %; each parameter's interval, which must exclude its "
                   "baseline for it to be named):", ""]
     for c in sorted(d.candidates, key=lambda c: (len(c.effects), c.chi2)):
-        vals = ", ".join(f"{EFFECTS[e].field} = {fmt_value(c.values[e])} in [{fmt_value(interval_of(c, e)[0])}, "
-                         f"{fmt_value(interval_of(c, e)[1])}]" for e in c.effects)
+        vals = ", ".join(f"{EFFECTS[e].field} = {fmt_value(c.values[e])} in [{fmt_value(interval_of(c, e, level)[0])}, "
+                         f"{fmt_value(interval_of(c, e, level)[1])}]" for e in c.effects)
         lines.append(f"- {' + '.join(c.effects)}: chi2 = {c.chi2:.3g}, dof {c.dof}, "
                      f"{'adequate' if c.adequate else 'not adequate'} ({vals})")
     lines += ["", f"Criterion: {d.criterion}.", "", f"Run time: {d.runtime_s:.1f} s.", ""]

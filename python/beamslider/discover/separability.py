@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import itertools
 import math
-from typing import Any, Dict, List, Optional, Sequence, Tuple
+from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -14,7 +14,7 @@ from ..params import Parameters, resolve
 from .chain import realise_model
 from .effects import EFFECTS, Effect
 from .._core import SimulationError
-from .models import OperatingPoint, batch_slider_features
+from .models import OperatingPoint, batch_slider_features, unreached_mode_features
 
 
 def bumped(e: Effect, p: Parameters, steps: float) -> float:
@@ -64,7 +64,7 @@ def slider_changes(effects: Sequence[str], baseline: Optional[Parameters], ops: 
     """The raw change of each slider feature at ``ops`` when each effect moves by ``steps``
     relevance thresholds from the baseline (one run per effect and point against the baseline's
     unshifted run; an effect whose runs fail has no changes): the linearised model of
-    :func:`.verdicts.confounded_sets` and :mod:`.fast`, whose callers divide by their own
+    :func:`.confounding.confounded_sets` and :mod:`.search.linearised`, whose callers divide by their own
     uncertainties. ``cache``: the discover's run cache (the runs :func:`slider_sensitivities` made
     are not repeated)."""
     base = resolve(baseline)
@@ -121,3 +121,64 @@ def separability(effects: Optional[Sequence[str]] = None, *, baseline: Optional[
                                           cos=best[2])
         rows.append(row)
     return rows
+
+
+def predict_singles(cands: Sequence[Effect], base: Parameters, resid: Dict[str, float], sig: Dict[str, float],
+                    changes: Callable[[List[str], float], Dict[str, Dict[str, float]]],
+                    counts: Optional[Dict[str, int]] = None, steps: float = 5.0) -> Dict[str, Tuple[float, float]]:
+    """Each candidate's predicted best χ² and value: the feature changes of moves by ±``steps``
+    relevance thresholds (``DiscoverOptions.linear_steps``) (``changes(names, steps)``: raw changes from the baseline's run) give a
+    quadratic per feature, Δ(x) = a x + c x² with x in units of the move; χ²(x) = Σ (r − Δ(x)/σ)²
+    (``resid``: the data's residuals r from the baseline in units of ``sig``; a feature that a
+    move loses counts r²) is minimised over 201 points of the candidate's search range. ``counts``:
+    per operating point, how many of the baseline's ensemble runs end in the data's mode; where none
+    does, the mode features there count as they are (the fitted χ² counts them as their expectation
+    while a model misses the mode, and the baseline's run is in another mode: their changes from it
+    are those of a different state, no signature of the candidate)."""
+    names = [e.name for e in cands]
+    up, down = changes(names, steps), changes(names, -steps)
+    keys = [k for k in resid if sig.get(k, 0) > 0]
+    off = unreached_mode_features(keys, counts)
+    frozen = np.array([k in off for k in keys], dtype=bool)
+    r = np.array([resid[k] for k in keys])
+    out: Dict[str, Tuple[float, float]] = {}
+    for e in cands:
+        b = e.baseline_value(base)
+        step = bumped(e, base, steps) - b
+        dp = np.array([up.get(e.name, {}).get(k, math.nan) / sig[k] for k in keys])
+        dm = np.array([down.get(e.name, {}).get(k, math.nan) / sig[k] for k in keys])
+        ok = np.isfinite(dp) & np.isfinite(dm) & ~frozen
+        a, c = (dp[ok] - dm[ok]) / 2, (dp[ok] + dm[ok]) / 2
+        lo, hi = e.search if math.isfinite(e.search[0]) else (e.lower, e.upper)
+        us = np.linspace(lo, hi, 201)
+        vals = np.array([e.value(u, base) for u in us])
+        xs = (vals - b) / step if step != 0 else np.zeros_like(vals)
+        rest = float(np.sum(r[~ok] ** 2))
+        chi2 = np.array([float(np.sum((r[ok] - a * x - c * x * x) ** 2)) + rest for x in xs])
+        j = int(np.argmin(chi2))
+        out[e.name] = (float(chi2[j]), float(vals[j]))
+    return out
+
+
+def rank_pairs(sens: Dict[str, Dict[str, float]], resid: Dict[str, float],
+               frozen: Sequence[str] = ()) -> List[Tuple[Tuple[str, str], float]]:
+    """Every pair of candidates with the χ² the linearised model predicts for its best fit:
+    min over x of |r − S x|², S the two signatures (feature changes in units of the uncertainty per
+    step, :func:`.separability.slider_sensitivities`) over the features both move, r the data's
+    residuals from the baseline in the same units (features outside S count r²). ``frozen``:
+    features counted as they are (the mode features of an operating point where no baseline run
+    is in the data's mode: their changes are a mode switch, as in :mod:`.search.linearised`). Best first."""
+    out = []
+    skip = set(frozen)
+    for a, b in itertools.combinations(sorted(sens), 2):
+        keys = [k for k in resid if k in sens[a] and k in sens[b] and k not in skip]
+        r = np.array([resid[k] for k in keys])
+        A = np.column_stack([[sens[a][k] for k in keys], [sens[b][k] for k in keys]]) if keys else np.zeros((0, 2))
+        rest = float(sum(v * v for k, v in resid.items() if k not in keys))
+        if len(keys):
+            x, *_ = np.linalg.lstsq(A, r, rcond=None)
+            chi2 = float(np.sum((r - A @ x) ** 2)) + rest
+        else:
+            chi2 = rest
+        out.append(((a, b), chi2))
+    return sorted(out, key=lambda t: t[1])

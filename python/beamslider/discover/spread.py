@@ -12,7 +12,7 @@ import numpy as np
 from .models import MODE_MIN_DOF, Ensemble, Modes, is_mode_feature, run_mode, tag_of
 
 
-def _roughness(xs: np.ndarray, fs: np.ndarray) -> float:
+def chi2_roughness(xs: np.ndarray, fs: np.ndarray) -> float:
     """Scatter of single-run χ² values about a quadratic in x: the residual RMS of a least-squares
     parabola through the points (at least 5 distinct x, 4 residual degrees of freedom
     with 7), 0 with fewer. Where the locomotion is chaotic in the parameter (restitution), runs at
@@ -22,11 +22,11 @@ def _roughness(xs: np.ndarray, fs: np.ndarray) -> float:
     xs, fs = xs[ok], fs[ok]
     if np.unique(np.round(xs, 12)).size < 5:
         return 0.0
-    ss, dof = _parabola_scatter(xs, fs)
+    ss, dof = parabola_scatter(xs, fs)
     return math.sqrt(ss / dof)
 
 
-def _parabola_scatter(x: np.ndarray, v: np.ndarray) -> Tuple[float, int]:
+def parabola_scatter(x: np.ndarray, v: np.ndarray) -> Tuple[float, int]:
     """Sum of squared residuals of v about a least-squares parabola in x, and their degrees of
     freedom (len − 3): what a quadratic trend leaves unexplained (the roughness)."""
     t = (x - x.mean()) / max(float(np.ptp(x)), 1e-300)
@@ -63,7 +63,7 @@ def pooled_spread(ens: Ensemble, levels: Sequence[Sequence[Optional[Dict[str, fl
                            and (md is None or run_mode(m, tag) == md)], dtype=float)
             if len(xs) >= 5:
                 v = np.array([pts[int(j)][k] for j in xs])  # type: ignore[index]
-                ss_k, dof_k = _parabola_scatter(xs, v)
+                ss_k, dof_k = parabola_scatter(xs, v)
                 ss += ss_k
                 dof += dof_k
         if md is not None and tag in ens.mode_counts and dof < MODE_MIN_DOF:

@@ -1,0 +1,194 @@
+"""The tuning values of a discover in one frozen type, :class:`DiscoverOptions` (docs/model.md §9,
+§9.1): the naming rule's levels, the search's margins and counts, the fits' grids and the advice's
+grid. ``discover(options=...)`` takes one (or a mapping of some of its fields; an unknown key is
+refused), and ``report.json`` records the values that made it (``options``)."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+from typing import Any, Dict, Mapping, Tuple, Union
+
+from . import features, models
+
+@dataclass(frozen=True)
+class DiscoverOptions:
+    """Every tuning value of :func:`beamslider.discover.discover`, each with its meaning and the
+    section of docs/model.md that states it. The defaults are the values the validation table
+    (docs/validation/discover.md) was made with."""
+
+    # --- the naming rule (docs/model.md §9, §9.1 "Resolved") --------------------------------------
+    significance: float = 0.01
+    """Level of the tests: the baseline's χ² and |z| bounds, adequacy χ² ≤ χ²₁₋α(n − k), and the
+    forward selection's likelihood-ratio thresholds (α / m, Bonferroni over m candidates) (§9)."""
+    interval_level: float = 0.95
+    """Confidence level of the interval that must exclude a parameter's baseline value before it is
+    named: the profile's Δχ² = z² interval of one effect, the Wald interval ± z·se of a set (§9.1,
+    "Resolved")."""
+    gap_ratio: float = 0.3
+    """A named set leaves at most this share of the gap beyond the noise, sqrt(max(χ² − E[χ²], 0)/n),
+    in the fit and in the full simulation of the updated model; else "unexplained" (§9)."""
+    mode_conditioning: bool = True
+    """Slider level: the end-state features are compared only with model runs in the data's mode
+    and the mode's rarity is a χ² term (§9; user guide "Modes"); False: one Gaussian over all runs."""
+    confound_cos: float = 0.95
+    """|cos θ| between two fits' feature changes from which they move the features alike: fitting
+    within the selection's threshold of each other, they are a confounded group (§9, "confounded")."""
+    confirm_singles: int = 2
+    """Single effects fitted in full to confirm the linearised model: against a named set (a
+    confounded group) and among the effects left out of the candidates (§9.1, "Outside the
+    candidates")."""
+
+    # --- the search (docs/model.md §9.1 "Cost", "Sets of effects") ---------------------------------
+    screen_from: int = 3
+    """Slider level, more candidates than this: the single candidates are screened (the tier, or
+    the full search's coarse scans); with fewer each is fitted in full (§9.1, "Cost")."""
+    screen_refine: int = 1
+    """Refinement levels of the full search's coarse scan: the grid, one level of 7 points spanning
+    ± one grid step about its best point, and the ensembles at the two picks; the level sees a valley
+    narrower than the grid step (friction 0.185 hidden: χ² 198 at the grid point 0.2, 1.8 at 0.1833)
+    (§9.1, "Cost")."""
+    screen_margin: float = 20.0
+    """A coarsely scanned single candidate is fitted in full if its χ² is within this of the best
+    coarse χ² (the refinement lowered a grid's minimum by at most about 13 in the table's runs; not a
+    bound) (§9.1, "Cost")."""
+    screen_keep: int = 3
+    """At least this many single candidates (the best coarse ones) are fitted in full (§9.1, "Cost")."""
+    tier_margin: float = 20.0
+    """The tier: a candidate predicted, times the tier's scale, within this of the best fitted χ² is
+    fitted in full; a fitted χ² this far above its prediction sends the answer to the full search
+    (§9.1, "Cost")."""
+    tier_keep: int = 4
+    """The tier: at most this many single candidates fitted in full before the answer goes to the
+    full search (the natural frequencies × 1.03 hidden: the fourth, the contact spacing, settles it)
+    (§9.1, "Cost")."""
+    tier_shared: int = 3
+    """The tier's fits in full, first by prediction, that the full search keeps; a later one enters
+    as its coarse scan does, so the full search's verdict is that of a tier of this many (§9.1, "Cost")."""
+    fast_keep: int = 3
+    """``search="fast"``: the single candidates fitted in full, the best predicted (§9.1, "Fast path")."""
+    linear_steps: float = 5.0
+    """The linearised model's moves, ± this many relevance thresholds: the tier's and the fast path's
+    predictions and the joint refinement's predicted step (§9.1, "Cost", "Sets of effects")."""
+    rank_from: int = 3
+    """Slider level, more candidates than this: the pairs are ranked by the linearised model (the
+    pairs extending the two best singles, those predicted best overall) (§9.1, "Sets of effects")."""
+    extending_pairs: int = 3
+    """Of the pairs that extend one of the two best single candidates, those fitted: the ones the
+    linearised model predicts to fit best (§9.1, "Sets of effects")."""
+    guided_pairs: int = 3
+    """Pairs fitted beyond those: the ones the linearised model predicts to fit best overall, so that
+    two effects that each fit badly alone are still tried together (§9.1, "Sets of effects")."""
+    joint_sets: int = 3
+    """With more sets to fit than this, all get the coordinate pass and at least this many the joint
+    refinement, with every set predicted to come within the selection's threshold (§9.1, "Cost")."""
+
+    # --- the fits (docs/model.md §9.1 "One effect", "Sets of effects") -----------------------------
+    grid_points: int = 9
+    """Points of a single effect's scan over its search range (§9.1, "One effect")."""
+    refine_levels: int = 2
+    """Refinement levels of 7 points about the best point of a full fit, the step shrinking 3× per
+    level (§9.1, "One effect")."""
+    joint_refinement: bool = True
+    """Sets of two or more slider-level effects: after the coordinate pass, Gauss–Newton steps on
+    ensemble means confirmed by runs; False: the coordinate pass alone (§9.1, "Sets of effects")."""
+    gauss_newton_steps: int = 4
+    """Gauss–Newton steps at most of a joint refinement (§9.1, "Sets of effects")."""
+    min_gain: float = 0.5
+    """A Gauss–Newton step is taken only if it lowers χ² by more than this (§9.1, "Sets of effects")."""
+    rough_rescan: float = 50.0
+    """One effect: a fit that ends at the baseline value while its last level's single-run χ² scatter
+    by more than this about a parabola is rescored on ensembles (§9.1, "One effect")."""
+
+    # --- the advice (docs/model.md §9, "unexplained", "confounded") --------------------------------
+    advice_grid: Tuple[Tuple[float, float, float], ...] = tuple(
+        (f, a, s0) for s0 in (0.3, 0.15)
+        for f, a in ((104.0, 14.0), (110.0, 10.0), (116.0, 10.0), (120.0, 6.0), (124.0, 6.0), (124.0, 14.0), (126.0, 10.0)))
+    """Operating points (f_ex Hz, a_ex m/s², s0) among which the advice looks for the run that would
+    resolve an unresolved candidate or separate a confounded group (those measured are left out):
+    seven points of the paper's map from s0 = 0.3 and the same from 0.15; empty: no advice (§9)."""
+    weak_separation: float = 2.0
+    """Distance (uncertainties) between two fitted models' features at one run below which the
+    advice says that no run of its grid separates them (§9, "confounded")."""
+    clamp_clearance: float = 0.01
+    """The advice skips a point where a run ends with a contact point of the slider closer than this
+    (fraction of L) to a clamping (§9, "unexplained")."""
+
+    def __post_init__(self) -> None:
+        def check(name: str, ok: bool, what: str) -> None:
+            if not ok:
+                raise ValueError(f"invalid option {name} = {getattr(self, name)!r}: {what}")
+
+        for name in ("significance", "interval_level"):
+            v = getattr(self, name)
+            check(name, isinstance(v, (int, float)) and 0 < v < 1, "must be in (0, 1)")
+        v = self.gap_ratio
+        check("gap_ratio", isinstance(v, (int, float)) and 0 < v <= 1, "must be in (0, 1]")
+        for name in ("mode_conditioning", "joint_refinement"):
+            check(name, isinstance(getattr(self, name), bool), "must be True or False")
+        for name in ("confound_cos",):
+            v = getattr(self, name)
+            check(name, isinstance(v, (int, float)) and 0 < v <= 1, "must be in (0, 1]")
+        for name in ("confirm_singles", "screen_from", "rank_from", "screen_refine", "screen_keep", "tier_keep", "tier_shared",
+                     "fast_keep", "extending_pairs", "guided_pairs", "joint_sets", "gauss_newton_steps",
+                     "refine_levels"):
+            v = getattr(self, name)
+            check(name, isinstance(v, int) and not isinstance(v, bool) and v >= 0, "must be an integer >= 0")
+        check("grid_points", isinstance(self.grid_points, int) and self.grid_points >= 3, "must be an integer >= 3")
+        check("tier_keep", self.tier_keep >= 1, "must be an integer >= 1")
+        for name in ("screen_margin", "tier_margin", "min_gain", "rough_rescan", "weak_separation"):
+            v = getattr(self, name)  # a margin or a threshold: inf turns its test off
+            check(name, isinstance(v, (int, float)) and not isinstance(v, bool) and not math.isnan(v) and v >= 0,
+                  "must be a number >= 0 (inf: never)")
+        for name in ("clamp_clearance", "linear_steps"):
+            v = getattr(self, name)
+            check(name, isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) and v >= 0,
+                  "must be a finite number >= 0")
+        check("linear_steps", self.linear_steps > 0, "must be > 0")
+        try:
+            grid = tuple(tuple(float(x) for x in g) for g in self.advice_grid)
+        except (TypeError, ValueError):
+            grid = None
+        check("advice_grid", grid is not None and all(len(g) == 3 and all(math.isfinite(x) for x in g) for g in grid),
+              "give (f_ex, a_ex, s0) triples of finite numbers")
+        object.__setattr__(self, "advice_grid", grid)
+
+    @classmethod
+    def of(cls, given: Union[None, "DiscoverOptions", Mapping[str, Any]] = None, **changes: Any) -> "DiscoverOptions":
+        """``given`` (None: the defaults; a mapping: those fields changed, an unknown key refused)
+        with ``changes`` applied (None values ignored)."""
+        if given is None:
+            base = cls()
+        elif isinstance(given, cls):
+            base = given
+        elif isinstance(given, Mapping):
+            base = cls()._changed(dict(given))
+        else:
+            raise TypeError(f"options: give a DiscoverOptions or a mapping of its fields, not {type(given).__name__}")
+        return base._changed({k: v for k, v in changes.items() if v is not None})
+
+    def _changed(self, values: Dict[str, Any]) -> "DiscoverOptions":
+        known = [f.name for f in dataclasses.fields(self)]
+        unknown = [k for k in values if k not in known]
+        if unknown:
+            raise ValueError(f"unknown option {unknown[0]!r}: known are {', '.join(known)}")
+        return dataclasses.replace(self, **values) if values else self
+
+    def to_json(self) -> Dict[str, Any]:
+        """The values, and beside them those fixed by the code that makes a run's features
+        (``fixed_by_the_runs``: the ensemble's s0 shifts, the modes' levels, the features' smoothing
+        and floors; in :mod:`.models` and :mod:`.features`, whose bytes fingerprint every kept run,
+        docs/model.md §9.1 "Kept runs": not options, recorded)."""
+        out: Dict[str, Any] = {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
+        out["advice_grid"] = [list(g) for g in self.advice_grid]
+        out["fixed_by_the_runs"] = dict(ensemble_s0_shifts=list(models.ENSEMBLE_S0_SHIFTS),
+                                        high_final_h=models.HIGH_FINAL_H, mode_min_dof=models.MODE_MIN_DOF,
+                                        turning_smooth_s=features.TURNING_SMOOTH_S,
+                                        recorded_segments=features.RECORDED_SEGMENTS,
+                                        floors={k: list(v) for k, v in features.FLOORS.items()})
+        return out
+
+
+DEFAULT = DiscoverOptions()
+"""The defaults."""

@@ -1,0 +1,169 @@
+"""The typed verdict and the options of a discover (docs/model.md §9, "Naming rule"): report.md,
+gap.png's title and the command line's verdict line come from :class:`beamslider.discover.Verdict`,
+one test per kind; the options type refuses unknown keys and report.json records it."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+
+import pytest
+
+import beamslider as bs
+import beamslider.discover as dc
+from beamslider.discover.reasons import Reason, Why
+from beamslider.discover.report import gap_title, verdict_line
+from beamslider.discover.result import After, Because, CandidateFit, Discovery, Kind, Verdict
+
+
+def _fit(effects, chi2, values=None):
+    values = values or {e: dc.EFFECTS[e].baseline_value(bs.Parameters()) * 1.1 for e in effects}
+    return CandidateFit(tuple(effects), values, {e: 0.01 for e in effects}, chi2, 10, True, chi2)
+
+
+def _discovery(v: Verdict, named=(), parameters=None) -> Discovery:
+    p = bs.Parameters()
+    features = {"f0_hz": dict(measured=1.0, uncertainty=0.1, baseline=1.5, updated=1.0, model_spread_baseline=0.0,
+                              model_spread_updated=0.0, unit="Hz", description="", z_before=5.0, z_after=0.0,
+                              exceeds_uncertainty=True)}
+    fits = [f for f in [v.named, v.unresolved, v.best_rejected] + v.negligible if f is not None]
+    return Discovery("beam", list(named), parameters or {}, features, 5.0, 1.0, 25.0, fits, "the rule", p, p,
+                     verdict=v.kind, judgment=v, options=dc.DiscoverOptions(),
+                     features_off=[dict(feature="f0_hz", z=5.0)], rejected=[])
+
+
+def _report(d: Discovery, tmp_path) -> str:
+    pytest.importorskip("matplotlib")
+    dc.write_report(d, tmp_path)
+    return (tmp_path / "report.md").read_text(encoding="utf-8")
+
+
+def test_named(tmp_path):
+    f = _fit(["friction_coefficient"], 3.0, {"friction_coefficient": 0.26})
+    v = Verdict(Kind.NAMED, Because.NAMED, named=f, after=After({}, {}, {}, {}))
+    params = {"friction_coefficient": dict(field="friction_coefficient", value=0.26, stderr=0.01, unit="-",
+                                           baseline=0.2, relevance="", interval=[0.24, 0.28])}
+    d = _discovery(v, ["friction_coefficient"], params)
+    assert d.verdict == "named" and d.to_json()["verdict"] == "named"
+    assert str(d.verdict) == "named" and f"{d.verdict}" == "named"   # printed as the string it was
+    assert verdict_line(d).startswith("named friction_coefficient (friction_coefficient = 0.26 ± 0.01")
+    assert gap_title(d) == "named: friction_coefficient"
+    md = _report(d, tmp_path)
+    assert "**Named effect(s): `friction_coefficient`**" in md
+    j = json.loads((tmp_path / "report.json").read_text())
+    assert j["judgment"]["kind"] == "named" and j["judgment"]["named"] == ["friction_coefficient"]
+    assert j["options"]["gap_ratio"] == 0.3 and j["options"]["fixed_by_the_runs"]["ensemble_s0_shifts"][0] == 0.0
+
+
+def test_confounded(tmp_path):
+    group = dict(group=["friction_coefficient", "natural_frequency_detuning"], combination="(a) = (b)",
+                 explanation="each alone fits equally")
+    v = Verdict(Kind.CONFOUNDED, Because.CONFOUNDED, group=group,
+                advice=dict(text="add a run at f_ex = 116 Hz", weak=False))
+    d = _discovery(v)
+    line = verdict_line(d)
+    assert line.startswith("confounded: friction_coefficient, natural_frequency_detuning fit equally (the data "
+                           "resolve (a) = (b)") and line.endswith("; to separate them, add a run at f_ex = 116 Hz")
+    assert gap_title(d) == "confounded: friction_coefficient, natural_frequency_detuning (nothing named)"
+    md = _report(d, tmp_path)
+    assert "**Confounded: `friction_coefficient`, `natural_frequency_detuning`**" in md
+    assert "Advice (the separability tool): add a run at f_ex = 116 Hz." in md
+
+
+def test_unexplained_not_resolved(tmp_path):
+    u = _fit(["tilt"], 8.0, {"tilt": 0.0022})
+    why = [Reason(Why.NOT_RESOLVED, "not resolved: the interval [-0.002, 0.0066] of tilt_rad contains the baseline 0",
+                  "tilt")]
+    v = Verdict(Kind.UNEXPLAINED, Because.NOT_RESOLVED, unresolved=u, reasons={u.effects: why},
+                advice=dict(text="add a run at f_ex = 104 Hz"))
+    d = _discovery(v)
+    assert verdict_line(d) == ("unexplained discrepancy (gap 5) - best candidate tilt (tilt_rad = 0.0022 ± 0.01), "
+                               "not resolved by these runs (the interval [-0.002, 0.0066] of tilt_rad contains the "
+                               "baseline 0); to resolve it, add a run at f_ex = 104 Hz")
+    assert gap_title(d).startswith("unexplained: nothing named")
+    assert "**Unexplained discrepancy** — the baseline does not fit the data" in _report(d, tmp_path)
+
+
+def test_unexplained_outside_the_candidates(tmp_path):
+    group = dict(group=["tilt", "com_offset"], sets=[["tilt"], ["com_offset"]], not_candidates=["com_offset"],
+                 combination="(x) = (y)", explanation="the set tilt fits as well as com_offset")
+    v = Verdict(Kind.UNEXPLAINED, Because.OUTSIDE_CANDIDATES, group=group)
+    d = _discovery(v)
+    assert verdict_line(d).startswith("unexplained discrepancy (gap 5) - the best set tilt fits as well as com_offset, "
+                                      "not among the candidates")
+    assert "the candidates do not establish the change" in _report(d, tmp_path)
+
+
+def test_unexplained_no_set_passes(tmp_path):
+    f = _fit(["clearance"], 40.0)
+    v = Verdict(Kind.UNEXPLAINED, Because.NO_SET_PASSES, best_rejected=f,
+                reasons={f.effects: [Reason(Why.NOT_ADEQUATE, "not adequate: chi2 = 40 > chi2_0.99(10) = 23.2")]})
+    d = _discovery(v)
+    assert verdict_line(d) == ("unexplained discrepancy (gap 5; off: f0_hz z = +5.0); best candidate clearance "
+                               "rejected: not adequate: chi2 = 40 > chi2_0.99(10) = 23.2")
+    assert "no candidate effect passes the naming rule" in _report(d, tmp_path)
+
+
+def test_none_by_a_negligible_change(tmp_path):
+    f = _fit(["friction_coefficient"], 9.0, {"friction_coefficient": 0.203})
+    v = Verdict(Kind.NONE, Because.NEGLIGIBLE_CHANGE, negligible=[f],
+                reasons={f.effects: [Reason(Why.NEGLIGIBLE, "negligible change of friction_coefficient: 0.003 < 0.01",
+                                            "friction_coefficient")]})
+    d = _discovery(v)
+    assert verdict_line(d) == ("none (gap 5 closed by a negligible change: friction_coefficient, negligible change "
+                               "of friction_coefficient: 0.003 < 0.01)")
+    assert gap_title(d) == "named: nothing (only a negligible change is needed)"
+    assert "a change smaller than the candidates' relevance thresholds" in _report(d, tmp_path)
+
+
+def test_none_the_baseline_fits(tmp_path):
+    d = _discovery(Verdict(Kind.NONE, Because.BASELINE_FITS))
+    assert verdict_line(d) == "none (the baseline fits: gap 5)"
+    assert gap_title(d) == "named: nothing (model agrees within uncertainty)"
+    assert "the baseline agrees with the data within the measurement uncertainty" in _report(d, tmp_path)
+
+
+def test_options_refuse_unknown_keys_and_bad_values():
+    with pytest.raises(ValueError, match="unknown option 'tier_kept'"):
+        dc.DiscoverOptions.of({"tier_kept": 3})
+    with pytest.raises(TypeError):
+        dc.DiscoverOptions(tier_kept=3)  # type: ignore[call-arg]
+    with pytest.raises(ValueError, match="gap_ratio"):
+        dc.DiscoverOptions(gap_ratio=1.5)
+    o = dc.DiscoverOptions.of({"tier_keep": 3}, gap_ratio=0.4, advice_grid=None)
+    assert (o.tier_keep, o.gap_ratio, o.significance) == (3, 0.4, 0.01)
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        o.tier_keep = 5  # type: ignore[misc]
+    # discover refuses them before any run
+    with pytest.raises(ValueError, match="unknown option"):
+        dc.discover(enma_data=dc.synthesize_enma(bs.Parameters(), seed=1), options={"nope": 1})
+
+
+def test_every_option_states_its_meaning_and_section():
+    """Each field of the options type has a docstring that cites its section of docs/model.md (§9 or §9.1)."""
+    import ast
+    import inspect
+
+    body = ast.parse(inspect.getsource(dc.DiscoverOptions)).body[0].body  # type: ignore[attr-defined]
+    fields = [f.name for f in dataclasses.fields(dc.DiscoverOptions)]
+    docs = {a.target.id: b.value.value for a, b in zip(body, body[1:])
+            if isinstance(a, ast.AnnAssign) and isinstance(b, ast.Expr) and isinstance(b.value, ast.Constant)}
+    assert sorted(docs) == sorted(fields)
+    assert all("§9" in text for text in docs.values()), [k for k, v in docs.items() if "§9" not in v]
+
+
+def test_the_baseline_case_records_its_verdict_and_options():
+    """A real discover (the beam level's data of the baseline itself): the verdict typed, the options recorded."""
+    d = dc.discover(enma_data=dc.synthesize_enma(bs.Parameters(), seed=1), effects=["axial_preload"],
+                    options=dict(significance=0.01))
+    assert d.judgment.kind is d.verdict and d.verdict in ("none", "named", "unexplained", "confounded")
+    assert d.options == dc.DiscoverOptions() and d.to_json()["options"]["significance"] == 0.01
+
+
+def test_cli_option_refuses_an_unknown_key(tmp_path, capsys):
+    """``beamslider discover --option KEY=VALUE``: an unknown key is an error before any fit."""
+    from beamslider.cli import main
+
+    assert main(["discover", "--option", "tier_kept=3", "--out", str(tmp_path / "out")]) != 0
+    assert "unknown option 'tier_kept'" in capsys.readouterr().err
+    assert not (tmp_path / "out" / "report.json").exists()
