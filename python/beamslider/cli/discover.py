@@ -48,6 +48,11 @@ def add_parser(sub: Any) -> None:
                          "tool looks for the run that would resolve an unresolved candidate or separate a "
                          "confounded group (default: seven points of the paper's map, from s0 = 0.3 and from 0.15; "
                          "'none': no advice runs)")
+    sp.add_argument("--quick", action="store_true",
+                    help="slider level: stop at the provisional answer, the leading candidate of the tiered search's "
+                         "first tier (report.json with \"provisional\": true; docs/model.md §9.1, \"Provisional answer\"); "
+                         "without it that answer is written and printed as soon as it is known and the final verdict "
+                         "replaces it")
     sp.add_argument("--runs", metavar="FILE",
                     help="slider level: the file that keeps the free-slider runs made, JSON lines (default: runs.jsonl "
                          "in --out; 'none': keep none). The runs it holds from the same code are reused: a discover "
@@ -170,35 +175,42 @@ def cmd_discover(args: argparse.Namespace) -> int:
     store = None
     if args.runs is not None and not args.measured:
         raise UserError("--runs: only with --measured (the slider level's runs)")
+    if args.quick and not args.measured:
+        raise UserError("--quick: only with --measured (the slider level's tiered search)")
+    if args.search == "fast" and not (args.measured and not args.enma):
+        raise UserError(f"{given}: only for the slider level (--measured without --enma)")
+    runs = None
+    if args.measured:  # read (and refused) before anything is written
+        same = {str(Path(p).resolve()) for p in args.measured}
+        if len(same) < len(args.measured):
+            raise UserError("--measured: a file is given twice (each run counts once)")
+        runs = [read_measurement(p) for p in args.measured]
     if args.measured and (args.runs or "").strip().lower() != "none":
         from ..discover.runstore import RunStore
 
         store = RunStore(args.runs if args.runs else Path(args.out) / RUNS_FILE)
-    if args.search == "fast" and not (args.measured and not args.enma):
-        raise UserError(f"{given}: only for the slider level (--measured without --enma)")
-    if args.enma and args.measured:
-        # Joint fit over the beam (ENMA) and slider (runs) features.
-        baseline = Parameters.from_toml(args.params) if args.params else Parameters()
-        runs = [read_measurement(p) for p in args.measured]
-        d = dc.discover(enma_data=enma.read(args.enma), measured=runs, baseline=baseline, effects=effects,
-                        max_effects=args.max_effects, gap_ratio=args.gap_ratio, progress=prog, advice_grid=advice,
-                        runs_file=store, options=options)
-    elif args.enma:
-        baseline = Parameters.from_toml(args.params) if args.params else Parameters()
-        d = dc.discover(enma_data=enma.read(args.enma), baseline=baseline, effects=effects, max_effects=args.max_effects,
-                        gap_ratio=args.gap_ratio, options=options)
-    elif args.measured:
-        baseline = Parameters.from_toml(args.params) if args.params else Parameters()
-        runs = [read_measurement(p) for p in args.measured]
-        d = dc.discover(measured=runs, baseline=baseline, effects=effects, max_effects=args.max_effects,
-                        gap_ratio=args.gap_ratio, progress=prog, advice_grid=advice, search=args.search,
-                        runs_file=store, options=options)
-    else:
-        baseline = (Parameters.from_toml(args.params) if args.params
-                    else Parameters(k_r_nm_per_rad=math.inf, k_t_n_per_m=math.inf))
-        data = dc.synthesize_enma(Parameters(), seed=args.seed)
-        d = dc.discover(enma_data=data, baseline=baseline, effects=effects, max_effects=args.max_effects,
-                        gap_ratio=args.gap_ratio, options=options)
+        if store.loaded:
+            print(f"runs: {store.loaded} kept runs read from {store.path} (an earlier discover's): only the runs "
+                  "not among them are made", flush=True)
+
+    def provisional(answer: Dict[str, Any]) -> None:
+        # The leading candidate so far, as report.json and one line; the final verdict replaces it.
+        from ._common import write_json_atomic
+
+        out = out_dir(args)
+        write_json_atomic(out / "report.json", answer)
+        print(f"provisional ({answer['elapsed_s']:.0f} s): leading candidate " + ", ".join(
+            f"{e} {dc.fmt_value(answer['values'][e])} ± {dc.fmt_value(answer['stderrs'][e])}" for e in answer["leading"])
+            + f" (chi2 {answer['chi2']:.3g} against {answer['chi2_before']:.3g} before); "
+            + ("--quick: stopped here" if args.quick else "the search goes on, its verdict replaces this"), flush=True)
+        if args.quick:
+            raise dc.StopAtProvisional(answer)
+
+    try:
+        d = _discover(args, dc, enma, runs, effects, advice, prog, store, options, provisional)
+    except dc.StopAtProvisional:
+        print(f"wrote {out_dir(args) / 'report.json'} (provisional)")
+        return 0
     out = out_dir(args)
     written = dc.write_report(d, out)
     print((out / "report.md").read_text(encoding="utf-8").split("\n| feature")[0].rstrip())
@@ -209,6 +221,30 @@ def cmd_discover(args: argparse.Namespace) -> int:
     for p in written:
         print(f"wrote {p}")
     return 0
+
+
+def _discover(args, dc, enma, runs, effects, advice, prog, store, options, provisional):
+    """The discover the arguments ask for (beam, slider or both levels; the paper's case without data)."""
+    if args.enma and args.measured:
+        # Joint fit over the beam (ENMA) and slider (runs) features.
+        baseline = Parameters.from_toml(args.params) if args.params else Parameters()
+        return dc.discover(enma_data=enma.read(args.enma), measured=runs, baseline=baseline, effects=effects,
+                           max_effects=args.max_effects, gap_ratio=args.gap_ratio, progress=prog, advice_grid=advice,
+                           runs_file=store, options=options)
+    if args.enma:
+        baseline = Parameters.from_toml(args.params) if args.params else Parameters()
+        return dc.discover(enma_data=enma.read(args.enma), baseline=baseline, effects=effects,
+                           max_effects=args.max_effects, gap_ratio=args.gap_ratio, options=options)
+    if args.measured:
+        baseline = Parameters.from_toml(args.params) if args.params else Parameters()
+        return dc.discover(measured=runs, baseline=baseline, effects=effects, max_effects=args.max_effects,
+                           gap_ratio=args.gap_ratio, progress=prog, advice_grid=advice, search=args.search,
+                           runs_file=store, options=options, on_provisional=provisional)
+    baseline = (Parameters.from_toml(args.params) if args.params
+                else Parameters(k_r_nm_per_rad=math.inf, k_t_n_per_m=math.inf))
+    data = dc.synthesize_enma(Parameters(), seed=args.seed)
+    return dc.discover(enma_data=data, baseline=baseline, effects=effects, max_effects=args.max_effects,
+                       gap_ratio=args.gap_ratio, options=options)
 
 
 def cmd_synthesize(args: argparse.Namespace) -> int:

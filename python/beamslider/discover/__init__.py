@@ -66,6 +66,7 @@ from .options import DiscoverOptions
 from .result import Because, CandidateFit, Discovery, GAP_MEASURE, Kind, Verdict
 from .stats import SIGNIFICANCE
 from .workflow import discover
+from .provisional import StopAtProvisional
 from .runstore import RunStore
 from .synthesize import synthesize_enma, synthesize_slider_runs, truth_from_toml, truth_from_toml_text
 from .report import fmt_value, verdict_line, write_report
@@ -77,6 +78,6 @@ __all__ = [
     "OperatingPoint", "SIGNIFICANCE", "simulated_enma_features", "slider_features", "synthesize_enma",
     "synthesize_slider_runs", "truth_from_toml", "truth_from_toml_text", "write_report", "verdict_line",
     "separability", "slider_sensitivities",
-    "realise_effects", "fmt_value", "CHAIN_EFFECTS", "Model", "realise_model", "RunStore",
+    "realise_effects", "fmt_value", "StopAtProvisional", "CHAIN_EFFECTS", "Model", "realise_model", "RunStore",
     "DiscoverOptions", "Kind", "Because", "Verdict",
 ]

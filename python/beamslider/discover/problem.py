@@ -74,6 +74,7 @@ class Problem:
         self.base, self.options, self.max_effects = resolve(baseline), options, max_effects
         self.enma_data, self.measured, self.threads, self.progress = enma_data, measured, threads, progress
         self.record = SearchRecord()
+        self.provisional: Any = None  # the reporter of the provisional answer (.provisional), set by discover
         self.run_cache: RunCache = {}
         if runs_file is not None and measured is not None:
             self.run_cache = runs_file if isinstance(runs_file, RunStore) else RunStore(runs_file)

@@ -6,7 +6,7 @@ together as a :class:`.result.Discovery`."""
 from __future__ import annotations
 
 import time
-from typing import Any, Dict, List, Optional, Sequence, Tuple
+from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple
 
 from ..enma import EnmaData
 from ..measurement import Measurement
@@ -15,6 +15,7 @@ from .chain import Model, realise_model
 from .effects import EFFECTS
 from .options import DiscoverOptions
 from .problem import Problem
+from .provisional import Provisional
 from .reasons import kinds
 from .result import CandidateFit, Discovery, Verdict
 from .rule import criterion, decide
@@ -27,7 +28,7 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
              max_effects: int = 2, progress: bool = False, gap_ratio: Optional[float] = None,
              threads: Optional[int] = None, advice_grid: Optional[Sequence[Tuple[float, float, float]]] = None,
              fast: bool = False, search: str = "tiered", runs_file: Optional[Any] = None,
-             options: Any = None) -> Discovery:
+             options: Any = None, on_provisional: Optional[Callable[[Dict[str, Any]], None]] = None) -> Discovery:
     """Find the effects the ``baseline`` model misses, from beam-level ENMA data (``enma_data``),
     slider-level free-slider runs (``measured``, files of the published format) or both (one joint
     fit over both feature sets: beam-level effects from both, slider-level ones from the runs),
@@ -41,13 +42,16 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
     one per core). ``search`` (slider level): ``"tiered"`` (the default), ``"full"`` or ``"fast"``
     (also ``fast=True``), :mod:`.search` (docs/model.md §9.1, "Cost"). ``runs_file``: a JSON-lines
     file of the free-slider runs, or a :class:`.runstore.RunStore`: the runs it holds from the same
-    code are reused, every run made is appended (None: none kept)."""
+    code are reused, every run made is appended (None: none kept). ``on_provisional``: called with
+    the leading candidate as soon as the tiered search has one, and as the lead improves (a dict,
+    :mod:`.provisional`; raising :class:`.provisional.StopAtProvisional` ends the search there)."""
     t0 = time.perf_counter()
     strategy = strategy_of(search, fast)
     opts = DiscoverOptions.of(options, gap_ratio=gap_ratio, advice_grid=advice_grid)
     problem = Problem.build(enma_data=enma_data, measured=measured, baseline=baseline, effects=effects,
                             max_effects=max_effects, threads=threads, runs_file=runs_file, progress=progress,
                             options=opts)
+    problem.provisional = Provisional(on_provisional, problem, t0) if on_provisional is not None else None
     fits = [] if problem.baseline_fits else run(problem, strategy)
     verdict = decide(problem, fits)
     return outcome(problem, fits, verdict, time.perf_counter() - t0)

@@ -27,7 +27,10 @@ def search(problem: Any, candidates: Sequence[Effect], options: DiscoverOptions)
                 return fits
             return fits + fit_sets(problem, fit, candidates, fits, options)
         pred = problem.predict(candidates)
-        fits, complete = tiered_singles(candidates, pred, lambda e: fit((e,)), len(problem.meas), options.tier_keep,
+        lead = problem.provisional  # the leading candidate as soon as there is one
+        fits, complete = tiered_singles(candidates, pred,
+                                        (lambda e: lead.saw(fit((e,)))) if lead else (lambda e: fit((e,))),
+                                        len(problem.meas), options.tier_keep,
                                         options.tier_margin, options.significance)
         if complete and (problem.max_effects < 2 or problem.no_set_can_win(fits) or pairs_gated(problem, fits)):
             fit.bar.update(len(candidates))
