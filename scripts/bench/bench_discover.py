@@ -13,6 +13,8 @@ repeats, and the case's candidates (all slider-level ones, or all but the hidden
 ``--runs FILE``: each repeat starts from a copy of the kept runs of an earlier discover (its
 ``runs.jsonl``; docs/model.md §9.1, "Kept runs"), e.g. of another case at the same operating points:
 the wall time of a discover warm on those runs. Without it every run is made.
+``--quick``: each discover stops at its provisional answer (``discover --quick``): the time to the
+leading candidate of the tiered search's first tier.
 ``--stages [--search S]``: one discover in this process instead (``--search``: discover's search),
 every batch of the core's runner attributed to the stage that asked for it (the baseline's
 ensemble, the single candidates' coarse scans or linearised prediction and full fits, the linearised
@@ -47,7 +49,7 @@ def load() -> str:
     return "load average " + " ".join(f"{x:.2f}" for x in os.getloadavg())
 
 
-def one(files, effects, max_effects, search="tiered", runs=None) -> tuple:
+def one(files, effects, max_effects, search="tiered", runs=None, quick=False) -> tuple:
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp) / "out"
         argv = [sys.executable, "-m", "beamslider", "discover", "--measured", *files, "--out", str(out), "--force"]
@@ -56,7 +58,7 @@ def one(files, effects, max_effects, search="tiered", runs=None) -> tuple:
             shutil.copyfile(runs, out / "runs.jsonl")
         if effects:
             argv += ["--effects", effects]
-        argv += ["--max-effects", str(max_effects), "--search", search]
+        argv += ["--max-effects", str(max_effects), "--search", search] + (["--quick"] if quick else [])
         t0 = time.perf_counter()
         p = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
         _, status, usage = os.wait4(p.pid, 0)
@@ -65,6 +67,10 @@ def one(files, effects, max_effects, search="tiered", runs=None) -> tuple:
         if os.waitstatus_to_exitcode(status) != 0:
             raise SystemExit(f"discover failed:\n{stderr}")
         rep = json.loads((out / "report.json").read_text())
+        if rep.get("provisional"):  # --quick: the leading candidate, not a verdict
+            return wall, usage.ru_utime + usage.ru_stime, "provisional", ", ".join(
+                f"{e} {rep['values'][e]:.5g} in [{rep['intervals'][e][0]:.5g}, {rep['intervals'][e][1]:.5g}]"
+                for e in rep["leading"])
         named = ", ".join(f"{e} {v['value']:.5g} in [{v['interval'][0]:.5g}, {v['interval'][1]:.5g}]"
                           for e, v in rep.get("parameters", {}).items()) or "-"
         del stdout
@@ -152,6 +158,8 @@ def main() -> int:
     ap.add_argument("--search", choices=("tiered", "full", "fast"), default="tiered",
                     help="discover's search (docs/model.md §9.1, \"Cost\"): tiered (the default), full or fast")
     ap.add_argument("--fast", action="store_true", help="the same as --search fast")
+    ap.add_argument("--quick", action="store_true",
+                    help="time the provisional answer: each discover stops at it (discover --quick; docs/model.md §9.1)")
     ap.add_argument("--runs", metavar="FILE", default=None,
                     help="kept runs (runs.jsonl of an earlier discover, e.g. of another case at the same points) "
                          "each repeat starts from (default: none, every run made)")
@@ -189,7 +197,7 @@ def main() -> int:
     walls, cpus = [], []
     for i in range(args.repeat):
         wall, cpu, verdict, named = one(files, args.effects, args.max_effects,
-                                        "fast" if args.fast else args.search, runs=args.runs)
+                                        "fast" if args.fast else args.search, runs=args.runs, quick=args.quick)
         walls.append(wall)
         cpus.append(cpu)
         print(f"  repeat {i + 1}: wall {wall:.1f} s, CPU {cpu:.1f} s, verdict {verdict}: {named} ({load()})", flush=True)
