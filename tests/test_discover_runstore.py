@@ -142,7 +142,7 @@ def test_a_discover_run_again_on_its_runs_makes_only_the_figures_runs_and_says_t
     store = RunStore(tmp_path / "runs.jsonl")
     second = dc.discover(runs_file=store, **kw).to_json()
     assert store.loaded > 20
-    assert 0 < len(jobs) <= 2 and store.added == len(jobs)  # the baseline's and the updated model's paths
+    assert 0 < len(jobs) <= 2 and store.added == 0  # the paths of the baseline and the updated model, made again, not appended again
     for d in (first, second):
         d.pop("runtime_s")
     plain.pop("runtime_s")
@@ -217,3 +217,16 @@ def test_the_fingerprint_covers_the_run_making_sources_only():
     assert all((root / rel).is_file() for rel in runstore.RUN_SOURCES)
     assert "discover/features.py" in runstore.RUN_SOURCES and "discover/models.py" in runstore.RUN_SOURCES
     assert not any(rel.endswith(("workflow.py", "rule.py", "report.py")) or "/search/" in rel for rel in runstore.RUN_SOURCES)
+
+
+def test_a_run_made_again_for_its_path_is_not_appended_twice(tmp_path):
+    """The report's figure makes again the runs read back without their slider path; the file keeps
+    each run once (a discover run again on its kept runs appends nothing it holds)."""
+    from beamslider.discover.models import slider_paths
+
+    f = tmp_path / "runs.jsonl"
+    batch_slider_features([bs.Parameters()], OPS, cache=RunStore(f))
+    lines = f.read_text().count("\n")
+    again = RunStore(f)
+    slider_paths([bs.Parameters()], OPS, cache=again)  # remakes the path-less run
+    assert again.added == 0 and f.read_text().count("\n") == lines

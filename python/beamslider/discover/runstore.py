@@ -94,6 +94,7 @@ class RunStore(dict):
             raw = b""
         except OSError as e:
             raise ValueError(f"cannot read runs file {self.path}: {e.strerror or e}") from None
+        self._on_disk: set = set()  # the keys the file holds: a run made again (for its path) is not appended
         whole = raw.split(b"\n")[:-1]  # the lines ended by a newline
         if whole and not any(_ours(line) for line in whole):
             raise ValueError(f"invalid runs file {self.path}: it is not a file of runs that discover keeps "
@@ -105,6 +106,7 @@ class RunStore(dict):
                     continue
                 key = _to_tuple(json.loads(d["key"]))
                 super().__setitem__(key, _decode(d["run"]))
+                self._on_disk.add(key)
                 self.loaded += 1
             except (ValueError, KeyError, TypeError, IndexError):
                 continue  # a line cut short, or not one of ours
@@ -118,6 +120,9 @@ class RunStore(dict):
 
     def __setitem__(self, key: Tuple[Any, ...], run: Any) -> None:
         super().__setitem__(key, run)
+        if key in self._on_disk:  # made again for the slider path the file does not keep
+            return
+        self._on_disk.add(key)
         self.added += 1
         line = json.dumps({"v": FORMAT, "code": self._fp, "key": _key_text(key), "run": _encode(run)},
                           separators=(",", ":"), allow_nan=True) + "\n"
