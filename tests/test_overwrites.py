@@ -31,49 +31,56 @@ def _err_line(r):
 # --- maps: extension, resume and force -----------------------------------------------------------
 
 
-def test_an_interrupted_extension_is_finished_by_the_same_extend_to(tmp_path, monkeypatch):
+def _rows(folder):
+    got = {}
+    for ln in (folder / "map.jsonl").read_text().splitlines()[1:]:
+        d = json.loads(ln)
+        d.pop("wall_time_s")
+        got[d["index"]] = d
+    return got
+
+
+def test_an_interrupted_extension_changes_no_settings_and_the_same_extend_to_finishes_it(tmp_path, monkeypatch):
+    grid = ["--f-ex", "120,124", "--a-ex", "14", "-j", "1"]
+    for name in ("ex", "part"):
+        r = run_cli("map", *grid, "--t-end", "1", "--out", name, cwd=tmp_path)
+        assert r.returncode == 0, r.stderr
     out = tmp_path / "ex"
-    r = run_cli("map", "--f-ex", "120,124", "--a-ex", "14", "--t-end", "1", "--out", "ex", "-j", "1", cwd=tmp_path)
-    assert r.returncode == 0, r.stderr
     toml_before = (out / "map.toml").read_text()
-    # The extension stopped after its first point (Ctrl-C as the progress callback sees it).
+    # Ctrl-C during the extension (as the progress callback sees it): map.toml keeps its duration.
     import beamslider.maps.compute as compute
 
-    def stop_after_first(results, bar):
+    def stop_at_once(results, bar):
         def watch(done, total):
-            if done >= 1:
-                raise KeyboardInterrupt
+            raise KeyboardInterrupt
         return watch
 
-    monkeypatch.setattr(compute, "_watching", stop_after_first)
+    monkeypatch.setattr(compute, "_watching", stop_at_once)
     cfg = _toml.loads(toml_before)
-    cfg["duration_s"] = 2.0
+    cfg["duration_s"] = 4.0
     with pytest.raises(KeyboardInterrupt):
         compute.run_map_config(_toml.dumps(cfg), out=out, extend=True, threads=1, report=False)
     monkeypatch.undo()
     assert (out / "map.toml").read_text() == toml_before, "map.toml changes only when the extension completes"
-    # The command's own advice: the same --extend-to finishes it; --resume says so.
-    r = run_cli("map", "--f-ex", "120,124", "--a-ex", "14", "--t-end", "1", "--out", "ex", "--resume", cwd=tmp_path)
-    assert r.returncode == 1 and "--extend-to 2" in _err_line(r), r.stderr
-    r = run_cli("map", "--out", "ex", "--extend-to", "2", "-j", "1", cwd=tmp_path)
+    r = run_cli("map", "--out", "ex", "--extend-to", "4", "-j", "1", cwd=tmp_path)
     assert r.returncode == 0, r.stderr
-    assert float(_toml.loads((out / "map.toml").read_text())["duration_s"]) == 2.0
-    done = read_map(out)
-    assert all(t == pytest.approx(2.0, abs=0.05) for t in done["t_end_s"]), done["t_end_s"]
-    # Bitwise the rows of a 2-s map from rest (but the wall time).
-    ref = tmp_path / "ref"
-    assert run_cli("map", "--f-ex", "120,124", "--a-ex", "14", "--t-end", "2", "--out", "ref", "-j", "1", cwd=tmp_path).returncode == 0
-
-    def rows(folder):
-        lines = (folder / "map.jsonl").read_text().splitlines()[1:]
-        got = {}
-        for ln in lines:
-            d = json.loads(ln)
-            d.pop("wall_time_s")
-            got[d["index"]] = d
-        return got
-
-    assert rows(out) == rows(ref)
+    assert float(_toml.loads((out / "map.toml").read_text())["duration_s"]) == 4.0
+    # Bitwise the rows of a 4-s map from rest (but the wall time).
+    assert run_cli("map", *grid, "--t-end", "4", "--out", "ref", cwd=tmp_path).returncode == 0
+    assert _rows(out) == _rows(tmp_path / "ref")
+    # A map killed after the first of its two continuations (the results file as the core leaves
+    # it: the header of the extension, the 1-s rows, one 4-s row; map.toml of the 1-s map).
+    part = tmp_path / "part"
+    lines = (part / "map.jsonl").read_text().splitlines()
+    header = (out / "map.jsonl").read_text().splitlines()[0]
+    first = next(ln for ln in (out / "map.jsonl").read_text().splitlines()[1:] if json.loads(ln)["index"] == 0
+                 and json.loads(ln)["t_end_s"] > 3)
+    (part / "map.jsonl").write_text("\n".join([header, *lines[1:], first]) + "\n")
+    r = run_cli("map", *grid, "--t-end", "1", "--out", "part", "--resume", cwd=tmp_path)
+    assert r.returncode == 1 and "--extend-to 4" in _err_line(r), r.stderr
+    r = run_cli("map", "--out", "part", "--extend-to", "4", "-j", "1", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    assert _rows(part) == _rows(tmp_path / "ref")
 
 
 def test_an_earlier_map_is_refused_naming_resume_and_force(tmp_path):

@@ -48,9 +48,23 @@ const RANGES: &[Range] = &[
     Range { field: "friction_coefficient", lo: 0.0, hi: 5.0, what: "Coulomb friction coefficient", units: &[(1e-2, "per cent")] },
 ];
 
+/// A number for a message: six significant digits at most, trailing zeros dropped (`0.0462`,
+/// `140`), in exponent form far from 1 (`1e300`).
 fn short(x: f64) -> String {
-    let text = format!("{x}");
-    if text.len() > 10 { format!("{x:.4e}") } else { text }
+    if x == 0.0 || !x.is_finite() {
+        return format!("{x}");
+    }
+    if !(1e-4..1e7).contains(&x.abs()) {
+        return format!("{x:e}");
+    }
+    let decimals = (5 - x.abs().log10().floor() as i32).max(0) as usize;
+    let text = format!("{x:.decimals$}");
+    if text.contains('.') { text.trim_end_matches('0').trim_end_matches('.').to_string() } else { text }
+}
+
+/// The plausible range of `r` in words.
+fn range_text(r: &Range) -> String {
+    if r.lo == 0.0 { format!("at most {} in SI units", short(r.hi)) } else { format!("{} to {} in SI units", short(r.lo), short(r.hi)) }
 }
 
 /// Why `value` is out of `r`, naming the unit that would bring it in range (if one does).
@@ -67,12 +81,7 @@ fn out_of_range(r: &Range, value: f64) -> Option<Finding> {
     Some(Finding {
         field: r.field,
         value,
-        why: format!(
-            "implausible {}: orders of magnitude from every beam and slider of this kind ({} to {} in SI units){hint}",
-            r.what,
-            short(r.lo),
-            short(r.hi)
-        ),
+        why: format!("implausible {}: orders of magnitude from every beam and slider of this kind ({}){hint}", r.what, range_text(r)),
     })
 }
 
@@ -208,6 +217,11 @@ mod tests {
         assert!(why.contains("kg mm²"), "{why}");
         let (f, _) = field_of(Params { com_offset_m: 4.1, ..d.clone() }).unwrap();
         assert_eq!(f, "com_offset_m");
+    }
+
+    #[test]
+    fn numbers_are_short() {
+        assert_eq!([short(0.0462), short(140.0), short(0.14), short(1e300), short(2.5e-7)], ["0.0462", "140", "0.14", "1e300", "2.5e-7"]);
     }
 
     #[test]

@@ -298,7 +298,8 @@ fn check_settings(cfg: &MapConfig, opts: &MapRunOptions, path: &Path, old: &Resu
     }
     let mut extended = new.clone();
     extended.duration_s = s.duration_s;
-    if *s != new && extended == *s && s.duration_s > new.duration_s {
+    // An interrupted extension: the header has the longer duration, and points still end before it.
+    if *s != new && extended == *s && s.duration_s > new.duration_s && latest(old.rows.clone()).iter().any(|r| r.continuable(s.duration_s)) {
         return Err(Error::invalid(
             "resume",
             path.display(),
