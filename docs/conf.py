@@ -81,7 +81,8 @@ sphinx_gallery_conf = {
     "download_all_examples": False,
     "remove_config_comments": True,
     "within_subsection_order": "FileNameSortKey",
-    "image_scrapers": ("matplotlib",),
+    # The package's Figure objects (it makes them without pyplot), then pyplot's figures.
+    "image_scrapers": ("_ext.gallery_figures.scrape", "matplotlib"),
     "matplotlib_animations": False,
     "show_memory": False,
     "abort_on_example_error": True,

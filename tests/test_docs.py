@@ -70,3 +70,33 @@ def test_site_builds_without_warnings(tmp_path):
     assert not missing, missing
     for page in PAGES:
         assert (out / f"{page}.html").exists(), page
+
+
+@pytest.mark.docs
+def test_every_gallery_example_shows_its_figure(tmp_path):
+    """The gallery run as the full build runs it (its examples executed): each example's page
+    has its figure, also where the package draws a ``matplotlib.figure.Figure`` without pyplot."""
+    pytest.importorskip("sphinx_gallery")
+    sphinx = pytest.importorskip("sphinx")
+    if int(sphinx.__version__.split(".")[0]) < 8:
+        pytest.skip("the site is built with Sphinx >= 8 (Python >= 3.11)")
+    import runpy
+
+    src = tmp_path / "src"
+    src.mkdir()
+    gallery_conf = runpy.run_path(str(DOCS / "conf.py"))["sphinx_gallery_conf"]
+    (src / "conf.py").write_text(
+        "import sys\n"
+        f"sys.path.insert(0, {str(DOCS)!r})\n"
+        "extensions = ['sphinx_gallery.gen_gallery']\n"
+        f"sphinx_gallery_conf = {gallery_conf!r}\n", encoding="utf-8")
+    (src / "index.rst").write_text("Gallery\n=======\n\n.. toctree::\n\n   gallery/index\n", encoding="utf-8")
+    out = tmp_path / "html"
+    r = subprocess.run([sys.executable, "-m", "sphinx", "-W", "-q", "-b", "html", str(src), str(out)],
+                       capture_output=True, text=True, timeout=900, env={**__import__("os").environ, "MPLBACKEND": "Agg"})
+    assert r.returncode == 0, r.stderr[-5000:]
+    examples = sorted(p.stem for p in (ROOT / "examples" / "gallery").glob("plot_*.py"))
+    assert len(examples) >= 5
+    for name in examples:
+        page = (out / "gallery" / f"{name}.html").read_text(encoding="utf-8")
+        assert re.search(rf'<img [^>]*src="[^"]*sphx_glr_{name}_\d+\.png"', page), f"{name}: no figure on its gallery page"

@@ -248,7 +248,8 @@ def test_fit_law_cli_and_predicted_map_cli(tmp_path, capsys):
     assert read_map(tmp_path / "m2")["behaviour"][0] == predict(f_ex=124, a_ex=14).behaviour
     capsys.readouterr()
     assert main(["map", "--predictor", "default", "--f-ex", "124", "--a-ex", "14", "--out", str(tmp_path / "m2")]) != 0
-    assert "--resume continues it" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert "--resume to continue it" in err and "--force to start over" in err
     assert main(["map", "--predictor", "default", "--s0", "0.3,0.4", "--out", str(tmp_path / "m3")]) != 0
     assert main(["map", "--predictor", str(tmp_path / "missing.json"), "--out", str(tmp_path / "m4")]) != 0
 

@@ -196,6 +196,13 @@ def beam_properties(params: Params, x_over_l: Sequence[float] = ...) -> Dict[str
     §2 and §9) as a dict; ``phi`` holds φₘ at ``x_over_l`` (N rows).
     """
 
+def plausibility_findings(params: Params) -> List[Tuple[str, float, str]]:
+    """Every implausible value of ``params`` (core ``plausibility::findings``, docs/model.md §1
+    "Units and plausibility") as (field, value, why), also when the override
+    (``PLAUSIBILITY_OVERRIDE_ENV``) lets them through validation.
+    """
+
+PLAUSIBILITY_OVERRIDE_ENV: str
 RESULTS_FORMAT_VERSION: int
 MAX_AXIS_VALUES: int
 

@@ -20,7 +20,9 @@ from typing import Any, Callable, List, Optional, Sequence, Tuple
 
 
 CONNECT_TIMEOUT_S = 20.0
-"""How long to try to reach a scheduler before giving up [s]."""
+"""The one hard timeout of reaching a scheduler [s]: the connection, Dask's handshake and the
+whole start of the client together (``timeout_s``; the environment variable
+``BEAMSLIDER_CONNECT_TIMEOUT_S`` overrides the default)."""
 
 
 def connect(scheduler: Any = None, scheduler_file: Optional[str] = None, *, timeout_s: Optional[float] = None) -> Tuple[Any, bool]:
@@ -46,12 +48,140 @@ def connect(scheduler: Any = None, scheduler_file: Optional[str] = None, *, time
     else:
         raise ValueError(f"invalid parameter `scheduler` = {scheduler!r}: give an address such as "
                          "'tcp://10.0.0.5:8786' or a distributed.Client")
+    return start_client(kwargs["address"], what, connect_timeout(timeout_s)), True
+
+
+def connect_timeout(value: Optional[float] = None) -> float:
+    """The hard timeout of a connection [s]: ``value``, else ``BEAMSLIDER_CONNECT_TIMEOUT_S``, else
+    :data:`CONNECT_TIMEOUT_S`."""
+    if value is None:
+        try:
+            value = float(os.environ.get("BEAMSLIDER_CONNECT_TIMEOUT_S", CONNECT_TIMEOUT_S))
+        except ValueError:
+            value = CONNECT_TIMEOUT_S
+    if not (value > 0 and value < 1e9):
+        raise ValueError(f"invalid parameter `timeout_s` = {value!r}: must be > 0 seconds")
+    return float(value)
+
+
+def _in_thread(call: Callable[[], Any], timeout_s: float) -> Tuple[bool, Any, Optional[BaseException]]:
+    """``call()`` in a daemon thread, waited for at most ``timeout_s``: (finished, value, error).
+    Whatever the call does (a read that never returns, an allocation that fails), the caller
+    gets control back in time."""
+    import threading
+
+    box: dict = {}
+
+    def run() -> None:
+        try:
+            box["value"] = call()
+        except BaseException as e:  # noqa: BLE001 - MemoryError of a garbled frame, CancelledError, ...
+            box["error"] = e
+
+    t = threading.Thread(target=run, name="beamslider-dask-connect", daemon=True)
+    t.start()
+    t.join(max(timeout_s, 0.0))
+    if t.is_alive():
+        return False, None, None
+    return True, box.get("value"), box.get("error")
+
+
+def _reason(e: BaseException) -> str:
+    """A short reason for a failed handshake."""
+    if isinstance(e, MemoryError):
+        return "its answer is not Dask's protocol: the first frame would need an impossible allocation"
+    if isinstance(e, (asyncio.TimeoutError, TimeoutError)):
+        return "no answer to Dask's handshake"
+    text = " ".join(str(e).split()) or type(e).__name__
+    return text if len(text) <= 120 else text[:117] + "..."
+
+
+def _reachable(address: str, timeout_s: float) -> Optional[str]:
+    """For a tcp:// or tls:// address: why a plain connection to its host and port fails (None
+    when it connects, or when the address is of another kind)."""
+    import socket
+    from urllib.parse import urlsplit
+
     try:
-        return Client(timeout=f"{CONNECT_TIMEOUT_S if timeout_s is None else timeout_s}s", **kwargs), True
-    except (OSError, TimeoutError) as e:
-        raise ValueError(f"cannot reach {what}: {e}") from None
-    except ValueError as e:
-        raise ValueError(f"cannot use {what}: {e}") from None
+        u = urlsplit(address)
+        host, port = u.hostname, u.port
+    except ValueError:
+        return None
+    if u.scheme not in ("tcp", "tls") or not host or port is None:
+        return None
+    try:
+        with socket.create_connection((host, port), timeout=timeout_s):
+            return None
+    except socket.timeout:
+        return f"no connection within {timeout_s:g} s"
+    except OSError as e:
+        return e.strerror or str(e)
+
+
+async def _identity(address: str, timeout_s: float) -> Any:
+    """What the server at ``address`` says it is (Dask's ``identity`` call), within ``timeout_s``."""
+    from distributed.comm import connect as comm_connect
+
+    async def ask() -> Any:
+        comm = await comm_connect(address, timeout=timeout_s)
+        try:
+            await comm.write({"op": "identity", "reply": True})
+            return await comm.read()
+        finally:
+            comm.abort()
+
+    return await asyncio.wait_for(ask(), timeout_s)
+
+
+def start_client(address: str, what: str, timeout_s: float) -> Any:
+    """A ``distributed.Client`` of the scheduler at ``address``, started within ``timeout_s``
+    (connection, handshake and client start under one deadline). A server that refuses the
+    connection is "cannot reach ..."; one that accepts it and then answers something else than a
+    scheduler (an HTTP server's ``400``, bytes that are not Dask's protocol, a Dask worker,
+    nothing at all) is one line: ``ADDRESS is not a Dask scheduler (why)``."""
+    from distributed import Client
+
+    deadline = time.monotonic() + timeout_s
+    left = lambda: max(deadline - time.monotonic(), 0.0)  # noqa: E731
+    why = _reachable(address, timeout_s)
+    if why is not None:
+        raise ValueError(f"cannot reach {what}: {why}")
+    with _quiet_handshake():
+        done, ident, error = _in_thread(lambda: asyncio.run(_identity(address, left())), left() + 0.5)
+    if not done:
+        raise ValueError(f"{address} is not a Dask scheduler (no answer within {timeout_s:g} s)")
+    if error is not None:
+        if isinstance(error, KeyboardInterrupt):
+            raise error
+        raise ValueError(f"{address} is not a Dask scheduler ({_reason(error)})")
+    kind = ident.get("type") if isinstance(ident, dict) else None
+    if kind != "Scheduler":
+        said = f"it says it is a Dask {kind}" if isinstance(kind, str) else "its answer to Dask's identity call is not a scheduler's"
+        raise ValueError(f"{address} is not a Dask scheduler ({said})")
+    done, client, error = _in_thread(lambda: Client(address=address, timeout=f"{max(left(), 0.1):g}s"), left() + 0.5)
+    if not done:
+        raise ValueError(f"{address} is not a Dask scheduler (the client did not start within {timeout_s:g} s)")
+    if isinstance(error, KeyboardInterrupt):
+        raise error
+    if error is not None:
+        raise ValueError(f"{address} is not a Dask scheduler ({_reason(error)})")
+    return client
+
+
+class _quiet_handshake:
+    """While the handshake runs: a server that is not a scheduler makes distributed log the
+    failed read with a traceback; the caller reports it in one line."""
+
+    NAMES = ("distributed.comm.tcp", "distributed.comm.core", "distributed.core")
+
+    def __enter__(self) -> None:
+        self.levels = [(log, log.level) for log in map(logging.getLogger, self.NAMES)]
+        for log, _ in self.levels:
+            log.setLevel(logging.CRITICAL + 1)
+
+    def __exit__(self, *exc: Any) -> None:
+        for log, level in self.levels:
+            log.setLevel(level)
 
 
 def scheduler_file_address(path: Any) -> str:

@@ -4,13 +4,14 @@ from __future__ import annotations
 
 import contextlib
 import os
+import re
 import sys
 import time
-from typing import Any, Callable, Iterator, Optional
+from typing import Any, Callable, Iterator, List, Optional
 
 import numpy as np
 
-__all__ = ["LogProgress", "MAX_INT", "number", "positive_int", "progress_bar", "stderr_is_terminal"]
+__all__ = ["LogProgress", "MAX_INT", "number", "positive_int", "progress_bar", "remove_dead_partials", "stderr_is_terminal"]
 
 MAX_INT = 2**63 - 1
 """Largest integer argument the core takes (counts such as ``record_every``)."""
@@ -49,6 +50,46 @@ def write_text_atomic(path: "os.PathLike[str]", text: str) -> None:
     with open(tmp, "w", encoding="utf-8") as f:
         f.write(text)
     os.replace(tmp, path)
+
+
+_PARTIAL = re.compile(r"^\..+\.partial-(\d+)(\.[A-Za-z0-9]+)?$")
+"""A file being written under a temporary name by process PID (``.NAME.partial-PID`` and
+``.NAME.partial-PID.npz``: :func:`write_text_atomic`, the core's streamed trajectories)."""
+
+
+def _alive(pid: int) -> bool:
+    """Whether process ``pid`` runs on this machine (True when that cannot be told)."""
+    if os.name == "nt" or pid <= 0:
+        return True
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:  # PermissionError: another user's process
+        return True
+    return True
+
+
+def remove_dead_partials(folder: "os.PathLike[str]") -> List[str]:
+    """Remove the temporary files in ``folder`` that a process which no longer runs (killed
+    with SIGKILL, a crash, a lost machine's power) left half-written; files of running
+    processes stay. Returns the names removed."""
+    removed = []
+    try:
+        entries = list(os.scandir(os.fspath(folder)))
+    except OSError:
+        return removed
+    for e in entries:
+        m = _PARTIAL.match(e.name)
+        if m is None or int(m.group(1)) == os.getpid() or _alive(int(m.group(1))):
+            continue
+        try:
+            if e.is_file(follow_symlinks=False):
+                os.remove(e.path)
+                removed.append(e.name)
+        except OSError:
+            pass
+    return removed
 
 
 @contextlib.contextmanager

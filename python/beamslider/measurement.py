@@ -30,6 +30,17 @@ SAMPLING_TOLERANCE = 0.1
 """Largest relative deviation of a time step from the file's sampling interval."""
 
 
+MAX_DISPLACEMENT_M = 0.05
+"""Largest displacement amplitude of the beam at 4L/7 a measured file may integrate to [m]
+(docs/model.md §1, "Units and plausibility"): the prototype's largest is about 3 mm (3 h); 50 mm
+is beyond any clamped beam of this kind the model describes, and what a velocity in mm/s gives."""
+
+MAX_SAMPLING_INTERVAL_S = 5e-3
+"""Longest sampling interval of a measured file [s] when its name gives no f_ex (otherwise: two
+samples per excitation period): a coarser file cannot hold the beam's vibration, and a time
+column in ms makes one (docs/model.md §1, "Units and plausibility")."""
+
+
 class MeasurementFormatError(ValueError):
     """A measured-data file does not have the published format; the message names file and line."""
 
@@ -194,11 +205,33 @@ def read_measurement(path: Union[str, "os.PathLike[str]"]) -> Measurement:
             f"{path}:{linenos[i]}: slider position s = {s[i]:g} outside [0, 1] (s is x/L, relative to the beam length)"
         )
     f_ex, a_ex, s0 = parse_operating_point(path.name[:-3] if path.name.lower().endswith(".gz") else path.name)
+    _check_sampling(path, dt, f_ex)
     with np.errstate(over="ignore", invalid="ignore"):
         w = integrate_velocity(v, dt)
     if not np.all(np.isfinite(w)):
         raise MeasurementFormatError(f"{path}: the beam velocity is too large to integrate (displacement overflows)")
+    _check_displacement(path, w)
     return Measurement(path=path, t=t, velocity=v, w=w, s=s, f_ex=f_ex, a_ex=a_ex, s0=s0)
+
+
+def _check_sampling(path: Path, dt: float, f_ex: Optional[float]) -> None:
+    """A sampling interval that cannot hold the beam's vibration (a time column in ms?)."""
+    limit = MAX_SAMPLING_INTERVAL_S if f_ex is None else min(MAX_SAMPLING_INTERVAL_S, 0.5 / f_ex)
+    if dt > limit:
+        at = f" at {f_ex:g} Hz" if f_ex is not None else ""
+        raise MeasurementFormatError(
+            f"{path}: the sampling interval {dt:g} s is too coarse for the beam's vibration{at} (at most {limit:.3g} s): "
+            f"is the time column in ms? ({dt:g} ms = {dt * 1e-3:g} s; the published files sample every 1e-4 s)")
+
+
+def _check_displacement(path: Path, w: np.ndarray) -> None:
+    """A displacement no beam of the model reaches (a velocity in mm/s?)."""
+    peak = float(np.max(np.abs(w))) if w.size else 0.0
+    if peak > MAX_DISPLACEMENT_M:
+        raise MeasurementFormatError(
+            f"{path}: the beam velocity integrates to a displacement of up to {peak:.3g} m at 4L/7, far beyond anything the "
+            f"model produces (at most {MAX_DISPLACEMENT_M * 1e3:g} mm; the prototype's largest is about 3 mm): is the velocity "
+            f"in mm/s? (/1000: up to {peak:.3g} mm; the published files give m/s)")
 
 
 def integrate_velocity(velocity: np.ndarray, dt: float) -> np.ndarray:

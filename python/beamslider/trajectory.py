@@ -143,9 +143,13 @@ def check_disk(target: Path, t_end: float, dt: float, record_every: int) -> None
     while not folder.exists() and folder != folder.parent:  # a folder still to be made: its parent's disk
         folder = folder.parent
     try:
-        free = shutil.disk_usage(folder).free
+        usage = shutil.disk_usage(folder)
     except OSError:
         return
+    free = usage.free
+    if usage.total == 0:  # /proc, /sys: a file system that holds no files, whatever the run's length
+        raise ValueError(f"invalid parameter `out` = {str(target.parent)!r}: {folder} is on a virtual file system "
+                         "(no space at all, as /proc or /sys): write elsewhere")
     if need > free:
         raise ValueError(
             f"invalid parameter `t_end` = {t_end:g}: with record_every = {record_every} the run would write about "

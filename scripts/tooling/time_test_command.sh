@@ -25,7 +25,7 @@ LOAD0=$(cut -d' ' -f1-3 /proc/loadavg)
   tail -50 "$WORK/log" >&2; echo "time_test_command.sh: the test command failed" >&2; exit 1; }
 LOAD1=$(cut -d' ' -f1-3 /proc/loadavg)
 read -r WALL USER SYS < "$WORK/time"
-PASSED=$(grep -Eo "[0-9]+ passed" "$WORK/log" | tail -1)
+PASSED=$(grep -Eo "[0-9]+ passed(, [0-9]+ (failed|skipped|xfailed|xpassed|errors?))*" "$WORK/log" | tail -1)  # the whole count: passed, skipped, ...
 fmt() { printf '%d min %02d s' $(( ${1%.*} / 60 )) $(( ${1%.*} % 60 )); }
 CPU_S=$(python3 -c "print(round($USER + $SYS))")
 LINE="$(fmt "$WALL") wall, ${CPU_S} s CPU, on $CORES cores ($CPU); load average $LOAD0 before, $LOAD1 after; commit $COMMIT; pytest: $PASSED"

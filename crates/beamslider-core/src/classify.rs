@@ -642,7 +642,9 @@ pub fn classify(x: &SuperSlow, c: &Criteria) -> Result<Classification> {
             "towards_clamping" => "moving towards the clamping",
             _ => "nearly still",
         };
-        let drift_text = format!("{what} ({:+.4} in the last {} s, A {:+.3} h)", drift_s, (nd - 1) as f64 * x.dt_s, trend_a);
+        // The window's length to 0.1 s (19.6 s, not the 19.599999999999994 of 98 bins of 0.2 s).
+        let window_s = ((nd - 1) as f64 * x.dt_s * 10.0).round() / 10.0;
+        let drift_text = format!("{what} ({:+.4} in the last {window_s} s, A {:+.3} h)", drift_s, trend_a);
         // A run at its final level whose phases already make a behaviour keeps it, unsettled,
         // while it only creeps (the ranges of the final window hold, the drift rule fails) the
         // way of its last phase: a trivial adaption on towards its final position, a signature

@@ -68,6 +68,11 @@ impl Error {
     }
 }
 
+/// A number for a message in short form (see [`short_value`]): `5e-303`, not 303 digits.
+pub fn short_number(x: f64) -> String {
+    short_value(x.to_string())
+}
+
 /// A value for a message in short form: a number printed with more than 17 digits (`1e300` as
 /// 301 digits) is written as `1e300`.
 fn short_value(text: String) -> String {

@@ -5,7 +5,7 @@
 //!
 //! Modules, in layers (a module uses only those above it in this list):
 //!
-//! - [`arith`] (numeric kernels), [`error`], [`params`] (§1);
+//! - [`arith`] (numeric kernels), [`error`], [`params`] and [`plausibility`] (§1);
 //! - [`physics`]: beam and its modal basis, excitation (§2), slider (§3), contact (§4);
 //! - [`dynamics`]: contact solvers and the stepper (§5), runs, recorders and the batch runner (§6.1);
 //! - [`signal`]: filters, the streamed super-slow signals, trajectory files, the run overview (§7);
@@ -29,6 +29,7 @@ pub mod map;
 pub mod measured;
 pub mod params;
 pub mod physics;
+pub mod plausibility;
 pub mod results;
 pub mod signal;
 pub mod study;

@@ -216,6 +216,6 @@ fn check(status: &Status, s: f64) -> Result<()> {
     match status {
         Status::Completed => Ok(()),
         Status::Interrupted { t_s } => Err(Error::Interrupted { t_s: *t_s }),
-        other => Err(Error::Numerical(format!("manifold at s = {s}: {}", other.message()))),
+        other => Err(Error::Numerical(format!("manifold at s = {}: {}", crate::error::short_number(s), other.message()))),
     }
 }

@@ -428,7 +428,7 @@ impl Params {
         if self.gap_ratio * self.thickness_m >= self.length_m {
             return Err(Error::invalid("gap_ratio", self.gap_ratio, "opening height R = gap_ratio * thickness_m must be smaller than length_m"));
         }
-        Ok(())
+        crate::plausibility::check(self)
     }
 
     /// Cross-section area A = ρAL / (ρ L) [m²].

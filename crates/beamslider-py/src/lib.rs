@@ -16,6 +16,7 @@ use pyo3::types::PyDict;
 mod formats;
 mod maprun;
 mod params;
+mod plausibility;
 mod predictor;
 mod run;
 mod study;
@@ -169,5 +170,6 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     superslow::register(m)?;
     formats::register(m)?;
     predictor::register(m)?;
+    plausibility::register(m)?;
     Ok(())
 }

@@ -124,10 +124,12 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return EXIT_BROKEN_PIPE
     except KeyboardInterrupt as e:
+        note = getattr(e, "beamslider_note", None)  # what was kept and how to go on (a command sets it)
+        note = f": {note}" if note else ""
         if isinstance(e, Terminated):
-            print(f"beamslider: terminated ({signal.Signals(e.signum).name})", file=sys.stderr)
+            print(f"beamslider: terminated ({signal.Signals(e.signum).name}){note}", file=sys.stderr)
             return 128 + e.signum
-        print("beamslider: interrupted", file=sys.stderr)
+        print(f"beamslider: interrupted{note}", file=sys.stderr)
         return EXIT_INTERRUPTED
     except (UserError, ValueError, OverflowError, _core.SimulationError) as e:
         print(f"beamslider: error: {one_line(e)}", file=sys.stderr)

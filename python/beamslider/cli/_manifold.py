@@ -101,17 +101,20 @@ def check_manifold_args(args: argparse.Namespace) -> None:
                         f"({args.manifold_periods})")
 
 
-def run_manifold(args: argparse.Namespace, p: Parameters, f_ex: float, a_ex: float, stop=None) -> Any:
+def run_manifold(args: argparse.Namespace, p: Parameters, f_ex: float, a_ex: float, stop=None,
+                 name: Optional[str] = None) -> Any:
     """Compute the manifold of the command line and write its CSV into --out (``stop``: a
-    ``threading.Event`` that stops a PCS manifold run in a background thread). Returns the
-    :class:`~beamslider.superslow.HbManifold` (``--manifold hb``) or the :class:`ManifoldResult`."""
+    ``threading.Event`` that stops a PCS manifold run in a background thread; ``name``: the file's
+    name, default the manifold's own). Returns the :class:`~beamslider.superslow.HbManifold`
+    (``--manifold hb``) or the :class:`ManifoldResult`."""
+    name = name or f"{manifold_name(args, f_ex, a_ex)}.csv"
     if getattr(args, "manifold_kind", "pcs") == "hb":
         from ..superslow import hb_manifold
 
         m = hb_manifold(p, f_ex=f_ex, a_ex=a_ex)
-        write_hb_manifold_csv(out_dir(args) / f"{manifold_name(args, f_ex, a_ex)}.csv", m)
+        write_hb_manifold_csv(out_dir(args) / name, m)
         return m
     m = super_slow_manifold(p, f_ex=f_ex, a_ex=a_ex, s=grid(args), periods=args.manifold_periods,
                             record=args.manifold_record, progress=args.progress, _stop=stop)
-    write_manifold_csv(out_dir(args) / f"{manifold_name(args, f_ex, a_ex)}.csv", m)
+    write_manifold_csv(out_dir(args) / name, m)
     return m

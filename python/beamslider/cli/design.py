@@ -26,7 +26,7 @@ def add_parser(sub: Any) -> None:
     sp.add_argument("--robust-check-t-end", type=float, metavar="S",
                     help="duration of the robust FS re-checks [s] (default: --check-t-end)")
     sp.add_argument("--resume", action="store_true", help="continue the run in --out, skipping evaluated designs")
-    add_common(sp, model_options=False, window=False)
+    add_common(sp, model_options=False, window=False, force=True)
     sp.set_defaults(func=cmd_design)
 
 
@@ -48,7 +48,9 @@ def cmd_design(args: Any) -> int:
     config = read_config(args.config)
     out = Path(args.out)
     t0 = time.perf_counter()
-    res = optimise(config, out=out, resume=args.resume, scheduler=args.scheduler, scheduler_file=args.scheduler_file,
+    if args.force and args.resume:
+        raise ValueError("--force starts the run in --out over: it does not go with --resume")
+    res = optimise(config, out=out, resume=args.resume, force=args.force, scheduler=args.scheduler, scheduler_file=args.scheduler_file,
                    threads=args.threads, progress=args.progress, check_t_end_s=args.check_t_end,
                    robust_check_t_end_s=args.robust_check_t_end)
     written = write_outputs(res, out)

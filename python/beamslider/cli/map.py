@@ -42,7 +42,7 @@ def add_parser(sub: Any) -> None:
                     help="predict the map with the reduced super-slow model instead of FS runs (milliseconds per "
                          "point): a drift law file (beamslider fit-law) or 'default' (the built-in law, fitted at "
                          "the default parameters); one s0, same results format")
-    add_common(sp, window=False)
+    add_common(sp, window=False, force=True)
     sp.set_defaults(func=cmd_map)
 
 
@@ -52,6 +52,8 @@ def cmd_map(args: argparse.Namespace) -> int:
     extend = args.extend_to is not None
     if extend and args.resume:
         raise UserError("--extend-to finishes an interrupted extension by itself: leave out --resume")
+    if args.force and (args.resume or extend):
+        raise UserError("--force starts the map in --out over: it does not go with --resume or --extend-to")
     if extend and not args.config and all(v is None for v in (args.f_ex, args.a_ex, args.s0, args.t_end, args.params, args.dt)):
         saved = out_dir(args) / "map.toml"
         if not saved.exists():
@@ -92,9 +94,13 @@ def cmd_map(args: argparse.Namespace) -> int:
     if args.predictor:
         table = _predicted(args, out)
     else:
-        table = run_map_config(config, out=out, resume=args.resume, threads=args.threads, progress=args.progress,
-                               extend=extend, scheduler=args.scheduler, scheduler_file=args.scheduler_file,
-                               chunk_size=args.chunk_size)
+        try:
+            table = run_map_config(config, out=out, resume=args.resume, threads=args.threads, progress=args.progress,
+                                   extend=extend, scheduler=args.scheduler, scheduler_file=args.scheduler_file,
+                                   chunk_size=args.chunk_size, force=args.force)
+        except KeyboardInterrupt as e:
+            e.beamslider_note = _kept(out, config, extend and args.extend_to)  # type: ignore[attr-defined]
+            raise
     wall = time.perf_counter() - t0
     txt = text_table(table)
     (out / "map.txt").write_text(txt, encoding="utf-8")
@@ -120,6 +126,23 @@ def cmd_map(args: argparse.Namespace) -> int:
     return 0
 
 
+def _kept(out: Path, config: str, extend_to: Any) -> str:
+    """What an interrupted map kept and how to go on."""
+    from .. import _core
+    from ..maps import RESULTS_FILE
+
+    if extend_to:
+        return f"the finished points are kept; run the same --extend-to {extend_to:g} again to finish the extension"
+    try:
+        f, a, s = _core.MapConfig(config).axes
+        total = len(f) * len(a) * len(s)
+        with open(out / RESULTS_FILE, "rb") as fh:
+            done = max(sum(1 for line in fh if line.strip()) - 1, 0)
+    except (OSError, ValueError):
+        return "the finished points are kept; run again with --resume"
+    return f"{min(done, total)} of {total} points kept; run again with --resume"
+
+
 def _predicted(args: argparse.Namespace, out: Path) -> Any:
     """The map by the reduced predictor (``--predictor``): the grid of --f-ex/--a-ex/--s0/--t-end/--params."""
     import warnings
@@ -138,8 +161,9 @@ def _predicted(args: argparse.Namespace, out: Path) -> Any:
     except FileNotFoundError:
         raise UserError(f"{args.predictor}: no such file (give a law written by beamslider fit-law, or 'default')") from None
     p = params_from_args(args)
-    if (out / "map.jsonl").exists() and not args.resume:
-        raise UserError(f"{out / 'map.jsonl'} exists: --resume continues it, or choose another --out")
+    if (out / "map.jsonl").exists() and not (args.resume or args.force):
+        raise UserError(f"{out / 'map.jsonl'} exists from an earlier map: run again with --resume to continue it or with "
+                        "--force to start over, or choose another --out")
     # A design law (None: the built-in one) is blended for the parameters by the core, inside the
     # predicted map; why the design lies outside it comes back as a warning.
     with warnings.catch_warnings(record=True) as caught:
@@ -147,7 +171,7 @@ def _predicted(args: argparse.Namespace, out: Path) -> Any:
         rows = predicted_map(p, drift=law, f_ex=axis_values("--f-ex", "100:130:2" if args.f_ex is None else args.f_ex),
                              a_ex=axis_values("--a-ex", "4:16:2" if args.a_ex is None else args.a_ex), s0=s0[0],
                              t_end=args.t_end if args.t_end is not None else 120.0, out=out, resume=args.resume,
-                             threads=args.threads)
+                             force=args.force, threads=args.threads)
     for w in caught:
         print(f"beamslider: warning: {w.message}", file=sys.stderr)
     table = rows_to_table(rows)

@@ -5,14 +5,19 @@
 from __future__ import annotations
 
 import argparse
+import functools
+import os
+import sys
 import threading
 import time
 from pathlib import Path
 from typing import Any, Callable, Dict, Optional
 
+from .. import _core
+from .._util import remove_dead_partials
 from ..simulate import simulate
 from ..trajectory import check_disk
-from ._common import figure, out_dir, params_from_args, plan_outputs, positive, report, write_json_atomic
+from ._common import EXIT_FAULT, figure, one_line, out_dir, params_from_args, plan_outputs, positive, report, write_json_atomic
 from ._files import run_stem, simulation_summary
 from ._manifold import (add_operating_point, add_run_options, check_manifold_args, manifold_name,
                         resolve_manifold, run_manifold)
@@ -103,23 +108,45 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     out = Path(args.out)
     written = [out / data_name, out / f"{stem}.json"] + [out / n for n in png]
     started: Dict[str, Any] = {}
+    # The manifold is written under a temporary name and renamed with the run's other files.
+    man_partial = f".{man_name}.partial-{os.getpid()}" if man_name else None
 
     def start() -> None:
         """Called by the core once the run's inputs are checked (bad input is named before
         anything is written), before its first step."""
         out_dir(args)
-        # The sidecar says "incomplete" until the data file is in place (plot refuses it meanwhile).
-        write_json_atomic(written[1], {
-            "kind": "simulation", "data": data_name, "format": args.format, "complete": False, "model": args.model,
-            "f_ex_hz": args.f_ex, "a_ex_m_s2": args.a_ex, "s0": args.s0, "t_end_s": args.t_end,
-            "record_every": args.record_every, "params_toml": p.toml_text()})
+        # One writer per run in a folder (the lock the maps take): a second simulate of the same
+        # point into this folder fails here, before it writes anything.
+        started["lock"] = _core.ResultsLock(written[1])
+        plan_outputs(args, [data_name, f"{stem}.json"] + png + ([man_name] if man_name else []))  # again, locked
+        remove_dead_partials(out)  # what killed runs left half-written
+        # A first run's sidecar says "incomplete" until the data file is in place (plot refuses it
+        # meanwhile); over an earlier run (--force) its files stay as they are until the new ones
+        # are complete.
+        if not written[0].exists():
+            write_json_atomic(written[1], {
+                "kind": "simulation", "data": data_name, "format": args.format, "complete": False, "model": args.model,
+                "f_ex_hz": args.f_ex, "a_ex_m_s2": args.a_ex, "s0": args.s0, "t_end_s": args.t_end,
+                "record_every": args.record_every, "params_toml": p.toml_text()})
         # While the core runs (interpreter released) the manifold runs on the other core and
         # matplotlib is imported: the three overlap on a multi-core machine.
         if args.figure:
             started["preload"] = _Background(_preload_figure)
         if with_manifold:
-            started["manifold"] = _Background(run_manifold, args, p, args.f_ex, args.a_ex)
+            started["manifold"] = _Background(functools.partial(run_manifold, name=man_partial), args, p, args.f_ex, args.a_ex)
         started["t0"] = time.perf_counter()
+
+    try:
+        return _simulate_locked(args, p, start, started, written, data_name, man_name, man_partial)
+    finally:
+        if "lock" in started:
+            started["lock"].release()
+
+
+def _simulate_locked(args: argparse.Namespace, p: Any, start: Callable[[], None], started: Dict[str, Any], written: list,
+                     data_name: str, man_name: Optional[str], man_partial: Optional[str]) -> int:
+    """The run of ``cmd_simulate`` (``start`` takes the folder's lock before anything is written)."""
+    out = Path(args.out)
 
     try:
         # The trajectory streams from the core to disk (temporary name, renamed when complete).
@@ -133,18 +160,28 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         if "manifold" in started:
             started["manifold"].cancel()
         # Interrupted (Ctrl-C, SIGTERM, SIGHUP) or failed: the core has removed the partial data
-        # file; the summary stays and says "complete": false (plot and a re-run say the run did
-        # not finish); the manifold, whole or not, goes with the run.
-        if man_name:
-            (out / man_name).unlink(missing_ok=True)
+        # file; a first run's summary stays and says "complete": false (plot and a re-run say the
+        # run did not finish), an earlier run's files stay whole; the new manifold goes with the run.
+        if man_partial and "lock" in started:
+            (out / man_partial).unlink(missing_ok=True)
         raise
     preload, background = started.get("preload"), started.get("manifold")
     summary.update({"data": data_name, "format": args.format, "complete": True})
     manifold = None
+    manifold_failed = None
     if background is not None:
-        manifold = background.result()
-        summary["manifold_csv"] = man_name
-        written.insert(2, out / man_name)
+        try:
+            manifold = background.result()
+        except (ValueError, OverflowError, _core.SimulationError) as e:
+            # The run itself is complete: its files say so; the manifold is left out, and said.
+            manifold_failed = one_line(e)
+            (out / man_partial).unlink(missing_ok=True)
+            (out / man_name).unlink(missing_ok=True)  # an earlier run's manifold does not belong to this run
+            summary["manifold_error"] = manifold_failed
+        else:
+            os.replace(out / man_partial, out / man_name)
+            summary["manifold_csv"] = man_name
+            written.insert(2, out / man_name)
     write_json_atomic(written[1], summary)
     if preload is not None:
         preload.result()
@@ -155,4 +192,8 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     print(f"{result.model.upper()} {args.f_ex:g} Hz, {args.a_ex:g} m/s², {args.t_end:g} s: {result.status}; "
           f"final s = {summary['final_s']:.4f}, amplitude/h = {summary['final_amplitude_over_h']:.3f} "
           f"({wall:.1f} s)")
-    return report(result, written)
+    code = report(result, written)
+    if manifold_failed is not None:
+        print(f"beamslider: warning: no manifold ({manifold_failed}); the run's files are complete", file=sys.stderr)
+        return code or EXIT_FAULT
+    return code

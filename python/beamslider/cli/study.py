@@ -25,7 +25,7 @@ def add_parser(sub: Any) -> None:
     sp.add_argument("--chunk-size", type=int, metavar="N", help="points per Dask task (default: the configuration's)")
     sp.add_argument("--task-threads", type=int, default=1, metavar="N", help="rayon threads per Dask task (1)")
     sp.add_argument("--resume", action="store_true", help="continue the study in --out, skipping finished runs")
-    add_common(sp, model_options=False, window=False)
+    add_common(sp, model_options=False, window=False, force=True)
     sp.set_defaults(func=cmd_study)
 
 
@@ -43,8 +43,10 @@ def cmd_study(args: Any) -> int:
     t0 = time.perf_counter()
     if args.scheduler and args.scheduler_file:
         raise ValueError("give --scheduler or --scheduler-file, not both")
-    res = run_study(config, out=out, resume=args.resume, scheduler=args.scheduler, scheduler_file=args.scheduler_file,
-                    threads=args.threads,
+    if args.force and args.resume:
+        raise ValueError("--force starts the study in --out over: it does not go with --resume")
+    res = run_study(config, out=out, resume=args.resume, force=args.force, scheduler=args.scheduler,
+                    scheduler_file=args.scheduler_file, threads=args.threads,
                     chunk_size=args.chunk_size, task_threads=args.task_threads, progress=args.progress)
     wall = time.perf_counter() - t0
     written = write_outputs(res, out)

@@ -24,6 +24,7 @@ from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
 import numpy as np
 
 from .. import _core
+from .._overwrite import clear_results
 from ..params import Parameters
 from ..study.sampling import apply_sample
 from .config import RESULTS_FILE, DesignConfig, read_config
@@ -281,6 +282,7 @@ def recheck_choice(search: Sequence[Dict[str, Any]], c: DesignConfig) -> List[st
 
 
 def optimise(config: Union[DesignConfig, str, Path], *, out: Optional[Union[str, Path]] = None, resume: bool = False,
+             force: bool = False,
              scheduler: Any = None, scheduler_file: Optional[str] = None, threads: Optional[int] = None,
              task_threads: int = 1, progress: Optional[bool] = False, check_t_end_s: Optional[float] = None,
              robust_check_t_end_s: Optional[float] = None, checks: bool = True) -> DesignResult:
@@ -288,7 +290,8 @@ def optimise(config: Union[DesignConfig, str, Path], *, out: Optional[Union[str,
 
     ``out``: folder of the results file ``design.jsonl`` (one line per evaluated design, written at
     once) and ``design.toml``; ``resume=True`` continues a killed run there (no design evaluated
-    twice, same result as an uninterrupted run). ``scheduler`` / ``scheduler_file``: the FS runs on
+    twice, same result as an uninterrupted run), ``force=True`` replaces an earlier run there
+    (otherwise refused). ``scheduler`` / ``scheduler_file``: the FS runs on
     a Dask cluster (chunks of ``chunk_size`` runs, ``task_threads`` rayon threads each); default
     local on ``threads`` threads (one per core). ``check_t_end_s``: duration of the FS re-checks
     (default: the search's ``t_end_s``), ``robust_check_t_end_s`` that of the robust re-checks
@@ -298,6 +301,8 @@ def optimise(config: Union[DesignConfig, str, Path], *, out: Optional[Union[str,
 
     if not isinstance(config, DesignConfig):
         config = read_config(config)
+    if force and resume:
+        raise ValueError("invalid parameter `force`: replaces the run in `out`; it does not go with resume")
     c = config
     if threads is not None and (isinstance(threads, bool) or not isinstance(threads, (int, np.integer))
                                 or not 1 <= threads <= 65536):
@@ -318,6 +323,8 @@ def optimise(config: Union[DesignConfig, str, Path], *, out: Optional[Union[str,
         path = None
         if out is not None:
             path = Path(out) / RESULTS_FILE
+            if force:
+                clear_results(Path(out), RESULTS_FILE, ["design.toml"])
         writer = DesignWriter(c, path, resume)
         if out is not None:
             (Path(out) / "design.toml").write_text(c.to_toml_text(), encoding="utf-8")

@@ -16,6 +16,7 @@ import numpy as np
 
 from .. import _core
 from .._json import json_safe
+from .._overwrite import refuse_existing
 from ..params import Parameters
 from .config import RESULTS_FILE, DesignConfig
 
@@ -89,8 +90,7 @@ class DesignWriter:
             text = json.dumps(header)
             if path.exists() and path.stat().st_size > 0:
                 if not resume:
-                    raise FileExistsError(f"{path} exists: pass resume=True (--resume) to continue that run, "
-                                          f"or choose another output folder")
+                    refuse_existing(path, None, "designs", "design run")
                 old, records, good = read_design_file(path)
                 if old is not None and json.dumps(old) != text:
                     if old.get("config") == header["config"] and old.get("drift_law_sha256") != header.get("drift_law_sha256"):

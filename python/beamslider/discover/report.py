@@ -91,7 +91,7 @@ def write_report(d: Discovery, out_dir: PathLike) -> List[Path]:
                     continue
                 k = max(1, len(r[0]) // PLOT_POINTS)
                 ax.plot(r[0][::k], r[1][::k], style, **kw)
-            ax.set_title(op.tag.replace("_", " "))
+            ax.set_title(f"f_ex = {op.f_ex:g} Hz, a_ex = {op.a_ex:g} m/s², s₀ = {op.s0:g}")
             ax.set_xlabel("t [s]")
             ax.set_ylabel("s = x_C / L [-]")
             ax.grid(alpha=0.3)

@@ -27,6 +27,12 @@ _REQUIRED = ("amplitude_h", "frequency_hz")
 _SHAPE_COLS = tuple(f"shape_{j}" for j in range(1, 6))
 
 
+MAX_AMPLITUDE_H = 30.0
+"""Largest ENMA amplitude ã = ŵ(L/2)/h a file may hold (docs/model.md §1, "Units and plausibility"):
+the prototype's backbone reaches about 3; thirty thicknesses are beyond any amplitude the model
+produces for a beam of this kind, and what ŵ in µm over h in mm gives."""
+
+
 class EnmaFormatError(ValueError):
     """An ENMA data file that cannot be read (names the file, line and column)."""
 
@@ -127,6 +133,12 @@ def _check_values(data: EnmaData, where: str, lines: Optional[Sequence[int]] = N
                 raise EnmaFormatError(f"{at(k)}: damping_ratio = {v} must be >= 0")
             if name != "damping_ratio" and not v > 0:
                 raise EnmaFormatError(f"{at(k)}: {name} = {v} must be > 0")
+            if name == "amplitude_h" and v > MAX_AMPLITUDE_H:
+                hint = (f": is it ŵ in µm over h in mm, or ŵ/h × 1000? (/1000: {v / 1000:g})" if v / 1000 <= MAX_AMPLITUDE_H
+                        else "")
+                raise EnmaFormatError(
+                    f"{at(k)}, column amplitude_h: {v:g} is {v:g} beam thicknesses (ã = ŵ(L/2)/h), far beyond any amplitude "
+                    f"the model produces (at most {MAX_AMPLITUDE_H:g}; the prototype's backbone reaches about 3){hint}")
 
 
 def read(path: PathLike) -> EnmaData:

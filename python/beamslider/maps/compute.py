@@ -17,7 +17,8 @@ from typing import Any, Dict, List, Optional, Sequence, Union
 import numpy as np
 
 from .. import _core, _toml
-from .._util import progress_bar, write_text_atomic
+from .._overwrite import clear_results, refuse_existing
+from .._util import progress_bar, remove_dead_partials, write_text_atomic
 from ..params import Parameters, native, resolve
 from ..simulate import SimulationResult
 from ..superslow import BUILTIN_LAW_NOTE, DesignLaw, DriftLaw, default_law
@@ -137,13 +138,16 @@ def _widened(canonical: str, folder: Path) -> str:
 def run_map_config(config_toml: Union[str, "_core.MapConfig"], *, out: Optional[Union[str, Path]] = None, resume: bool = False,
                    threads: Optional[int] = None, progress: Optional[bool] = False, extend: bool = False,
                    report: bool = True, scheduler: Any = None, scheduler_file: Optional[str] = None,
-                   chunk_size: int = 8, task_threads: int = 1, max_retries: int = 3) -> MapTable:
+                   chunk_size: int = 8, task_threads: int = 1, max_retries: int = 3, force: bool = False) -> MapTable:
     """Run a map from configuration TOML text (see :func:`map_config_toml`) or the core's parsed
     configuration (``beamslider._core.MapConfig``, parsed and checked once); ``out`` is the output
     folder (results appended to ``out/map.jsonl`` point by point, the configuration written to
     ``out/map.toml``). ``extend``: the map in ``out`` was run for a shorter duration; continue its
     points with ``settled`` false and its undetermined points from their saved end states to the
-    configuration's duration (the count is printed when ``report``). ``scheduler`` / ``scheduler_file``: run the points on a Dask
+    configuration's duration (the count is printed when ``report``); ``map.toml`` takes the new
+    duration once the extension completes (an interrupted one is finished by the same call).
+    ``force``: replace an earlier map in ``out`` (its results and files removed once the map is
+    checked). ``scheduler`` / ``scheduler_file``: run the points on a Dask
     cluster in chunks of ``chunk_size`` (see :func:`operating_map`)."""
     cfg = _core.MapConfig(config_toml) if isinstance(config_toml, str) else config_toml
     canonical, (f, a, s) = cfg.toml(), cfg.axes
@@ -157,6 +161,8 @@ def run_map_config(config_toml: Union[str, "_core.MapConfig"], *, out: Optional[
     results = None
     if extend and out is None:
         raise ValueError("invalid parameter `extend_to`: needs `out`, the folder of the map to extend")
+    if force and (resume or extend):
+        raise ValueError("invalid parameter `force`: replaces the map in `out`; it does not go with resume or extend_to")
     client, own = None, False
     if scheduler is not None or scheduler_file is not None:
         from .._dask import connect
@@ -167,6 +173,11 @@ def run_map_config(config_toml: Union[str, "_core.MapConfig"], *, out: Optional[
         if out is not None:
             folder = Path(out)
             results = folder / RESULTS_FILE
+            if force:  # checked without the results it replaces, then they go
+                cfg.check()
+                clear_results(folder, RESULTS_FILE, ["map.toml", "map.txt", "map.png"])
+            elif not (resume or extend):
+                refuse_existing(results, total, "points", "map")
             # Everything the run would refuse is refused before map.toml is (over)written.
             cfg.check(out=results, resume=resume, extend=extend)
             if (resume or extend) and results.exists():
@@ -178,7 +189,11 @@ def run_map_config(config_toml: Union[str, "_core.MapConfig"], *, out: Optional[
         run = _core.MapRun(cfg, out=results, resume=resume, extend=extend)
         try:
             if out is not None:
+                remove_dead_partials(out)
+            if out is not None and not extend:  # an extension's settings change once it completes
                 write_text_atomic(Path(out) / "map.toml", saved_toml)
+            if report and resume and run.done:
+                print(f"{run.done} of {total} points kept from {results}; running the other {total - run.done}")
             with progress_bar(progress, total, "map", "pts") as bar:
                 watch = _watching(results, bar)
                 if client is None:
@@ -198,6 +213,8 @@ def run_map_config(config_toml: Union[str, "_core.MapConfig"], *, out: Optional[
                     run_chunks(client, _map_chunk, chunks, tag="map" + canonical, on_rows=on_rows,
                                max_retries=max_retries)
             rows, extended = run.finish()
+            if out is not None and extend:
+                write_text_atomic(Path(out) / "map.toml", saved_toml)
         finally:
             run.close()
     finally:
@@ -218,7 +235,7 @@ def operating_map(params: Optional[Parameters] = None, *, f_ex: Any, a_ex: Any, 
                   resume: bool = False, record_every: int = 20, criteria: Optional[Dict[str, float]] = None,
                   progress: Optional[bool] = False, extend_to: Optional[float] = None, scheduler: Any = None,
                   scheduler_file: Optional[str] = None, chunk_size: int = 8,
-                  predictor: Optional[Any] = None) -> MapTable:
+                  predictor: Optional[Any] = None, force: bool = False) -> MapTable:
     """Operating map (docs/model.md §8): the behaviour of the free slider at every (f_ex, a_ex, s0) of the
     grid, each point a ``t_end``-second run from rest classified by the core, in parallel on
     ``threads`` threads (default: one per core).
@@ -242,7 +259,8 @@ def operating_map(params: Optional[Parameters] = None, *, f_ex: Any, a_ex: Any, 
     the row of the local map (but ``wall_time_s``). A chunk lost with its worker is re-run.
 
     Only one process may write a map folder at a time: a second one fails at once
-    (``BlockingIOError`` naming the folder and the holder's PID).
+    (``BlockingIOError`` naming the folder and the holder's PID). An earlier map in ``out`` is
+    refused unless ``resume`` continues it or ``force`` replaces it.
 
     ``predictor``: a fitted drift law (:func:`beamslider.superslow.fit_drift_law`): the map is
     predicted by the reduced super-slow model instead of FS runs (milliseconds per point; one s0;
@@ -284,7 +302,7 @@ def operating_map(params: Optional[Parameters] = None, *, f_ex: Any, a_ex: Any, 
                               scheduler_file=scheduler_file, chunk_size=chunk_size)
     cfg = map_config(params, f_ex=f_ex, a_ex=a_ex, s0=s0, t_end=t_end, record_every=record_every, criteria=criteria)
     return run_map_config(cfg, out=out, resume=resume, threads=threads, progress=progress, scheduler=scheduler,
-                          scheduler_file=scheduler_file, chunk_size=chunk_size)
+                          scheduler_file=scheduler_file, chunk_size=chunk_size, force=force)
 
 
 def predicted_map(

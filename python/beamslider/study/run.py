@@ -10,6 +10,7 @@ from typing import Any, Callable, List, Optional, Union
 import numpy as np
 
 from .. import _core
+from .._overwrite import clear_results, refuse_existing
 from .._util import progress_bar
 from .config import RESULTS_FILE, StudyConfig, read_config
 from .results import open_results
@@ -36,7 +37,7 @@ def _run_dask(client: Any, map_cfg: Any, todo: List[StudyPoint], writer: Any, *,
 
 
 def run_study(config: Union[StudyConfig, str, "os.PathLike[str]"], *, out: Optional[Union[str, Path]] = None,
-              resume: bool = False, scheduler: Any = None, scheduler_file: Optional[str] = None,
+              resume: bool = False, force: bool = False, scheduler: Any = None, scheduler_file: Optional[str] = None,
               threads: Optional[int] = None,
               chunk_size: Optional[int] = None, task_threads: Optional[int] = 1, max_retries: int = 3,
               progress: bool = False, on_chunk: Optional[Callable[[int, int], None]] = None) -> "StudyResult":
@@ -44,7 +45,8 @@ def run_study(config: Union[StudyConfig, str, "os.PathLike[str]"], *, out: Optio
 
     ``config``: a :class:`StudyConfig` or the path of its TOML file. ``out``: output folder; every
     finished point is appended to ``out/study.jsonl`` at once (and the configuration written to
-    ``out/study.toml``); ``resume=True`` keeps the points already there and runs the rest.
+    ``out/study.toml``); ``resume=True`` keeps the points already there and runs the rest,
+    ``force=True`` replaces an earlier study there (otherwise refused).
 
     Local (``scheduler=None``): all points in one call of the Rust core on ``threads`` threads
     (default one per core). Dask (``scheduler`` = a scheduler address such as
@@ -57,6 +59,8 @@ def run_study(config: Union[StudyConfig, str, "os.PathLike[str]"], *, out: Optio
     """
     if not isinstance(config, StudyConfig):
         config = read_config(config)
+    if force and resume:
+        raise ValueError("invalid parameter `force`: replaces the study in `out`; it does not go with resume")
     if threads is not None and (isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) or threads < 1):
         raise ValueError(f"invalid parameter `threads` = {threads!r}: must be an integer >= 1")
     size = config.chunk_size if chunk_size is None else chunk_size
@@ -71,6 +75,10 @@ def run_study(config: Union[StudyConfig, str, "os.PathLike[str]"], *, out: Optio
 
         client, own = connect(scheduler, scheduler_file)
     try:
+        if out is not None and force:
+            clear_results(Path(out), RESULTS_FILE, ["study.toml"])
+        elif out is not None and not resume:
+            refuse_existing(Path(out) / RESULTS_FILE, len(points), "runs", "study")
         return _run_study(config, map_cfg, points, by_index, out=out, resume=resume, client=client, threads=threads,
                           size=int(size), task_threads=task_threads, max_retries=max_retries, progress=progress,
                           on_chunk=on_chunk)

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import json
 from dataclasses import dataclass, field
-from typing import Dict, List, Optional, Tuple, Union
+from typing import Dict, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
@@ -103,6 +103,27 @@ def table_model(table: DriftTable):
     return out["L"], out["H"], s_up is not None and len(out["L"][0]) > 0, s_dn is not None and len(out["H"][0]) > 0, s_up, s_dn
 
 
+def _outside_range(law: DriftLaw, features: Sequence[Sequence[Dict[str, float]]], f_ex: float, a_ex: float) -> str:
+    """Which value lies outside the law's training range: the operating point against the box of
+    its training points, else the law's inputs (``FEATURES``) at the nodes that can move, the
+    farthest out per input and branch (as the core's ``DriftLaw::evaluate`` judges them)."""
+    from .law import FEATURES
+
+    out = []
+    for name, v, unit, axis in (("f_ex", f_ex, " Hz", 0), ("a_ex", a_ex, " m/s²", 1)):
+        lo, hi = min(p[axis] for p in law.points), max(p[axis] for p in law.points)
+        if not lo - 1e-9 <= v <= hi + 1e-9:
+            out.append(f"{name} = {v:g}{unit}, trained from {lo:g} to {hi:g}{unit}")
+    for branch, nodes in zip(("low", "high"), features):
+        for i, name in enumerate(FEATURES):
+            lo, hi = float(law.lo[i]), float(law.hi[i])
+            off = [n[name] for n in nodes if n.get("lift_off", 0.0) >= law.lift_c and not lo - 1e-9 <= n[name] <= hi + 1e-9]
+            if off:
+                v = max(off, key=lambda x: max(lo - x, x - hi))
+                out.append(f"{name} = {v:.3g} on the {branch} branch, trained from {lo:.3g} to {hi:.3g}")
+    return "; ".join(out) or "a node's inputs"
+
+
 def predict(
     params: Optional[Parameters] = None,
     *,
@@ -196,7 +217,8 @@ def predict(
         warnings.insert(0, r["note"])
     if r["extrapolated"] and isinstance(drift, DriftLaw) and not drift.outside_design:
         pts = ", ".join(f"({f:g}, {a:g})" for f, a in drift.points)
-        warnings.insert(0, f"drift law used outside its training range (trained on {pts}): V extrapolated from the nearest samples")
+        warnings.insert(0, f"drift law used outside its training range ({_outside_range(drift, r['features'], f_ex, a_ex)}; "
+                           f"trained on {pts}): V extrapolated from the nearest samples")
     if builtin_note:
         warnings.insert(0, builtin_note)
     feats = {}

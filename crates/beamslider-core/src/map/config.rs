@@ -219,6 +219,21 @@ impl MapConfig {
         Ok(())
     }
 
+    /// A point's run records more than its start state, as a run of `beamslider simulate` must
+    /// (checked after the model, so that a time step too large is named first).
+    pub fn check_records(&self) -> Result<()> {
+        let dt = self.effective_params().dt_s;
+        let steps = crate::dynamics::simulation::step_count("duration_s", self.duration_s, dt)?;
+        if self.record_every as u64 > steps {
+            return Err(Error::invalid(
+                "duration_s",
+                self.duration_s,
+                &format!("{steps} time steps of dt = {dt:e} s, fewer than record_every = {}: a point would record only its start state", self.record_every),
+            ));
+        }
+        Ok(())
+    }
+
     /// The grid's axes' values: (f_ex [Hz], a_ex [m/s²], s₀).
     pub fn axes(&self) -> Result<(Vec<f64>, Vec<f64>, Vec<f64>)> {
         let g = &self.grid;

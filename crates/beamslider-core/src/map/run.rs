@@ -225,6 +225,7 @@ pub struct MapRunOptions {
 pub fn preflight(cfg: &MapConfig, opts: &MapRunOptions) -> Result<()> {
     cfg.validate()?;
     Model::new(cfg.effective_params())?;
+    cfg.check_records()?;
     if opts.extend && opts.out.is_none() {
         return Err(Error::invalid("extend_to", cfg.duration_s, "needs the results file of the map to extend (out)"));
     }
@@ -294,6 +295,19 @@ fn check_settings(cfg: &MapConfig, opts: &MapRunOptions, path: &Path, old: &Resu
             ));
         }
         return Ok(());
+    }
+    let mut extended = new.clone();
+    extended.duration_s = s.duration_s;
+    // An interrupted extension: the header has the longer duration, and points still end before it.
+    if *s != new && extended == *s && s.duration_s > new.duration_s && latest(old.rows.clone()).iter().any(|r| r.continuable(s.duration_s)) {
+        return Err(Error::invalid(
+            "resume",
+            path.display(),
+            &format!(
+                "the map is being extended to {} s (an interrupted --extend-to): run the same --extend-to {} again to finish it",
+                s.duration_s, s.duration_s
+            ),
+        ));
     }
     if *s != new {
         return Err(Error::invalid(
@@ -370,6 +384,7 @@ impl MapResults {
         let points = cfg.points()?;
         let settings = cfg.settings();
         Model::new(cfg.effective_params())?;
+        cfg.check_records()?;
         if opts.extend && opts.out.is_none() {
             return Err(Error::invalid("extend_to", cfg.duration_s, "needs the results file of the map to extend (out)"));
         }

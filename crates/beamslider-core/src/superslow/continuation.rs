@@ -260,11 +260,15 @@ pub(super) fn solve_from_rest(sys: &HbSystem, s: f64, opts: &HbOptions) -> Resul
     let y0 = DVector::zeros(n2 + 1);
     let run = cont.trace(y0, 1.0, -1.0, 1.0);
     if !run.complete {
-        return Err(Error::Numerical(format!("HB: continuation in the excitation level at s = {s} did not reach a_ex within {} steps", run.steps)));
+        return Err(Error::Numerical(format!(
+            "HB: continuation in the excitation level at s = {} did not reach a_ex within {} steps",
+            crate::error::short_number(s),
+            run.steps
+        )));
     }
     let (y, _) = run.points.last().cloned().ok_or_else(|| Error::Numerical("HB: empty load continuation".into()))?;
     if (y[n2] - 1.0).abs() > 1e-12 {
-        return Err(Error::Numerical(format!("HB: load continuation at s = {s} ended at load {}", y[n2])));
+        return Err(Error::Numerical(format!("HB: load continuation at s = {} ended at load {}", crate::error::short_number(s), y[n2])));
     }
     let mut out = y;
     out[n2] = s;

@@ -246,7 +246,9 @@ impl HbSystem {
             y[self.n + i] = v[i] / self.q_ref;
         }
         y[self.nx] = s;
-        let y = self.newton_fixed(&y, Param::S { load: 1.0 }).ok_or_else(|| Error::Numerical(format!("HB Newton did not converge at s = {s}")))?;
+        let y = self
+            .newton_fixed(&y, Param::S { load: 1.0 })
+            .ok_or_else(|| Error::Numerical(format!("HB Newton did not converge at s = {}", crate::error::short_number(s))))?;
         Ok(self.uv(&y))
     }
 
