@@ -167,3 +167,30 @@ def test_cli_option_refuses_an_unknown_key(tmp_path, capsys):
     assert main(["discover", "--option", "tier_kept=3", "--out", str(tmp_path / "out")]) != 0
     assert "unknown option 'tier_kept'" in capsys.readouterr().err
     assert not (tmp_path / "out" / "report.json").exists()
+
+
+def test_every_figure_states_the_reports_verdict(tmp_path, monkeypatch):
+    """gap.png's title and slider.png's (and backbone.png's) overall title are the verdict of the report."""
+    pytest.importorskip("matplotlib")
+    import matplotlib.figure
+
+    from beamslider.discover.synthesize import synthesize_slider_runs
+
+    titles = {}
+    real = matplotlib.figure.Figure.savefig
+
+    def savefig(fig, path, *a, **kw):
+        sup = fig._suptitle.get_text() if fig._suptitle is not None else ""
+        titles[str(path).rsplit("/", 1)[-1]] = sup or fig.axes[0].get_title()
+        return real(fig, path, *a, **kw)
+
+    monkeypatch.setattr(matplotlib.figure.Figure, "savefig", savefig)
+    (run,) = synthesize_slider_runs(bs.Parameters(), operating_points=[(124.0, 14.0, 0.3)], duration_s=1.0,
+                                    out_dir=tmp_path / "data")
+    group = dict(group=["friction_coefficient", "com_offset"], combination="(a) = (b)", explanation="alike")
+    v = Verdict(Kind.CONFOUNDED, Because.CONFOUNDED, group=group)
+    d = _discovery(v)
+    d.level, d.data = "slider", [bs.read_measurement(run)]
+    dc.write_report(d, tmp_path / "out")
+    assert titles["gap.png"] == titles["slider.png"] == gap_title(d) == \
+        "confounded: friction_coefficient, com_offset (nothing named)"

@@ -69,8 +69,10 @@ def write_report(d: Discovery, out_dir: PathLike) -> List[Path]:
     enma_d = d.data.get("enma") if isinstance(d.data, dict) else (d.data if isinstance(d.data, EnmaData) else None)
     runs_d = d.data.get("measured") if isinstance(d.data, dict) else (d.data if d.level == "slider" else None)
     if enma_d is not None:
-        enma.plot_enma(enma_d, enma.fit_backbone(enma_d), models={"baseline": d.baseline, "updated": d.updated},
-                       path=out / "backbone.png")
+        fig = enma.plot_enma(enma_d, enma.fit_backbone(enma_d), models={"baseline": d.baseline, "updated": d.updated})
+        fig.suptitle(gap_title(d))  # every figure states the report's verdict
+        fig.savefig(out / "backbone.png", dpi=130)
+        plt.close(fig)
         written.append(out / "backbone.png")
         figs.append("backbone.png")
     if runs_d:
@@ -96,6 +98,7 @@ def write_report(d: Discovery, out_dir: PathLike) -> List[Path]:
             ax.set_ylabel("s = x_C / L [-]")
             ax.grid(alpha=0.3)
             ax.legend(fontsize=8)
+        fig.suptitle(gap_title(d))  # every figure states the report's verdict
         fig.savefig(out / "slider.png", dpi=120)
         plt.close(fig)
         written.append(out / "slider.png")
