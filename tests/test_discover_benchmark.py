@@ -113,7 +113,7 @@ def test_a_confounded_answer_takes_the_advised_run_and_is_scored_again(monkeypat
             self.parameters = {e: dict(value=0.25, stderr=0.004, interval=[0.24, 0.26]) for e in named}
             self.confounded = dict(group=["friction_coefficient", "com_offset"],
                                    advice=dict(recommended=advice)) if verdict == "confounded" else {}
-            self.unresolved, self.rejected = {}, []
+            self.unresolved, self.rejected, self.features = {}, [], {"speed_early@x": {}}
             self.gap_before = self.gap_after = self.gap_excess_before = self.gap_excess_after = self.chi2_before = 1.0
 
     def fake(*, measured, **kw):
@@ -128,6 +128,7 @@ def test_a_confounded_answer_takes_the_advised_run_and_is_scored_again(monkeypat
     assert calls == [[(124.0, 14.0, 0.3)], [(116.0, 10.0, 0.3), (124.0, 14.0, 0.3)]]
     assert not row["score"]["right"] and row["advised"]["score"]["right"]
     assert row["advised"]["point"] == [116.0, 10.0, 0.3]
+    assert row["truth_fit"]["n"] >= 1 and row["advised"]["truth_fit"]["n"] > row["truth_fit"]["n"]
 
 
 def test_a_small_benchmark_runs_resumes_and_refuses_other_settings(tmp_path):
@@ -163,3 +164,34 @@ def test_a_benchmark_on_a_dask_cluster_gives_the_local_rows(tmp_path, cluster):
     assert _judged(local.rows) == _judged(remote.rows)
     assert len((tmp_path / "dask" / "cases.jsonl").read_text().splitlines()) == 3
     assert json.loads((tmp_path / "dask" / "summary.json").read_text())["cases"] == 3
+
+
+def test_a_wrong_answer_is_discovers_miss_only_where_the_truth_fits_clearly_better():
+    a = dict(_answer("named", {"com_offset": _named(0.0036, 0.0035, 0.0037)}), n=17, chi2_after=40.0, gap_before=3.0)
+    close = dict(a, chi2_after=12.0)
+    rows = [_row(0, "single", {"friction_coefficient": 0.22}, a, False, {}),
+            _row(1, "single", {"friction_coefficient": 0.22}, close, False, {})]
+    for r in rows:
+        r["truth_fit"] = dict(chi2=8.0, gap=0.7, z_worst=1.5, n=17)
+    s = bm.summarise(rows)
+    assert s["wrong_where_the_truth_fits_better"] == [0] and s["wrong_where_the_data_cannot_tell"] == [1]
+
+
+def test_rows_of_another_judge_are_judged_again_on_resume(tmp_path, monkeypatch):
+    plan = bm.Plan(operating_points=((124.0, 14.0, 0.3),), duration_s=2.0, candidates=("excitation_gain",))
+    calls = []
+
+    def fake_run_case(case, plan, **kw):
+        calls.append(case.index)
+        return dict(index=case.index, kind=case.kind, truth={}, outside={}, outside_kind="", label="x",
+                    answer=_answer("none"), score=dict(right=True, outcome="right", covered={}), cpu_s=1.0,
+                    judge=bm.judge_fingerprint())
+
+    monkeypatch.setattr(bm, "run_case", fake_run_case)
+    bm.run_benchmark(1, counts={"nothing": 2}, plan=plan, out_dir=tmp_path)
+    bm.run_benchmark(1, counts={"nothing": 2}, plan=plan, out_dir=tmp_path)
+    assert calls == [0, 1]
+    lines = (tmp_path / "cases.jsonl").read_text().splitlines()
+    (tmp_path / "cases.jsonl").write_text(lines[0].replace(bm.judge_fingerprint(), "0" * 16) + "\n" + lines[1] + "\n")
+    bm.run_benchmark(1, counts={"nothing": 2}, plan=plan, out_dir=tmp_path)
+    assert calls == [0, 1, 0]

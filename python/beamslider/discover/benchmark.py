@@ -49,6 +49,11 @@ DEFAULT_COUNTS: Dict[str, int] = {"single": 12, "pair": 6, "outside": 6, "nothin
 SIZE_RANGE = (1.5, 6.0)
 """A library effect's size, in units of its relevance threshold (:attr:`.effects.Effect.relevance`)."""
 
+CLEARLY_BETTER = 11.0
+"""χ² by which the truth must fit a case's data better than a wrong answer for the miss to be
+discover's (the selection's price of one parameter among fourteen candidates, docs/model.md §9);
+within it the data cannot tell the answer from the truth."""
+
 S0_OFFSET_RANGE = (0.0005, 0.003)
 """|s0 offset| of a case's truth runs from the s0 their files name (either sign)."""
 
@@ -246,6 +251,42 @@ def synthesize_case(case: Case, plan: Plan, out_dir: PathLike, *, points=None, n
                                   chain=dict(m.chain) or None)
 
 
+def judge_fingerprint() -> str:
+    """A digest of the code that judges a case: the discover package's sources but this module (a
+    row made by another judge is judged again when a benchmark resumes, from its kept runs)."""
+    import hashlib
+
+    root = Path(__file__).resolve().parent
+    h = hashlib.sha1()
+    for f in sorted(root.rglob("*.py")):
+        if f.name != "benchmark.py":
+            h.update(str(f.relative_to(root)).encode())
+            h.update(f.read_bytes())
+    return h.hexdigest()[:16]
+
+
+def truth_fit(case: Case, runs: Sequence[Any], cache: Any = None, baseline: Optional[Parameters] = None,
+              threads: Optional[int] = None) -> Dict[str, float]:
+    """How well the truth itself fits the case's data: its ensemble's χ², gap and largest |z| by the
+    baseline's test (docs/model.md §9) — the fit a right answer could reach, against which a wrong
+    answer is judged "the data prefer the truth" or "the data cannot tell"."""
+    from . import models
+
+    try:
+        from .stats import baseline_test
+    except ImportError:  # pragma: no cover - the layout before the package's seam
+        from .fitting import baseline_test  # type: ignore[no-redef]
+    meas, _, ops = models.measured_slider_features(runs)
+    modes = models.data_modes(meas)
+    ens = models.ensemble_slider_features([truth_model(case, baseline)], ops, modes=modes, cache=cache,
+                                          threads=threads)[0]
+    if ens is None:
+        return dict(chi2=math.nan, gap=math.nan, z_worst=math.nan, n=len(meas))
+    t = baseline_test(ens.mean, meas, {k: ens.spread.get(k, 0.0) for k in meas}, len(models.ENSEMBLE_S0_SHIFTS),
+                      modes, ens.mode_counts)
+    return dict(chi2=float(t.chi2), gap=float(t.gap), z_worst=float(t.z_worst), n=int(t.n))
+
+
 def _answer(d: Any) -> Dict[str, Any]:
     """What a discover answered, as the benchmark keeps it."""
     named = {e: dict(value=float(d.parameters[e]["value"]), stderr=float(d.parameters[e]["stderr"]),
@@ -261,8 +302,10 @@ def _answer(d: Any) -> Dict[str, Any]:
             r = rec["recommended"]
             advice = [float(r["f_ex"]), float(r["a_ex"]), float(r["s0"])]
             break
+    n = len(d.features)
     return dict(verdict=str(getattr(d.verdict, "value", d.verdict)), named=named, group=group, best=best,
-                advice=advice, gap_before=float(d.gap_before), gap_after=float(d.gap_after),
+                advice=advice, n=n, chi2_after=float(d.gap_after) ** 2 * n,
+                gap_before=float(d.gap_before), gap_after=float(d.gap_after),
                 gap_excess_before=float(d.gap_excess_before), gap_excess_after=float(d.gap_excess_after),
                 chi2_before=float(d.chi2_before))
 
@@ -326,7 +369,9 @@ def run_case(case: Case, plan: Plan, *, runs_file: Any = None, advice: bool = Tr
         first = _answer(d)
         row: Dict[str, Any] = dict(index=case.index, kind=case.kind, truth=case.effects, outside=case.outside,
                                    outside_kind=case.outside_kind, label=case.label(), noise_seed=case.noise_seed,
-                                   s0_offset=case.s0_offset, answer=first, score=score_case(case, first))
+                                   s0_offset=case.s0_offset, answer=first, score=score_case(case, first),
+                                   truth_fit=truth_fit(case, runs, runs_file, base, threads),
+                                   judge=judge_fingerprint())
         if advice and first["advice"] and not row["score"]["right"] and first["verdict"] in ("confounded", "unexplained"):
             rng = np.random.default_rng([case.noise_seed, 1])
             extra_dir = Path(tmp) / "advised"
@@ -337,7 +382,9 @@ def run_case(case: Case, plan: Plan, *, runs_file: Any = None, advice: bool = Tr
             d2 = discover(measured=runs + [read_measurement(p) for p in extra], baseline=base,
                           effects=list(plan.candidates), progress=progress, runs_file=runs_file, threads=threads)
             second = _answer(d2)
-            row["advised"] = dict(point=first["advice"], answer=second, score=score_case(case, second))
+            row["advised"] = dict(point=first["advice"], answer=second, score=score_case(case, second),
+                                  truth_fit=truth_fit(case, runs + [read_measurement(p) for p in extra], runs_file,
+                                                      base, threads))
     row["cpu_s"] = time.process_time() - c0
     row["wall_s"] = time.perf_counter() - t0
     return row
@@ -420,7 +467,8 @@ def run_benchmark(seed: int, *, counts: Optional[Dict[str, int]] = None, plan: O
             from .._util import write_text_atomic
 
             write_text_atomic(sfile, json.dumps(settings, indent=1))
-        done = _read_rows(out / CASES_FILE)
+        judge = judge_fingerprint()
+        done = {i: r for i, r in _read_rows(out / CASES_FILE).items() if r.get("judge") == judge}  # others re-judged
         store = RunStore(out / "runs.jsonl")
     new: Dict[int, Dict[str, Any]] = {}
 
@@ -510,6 +558,17 @@ def summarise(rows: Sequence[Dict[str, Any]]) -> Dict[str, Any]:
                f"confounded: {' + '.join(sorted(ans['group']))}" if ans["verdict"] == "confounded" else ans["verdict"])
         confusion.setdefault(truth, {}).setdefault(got, 0)
         confusion[truth][got] += 1
+    # A wrong final answer is discover's miss where the truth fits its data clearly better (by more
+    # than the selection's price of a parameter, about 11 for fourteen candidates), else the data
+    # cannot tell the answer from the truth (what the plan resolves: detectability).
+    missed, cannot_tell = [], []
+    for r in rows:
+        s, tf = final_score(r), r.get("advised", {}).get("truth_fit", r.get("truth_fit"))
+        a = r.get("advised", {}).get("answer", r["answer"])
+        if s["right"] or not tf or not math.isfinite(tf.get("chi2", math.nan)):
+            continue
+        chi2_answer = a["chi2_after"] if a["verdict"] == "named" else a["gap_before"] ** 2 * a["n"]
+        (missed if chi2_answer - tf["chi2"] > CLEARLY_BETTER else cannot_tell).append(int(r["index"]))
     cpu = [float(r["cpu_s"]) for r in rows]
     return dict(cases=len(rows), by_kind=by_kind,
                 coverage=dict(inside=sum(cov), of=len(cov), rate=(sum(cov) / len(cov)) if cov else math.nan),
@@ -518,6 +577,7 @@ def summarise(rows: Sequence[Dict[str, Any]]) -> Dict[str, Any]:
                                                        for r in nothing)),
                 confounded_stand_ins=sum(r["kind"] == "outside" and r["answer"]["verdict"] == "confounded" for r in rows),
                 advised_runs=sum("advised" in r for r in rows),
+                wrong_where_the_truth_fits_better=missed, wrong_where_the_data_cannot_tell=cannot_tell,
                 cpu_s=dict(median=float(np.median(cpu)) if cpu else math.nan, total=float(sum(cpu))),
                 confusion=confusion)
 
@@ -548,6 +608,9 @@ def summary_markdown(summary: Dict[str, Any], rows: Sequence[Dict[str, Any]], *,
               f"({fa['cases_with_alarm']} cases not answered 'none')",
               f"- outside the library answered by a confounded group of stand-ins: {summary['confounded_stand_ins']}",
               f"- advised runs taken: {summary['advised_runs']}",
+              f"- wrong final answers where the truth fits its data better by more than {CLEARLY_BETTER:g} in χ² "
+              f"(discover's misses): cases {summary.get('wrong_where_the_truth_fits_better', [])}; where it does not "
+              f"(the data cannot tell): cases {summary.get('wrong_where_the_data_cannot_tell', [])}",
               f"- CPU per case: median {summary['cpu_s']['median']:.0f} s, total {summary['cpu_s']['total']:.0f} s",
               "", "## Confusion (truth → final answer)", "", "| truth | answer | cases |", "|---|---|---|"]
     for truth, got in sorted(summary["confusion"].items()):
