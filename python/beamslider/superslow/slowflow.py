@@ -1,11 +1,10 @@
 """The reduced predictor of one operating point (docs/model.md §6.3): :func:`predict` wraps the core's
 (the HB manifold, the drift from a fitted law or a PCS table, the slow flow with exact per-cell
 integration and event location, the operating-map classifier; ``beamslider._core.predict``).
-Operating maps by the predictor: :func:`beamslider.maps.predicted_map`."""
+Operating maps by the predictor: :func:`beamslider.superslow.predicted_map`."""
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass, field
 from typing import Dict, List, Optional, Tuple, Union
 
@@ -187,9 +186,9 @@ def predict(
     else:
         low, high, _, _, su, sd = table_model(drift)
         kw = {"table": (low, high, su, sd)}
-    r = json.loads(_core.predict(native(p), f_ex_hz=f_ex, a_ex_m_s2=a_ex, s0=s0, t_end_s=t_end, s_dn=str(s_dn), source=str(source),
-                                 n_modes=int(n_modes), d_eff=d_eff, v_dead=v_dead, build_up_s=t_build,
-                                 build_up_drift=bool(build_up_drift), robustness=bool(robustness), **kw))
+    r = _core.predict(native(p), f_ex_hz=f_ex, a_ex_m_s2=a_ex, s0=s0, t_end_s=t_end, s_dn=str(s_dn), source=str(source),
+                      n_modes=int(n_modes), d_eff=d_eff, v_dead=v_dead, build_up_s=t_build,
+                      build_up_drift=bool(build_up_drift), robustness=bool(robustness), **kw)
     flow, cls = r["flow"], r["flow"]["classification"]
     warnings = list(flow["warnings"])
     if r["note"]:

@@ -20,9 +20,10 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
-use super::branch::{HbBranch, HbManifold};
+use super::branch::{HbBranch, HbManifold, HbOptions};
+use super::continuation::hb_manifold;
 use crate::error::{Error, Result};
-use crate::params::Params;
+use crate::params::{Params, Valid};
 use crate::physics::beam::Beam;
 
 /// Inputs of the law, in this order (as `beamslider.drift_law.FEATURES`).
@@ -149,6 +150,12 @@ impl DriftLaw {
     /// Parse the JSON text of a law file (checks its kind, features and shapes).
     pub fn from_json_str(text: &str) -> Result<DriftLaw> {
         let f: LawFile = serde_json::from_str(text).map_err(|e| Error::invalid("law", "file", &format!("not a beamslider drift law file ({e})")))?;
+        DriftLaw::from_law_file(f)
+    }
+
+    /// [`DriftLaw::from_json_str`] of a law file's content already parsed (a front end's table).
+    pub fn from_json_value(value: serde_json::Value) -> Result<DriftLaw> {
+        let f: LawFile = serde_json::from_value(value).map_err(|e| Error::invalid("law", "file", &format!("not a beamslider drift law file ({e})")))?;
         DriftLaw::from_law_file(f)
     }
 
@@ -487,6 +494,12 @@ impl Sorted {
 pub fn features(params: &Params, manifold: &HbManifold, f_ex_hz: f64, a_ex: f64, high: bool, s: &[f64]) -> Result<Vec<Features>> {
     let beam = beam_for(params, manifold.n_modes)?;
     features_with(params, &beam, manifold, f_ex_hz, a_ex, high, s)
+}
+
+/// Features of docs/model.md §6.3 at positions `s` on one branch of the single-term HB manifold of
+/// `params` at (f_ex, a_ex) computed with `opts` (the whole step: the manifold, then [`features`]).
+pub fn features_at(params: &Valid, f_ex_hz: f64, a_ex: f64, opts: &HbOptions, high: bool, s: &[f64]) -> Result<Vec<Features>> {
+    features(params, &hb_manifold(params, f_ex_hz, a_ex, opts)?, f_ex_hz, a_ex, high, s)
 }
 
 /// The beam with `n_modes` modes (the mode shapes of the features).
