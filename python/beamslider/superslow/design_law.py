@@ -170,6 +170,10 @@ class DesignLaw:
             self._core_law = _core.DesignLaw(content, "the design law")
         return self._core_law
 
+    def __getstate__(self) -> dict:
+        """Pickled without the core's handle (made again, from the file's text, where it is used)."""
+        return {**self.__dict__, "_core_law": None}
+
     def outside(self, params: Parameters) -> List[str]:
         """Why ``params`` lie outside what the law covers ([] inside): a parameter that is not a
         coordinate changed from the base design, a coordinate beyond the box, or a clearance below
@@ -309,13 +313,15 @@ def design_law_from_dict(d: dict, source: str = "design law", text: Optional[str
         if missing:
             raise ValueError(f"invalid parameter `law`: {source}: designs[{i}].x lacks {missing}")
         xs.append({n: float(e["x"][n]) for n in names})
-        laws.append(law_from_dict(e["law"], f"{source}: designs[{i}].law"))
+        laws.append(law_from_dict(e["law"], f"{source}: designs[{i}].law", check=False))
     try:
         base = Parameters.from_dict(need("base", dict))
     except (TypeError, ValueError) as e:
         raise ValueError(f"invalid parameter `law`: {source}: base: {str(e).splitlines()[0][:160]}") from None
+    # The core's reader checks the file whole, every law in it too (the one reader), and its handle is kept.
+    core = _core.DesignLaw(text if text is not None else d, source)
     return DesignLaw(box=tuple(box), base=base, x=xs, laws=laws, scales=scales, k_sets=k, jam_gap_ratio=float(jam),
-                     loo=d.get("loo", {}), _text=text)
+                     loo=d.get("loo", {}), _text=text, _core_law=core)
 
 
 def load_design_law(path: Union[str, os.PathLike]) -> DesignLaw:
