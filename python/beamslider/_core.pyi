@@ -255,6 +255,7 @@ class StudyResults:
 Branch = Tuple[Sequence[float], Sequence[float], Sequence[float]]
 
 S_DN_MIN: float
+LAW_MAX_K: int
 
 class DriftLaw:
     """A drift law (core ``superslow::law::DriftLaw``), its file checked once (the core's reader)."""

@@ -25,6 +25,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("RESULTS_FORMAT_VERSION", beamslider_core::results::FORMAT_VERSION)?;
     m.add("MAX_AXIS_VALUES", beamslider_core::map::MAX_POINTS)?;
     m.add("S_DN_MIN", beamslider_core::superslow::predict::S_DN_MIN)?;
+    m.add("LAW_MAX_K", beamslider_core::superslow::law::MAX_K)?;
     signal::register(m)?;
     params::register(m)?;
     run::register(m)?;

@@ -102,6 +102,24 @@ def table_model(table: DriftTable):
     return out["L"], out["H"], s_up is not None and len(out["L"][0]) > 0, s_dn is not None and len(out["H"][0]) > 0, s_up, s_dn
 
 
+NUMERICAL_FIELDS = ("dt_s", "contact_solver", "solver_tol_rel", "solver_tol_abs", "solver_max_iter")
+"""Fields that set how a run is computed, not the model: a drift table made with other values of
+these still describes the run's model."""
+
+
+def _same_model(table: DriftTable, p: Parameters) -> None:
+    """Refuse a drift table measured on another model than the run's (its header records the
+    parameters it was made with; a table made in memory without them is not checked)."""
+    if not table.params_toml:
+        return
+    made = _core.Params.from_toml_text(table.params_toml).to_dict()
+    run = p.to_dict()
+    for name, value in made.items():
+        if name not in NUMERICAL_FIELDS and run[name] != value:
+            raise ValueError(f"invalid parameter `drift`: the table was made with {name} = {value!r}, the run has "
+                             f"{run[name]!r}: make a table with the run's parameters (drift-table --params)")
+
+
 def predict(
     params: Optional[Parameters] = None,
     *,
@@ -172,6 +190,8 @@ def predict(
         raise ValueError("invalid parameter `drift`: a DriftTable (b1), a DriftLaw (b2, fit_drift_law) or a DesignLaw")
     if isinstance(drift, DriftTable) and (abs(drift.f_ex - f_ex) > 1e-9 or abs(drift.a_ex - a_ex) > 1e-9):
         raise ValueError(f"invalid parameter `drift`: the table is for ({drift.f_ex:g} Hz, {drift.a_ex:g} m/s²), not ({f_ex:g}, {a_ex:g})")
+    if isinstance(drift, DriftTable):
+        _same_model(drift, p)
     if s_dn == "auto":
         s_dn = "law" if isinstance(drift, DriftLaw) else "hb"
     if isinstance(build_up, str):

@@ -76,6 +76,10 @@ impl LawFile {
     }
 }
 
+/// The most neighbours a law may weigh (docs/model.md §6.3: the fitted laws use k = 4; a law
+/// with fewer samples than k weighs them all).
+pub const MAX_K: usize = 64;
+
 pub(super) fn one() -> f64 {
     1.0
 }
@@ -236,6 +240,9 @@ impl DriftLaw {
         let high = branch("H")?;
         if low.v.is_empty() && high.v.is_empty() {
             return Err(Error::invalid("law", "samples", "the law has no training samples"));
+        }
+        if f.k > MAX_K {
+            return Err(Error::invalid("law", format!("k = {}", f.k), &format!("at most {MAX_K} neighbours (a fitted law weighs a handful)")));
         }
         let points = f.points.iter().filter(|p| p.len() == 2).map(|p| (p[0], p[1])).collect();
         if f.mono_x.len() != f.mono_y.len() || f.mono_x.iter().any(|r| r.len() != 2 || r.iter().any(|x| !x.is_finite())) {
