@@ -128,3 +128,16 @@ def test_discover_candidate_models_validate_once():
     with Count() as c:  # their runs take the validated objects as they are
         batch_slider_features(models, [OperatingPoint(f_ex=124.0, a_ex=14.0, s0=0.3, duration_s=0.5)], threads=2)
     assert c.n == 0
+
+
+def test_the_predictor_takes_its_parameters_as_validated():
+    from beamslider.superslow import predict, predicted_map
+
+    p = beamslider.Parameters()
+    predict(p, f_ex=124, a_ex=14)  # the built-in law read, the beam built
+    with Count() as c:
+        predict(p, f_ex=124, a_ex=14)
+    assert c.n == 0
+    with Count() as c:
+        predicted_map(p, f_ex=[120, 122, 124, 126], a_ex=[14], threads=1)
+    assert c.n == 0  # the map's configuration keeps the validated set; its points check nothing again

@@ -350,7 +350,7 @@ fn shifted_model(model: &SlowModel, moving: &Moving, dv: f64) -> SlowModel {
 
 /// Predict one operating point with the reduced model (docs/model.md §6.3): HB manifold, V from the
 /// law, slow flow from s₀ for `t_end_s` seconds, classified by the map classifier unchanged.
-pub fn predict_point(params: &Params, law: &DriftLaw, f_ex_hz: f64, a_ex: f64, s0: f64, t_end_s: f64, opts: &PredictOptions) -> Result<PointPrediction> {
+pub fn predict_point(params: &Valid, law: &DriftLaw, f_ex_hz: f64, a_ex: f64, s0: f64, t_end_s: f64, opts: &PredictOptions) -> Result<PointPrediction> {
     let beam = beam_for(params, opts.hb.n_modes)?;
     predict_point_with(params, &beam, law, f_ex_hz, a_ex, s0, t_end_s, opts)
 }
@@ -358,7 +358,7 @@ pub fn predict_point(params: &Params, law: &DriftLaw, f_ex_hz: f64, a_ex: f64, s
 /// [`predict_point`] with the beam of [`beam_for`] (`opts.hb.n_modes` modes) built once by the caller.
 #[allow(clippy::too_many_arguments)]
 pub fn predict_point_with(
-    params: &Params, beam: &Beam, law: &DriftLaw, f_ex_hz: f64, a_ex: f64, s0: f64, t_end_s: f64, opts: &PredictOptions,
+    params: &Valid, beam: &Beam, law: &DriftLaw, f_ex_hz: f64, a_ex: f64, s0: f64, t_end_s: f64, opts: &PredictOptions,
 ) -> Result<PointPrediction> {
     predict_drift(params, beam, Drift::Law(law), f_ex_hz, a_ex, s0, t_end_s, opts)
 }
@@ -379,7 +379,7 @@ pub fn predict(
 /// also with [`Source::Table`]); the options' jump-down rule, dead band and build-up apply.
 #[allow(clippy::too_many_arguments)]
 pub fn predict_drift(
-    params: &Params, beam: &Beam, drift: Drift<'_>, f_ex_hz: f64, a_ex: f64, s0: f64, t_end_s: f64, opts: &PredictOptions,
+    params: &Valid, beam: &Beam, drift: Drift<'_>, f_ex_hz: f64, a_ex: f64, s0: f64, t_end_s: f64, opts: &PredictOptions,
 ) -> Result<PointPrediction> {
     let lo = params.s_min();
     if !(s0.is_finite() && s0 >= lo - 1e-12 && s0 <= 1.0 - lo + 1e-12) {
