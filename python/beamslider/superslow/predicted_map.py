@@ -1,7 +1,7 @@
 """The operating map by the predictor (docs/model.md §8 with §6.3–6.5): the reduced model at every
 point of a grid, in the results format of the free-slider maps and written by the same core writer
-(core ``superslow::predicted_map``). The predictor uses the maps, never the other way round:
-:func:`beamslider.maps.operating_map` with ``predictor=`` calls the law's :meth:`predicted_map`."""
+(core ``superslow::predicted_map``). The predictor uses the maps' format and writer, never the
+other way round: :mod:`beamslider.maps` knows no predictor."""
 
 from __future__ import annotations
 
