@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import beamslider as bs
-from beamslider.maps import predicted_map
+from beamslider.superslow import predicted_map
 from beamslider.superslow import (DESIGN_BOX, DesignLaw, JAM_GAP_RATIO, default_drift_law, default_law, design_coordinates,
                                   design_params, design_sample, drift_table, fit_design_law, fit_drift_law, load_law,
                                   predict, save_design_law)

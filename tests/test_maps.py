@@ -392,7 +392,7 @@ def test_a_design_law_map_with_the_hb_jump_down_is_its_blend_without_the_learnt_
     law passed as a drift law must agree row for row."""
     import dataclasses
 
-    from beamslider.maps import predicted_map
+    from beamslider.superslow import predicted_map
     from beamslider.superslow import design_coordinates, design_params
     from beamslider.superslow.design_law import default_law
 

@@ -1,9 +1,9 @@
 """The README's and the user guide's examples are tests.
 
-Every fenced ``sh`` or ``python`` block of README.md, docs/getting-started.md, the user guide
-(docs/guide/*.md) and docs/cluster.md runs, page by page, in the order of the page, in one fresh
-temporary working directory per page that holds only a link to the repository's ``examples/``
-folder (as a user in the root of a clone has it). A block that is not to be run says why in the
+Every fenced ``sh`` or ``python`` block of README.md and of every page under docs/ (the result
+files under docs/results/ aside) runs, page by page, in the order of the page, in one fresh
+temporary working directory per page that holds only links to the repository's ``examples/`` and
+``docs/`` folders (as a user in the root of a clone has them). A block that is not to be run says why in the
 line before it: ``<!-- not-run: REASON -->`` (an installation step, the long form of a runnable
 short form given beside it, a cluster address, a Rust build). Shell blocks run under
 ``bash -e -o pipefail``; ``pip install ...`` lines are skipped (the package under test is already
@@ -26,8 +26,8 @@ from typing import List, Tuple
 import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
-PAGES = [ROOT / "README.md", ROOT / "docs" / "getting-started.md", ROOT / "docs" / "cluster.md",
-         *sorted((ROOT / "docs" / "guide").glob("*.md"))]
+PAGES = [ROOT / "README.md", *sorted(p for p in (ROOT / "docs").rglob("*.md")
+                                     if p.relative_to(ROOT / "docs").parts[0] not in ("results", "_build"))]
 NOT_RUN = re.compile(r"^<!-- not-run: (\S.*\S) -->$")
 RUNNABLE = "<!-- runnable -->"  # the default; kept as an explicit marker where a page wants one
 TIMEOUT_S = 900
@@ -76,6 +76,7 @@ def test_pages_have_runnable_examples():
 @pytest.fixture
 def workdir(tmp_path):
     (tmp_path / "examples").symlink_to(ROOT / "examples", target_is_directory=True)
+    (tmp_path / "docs").symlink_to(ROOT / "docs", target_is_directory=True)
     return tmp_path
 
 

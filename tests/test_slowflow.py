@@ -9,7 +9,8 @@ import pytest
 
 from beamslider import Parameters
 from beamslider.params import native
-from beamslider.maps import predicted_map
+from beamslider.maps import rows_to_table
+from beamslider.superslow import predicted_map
 from beamslider.superslow import (DriftTable, drift_table, features, fit_drift_law, hb_manifold, load_drift_law, predict,
                                   read_drift_table, save_drift_law)
 
@@ -151,9 +152,7 @@ def test_features_and_law_constraints(tmp_path):
     assert len(rows) == 2 and len(tab["behaviour"]) == 2
     with pytest.raises(FileExistsError):
         predicted_map(drift=law, f_ex=[122], a_ex=[14], out=tmp_path / "pm")
-    from beamslider import operating_map
-
-    om = operating_map(f_ex=[122, 124], a_ex=[14], predictor=law)
+    om = rows_to_table(predicted_map(drift=law, f_ex=[122, 124], a_ex=[14]))
     assert list(om["behaviour"]) == [r["behaviour"] for r in rows]
 
 
@@ -188,7 +187,7 @@ def test_builtin_default_law_is_the_committed_law_and_needs_no_file(tmp_path, ca
     from pathlib import Path
 
     from beamslider.cli import main
-    from beamslider.maps import predicted_map
+    from beamslider.superslow import predicted_map
     from beamslider.superslow import DEFAULT_LAW_PATH, default_drift_law, load_drift_law, predict
 
     committed = Path(__file__).resolve().parents[1] / "python" / "beamslider" / "data" / "default_law.json"

@@ -26,7 +26,8 @@ from .simulate import (ManifoldResult, SimulationResult, available_memory, envel
 # The rest is imported on first use (PEP 562): ``import beamslider`` and ``beamslider simulate``
 # stay quick (discover, enma, maps, superslow and their dependencies cost about a second).
 _LAZY = {
-    "discover": (".discover", None), "enma": (".enma", None), "superslow": (".superslow", None),
+    "design": (".design", None), "discover": (".discover", None), "enma": (".enma", None), "maps": (".maps", None),
+    "study": (".study", None), "superslow": (".superslow", None),
     "HbManifold": (".superslow", "HbManifold"), "hb_manifold": (".superslow", "hb_manifold"),
     "Measurement": (".measurement", "Measurement"), "MeasurementFormatError": (".measurement", "MeasurementFormatError"),
     "parse_operating_point": (".measurement", "parse_operating_point"),
@@ -37,7 +38,7 @@ _LAZY = {
 }
 
 if TYPE_CHECKING:  # pragma: no cover
-    from . import discover, enma, superslow  # noqa: F401
+    from . import design, discover, enma, maps, study, superslow  # noqa: F401
     from .maps import Classification, classify, classify_result, operating_map, plot_operating_map, read_map  # noqa: F401
     from .measurement import Measurement, MeasurementFormatError, parse_operating_point, read_measurement  # noqa: F401
     from .superslow import HbManifold, hb_manifold  # noqa: F401
@@ -75,17 +76,20 @@ __all__ = [
     "SimulationResult",
     "classify",
     "classify_result",
+    "design",
     "discover",
     "enma",
     "envelope",
     "hb_manifold",
     "manifold_grid",
+    "maps",
     "operating_map",
     "parse_operating_point",
     "plot_operating_map",
     "read_map",
     "read_measurement",
     "simulate",
+    "study",
     "superslow",
     "super_slow_manifold",
 ]

@@ -17,7 +17,9 @@ class Params:
 
     def __init__(self, **values: Union[float, int, str]) -> None: ...
     @staticmethod
-    def from_toml_file(path: Union[str, PathLike[str]]) -> "Params": ...
+    def from_toml_file(path: Union[str, PathLike[str]], **overrides: Union[float, int, str]) -> "Params":
+        """Read a TOML parameter file (missing keys: defaults), replace the fields ``overrides`` names
+        (a command line's ``--dt``), then validate once."""
     @staticmethod
     def from_toml_text(text: str) -> "Params": ...
     def to_dict(self) -> ParamDict: ...
@@ -90,11 +92,11 @@ def classify(
     dt_s: float,
     *,
     t0_s: float = 0.0,
-    criteria_toml: Optional[str] = None,
-) -> str:
+    criteria: Optional[Dict[str, float]] = None,
+) -> Dict[str, Any]:
     """Behaviour classification (docs/model.md §8) of super-slow signals sampled every ``dt_s``
-    (slider position ``s``, amplitude ``amplitude_h``); ``criteria_toml``: thresholds as TOML keys of
-    the core's ``Criteria`` (missing keys take defaults). Returns the classification as JSON text.
+    (slider position ``s``, amplitude ``amplitude_h``); ``criteria``: thresholds by the keys of the
+    core's ``Criteria`` (missing keys take defaults). Returns the core's ``Classification`` as a dict.
     """
 def super_slow_signals(
     w: npt.NDArray[np.float64], s: npt.NDArray[np.float64], dt_s: float, thickness_m: float, window_s: float
@@ -117,6 +119,10 @@ class MapConfig:
         criteria (thresholds of the core's ``Criteria`` by name; None: defaults).
         """
     def toml(self) -> str: ...
+    def with_duration(self, duration_s: float) -> "MapConfig":
+        """This configuration for another duration (``--extend-to``), checked."""
+    @property
+    def duration_s(self) -> float: ...
     @property
     def axes(self) -> Tuple[List[float], List[float], List[float]]: ...
     def check(self, *, out: Optional[Union[str, PathLike[str]]] = None, resume: bool = False, extend: bool = False) -> None:
@@ -187,14 +193,16 @@ def hb_closed_form_n1(
 def hb_backbone(
     params: Params, amplitude_h: Sequence[float], s: Sequence[float], omega1_factor: float = 1.0
 ) -> List[float]: ...
-def virtual_enma(params: Params, options_json: str, progress: Progress = None) -> str:
-    """Virtual ENMA of the beam of ``params``; ``options_json`` holds the fields of the core's
-    ``EnmaOptions`` (missing ones take defaults). Returns the result as JSON text.
+def virtual_enma(params: Params, *, progress: Progress = None, **options: Any) -> Dict[str, Any]:
+    """Virtual ENMA of the beam of ``params``; ``options`` are the fields of the core's
+    ``EnmaOptions`` (missing ones take defaults). Returns the core's ``EnmaResult`` as a dict.
     """
 def beam_properties(params: Params, x_over_l: Sequence[float] = ...) -> Dict[str, Any]:
-    """Modal data of the linear beam (core ``physics::properties::BeamProperties``, docs/model.md
-    §2 and §9) as a dict; ``phi`` holds φₘ at ``x_over_l`` (N rows).
+    """Modal data of the linear beam (core ``Model::beam_properties``, docs/model.md §2 and §9) as
+    a dict; ``phi`` holds φₘ at ``x_over_l`` (N rows).
     """
+def backbone_omega2(omega2: float, b: float, amplitude: List[float], m1: float) -> List[float]:
+    """Squared backbone frequencies (ω² + ¾ b a²)/M₁ at the amplitudes a (core ``enma::backbone_omega2``)."""
 
 def plausibility_findings(params: Params) -> List[Tuple[str, float, str]]:
     """Every implausible value of ``params`` (core ``plausibility::findings``, docs/model.md §1
@@ -212,15 +220,15 @@ def range_values(field: str, start: float, stop: float, step: float) -> List[flo
     """
 def run_study_chunk(
     config: MapConfig,
-    points: Sequence[Tuple[int, str, float, float, float, float]],
+    points: Sequence[Tuple[int, Params, float, float, float, float]],
     *,
     threads: Optional[int] = None,
     on_rows: Optional[Callable[[List[str]], Any]] = None,
 ) -> List[str]:
     """Run a chunk of study points in parallel (``threads`` workers, default one per core) with the
     interpreter released. ``config`` is a map configuration (record_every, dt_s, criteria; its grid
-    and parameters are not used); each point brings its own full parameter TOML, operating point
-    and duration. Returns the rows as JSON texts (map row format, ``index`` = the point's index),
+    and parameters are not used); each point brings its own validated parameters (not validated
+    again unless the configuration's ``dt_s`` changes their step), operating point and duration. Returns the rows as JSON texts (map row format, ``index`` = the point's index),
     sorted by index. ``on_rows(list_of_json)`` gets the rows finished since the last call (at most
     every 50 ms); Ctrl-C or an exception in ``on_rows`` cancels the chunk.
     """
@@ -236,14 +244,14 @@ class StudyResults:
         self,
         path: Optional[Union[str, PathLike[str]]],
         config: MapConfig,
-        study_json: str,
-        points_json: str,
+        study: Dict[str, Any],
+        points: Sequence[Dict[str, Any]],
         *,
         resume: bool = False,
     ) -> None:
         """The results of a study: the file ``path`` (None: in memory only), opened for the map
-        configuration ``config``, the study configuration ``study_json`` (header) and the points
-        ``points_json`` (a list of objects: index, f_ex_hz, a_ex_m_s2, s0, sample, point, params);
+        configuration ``config``, the study configuration ``study`` (header) and the points
+        ``points`` (a list of dicts: index, f_ex_hz, a_ex_m_s2, s0, sample, point, params);
         ``resume`` keeps the rows of an existing file of the same study.
         """
     def add(self, rows: Sequence[str]) -> None: ...
@@ -254,27 +262,31 @@ class StudyResults:
 Branch = Tuple[Sequence[float], Sequence[float], Sequence[float]]
 
 S_DN_MIN: float
+LAW_MAX_K: int
 
 class DriftLaw:
-    """A drift law (core ``superslow::law::DriftLaw``), its file parsed and checked once."""
+    """A drift law (core ``superslow::law::DriftLaw``), its file checked once (the core's reader)."""
 
-    def __init__(self, text: str) -> None: ...
+    def __init__(self, law: Union[str, Dict[str, Any]]) -> None:
+        """From a law file's content (a dict) or its JSON text."""
     def evaluate(self, *, high: bool, x: Sequence[Sequence[float]], lift_off: Sequence[float]) -> Tuple[List[float], List[bool]]: ...
     def monostable(self, x: Sequence[float]) -> bool: ...
 def law_s_dn(s: Sequence[float], amplitude_h: Sequence[float], *, f_ex_hz: float, a_ex_m_s2: float, rho_c: float, s_p: float,
              thickness_m: float) -> Optional[float]: ...
 def hb_features(
     params: Params, *, f_ex_hz: float, a_ex_m_s2: float, high: bool, s: Sequence[float], n_modes: int = 5, d_eff: Optional[float] = None
-) -> str: ...
+) -> List[Dict[str, float]]:
+    """The features of docs/model.md §6.3 at ``s`` on one branch of the HB manifold (core
+    ``law::features_at``): one dict per position."""
 def predict(
     params: Params, *, f_ex_hz: float, a_ex_m_s2: float, s0: float, t_end_s: float, law: Optional[DriftLaw] = None,
     table: Optional[Tuple[Branch, Branch, Optional[float], Optional[float]]] = None, s_dn: str = "law", source: str = "hb",
     n_modes: int = 5, d_eff: Optional[float] = None, v_dead: float = 0.0, build_up_s: Optional[float] = None,
     build_up_drift: bool = True, robustness: bool = True
-) -> str:
-    """One operating point by the reduced model (docs/model.md §6.3), its drift a law
-    (``DriftLaw``) or a PCS table ((low, high, s_up, s_dn)): the prediction as JSON text; the
-    keyword options are the core's ``PredictArgs``.
+) -> Dict[str, Any]:
+    """One operating point by the reduced model (docs/model.md §6.3, core ``predict::predict``), its
+    drift a law (``DriftLaw``) or a PCS table ((low, high, s_up, s_dn)): the core's
+    ``PointPrediction`` as a dict; the keyword options are the core's ``PredictArgs``.
     """
 def predicted_map(
     config: MapConfig, law: Union[DriftLaw, DesignLaw], *, out: Union[str, PathLike[str], None] = None, resume: bool = False,
@@ -286,7 +298,7 @@ def predicted_map(
     ``PredictArgs``. Returns (rows as JSON texts, why the design lies outside the design law).
     """
 
-# Formats and formulas of the core (crates/beamslider-py/src/formats.rs).
+# Formats of the core (crates/beamslider-py/src/formats.rs).
 _MapColumns = Tuple[List[float], List[float], List[float], List[float], List[str], List[str], List[bool]]
 
 def manifold_csv(up_s: List[float], up_amplitude_m: List[float], down_s: List[float], down_amplitude_m: List[float]) -> str: ...
@@ -294,7 +306,6 @@ def map_text_table(columns: _MapColumns) -> Tuple[str, str]:
     """The letter table of a map and its "t_end = … s" text, from its columns (s0, f_ex, a_ex,
     t_end, status, behaviour, settled).
     """
-def backbone_omega2(omega2: float, b: float, amplitude: List[float], m1: float) -> List[float]: ...
 def read_json_lines(path: Union[str, PathLike[str]], key: str, version: int) -> Tuple[List[str], int, bool]:
     """The complete lines of a JSON-lines results file whose header has ``key`` = ``version``, the
     byte length of the complete part and whether a torn last line was left out.
@@ -304,10 +315,13 @@ def append_json_lines(path: Union[str, PathLike[str]], lines: List[str], good_le
 def design_coordinates(params: Params, base: Params) -> List[float]: ...
 
 class DesignLaw:
-    """A design law (core ``superslow::design_law::DesignLaw``), its file parsed once."""
+    """A design law (core ``superslow::design_law::DesignLaw``), its file checked once."""
 
-    def __init__(self, text: str, source: str) -> None: ...
-    def law_for(self, params: Params) -> Tuple[str, List[str]]: ...
+    def __init__(self, law: Union[str, Dict[str, Any]], source: str) -> None:
+        """From a design-law file's JSON text or content (a dict); ``source`` names it in errors."""
+    def law_for(self, params: Params) -> Tuple[Dict[str, Any], List[str]]:
+        """The blended drift law of design ``params`` (a law file's content) and why the design
+        lies outside the law."""
 
 def run_free_slider_batch(
     jobs: Sequence[Tuple[Params, float, float, float, float]],
@@ -325,7 +339,8 @@ def run_free_slider_batch(
     ``keep_every``-th of the samples recorded every ``record_every`` steps (with ``detrend_s``, w
     minus its moving average first); the jobs run in parallel on ``threads`` workers with the
     interpreter released. Returns one dict per job, in job order: ``t``, ``s``, ``amplitude_h``,
-    ``status``, or ``error`` and ``error_kind`` ("invalid", "numerical"). ``on_done(n)`` gets the
+    ``status``, or ``error`` (the exception the job's core error converts to: ``ValueError``,
+    ``SimulationError``, ...) and ``error_kind`` ("invalid" for a ``ValueError``, else "numerical"). ``on_done(n)`` gets the
     runs finished since the last call; Ctrl-C or an exception in it cancels the batch.
     """
 def drift_table_pcs(
@@ -337,14 +352,15 @@ def drift_table_pcs(
     resume: bool = False,
     progress: Progress = None,
     **options: Any,
-) -> Tuple[str, List[str], int]:
+) -> Tuple[Dict[str, Any], List[Dict[str, Any]], int]:
     """Drift table V(s, branch) from the PCS model (docs/model.md §6.4).
 
-    ``options``: fields of the core's ``DriftOptions``. Returns (header JSON, rows as JSON texts in
-    production order, rows computed now). Rows are appended to ``out`` as produced; ``resume``
+    ``options``: fields of the core's ``DriftOptions``. Returns (header, rows in production order,
+    rows computed now) as dicts. Rows are appended to ``out`` as produced; ``resume``
     continues an existing file with the same settings. ``progress(done, total)`` is called from
     the calling thread; Ctrl-C stops both sweeps (rows written so far stay in the file) and raises
     KeyboardInterrupt.
     """
-def read_drift_table(path: Union[str, PathLike[str]]) -> Tuple[str, List[str]]:
-    """Read a drift-table file: (header JSON, rows as JSON texts; a truncated last line is dropped)."""
+def read_drift_table(path: Union[str, PathLike[str]]) -> Tuple[Dict[str, Any], List[Dict[str, Any]]]:
+    """Read a drift-table file (the core's one reader): (header, rows as dicts; a truncated last
+    line is dropped)."""

@@ -22,6 +22,7 @@ from typing import Optional, Tuple, Union
 import numpy as np
 
 from . import _core
+from .signals import envelope
 
 DISPLACEMENT_DETREND_S = 0.1
 """Window of the moving average subtracted from the integrated displacement [s] (docs/model.md §7)."""
@@ -73,8 +74,6 @@ class Measurement:
 
     def envelope(self, window: float = 1.0) -> np.ndarray:
         """Super-slow amplitude of w(4L/7) [m] (docs/model.md §7)."""
-        from .simulate import envelope
-
         return envelope(self.t, self.w, window=window)
 
 

@@ -68,10 +68,11 @@ class _Methods:
         native(self)
 
     @classmethod
-    def from_toml(cls, path: PathLike) -> "Parameters":
+    def from_toml(cls, path: PathLike, **overrides: Any) -> "Parameters":
         """Read a TOML parameter file (the same files the Rust binary reads). Missing keys take
-        their defaults; unknown keys or bad values raise ``ValueError``, a missing file ``OSError``."""
-        return _wrap(cls, _core.Params.from_toml_file(os.fspath(path)))
+        their defaults; ``overrides`` replace fields by name (a command line's ``--dt``); the result
+        is validated once. Unknown keys or bad values raise ``ValueError``, a missing file ``OSError``."""
+        return _wrap(cls, _core.Params.from_toml_file(os.fspath(path), **overrides))
 
     @classmethod
     def from_toml_text(cls, text: str) -> "Parameters":
@@ -123,6 +124,27 @@ def native(p: "Parameters") -> Any:
         core = _core.Params(**p.to_dict())
         object.__setattr__(p, "_native", core)
     return core
+
+
+def detune(params: Any, factor: float) -> Dict[str, float]:
+    """Parameter values that scale every linear natural frequency by ``factor`` (c) at constant
+    mode shapes and constant nonlinear coefficient b*: E → c² E, k_r → c² k_r and k_t such that
+    k_ax = 1/(L/(EA) + 1/k_t) is unchanged (k_t = ∞ stays ∞). ``params``: a :class:`Parameters`
+    or a mapping of its fields (values not yet validated: the caller validates the result once)."""
+    c2 = float(factor) ** 2
+    if not (math.isfinite(c2) and c2 > 0):
+        raise ValueError(f"invalid natural_frequency_factor = {factor!r}: must be finite and > 0")
+    v = params if isinstance(params, dict) else params.to_dict()
+    area = v["beam_mass_kg"] / (v["density_kg_m3"] * v["length_m"])
+    e_new = v["youngs_modulus_pa"] * c2
+    out = {"youngs_modulus_pa": e_new, "k_r_nm_per_rad": v["k_r_nm_per_rad"] * c2}
+    if math.isfinite(v["k_t_n_per_m"]):
+        inv = 1.0 / v["k_t_n_per_m"] + v["length_m"] / (v["youngs_modulus_pa"] * area) - v["length_m"] / (e_new * area)
+        if not inv > 0:
+            raise ValueError(f"natural_frequency_factor = {factor}: no axial clamping stiffness k_t keeps b* "
+                             f"(the beam alone is then softer axially than the nominal beam and frame)")
+        out["k_t_n_per_m"] = 1.0 / inv
+    return out
 
 
 def resolve(params: "Parameters | None") -> Parameters:

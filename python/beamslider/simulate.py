@@ -15,6 +15,7 @@ import numpy as np
 
 from . import _core
 from .params import Parameters, native, resolve
+from .signals import envelope  # noqa: F401 (part of this module's face)
 from ._util import MAX_INT, number, positive_int, progress_bar  # noqa: F401 (MAX_INT: part of this module's face)
 from .trajectory import (COLUMNS, MEMORY_FRACTION, available_memory, check_disk, check_memory, check_out,  # noqa: F401
                          read_trajectory, recorded_size)
@@ -427,33 +428,6 @@ def _stoppable(bar: Optional[Callable[[float, float], None]], stop: Any) -> Call
         if bar is not None:
             bar(done, total)
     return update
-
-
-def envelope(t: Any, w: Any, window: float = 1.0) -> np.ndarray:
-    """Super-slow amplitude of a uniformly sampled signal (docs/model.md §7): |Hilbert(w)| (FFT-based
-    analytic signal) followed by a centred moving average over ``window`` seconds.
-
-    Args:
-        t: sample times [s], uniformly spaced.
-        w: signal (e.g. w(4L/7) [m]).
-        window: moving-average window [s].
-    """
-    t = np.asarray(t, dtype=float)
-    w = np.ascontiguousarray(w, dtype=float)
-    if t.ndim != 1 or w.ndim != 1 or t.shape != w.shape:
-        raise ValueError(f"t and w must be 1-D arrays of the same length (got {t.shape} and {w.shape})")
-    if t.size < 2:
-        raise ValueError("need at least two samples")
-    for name, arr in (("t", t), ("w", w)):
-        bad = np.flatnonzero(~np.isfinite(arr))
-        if bad.size:
-            raise ValueError(f"invalid parameter `{name}`: {bad.size} non-finite value(s) (NaN or inf), the first at "
-                             f"index {bad[0]}; the envelope of a signal with gaps is undefined")
-    steps = np.diff(t)
-    dt = float(np.median(steps))
-    if not dt > 0 or np.any(np.abs(steps - dt) > 0.01 * dt):
-        raise ValueError("t must be uniformly spaced and increasing")
-    return _core.envelope(w, dt, float(window))
 
 
 def blocked_envelope(t: Any, w: Any, window: float = 1.0, *, block: int = 2**19, margin: int = 2**16) -> np.ndarray:

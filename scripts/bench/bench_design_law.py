@@ -25,7 +25,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from beamslider.maps import predicted_map
+from beamslider.superslow import predicted_map
 from beamslider.params import native
 from beamslider.superslow import default_law, design_params, design_sample
 

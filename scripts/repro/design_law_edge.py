@@ -23,7 +23,8 @@ import numpy as np
 
 from beamslider.design.config import read_config
 from beamslider.design.objectives import adaption_bandwidth
-from beamslider.maps import operating_map, predicted_map
+from beamslider.maps import operating_map
+from beamslider.superslow import predicted_map
 from beamslider.superslow import default_law
 
 ROOT = Path(__file__).resolve().parents[2]

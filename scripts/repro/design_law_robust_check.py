@@ -29,7 +29,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from validate_design_law import A, ADAPTING, F, _label, _rows, bands, heldout_designs  # noqa: E402
 
 from beamslider.design import read_config  # noqa: E402
-from beamslider.maps import predicted_map  # noqa: E402
+from beamslider.superslow import predicted_map  # noqa: E402
 from beamslider.study.sampling import apply_sample  # noqa: E402
 from beamslider.superslow import default_law, design_params  # noqa: E402
 from beamslider.superslow.design_law import design_coordinates  # noqa: E402

@@ -30,7 +30,7 @@ A = [10.0, 14.0]
 
 def _band(u_rows):
     from beamslider.design.objectives import adaption_bandwidth
-    from beamslider.maps import predicted_map
+    from beamslider.superslow import predicted_map
     from beamslider.superslow import DESIGN_BOX, default_law, design_params
 
     law = default_law()

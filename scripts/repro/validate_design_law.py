@@ -25,7 +25,8 @@ import numpy as np
 
 import beamslider as bs
 from beamslider.design.objectives import adaption_bandwidth
-from beamslider.maps import operating_map, predicted_map
+from beamslider.maps import operating_map
+from beamslider.superslow import predicted_map
 from beamslider.superslow import default_law, design_params, design_sample, load_law
 
 ROOT = Path(__file__).resolve().parents[2]

@@ -31,7 +31,8 @@ import numpy as np
 
 from beamslider import Parameters
 from beamslider.design.objectives import adaption_bandwidth
-from beamslider.maps import operating_map, predicted_map
+from beamslider.maps import operating_map
+from beamslider.superslow import predicted_map
 from beamslider.superslow import default_law, design_coordinates, design_params
 from beamslider.superslow.design_law import DesignLaw
 

@@ -69,6 +69,7 @@ fn main() {
     println!("{:>28} {:>8} {:>9} {:>11} {:>10} {:>11} {:>8} {:>8}", "design", "blend", "manifold", "slow model", "slow flow", "robustness", "rows", "total");
     let mut totals = vec![];
     for (name, p) in &list {
+        let p = &params::Valid::new(p.clone()).expect("valid parameters");
         let mut cols: [Vec<f64>; 7] = Default::default();
         for _ in 0..reps {
             let t0 = Instant::now();

@@ -24,7 +24,7 @@ fn main() {
     let reps = args.iter().position(|a| a == "--reps").and_then(|i| args.get(i + 1)).and_then(|v| v.parse().ok()).unwrap_or(30usize);
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../python/beamslider/data/default_law.json");
     let law = DriftLaw::from_file(&root).expect("python/beamslider/data/default_law.json");
-    let params = Params::default();
+    let params = params::Valid::new(Params::default()).unwrap();
     let opts = PredictOptions::default();
     let beam = beam_for(&params, opts.hb.n_modes).unwrap();
     println!("predictor, one thread, median of {reps} repetitions [ms]");

@@ -19,6 +19,7 @@ use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
 use beamslider_core::map::MapConfig;
+use beamslider_core::params::Valid;
 use beamslider_core::results::read_results;
 use beamslider_core::{Model, Params};
 
@@ -174,7 +175,7 @@ type Target = fn(&[u8], &std::path::Path) -> Result<(), String>;
 
 fn params_target(data: &[u8], _: &std::path::Path) -> Result<(), String> {
     let Ok(text) = std::str::from_utf8(data) else { return Ok(()) };
-    let Ok(p) = Params::from_toml_str(text) else { return Ok(()) };
+    let Ok(p) = Params::from_toml_str(text).and_then(Valid::new).map(Valid::into_inner) else { return Ok(()) };
     let back = Params::from_toml_str(&p.to_toml_string()).map_err(|e| format!("accepted parameters do not round-trip: {e}"))?;
     if back != p {
         return Err("accepted parameters change on a TOML round trip".into());
@@ -308,7 +309,7 @@ fn main() {
         if problem.is_none() && std::str::from_utf8(&input).is_ok() {
             accepted[t] += (t == 2
                 || match t {
-                    0 => Params::from_toml_str(std::str::from_utf8(&input).unwrap()).is_ok(),
+                    0 => Params::from_toml_str(std::str::from_utf8(&input).unwrap()).and_then(Valid::new).is_ok(),
                     _ => MapConfig::from_toml_str(std::str::from_utf8(&input).unwrap()).is_ok(),
                 }) as u64;
         }

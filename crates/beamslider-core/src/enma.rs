@@ -420,6 +420,12 @@ pub fn backbone_rad_s(model: &Model, amplitude_h: f64) -> f64 {
     crate::physics::Beam::backbone_omega2(w2, b.b_star(model.params.thickness_m), amplitude_h, 1.0).sqrt()
 }
 
+/// The backbone ω̃² = (ω² + ¾ b a²)/M₁ (docs/model.md §9, [`crate::Beam::backbone_omega2`]) at each
+/// amplitude of `amplitude`: the curve a backbone fit draws.
+pub fn backbone_omega2(omega2: f64, b: f64, amplitude: &[f64], m1: f64) -> Vec<f64> {
+    amplitude.iter().map(|&a| crate::physics::Beam::backbone_omega2(omega2, b, a, m1)).collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -227,8 +227,9 @@ pub fn validation_count() -> u64 {
     VALIDATIONS.load(Ordering::Relaxed)
 }
 
-/// Parameters that passed [`Params::validate`] (docs/model.md §1): a front end validates once and
-/// hands this to every entry point, which then checks nothing again.
+/// Parameters that passed [`Params::validate`] (docs/model.md §1): the type the runners take. A
+/// reader gives plain [`Params`] (a TOML file, a front end's values, overrides applied); [`Valid::new`]
+/// is the one place that makes this type, once per parameter set, and nothing checks it again.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Valid(Params);
 
@@ -299,14 +300,13 @@ impl<'a> From<&'a Valid> for ParamsArg<'a> {
 }
 
 impl Params {
-    /// Parse from TOML text (missing keys take their defaults, unknown keys are errors), then validate.
+    /// Parse TOML text (missing keys take their defaults, unknown or mistyped keys are errors); not
+    /// validated: [`Valid::new`] checks the values, after any override ([`Params::with_values`]).
     pub fn from_toml_str(text: &str) -> Result<Self> {
-        let p: Params = toml::from_str(text).map_err(|e| Error::Toml { path: None, message: e.to_string().trim_end().to_string() })?;
-        p.validate()?;
-        Ok(p)
+        toml::from_str(text).map_err(|e| Error::Toml { path: None, message: e.to_string().trim_end().to_string() })
     }
 
-    /// Read and validate a TOML file.
+    /// Read a TOML file ([`Params::from_toml_str`]; not validated).
     pub fn from_toml_file(path: impl AsRef<Path>) -> Result<Self> {
         let path = path.as_ref();
         let text = std::fs::read_to_string(path).map_err(|source| Error::Io { path: path.display().to_string(), source })?;
@@ -320,7 +320,13 @@ impl Params {
     /// values of a front end (Python keyword arguments). A value of the wrong type or an unknown
     /// name is an error naming the field.
     pub fn from_values(values: impl IntoIterator<Item = (String, toml::Value)>) -> Result<Params> {
-        let mut table = Params::default().table();
+        Params::default().with_values(values)
+    }
+
+    /// These parameters with some fields replaced by name (a file's values with a command line's
+    /// overrides), not validated; errors as [`Params::from_values`].
+    pub fn with_values(&self, values: impl IntoIterator<Item = (String, toml::Value)>) -> Result<Params> {
+        let mut table = self.table();
         for (key, value) in values {
             let one = toml::Value::Table(toml::Table::from_iter([(key.clone(), value.clone())]));
             if let Err(e) = one.try_into::<Params>() {

@@ -20,7 +20,7 @@ use crate::dynamics::runner::{run_batch, with_threads};
 use crate::dynamics::simulation::Model;
 use crate::error::{Error, Result};
 use crate::map::{self, MapConfig, MapPoint, MapRow};
-use crate::params::Params;
+use crate::params::{Params, Valid};
 use crate::results::{self, ResultsLock};
 
 /// One point of a study: its own parameters, operating point and duration.
@@ -28,8 +28,8 @@ use crate::results::{self, ResultsLock};
 pub struct StudyPoint {
     /// Index of the point in the study (the row's `index`).
     pub index: usize,
-    /// Full parameter set as TOML text (the configuration's `dt_s` override applies).
-    pub params_toml: String,
+    /// Full parameter set, validated (the configuration's `dt_s` override applies).
+    pub params: Valid,
     /// f_ex [Hz].
     pub f_ex_hz: f64,
     /// a_ex [m/s²].
@@ -40,12 +40,12 @@ pub struct StudyPoint {
     pub duration_s: f64,
 }
 
-/// A point as a front end sends it: (index, parameter TOML, f_ex [Hz], a_ex [m/s²], s₀, duration [s]).
-pub type PointTuple = (usize, String, f64, f64, f64, f64);
+/// A point as a front end sends it: (index, parameters, f_ex [Hz], a_ex [m/s²], s₀, duration [s]).
+pub type PointTuple = (usize, Valid, f64, f64, f64, f64);
 
 impl From<PointTuple> for StudyPoint {
-    fn from((index, params_toml, f_ex_hz, a_ex_m_s2, s0, duration_s): PointTuple) -> Self {
-        StudyPoint { index, params_toml, f_ex_hz, a_ex_m_s2, s0, duration_s }
+    fn from((index, params, f_ex_hz, a_ex_m_s2, s0, duration_s): PointTuple) -> Self {
+        StudyPoint { index, params, f_ex_hz, a_ex_m_s2, s0, duration_s }
     }
 }
 
@@ -63,28 +63,29 @@ pub fn run_points(
             return Err(Error::invalid("duration_s", format!("{} (point {i})", p.duration_s), "must be finite and > 0"));
         }
     }
-    // One model per distinct parameter text, built in parallel.
-    let mut texts: Vec<&str> = points.iter().map(|p| p.params_toml.as_str()).collect();
-    texts.sort_unstable();
-    texts.dedup();
+    // One model per distinct parameter set (keyed by its canonical text), built in parallel;
+    // validated again only where the configuration's dt_s overrides theirs.
+    let keys: Vec<String> = points.iter().map(|p| p.params.to_toml_string()).collect();
+    let mut sets: HashMap<&str, &Valid> = HashMap::new();
+    for (k, p) in keys.iter().zip(points) {
+        sets.entry(k.as_str()).or_insert(&p.params);
+    }
+    let sets: Vec<(&str, &Valid)> = sets.into_iter().collect();
     let models: Vec<Model> = with_threads(threads, || {
-        texts
-            .par_iter()
-            .map(|t| {
-                let mut p = Params::from_toml_str(t)?;
-                if let Some(dt) = cfg.dt_s {
-                    p.dt_s = dt;
-                }
-                Model::new(p)
+        sets.par_iter()
+            .map(|(_, p)| match cfg.dt_s {
+                Some(dt) if dt != p.dt_s => Model::new(Params { dt_s: dt, ..p.get().clone() }),
+                _ => Model::of(p),
             })
             .collect::<Result<_>>()
     })??;
-    let by_text: HashMap<&str, &Model> = texts.iter().copied().zip(models.iter()).collect();
+    let by_key: HashMap<&str, &Model> = sets.iter().map(|(k, _)| *k).zip(models.iter()).collect();
+    let model_of: HashMap<usize, &Model> = points.iter().zip(&keys).map(|(p, k)| (p.index, by_key[k.as_str()])).collect();
     let run = |pt: &StudyPoint| {
         let mut c = cfg.clone();
         c.duration_s = pt.duration_s;
         let p = MapPoint { index: pt.index, f_ex_hz: pt.f_ex_hz, a_ex_m_s2: pt.a_ex_m_s2, s0: pt.s0 };
-        Ok(map::run_point(by_text[pt.params_toml.as_str()], &c, &p, cancel)?.map(|mut row| {
+        Ok(map::run_point(model_of[&pt.index], &c, &p, cancel)?.map(|mut row| {
             row.end = None;
             row
         }))
@@ -237,6 +238,17 @@ impl StudyResults {
         let bad = |what: &str, e: serde_json::Error| Error::invalid(what, "JSON", &format!("not valid: {e}"));
         let study = serde_json::from_str(study_json).map_err(|e| bad("study", e))?;
         let points: Vec<WirePoint> = serde_json::from_str(points_json).map_err(|e| bad("points", e))?;
+        let info = points
+            .into_iter()
+            .map(|w| (w.index, RowInfo { f_ex_hz: w.f_ex_hz, a_ex_m_s2: w.a_ex_m_s2, s0: w.s0, sample: w.sample, point: w.point, params: w.params }))
+            .collect();
+        StudyResults::open(path, cfg, study, info, resume)
+    }
+
+    /// [`StudyResults::open_json`] of values already parsed (a front end's tables): `study` the
+    /// study's header, `points` the list of each point's [`RowInfo`] with its index.
+    pub fn open_values(path: Option<&Path>, cfg: &MapConfig, study: serde_json::Value, points: serde_json::Value, resume: bool) -> Result<StudyResults> {
+        let points: Vec<WirePoint> = serde_json::from_value(points).map_err(|e| Error::invalid("points", "table", &format!("not valid: {e}")))?;
         let info = points
             .into_iter()
             .map(|w| (w.index, RowInfo { f_ex_hz: w.f_ex_hz, a_ex_m_s2: w.a_ex_m_s2, s0: w.s0, sample: w.sample, point: w.point, params: w.params }))

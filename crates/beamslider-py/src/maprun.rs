@@ -6,13 +6,12 @@ use std::sync::atomic::AtomicBool;
 
 use beamslider_core::map::{DEFAULT_RECORD_EVERY, MapSession, WireJob, run_chunk};
 use beamslider_core::{Axis, Criteria, Grid, MapConfig, MapRow, MapRunOptions, ResultsLock};
-use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyType};
-use pythonize::depythonize;
 
+use crate::convert::{detached, table};
+use crate::error::{CoreResult, guarded, released};
 use crate::params::PyParams;
-use crate::{detached, guarded};
 
 /// A map configuration (core `MapConfig`) parsed and checked once (pickled as its canonical TOML).
 #[pyclass(name = "MapConfig", module = "beamslider._core", frozen)]
@@ -22,32 +21,45 @@ pub struct PyMapConfig {
 
 #[pymethods]
 impl PyMapConfig {
+    /// A configuration from the text of a TOML file (`map.toml`, `beamslider map --config`).
     #[new]
-    fn new(text: &str) -> PyResult<Self> {
+    fn new(text: &str) -> CoreResult<Self> {
         Ok(PyMapConfig { cfg: guarded(|| MapConfig::from_toml_str(text))? })
     }
 
-    /// A configuration from its parts, without TOML (`criteria`: the core's `Criteria` by name).
+    /// A configuration from its parts, without TOML (`criteria`: the core's `Criteria` by name);
+    /// `params` validated before are not validated again (unless `dt_s` overrides their step).
     #[staticmethod]
     #[pyo3(signature = (params, *, f_ex_hz, a_ex_m_s2, s0, duration_s, record_every=DEFAULT_RECORD_EVERY, dt_s=None, criteria=None))]
     fn of(
         params: &Bound<'_, PyParams>, f_ex_hz: Vec<f64>, a_ex_m_s2: Vec<f64>, s0: Vec<f64>, duration_s: f64, record_every: usize, dt_s: Option<f64>,
         criteria: Option<&Bound<'_, PyDict>>,
-    ) -> PyResult<Self> {
+    ) -> CoreResult<Self> {
         let grid = Grid { f_ex_hz: Axis::List(f_ex_hz), a_ex_m_s2: Axis::List(a_ex_m_s2), s0: Axis::List(s0) };
-        let (params, criteria) = (
-            params.get().0.get().clone(),
-            criteria.map_or(Ok(Criteria::default()), |c| depythonize(c)).map_err(|e| PyValueError::new_err(format!("invalid parameter `criteria`: {e}")))?,
-        );
-        let cfg = MapConfig { duration_s, dt_s, record_every, grid, params, criteria };
+        let criteria: Criteria = criteria.map_or_else(|| Ok(Criteria::default()), |c| table("criteria", c.as_any()))?;
+        let cfg = MapConfig::of(duration_s, dt_s, record_every, grid, &params.get().0, criteria);
         Ok(PyMapConfig { cfg: guarded(|| cfg.validate().map(|()| cfg))? })
+    }
+
+    /// This configuration for another duration (`--extend-to`), checked.
+    fn with_duration(&self, duration_s: f64) -> CoreResult<Self> {
+        let mut cfg = self.cfg.clone();
+        cfg.duration_s = duration_s;
+        Ok(PyMapConfig { cfg: guarded(|| cfg.validate().map(|()| cfg))? })
+    }
+
+    /// Simulated duration per point [s].
+    #[getter]
+    fn duration_s(&self) -> f64 {
+        self.cfg.duration_s
     }
 
     /// The paper's operating map.
     #[staticmethod]
     #[pyo3(name = "default")]
-    fn paper() -> PyResult<Self> {
-        Ok(PyMapConfig { cfg: guarded(|| MapConfig::default().validate().map(|()| MapConfig::default()))? })
+    fn paper() -> CoreResult<Self> {
+        let cfg = MapConfig::default();
+        Ok(PyMapConfig { cfg: guarded(|| cfg.validate().map(|()| cfg))? })
     }
 
     /// The canonical TOML text (what `map.toml` holds).
@@ -57,15 +69,15 @@ impl PyMapConfig {
 
     /// The grid's axes: (f_ex [Hz], a_ex [m/s²], s0).
     #[getter]
-    fn axes(&self) -> PyResult<(Vec<f64>, Vec<f64>, Vec<f64>)> {
-        guarded(|| self.cfg.axes())
+    fn axes(&self) -> CoreResult<(Vec<f64>, Vec<f64>, Vec<f64>)> {
+        Ok(self.cfg.axes()?)
     }
 
     /// Check the map and its results file before anything is written (core `map::preflight`).
     #[pyo3(signature = (*, out=None, resume=false, extend=false))]
-    fn check(&self, py: Python<'_>, out: Option<PathBuf>, resume: bool, extend: bool) -> PyResult<()> {
+    fn check(&self, py: Python<'_>, out: Option<PathBuf>, resume: bool, extend: bool) -> CoreResult<()> {
         let opts = MapRunOptions { out, resume, threads: None, extend };
-        py.detach(|| guarded(|| beamslider_core::map::preflight(&self.cfg, &opts)))
+        released(py, || beamslider_core::map::preflight(&self.cfg, &opts))
     }
 
     fn __reduce__<'py>(slf: &Bound<'py, Self>) -> (Bound<'py, PyType>, (String,)) {
@@ -81,10 +93,10 @@ pub struct MapRun(MapSession);
 impl MapRun {
     #[new]
     #[pyo3(signature = (config, *, out=None, resume=false, extend=false))]
-    fn new(py: Python<'_>, config: &Bound<'_, PyMapConfig>, out: Option<PathBuf>, resume: bool, extend: bool) -> PyResult<Self> {
+    fn new(py: Python<'_>, config: &Bound<'_, PyMapConfig>, out: Option<PathBuf>, resume: bool, extend: bool) -> CoreResult<Self> {
         let cfg = config.get().cfg.clone();
         let opts = MapRunOptions { out, resume, threads: None, extend };
-        Ok(MapRun(py.detach(|| guarded(|| MapSession::open(cfg, &opts)))?))
+        Ok(MapRun(released(py, || MapSession::open(cfg, &opts))?))
     }
 
     /// Rows so far (kept and appended).
@@ -99,20 +111,20 @@ impl MapRun {
     }
 
     /// Append rows (JSON texts of `run_map_chunk`) computed elsewhere: the number appended.
-    fn append(&self, py: Python<'_>, rows: Vec<String>) -> PyResult<usize> {
-        py.detach(|| guarded(|| self.0.append_json(&rows)))
+    fn append(&self, py: Python<'_>, rows: Vec<String>) -> CoreResult<usize> {
+        released(py, || self.0.append_json(&rows))
     }
 
     /// Run the remaining jobs here, the interpreter released (Ctrl-C: KeyboardInterrupt, finished points kept).
     #[pyo3(signature = (*, threads=None, progress=None))]
-    fn run_local(&self, py: Python<'_>, threads: Option<usize>, progress: Option<Py<PyAny>>) -> PyResult<()> {
+    fn run_local(&self, py: Python<'_>, threads: Option<usize>, progress: Option<Py<PyAny>>) -> CoreResult<()> {
         let cancel = AtomicBool::new(false);
         let poll = |py: Python<'_>| progress.as_ref().map_or(Ok(()), |cb| cb.call1(py, (self.0.done(), self.0.total)).map(|_| ()));
         detached(py, &cancel, 100, || self.0.run_local(threads, &cancel, None), poll)
     }
 
     /// Close the results: (rows as JSON texts by index, continued points); KeyboardInterrupt when points are missing.
-    fn finish(&self) -> PyResult<(Vec<String>, usize)> {
+    fn finish(&self) -> CoreResult<(Vec<String>, usize)> {
         let (rows, extended) = guarded(|| self.0.finish())?;
         Ok((rows.iter().map(MapRow::to_json).collect(), extended))
     }
@@ -126,9 +138,9 @@ impl MapRun {
 /// A Dask task of a map: its rows, as JSON texts sorted by grid index (core `map::run_chunk`).
 #[pyfunction]
 #[pyo3(signature = (config, jobs, *, threads=1))]
-pub fn run_map_chunk(py: Python<'_>, config: &Bound<'_, PyMapConfig>, jobs: Vec<WireJob>, threads: usize) -> PyResult<Vec<String>> {
+pub fn run_map_chunk(py: Python<'_>, config: &Bound<'_, PyMapConfig>, jobs: Vec<WireJob>, threads: usize) -> CoreResult<Vec<String>> {
     let cfg = &config.get().cfg;
-    py.detach(|| guarded(|| run_chunk(cfg, &jobs, threads, &AtomicBool::new(false))))
+    released(py, || run_chunk(cfg, &jobs, threads, &AtomicBool::new(false)))
 }
 
 /// The one-writer lock of a results file (core `ResultsLock`), taken at once or `BlockingIOError`.
@@ -138,7 +150,7 @@ pub struct PyResultsLock(Option<ResultsLock>);
 #[pymethods]
 impl PyResultsLock {
     #[new]
-    fn new(path: PathBuf) -> PyResult<Self> {
+    fn new(path: PathBuf) -> CoreResult<Self> {
         Ok(PyResultsLock(Some(guarded(|| ResultsLock::acquire(&path))?)))
     }
 
@@ -162,6 +174,6 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyMapConfig>()?;
     m.add_class::<MapRun>()?;
     m.add_class::<PyResultsLock>()?;
-    crate::export!(m, run_map_chunk);
+    crate::convert::export!(m, run_map_chunk);
     Ok(())
 }

@@ -1,5 +1,6 @@
-//! The core's parameters (docs/model.md §1) as a Python object, validated once in the core; runs
-//! take the object as it is (no TOML, no second check).
+//! The core's parameters (docs/model.md §1) as a Python object, validated once in the core
+//! (`Valid::new`, the one place: after a file's values and the overrides are read); runs take the
+//! object as it is (no TOML, no second check).
 
 use beamslider_core::Params;
 use beamslider_core::params::{FIELDS, Valid};
@@ -7,7 +8,7 @@ use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyDict, PyString};
 
-use crate::guarded;
+use crate::error::{CoreResult, guarded};
 
 /// Validated model parameters (core `params::Valid`); immutable.
 #[pyclass(name = "Params", module = "beamslider._core", frozen)]
@@ -33,30 +34,44 @@ fn value(key: &str, v: &Bound<'_, PyAny>) -> PyResult<toml::Value> {
     }
 }
 
+/// Keyword arguments as the core's values by field name.
+fn pairs(values: Option<&Bound<'_, PyDict>>) -> PyResult<Vec<(String, toml::Value)>> {
+    let mut pairs = Vec::new();
+    for (k, v) in values.into_iter().flatten() {
+        let k: String = k.extract()?;
+        pairs.push((k.clone(), value(&k, &v)?));
+    }
+    Ok(pairs)
+}
+
 #[pymethods]
 impl PyParams {
     /// `Params(**values)`: missing fields take the defaults of docs/model.md §1.
     #[new]
     #[pyo3(signature = (**values))]
-    fn new(values: Option<&Bound<'_, PyDict>>) -> PyResult<Self> {
-        let mut pairs = Vec::new();
-        for (k, v) in values.into_iter().flatten() {
-            let k: String = k.extract()?;
-            pairs.push((k.clone(), value(&k, &v)?));
-        }
+    fn new(values: Option<&Bound<'_, PyDict>>) -> CoreResult<Self> {
+        let pairs = pairs(values)?;
         Ok(PyParams(guarded(|| Valid::new(Params::from_values(pairs)?))?))
     }
 
-    /// Read and validate a TOML parameter file (missing keys take their defaults).
+    /// Read a TOML parameter file (missing keys take their defaults), replace the fields given as
+    /// keyword arguments (a command line's overrides), then validate once.
     #[staticmethod]
-    fn from_toml_file(path: std::path::PathBuf) -> PyResult<Self> {
-        Ok(PyParams(guarded(|| Valid::new(Params::from_toml_file(&path)?))?))
+    #[pyo3(signature = (path, **overrides))]
+    fn from_toml_file(path: std::path::PathBuf, overrides: Option<&Bound<'_, PyDict>>) -> CoreResult<Self> {
+        let pairs = pairs(overrides)?;
+        Ok(PyParams(guarded(|| Valid::new(Params::from_toml_file(&path)?.with_values(pairs)?))?))
     }
 
-    /// Parse and validate TOML parameter text.
+    /// Parse TOML parameter text, then validate once.
     #[staticmethod]
-    fn from_toml_text(text: &str) -> PyResult<Self> {
+    fn from_toml_text(text: &str) -> CoreResult<Self> {
         Ok(PyParams(guarded(|| Valid::new(Params::from_toml_str(text)?))?))
+    }
+
+    /// Pickled as its canonical TOML text (validated again where it is unpickled: another process).
+    fn __reduce__<'py>(slf: &Bound<'py, Self>) -> PyResult<(Bound<'py, PyAny>, (String,))> {
+        Ok((slf.get_type().getattr("from_toml_text")?, (slf.get().0.to_toml_string(),)))
     }
 
     /// Field name → value (float, int or str), in the order of the fields.
@@ -88,6 +103,6 @@ fn _validation_count() -> u64 {
 
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyParams>()?;
-    crate::export!(m, _validation_count);
+    crate::convert::export!(m, _validation_count);
     Ok(())
 }

@@ -3,23 +3,22 @@
 
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
-use beamslider_core::enma::{EnmaOptions, virtual_enma as core_enma};
-use beamslider_core::physics::BeamProperties;
+use beamslider_core::enma::{EnmaOptions, backbone_omega2 as core_backbone, virtual_enma as core_enma};
 use beamslider_core::signal::reduced::{self, Job, Reduction};
 use beamslider_core::signal::run::{Output, RECORDED, RunSpec, check, run};
 use beamslider_core::{Excitation, ManifoldOptions, Model, Status};
 use numpy::IntoPyArray;
-use pyo3::exceptions::{PyKeyboardInterrupt, PyValueError};
+use pyo3::exceptions::PyKeyboardInterrupt;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use pythonize::pythonize;
 
+use crate::convert::{Out, detached, kwargs, monitored, object};
+use crate::error::{CoreResult, guarded, released};
 use crate::params::PyParams;
-use crate::{Out, detached, guarded, json, monitored};
 
-fn model_of(py: Python<'_>, p: &Bound<'_, PyParams>) -> PyResult<Model> {
+fn model_of(py: Python<'_>, p: &Bound<'_, PyParams>) -> CoreResult<Model> {
     let valid = p.get().0.clone();
-    py.detach(|| guarded(|| Model::of(&valid)))
+    released(py, || Model::of(&valid))
 }
 
 /// One run of the FS / PCS / beam-only model (docs/model.md §5–6, core `signal::run`) as a dict (`_core.pyi`).
@@ -28,17 +27,17 @@ fn model_of(py: Python<'_>, p: &Bound<'_, PyParams>) -> PyResult<Model> {
 fn simulate<'py>(
     py: Python<'py>, params: &Bound<'py, PyParams>, f_ex_hz: f64, a_ex_m_s2: f64, s0: f64, t_end_s: f64, model: &str, s_pcs: Option<f64>, record_every: usize,
     progress: Option<Py<PyAny>>, out: Option<std::path::PathBuf>, window_s: f64, columns: usize, on_start: Option<Py<PyAny>>, check_only: bool,
-) -> PyResult<Option<Bound<'py, PyDict>>> {
+) -> CoreResult<Option<Bound<'py, PyDict>>> {
     let spec = guarded(|| RunSpec::recorded(model, s_pcs, s0, Excitation::new(f_ex_hz, a_ex_m_s2), t_end_s, record_every))?;
     if check_only {
         let model = model_of(py, params)?;
-        return guarded(|| check(&model, &spec)).map(|()| None);
+        return Ok(guarded(|| check(&model, &spec)).map(|()| None)?);
     }
     let valid = params.get().0.clone();
     let output = || out.as_deref().map_or(Output::Memory, |path| Output::File { path, format: None, overview: Some((columns, window_s)) });
     let r = monitored(py, progress, on_start, |m| run(&Model::of(&valid)?, &spec, output(), &mut &*m))?;
     if let Status::Interrupted { t_s } = r.summary.status {
-        return Err(PyKeyboardInterrupt::new_err(format!("interrupted at t = {t_s} s")));
+        return Err(PyKeyboardInterrupt::new_err(format!("interrupted at t = {t_s} s")).into());
     }
     let d = PyDict::new(py);
     for ((name, _), col) in RECORDED.iter().zip(r.columns) {
@@ -50,14 +49,14 @@ fn simulate<'py>(
     d.set_item("rows", r.rows)?;
     d.set_item("status", r.summary.status.name())?;
     d.set_item("message", r.summary.status.message())?;
-    d.set_item("counters", pythonize(py, &r.summary.counters)?)?;
-    d.set_item("final_state", pythonize(py, &r.summary.state)?)?;
+    d.set_item("counters", object(py, &r.summary.counters)?)?;
+    d.set_item("final_state", object(py, &r.summary.state)?)?;
     Ok(Some(d))
 }
 
 /// Default slider positions of the physical manifold sweep (docs/model.md §6).
 #[pyfunction]
-fn physical_manifold_grid(py: Python<'_>, params: &Bound<'_, PyParams>) -> PyResult<Vec<f64>> {
+fn physical_manifold_grid(py: Python<'_>, params: &Bound<'_, PyParams>) -> CoreResult<Vec<f64>> {
     Ok(ManifoldOptions::physical(&model_of(py, params)?).s_values)
 }
 
@@ -67,20 +66,22 @@ fn physical_manifold_grid(py: Python<'_>, params: &Bound<'_, PyParams>) -> PyRes
 fn super_slow_manifold<'py>(
     py: Python<'py>, params: &Bound<'py, PyParams>, f_ex_hz: f64, a_ex_m_s2: f64, s_values: Vec<f64>, periods: usize, record_periods: usize,
     progress: Option<Py<PyAny>>,
-) -> PyResult<Bound<'py, PyAny>> {
+) -> CoreResult<Bound<'py, PyAny>> {
     let (excitation, opts) = (Excitation::new(f_ex_hz, a_ex_m_s2), ManifoldOptions { s_values, periods, record_periods });
     let valid = params.get().0.clone();
-    Ok(pythonize(py, &monitored(py, progress, None, |m| beamslider_core::super_slow_manifold(&Model::of(&valid)?, &excitation, &opts, &mut &*m))?)?)
+    object(py, &monitored(py, progress, None, |m| beamslider_core::super_slow_manifold(&Model::of(&valid)?, &excitation, &opts, &mut &*m))?)
 }
 
-/// Free-slider runs reduced in the core (`signal::reduced`), in parallel: one dict per job (`_core.pyi`).
+/// Free-slider runs reduced in the core (`signal::reduced`), in parallel: one dict per job (`_core.pyi`);
+/// a job that failed carries its error as the exception it converts to (`error`, one policy with every
+/// other call) and that exception's kind (`error_kind`: "invalid" for a `ValueError`, else "numerical").
 #[pyfunction]
 #[pyo3(signature = (jobs, *, record_every=5, keep_every=5, window_s=1.0, detrend_s=None, threads=None, on_done=None))]
 #[allow(clippy::type_complexity)]
 fn run_free_slider_batch<'py>(
     py: Python<'py>, jobs: Vec<(Bound<'py, PyParams>, f64, f64, f64, f64)>, record_every: usize, keep_every: usize, window_s: f64, detrend_s: Option<f64>,
     threads: Option<usize>, on_done: Option<Py<PyAny>>,
-) -> PyResult<Vec<Reduced<'py>>> {
+) -> CoreResult<Vec<Reduced<'py>>> {
     let red = Reduction { record_every, keep_every, window_s, detrend_s };
     let jobs: Vec<Job> =
         jobs.into_iter().map(|(p, f_ex_hz, a_ex_m_s2, s0, duration_s)| Job { params: p.get().0.clone(), f_ex_hz, a_ex_m_s2, s0, duration_s }).collect();
@@ -98,7 +99,10 @@ fn run_free_slider_batch<'py>(
         .into_iter()
         .map(|r| match r {
             Ok(x) => Reduced::Done { t: x.t.into_pyarray(py), s: x.s.into_pyarray(py), amplitude_h: x.amplitude_h.into_pyarray(py), status: x.status.name() },
-            Err(e) => Reduced::Failed { error_kind: if e.is_input() { "invalid" } else { "numerical" }, error: e.to_string() },
+            Err(e) => {
+                let kind = if e.is_input() { "invalid" } else { "numerical" };
+                Reduced::Failed { error_kind: kind, error: PyErr::from(crate::error::PyCoreError::from(e)).into_value(py) }
+            }
         })
         .collect())
 }
@@ -107,27 +111,34 @@ fn run_free_slider_batch<'py>(
 #[derive(IntoPyObject)]
 enum Reduced<'py> {
     Done { t: Out<'py>, s: Out<'py>, amplitude_h: Out<'py>, status: &'static str },
-    Failed { error_kind: &'static str, error: String },
+    Failed { error_kind: &'static str, error: Py<pyo3::exceptions::PyBaseException> },
 }
 
-/// Virtual ENMA (docs/model.md §9) with the core's `EnmaOptions` as JSON: the result as JSON text.
+/// Virtual ENMA (docs/model.md §9); `options`: the core's `EnmaOptions`; the core's `EnmaResult` as a dict.
 #[pyfunction]
-#[pyo3(signature = (params, options_json, progress=None))]
-fn virtual_enma(py: Python<'_>, params: &Bound<'_, PyParams>, options_json: &str, progress: Option<Py<PyAny>>) -> PyResult<String> {
-    let opts: EnmaOptions = serde_json::from_str(options_json).map_err(|e| PyValueError::new_err(format!("invalid ENMA options: {e}")))?;
+#[pyo3(signature = (params, *, progress=None, **options))]
+fn virtual_enma<'py>(
+    py: Python<'py>, params: &Bound<'_, PyParams>, progress: Option<Py<PyAny>>, options: Option<&Bound<'_, PyDict>>,
+) -> CoreResult<Bound<'py, PyAny>> {
+    let opts: EnmaOptions = kwargs(py, options)?;
     let valid = params.get().0.clone();
-    json(&monitored(py, progress, None, |m| core_enma(&Model::of(&valid)?, &opts, &mut &*m))?)
+    object(py, &monitored(py, progress, None, |m| core_enma(&Model::of(&valid)?, &opts, &mut &*m))?)
 }
 
-/// Modal data of the linear beam (core `BeamProperties`, docs/model.md §2, §9) as a dict.
+/// Modal data of the linear beam (core `Model::beam_properties`, docs/model.md §2, §9) as a dict.
 #[pyfunction]
 #[pyo3(signature = (params, x_over_l=Vec::new()))]
-fn beam_properties<'py>(py: Python<'py>, params: &Bound<'py, PyParams>, x_over_l: Vec<f64>) -> PyResult<Bound<'py, PyAny>> {
-    let model = model_of(py, params)?;
-    Ok(pythonize(py, &BeamProperties::of(&model.beam, &model.params, &x_over_l))?)
+fn beam_properties<'py>(py: Python<'py>, params: &Bound<'py, PyParams>, x_over_l: Vec<f64>) -> CoreResult<Bound<'py, PyAny>> {
+    object(py, &model_of(py, params)?.beam_properties(&x_over_l))
+}
+
+/// Squared backbone frequencies (ω² + ¾ b a²)/M₁ at the amplitudes a (core `enma::backbone_omega2`).
+#[pyfunction]
+fn backbone_omega2(omega2: f64, b: f64, amplitude: Vec<f64>, m1: f64) -> Vec<f64> {
+    core_backbone(omega2, b, &amplitude, m1)
 }
 
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
-    crate::export!(m, simulate, physical_manifold_grid, super_slow_manifold, run_free_slider_batch, virtual_enma, beam_properties);
+    crate::convert::export!(m, simulate, physical_manifold_grid, super_slow_manifold, run_free_slider_batch, virtual_enma, beam_properties, backbone_omega2);
     Ok(())
 }

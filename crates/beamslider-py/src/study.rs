@@ -5,20 +5,26 @@ use std::sync::Mutex;
 use std::sync::atomic::AtomicBool;
 
 use beamslider_core::MapRow;
-use beamslider_core::study::{PointTuple, StudyPoint, StudyResults, run_points};
+use beamslider_core::study::{StudyPoint, StudyResults, run_points};
 use pyo3::exceptions::PyKeyboardInterrupt;
 use pyo3::prelude::*;
 
-use crate::{detached, guarded, maprun::PyMapConfig};
+use crate::convert::{detached, table};
+use crate::error::{CoreResult, guarded, released};
+use crate::{maprun::PyMapConfig, params::PyParams};
 
-/// Run a chunk of study points in parallel (core `study::run_points`): rows as JSON texts sorted by index.
+/// A study point as Python gives it: (index, parameters, f_ex [Hz], a_ex [m/s²], s₀, duration [s]).
+type Point<'py> = (usize, Bound<'py, PyParams>, f64, f64, f64, f64);
+
+/// Run a chunk of study points in parallel (core `study::run_points`), each with its validated parameters:
+/// rows as JSON texts sorted by index (the lines of the results file).
 #[pyfunction]
 #[pyo3(signature = (config, points, *, threads=None, on_rows=None))]
 fn run_study_chunk(
-    py: Python<'_>, config: &Bound<'_, PyMapConfig>, points: Vec<PointTuple>, threads: Option<usize>, on_rows: Option<Py<PyAny>>,
-) -> PyResult<Vec<String>> {
+    py: Python<'_>, config: &Bound<'_, PyMapConfig>, points: Vec<Point<'_>>, threads: Option<usize>, on_rows: Option<Py<PyAny>>,
+) -> CoreResult<Vec<String>> {
     let cfg = &config.get().cfg;
-    let points: Vec<StudyPoint> = points.into_iter().map(StudyPoint::from).collect();
+    let points: Vec<StudyPoint> = points.into_iter().map(|(i, p, f, a, s0, d)| StudyPoint::from((i, p.get().0.clone(), f, a, s0, d))).collect();
     let (cancel, fresh) = (AtomicBool::new(false), Mutex::new(Vec::new()));
     let drain = |py: Python<'_>| {
         let batch: Vec<String> = std::mem::take(&mut *fresh.lock().unwrap_or_else(|e| e.into_inner()));
@@ -39,15 +45,20 @@ struct PyStudyResults(StudyResults);
 
 #[pymethods]
 impl PyStudyResults {
+    /// `study`: the study's header (a dict); `points`: per point a dict of index, f_ex_hz, a_ex_m_s2, s0,
+    /// sample, point and params (the uncertain values).
     #[new]
-    #[pyo3(signature = (path, config, study_json, points_json, *, resume=false))]
-    fn new(path: Option<std::path::PathBuf>, config: &Bound<'_, PyMapConfig>, study_json: &str, points_json: &str, resume: bool) -> PyResult<Self> {
-        Ok(PyStudyResults(guarded(|| StudyResults::open_json(path.as_deref(), &config.get().cfg, study_json, points_json, resume))?))
+    #[pyo3(signature = (path, config, study, points, *, resume=false))]
+    fn new(
+        path: Option<std::path::PathBuf>, config: &Bound<'_, PyMapConfig>, study: &Bound<'_, PyAny>, points: &Bound<'_, PyAny>, resume: bool,
+    ) -> CoreResult<Self> {
+        let (study, points) = (table("study", study)?, table("points", points)?);
+        Ok(PyStudyResults(guarded(|| StudyResults::open_values(path.as_deref(), &config.get().cfg, study, points, resume))?))
     }
 
     /// Add rows (JSON texts of map rows): each gets its study keys and is appended at once.
-    fn add(&mut self, rows: Vec<String>) -> PyResult<()> {
-        guarded(|| self.0.add_json(&rows))
+    fn add(&mut self, rows: Vec<String>) -> CoreResult<()> {
+        Ok(guarded(|| self.0.add_json(&rows))?)
     }
 
     /// Whether point `index` has its row.
@@ -72,14 +83,14 @@ impl PyStudyResults {
 
 /// Read a results file (map or study; core `results::read_results`).
 #[pyfunction]
-fn read_results_file(py: Python<'_>, path: std::path::PathBuf) -> PyResult<(Option<String>, Vec<String>, u64, bool)> {
-    let r = py.detach(|| guarded(|| beamslider_core::results::read_results(&path)))?;
+fn read_results_file(py: Python<'_>, path: std::path::PathBuf) -> CoreResult<(Option<String>, Vec<String>, u64, bool)> {
+    let r = released(py, || beamslider_core::results::read_results(&path))?;
     Ok((r.header_json(), r.rows.iter().map(MapRow::to_json).collect(), r.good_len, r.truncated))
 }
 
 /// Register the study functions in the `_core` module.
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
-    crate::export!(m, run_study_chunk, read_results_file);
+    crate::convert::export!(m, run_study_chunk, read_results_file);
     m.add_class::<PyStudyResults>()?;
     Ok(())
 }

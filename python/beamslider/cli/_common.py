@@ -143,16 +143,14 @@ def add_force(sp: argparse.ArgumentParser) -> None:
 
 
 def params_from_args(args: argparse.Namespace) -> Parameters:
-    """The model of --params with --dt / --solver applied."""
-    p = Parameters.from_toml(args.params) if args.params else Parameters()
+    """The model of --params with --dt / --solver applied, validated once (by the core, after the
+    overrides)."""
     changes: Dict[str, Any] = {}
     if getattr(args, "dt", None) is not None:
         changes["dt_s"] = args.dt
     if getattr(args, "solver", None) is not None:
         changes["contact_solver"] = args.solver
-    if changes:
-        p = Parameters(**{**p.to_dict(), **changes})
-    return p
+    return Parameters.from_toml(args.params, **changes) if args.params else Parameters(**changes)
 
 
 # --- output files -----------------------------------------------------------------------------

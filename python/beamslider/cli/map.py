@@ -9,7 +9,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from .. import _toml
+from .. import _core
 from ._common import EXIT_FAULT, UserError, add_common, axis_values, figure, out_dir, params_from_args, positive
 
 
@@ -47,7 +47,7 @@ def add_parser(sub: Any) -> None:
 
 
 def cmd_map(args: argparse.Namespace) -> int:
-    from ..maps import RESULTS_FILE, failures, map_config_toml, plot_operating_map, run_map_config, text_table
+    from ..maps import RESULTS_FILE, failures, map_config, plot_operating_map, run_map_config, text_table
 
     extend = args.extend_to is not None
     if extend and args.resume:
@@ -70,22 +70,18 @@ def cmd_map(args: argparse.Namespace) -> int:
             raise UserError("--config replaces --f-ex/--a-ex/--s0/--t-end/--params/--dt: put them in the TOML file")
     else:
         p = params_from_args(args)
-        config = map_config_toml(
+        config = map_config(
             p, f_ex=axis_values("--f-ex", "100:130:2" if args.f_ex is None else args.f_ex),
             a_ex=axis_values("--a-ex", "4:16:2" if args.a_ex is None else args.a_ex),
             s0=axis_values("--s0", "0.3" if args.s0 is None else args.s0),
             t_end=args.t_end if args.t_end is not None else 120.0)
     if extend:
-        try:
-            tables = _toml.loads(config)
-        except _toml.TOMLDecodeError as e:
-            raise UserError(f"{args.config}: {e}") from None
-        old = float(tables.get("duration_s", 120.0))
-        if not (args.extend_to > old):
-            raise UserError(f"--extend-to {args.extend_to:g}: must exceed the map's t_end ({old:g} s)")
-        config = _toml.dumps({**tables, "duration_s": float(args.extend_to)})
+        cfg = _core.MapConfig(config) if isinstance(config, str) else config
+        if not (args.extend_to > cfg.duration_s):
+            raise UserError(f"--extend-to {args.extend_to:g}: must exceed the map's t_end ({cfg.duration_s:g} s)")
+        config = cfg.with_duration(float(args.extend_to))
     if args.print_config:
-        print(config, end="")
+        print(config if isinstance(config, str) else config.toml(), end="")
         return 0
     out = Path(args.out)  # created by the map itself, after the scheduler (if any) answered
     if args.scheduler and args.scheduler_file:
@@ -147,7 +143,8 @@ def _predicted(args: argparse.Namespace, out: Path) -> Any:
     """The map by the reduced predictor (``--predictor``): the grid of --f-ex/--a-ex/--s0/--t-end/--params."""
     import warnings
 
-    from ..maps import predicted_map, rows_to_table
+    from ..maps import rows_to_table
+    from ..superslow import predicted_map
     from ..superslow import load_law
 
     if args.config or args.extend_to is not None or args.scheduler or args.scheduler_file:

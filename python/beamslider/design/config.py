@@ -22,7 +22,7 @@ RESULTS_FILE = "design.jsonl"
 
 EVALUATORS = ("fs", "predictor")
 """``fs``: free-slider runs through the core's batch runner; ``predictor``: the reduced super-slow
-predictor (:func:`beamslider.maps.predicted_map`), best designs re-checked with FS."""
+predictor (:func:`beamslider.superslow.predicted_map`), best designs re-checked with FS."""
 
 OBJECTIVES = ("bandwidth", "harvest")
 ROBUST = ("none", "mean", "quantile")

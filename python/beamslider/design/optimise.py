@@ -25,7 +25,7 @@ import numpy as np
 
 from .. import _core
 from .._overwrite import clear_results
-from ..params import Parameters
+from ..params import Parameters, native
 from ..study.sampling import apply_sample
 from .config import RESULTS_FILE, DesignConfig, read_config
 from .objectives import robust_value, sample_objectives, slider_moved
@@ -137,14 +137,14 @@ class _Search:
 
         ops = self.c.operating_points()
         map_cfg = self.c.map_config()  # record_every, dt, criteria (each run brings its own duration)
-        chunk: List[Tuple[int, str, float, float, float, float]] = []
+        chunk: List[Tuple[int, Any, float, float, float, float]] = []
         where: Dict[int, Tuple[int, int, int]] = {}
         idx = 0
         for d, (_k, _x, _p, plist) in enumerate(todo):
             for s, ps in enumerate(plist):
-                text = ps.toml_text()
+                core = native(ps)  # the core's validated object: each design sample validated once
                 for j, (f, a, s0) in enumerate(ops):
-                    chunk.append((idx, text, f, a, s0, float(t_end)))
+                    chunk.append((idx, core, f, a, s0, float(t_end)))
                     where[idx] = (d, s, j)
                     idx += 1
         got: List[List[List[Optional[Dict[str, Any]]]]] = [[[None] * len(ops) for _ in samples] for _ in todo]
@@ -186,7 +186,7 @@ class _Search:
     def _run_predictor(self, todo: List[Tuple[str, np.ndarray, Parameters, List[Parameters]]], mode: str, t_end: float,
                        samples: List[Dict[str, float]], desc: str, out: Dict[str, Dict[str, Any]]) -> None:
         from .._util import progress_bar
-        from ..maps import predicted_map
+        from ..superslow import predicted_map
         from ..superslow import default_law, load_law
 
         if self._law is None:

@@ -214,7 +214,7 @@ CHAIN_EFFECTS = tuple(n for n, e in EFFECTS.items() if e.chain)
 
 
 def _detune(p: Parameters, c: float) -> Dict[str, float]:
-    from ..study.sampling import detune
+    from ..params import detune
 
     return detune(p, c)
 

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import dataclasses
-import json
 import math
 from dataclasses import dataclass
 from typing import Any, Dict, Optional, Sequence, Tuple, Union
@@ -55,10 +54,9 @@ def virtual(params: Optional[Parameters] = None, *, levels_m_s2: Sequence[float]
     n_levels = len(opts["levels_m_s2"]) * (2 if up_and_down and len(opts["levels_m_s2"]) > 1 else 1) - (
         1 if up_and_down and len(opts["levels_m_s2"]) > 1 else 0)
     with progress_bar(progress, n_levels, "virtual ENMA", "pts") as cb:
-        text = _core.virtual_enma(native(p), json.dumps(_finite_options(opts)), cb)
+        r = _core.virtual_enma(native(p), progress=cb, **_finite_options(opts))
         if cb is not None:
             cb(n_levels, n_levels)
-    r = json.loads(text)
     pts = r["points"]
     data = EnmaData(
         amplitude_h=np.array([q["amplitude_h"] for q in pts]),

@@ -1,4 +1,4 @@
-"""Operating maps: the behaviour classification and the maps themselves — free-slider runs by the core (locally or on Dask) or predicted by the slow flow (docs/model.md §8, the paper's Fig. 11).
+"""Operating maps: the behaviour classification and the maps themselves — free-slider runs by the core (locally or on Dask) (docs/model.md §8, the paper's Fig. 11). A map predicted by the slow flow is the predictor's (:func:`beamslider.superslow.predicted_map`, the same results format and writer).
 
 A map started by ``beamslider map``, ``beamslider-batch map`` or :func:`operating_map` can be
 resumed by any of them (same configuration, same results file).
@@ -6,28 +6,23 @@ resumed by any of them (same configuration, same results file).
 
 from __future__ import annotations
 
-import dataclasses
 import errno
 import json
-import os
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Dict, List, Optional, Sequence, Union
+from typing import Any, Dict, List, Optional, Union
 
 import numpy as np
 
 from .. import _core, _toml
 from .._overwrite import clear_results, refuse_existing
 from .._util import progress_bar, remove_dead_partials, write_text_atomic
-from ..params import Parameters, native, resolve
-from ..simulate import SimulationResult
-from ..superslow import BUILTIN_LAW_NOTE, DesignLaw, DriftLaw, default_law
-from .config import MIN_CLASSIFY_S, RESULTS_FILE, criteria_toml, map_config
-from ..tables import MapTable, RowList
+from ..params import Parameters
+from .config import MIN_CLASSIFY_S, RESULTS_FILE, criteria_values, map_config
+from ..tables import MapTable
 from .read import check_rows, grid_points, rows_to_table, saved_grid
 
-__all__ = ["Classification", "classify", "classify_result", "operating_map", "predicted_map", "run_map_config",
-           "super_slow_signals"]
+__all__ = ["Classification", "classify", "classify_result", "operating_map", "run_map_config", "super_slow_signals"]
 
 
 @dataclass
@@ -66,14 +61,14 @@ def classify(t: Any, s: Any, amplitude_h: Any, *, criteria: Optional[Dict[str, f
     if t[-1] - t[0] < MIN_CLASSIFY_S:
         raise ValueError(f"invalid parameter `t`: the signals span {t[-1] - t[0]:g} s; the classification needs at least "
                          f"{MIN_CLASSIFY_S:g} s (the amplitude's moving-average window)")
-    c = json.loads(_core.classify(s, a, dt, t0_s=float(t[0]), criteria_toml=criteria_toml(criteria)))
+    c = _core.classify(s, a, dt, t0_s=float(t[0]), criteria=criteria_values(criteria))
     behaviour, reason = c.pop("behaviour"), c.pop("reason")
     for k in ("turn_s", "turn_t_s", "drift_s", "drift_a_h"):
         c[k] = float("nan") if c.get(k) is None else c[k]
     return Classification(behaviour=behaviour, reason=reason, features=c)
 
 
-def super_slow_signals(result: SimulationResult, *, window: float = 1.0):
+def super_slow_signals(result: Any, *, window: float = 1.0):
     """The super-slow signals a map classifies (core module ``envelope_stream``): times of 0.2-s
     bins, s averaged per bin, and A = ``window``-second moving average of the binned |analytic
     signal| of w(4L/7) (FIR Hilbert transformer) in units of h. Returns (t, s, A)."""
@@ -86,7 +81,7 @@ def super_slow_signals(result: SimulationResult, *, window: float = 1.0):
     return float(result.t[0]) + t0 + dt * np.arange(len(s)), s, np.asarray(a)
 
 
-def classify_result(result: SimulationResult, *, window: float = 1.0,
+def classify_result(result: Any, *, window: float = 1.0,
                     criteria: Optional[Dict[str, float]] = None) -> Classification:
     """Classify a free-slider run of :func:`beamslider.simulate` by its phases, from the same
     super-slow signals as a map point (:func:`super_slow_signals`): the label of a run from rest
@@ -234,8 +229,7 @@ def operating_map(params: Optional[Parameters] = None, *, f_ex: Any, a_ex: Any, 
                   t_end: float = 120.0, threads: Optional[int] = None, out: Optional[Union[str, Path]] = None,
                   resume: bool = False, record_every: int = 20, criteria: Optional[Dict[str, float]] = None,
                   progress: Optional[bool] = False, extend_to: Optional[float] = None, scheduler: Any = None,
-                  scheduler_file: Optional[str] = None, chunk_size: int = 8,
-                  predictor: Optional[Any] = None, force: bool = False) -> MapTable:
+                  scheduler_file: Optional[str] = None, chunk_size: int = 8, force: bool = False) -> MapTable:
     """Operating map (docs/model.md §8): the behaviour of the free slider at every (f_ex, a_ex, s0) of the
     grid, each point a ``t_end``-second run from rest classified by the core, in parallel on
     ``threads`` threads (default: one per core).
@@ -262,25 +256,13 @@ def operating_map(params: Optional[Parameters] = None, *, f_ex: Any, a_ex: Any, 
     (``BlockingIOError`` naming the folder and the holder's PID). An earlier map in ``out`` is
     refused unless ``resume`` continues it or ``force`` replaces it.
 
-    ``predictor``: a fitted drift law (:func:`beamslider.superslow.fit_drift_law`): the map is
-    predicted by the reduced super-slow model instead of FS runs (milliseconds per point; one s0;
-    same results format and writer, ``resume`` as for FS maps, see
-    :func:`predicted_map`).
+    A map predicted by the reduced super-slow model (milliseconds per point) is the predictor's:
+    :func:`beamslider.superslow.predicted_map` (same results format and writer).
 
     Returns a :class:`~beamslider.tables.MapTable`: a dict of numpy arrays, one entry per grid
     point in grid order (s0 slowest, then a_ex, f_ex fastest; see :func:`rows_to_table`), with
     ``.to_pandas()`` (a DataFrame) and ``.to_xarray()`` (a Dataset over f_ex_hz, a_ex_m_s2, s0).
     """
-    if predictor is not None:
-        s0s = np.atleast_1d(np.asarray(s0, dtype=float))
-        if s0s.size != 1 or extend_to is not None:
-            raise ValueError("invalid parameter `predictor`: takes one s0 and no extend_to")
-        if scheduler is not None or scheduler_file is not None:
-            raise ValueError("invalid parameter `predictor`: a predicted map runs locally (milliseconds per point), not on a scheduler")
-        rows = predicted_map(params, drift=predictor, f_ex=[float(v) for v in np.atleast_1d(f_ex)],
-                             a_ex=[float(v) for v in np.atleast_1d(a_ex)], s0=float(s0s[0]), t_end=float(t_end), out=out,
-                             resume=resume, threads=threads)
-        return rows_to_table(rows)
     if extend_to is not None:
         try:
             te = float(extend_to)
@@ -303,65 +285,3 @@ def operating_map(params: Optional[Parameters] = None, *, f_ex: Any, a_ex: Any, 
     cfg = map_config(params, f_ex=f_ex, a_ex=a_ex, s0=s0, t_end=t_end, record_every=record_every, criteria=criteria)
     return run_map_config(cfg, out=out, resume=resume, threads=threads, progress=progress, scheduler=scheduler,
                           scheduler_file=scheduler_file, chunk_size=chunk_size, force=force)
-
-
-def predicted_map(
-    params: Optional[Parameters] = None,
-    *,
-    drift: Union[DriftLaw, DesignLaw, None] = None,
-    f_ex: Sequence[float],
-    a_ex: Sequence[float],
-    s0: float = 0.3,
-    t_end: float = 120.0,
-    s_dn: str = "law",
-    d_eff: Optional[float] = None,
-    n_modes: int = 5,
-    out: Union[str, os.PathLike, None] = None,
-    force: bool = False,
-    resume: bool = False,
-    threads: Optional[int] = None,
-) -> RowList:
-    """An operating map by the reduced predictor (docs/model.md §8) with a fitted law (b2): one row per
-    (f_ex, a_ex) in the results format of the FS maps (``map.jsonl`` version 3; ``status`` is
-    ``predicted``, counters are zero, no end state; extra keys ``events``, ``extrapolated``,
-    ``s_dn_source``), as a :class:`~beamslider.tables.RowList` (a list of dicts with
-    ``.to_pandas()``, ``.to_xarray()`` and ``.table()``).
-
-    ``s_dn='law'`` (the default: the HB manifold's jump-down, else the law's, :meth:`DriftLaw.s_dn`)
-    and ``'hb'`` (the HB manifold's own only) are computed by the core (manifold, law, slow flow and classifier
-    in Rust, ``threads`` threads, the interpreter released, Ctrl-C stops it) and written by the
-    core's map results writer, as ``beamslider-batch map --predictor``: with ``out`` (a folder) the
-    rows go to ``out/map.jsonl`` with the predictor in its header; an existing file is refused
-    (``FileExistsError``) unless ``force`` (replaced) or ``resume`` (its points are kept; it must
-    hold the same law and settings). ``s_dn='none'``: no jump-down (the high branch runs to its
-    end). ``drift``: a :class:`DriftLaw`, or a :class:`DesignLaw`
-    blended for ``params`` (docs/model.md §6.5; a warning when they lie outside what it covers, and
-    every row ``extrapolated``); None: the built-in design law (:func:`beamslider.superslow.default_law`)."""
-    p = resolve(params)
-    if s_dn not in ("hb", "law", "none"):
-        raise ValueError(f"invalid parameter `s_dn` = {s_dn!r}: one of 'hb', 'law', 'none'")
-    if drift is not None and not isinstance(drift, (DriftLaw, DesignLaw)):
-        raise ValueError("invalid parameter `drift`: a fitted DriftLaw or DesignLaw (beamslider.superslow.load_law)")
-    path = None
-    if out is not None:
-        path = Path(out) / "map.jsonl"
-        if path.exists() and not (force or resume):
-            raise FileExistsError(f"{path} exists: pass force=True to overwrite or resume=True to continue it")
-        if path.exists() and force and not resume:
-            path.unlink()
-    cfg = _core.MapConfig.of(native(p), f_ex_hz=[float(v) for v in f_ex], a_ex_m_s2=[float(v) for v in a_ex], s0=[float(s0)],
-                             duration_s=float(t_end))
-    kw = dict(out=None if path is None else str(path), resume=bool(resume), threads=threads, n_modes=int(n_modes), d_eff=d_eff)
-    if isinstance(drift, DriftLaw):
-        law = drift if s_dn != "hb" else dataclasses.replace(drift, rho_c=0.0)
-        rows, _ = _core.predicted_map(cfg, law.core(), s_dn="none" if s_dn == "none" else "law", **kw)
-    else:
-        rows, why = _core.predicted_map(cfg, (drift or default_law()).core(), s_dn=s_dn, **kw)
-        if why:
-            import warnings
-
-            note = "; ".join(why)
-            warnings.warn(BUILTIN_LAW_NOTE.format(why=note) if drift is None else "design outside the drift law's box: " + note,
-                          stacklevel=2)
-    return RowList(json.loads(r) for r in rows)
-

@@ -10,7 +10,7 @@ from .. import _core, _toml
 from ..params import Parameters, native, resolve
 from ..tables import BEHAVIOURS
 
-__all__ = ["BEHAVIOURS", "LABELS", "LETTERS", "MIN_CLASSIFY_S", "RESULTS_FILE", "criteria_toml", "default_map_config",
+__all__ = ["BEHAVIOURS", "LABELS", "LETTERS", "MIN_CLASSIFY_S", "RESULTS_FILE", "criteria_toml", "criteria_values", "default_map_config",
            "map_config_dict", "map_config_toml"]
 
 
@@ -55,10 +55,18 @@ def _integer(name: str, v: Any) -> int:
     return int(v)
 
 
-def criteria_toml(criteria: Optional[Dict[str, float]]) -> Optional[str]:
+def criteria_values(criteria: Optional[Dict[str, float]]) -> Optional[Dict[str, float]]:
+    """The classification thresholds as the core takes them (keys of the core's ``Criteria``, each
+    value a number: ``ValueError`` naming ``criteria.<key>`` otherwise); None for the defaults."""
     if not criteria:
         return None
-    return _toml.dumps({str(k): _number(f"criteria.{k}", v) for k, v in criteria.items()})
+    return {str(k): _number(f"criteria.{k}", v) for k, v in criteria.items()}
+
+
+def criteria_toml(criteria: Optional[Dict[str, float]]) -> Optional[str]:
+    """The ``[criteria]`` table of a map configuration file as TOML text (None for the defaults)."""
+    values = criteria_values(criteria)
+    return None if values is None else _toml.dumps(values)
 
 
 def map_config_dict(params: Optional[Parameters] = None, *, f_ex: Any, a_ex: Any, s0: Any = 0.3,
@@ -81,11 +89,11 @@ def map_config(params: Optional[Parameters] = None, *, f_ex: Any, a_ex: Any, s0:
                criteria: Optional[Dict[str, float]] = None) -> "_core.MapConfig":
     """The core's map configuration of :func:`map_config_dict`'s arguments, built from the typed
     parameters (no TOML text) and checked once by the core."""
-    crit = {str(k): _number(f"criteria.{k}", v) for k, v in (criteria or {}).items()}
+    crit = criteria_values(criteria)
     return _core.MapConfig.of(native(resolve(params)), f_ex_hz=_axis("f_ex", f_ex), a_ex_m_s2=_axis("a_ex", a_ex),
                               s0=_axis("s0", s0), duration_s=float(_number("duration_s", t_end)),
                               record_every=_integer("record_every", record_every),
-                              dt_s=None if dt_s is None else float(_number("dt_s", dt_s)), criteria=crit or None)
+                              dt_s=None if dt_s is None else float(_number("dt_s", dt_s)), criteria=crit)
 
 
 def _axis(name: str, values: Any) -> List[float]:

@@ -39,4 +39,4 @@ def open_results(config: StudyConfig, points: Sequence[StudyPoint], path: Option
     info = [{"index": p.index, "f_ex_hz": p.f_ex_hz, "a_ex_m_s2": p.a_ex_m_s2, "s0": p.s0, "sample": p.sample,
              "point": p.point, "params": json_safe(dict(p.values))} for p in points]
     return _core.StudyResults(None if path is None else str(path), map_config or config.map_config(),
-                              json.dumps(json_safe(study_header(config))), json.dumps(info), resume=resume)
+                              json_safe(study_header(config)), info, resume=resume)

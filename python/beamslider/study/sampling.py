@@ -2,11 +2,10 @@
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
-from typing import Dict, List, Tuple
+from typing import Any, Dict, List, Tuple
 
-from ..params import Parameters
+from ..params import Parameters, detune, native  # noqa: F401 (detune: part of this module's face)
 from .config import VIRTUAL, StudyConfig
 
 
@@ -15,28 +14,8 @@ def apply_sample(params: Parameters, values: Dict[str, float]) -> Parameters:
     d = params.to_dict()
     d.update({k: float(v) for k, v in values.items() if k not in VIRTUAL})
     if "natural_frequency_factor" in values:  # relative to the sampled E, k_r, k_t
-        d.update(detune(Parameters.from_dict(d), float(values["natural_frequency_factor"])))
-    return Parameters.from_dict(d)
-
-
-def detune(params: Parameters, factor: float) -> Dict[str, float]:
-    """Parameter values that scale every linear natural frequency by ``factor`` (c) at constant
-    mode shapes and constant nonlinear coefficient b*: E → c² E, k_r → c² k_r and k_t such that
-    k_ax = 1/(L/(EA) + 1/k_t) is unchanged (k_t = ∞ stays ∞)."""
-    c2 = float(factor) ** 2
-    if not (math.isfinite(c2) and c2 > 0):
-        raise ValueError(f"invalid natural_frequency_factor = {factor!r}: must be finite and > 0")
-    p = params
-    area = p.beam_mass_kg / (p.density_kg_m3 * p.length_m)
-    e_new = p.youngs_modulus_pa * c2
-    out = {"youngs_modulus_pa": e_new, "k_r_nm_per_rad": p.k_r_nm_per_rad * c2}
-    if math.isfinite(p.k_t_n_per_m):
-        inv = 1.0 / p.k_t_n_per_m + p.length_m / (p.youngs_modulus_pa * area) - p.length_m / (e_new * area)
-        if not inv > 0:
-            raise ValueError(f"natural_frequency_factor = {factor}: no axial clamping stiffness k_t keeps b* "
-                             f"(the beam alone is then softer axially than the nominal beam and frame)")
-        out["k_t_n_per_m"] = 1.0 / inv
-    return out
+        d.update(detune(d, float(values["natural_frequency_factor"])))
+    return Parameters.from_dict(d)  # validated once
 
 
 @dataclass
@@ -51,15 +30,16 @@ class StudyPoint:
     """Operating point (map order)."""
     values: Dict[str, float]
     """The uncertain inputs."""
-    params_toml: str
-    """Full parameters of the run (canonical TOML)."""
+    params: Parameters
+    """Full parameters of the run (validated once, when the sample was applied)."""
     f_ex_hz: float
     a_ex_m_s2: float
     s0: float
     duration_s: float
 
-    def chunk_tuple(self) -> Tuple[int, str, float, float, float, float]:
-        return (self.index, self.params_toml, self.f_ex_hz, self.a_ex_m_s2, self.s0, self.duration_s)
+    def chunk_tuple(self) -> Tuple[int, Any, float, float, float, float]:
+        """The point as the core's study runner takes it (the parameters as the core's validated object)."""
+        return (self.index, native(self.params), self.f_ex_hz, self.a_ex_m_s2, self.s0, self.duration_s)
 
 
 def study_points(config: StudyConfig) -> List[StudyPoint]:
@@ -69,8 +49,8 @@ def study_points(config: StudyConfig) -> List[StudyPoint]:
     out: List[StudyPoint] = []
     for i, row in enumerate(design):
         values = {n: float(v) for n, v in zip(config.names, row)}
-        text = apply_sample(config.params, values).toml_text()
+        params = apply_sample(config.params, values)
         for j, (f, a, s) in enumerate(ops):
-            out.append(StudyPoint(index=i * len(ops) + j, sample=i, point=j, values=values, params_toml=text,
+            out.append(StudyPoint(index=i * len(ops) + j, sample=i, point=j, values=values, params=params,
                                   f_ex_hz=f, a_ex_m_s2=a, s0=s, duration_s=float(config.duration_s)))
     return out

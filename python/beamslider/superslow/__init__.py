@@ -4,8 +4,9 @@ Modules by concern: :mod:`.manifold` (the super-slow manifold by harmonic balanc
 :mod:`.tables` (drift tables V(s, branch) measured in the PCS model), :mod:`.law` (the local
 features, the drift law, its file and the built-in default law), :mod:`.fit` (fitting the law on
 drift tables), :mod:`.design_law` (drift laws over a box of designs, blended for any design: the
-built-in law) and :mod:`.slowflow` (:func:`predict`, the core's reduced model of one operating point). Every public name is
-importable from here; the operating map by the predictor is :func:`beamslider.maps.predicted_map`.
+built-in law), :mod:`.slowflow` (:func:`predict`, the core's reduced model of one operating point) and
+:mod:`.predicted_map` (:func:`predicted_map`, the operating map by the predictor, written by the maps'
+core writer). Every public name is importable from here.
 """
 
 from .manifold import (ClosedFormN1, HbBranch, HbManifold, backbone, closed_form_n1, hb_manifold)
@@ -20,6 +21,7 @@ from .design_law import (BUILTIN_LAW_NOTE, DEFAULT_DESIGN_LAW_PATH, DESIGN_BOX, 
     BoxCoordinate, DesignLaw, builtin_law, default_law, design_coordinates, design_params, design_sample,
     fit_design_law, load_design_law, load_law, loo_design_error, save_design_law)
 from .slowflow import MONO_NODES, Prediction, ROBUST_DS, predict, table_model
+from .predicted_map import predicted_map
 
 __all__ = [
     "ClosedFormN1", "HbBranch", "HbManifold", "backbone", "closed_form_n1", "hb_manifold", "DriftTable",
@@ -29,7 +31,7 @@ __all__ = [
     "load_drift_law", "monostable_inputs", "move_fold", "s_dn_forcing_ratio", "save_drift_law",
     "JD_WINDOW", "LIFT_V_EPS", "MONO_RISE_H", "ON_BRANCH_RATIO", "fit_drift_law", "jump_down_bracket",
     "learn_lift_off_threshold", "refine_jump_down", "MONO_NODES", "Prediction", "ROBUST_DS",
-    "predict", "table_model", "DEFAULT_DESIGN_LAW_PATH", "DESIGN_BOX", "DESIGN_KIND",
+    "predict", "predicted_map", "table_model", "DEFAULT_DESIGN_LAW_PATH", "DESIGN_BOX", "DESIGN_KIND",
     "JAM_GAP_RATIO", "BoxCoordinate", "DesignLaw", "default_law", "design_coordinates", "design_params",
     "design_sample", "fit_design_law", "load_design_law", "load_law", "loo_design_error", "save_design_law",
 ]

@@ -10,7 +10,7 @@ with inverse-distance weights: V on a grid of the law's inputs (Â/max Â_H, s) 
 of the neighbours' V, and the scalars (Λ_c, s_up shift, ρ_c, s_p, V resolution) their weighted
 means; the monostability samples are the neighbours' together. The result is an ordinary
 :class:`DriftLaw` for that design (:meth:`DesignLaw.law_for`), used by :func:`predict` and
-:func:`beamslider.maps.predicted_map` unchanged.
+:func:`beamslider.superslow.predicted_map` unchanged.
 
 Outside what the law covers — a coordinate beyond the box, a parameter that is not a coordinate
 changed from the base design, or a clearance below ``jam_gap_ratio`` where sliders barely move —
@@ -29,7 +29,7 @@ from typing import Dict, List, Optional, Sequence, Tuple, Union
 import numpy as np
 
 from .. import _core
-from ..params import Parameters, native
+from ..params import Parameters, detune, native
 from .law import DriftLaw, law_dict, law_from_dict
 
 __all__ = [
@@ -93,8 +93,6 @@ def design_coordinates(params: Parameters, base: Optional[Parameters] = None) ->
 def design_params(x: Union[Dict[str, float], Sequence[float]], base: Optional[Parameters] = None) -> Parameters:
     """The :class:`Parameters` of design coordinates ``x`` (a dict, or values in :data:`DESIGN_BOX`
     order) on the base design: the inverse of :func:`design_coordinates`."""
-    from ..study.sampling import detune
-
     b = base or Parameters()
     v = dict(x) if isinstance(x, dict) else dict(zip([c.name for c in DESIGN_BOX], [float(a) for a in x]))
     d = b.to_dict()
@@ -104,8 +102,8 @@ def design_params(x: Union[Dict[str, float], Sequence[float]], base: Optional[Pa
                                  * (d["contact_spacing_m"] / b.contact_spacing_m) ** 2 * float(v["inertia_factor"]))
     d["damping_ratio"] = b.damping_ratio * float(v["damping_factor"])
     if float(v["natural_frequency_factor"]) != 1.0:
-        d.update(detune(Parameters.from_dict(d), float(v["natural_frequency_factor"])))
-    return Parameters.from_dict(d)
+        d.update(detune(d, float(v["natural_frequency_factor"])))
+    return Parameters.from_dict(d)  # validated once
 
 
 def design_sample(n: int, *, seed: int, method: str = "sobol", box: Sequence[BoxCoordinate] = DESIGN_BOX) -> List[Dict[str, float]]:
@@ -168,9 +166,13 @@ class DesignLaw:
     def core(self):
         """The core's handle of this law (``beamslider._core.DesignLaw``: the file parsed once)."""
         if self._core_law is None:
-            text = self._text if self._text is not None else json.dumps(design_law_dict(self))
-            self._core_law = _core.DesignLaw(text, "the design law")
+            content = self._text if self._text is not None else design_law_dict(self)  # the file's text, or its content
+            self._core_law = _core.DesignLaw(content, "the design law")
         return self._core_law
+
+    def __getstate__(self) -> dict:
+        """Pickled without the core's handle (made again, from the file's text, where it is used)."""
+        return {**self.__dict__, "_core_law": None}
 
     def outside(self, params: Parameters) -> List[str]:
         """Why ``params`` lie outside what the law covers ([] inside): a parameter that is not a
@@ -181,9 +183,9 @@ class DesignLaw:
     def law_for(self, params: Parameters) -> Tuple[DriftLaw, Optional[str]]:
         """The blended :class:`DriftLaw` of design ``params`` (the core's blend) and a note when it
         lies outside the law (None inside); the note's reasons are also the law's ``outside_design``."""
-        text, why = self.core().law_for(native(params))
+        content, why = self.core().law_for(native(params))
         note = ("design outside the drift law's box: " + "; ".join(why)) if why else None
-        return law_from_dict(json.loads(text), "the blended law"), note
+        return law_from_dict(content, "the blended law"), note
 
 
 def loo_design_error(laws: Sequence[DriftLaw], U: np.ndarray, scales: np.ndarray, k: int) -> Tuple[float, List[float]]:
@@ -311,13 +313,15 @@ def design_law_from_dict(d: dict, source: str = "design law", text: Optional[str
         if missing:
             raise ValueError(f"invalid parameter `law`: {source}: designs[{i}].x lacks {missing}")
         xs.append({n: float(e["x"][n]) for n in names})
-        laws.append(law_from_dict(e["law"], f"{source}: designs[{i}].law"))
+        laws.append(law_from_dict(e["law"], f"{source}: designs[{i}].law", check=False))
     try:
         base = Parameters.from_dict(need("base", dict))
     except (TypeError, ValueError) as e:
         raise ValueError(f"invalid parameter `law`: {source}: base: {str(e).splitlines()[0][:160]}") from None
+    # The core's reader checks the file whole, every law in it too (the one reader), and its handle is kept.
+    core = _core.DesignLaw(text if text is not None else d, source)
     return DesignLaw(box=tuple(box), base=base, x=xs, laws=laws, scales=scales, k_sets=k, jam_gap_ratio=float(jam),
-                     loo=d.get("loo", {}), _text=text)
+                     loo=d.get("loo", {}), _text=text, _core_law=core)
 
 
 def load_design_law(path: Union[str, os.PathLike]) -> DesignLaw:

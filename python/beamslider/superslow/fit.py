@@ -12,6 +12,7 @@ from typing import Dict, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
+from .. import _core
 from ..params import Parameters, resolve
 from .law import FEATURES, DriftLaw, features, forcing_ratio, law_inputs, monostable_inputs, move_fold
 from .manifold import hb_manifold
@@ -217,8 +218,8 @@ def fit_drift_law(tables: Sequence[DriftTable], *, params: Optional[Parameters] 
     """
     if len(tables) < 2:
         raise ValueError("invalid parameter `tables`: need at least two operating points")
-    if int(k) < 1:
-        raise ValueError(f"invalid parameter `k` = {k}: must be >= 1")
+    if not 1 <= int(k) <= _core.LAW_MAX_K:
+        raise ValueError(f"invalid parameter `k` = {k}: must lie in 1..={_core.LAW_MAX_K} (the core's law::MAX_K)")
     if jump_down not in ("bracket", "median"):
         raise ValueError(f"invalid parameter `jump_down` = {jump_down!r}: 'bracket' or 'median'")
     if isinstance(lift_off_threshold, str):

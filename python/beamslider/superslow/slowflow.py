@@ -1,11 +1,10 @@
 """The reduced predictor of one operating point (docs/model.md §6.3): :func:`predict` wraps the core's
 (the HB manifold, the drift from a fitted law or a PCS table, the slow flow with exact per-cell
 integration and event location, the operating-map classifier; ``beamslider._core.predict``).
-Operating maps by the predictor: :func:`beamslider.maps.predicted_map`."""
+Operating maps by the predictor: :func:`beamslider.superslow.predicted_map`."""
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass, field
 from typing import Dict, List, Optional, Sequence, Tuple, Union
 
@@ -124,6 +123,24 @@ def _outside_range(law: DriftLaw, features: Sequence[Sequence[Dict[str, float]]]
     return "; ".join(out) or "a node's inputs"
 
 
+NUMERICAL_FIELDS = ("dt_s", "contact_solver", "solver_tol_rel", "solver_tol_abs", "solver_max_iter")
+"""Fields that set how a run is computed, not the model: a drift table made with other values of
+these still describes the run's model."""
+
+
+def _same_model(table: DriftTable, p: Parameters) -> None:
+    """Refuse a drift table measured on another model than the run's (its header records the
+    parameters it was made with; a table made in memory without them is not checked)."""
+    if not table.params_toml:
+        return
+    made = _core.Params.from_toml_text(table.params_toml).to_dict()
+    run = p.to_dict()
+    for name, value in made.items():
+        if name not in NUMERICAL_FIELDS and run[name] != value:
+            raise ValueError(f"invalid parameter `drift`: the table was made with {name} = {value!r}, the run has "
+                             f"{run[name]!r}: make a table with the run's parameters (drift-table --params)")
+
+
 def predict(
     params: Optional[Parameters] = None,
     *,
@@ -194,6 +211,8 @@ def predict(
         raise ValueError("invalid parameter `drift`: a DriftTable (b1), a DriftLaw (b2, fit_drift_law) or a DesignLaw")
     if isinstance(drift, DriftTable) and (abs(drift.f_ex - f_ex) > 1e-9 or abs(drift.a_ex - a_ex) > 1e-9):
         raise ValueError(f"invalid parameter `drift`: the table is for ({drift.f_ex:g} Hz, {drift.a_ex:g} m/s²), not ({f_ex:g}, {a_ex:g})")
+    if isinstance(drift, DriftTable):
+        _same_model(drift, p)
     if s_dn == "auto":
         s_dn = "law" if isinstance(drift, DriftLaw) else "hb"
     if isinstance(build_up, str):
@@ -208,9 +227,9 @@ def predict(
     else:
         low, high, _, _, su, sd = table_model(drift)
         kw = {"table": (low, high, su, sd)}
-    r = json.loads(_core.predict(native(p), f_ex_hz=f_ex, a_ex_m_s2=a_ex, s0=s0, t_end_s=t_end, s_dn=str(s_dn), source=str(source),
-                                 n_modes=int(n_modes), d_eff=d_eff, v_dead=v_dead, build_up_s=t_build,
-                                 build_up_drift=bool(build_up_drift), robustness=bool(robustness), **kw))
+    r = _core.predict(native(p), f_ex_hz=f_ex, a_ex_m_s2=a_ex, s0=s0, t_end_s=t_end, s_dn=str(s_dn), source=str(source),
+                      n_modes=int(n_modes), d_eff=d_eff, v_dead=v_dead, build_up_s=t_build,
+                      build_up_drift=bool(build_up_drift), robustness=bool(robustness), **kw)
     flow, cls = r["flow"], r["flow"]["classification"]
     warnings = list(flow["warnings"])
     if r["note"]:

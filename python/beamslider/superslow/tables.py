@@ -5,11 +5,10 @@ continuation (down-sweep from the centre for L, up-sweep from s_min for H), run 
 
 from __future__ import annotations
 
-import json
 import os
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Dict, List, Optional, Sequence, Tuple, Union
+from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
@@ -80,9 +79,8 @@ class DriftTable:
         return self.s_up_pcs, self.s_dn_pcs
 
 
-def _table_from(header: str, rows: Sequence[str], computed: int = 0, path=None) -> DriftTable:
-    h = json.loads(header)
-    rs = [json.loads(r) for r in rows]
+def _table_from(h: Dict[str, Any], rs: Sequence[Dict[str, Any]], computed: int = 0, path=None) -> DriftTable:
+    """A :class:`DriftTable` of the core's header and rows (dicts)."""
     half = lambda x: min(x, 1.0 - x)  # noqa: E731
     jumps = {}
     for sw in ("down", "up"):

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from beamslider import Parameters, read_map, simulate
-from beamslider.maps import predicted_map
+from beamslider.superslow import predicted_map
 from beamslider.superslow import drift_table, drift_tables, fit_drift_law
 
 from .common import OUT, ROOT, TRAINING, _score, jump_down_tables

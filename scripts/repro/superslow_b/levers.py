@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from beamslider import read_map
-from beamslider.maps import predicted_map
+from beamslider.superslow import predicted_map
 from beamslider.superslow import drift_tables, fit_drift_law, predict, read_drift_table
 
 from .common import MAP_DRIFT, OUT, ROOT, TABLE_OPTS, TRAINING, _score, available_tables, table_path

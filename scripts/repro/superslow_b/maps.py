@@ -8,7 +8,7 @@ import time
 import numpy as np
 
 from beamslider import read_map
-from beamslider.maps import predicted_map
+from beamslider.superslow import predicted_map
 from beamslider.superslow import MONO_RISE_H, fit_drift_law, predict, read_drift_table, save_drift_law
 
 from .common import MAP_DRIFT, OUT, ROOT, _agree_phase, _fmt, _score, available_tables, jump_down_tables

@@ -9,7 +9,7 @@ import numpy as np
 
 from beamslider import Parameters, read_map, simulate
 from beamslider.params import native
-from beamslider.maps import predicted_map
+from beamslider.superslow import predicted_map
 from beamslider.superslow import drift_tables, fit_drift_law, load_drift_law, predict, read_drift_table
 
 from .common import OUT, ROOT, TABLE_OPTS, TRAINING, _cpu, _law_text, _score, jump_down_tables, table_path
@@ -54,7 +54,7 @@ def stage_speed(training="cheap", training_set="12 points"):
         tc = []
         for _ in range(5):
             t0 = time.perf_counter()
-            _core.predict(native(Parameters()), law_json=text, f_ex_hz=f, a_ex_m_s2=a, s0=0.3, t_end_s=120.0)
+            _core.predict(native(Parameters()), law=_core.DriftLaw(text), f_ex_hz=f, a_ex_m_s2=a, s0=0.3, t_end_s=120.0)
             tc.append(time.perf_counter() - t0)
         c0, t0 = _cpu(), time.perf_counter()
         simulate(f_ex=f, a_ex=a, s0=0.3, t_end=120.0, record_every=1000)

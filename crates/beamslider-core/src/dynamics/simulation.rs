@@ -204,8 +204,13 @@ pub struct Model {
 impl Model {
     /// Validate the parameters, compute the modes and check that Δt resolves the highest mode.
     pub fn new(params: Params) -> Result<Model> {
-        params.validate()?;
-        Self::build(params)
+        Self::of(&Valid::new(params)?)
+    }
+
+    /// The modal data of the model's linear beam (docs/model.md §2, §9), the mode shapes sampled
+    /// at `x_over_l`.
+    pub fn beam_properties(&self, x_over_l: &[f64]) -> crate::physics::BeamProperties {
+        crate::physics::BeamProperties::of(&self.beam, &self.params, x_over_l)
     }
 
     /// [`Model::new`] of parameters validated before (docs/model.md §1): checks nothing again.

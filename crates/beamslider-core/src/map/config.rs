@@ -8,7 +8,7 @@ use serde::{Deserialize, Serialize};
 use crate::classify::Criteria;
 use crate::dynamics::simulation::Excitation;
 use crate::error::{Error, Result};
-use crate::params::Params;
+use crate::params::{Params, Valid};
 use crate::results::{MapPoint, Settings};
 pub use crate::signal::envelope_stream::DEFAULT_RECORD_EVERY;
 
@@ -136,6 +136,21 @@ pub struct MapConfig {
     /// Classification thresholds.
     #[serde(default)]
     pub criteria: Criteria,
+    /// The effective parameters as validated once ([`MapConfig::valid_params`]).
+    #[serde(skip)]
+    pub(crate) checked: Checked,
+}
+
+/// The validated effective parameters of a configuration, made at its first check and used while
+/// they equal its effective parameters (a changed field is validated afresh). Not part of a
+/// configuration's value: two configurations compare equal whatever their checks.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct Checked(std::sync::OnceLock<Valid>);
+
+impl PartialEq for Checked {
+    fn eq(&self, _: &Checked) -> bool {
+        true
+    }
 }
 
 impl Default for MapConfig {
@@ -153,6 +168,7 @@ impl Default for MapConfig {
             },
             params: Params::default(),
             criteria: Criteria::default(),
+            checked: Checked::default(),
         }
     }
 }
@@ -180,6 +196,30 @@ impl MapConfig {
         toml::to_string(self).expect("plain struct of numbers and strings always serialises")
     }
 
+    /// A configuration of its parts (not checked: [`MapConfig::validate`]); `params` validated
+    /// before, so that a map without a `dt_s` override validates no parameters again.
+    pub fn of(duration_s: f64, dt_s: Option<f64>, record_every: usize, grid: Grid, params: &Valid, criteria: Criteria) -> MapConfig {
+        let cfg = MapConfig { duration_s, dt_s, record_every, grid, params: params.get().clone(), criteria, checked: Checked::default() };
+        if dt_s.is_none() {
+            let _ = cfg.checked.0.set(params.clone());
+        }
+        cfg
+    }
+
+    /// The effective parameters ([`MapConfig::effective_params`]) validated (docs/model.md §1):
+    /// once per configuration, what its runs take.
+    pub fn valid_params(&self) -> Result<Valid> {
+        let p = self.effective_params();
+        match self.checked.0.get() {
+            Some(v) if *v.get() == p => Ok(v.clone()),
+            _ => {
+                let v = Valid::new(p)?;
+                let _ = self.checked.0.set(v.clone());
+                Ok(v)
+            }
+        }
+    }
+
     /// The parameters with the `dt_s` override applied.
     pub fn effective_params(&self) -> Params {
         let mut p = self.params.clone();
@@ -198,8 +238,7 @@ impl MapConfig {
             return Err(Error::invalid("record_every", 0, "must be >= 1"));
         }
         self.criteria.clone().validated()?;
-        let dt = self.effective_params().dt_s;
-        self.effective_params().validate()?;
+        let dt = self.valid_params()?.dt_s;
         crate::dynamics::simulation::step_count("duration_s", self.duration_s, dt)?;
         // The classification samples the run every record_every steps; its envelopes need a
         // sample at least every half bin (docs/model.md §8).

@@ -224,7 +224,7 @@ pub struct MapRunOptions {
 /// (`map.toml`), so that a refused map overwrites nothing.
 pub fn preflight(cfg: &MapConfig, opts: &MapRunOptions) -> Result<()> {
     cfg.validate()?;
-    Model::new(cfg.effective_params())?;
+    Model::of(&cfg.valid_params()?)?;
     cfg.check_records()?;
     if opts.extend && opts.out.is_none() {
         return Err(Error::invalid("extend_to", cfg.duration_s, "needs the results file of the map to extend (out)"));
@@ -383,7 +383,7 @@ impl MapResults {
         cfg.validate()?;
         let points = cfg.points()?;
         let settings = cfg.settings();
-        Model::new(cfg.effective_params())?;
+        Model::of(&cfg.valid_params()?)?;
         cfg.check_records()?;
         if opts.extend && opts.out.is_none() {
             return Err(Error::invalid("extend_to", cfg.duration_s, "needs the results file of the map to extend (out)"));
@@ -478,7 +478,7 @@ impl MapResults {
 /// Run `jobs` in parallel (the core's batch runner, [`run_batch`]: `threads` workers or one per
 /// core), handing each finished row to `on_row`; an error of `on_row` cancels the rest.
 pub fn run_jobs(cfg: &MapConfig, jobs: &[Job], threads: Option<usize>, cancel: &AtomicBool, mut on_row: impl FnMut(MapRow) -> Result<()> + Send) -> Result<()> {
-    let model = Model::new(cfg.effective_params())?;
+    let model = Model::of(&cfg.valid_params()?)?;
     run_batch(jobs, threads, cancel, |job| Ok(run_point_guarded(&model, cfg, job, cancel)), |row: &MapRow| on_row(row.clone()))?;
     Ok(())
 }

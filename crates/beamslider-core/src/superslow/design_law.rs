@@ -184,6 +184,16 @@ impl DesignLaw {
     /// Parse the JSON text of a design-law file (`source` names it in errors).
     pub fn from_json_str(text: &str, source: &str) -> Result<DesignLaw> {
         let f: DesignFile = serde_json::from_str(text).map_err(|e| bad(source, &format!("not a {DESIGN_KIND} file ({e})")))?;
+        Self::from_design_file(f, source)
+    }
+
+    /// [`DesignLaw::from_json_str`] of a design-law file's content already parsed (a front end's table).
+    pub fn from_json_value(value: serde_json::Value, source: &str) -> Result<DesignLaw> {
+        let f: DesignFile = serde_json::from_value(value).map_err(|e| bad(source, &format!("not a {DESIGN_KIND} file ({e})")))?;
+        Self::from_design_file(f, source)
+    }
+
+    fn from_design_file(f: DesignFile, source: &str) -> Result<DesignLaw> {
         if f.kind != DESIGN_KIND {
             return Err(bad(source, &format!("not a {DESIGN_KIND} file (kind)")));
         }

@@ -268,9 +268,15 @@ fn json_line<T: Serialize>(x: &T) -> Result<String> {
 }
 
 /// Read a drift-table file (a results file of [`crate::results`]): the header and the complete
-/// rows (a torn last line, from a killed run, is left out).
+/// rows (a torn last line, from a killed run, is left out). A table without rows (a header only)
+/// is refused: it holds no drift to predict with.
 pub fn read_drift_table(path: &Path) -> Result<(DriftHeader, Vec<DriftRow>)> {
-    read_with_length(path).map(|(header, rows, _)| (header, rows))
+    let (header, rows, _) = read_with_length(path)?;
+    if rows.is_empty() {
+        let why = "no rows: the header only (a table stopped before its first point); finish it (drift-table --resume) before using it";
+        return Err(Error::invalid("drift table", path.display(), why));
+    }
+    Ok((header, rows))
 }
 
 /// [`read_drift_table`] and the byte length of the file's complete part.
@@ -281,8 +287,21 @@ fn read_with_length(path: &Path) -> Result<(DriftHeader, Vec<DriftRow>, u64)> {
         return Err(bad("the file is empty (no header line)".into()));
     };
     let header: DriftHeader = serde_json::from_str(first).map_err(|e| bad(format!("first line is not a drift-table header: {e}")))?;
+    if header.version != 1 {
+        let why = if header.version > 1 { "newer than this build (1)" } else { "not a version of the format (1)" };
+        return Err(bad(format!("version {}: {why}", header.version)));
+    }
+    // A row's s lies where the slider's contact points are on the beam (docs/model.md §5).
+    let lo = crate::params::Params::from_toml_str(&header.params_toml).map_or(0.0, |p| p.s_min());
     let rows = rest.iter().enumerate().filter(|(_, l)| !l.trim().is_empty());
-    let rows = rows.map(|(i, l)| serde_json::from_str(l).map_err(|e| bad(format!("line {}: {e}", i + 2)))).collect::<Result<_>>()?;
+    let row = |(i, l): (usize, &String)| -> Result<DriftRow> {
+        let r: DriftRow = serde_json::from_str(l).map_err(|e| bad(format!("line {}: {e}", i + 2)))?;
+        if !(r.s.is_finite() && r.s >= lo - 1e-9 && r.s <= 1.0 - lo + 1e-9) {
+            return Err(bad(format!("line {}: s = {} lies off the beam (the slider's contact points need {lo:.4} <= s <= {:.4})", i + 2, r.s, 1.0 - lo)));
+        }
+        Ok(r)
+    };
+    let rows = rows.map(row).collect::<Result<_>>()?;
     Ok((header, rows, file.good_len))
 }
 

@@ -20,9 +20,10 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
-use super::branch::{HbBranch, HbManifold};
+use super::branch::{HbBranch, HbManifold, HbOptions};
+use super::continuation::hb_manifold;
 use crate::error::{Error, Result};
-use crate::params::Params;
+use crate::params::{Params, Valid};
 use crate::physics::beam::Beam;
 
 /// Inputs of the law, in this order (as `beamslider.drift_law.FEATURES`).
@@ -74,6 +75,10 @@ impl LawFile {
         serde_json::to_string(self).unwrap_or_default()
     }
 }
+
+/// The most neighbours a law may weigh (docs/model.md §6.3: the fitted laws use k = 4; a law
+/// with fewer samples than k weighs them all).
+pub const MAX_K: usize = 64;
 
 pub(super) fn one() -> f64 {
     1.0
@@ -149,6 +154,12 @@ impl DriftLaw {
     /// Parse the JSON text of a law file (checks its kind, features and shapes).
     pub fn from_json_str(text: &str) -> Result<DriftLaw> {
         let f: LawFile = serde_json::from_str(text).map_err(|e| Error::invalid("law", "file", &format!("not a beamslider drift law file ({e})")))?;
+        DriftLaw::from_law_file(f)
+    }
+
+    /// [`DriftLaw::from_json_str`] of a law file's content already parsed (a front end's table).
+    pub fn from_json_value(value: serde_json::Value) -> Result<DriftLaw> {
+        let f: LawFile = serde_json::from_value(value).map_err(|e| Error::invalid("law", "file", &format!("not a beamslider drift law file ({e})")))?;
         DriftLaw::from_law_file(f)
     }
 
@@ -229,6 +240,9 @@ impl DriftLaw {
         let high = branch("H")?;
         if low.v.is_empty() && high.v.is_empty() {
             return Err(Error::invalid("law", "samples", "the law has no training samples"));
+        }
+        if f.k > MAX_K {
+            return Err(Error::invalid("law", format!("k = {}", f.k), &format!("at most {MAX_K} neighbours (a fitted law weighs a handful)")));
         }
         let points = f.points.iter().filter(|p| p.len() == 2).map(|p| (p[0], p[1])).collect();
         if f.mono_x.len() != f.mono_y.len() || f.mono_x.iter().any(|r| r.len() != 2 || r.iter().any(|x| !x.is_finite())) {
@@ -487,6 +501,12 @@ impl Sorted {
 pub fn features(params: &Params, manifold: &HbManifold, f_ex_hz: f64, a_ex: f64, high: bool, s: &[f64]) -> Result<Vec<Features>> {
     let beam = beam_for(params, manifold.n_modes)?;
     features_with(params, &beam, manifold, f_ex_hz, a_ex, high, s)
+}
+
+/// Features of docs/model.md §6.3 at positions `s` on one branch of the single-term HB manifold of
+/// `params` at (f_ex, a_ex) computed with `opts` (the whole step: the manifold, then [`features`]).
+pub fn features_at(params: &Valid, f_ex_hz: f64, a_ex: f64, opts: &HbOptions, high: bool, s: &[f64]) -> Result<Vec<Features>> {
+    features(params, &hb_manifold(params, f_ex_hz, a_ex, opts)?, f_ex_hz, a_ex, high, s)
 }
 
 /// The beam with `n_modes` modes (the mode shapes of the features).

@@ -18,7 +18,7 @@ use super::predict_options::{dead_band, interp};
 use super::slowflow::{Prediction, SlowBranch, SlowFlowOptions, SlowModel, slow_flow};
 use crate::classify::Behaviour;
 use crate::error::{Error, Result};
-use crate::params::Params;
+use crate::params::{Params, Valid};
 use crate::physics::beam::Beam;
 
 /// Largest change of the final s [–] under V ± `v_resolution` for which a prediction counts as
@@ -350,7 +350,7 @@ fn shifted_model(model: &SlowModel, moving: &Moving, dv: f64) -> SlowModel {
 
 /// Predict one operating point with the reduced model (docs/model.md §6.3): HB manifold, V from the
 /// law, slow flow from s₀ for `t_end_s` seconds, classified by the map classifier unchanged.
-pub fn predict_point(params: &Params, law: &DriftLaw, f_ex_hz: f64, a_ex: f64, s0: f64, t_end_s: f64, opts: &PredictOptions) -> Result<PointPrediction> {
+pub fn predict_point(params: &Valid, law: &DriftLaw, f_ex_hz: f64, a_ex: f64, s0: f64, t_end_s: f64, opts: &PredictOptions) -> Result<PointPrediction> {
     let beam = beam_for(params, opts.hb.n_modes)?;
     predict_point_with(params, &beam, law, f_ex_hz, a_ex, s0, t_end_s, opts)
 }
@@ -358,16 +358,28 @@ pub fn predict_point(params: &Params, law: &DriftLaw, f_ex_hz: f64, a_ex: f64, s
 /// [`predict_point`] with the beam of [`beam_for`] (`opts.hb.n_modes` modes) built once by the caller.
 #[allow(clippy::too_many_arguments)]
 pub fn predict_point_with(
-    params: &Params, beam: &Beam, law: &DriftLaw, f_ex_hz: f64, a_ex: f64, s0: f64, t_end_s: f64, opts: &PredictOptions,
+    params: &Valid, beam: &Beam, law: &DriftLaw, f_ex_hz: f64, a_ex: f64, s0: f64, t_end_s: f64, opts: &PredictOptions,
 ) -> Result<PointPrediction> {
     predict_drift(params, beam, Drift::Law(law), f_ex_hz, a_ex, s0, t_end_s, opts)
+}
+
+/// One operating point by the reduced model (docs/model.md §6.3–6.4) as a front end asks for it: the
+/// drift given as a law or a table (exactly one), the options as [`PredictArgs`] (the whole step:
+/// the beam of the options' modes, the drift, [`predict_drift`]).
+#[allow(clippy::too_many_arguments)]
+pub fn predict(
+    params: &Valid, law: Option<&DriftLaw>, table: Option<&TableDrift>, f_ex_hz: f64, a_ex: f64, s0: f64, t_end_s: f64, args: &PredictArgs,
+) -> Result<PointPrediction> {
+    let opts = args.options()?;
+    let drift = Drift::one_of(law, table)?;
+    predict_drift(params, &*beam_for(params, args.n_modes)?, drift, f_ex_hz, a_ex, s0, t_end_s, &opts)
 }
 
 /// [`predict_point_with`] with either kind of drift ([`Drift`]): a law (b2) or a PCS table (b1,
 /// also with [`Source::Table`]); the options' jump-down rule, dead band and build-up apply.
 #[allow(clippy::too_many_arguments)]
 pub fn predict_drift(
-    params: &Params, beam: &Beam, drift: Drift<'_>, f_ex_hz: f64, a_ex: f64, s0: f64, t_end_s: f64, opts: &PredictOptions,
+    params: &Valid, beam: &Beam, drift: Drift<'_>, f_ex_hz: f64, a_ex: f64, s0: f64, t_end_s: f64, opts: &PredictOptions,
 ) -> Result<PointPrediction> {
     let lo = params.s_min();
     if !(s0.is_finite() && s0 >= lo - 1e-12 && s0 <= 1.0 - lo + 1e-12) {

@@ -77,9 +77,8 @@ pub fn run_predicted_map(
     }
     let mut popts = popts.clone();
     popts.criteria = cfg.criteria.clone();
-    let params = cfg.effective_params();
+    let params = cfg.valid_params()?;
     let header = header_value(law, &popts);
-    params.validate()?;
     let beam = beam_for(&params, popts.hb.n_modes)?;
     let mut results = MapResults::open_predicted(cfg, opts, &header)?;
     let jobs = std::mem::take(&mut results.jobs);
