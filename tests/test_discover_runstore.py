@@ -200,10 +200,14 @@ def test_an_interrupted_discover_keeps_its_runs_and_the_next_goes_on_from_them(t
         raise
     assert p.returncode == 130 and "Traceback" not in err, err
     kept = RunStore(runs).loaded
+    assert "runs made are kept in" in err and "the same command again goes on from them" in err, err
     assert kept >= 5 and not (tmp_path / "o" / "report.json").exists()
     r = run_cli(*argv, cwd=tmp_path)
     assert r.returncode == 0, r.stderr
     assert f"runs: {kept} reused from" in r.stdout, r.stdout
+    assert f"runs: {kept} kept runs read from" in r.stdout.splitlines()[0], r.stdout  # said before it goes on
+    made = int(next(l for l in r.stdout.splitlines() if " reused from " in l).rsplit(", ", 1)[1].split()[0])
+    assert RunStore(runs).loaded == kept + made  # nothing appended twice
 
 
 def test_the_fingerprint_covers_the_run_making_sources_only():

@@ -60,6 +60,7 @@ def test_the_discover_slider_figure_is_titled_with_the_operating_point(tmp_path,
 
     import beamslider.discover as dc
     from beamslider.discover.models import OperatingPoint
+    from beamslider.discover.result import Because, Kind, Verdict
 
     titles = []
     real = matplotlib.axes.Axes.set_title
@@ -78,6 +79,7 @@ def test_the_discover_slider_figure_is_titled_with_the_operating_point(tmp_path,
         features = {"s_final": {"z_before": 1.0, "z_after": 0.5}}
         paths = {"baseline": {op.tag: (r.t, r.s)}, "updated": {op.tag: (r.t, r.s)}}
         gap_before, gap_after, named_effects = 1.0, 0.5, []
+        judgment = Verdict(Kind.NONE, Because.BASELINE_FITS)
 
         def to_json(self):
             return {}

@@ -434,7 +434,27 @@ impl Params {
         if self.gap_ratio * self.thickness_m >= self.length_m {
             return Err(Error::invalid("gap_ratio", self.gap_ratio, "opening height R = gap_ratio * thickness_m must be smaller than length_m"));
         }
-        crate::plausibility::check(self)
+        crate::plausibility::check(&|field| self.plausibility_value(field))
+    }
+
+    /// The value of a field by its name, for [`crate::plausibility`] (NaN for a field it does not judge).
+    pub fn plausibility_value(&self, field: &str) -> f64 {
+        match field {
+            "length_m" => self.length_m,
+            "thickness_m" => self.thickness_m,
+            "density_kg_m3" => self.density_kg_m3,
+            "beam_mass_kg" => self.beam_mass_kg,
+            "youngs_modulus_pa" => self.youngs_modulus_pa,
+            "slider_mass_kg" => self.slider_mass_kg,
+            "slider_inertia_kg_m2" => self.slider_inertia_kg_m2,
+            "contact_spacing_m" => self.contact_spacing_m,
+            "com_offset_m" => self.com_offset_m,
+            "gap_ratio" => self.gap_ratio,
+            "damping_ratio" => self.damping_ratio,
+            "gravity_m_s2" => self.gravity_m_s2,
+            "friction_coefficient" => self.friction_coefficient,
+            _ => f64::NAN,
+        }
     }
 
     /// Cross-section area A = ρAL / (ρ L) [m²].
@@ -570,5 +590,49 @@ mod tests {
         let a = p.area_m2();
         assert!((a - 15.1e-3 / (7683.0 * 0.14)).abs() < 1e-18);
         assert!(p.axial_stiffness() < p.k_t_n_per_m);
+    }
+
+    // Units and plausibility (crate::plausibility), judged on parameter sets.
+    use crate::plausibility;
+
+    fn implausible(p: Params) -> Option<(&'static str, String)> {
+        plausibility::findings(&|n| p.plausibility_value(n)).into_iter().next().map(|f| (f.field, f.why))
+    }
+
+    #[test]
+    fn the_prototype_is_plausible() {
+        assert_eq!(plausibility::findings(&|n| Params::default().plausibility_value(n)), vec![]);
+    }
+
+    #[test]
+    fn values_in_the_wrong_unit_are_named_with_the_unit() {
+        let d = Params::default();
+        let (f, why) = implausible(Params { length_m: 140.0, ..d.clone() }).unwrap();
+        assert_eq!(f, "length_m");
+        assert!(why.contains("in mm?"), "{why}");
+        let (f, why) = implausible(Params { slider_mass_kg: 46.2, ..d.clone() }).unwrap();
+        assert_eq!(f, "slider_mass_kg");
+        assert!(why.contains("in g?"), "{why}");
+        let (f, why) = implausible(Params { youngs_modulus_pa: 210.0, ..d.clone() }).unwrap();
+        assert_eq!(f, "youngs_modulus_pa");
+        assert!(why.contains("in GPa?"), "{why}");
+        let (f, why) = implausible(Params { density_kg_m3: 7.683, ..d.clone() }).unwrap();
+        assert_eq!(f, "density_kg_m3");
+        assert!(why.contains("g/cm³"), "{why}");
+        let (f, why) = implausible(Params { beam_mass_kg: 15.1, ..d.clone() }).unwrap();
+        assert_eq!(f, "beam_mass_kg");
+        assert!(why.contains("in g?"), "{why}");
+        let (f, why) = implausible(Params { slider_inertia_kg_m2: 3.15, ..d.clone() }).unwrap();
+        assert_eq!(f, "slider_inertia_kg_m2");
+        assert!(why.contains("kg mm²"), "{why}");
+        let (f, _) = implausible(Params { com_offset_m: 4.1, ..d.clone() }).unwrap();
+        assert_eq!(f, "com_offset_m");
+    }
+
+    #[test]
+    fn validation_refuses_them_unless_overridden() {
+        let p = Params { length_m: 140.0, ..Params::default() };
+        let e = p.validate().unwrap_err().to_string();
+        assert!(e.contains("`length_m`") && e.contains(plausibility::OVERRIDE_ENV), "{e}");
     }
 }

@@ -78,6 +78,10 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
                                scheduler=args.scheduler, scheduler_file=args.scheduler_file)
     except ValueError as e:
         raise UserError(str(e)) from None
+    except KeyboardInterrupt as e:
+        e.beamslider_note = (f"the finished cases are in {out / bm.CASES_FILE} and the runs made in "  # type: ignore[attr-defined]
+                             f"{out / 'runs.jsonl'}: the same command again goes on from them")
+        raise
     print((out / "summary.md").read_text(encoding="utf-8").split("\n## Confusion")[0].rstrip())
     print(f"wrote {out / 'summary.md'}, {out / 'summary.json'}, {out / bm.CASES_FILE}")
     return 0

@@ -208,6 +208,11 @@ def cmd_discover(args: argparse.Namespace) -> int:
 
     try:
         d = _discover(args, dc, enma, runs, effects, advice, prog, store, options, provisional)
+    except KeyboardInterrupt as e:
+        if store is not None:  # what was kept and how to go on
+            e.beamslider_note = (f"{store.added} runs made are kept in {store.path} (beside {store.loaded} read "  # type: ignore[attr-defined]
+                                 "from it): the same command again goes on from them")
+        raise
     except dc.StopAtProvisional:
         print(f"wrote {out_dir(args) / 'report.json'} (provisional)")
         return 0

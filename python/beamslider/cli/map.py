@@ -122,7 +122,7 @@ def cmd_map(args: argparse.Namespace) -> int:
     return 0
 
 
-def _kept(out: Path, config: str, extend_to: Any) -> str:
+def _kept(out: Path, config: Any, extend_to: Any) -> str:
     """What an interrupted map kept and how to go on."""
     from .. import _core
     from ..maps import RESULTS_FILE
@@ -130,7 +130,7 @@ def _kept(out: Path, config: str, extend_to: Any) -> str:
     if extend_to:
         return f"the finished points are kept; run the same --extend-to {extend_to:g} again to finish the extension"
     try:
-        f, a, s = _core.MapConfig(config).axes
+        f, a, s = (_core.MapConfig(config) if isinstance(config, str) else config).axes
         total = len(f) * len(a) * len(s)
         with open(out / RESULTS_FILE, "rb") as fh:
             done = max(sum(1 for line in fh if line.strip()) - 1, 0)

@@ -27,7 +27,7 @@ def search(problem: Any, candidates: Sequence[Effect], options: DiscoverOptions)
                 return fits
             return fits + fit_sets(problem, fit, candidates, fits, options)
         pred = problem.predict(candidates)
-        lead = problem.provisional  # the leading candidate as soon as there is one
+        lead = getattr(problem, "provisional", None)  # the leading candidate as soon as there is one
         fits, complete = tiered_singles(candidates, pred,
                                         (lambda e: lead.saw(fit((e,)))) if lead else (lambda e: fit((e,))),
                                         len(problem.meas), options.tier_keep,
