@@ -52,7 +52,9 @@ The package is split by step: :mod:`.features` (1), :mod:`.effects` and :mod:`.c
 :mod:`.search` with :mod:`.fitting`, :mod:`.refine` and :mod:`.spread`, the statistics :mod:`.stats`,
 the rule :mod:`.rule` with :mod:`.confounding` and :mod:`.advice` (3), the result types
 :mod:`.result` and :mod:`.report` (4), :mod:`.synthesize` (5), :mod:`.separability`
-(identifiability) and :mod:`.runstore` (the runs a discover keeps on disk); every public name is
+(identifiability), :mod:`.runstore` (the runs a discover keeps on disk), :mod:`.provisional` (the
+leading candidate before the verdict) and the benchmark of hidden cases drawn at random,
+:mod:`.benchmark` with :mod:`.cases` and :mod:`.scores` (docs/model.md §9.2); every public name is
 re-exported here.
 """
 
@@ -67,6 +69,7 @@ from .result import Because, CandidateFit, Discovery, GAP_MEASURE, Kind, Verdict
 from .stats import SIGNIFICANCE
 from .workflow import discover
 from .provisional import StopAtProvisional
+from .benchmark import BenchmarkResult, Case, detectability, draw_cases, Plan, run_benchmark
 from .runstore import RunStore
 from .synthesize import synthesize_enma, synthesize_slider_runs, truth_from_toml, truth_from_toml_text
 from .report import fmt_value, verdict_line, write_report
@@ -78,6 +81,7 @@ __all__ = [
     "OperatingPoint", "SIGNIFICANCE", "simulated_enma_features", "slider_features", "synthesize_enma",
     "synthesize_slider_runs", "truth_from_toml", "truth_from_toml_text", "write_report", "verdict_line",
     "separability", "slider_sensitivities",
-    "realise_effects", "fmt_value", "StopAtProvisional", "CHAIN_EFFECTS", "Model", "realise_model", "RunStore",
+    "realise_effects", "fmt_value", "StopAtProvisional", "BenchmarkResult", "Case", "detectability", "draw_cases",
+    "Plan", "run_benchmark", "CHAIN_EFFECTS", "Model", "realise_model", "RunStore",
     "DiscoverOptions", "Kind", "Because", "Verdict",
 ]

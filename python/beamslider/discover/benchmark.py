@@ -23,243 +23,33 @@ import math
 import os
 import tempfile
 import time
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass
 from pathlib import Path
-from typing import Any, Callable, Dict, Iterable, List, Optional, Sequence, Tuple, Union
+from typing import Any, Callable, Dict, List, Optional, Sequence, Union
 
 import numpy as np
 
 from ..params import Parameters
+from .cases import (DEFAULT_COUNTS, PathLike, KINDS, OUTSIDE, PAPER_POINTS, S0_OFFSET_RANGE, SIZE_RANGE, SLIDER_CANDIDATES, Case,
+                    Outside, Plan, draw_cases, draw_size, synthesize_case, threshold, truth_model)
 from .effects import EFFECTS
+from .scores import CLEARLY_BETTER, final_score, score_case, summarise, summary_markdown
 
-PathLike = Union[str, "os.PathLike[str]"]
-
-PAPER_POINTS: Tuple[Tuple[float, float, float], ...] = ((104.0, 14.0, 0.3), (126.0, 10.0, 0.3), (124.0, 14.0, 0.3))
-"""The paper's three reference runs (f_ex Hz, a_ex m/s², s0): the default plan's points."""
-
-SLIDER_CANDIDATES: Tuple[str, ...] = tuple(n for n, e in EFFECTS.items() if e.level == "slider")
-"""Every slider-level candidate, the measurement chain's included: the default plan's candidates."""
-
-KINDS = ("nothing", "single", "pair", "outside", "chain+physics")
-"""The kinds of hidden case (docs/model.md §9.2)."""
-
-DEFAULT_COUNTS: Dict[str, int] = {"single": 12, "pair": 6, "outside": 6, "nothing": 4, "chain+physics": 2}
-"""Cases of each kind in a default benchmark (30)."""
-
-SIZE_RANGE = (1.5, 6.0)
-"""A library effect's size, in units of its relevance threshold (:attr:`.effects.Effect.relevance`)."""
-
-CLEARLY_BETTER = 11.0
-"""χ² by which the truth must fit a case's data better than a wrong answer for the miss to be
-discover's (the selection's price of one parameter among fourteen candidates, docs/model.md §9);
-within it the data cannot tell the answer from the truth."""
-
-S0_OFFSET_RANGE = (0.0005, 0.003)
-"""|s0 offset| of a case's truth runs from the s0 their files name (either sign)."""
-
-
-@dataclass(frozen=True)
-class Outside:
-    """A change the synthesiser makes and discover has no slider-level candidate for: the parameter
-    ``field`` multiplied by a factor whose size lies in ``factor`` (either direction, ``both``), or,
-    with ``absolute``, set to a value drawn in ``factor``."""
-
-    name: str
-    field: str
-    description: str
-    factor: Tuple[float, float]
-    both: bool = True
-    absolute: bool = False
-
-
-OUTSIDE: Dict[str, Outside] = {o.name: o for o in (
-    Outside("beam_damping", "damping_ratio", "modal damping ratio of the beam x 1.3-2 or / 1.3-2", (1.3, 2.0)),
-    Outside("amplitude_damping", "damping_ratio_quadratic",
-            "amplitude-dependent damping D2 in [3e-4, 1.2e-3] (the beam-level effect, not a slider candidate)",
-            (3e-4, 1.2e-3), both=False, absolute=True),
-    Outside("axial_stiffness", "k_t_n_per_m", "axial clamping stiffness x 1.5-3 or / 1.5-3 (the hardening b*)",
-            (1.5, 3.0)),
-    Outside("rotational_clamping", "k_r_nm_per_rad",
-            "rotational clamping stiffness x 1.5-3 or / 1.5-3 (frequency and mode shape)", (1.5, 3.0)),
-)}
-"""The changes outside the library that a benchmark draws from (docs/model.md §9.2)."""
-
-
-@dataclass(frozen=True)
-class Plan:
-    """What a lab would measure: free-slider runs at ``operating_points`` (f_ex Hz, a_ex m/s², s0)
-    of ``duration_s``, judged against the ``candidates`` (names of :data:`.effects.EFFECTS`), with the
-    synthesiser's noise on s and on the beam velocity."""
-
-    operating_points: Tuple[Tuple[float, float, float], ...] = PAPER_POINTS
-    duration_s: float = 60.0
-    candidates: Tuple[str, ...] = SLIDER_CANDIDATES
-    noise_s: float = 0.001
-    noise_velocity_m_s: float = 0.002
-
-    def __post_init__(self) -> None:
-        pts = tuple(tuple(float(v) for v in p) for p in self.operating_points)
-        if not pts or not all(len(p) == 3 and all(math.isfinite(v) for v in p) for p in pts):
-            raise ValueError(f"invalid operating_points = {self.operating_points!r}: give (f_ex, a_ex, s0) triples")
-        object.__setattr__(self, "operating_points", pts)
-        if not (isinstance(self.duration_s, (int, float)) and math.isfinite(self.duration_s) and self.duration_s > 0):
-            raise ValueError(f"invalid duration_s = {self.duration_s!r}: must be a finite number > 0")
-        cands = tuple(self.candidates)
-        bad = [c for c in cands if c not in EFFECTS or EFFECTS[c].level != "slider"]
-        if bad or not cands:
-            raise ValueError(f"invalid candidate {bad[0] if bad else None!r}: give slider-level effects of "
-                             f"{', '.join(SLIDER_CANDIDATES)}")
-        object.__setattr__(self, "candidates", cands)
-
-    def to_dict(self) -> Dict[str, Any]:
-        return dict(operating_points=[list(p) for p in self.operating_points], duration_s=self.duration_s,
-                    candidates=list(self.candidates), noise_s=self.noise_s, noise_velocity_m_s=self.noise_velocity_m_s)
-
-
-@dataclass(frozen=True)
-class Case:
-    """One hidden case: the library effects of the truth by name (in the units discover reports),
-    the changes outside the library (parameter fields), the noise seed and the truth runs' s0
-    offset."""
-
-    index: int
-    kind: str
-    effects: Dict[str, float] = field(default_factory=dict)
-    outside: Dict[str, float] = field(default_factory=dict)
-    outside_kind: str = ""
-    noise_seed: int = 0
-    s0_offset: float = 0.0
-
-    def label(self) -> str:
-        parts = [f"{k} {v:.5g}" for k, v in self.effects.items()]
-        parts += [f"{self.outside_kind}: {k} {v:.5g}" for k, v in self.outside.items()]
-        return ", ".join(parts) or "nothing hidden"
-
-
-# --- drawing ---------------------------------------------------------------------------------------
-
-
-def threshold(name: str, base: Parameters) -> float:
-    """The relevance threshold of effect ``name`` at ``base`` in the units of its value."""
-    e = EFFECTS[name]
-    if e.relevance_kind == "rel":
-        return e.relevance * abs(e.baseline_value(base))
-    if e.relevance_kind == "abs":
-        return e.relevance
-    raise ValueError(f"{name}: a compliance effect has no slider-level size")
-
-
-def _search_range(name: str, base: Parameters) -> Tuple[float, float]:
-    e = EFFECTS[name]
-    lo, hi = e.search if all(math.isfinite(v) for v in e.search) else (e.lower, e.upper)
-    a, b = e.value(lo, base), e.value(hi, base)
-    return min(a, b), max(a, b)
-
-
-def draw_size(name: str, rng: np.random.Generator, base: Parameters) -> float:
-    """A value of effect ``name``: the baseline moved by U(1.5, 6) relevance thresholds, either sign
-    (a sign whose value leaves the effect's search range is replaced by the other)."""
-    e = EFFECTS[name]
-    b = e.baseline_value(base)
-    step = rng.uniform(*SIZE_RANGE) * threshold(name, base)
-    sign = 1.0 if rng.random() < 0.5 else -1.0
-    lo, hi = _search_range(name, base)
-    for s in (sign, -sign):
-        v = b + s * step
-        if lo <= v <= hi and e.lower <= e.variable(v, base) <= e.upper:
-            return float(v)
-    raise ValueError(f"{name}: no value {step:.3g} from the baseline lies in its search range")
-
-
-def _draw_outside(rng: np.random.Generator, base: Parameters) -> Tuple[str, Dict[str, float]]:
-    o = OUTSIDE[list(OUTSIDE)[int(rng.integers(len(OUTSIDE)))]]
-    x = rng.uniform(*o.factor)
-    if o.absolute:
-        return o.name, {o.field: float(x)}
-    f = x if (not o.both or rng.random() < 0.5) else 1.0 / x
-    return o.name, {o.field: float(getattr(base, o.field) * f)}
-
-
-def draw_cases(seed: int, counts: Optional[Dict[str, int]] = None, *, plan: Optional[Plan] = None,
-               baseline: Optional[Parameters] = None) -> List[Case]:
-    """The cases of a benchmark: ``counts`` per kind (:data:`DEFAULT_COUNTS`) in an order shuffled
-    by ``seed``; case i draws its truth, noise seed and start offset from (seed, i) alone, so the
-    first cases of a larger benchmark are those of a smaller one with the same order."""
-    plan = plan or Plan()
-    base = baseline or Parameters()
-    counts = dict(DEFAULT_COUNTS if counts is None else counts)
-    bad = [k for k in counts if k not in KINDS]
-    if bad:
-        raise ValueError(f"unknown case kind {bad[0]!r}: known are {', '.join(KINDS)}")
-    if any(not isinstance(n, int) or n < 0 for n in counts.values()):
-        raise ValueError(f"invalid counts = {counts!r}: give integers >= 0")
-    kinds = [k for k in KINDS for _ in range(counts.get(k, 0))]
-    np.random.default_rng(seed).shuffle(kinds)
-    physical = [c for c in plan.candidates if not EFFECTS[c].chain]
-    chain = [c for c in plan.candidates if EFFECTS[c].chain]
-    if any(k in ("single", "pair") for k in kinds) and len(plan.candidates) < (2 if "pair" in kinds else 1):
-        raise ValueError("the plan has too few candidates for the cases asked")
-    if "chain+physics" in kinds and not (physical and chain):
-        raise ValueError("chain+physics cases need a physical and a measurement-chain candidate in the plan")
-    cases = []
-    for i, kind in enumerate(kinds):
-        rng = np.random.default_rng([seed, i])
-        effects: Dict[str, float] = {}
-        outside: Dict[str, float] = {}
-        okind = ""
-        if kind == "single":
-            names = [plan.candidates[int(rng.integers(len(plan.candidates)))]]
-        elif kind == "pair":
-            names = [plan.candidates[int(j)] for j in rng.choice(len(plan.candidates), 2, replace=False)]
-        elif kind == "chain+physics":
-            names = [chain[int(rng.integers(len(chain)))], physical[int(rng.integers(len(physical)))]]
-        else:
-            names = []
-        for n in names:
-            effects[n] = draw_size(n, rng, base)
-        if kind == "outside":
-            okind, outside = _draw_outside(rng, base)
-        offset = rng.uniform(*S0_OFFSET_RANGE) * (1.0 if rng.random() < 0.5 else -1.0)
-        cases.append(Case(i, kind, effects, outside, okind, int(rng.integers(2 ** 31)), float(offset)))
-    return cases
-
-
-# --- one case --------------------------------------------------------------------------------------
-
-
-def truth_model(case: Case, baseline: Optional[Parameters] = None):
-    """The truth of ``case`` as a :class:`.chain.Model`: the baseline with the outside changes, the
-    library effects realised on it as discover realises its candidates."""
-    from .chain import realise_model
-
-    base = baseline or Parameters()
-    p = Parameters(**{**base.to_dict(), **case.outside}) if case.outside else base
-    return realise_model(p, dict(case.effects))
-
-
-def synthesize_case(case: Case, plan: Plan, out_dir: PathLike, *, points=None, noise_seed: Optional[int] = None,
-                    s0_offset: Optional[float] = None, baseline: Optional[Parameters] = None) -> List[Path]:
-    """The measured files of ``case`` at the plan's points (or ``points``) in ``out_dir``."""
-    from .synthesize import synthesize_slider_runs
-
-    m = truth_model(case, baseline)
-    return synthesize_slider_runs(m.params, operating_points=list(points or plan.operating_points),
-                                  duration_s=plan.duration_s, out_dir=out_dir, noise_s=plan.noise_s,
-                                  noise_velocity_m_s=plan.noise_velocity_m_s,
-                                  seed=case.noise_seed if noise_seed is None else noise_seed,
-                                  s0_offset=case.s0_offset if s0_offset is None else s0_offset,
-                                  chain=dict(m.chain) or None)
+__all__ = ["BenchmarkResult", "CASES_FILE", "CLEARLY_BETTER", "Case", "DEFAULT_COUNTS", "KINDS", "OUTSIDE", "Outside",
+           "PAPER_POINTS", "Plan", "S0_OFFSET_RANGE", "SETTINGS_FILE", "SIZE_RANGE", "SLIDER_CANDIDATES", "case_task",
+           "detectability", "draw_cases", "draw_size", "final_score", "judge_fingerprint", "run_benchmark", "run_case",
+           "score_case", "summarise", "summary_markdown", "synthesize_case", "threshold", "truth_fit", "truth_model"]
 
 
 def judge_fingerprint() -> str:
-    """A digest of the code that judges a case: the discover package's sources but this module (a
+    """A digest of the code that judges a case: the discover package's sources but the benchmark's (a
     row made by another judge is judged again when a benchmark resumes, from its kept runs)."""
     import hashlib
 
     root = Path(__file__).resolve().parent
     h = hashlib.sha1()
     for f in sorted(root.rglob("*.py")):
-        if f.name != "benchmark.py":
+        if f.name not in ("benchmark.py", "cases.py", "scores.py"):
             h.update(str(f.relative_to(root)).encode())
             h.update(f.read_bytes())
     return h.hexdigest()[:16]
@@ -310,44 +100,6 @@ def _answer(d: Any) -> Dict[str, Any]:
                 chi2_before=float(d.chi2_before))
 
 
-def score_case(case: Case, answer: Dict[str, Any]) -> Dict[str, Any]:
-    """The score of one answer (docs/model.md §9.2): ``right``, the ``outcome`` in words, and per
-    named truth whether its stated interval holds it (``covered``).
-
-    Right: nothing hidden → "none"; library effects → "named", exactly the truth's effects, each
-    truth inside its stated interval; outside the library → "unexplained" (a stand-in named is
-    wrong, a confounded group of stand-ins is counted apart)."""
-    v, named = answer["verdict"], answer["named"]
-    covered = {e: bool(named[e]["interval"][0] <= x <= named[e]["interval"][1])
-               for e, x in case.effects.items() if e in named}
-    if case.kind == "nothing":
-        right = v == "none"
-        outcome = "right" if right else ("false alarm: " + ", ".join(named) if named else f"false alarm ({v})")
-    elif case.kind == "outside":
-        right = v == "unexplained"
-        outcome = ("right" if right else "stand-in named: " + ", ".join(named) if v == "named" else
-                   "confounded stand-ins: " + ", ".join(answer["group"]) if v == "confounded" else "not seen (none)")
-    else:
-        same = set(named) == set(case.effects)
-        right = v == "named" and same and all(covered.values())
-        if right:
-            outcome = "right"
-        elif v == "named" and same:
-            outcome = "interval misses the truth: " + ", ".join(e for e, ok in covered.items() if not ok)
-        elif v == "named":
-            wrong = sorted(set(named) - set(case.effects))
-            missed = sorted(set(case.effects) - set(named))
-            outcome = "named " + ", ".join(named) + (f" (wrong: {', '.join(wrong)})" if wrong else "") + \
-                      (f" (missed: {', '.join(missed)})" if missed else "")
-        elif v == "confounded":
-            outcome = "confounded: " + ", ".join(answer["group"])
-        elif v == "unexplained":
-            outcome = "unexplained" + (f" (best: {', '.join(answer['best'])})" if answer["best"] else "")
-        else:
-            outcome = "missed (none)"
-    return dict(right=bool(right), outcome=outcome, covered=covered)
-
-
 def run_case(case: Case, plan: Plan, *, runs_file: Any = None, advice: bool = True, progress: Any = False,
              baseline: Optional[Parameters] = None, threads: Optional[int] = None) -> Dict[str, Any]:
     """Synthesise ``case``'s runs, run discover on them, score the answer; where the answer is
@@ -388,11 +140,6 @@ def run_case(case: Case, plan: Plan, *, runs_file: Any = None, advice: bool = Tr
     row["cpu_s"] = time.process_time() - c0
     row["wall_s"] = time.perf_counter() - t0
     return row
-
-
-def final_score(row: Dict[str, Any]) -> Dict[str, Any]:
-    """A row's score after at most one advised run (its first score where no run was advised)."""
-    return row.get("advised", {}).get("score", row["score"])
 
 
 # --- many cases --------------------------------------------------------------------------------------
@@ -527,112 +274,6 @@ def _run_on_cluster(cases: Sequence[Case], plan: Plan, scheduler: Any, scheduler
     finally:
         if own:
             _dask.close_client(client)
-
-
-def _rate(k: int, n: int) -> Dict[str, Any]:
-    """k of n with the binomial standard error."""
-    p = k / n if n else math.nan
-    return dict(right=k, of=n, rate=p, stderr=math.sqrt(p * (1 - p) / n) if n else math.nan)
-
-
-def summarise(rows: Sequence[Dict[str, Any]]) -> Dict[str, Any]:
-    """The benchmark's figures (docs/model.md §9.2): per kind the share right on the first answer
-    and after at most one advised run (with binomial errors); coverage, the share of named truths
-    inside their stated 95 % intervals; false alarms, effects named on nothing-hidden data;
-    confounded groups of stand-ins for outside cases; CPU seconds per case; the confusion table
-    (what was named for what)."""
-    by_kind: Dict[str, Any] = {}
-    for kind in KINDS:
-        rs = [r for r in rows if r["kind"] == kind]
-        if rs:
-            by_kind[kind] = dict(first=_rate(sum(r["score"]["right"] for r in rs), len(rs)),
-                                 after_advice=_rate(sum(final_score(r)["right"] for r in rs), len(rs)))
-    cov = [ok for r in rows for ok in final_score(r)["covered"].values()]
-    nothing = [r for r in rows if r["kind"] == "nothing"]
-    false_alarms = sum(len(r["answer"]["named"]) for r in nothing)
-    confusion: Dict[str, Dict[str, int]] = {}
-    for r in rows:
-        truth = r["outside_kind"] and f"outside: {r['outside_kind']}" or (" + ".join(sorted(r["truth"])) or "nothing")
-        ans = r.get("advised", {}).get("answer", r["answer"])
-        got = (" + ".join(sorted(ans["named"])) if ans["verdict"] == "named" else
-               f"confounded: {' + '.join(sorted(ans['group']))}" if ans["verdict"] == "confounded" else ans["verdict"])
-        confusion.setdefault(truth, {}).setdefault(got, 0)
-        confusion[truth][got] += 1
-    # A wrong final answer is discover's miss where the truth fits its data clearly better (by more
-    # than the selection's price of a parameter, about 11 for fourteen candidates), else the data
-    # cannot tell the answer from the truth (what the plan resolves: detectability).
-    missed, cannot_tell = [], []
-    for r in rows:
-        s, tf = final_score(r), r.get("advised", {}).get("truth_fit", r.get("truth_fit"))
-        a = r.get("advised", {}).get("answer", r["answer"])
-        if s["right"] or not tf or not math.isfinite(tf.get("chi2", math.nan)):
-            continue
-        chi2_answer = a["chi2_after"] if a["verdict"] == "named" else a["gap_before"] ** 2 * a["n"]
-        (missed if chi2_answer - tf["chi2"] > CLEARLY_BETTER else cannot_tell).append(int(r["index"]))
-    cpu = [float(r["cpu_s"]) for r in rows]
-    return dict(cases=len(rows), by_kind=by_kind,
-                coverage=dict(inside=sum(cov), of=len(cov), rate=(sum(cov) / len(cov)) if cov else math.nan),
-                false_alarms=dict(effects_named=false_alarms, cases=len(nothing),
-                                  cases_with_alarm=sum(bool(r["answer"]["named"]) or r["answer"]["verdict"] != "none"
-                                                       for r in nothing)),
-                confounded_stand_ins=sum(r["kind"] == "outside" and r["answer"]["verdict"] == "confounded" for r in rows),
-                advised_runs=sum("advised" in r for r in rows),
-                wrong_where_the_truth_fits_better=missed, wrong_where_the_data_cannot_tell=cannot_tell,
-                cpu_s=dict(median=float(np.median(cpu)) if cpu else math.nan, total=float(sum(cpu))),
-                confusion=confusion)
-
-
-def _pct(d: Dict[str, Any]) -> str:
-    if not d["of"]:
-        return "—"
-    return f"{d['right']}/{d['of']} ({100 * d['rate']:.0f} % ± {100 * d['stderr']:.0f})"
-
-
-def summary_markdown(summary: Dict[str, Any], rows: Sequence[Dict[str, Any]], *, seed: Any = None,
-                     plan: Optional[Plan] = None) -> str:
-    """The summary as Markdown: the figures, then one line a case."""
-    lines = ["# Discover benchmark", ""]
-    if plan is not None:
-        pts = "; ".join(f"{f:g} Hz, {a:g} m/s², s0 {s:g}" for f, a, s in plan.operating_points)
-        lines += [f"Seed {seed}; plan: {pts}, {plan.duration_s:g} s each; {len(plan.candidates)} candidates. "
-                  "Rules and scores: docs/model.md §9.2.", ""]
-    lines += ["| kind | right (first answer) | right (after at most one advised run) |", "|---|---|---|"]
-    for kind, d in summary["by_kind"].items():
-        lines.append(f"| {kind} | {_pct(d['first'])} | {_pct(d['after_advice'])} |")
-    c = summary["coverage"]
-    fa = summary["false_alarms"]
-    lines += ["",
-              f"- coverage of the stated 95 % intervals: {c['inside']}/{c['of']} named truths inside"
-              + (f" ({100 * c['rate']:.0f} %)" if c["of"] else ""),
-              f"- false alarms on nothing-hidden data: {fa['effects_named']} effects named in {fa['cases']} cases "
-              f"({fa['cases_with_alarm']} cases not answered 'none')",
-              f"- outside the library answered by a confounded group of stand-ins: {summary['confounded_stand_ins']}",
-              f"- advised runs taken: {summary['advised_runs']}",
-              f"- wrong final answers where the truth fits its data better by more than {CLEARLY_BETTER:g} in χ² "
-              f"(discover's misses): cases {summary.get('wrong_where_the_truth_fits_better', [])}; where it does not "
-              f"(the data cannot tell): cases {summary.get('wrong_where_the_data_cannot_tell', [])}",
-              f"- CPU per case: median {summary['cpu_s']['median']:.0f} s, total {summary['cpu_s']['total']:.0f} s",
-              "", "## Confusion (truth → final answer)", "", "| truth | answer | cases |", "|---|---|---|"]
-    for truth, got in sorted(summary["confusion"].items()):
-        for g, n in sorted(got.items()):
-            lines.append(f"| {truth} | {g} | {n} |")
-    lines += ["", "## Cases", "", "| # | kind | truth | first answer | after advice | CPU s |", "|---|---|---|---|---|---|"]
-    for r in sorted(rows, key=lambda r: r["index"]):
-        adv = r.get("advised")
-        lines.append(f"| {r['index']} | {r['kind']} | {r['label']} | {_answer_text(r['answer'])}: "
-                     f"{'**right**' if r['score']['right'] else r['score']['outcome']} | "
-                     + (f"{_answer_text(adv['answer'])}: {'**right**' if adv['score']['right'] else adv['score']['outcome']}"
-                        if adv else "—") + f" | {r['cpu_s']:.0f} |")
-    return "\n".join(lines) + "\n"
-
-
-def _answer_text(a: Dict[str, Any]) -> str:
-    if a["verdict"] == "named":
-        return "named " + "; ".join(f"{e} {v['value']:.5g} [{v['interval'][0]:.5g}, {v['interval'][1]:.5g}]"
-                                    for e, v in a["named"].items())
-    if a["verdict"] == "confounded":
-        return "confounded " + ", ".join(a["group"])
-    return a["verdict"]
 
 
 # --- detectability ---------------------------------------------------------------------------------
