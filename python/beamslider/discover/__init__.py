@@ -48,7 +48,7 @@ Gauss–Newton on ensemble means, each step confirmed by runs); with many candid
 screened and the pairs chosen by the linearised model (docs/model.md §9.1, "Sets of effects", "Cost").
 
 The package is split by step: :mod:`.features` (1), :mod:`.effects` and :mod:`.chain` (2),
-:mod:`.models` (the model side of the features), :mod:`.workflow` (:func:`discover`), the search
+:mod:`.models` and :mod:`.surrogate` (the model side of the features), :mod:`.workflow` (:func:`discover`), the search
 :mod:`.search` with :mod:`.fitting`, :mod:`.refine` and :mod:`.spread`, the statistics :mod:`.stats`,
 the rule :mod:`.rule` with :mod:`.confounding` and :mod:`.advice` (3), the result types
 :mod:`.result` and :mod:`.report` (4), :mod:`.synthesize` (5), :mod:`.separability`
@@ -63,7 +63,8 @@ from __future__ import annotations
 from .features import DESCRIPTIONS, enma_features, Feature, FLOORS, slider_features
 from .effects import CHAIN_EFFECTS, realise_effects, Effect, EFFECTS
 from .chain import Model, realise_model
-from .models import beam_surrogate, measured_slider_features, model_slider_features, OperatingPoint, simulated_enma_features
+from .models import measured_slider_features, model_slider_features, OperatingPoint
+from .surrogate import beam_surrogate, simulated_enma_features
 from .options import DiscoverOptions
 from .result import Because, CandidateFit, Discovery, GAP_MEASURE, Kind, Verdict
 from .stats import SIGNIFICANCE

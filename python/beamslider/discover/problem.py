@@ -17,15 +17,15 @@ from .chain import Model
 from .effects import EFFECTS, Effect, realise_effects
 from .features import Feature, enma_features
 from .fitting import EnsembleMany, ModelMany, fit_candidate, profile_fit
-from .models import (ENSEMBLE_S0_SHIFTS, Ensemble, Modes, RunCache, batch_slider_features,
-                     beam_surrogate, data_modes, ensemble_slider_features, levels_for, measured_slider_features,
-                     simulated_enma_features, slider_paths, unreached_mode_features)
+from .models import (ENSEMBLE_S0_SHIFTS, Ensemble, Modes, RunCache, batch_slider_features, data_modes,
+                     ensemble_slider_features, measured_slider_features, slider_paths, unreached_mode_features)
 from .options import DiscoverOptions
 from .refine import step_chi2
 from .result import After, CandidateFit
 from .rule import best_single, judge, no_set_can_win, select
 from .runstore import RunStore
 from .separability import predict_singles, rank_pairs, slider_changes, slider_sensitivities
+from .surrogate import beam_surrogate, levels_for, simulated_enma_features
 from .stats import baseline_test, excess, gap_of, lrt_threshold, missing_z, sigma
 
 
