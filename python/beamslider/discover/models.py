@@ -111,6 +111,12 @@ def _run_key(m: Model, op: OperatingPoint, shift: float) -> Tuple[Any, ...]:
     return (_params_key(m.params), op.tag, op.f_ex, op.a_ex * excitation_factor(m), op.s0 + shift, op.duration_s)
 
 
+RUN_BATCH: ContextVar[Optional[Callable[..., List[Dict[str, Any]]]]] = ContextVar("RUN_BATCH", default=None)
+"""The runner of :func:`batch_slider_features`'s jobs: None, the core's parallel runner on this
+machine (``_core.run_free_slider_batch``); set, a runner with its signature that returns the same
+results in the jobs' order, e.g. one that makes them as tasks of a Dask cluster (docs/cluster.md).
+The runs are deterministic, so the runner does not change them."""
+
 RUN_PROGRESS: ContextVar[Optional[Callable[[int], None]]] = ContextVar("RUN_PROGRESS", default=None)
 """Called with the number of runs just made by :func:`batch_slider_features` when it is given no
 ``on_run`` of its own (set by the discover's fits for their progress)."""
@@ -142,9 +148,9 @@ def batch_slider_features(params_list: Sequence[Union[Parameters, Model]], ops: 
             row.append(key)
         keys.append(row)
     if jobs:
-        res = _core.run_free_slider_batch(jobs, record_every=RUN_RECORD_EVERY, keep_every=RUN_KEEP_EVERY,
-                                          window_s=1.0, detrend_s=DISPLACEMENT_DETREND_S, threads=threads,
-                                          on_done=on_run or RUN_PROGRESS.get())
+        runner = RUN_BATCH.get() or _core.run_free_slider_batch
+        res = runner(jobs, record_every=RUN_RECORD_EVERY, keep_every=RUN_KEEP_EVERY, window_s=1.0,
+                     detrend_s=DISPLACEMENT_DETREND_S, threads=threads, on_done=on_run or RUN_PROGRESS.get())
         for key, r in zip(todo, res):
             known[key] = None if "error" in r else _features_of_run(r, key[1])
     out: List[Optional[Tuple[Dict[str, Feature], Dict[str, str]]]] = []
