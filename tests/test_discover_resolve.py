@@ -4,6 +4,7 @@ candidates that fit equally reported as a confounded group, and the advice."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -202,26 +203,46 @@ def test_an_interval_containing_the_baseline_is_not_resolved():
     assert unresolved_reasons(beam, p)
 
 
-def test_confounded_group_from_alike_feature_changes():
-    """Two single fits that fit equally and move the features alike form a group with the
-    combination they resolve; a third that moves them differently, or fits clearly worse, does not."""
+def test_confounded_group_of_singles_within_the_threshold():
+    """Single fits in full within the selection's threshold of the best form a group with the
+    combination they resolve, however they move the features (the cosines are reported); one that
+    fits clearly worse, one only screened or one fitted at a negligible change does not
+    (docs/model.md §9.1, "Confounded")."""
     p = bs.Parameters()
     before = {"a": 0.0, "b": 0.0, "c": 0.0}
     sig = {"a": 1.0, "b": 1.0, "c": 1.0}
     j0 = p.slider_inertia_kg_m2
     fits = [_fit("slider_inertia", 0.82 * j0, (0.8 * j0, 0.84 * j0), 12.0, dict(a=3.0, b=-2.0, c=1.0)),
             _fit("contact_spacing", 0.0115, (0.0113, 0.0117), 12.8, dict(a=2.9, b=-2.1, c=0.9)),
-            _fit("friction_coefficient", 0.25, (0.24, 0.26), 12.5, dict(a=-1.0, b=3.0, c=2.0)),
+            _fit("friction_coefficient", 0.25, (0.24, 0.26), 13.5, dict(a=-1.0, b=3.0, c=2.0)),
             _fit("com_offset", 0.005, (0.0048, 0.0052), 16.0, dict(a=3.0, b=-2.0, c=1.0))]
     reasons = {f.effects: [] for f in fits}
-    g = confounded_group(fits[0], fits, reasons, before, sig, p, 2.0)
+    g = confounded_group(fits[0], fits, reasons, before, sig, p, 1.0)
     assert g is not None and g["group"] == ["slider_inertia", "contact_spacing"]
     assert g["cos"]["contact_spacing"] > 0.95 and "contact_spacing_m" in g["combination"]
-    assert confounded_group(fits[2], fits, reasons, before, sig, p, 2.0) is None
+    g = confounded_group(fits[0], fits, reasons, before, sig, p, 2.0)   # moving the features otherwise
+    assert g["group"] == ["slider_inertia", "contact_spacing", "friction_coefficient"]
+    assert g["cos"]["friction_coefficient"] < 0.5
     assert confounded_group(fits[0], fits, reasons, before, sig, p, 5.0)["group"] == [
-        "slider_inertia", "contact_spacing", "com_offset"]
-    reasons[("contact_spacing",)] = ["not adequate"]
-    assert confounded_group(fits[0], fits, reasons, before, sig, p, 2.0) is None
+        "slider_inertia", "contact_spacing", "friction_coefficient", "com_offset"]
+    reasons[("contact_spacing",)] = [Reason(Why.NEGLIGIBLE, "negligible change", "contact_spacing")]
+    assert confounded_group(fits[0], fits, reasons, before, sig, p, 1.0) is None
+    screened = dataclasses.replace(fits[1], screened=True)
+    assert confounded_group(fits[0], [fits[0], screened], {f.effects: [] for f in fits}, before, sig, p, 1.0) is None
+
+
+def test_the_goodness_of_fit_bound():
+    """c·χ²₁₋α(share·(n − k)) (docs/model.md §9.1, "Goodness of fit"): a closed form, smaller with
+    each fitted parameter, infinite where the test is off; the independent implementation's stand-in
+    (gap 1.30 over 17 features) lies beyond it, a right model's usual χ² (about 7) within."""
+    from scipy.stats import chi2
+    from beamslider.discover.stats import gof_bound
+    o = dc.DiscoverOptions()
+    b = gof_bound(17, 1, o.gof_scale, o.gof_dof_share, 0.01)
+    assert b == pytest.approx(o.gof_scale * chi2.ppf(0.99, o.gof_dof_share * 16))
+    assert gof_bound(17, 2, o.gof_scale, o.gof_dof_share, 0.01) < b < gof_bound(17, 0, o.gof_scale, o.gof_dof_share)
+    assert 7.0 < b < 1.30 ** 2 * 17
+    assert gof_bound(17, 1, math.inf, 0.3) == math.inf
 
 
 def _runs(tmp_path, truth, *, chain=None, points=((110, 10, 0.3), (124, 6, 0.3)), duration_s=15, seed=3, sub="data"):

@@ -4,6 +4,7 @@ baseline, and two effects hidden together named together."""
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import math
 
@@ -18,10 +19,15 @@ from beamslider.discover.stats import interval_z
 from beamslider.discover.refine import gauss_newton
 from beamslider.discover.stats import interval_of
 from beamslider.discover.rule import unresolved_reasons
+from beamslider.discover.options import DEFAULT
 
 S0_OFFSET = 0.0015
 """The truth runs start off the s0 their files name (no "inverse crime", as tests/test_discover.py)."""
 
+
+
+LEADER_ALONE = dataclasses.replace(DEFAULT, tier_least=1)
+"""The tier as the strategy cases below were written: the leader alone where no rival is predicted near."""
 
 
 class FakeProblem:
@@ -503,6 +509,15 @@ def test_the_tier_fits_the_best_predicted_and_falls_back_to_the_full_search(monk
     fitted.clear()
     fits, ok = tiered_singles(cands, pred, lambda e: fitted.append(e.name) or inadequate_friction(e.name), 10)
     assert fitted == ["friction_coefficient", "natural_frequency_detuning"] and ok is True
+    # At least ``least`` fitted in full, the leader's nearest predicted rival among them; and one
+    # that is adequate but does not fit as right models do (``good``) does not stop the tier.
+    fitted.clear()
+    fits, ok = tiered_singles(cands, pred, lambda e: fitted.append(e.name) or fake(e.name), 10, least=2)
+    assert fitted == ["friction_coefficient", "natural_frequency_detuning"] and ok is True
+    fitted.clear()
+    fits, ok = tiered_singles(cands, pred, lambda e: fitted.append(e.name) or fake(e.name), 10,
+                              good=lambda f: f.chi2 <= 3.0)
+    assert fitted == names[:2] + ["tilt", "clearance"] and ok is True
     # More candidates predicted near than may be fitted in full: not complete.
     pred = {n: (5.0 + i, 0.0) for i, n in enumerate(names)}
     fitted.clear()
@@ -522,14 +537,14 @@ def test_the_tier_fits_the_best_predicted_and_falls_back_to_the_full_search(monk
     for settled in (True, False):
         calls.clear()
         fits = tiered.search(FakeProblem(fake_fit, cands, done=lambda s: settled, pred=pred, guide=lambda: []),
-                             cands, DEFAULT)
+                             cands, LEADER_ALONE)
         coarse = [c for c in calls if c[1] == DEFAULT.screen_refine]
         assert calls[0] == (("friction_coefficient",), 2)
         assert (coarse == []) if settled else (len(coarse) == len(names))
         assert len([f for f in fits if f.linearised]) == (len(names) - 1 if settled else 0)
     # At most single effects (max_effects 1): a complete tier settles, no set could be fitted.
     calls.clear()
-    tiered.search(FakeProblem(fake_fit, cands, max_effects=1, pred=pred), cands, DEFAULT)
+    tiered.search(FakeProblem(fake_fit, cands, max_effects=1, pred=pred), cands, LEADER_ALONE)
     assert not any(r == 0 for _, r in calls)
 
 
@@ -574,7 +589,7 @@ def test_the_full_search_keeps_a_fit_the_tier_made_in_full(monkeypatch):
                  dict(friction_coefficient=(4.5, 0.0), natural_frequency_detuning=(5.0, 0.0), tilt=(6.0, 0.0),
                       clearance=(7.0, 0.0), restitution=(90.0, 0.0))):
         calls.clear()
-        fits = tiered.search(FakeProblem(fit, cands, done=lambda s: True, pred=pred), cands, DEFAULT)
+        fits = tiered.search(FakeProblem(fit, cands, done=lambda s: True, pred=pred), cands, LEADER_ALONE)
         by = {f.effects[0]: f for f in fits}
         assert ("clearance", DEFAULT.screen_refine) in calls  # the full search's coarse scans ran
         assert not by["friction_coefficient"].screened and by["friction_coefficient"].chi2 == 4.0
@@ -606,7 +621,7 @@ def test_a_fourth_tier_fit_leaves_the_full_search_as_a_tier_of_three_would(monke
     calls = []
     fit = _coarse_or_full(coarse, full, calls)
 
-    def run(options=DEFAULT):
+    def run(options=LEADER_ALONE):
         calls.clear()
         fits = tiered.search(FakeProblem(fit, cands, max_effects=1, done=lambda s: True, pred=pred, options=options),
                              cands, options)
@@ -617,7 +632,7 @@ def test_a_fourth_tier_fit_leaves_the_full_search_as_a_tier_of_three_would(monke
     by = {f[0][0]: f for f in fits4}
     assert by["clearance"][1:] == (200.0, True)   # its coarse scan, not the tier's fit (3.0)
     assert all(by[n][1:] == (full[n], False) for n in names[:3])
-    fits3, calls3 = run(dataclasses.replace(DEFAULT, tier_keep=3))
+    fits3, calls3 = run(dataclasses.replace(LEADER_ALONE, tier_keep=3))
     assert fits3 == fits4 and ("clearance", 2) not in calls3
 
 
@@ -670,7 +685,7 @@ def test_the_tier_settles_a_named_single_only_if_no_pair_with_it_is_predicted_to
         calls.clear()
         problem = FakeProblem(fake_fit, cands, n=13, pred=pred, named=lambda s: best, step=step(dict(tilt=gain)),
                               guide=lambda: [(("friction_coefficient", "tilt"), 0.0)])  # a pair predicted to win
-        tiered.search(problem, cands, dataclasses.replace(DEFAULT, screen_from=2))
+        tiered.search(problem, cands, dataclasses.replace(LEADER_ALONE, screen_from=2, gof_scale=math.inf))
         assert (calls == [(("friction_coefficient",), 2)]) == settled, calls  # else the full search
 
 

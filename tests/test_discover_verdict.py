@@ -94,6 +94,23 @@ def test_unexplained_outside_the_candidates(tmp_path):
     assert "the candidates do not establish the change" in _report(d, tmp_path)
 
 
+def test_unexplained_poor_fit(tmp_path):
+    f = _fit(["natural_frequency_detuning"], 12.0, {"natural_frequency_detuning": 1.0111})
+    poor = dict(effects=["natural_frequency_detuning"], values={"natural_frequency_detuning": 1.0111},
+                stderrs={"natural_frequency_detuning": 0.0023}, chi2=28.7, gap=1.30, bound=21.8, gap_bound=1.13)
+    v = Verdict(Kind.UNEXPLAINED, Because.POOR_FIT, best_rejected=f, poor_fit=poor,
+                reasons={f.effects: [Reason(Why.POOR_FIT, "does not fit as right models do")]})
+    d = _discovery(v)
+    assert verdict_line(d) == ("unexplained discrepancy (gap 5) - best candidate natural_frequency_detuning "
+                               "(natural_frequency_factor = 1.0111 ± 0.0023) does not fit as right models do: its "
+                               "full simulation leaves gap 1.3 > 1.13")
+    assert gap_title(d) == "unexplained: nothing named (the best set does not fit as right models do)"
+    md = _report(d, tmp_path)
+    assert "the full simulation of the model with it leaves chi2 = 28.7 (gap 1.3)" in md
+    j = json.loads((tmp_path / "report.json").read_text())
+    assert j["judgment"]["kind"] == "unexplained" and j["judgment"]["poor_fit"]["bound"] == 21.8
+
+
 def test_unexplained_no_set_passes(tmp_path):
     f = _fit(["clearance"], 40.0)
     v = Verdict(Kind.UNEXPLAINED, Because.NO_SET_PASSES, best_rejected=f,

@@ -34,6 +34,7 @@ from .cases import (DEFAULT_COUNTS, PathLike, KINDS, OUTSIDE, PAPER_POINTS, S0_O
                     Outside, Plan, draw_cases, draw_size, synthesize_case, threshold, truth_model)
 from .effects import EFFECTS
 from .scores import CLEARLY_BETTER, final_score, score_case, summarise, summary_markdown
+from .report import verdict_line
 
 __all__ = ["BenchmarkResult", "CASES_FILE", "CLEARLY_BETTER", "Case", "DEFAULT_COUNTS", "KINDS", "OUTSIDE", "Outside",
            "PAPER_POINTS", "Plan", "S0_OFFSET_RANGE", "SETTINGS_FILE", "SIZE_RANGE", "SLIDER_CANDIDATES", "case_task",
@@ -82,7 +83,10 @@ def _answer(d: Any) -> Dict[str, Any]:
     named = {e: dict(value=float(d.parameters[e]["value"]), stderr=float(d.parameters[e]["stderr"]),
                      interval=[float(v) for v in d.parameters[e]["interval"]]) for e in d.named_effects}
     group = list(d.confounded.get("group", [])) if d.verdict == "confounded" else []
+    v = getattr(d, "judgment", None)
     best = list(d.unresolved.get("effects", [])) if d.unresolved else []
+    if not best and v is not None and v.best_rejected is not None and d.verdict == "unexplained":
+        best = list(v.best_rejected.effects)
     if not best and d.verdict == "unexplained" and d.rejected:
         best = list(d.rejected[0].get("effects", []))
     advice = None
@@ -97,7 +101,19 @@ def _answer(d: Any) -> Dict[str, Any]:
                 advice=advice, n=n, chi2_after=float(d.gap_after) ** 2 * n,
                 gap_before=float(d.gap_before), gap_after=float(d.gap_after),
                 gap_excess_before=float(d.gap_excess_before), gap_excess_after=float(d.gap_excess_after),
-                chi2_before=float(d.chi2_before))
+                chi2_before=float(d.chi2_before), because=v.because.name if v is not None else "",
+                line=verdict_line(d) if v is not None else "", fits=_top_fits(d, v))
+
+
+def _top_fits(d: Any, v: Any, k: int = 6) -> List[Dict[str, Any]]:
+    # The best fits of the search with their reasons, to read a wrong answer by (not scored).
+    out = []
+    for f in sorted(getattr(d, "candidates", []), key=lambda f: f.chi2)[:k]:
+        why = [getattr(r, "kind", None) for r in (v.reasons.get(f.effects, []) if v is not None else [])]
+        out.append(dict(effects=list(f.effects), values={e: float(x) for e, x in f.values.items()},
+                        chi2=float(f.chi2), screened=bool(f.screened),
+                        why=[w.name for w in why if w is not None]))
+    return out
 
 
 def run_case(case: Case, plan: Plan, *, runs_file: Any = None, advice: bool = True, progress: Any = False,

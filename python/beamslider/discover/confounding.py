@@ -12,7 +12,7 @@ import numpy as np
 from ..params import Parameters
 from .effects import EFFECTS
 from .result import CandidateFit
-from .reasons import Reason, Reasons, Why
+from .reasons import Reason, Reasons, Why, kinds
 from .options import DEFAULT, DiscoverOptions
 from .stats import interval_of
 
@@ -34,25 +34,27 @@ def cosine(a: Dict[str, float], b: Dict[str, float]) -> Tuple[float, float, floa
 def confounded_group(best: CandidateFit, fits: Sequence[CandidateFit], reasons: Reasons,
                      before: Dict[str, float], sig: Dict[str, float], base: Parameters,
                      delta_chi2: float, options: DiscoverOptions = DEFAULT) -> Optional[Dict[str, Any]]:
-    """The candidates that fit as well as the single effect ``best`` — each passing the naming rule
-    alone, χ² within ``delta_chi2`` of it (the selection's likelihood-ratio threshold: the data do
-    not prefer one at the significance that named it) — because they move the features alike
-    (|cos θ| ≥ ``options.confound_cos`` between the fits' feature changes): then the data resolve one
-    combination of them, not which one. None if there is no such candidate."""
+    """The single candidates, fitted in full, that come within ``delta_chi2`` of the single effect
+    ``best`` (the selection's likelihood-ratio threshold: the data do not prefer ``best`` to them at
+    the significance that would name it), each by a relevant change (docs/model.md §9.1,
+    "Confounded"): then the data resolve what the group's fits have in common, not which of them
+    changed, and ``best`` is not named alone. A candidate only screened, or fitted at a negligible
+    change, is no such rival. The cosines between the fits' feature changes are reported (how alike
+    they move the features). None if there is no such candidate."""
     if len(best.effects) != 1:
         return None
     s0 = signature(best, before, sig)
     members = [best]
     cos: Dict[str, float] = {}
     for f in fits:
-        if len(f.effects) != 1 or f.effects == best.effects or reasons.get(f.effects):
+        if len(f.effects) != 1 or f.effects == best.effects or f.screened:
+            continue
+        if kinds(reasons.get(f.effects, [])) & {Why.NEGLIGIBLE, Why.SCREENED}:
             continue
         if f.chi2 - best.chi2 > delta_chi2:
             continue
-        c, _, _ = cosine(s0, signature(f, before, sig))
-        if abs(c) >= options.confound_cos:
-            members.append(f)
-            cos[f.effects[0]] = c
+        members.append(f)
+        cos[f.effects[0]] = cosine(s0, signature(f, before, sig))[0]
     if len(members) < 2:
         return None
     terms = []
@@ -65,10 +67,10 @@ def confounded_group(best: CandidateFit, fits: Sequence[CandidateFit], reasons: 
                 values={f.effects[0]: f.values[f.effects[0]] for f in members},
                 intervals={f.effects[0]: list(interval_of(f, f.effects[0], options.interval_level)) for f in members},
                 combination=" + ".join(terms) + " = 1",
-                explanation="each alone fits equally and moves the features alike (linearised: cos of the "
-                            "feature changes " + ", ".join(f"{best.effects[0]}/{k} {v:+.3f}" for k, v in cos.items())
-                            + "); the data resolve the combination, in which a change of any one of them "
-                              "by its fitted amount explains the data, not which of them changed")
+                explanation="each alone fits within the selection's threshold of the best (chi2 "
+                            + ", ".join(f"{f.effects[0]} {f.chi2:.3g}" for f in members) + f"; threshold {delta_chi2:.3g}; "
+                            "cos of the feature changes " + ", ".join(f"{best.effects[0]}/{k} {v:+.3f}" for k, v in cos.items())
+                            + "): the data do not tell which of them changed")
 
 
 def _rho2(v: np.ndarray, cols: List[np.ndarray]) -> Tuple[float, np.ndarray]:

@@ -32,9 +32,20 @@ class DiscoverOptions:
     mode_conditioning: bool = True
     """Slider level: the end-state features are compared only with model runs in the data's mode
     and the mode's rarity is a χ² term (§9; user guide "Modes"); False: one Gaussian over all runs."""
+    gof_scale: float = 1.38
+    """The goodness of fit of right models (§9.1, "Goodness of fit"): on data the baseline made
+    itself, its χ² over n features is distributed as c·χ²(ν), ν = ``gof_dof_share``·n (the features
+    are correlated and their uncertainties cautious); c and the share fitted by moments to 120
+    nothing-hidden cases of the default plan (scripts/repro/discover_null_calibration.py --seed 201
+    and --seed 202, 60 each: mean χ² 7.33, n 16–17). At the slider level the baseline fits only
+    with χ² ≤ c·χ²₁₋α(share·n), and a named set's full simulation must show χ² ≤
+    c·χ²₁₋α(share·(n − k)); inf: no such test (docs/validation/discover.md, "Judged at random")."""
+    gof_dof_share: float = 0.318
+    """The ν/n of :attr:`gof_scale`'s calibration (§9.1, "Goodness of fit")."""
     confound_cos: float = 0.95
-    """|cos θ| between two fits' feature changes from which they move the features alike: fitting
-    within the selection's threshold of each other, they are a confounded group (§9, "confounded")."""
+    """|cos θ| between two fits' feature changes from which they move the features alike: two
+    sets of effects fitting within the selection's threshold of each other and moving the features
+    alike are a confounded group (§9, "confounded"; single effects need not move them alike)."""
     confirm_singles: int = 2
     """Single effects fitted in full to confirm the linearised model: against a named set (a
     confounded group) and among the effects left out of the candidates (§9.1, "Outside the
@@ -59,6 +70,10 @@ class DiscoverOptions:
     """The tier: a candidate predicted, times the tier's scale, within this of the best fitted χ² is
     fitted in full; a fitted χ² this far above its prediction sends the answer to the full search
     (§9.1, "Cost")."""
+    tier_least: int = 2
+    """The tier: at least this many single candidates fitted in full, so that the leading one is
+    checked against its nearest predicted rival (§9.1, "Confounded"; friction was named as a
+    centre-of-mass offset where the tier fitted the offset alone) (§9.1, "Cost")."""
     tier_keep: int = 4
     """The tier: at most this many single candidates fitted in full before the answer goes to the
     full search (the natural frequencies × 1.03 hidden: the fourth, the contact spacing, settles it)
@@ -127,10 +142,12 @@ class DiscoverOptions:
         check("gap_ratio", isinstance(v, (int, float)) and 0 < v <= 1, "must be in (0, 1]")
         for name in ("mode_conditioning", "joint_refinement"):
             check(name, isinstance(getattr(self, name), bool), "must be True or False")
-        for name in ("confound_cos",):
+        check("gof_scale", isinstance(self.gof_scale, (int, float)) and not isinstance(self.gof_scale, bool)
+              and self.gof_scale > 0, "must be a number > 0 (inf: no goodness-of-fit test)")
+        for name in ("confound_cos", "gof_dof_share"):
             v = getattr(self, name)
             check(name, isinstance(v, (int, float)) and 0 < v <= 1, "must be in (0, 1]")
-        for name in ("confirm_singles", "screen_from", "rank_from", "screen_refine", "screen_keep", "tier_keep", "tier_shared",
+        for name in ("confirm_singles", "screen_from", "rank_from", "screen_refine", "screen_keep", "tier_least", "tier_keep", "tier_shared",
                      "fast_keep", "extending_pairs", "guided_pairs", "joint_sets", "gauss_newton_steps",
                      "refine_levels"):
             v = getattr(self, name)

@@ -24,6 +24,9 @@ class Why(str, Enum):
     NEGLIGIBLE_FITS_BETTER = "a negligible change fits better"
     """A negligible change (:func:`negligible_fits`) fits at least as well, each charged the
     selection's threshold per parameter (:func:`beaten_by_negligible`)."""
+    POOR_FIT = "does not fit as right models do"
+    """The full simulation of the set leaves a χ² above the goodness-of-fit bound
+    (:func:`.stats.gof_bound`) that right models keep below."""
     OUTSIDE_FITS_BETTER = "an effect not among the candidates fits better"
     """An effect of the library the user left out of the candidates fits clearly better
     (:func:`outside_fits_better`)."""

@@ -131,6 +131,13 @@ def verdict_line(d: Discovery) -> str:
         why = next((r for r in reasons if r.kind is Why.NOT_RESOLVED), reasons[-1]).removeprefix("not resolved: ")
         return (f"unexplained discrepancy (gap {d.gap_before:.3g}) - best candidate {' + '.join(u.effects)} "
                 f"({vals}), not resolved by these runs ({why})" + (f"; to resolve it, {adv}" if adv else ""))
+    if v.because is Because.POOR_FIT:
+        p = v.poor_fit
+        vals = ", ".join(f"{EFFECTS[e].field} = {fmt_value(p['values'][e])} ± {fmt_value(p['stderrs'][e])}"
+                         for e in p["effects"])
+        return (f"unexplained discrepancy (gap {d.gap_before:.3g}) - best candidate {' + '.join(p['effects'])} "
+                f"({vals}) does not fit as right models do: its full simulation leaves gap {p['gap']:.3g} > "
+                f"{p['gap_bound']:.3g}")
     if v.because is Because.OUTSIDE_CANDIDATES:
         c = v.group
         lead = "; " if v.advice.get("weak") else "; to separate them, "
@@ -178,6 +185,14 @@ def _markdown(d: Discovery, figs: Sequence[str]) -> str:
         lines.append(f"**Unexplained discrepancy** — {v.group['explanation']}: the candidates do not establish "
                      f"the change; nothing was added to the model. Resolved combination: "
                      f"{v.group['combination']}.")
+    elif v.because is Because.POOR_FIT:
+        p = v.poor_fit
+        lines.append(f"**Unexplained discrepancy** — the best candidate {' + '.join(f'`{e}`' for e in p['effects'])} "
+                     f"closes part of the gap, but the full simulation of the model with it leaves chi2 = "
+                     f"{p['chi2']:.3g} (gap {p['gap']:.3g}), more than right models leave on data they made "
+                     f"themselves (bound {p['bound']:.3g}, gap {p['gap_bound']:.3g}; docs/model.md §9.1, "
+                     f"\"Goodness of fit\"): something the candidates do not hold is missing; nothing was added "
+                     f"to the model.")
     elif v.kind is Kind.UNEXPLAINED:
         lines.append("**Unexplained discrepancy** — the baseline does not fit the data and no candidate effect "
                      "passes the naming rule; nothing was added to the model.")

@@ -68,6 +68,7 @@ class Because(str, Enum):
     OUTSIDE_CANDIDATES = "the best set fits as well as effects not among the candidates"
     NOT_RESOLVED = "the best relevant candidate is not resolved"
     NO_SET_PASSES = "no set passes the naming rule"
+    POOR_FIT = "the best set does not fit as right models do"
 
 
 @dataclass
@@ -106,6 +107,8 @@ class Verdict:
     """The separability tool's advice for the group or the unresolved candidate (empty: none)."""
     after: Optional[After] = None
     """The full simulation of the named set (``NAMED``)."""
+    poor_fit: Dict[str, Any] = field(default_factory=dict)
+    """``POOR_FIT``: the best set's full simulation, its χ², gap and the goodness-of-fit bound."""
     filler: str = ""
     """What a rejected set with no reason of its own says (a simpler or better set was named, or confounded)."""
 
@@ -123,7 +126,7 @@ class Verdict:
                     best_rejected=effects(self.best_rejected),
                     reasons=[dict(effects=list(k), kinds=[getattr(r.kind, "name", None) for r in v if hasattr(r, "kind")])
                              for k, v in self.reasons.items()],
-                    advice=self.advice.get("text"))
+                    advice=self.advice.get("text"), **({"poor_fit": self.poor_fit} if self.poor_fit else {}))
 
 
 @dataclass

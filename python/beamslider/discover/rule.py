@@ -7,6 +7,7 @@ and where nothing is named, "none" or "unexplained" (:func:`unnamed_verdict`) wi
 
 from __future__ import annotations
 
+import math
 from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple
 
 from ..params import Parameters
@@ -18,7 +19,7 @@ from .options import DEFAULT, DiscoverOptions
 from .progress import progress_bar
 from .reasons import Reason, Reasons, Why, kinds
 from .result import After, Because, CandidateFit, Kind, Verdict
-from .stats import chi2_quantile, excess, gap_of, interval_of, lrt_threshold, z_bound
+from .stats import chi2_quantile, excess, gap_of, gof_bound, interval_of, lrt_threshold, z_bound
 
 __all__ = ["Reason", "Reasons", "Why", "kinds", "decide", "judge", "select", "criterion"]
 
@@ -216,6 +217,7 @@ def decide(problem: Any, fits: List[CandidateFit]) -> Verdict:
     best, alts = select([f for f in fits if not reasons[f.effects]], problem.chi2_0, problem.n,
                         problem.baseline_fits, o.significance)
     group: Dict[str, Any] = {}
+    selected = best
     if best is not None and problem.measured is not None:  # 4: confounding
         group = _confounded(problem, best, fits, reasons) or {}
         if group:  # the data resolve a combination of the group, not which of them: nothing is named
@@ -226,15 +228,11 @@ def decide(problem: Any, fits: List[CandidateFit]) -> Verdict:
         if why is not None:
             reasons[best.effects] = reasons[best.effects] + [why]
             best, alts = None, []
-    after = None
-    if best is not None:  # 6: the full simulation of the updated model
-        after = _after(problem, best)
-        g = excess(gap_of(after.features, problem.meas, after.spread, problem.runs_base, problem.modes,
-                          after.counts)[1], problem.n - len(best.effects), problem.n)
-        if g > o.gap_ratio * problem.excess_before:  # the fit's gap was small enough, the simulation's is not
-            reasons[best.effects] = reasons[best.effects] + [Reason(
-                Why.SMALL_SHARE, f"small share of the gap beyond the noise in the full simulation of the updated "
-                                 f"model: {g:.3g} > {o.gap_ratio:g} x {problem.excess_before:.3g}")]
+    after, poor = None, {}
+    lead = best if best is not None else selected if group else None
+    if lead is not None:  # 6, 7: the full simulation of the updated model (of a confounded group's best)
+        after, poor = _simulated(problem, lead, reasons)
+        if after is None or group:
             best, alts, after = None, [], None
     v = Verdict(Kind.NONE, Because.BASELINE_FITS, best, alts, reasons, group, after=after,
                 negligible=sorted(negligible_fits(fits, reasons), key=lambda f: f.chi2),
@@ -244,19 +242,49 @@ def decide(problem: Any, fits: List[CandidateFit]) -> Verdict:
         pass
     elif best is not None:
         v.kind, v.because = Kind.NAMED, Because.NAMED
+    elif poor:  # the selected set does not fit as right models do: its gap is shown
+        v.kind, v.because, v.poor_fit = Kind.UNEXPLAINED, Because.POOR_FIT, poor
+        v.best_rejected = next(f for f in fits if list(f.effects) == poor["effects"])
     elif group and group.get("among_candidates", True):
         v.kind, v.because = Kind.CONFOUNDED, Because.CONFOUNDED
     else:
-        # 7: nothing named; also a named set that only effects outside the candidates mimic.
+        # 8: nothing named; also a named set that only effects outside the candidates mimic.
         kind, _, v.unresolved = unnamed_verdict(fits, reasons, problem.thr_m)
         v.kind = Kind(kind)
         v.because = (Because.NEGLIGIBLE_CHANGE if v.kind is Kind.NONE else Because.OUTSIDE_CANDIDATES if group
                      else Because.NOT_RESOLVED if v.unresolved is not None else Because.NO_SET_PASSES)
         v.best_rejected = _best_rejected(fits, reasons)
-    to_advise = group.get("group") or (list(v.unresolved.effects) if v.unresolved is not None else None)
+    to_advise = (group.get("group") if not poor else None) or (list(v.unresolved.effects) if v.unresolved is not None
+                                                                else None)
     if to_advise and problem.measured is not None and o.advice_grid:
         v.advice = _advice(problem, to_advise, group)
     return v
+
+
+def _simulated(problem: Any, best: CandidateFit, reasons: Reasons) -> Tuple[Optional[After], Dict[str, Any]]:
+    """The full simulation of the selected set and its two checks (docs/model.md §9, "Naming rule"
+    6 and 7): the share of the gap beyond the noise it leaves (``reasons`` gets a SMALL_SHARE reason:
+    (None, {})), and, at the slider level, its χ² against the goodness-of-fit bound of right models
+    (:func:`.stats.gof_bound`; ``reasons`` gets a POOR_FIT reason: (None, the set, its χ², gap and
+    bound)); (the simulation, {}) if it passes both."""
+    o = problem.options
+    after = _after(problem, best)
+    gap_a, chi2_a = gap_of(after.features, problem.meas, after.spread, problem.runs_base, problem.modes, after.counts)
+    g = excess(chi2_a, problem.n - len(best.effects), problem.n)
+    if g > o.gap_ratio * problem.excess_before:  # the fit's gap was small enough, the simulation's is not
+        reasons[best.effects] = reasons[best.effects] + [Reason(
+            Why.SMALL_SHARE, f"small share of the gap beyond the noise in the full simulation of the updated "
+                             f"model: {g:.3g} > {o.gap_ratio:g} x {problem.excess_before:.3g}")]
+        return None, {}
+    bound = gof_bound(problem.n, len(best.effects), o.gof_scale, o.gof_dof_share, o.significance)
+    if problem.level == "slider" and chi2_a > bound:
+        reasons[best.effects] = reasons[best.effects] + [Reason(
+            Why.POOR_FIT, f"does not fit as right models do: its full simulation leaves chi2 = {chi2_a:.3g} "
+                          f"(gap {gap_a:.3g}) > {bound:.3g}, the 99 % bound of the baseline's chi2 on data it made "
+                          f"itself")]
+        return None, dict(effects=list(best.effects), values=dict(best.values), stderrs=dict(best.stderrs),
+                          chi2=chi2_a, gap=gap_a, bound=bound, gap_bound=math.sqrt(bound / max(problem.n, 1)))
+    return after, {}
 
 
 def _confounded(problem: Any, best: CandidateFit, fits: List[CandidateFit], reasons: Reasons) -> Optional[Dict[str, Any]]:

@@ -118,6 +118,18 @@ def lrt_threshold(df: int, m: int, alpha: float = DEFAULT.significance) -> float
     return float(chi2.isf(alpha / max(m, 1), max(df, 1)))
 
 
+def gof_bound(n: int, k: int, scale: float = DEFAULT.gof_scale, share: float = DEFAULT.gof_dof_share,
+              alpha: float = DEFAULT.significance) -> float:
+    """The largest χ² over ``n`` features that the full simulation of a named set of ``k`` effects may
+    show: c·χ²₁₋α(share·(n − k)), the (1 − α) quantile of the baseline's χ² on data it made itself,
+    c·χ²(share·n), with k degrees of freedom fitted (docs/model.md §9.1, "Goodness of fit")."""
+    from scipy.stats import chi2
+
+    if math.isinf(scale):
+        return math.inf
+    return float(scale * chi2.ppf(1 - alpha, max(share * (n - k), 0.5)))
+
+
 def z_bound(n: int, alpha: float = DEFAULT.significance) -> float:
     """The largest |z| of one of ``n`` features an adequate baseline may show: the two-sided 99 %
     bound, Bonferroni-corrected for the n features (3.42 for 16)."""

@@ -14,6 +14,7 @@ from typing import Any, Callable, Dict, List, Sequence, Tuple
 from ..effects import Effect
 from ..options import DEFAULT, DiscoverOptions
 from ..result import CandidateFit
+from ..stats import gof_bound
 from . import full
 from .common import Fitter, fit_sets, pairs_gated, predicted_singles, singles_in_full
 
@@ -31,7 +32,8 @@ def search(problem: Any, candidates: Sequence[Effect], options: DiscoverOptions)
         fits, complete = tiered_singles(candidates, pred,
                                         (lambda e: lead.saw(fit((e,)))) if lead else (lambda e: fit((e,))),
                                         len(problem.meas), options.tier_keep,
-                                        options.tier_margin, options.significance)
+                                        options.tier_margin, options.significance, least=options.tier_least,
+                                        good=lambda f: fits_as_right_models(problem, f, options))
         if complete and (problem.max_effects < 2 or problem.no_set_can_win(fits) or pairs_gated(problem, fits)):
             fit.bar.update(len(candidates))
             return fits
@@ -45,11 +47,13 @@ def search(problem: Any, candidates: Sequence[Effect], options: DiscoverOptions)
 def tiered_singles(cands: Sequence[Effect], pred: Dict[str, Tuple[float, float]],
                    fit: Callable[[Effect], CandidateFit], n: int,
                    keep: int = DEFAULT.tier_keep, margin: float = DEFAULT.tier_margin,
-                   alpha: float = DEFAULT.significance) -> Tuple[List[CandidateFit], bool]:
+                   alpha: float = DEFAULT.significance, *, least: int = 1,
+                   good: Callable[[CandidateFit], bool] = lambda f: f.adequate) -> Tuple[List[CandidateFit], bool]:
     """The screening tier of the default search (docs/model.md §9.1, "Cost"): the best predicted
-    candidate fitted in full, then each next best predicted while its predicted χ², times
-    :func:`tier_scale`, is within ``margin`` of the best χ² fitted so far or no candidate
-    fitted so far is adequate, at most ``keep`` in full; the others kept as screened at their
+    candidate fitted in full, then each next best predicted while fewer than ``least`` are fitted,
+    its predicted χ², times :func:`tier_scale`, is within ``margin`` of the best χ² fitted so far,
+    or no candidate fitted so far fits as right models do (``good``: adequate, and at the slider
+    level within the goodness-of-fit bound, :func:`fits_as_right_models`), at most ``keep`` in full; the others kept as screened at their
     predicted χ² (:func:`predicted_singles`).
     Returns the fits, in the order of ``cands``, and whether the tier is complete: every candidate
     left unfitted is predicted, so scaled, beyond the margin, and no fitted χ² lies more than
@@ -60,8 +64,8 @@ def tiered_singles(cands: Sequence[Effect], pred: Dict[str, Tuple[float, float]]
     full: Dict[str, CandidateFit] = {}
     for e in order:
         best = min((f.chi2 for f in full.values()), default=math.inf)
-        if (full and pred[e.name][0] * tier_scale(pred, full, margin) > best + margin
-                and any(f.adequate for f in full.values())):
+        if (len(full) >= least and pred[e.name][0] * tier_scale(pred, full, margin) > best + margin
+                and any(good(f) for f in full.values())):
             break
         if len(full) == keep:
             return predicted_singles(cands, pred, lambda e: full[e.name], n, keep=set(full), alpha=alpha), False
@@ -69,6 +73,14 @@ def tiered_singles(cands: Sequence[Effect], pred: Dict[str, Tuple[float, float]]
     fits = predicted_singles(cands, pred, lambda e: full[e.name], n, keep=set(full), alpha=alpha)
     trusted = all(f.chi2 - pred[k][0] <= margin for k, f in full.items() if math.isfinite(f.chi2))
     return fits, trusted
+
+
+def fits_as_right_models(problem: Any, f: CandidateFit, o: DiscoverOptions = DEFAULT) -> bool:
+    """Whether a single fitted in full fits as right models do: adequate, and at the slider level
+    within the goodness-of-fit bound of right models (docs/model.md §9.1, "Goodness of fit")."""
+    if not f.adequate or getattr(problem, "level", None) != "slider":
+        return f.adequate
+    return f.chi2 <= gof_bound(len(problem.meas), len(f.effects), o.gof_scale, o.gof_dof_share, o.significance)
 
 
 def tier_scale(pred: Dict[str, Tuple[float, float]], full: Dict[str, CandidateFit],
