@@ -166,6 +166,19 @@ def test_a_benchmark_on_a_dask_cluster_gives_the_local_rows(tmp_path, cluster):
     assert json.loads((tmp_path / "dask" / "summary.json").read_text())["cases"] == 3
 
 
+def test_an_outside_change_the_runs_do_not_show_is_counted_apart():
+    """An outside case answered "none" because the baseline passes its test is not visible in the
+    plan's runs: listed apart, and the outside figure is also given over the visible ones."""
+    rows = [_row(0, "outside", {}, dict(_answer("none"), because="BASELINE_FITS"), False, {}, outside_kind="beam_damping"),
+            _row(1, "outside", {}, dict(_answer("none"), because="NEGLIGIBLE_CHANGE"), False, {}, outside_kind="beam_damping"),
+            _row(2, "outside", {}, _answer("unexplained"), True, {}, outside_kind="axial_stiffness")]
+    s = bm.summarise(rows)
+    assert s["outside_not_visible"] == [0]
+    assert s["by_kind"]["outside"]["after_advice"]["right"] == 1 and s["by_kind"]["outside"]["after_advice"]["of"] == 3
+    assert s["by_kind"]["outside"]["visible"]["right"] == 1 and s["by_kind"]["outside"]["visible"]["of"] == 2
+    assert "not visible in the plan's runs" in bm.summary_markdown(s, rows)
+
+
 def test_a_wrong_answer_is_discovers_miss_only_where_the_truth_fits_clearly_better():
     a = dict(_answer("named", {"com_offset": _named(0.0036, 0.0035, 0.0037)}), n=17, chi2_after=40.0, gap_before=3.0)
     close = dict(a, chi2_after=12.0)

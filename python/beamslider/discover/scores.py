@@ -77,6 +77,12 @@ def summarise(rows: Sequence[Dict[str, Any]]) -> Dict[str, Any]:
         if rs:
             by_kind[kind] = dict(first=_rate(sum(r["score"]["right"] for r in rs), len(rs)),
                                  after_advice=_rate(sum(final_score(r)["right"] for r in rs), len(rs)))
+    # An outside change the plan's runs do not show (the baseline passes its test on them) asks
+    # nothing of discover but "none": counted apart, the outside figure also given over the others.
+    unseen = [int(r["index"]) for r in rows if r["kind"] == "outside" and not_visible(r)]
+    if "outside" in by_kind:
+        seen = [r for r in rows if r["kind"] == "outside" and int(r["index"]) not in unseen]
+        by_kind["outside"]["visible"] = _rate(sum(final_score(r)["right"] for r in seen), len(seen))
     cov = [ok for r in rows for ok in final_score(r)["covered"].values()]
     nothing = [r for r in rows if r["kind"] == "nothing"]
     false_alarms = sum(len(r["answer"]["named"]) for r in nothing)
@@ -105,11 +111,19 @@ def summarise(rows: Sequence[Dict[str, Any]]) -> Dict[str, Any]:
                 false_alarms=dict(effects_named=false_alarms, cases=len(nothing),
                                   cases_with_alarm=sum(bool(r["answer"]["named"]) or r["answer"]["verdict"] != "none"
                                                        for r in nothing)),
+                outside_not_visible=unseen,
                 confounded_stand_ins=sum(r["kind"] == "outside" and r["answer"]["verdict"] == "confounded" for r in rows),
                 advised_runs=sum("advised" in r for r in rows),
                 wrong_where_the_truth_fits_better=missed, wrong_where_the_data_cannot_tell=cannot_tell,
                 cpu_s=dict(median=float(np.median(cpu)) if cpu else math.nan, total=float(sum(cpu))),
                 confusion=confusion)
+
+
+def not_visible(row: Dict[str, Any]) -> bool:
+    """Whether a case's hidden change is not visible in its runs: the answer is "none" because the
+    baseline passes its test on them (docs/model.md §9.2)."""
+    a = row["answer"]
+    return a["verdict"] == "none" and a.get("because") == "BASELINE_FITS"
 
 
 def _pct(d: Dict[str, Any]) -> str:
@@ -137,6 +151,10 @@ def summary_markdown(summary: Dict[str, Any], rows: Sequence[Dict[str, Any]], *,
               f"- false alarms on nothing-hidden data: {fa['effects_named']} effects named in {fa['cases']} cases "
               f"({fa['cases_with_alarm']} cases not answered 'none')",
               f"- outside the library answered by a confounded group of stand-ins: {summary['confounded_stand_ins']}",
+              f"- outside the library not visible in the plan's runs (the baseline passes its test; answered "
+              f"'none'): cases {summary.get('outside_not_visible', [])}"
+              + (f"; right among the visible ones: {_pct(summary['by_kind']['outside']['visible'])}"
+                 if "visible" in summary["by_kind"].get("outside", {}) else ""),
               f"- advised runs taken: {summary['advised_runs']}",
               f"- wrong final answers where the truth fits its data better by more than {CLEARLY_BETTER:g} in χ² "
               f"(discover's misses): cases {summary.get('wrong_where_the_truth_fits_better', [])}; where it does not "
