@@ -58,6 +58,11 @@ def add_parser(sub: Any) -> None:
                          "in --out; 'none': keep none). The runs it holds from the same code are reused: a discover "
                          "that was interrupted, or is run again on the same operating points, makes only the runs "
                          "it has not made, with the same verdict")
+    sp.add_argument("--scheduler", metavar="ADDRESS",
+                    help="slider level: make the free-slider runs on a Dask cluster, chunks of each batch as tasks: "
+                         "scheduler address, e.g. tcp://host:8786; the answer is the local run's (docs/cluster.md)")
+    sp.add_argument("--scheduler-file", metavar="FILE", help="the Dask cluster of this scheduler file instead of --scheduler "
+                    "(dask scheduler --scheduler-file FILE)")
     add_common(sp, window=False, force=True)
     sp.set_defaults(func=cmd_discover)
 
@@ -172,19 +177,33 @@ def cmd_discover(args: argparse.Namespace) -> int:
     given = "--fast" if args.fast else f"--search {args.search}"
     if args.fast:
         args.search = "fast"
-    store = None
     if args.runs is not None and not args.measured:
         raise UserError("--runs: only with --measured (the slider level's runs)")
     if args.quick and not args.measured:
         raise UserError("--quick: only with --measured (the slider level's tiered search)")
     if args.search == "fast" and not (args.measured and not args.enma):
         raise UserError(f"{given}: only for the slider level (--measured without --enma)")
+    if args.scheduler and args.scheduler_file:
+        raise UserError("give --scheduler or --scheduler-file, not both")
+    if (args.scheduler or args.scheduler_file) and not args.measured:
+        raise UserError("--scheduler/--scheduler-file: only with --measured (the slider level's runs are what it sends)")
     runs = None
     if args.measured:  # read (and refused) before anything is written
         same = {str(Path(p).resolve()) for p in args.measured}
         if len(same) < len(args.measured):
             raise UserError("--measured: a file is given twice (each run counts once)")
         runs = [read_measurement(p) for p in args.measured]
+    from ..discover.cluster import on_cluster
+
+    with on_cluster(args.scheduler, args.scheduler_file):  # the scheduler reached before any file is written
+        return _run_and_report(args, dc, enma, runs, effects, advice, prog, options, t0)
+
+
+def _run_and_report(args, dc, enma, runs, effects, advice, prog, options, t0) -> int:
+    """The discover of the checked arguments, its kept runs, report and lines."""
+    from .._dask import ClusterLostError
+
+    store = None
     if args.measured and (args.runs or "").strip().lower() != "none":
         from ..discover.runstore import RunStore
 
@@ -216,6 +235,9 @@ def cmd_discover(args: argparse.Namespace) -> int:
     except dc.StopAtProvisional:
         print(f"wrote {out_dir(args) / 'report.json'} (provisional)")
         return 0
+    except ClusterLostError as e:
+        kept = f" ({store.added} runs made kept in {store.path}, beside {store.loaded} read from it)" if store is not None else ""
+        raise UserError(f"{e}{kept}") from None
     out = out_dir(args)
     written = dc.write_report(d, out)
     print((out / "report.md").read_text(encoding="utf-8").split("\n| feature")[0].rstrip())

@@ -12,6 +12,7 @@ from ..enma import EnmaData
 from ..measurement import Measurement
 from ..params import Parameters
 from .chain import Model, realise_model
+from .cluster import on_cluster
 from .effects import EFFECTS
 from .options import DiscoverOptions
 from .problem import Problem
@@ -28,7 +29,8 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
              max_effects: int = 2, progress: bool = False, gap_ratio: Optional[float] = None,
              threads: Optional[int] = None, advice_grid: Optional[Sequence[Tuple[float, float, float]]] = None,
              fast: bool = False, search: str = "tiered", runs_file: Optional[Any] = None,
-             options: Any = None, on_provisional: Optional[Callable[[Dict[str, Any]], None]] = None) -> Discovery:
+             options: Any = None, on_provisional: Optional[Callable[[Dict[str, Any]], None]] = None,
+             scheduler: Any = None, scheduler_file: Optional[str] = None) -> Discovery:
     """Find the effects the ``baseline`` model misses, from beam-level ENMA data (``enma_data``),
     slider-level free-slider runs (``measured``, files of the published format) or both (one joint
     fit over both feature sets: beam-level effects from both, slider-level ones from the runs),
@@ -44,17 +46,21 @@ def discover(*, enma_data: Optional[EnmaData] = None, measured: Optional[Sequenc
     file of the free-slider runs, or a :class:`.runstore.RunStore`: the runs it holds from the same
     code are reused, every run made is appended (None: none kept). ``on_provisional``: called with
     the leading candidate as soon as the tiered search has one, and as the lead improves (a dict,
-    :mod:`.provisional`; raising :class:`.provisional.StopAtProvisional` ends the search there)."""
+    :mod:`.provisional`; raising :class:`.provisional.StopAtProvisional` ends the search there).
+    ``scheduler`` (an address or a ``distributed.Client``) or ``scheduler_file``: the free-slider
+    runs are made as tasks of that Dask cluster, with the local run's answer (:mod:`.cluster`,
+    docs/cluster.md); the scheduler is reached before anything is written."""
     t0 = time.perf_counter()
     strategy = strategy_of(search, fast)
     opts = DiscoverOptions.of(options, gap_ratio=gap_ratio, advice_grid=advice_grid)
-    problem = Problem.build(enma_data=enma_data, measured=measured, baseline=baseline, effects=effects,
-                            max_effects=max_effects, threads=threads, runs_file=runs_file, progress=progress,
-                            options=opts)
-    problem.provisional = Provisional(on_provisional, problem, t0) if on_provisional is not None else None
-    fits = [] if problem.baseline_fits else run(problem, strategy)
-    verdict = decide(problem, fits)
-    return outcome(problem, fits, verdict, time.perf_counter() - t0)
+    with on_cluster(scheduler, scheduler_file):
+        problem = Problem.build(enma_data=enma_data, measured=measured, baseline=baseline, effects=effects,
+                                max_effects=max_effects, threads=threads, runs_file=runs_file, progress=progress,
+                                options=opts)
+        problem.provisional = Provisional(on_provisional, problem, t0) if on_provisional is not None else None
+        fits = [] if problem.baseline_fits else run(problem, strategy)
+        verdict = decide(problem, fits)
+        return outcome(problem, fits, verdict, time.perf_counter() - t0)
 
 
 def outcome(problem: Problem, fits: List[CandidateFit], v: Verdict, runtime_s: float) -> Discovery:
