@@ -735,6 +735,45 @@ def test_a_rough_scan_that_picks_the_baseline_is_rescored_on_ensembles(monkeypat
         assert f.values[e.name] == pytest.approx(truth if taken else b0, abs=1e-6)
 
 
+def test_a_single_scanned_beside_its_valley_is_refined_on_ensembles():
+    """fitting.profile_fit, one effect (docs/model.md §9.1, "Sets of effects"): single runs with a
+    spurious dip settle the scan at 0.4, where the ensembles' mean does not fit as right models do
+    (χ² 61 above the goodness-of-fit bound); Gauss–Newton on the ensembles' means (linear in μ here)
+    lands on their minimum, 0.33, with the closed form's interval and no roughness widening. With
+    the goodness-of-fit test off (``gof_scale`` inf) the scan's point stands, so the test can fail."""
+    import dataclasses
+
+    from beamslider.discover.features import Feature
+    from beamslider.discover.fitting import profile_fit
+    from beamslider.discover.models import Ensemble
+    from beamslider.discover.options import DEFAULT
+
+    e, base = EFFECTS["friction_coefficient"], bs.Parameters()
+    truth = 0.33
+
+    def mu(m):
+        return round(float(m.params.friction_coefficient), 9)
+
+    def mean(v):
+        return dict(a=100.0 * (v - truth), b=50.0 * (v - truth))
+
+    def single(v):   # a spurious dip at 0.4; elsewhere far off
+        return dict(a=0.5, b=0.0) if abs(v - 0.4) < 1e-9 else dict(a=200.0 + 10 * v, b=0.0)
+
+    meas = {k: Feature(k, 0.0, 1.0) for k in ("a", "b")}
+    many = lambda ps: [single(mu(m)) for m in ps]  # noqa: E731
+    ens = lambda ps, central: [Ensemble(mean(mu(m)), dict(a=0.0, b=0.0), 5, {}) for m in ps]  # noqa: E731
+    f = profile_fit([e], base, meas, model_many=many, ensemble_many=ens, spread0=dict(a=0.0, b=0.0))
+    assert f.values[e.name] == pytest.approx(truth, abs=1e-6) and f.chi2 == pytest.approx(0.0, abs=1e-6)
+    se = 1 / math.sqrt(100.0 ** 2 + 50.0 ** 2)
+    lo, hi = f.intervals[e.name]
+    assert lo == pytest.approx(truth - 1.96 * se, rel=1e-3) and hi == pytest.approx(truth + 1.96 * se, rel=1e-3)
+    assert f.roughness[e.name] == 0.0
+    f = profile_fit([e], base, meas, model_many=many, ensemble_many=ens, spread0=dict(a=0.0, b=0.0),
+                    options=dataclasses.replace(DEFAULT, gof_scale=math.inf))
+    assert f.values[e.name] == pytest.approx(0.4) and f.chi2 > 10
+
+
 @pytest.mark.slow
 def test_restitution_in_the_issues_60_s_runs_is_the_best_candidate_not_resolved(tmp_path):
     """Restitution 0.3 (baseline 0.5) hidden in the three reference 60-s runs, the truth runs

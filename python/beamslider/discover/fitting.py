@@ -19,7 +19,7 @@ from .models import Ensemble, data_modes
 from .result import CandidateFit
 from .spread import chi2_roughness, pooled_spread
 from .options import DEFAULT, DiscoverOptions
-from .stats import chi2_quantile, chi2_terms, interval_z, mode_terms
+from .stats import chi2_quantile, chi2_terms, gof_bound, interval_z, mode_terms
 
 
 def fit_candidate(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str, Feature],
@@ -135,6 +135,18 @@ def _interval(xs: np.ndarray, fs: np.ndarray, rough: float = 0.0, delta: float =
     return float(xs[j]), lo, hi
 
 
+def _poor_single(ens: Optional[Ensemble], spread: Dict[str, float], ensemble_chi2: Callable[..., float], n: int,
+                 options: DiscoverOptions) -> bool:
+    """Whether a single effect's coordinate pass ended where its ensemble does not fit as right models
+    do (χ² above the goodness-of-fit bound, docs/model.md §9.1): single runs scatter, and their
+    refinement can settle beside the valley that the ensembles' means show."""
+    if ens is None or not math.isfinite(options.gof_scale):
+        return False
+    sp = dict(spread)
+    sp.update(ens.spread)
+    return ensemble_chi2(ens, sp) > gof_bound(n, 1, options.gof_scale, options.gof_dof_share, options.significance)
+
+
 def profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str, Feature],
                 model_fn: Optional[Callable[[Parameters], Dict[str, float]]] = None, *,
                 grid_n: Optional[int] = None, refine: Optional[int] = None, model_many: Optional[ModelMany] = None,
@@ -158,8 +170,9 @@ def profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str,
     where the objective is rough; one effect whose fit is the baseline value while its last level
     is rough (``options.rough_rescan``): its grid rescored on ensembles and the best point refined on
     their means (:func:`.refine.gauss_newton`), taken with the ensembles' profile interval where its
-    ensemble fits better by more than z² and its change is relevant. Several effects: the coordinate
-    pass's point refined jointly on ensemble means (:func:`.refine.gauss_newton`,
+    ensemble fits better by more than z² and its change is relevant. Several effects, or one whose
+    coordinate pass ends where its ensemble does not fit as right models do (:func:`_poor_single`):
+    the coordinate pass's point refined jointly on ensemble means (:func:`.refine.gauss_newton`,
     ``options.joint_refinement``), standard errors from its covariance.
     Intervals at ``options.interval_level`` (:func:`.stats.interval_of`), holding the fitted value.
     ``joint``: refine a set jointly (None: ``options.joint_refinement``).
@@ -260,7 +273,11 @@ def profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str,
     rough_pass = (chi2_roughness(np.array([p[0] for p in last[0]]), np.array([chi2(p) for p in last[0]]))
                   if len(effects) == 1 else 0.0)
     refined = None
-    if len(effects) >= 2 and joint_on:
+    u0, spread0_pass = u.copy(), dict(spread)
+    # A scan that picked the baseline is the rough rescan's (below); one that moved is refined where poor.
+    poor = (len(effects) == 1 and joint_on and key_of(u) != key_of(u_base)
+            and _poor_single(ensemble_at(u), spread, ensemble_chi2, len(names), options))
+    if (len(effects) >= 2 or poor) and joint_on:
         from .refine import refine_jointly, single_run_residuals
 
         evaluate([u])
@@ -276,6 +293,10 @@ def profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str,
                                          lambda m: mode_terms(m, modes, None, 1)[0])
             refined = refine_jointly(effects, u, evaluate, resid, chi2, options)
         u = refined.u
+        if poor and np.array_equal(u, u0):  # the ensembles found no better point: the single's fit stands
+            refined = None
+            spread.clear()
+            spread.update(spread0_pass)
     ens = ensemble_at(u)
     n, k = len(names), len(effects) + len(fixed)
     predicted: Dict[str, float] = {}
@@ -335,8 +356,8 @@ def profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str,
         xs = np.array([p[i] for p in samples[i]])
         fs = np.array([chi2(p) for p in samples[i]])
         # Rescanned: the interval is the ensembles' profile's, not widened by the single runs.
-        rough = 0.0 if rescanned is not None else chi2_roughness(np.array([p[i] for p in last[i]]),
-                                                                 np.array([chi2(p) for p in last[i]]))
+        smooth = rescanned is not None or (poor and refined is not None)
+        rough = 0.0 if smooth else chi2_roughness(np.array([p[i] for p in last[i]]), np.array([chi2(p) for p in last[i]]))
         roughness[e.name] = rough
         values[e.name] = e.value(u[i], baseline)
         if refined is not None:
