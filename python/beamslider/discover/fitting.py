@@ -274,8 +274,9 @@ def profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str,
                   if len(effects) == 1 else 0.0)
     refined = None
     u0, spread0_pass = u.copy(), dict(spread)
-    # A scan that picked the baseline is the rough rescan's (below); one that moved is refined where poor.
-    poor = (len(effects) == 1 and joint_on and key_of(u) != key_of(u_base)
+    # A scan that picked the baseline is the rough rescan's (below); one that moved is refined where
+    # poor, in a fit in full (a coarse screening scan is only ranked).
+    poor = (len(effects) == 1 and joint_on and refine >= options.refine_levels and key_of(u) != key_of(u_base)
             and _poor_single(ensemble_at(u), spread, ensemble_chi2, len(names), options))
     if (len(effects) >= 2 or poor) and joint_on:
         from .refine import refine_jointly, single_run_residuals
