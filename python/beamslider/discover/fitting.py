@@ -137,14 +137,15 @@ def _interval(xs: np.ndarray, fs: np.ndarray, rough: float = 0.0, delta: float =
 
 def _poor_single(ens: Optional[Ensemble], spread: Dict[str, float], ensemble_chi2: Callable[..., float], n: int,
                  options: DiscoverOptions) -> bool:
-    """Whether a single effect's coordinate pass ended where its ensemble does not fit as right models
-    do (χ² above the goodness-of-fit bound, docs/model.md §9.1): single runs scatter, and their
-    refinement can settle beside the valley that the ensembles' means show."""
-    if ens is None or not math.isfinite(options.gof_scale):
+    """Whether a single effect's coordinate pass ended where its ensemble fits worse than right models
+    usually do (χ² above their (1 − ``options.poor_single_alpha``) quantile, docs/model.md §9.1
+    "Goodness of fit"): single runs scatter, and their refinement can settle beside the valley that
+    the ensembles' means show."""
+    if ens is None or not math.isfinite(options.gof_scale) or options.poor_single_alpha <= 0:
         return False
     sp = dict(spread)
     sp.update(ens.spread)
-    return ensemble_chi2(ens, sp) > gof_bound(n, 1, options.gof_scale, options.gof_dof_share, options.significance)
+    return ensemble_chi2(ens, sp) > gof_bound(n, 1, options.gof_scale, options.gof_dof_share, options.poor_single_alpha)
 
 
 def profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str, Feature],

@@ -42,6 +42,11 @@ class DiscoverOptions:
     c·χ²₁₋α(share·(n − k)); inf: no such test (docs/validation/discover.md, "Judged at random")."""
     gof_dof_share: float = 0.318
     """The ν/n of :attr:`gof_scale`'s calibration (§9.1, "Goodness of fit")."""
+    poor_single_alpha: float = 0.1
+    """A single fitted in full whose ensemble's χ² lies above the (1 − this) quantile of right
+    models' (:attr:`gof_scale`) is refined on ensemble means, as sets are: single runs' scatter can
+    settle its scan beside the valley (§9.1, "Sets of effects"). A search effort, not a verdict's
+    threshold; 0: never."""
     confound_cos: float = 0.95
     """|cos θ| between two fits' feature changes from which they move the features alike: two
     sets of effects fitting within the selection's threshold of each other and moving the features
@@ -144,6 +149,8 @@ class DiscoverOptions:
             check(name, isinstance(getattr(self, name), bool), "must be True or False")
         check("gof_scale", isinstance(self.gof_scale, (int, float)) and not isinstance(self.gof_scale, bool)
               and self.gof_scale > 0, "must be a number > 0 (inf: no goodness-of-fit test)")
+        check("poor_single_alpha", isinstance(self.poor_single_alpha, (int, float))
+              and not isinstance(self.poor_single_alpha, bool) and 0 <= self.poor_single_alpha < 1, "must be in [0, 1)")
         for name in ("confound_cos", "gof_dof_share"):
             v = getattr(self, name)
             check(name, isinstance(v, (int, float)) and 0 < v <= 1, "must be in (0, 1]")
