@@ -280,8 +280,8 @@ def _simulated(problem: Any, best: CandidateFit, reasons: Reasons) -> Tuple[Opti
     if problem.level == "slider" and chi2_a > bound:
         reasons[best.effects] = reasons[best.effects] + [Reason(
             Why.POOR_FIT, f"does not fit as right models do: its full simulation leaves chi2 = {chi2_a:.3g} "
-                          f"(gap {gap_a:.3g}) > {bound:.3g}, the {100 * (1 - o.significance):g} % bound of the baseline's chi2 on data it made "
-                          f"itself")]
+                          f"(gap {gap_a:.3g}) > {bound:.3g}, the {100 * (1 - o.significance):g} % bound of the "
+                          f"baseline's chi2 on data it made itself")]
         return None, dict(effects=list(best.effects), values=dict(best.values), stderrs=dict(best.stderrs),
                           chi2=chi2_a, gap=gap_a, bound=bound, gap_bound=math.sqrt(bound / max(problem.n, 1)))
     return after, {}
