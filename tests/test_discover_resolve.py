@@ -14,6 +14,7 @@ import beamslider as bs
 from beamslider import discover as dc
 from beamslider.discover.chain import Model, chain_map, realise_model
 from beamslider.discover.effects import CHAIN_EFFECTS, EFFECTS
+from beamslider.discover.options import DiscoverOptions
 from beamslider.discover.result import CandidateFit
 from beamslider.discover.stats import lrt_threshold
 from beamslider.discover.models import PATH_POINTS, batch_slider_features, measured_slider_features, slider_paths
@@ -672,7 +673,10 @@ def test_a_fit_keeps_the_scanned_point_whose_ensemble_fits_better():
     # Where the first pick fits better by less than z² (3.84), the refined point stands.
     near = lambda ps, central: [Ensemble(dict(a=1.5, b=0.0), dict(a=0.0, b=0.0), 5, {}) if mu(m) < good  # noqa: E731
                                 else ensemble(mu(m)) for m in ps]
-    f = profile_fit([e], base, meas, model_many=many, ensemble_many=near, spread0=dict(a=0.0, b=0.0))
+    # (Without the grid's rescoring of a poor single, tested apart: on two features χ² 2.25 lies above
+    # right models' 90 % quantile.)
+    f = profile_fit([e], base, meas, model_many=many, ensemble_many=near, spread0=dict(a=0.0, b=0.0),
+                    options=DiscoverOptions(poor_single_alpha=0.0))
     assert f.values[e.name] < good and f.chi2 == pytest.approx(2.25)
     # Without the ensemble at the first pick the point picked again would be the fit (χ² 9): check it is
     # the re-pick that moves, so that the test can fail.
@@ -680,6 +684,43 @@ def test_a_fit_keeps_the_scanned_point_whose_ensemble_fits_better():
     chi2_single = {v: sum((single(v)[k] / math.sqrt(1 + 2 * sp[k] ** 2)) ** 2 for k in "ab")
                    for v in (round(float(g), 9) for g in grid)}
     assert min(chi2_single, key=chi2_single.get) < good
+
+
+def test_a_poor_single_is_refined_from_its_grid_rescored_on_ensembles():
+    """fitting.profile_fit, one effect (docs/model.md §9.1, "Sets of effects"): the truth's grid point
+    drew an unlucky single run, so the scan settles on a lure whose ensemble fits worse than right
+    models do; the grid rescored on ensemble means finds the truth's point (a contact spacing of
+    9.11 mm scanned to 9.94 mm at χ² 193, where the truth's ensemble fits at 5.7). Without the
+    poor single's refinement (``poor_single_alpha`` 0) the lure stands, so that the test can fail."""
+    from beamslider.discover.features import Feature
+    from beamslider.discover.fitting import profile_fit
+    from beamslider.discover.models import Ensemble
+
+    e, base = EFFECTS["friction_coefficient"], bs.Parameters()
+    grid = np.linspace(*e.search, 9)
+    good = round(float(grid[6]), 9)
+
+    def mu(m):
+        return round(float(m.params.friction_coefficient), 9)
+
+    def single(v):  # one run: the truth's point drew a run in the other end state
+        return dict(a=10.0, b=1.0) if v >= good else dict(a=3.0, b=0.0)
+
+    def ensemble(v):  # the means: only the truth's point fits
+        mean = dict(a=0.2, b=0.2) if v == good else (dict(a=3.0, b=0.0) if v < good else dict(a=10.0, b=1.0))
+        return Ensemble(mean, dict(a=0.0, b=0.0), 5, {})
+
+    meas = {k: Feature(k, 0.0, 1.0) for k in ("a", "b")}
+    many = lambda ps: [single(mu(m)) for m in ps]  # noqa: E731
+    ens = lambda ps, central: [ensemble(mu(m)) for m in ps]  # noqa: E731
+    f = profile_fit([e], base, meas, model_many=many, ensemble_many=ens, spread0=dict(a=0.0, b=0.0))
+    assert f.values[e.name] == pytest.approx(good)
+    assert f.chi2 < 1.0
+    lo, hi = f.intervals[e.name]
+    assert lo <= good <= hi
+    f0 = profile_fit([e], base, meas, model_many=many, ensemble_many=ens, spread0=dict(a=0.0, b=0.0),
+                     options=DiscoverOptions(poor_single_alpha=0.0))
+    assert f0.values[e.name] < good and f0.chi2 > 8.0
 
 
 def test_a_rough_scan_that_picks_the_baseline_is_rescored_on_ensembles(monkeypatch):

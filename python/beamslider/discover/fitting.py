@@ -19,7 +19,7 @@ from .models import Ensemble, data_modes
 from .result import CandidateFit
 from .spread import chi2_roughness, pooled_spread
 from .options import DEFAULT, DiscoverOptions
-from .stats import chi2_quantile, chi2_terms, gof_bound, interval_z, mode_terms
+from .stats import chi2_quantile, chi2_terms, interval_z, mode_terms, right_fit_bound
 
 
 def fit_candidate(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str, Feature],
@@ -145,7 +145,7 @@ def _poor_single(ens: Optional[Ensemble], spread: Dict[str, float], ensemble_chi
         return False
     sp = dict(spread)
     sp.update(ens.spread)
-    return ensemble_chi2(ens, sp) > gof_bound(n, 1, options.gof_scale, options.gof_dof_share, options.poor_single_alpha)
+    return ensemble_chi2(ens, sp) > right_fit_bound(n, 1, options, options.poor_single_alpha)
 
 
 def profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str, Feature],
@@ -172,9 +172,10 @@ def profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str,
     is rough (``options.rough_rescan``): its grid rescored on ensembles and the best point refined on
     their means (:func:`.refine.gauss_newton`), taken with the ensembles' profile interval where its
     ensemble fits better by more than z² and its change is relevant. Several effects, or one whose
-    coordinate pass ends where its ensemble does not fit as right models do (:func:`_poor_single`):
-    the coordinate pass's point refined jointly on ensemble means (:func:`.refine.gauss_newton`,
-    ``options.joint_refinement``), standard errors from its covariance.
+    coordinate pass ends where its ensemble does not fit as right models do (:func:`_poor_single`;
+    its grid rescored on ensembles first, and the best point taken): the coordinate pass's point
+    refined jointly on ensemble means (:func:`.refine.gauss_newton`, ``options.joint_refinement``),
+    standard errors from its covariance.
     Intervals at ``options.interval_level`` (:func:`.stats.interval_of`), holding the fitted value.
     ``joint``: refine a set jointly (None: ``options.joint_refinement``).
     ``fixed``: values of further effects held (the joint fit's beam-level part)."""
@@ -289,7 +290,12 @@ def profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str,
         if ensemble_many is not None:
             # Ensemble means: single runs are too rough to linearise (docs/model.md §9.1).
             obj = ensemble_objective(spread, ens.runs if ens is not None else 5)
-            refined = refine_jointly(effects, u, obj.evaluate, obj.residuals, obj.chi2, options)
+            start = u
+            if poor:  # the scan's grid rescored on ensemble means: its single runs may have passed the valley by
+                pts = [u] + [np.array([g]) for g in grids[0]]
+                obj.evaluate(pts)
+                start = min(pts, key=obj.chi2)
+            refined = refine_jointly(effects, start, obj.evaluate, obj.residuals, obj.chi2, options)
         else:
             resid = single_run_residuals(lambda p: cache[key_of(p)], names, y, sig_single,
                                          lambda m: mode_terms(m, modes, None, 1)[0])

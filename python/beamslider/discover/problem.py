@@ -26,7 +26,7 @@ from .rule import best_single, judge, no_set_can_win, select
 from .runstore import RunStore
 from .separability import predict_singles, rank_pairs, slider_changes, slider_sensitivities
 from .surrogate import beam_surrogate, levels_for, simulated_enma_features
-from .stats import baseline_test, excess, gap_of, gof_bound, lrt_threshold, missing_z, sigma
+from .stats import baseline_test, excess, gap_of, lrt_threshold, missing_z, right_fit_bound, sigma
 
 
 @dataclass
@@ -93,8 +93,7 @@ class Problem:
         self.before, self.gap_before, self.chi2_0, self.n = test.before, test.gap, test.chi2, test.n
         self.z_worst, self.baseline_fits = test.z_worst, test.fits
         if self.level == "slider":  # the baseline fits as right models do (§9.1, "Goodness of fit")
-            self.baseline_fits = test.fits and test.chi2 <= gof_bound(test.n, 0, options.gof_scale,
-                                                                       options.gof_dof_share, options.significance)
+            self.baseline_fits = test.fits and test.chi2 <= right_fit_bound(test.n, 0, options)
         self.excess_before = excess(self.chi2_0, self.n, self.n)
         self.thr_m = lrt_threshold(1, len(self.candidates), options.significance)  # the price of a parameter
         self.sig_base = ({k: sigma(self.meas[k], self.spread_base.get(k, 0.0), self.runs_base) for k in self.meas}

@@ -19,7 +19,7 @@ from .options import DEFAULT, DiscoverOptions
 from .progress import progress_bar
 from .reasons import Reason, Reasons, Why, kinds
 from .result import After, Because, CandidateFit, Kind, Verdict
-from .stats import chi2_quantile, excess, gap_of, gof_bound, interval_of, lrt_threshold, z_bound
+from .stats import chi2_quantile, excess, gap_of, interval_of, lrt_threshold, right_fit_bound, z_bound
 
 __all__ = ["Reason", "Reasons", "Why", "kinds", "decide", "judge", "select", "criterion"]
 
@@ -276,7 +276,7 @@ def _simulated(problem: Any, best: CandidateFit, reasons: Reasons) -> Tuple[Opti
             Why.SMALL_SHARE, f"small share of the gap beyond the noise in the full simulation of the updated "
                              f"model: {g:.3g} > {o.gap_ratio:g} x {problem.excess_before:.3g}")]
         return None, {}
-    bound = gof_bound(problem.n, len(best.effects), o.gof_scale, o.gof_dof_share, o.significance)
+    bound = right_fit_bound(problem.n, len(best.effects), o)
     if problem.level == "slider" and chi2_a > bound:
         reasons[best.effects] = reasons[best.effects] + [Reason(
             Why.POOR_FIT, f"does not fit as right models do: its full simulation leaves chi2 = {chi2_a:.3g} "

@@ -12,7 +12,7 @@ import numpy as np
 
 from .features import Feature
 from .models import Modes, is_mode_feature, mode_penalty, run_mode, tag_of
-from .options import DEFAULT
+from .options import DEFAULT, DiscoverOptions
 from .result import CandidateFit
 
 SIGNIFICANCE = DEFAULT.significance
@@ -128,6 +128,13 @@ def gof_bound(n: int, k: int, scale: float = DEFAULT.gof_scale, share: float = D
     if math.isinf(scale):
         return math.inf
     return float(scale * chi2.ppf(1 - alpha, max(share * (n - k), 0.5)))
+
+
+def right_fit_bound(n: int, k: int, options: DiscoverOptions = DEFAULT, alpha: Optional[float] = None) -> float:
+    """:func:`gof_bound` with the options' calibration, at their significance (or ``alpha``): the χ²
+    within which a model of ``k`` fitted effects fits ``n`` features as right models do
+    (docs/model.md §9.1, "Goodness of fit")."""
+    return gof_bound(n, k, options.gof_scale, options.gof_dof_share, options.significance if alpha is None else alpha)
 
 
 def z_bound(n: int, alpha: float = DEFAULT.significance) -> float:

@@ -14,7 +14,7 @@ from typing import Any, Callable, Dict, List, Sequence, Tuple
 from ..effects import Effect
 from ..options import DEFAULT, DiscoverOptions
 from ..result import CandidateFit
-from ..stats import gof_bound
+from ..stats import right_fit_bound
 from . import full
 from .common import Fitter, fit_sets, pairs_gated, predicted_singles, singles_in_full
 
@@ -80,7 +80,7 @@ def fits_as_right_models(problem: Any, f: CandidateFit, o: DiscoverOptions = DEF
     within the goodness-of-fit bound of right models (docs/model.md §9.1, "Goodness of fit")."""
     if not f.adequate or getattr(problem, "level", None) != "slider":
         return f.adequate
-    return f.chi2 <= gof_bound(len(problem.meas), len(f.effects), o.gof_scale, o.gof_dof_share, o.significance)
+    return f.chi2 <= right_fit_bound(len(problem.meas), len(f.effects), o)
 
 
 def tier_scale(pred: Dict[str, Tuple[float, float]], full: Dict[str, CandidateFit],
