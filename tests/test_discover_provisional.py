@@ -49,3 +49,38 @@ def test_a_measured_file_twice_or_unreadable_is_refused_before_anything_is_writt
     r = run_cli("discover", "--measured", str(bad), "--out", "o2", cwd=tmp_path)
     assert r.returncode != 0
     assert not (tmp_path / "o1").exists() and not (tmp_path / "o2").exists()
+
+
+def test_the_first_answer_is_the_scan_before_a_poor_singles_refinement():
+    """search.tiered.leading (docs/model.md §9.1, "Provisional answer"): the first answer is the
+    candidate's coordinate pass, fitted with the poor single's refinement off; the fit in full that
+    follows is handed on too where it leads, and is the tier's fit. Later candidates are fitted once."""
+    import dataclasses
+    from types import SimpleNamespace
+
+    from beamslider.discover.effects import EFFECTS
+    from beamslider.discover.options import DiscoverOptions
+    from beamslider.discover.provisional import Provisional
+    from beamslider.discover.result import CandidateFit
+    from beamslider.discover.search.tiered import leading
+
+    def fitted(name, chi2):
+        return CandidateFit((name,), {name: 0.2}, {name: 0.01}, chi2, 16, True, chi2, intervals={name: (0.18, 0.22)})
+
+    asked = []
+
+    def problem_fit(combo, refine=None, joint=None, options=None):
+        asked.append(options)
+        return fitted(combo[0].name, 30.0)  # the scan alone
+
+    problem = SimpleNamespace(level="slider", options=DiscoverOptions(), fit=problem_fit, chi2_0=100.0,
+                              gap_before=2.0, n=17)
+    seen = []
+    lead = Provisional(seen.append, problem, 0.0)
+    full_fits = iter([fitted("friction_coefficient", 12.0), fitted("com_offset", 20.0)])
+    f = leading(problem, lambda combo: next(full_fits), lead, EFFECTS["friction_coefficient"])
+    assert f.chi2 == 12.0
+    assert len(asked) == 1 and asked[0] == dataclasses.replace(DiscoverOptions(), poor_single_alpha=0.0)
+    assert [a["chi2"] for a in seen] == [30.0, 12.0]
+    g = leading(problem, lambda combo: next(full_fits), lead, EFFECTS["com_offset"])
+    assert g.chi2 == 20.0 and len(asked) == 1 and len(seen) == 2  # fitted once; it does not lead

@@ -177,15 +177,17 @@ class Problem:
             self.bias.clear()
             self.bias.update({k: sim_c[k].value - sur_c[k] for k in sim_c if k in sur_c})
 
-    def fit(self, combo: Sequence[Effect], refine: Optional[int] = None, joint: Optional[bool] = None) -> CandidateFit:
+    def fit(self, combo: Sequence[Effect], refine: Optional[int] = None, joint: Optional[bool] = None,
+            options: Optional[DiscoverOptions] = None) -> CandidateFit:
         """One set of effects fitted (beam level: least squares on the surrogate; else the profile fit
-        of the runs, ``refine`` levels, ``joint`` refinement; docs/model.md §9.1)."""
+        of the runs, ``refine`` levels, ``joint`` refinement; docs/model.md §9.1), with the problem's
+        options (or ``options``)."""
+        o = self.options if options is None else options
         if self.level == "beam":
-            return fit_candidate(combo, self.base, self.meas, self.model_fn, diff_step=None, max_nfev=200,
-                                 options=self.options)
+            return fit_candidate(combo, self.base, self.meas, self.model_fn, diff_step=None, max_nfev=200, options=o)
         return profile_fit(combo, self.base, self.meas, self.model_fn, model_many=self.model_many,
                            ensemble_many=self.ensemble_many, spread0=self.spread_base, refine=refine, joint=joint,
-                           options=self.options)
+                           options=o)
 
     # --- the linearised model (docs/model.md §9.1, "Cost") ---------------------------------------------
 

@@ -8,6 +8,7 @@ same gate holds."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from typing import Any, Callable, Dict, List, Sequence, Tuple
 
@@ -30,7 +31,7 @@ def search(problem: Any, candidates: Sequence[Effect], options: DiscoverOptions)
         pred = problem.predict(candidates)
         lead = getattr(problem, "provisional", None)  # the leading candidate as soon as there is one
         fits, complete = tiered_singles(candidates, pred,
-                                        (lambda e: lead.saw(fit((e,)))) if lead else (lambda e: fit((e,))),
+                                        (lambda e: leading(problem, fit, lead, e)) if lead else (lambda e: fit((e,))),
                                         len(problem.meas), options.tier_keep,
                                         options.tier_margin, options.significance, least=options.tier_least,
                                         good=lambda f: fits_as_right_models(problem, f, options))
@@ -42,6 +43,15 @@ def search(problem: Any, candidates: Sequence[Effect], options: DiscoverOptions)
         # search's verdict is that of a tier of that many fits.
         first = sorted((f for f in fits if not f.screened), key=lambda f: pred[f.effects[0]][0])[:options.tier_shared]
         return full.scan(problem, fit, candidates, options, {f.effects[0]: f for f in first})
+
+
+def leading(problem: Any, fit: Fitter, lead: Any, e: Effect) -> CandidateFit:
+    """A tier's fit in full of ``e``, handed to the provisional answer (``lead``) as it leads. The
+    first answer is the coordinate pass's fit, before a poor single's refinement on ensembles (docs/model.md
+    §9.1, "Provisional answer"): the same runs, made once and reused by the fit in full that follows."""
+    if lead.best is None and getattr(problem, "level", None) == "slider":
+        lead.saw(problem.fit((e,), options=dataclasses.replace(problem.options, poor_single_alpha=0.0)))
+    return lead.saw(fit((e,)))
 
 
 def tiered_singles(cands: Sequence[Effect], pred: Dict[str, Tuple[float, float]],
