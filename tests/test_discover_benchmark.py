@@ -188,6 +188,15 @@ def test_a_wrong_answer_is_discovers_miss_only_where_the_truth_fits_clearly_bett
         r["truth_fit"] = dict(chi2=8.0, gap=0.7, z_worst=1.5, n=17)
     s = bm.summarise(rows)
     assert s["wrong_where_the_truth_fits_better"] == [0] and s["wrong_where_the_data_cannot_tell"] == [1]
+    # "unexplained": what it offers is the best fit the search made (else the baseline's χ² 153).
+    un = dict(_answer("unexplained"), n=17, chi2_after=153.0, gap_before=3.0,
+              fits=[dict(effects=["tilt", "excitation_gain"], values={}, chi2=9.0, screened=False, why=[])])
+    rows = [_row(2, "single", {"excitation_gain": 1.07}, un, False, {}),
+            _row(3, "single", {"excitation_gain": 1.07}, dict(un, fits=[]), False, {})]
+    for r in rows:
+        r["truth_fit"] = dict(chi2=3.8, gap=0.5, z_worst=1.3, n=17)
+    s = bm.summarise(rows)
+    assert s["wrong_where_the_data_cannot_tell"] == [2] and s["wrong_where_the_truth_fits_better"] == [3]
 
 
 def test_rows_of_another_judge_are_judged_again_on_resume(tmp_path, monkeypatch):

@@ -84,3 +84,20 @@ def test_the_first_answer_is_the_scan_before_a_poor_singles_refinement():
     assert [a["chi2"] for a in seen] == [30.0, 12.0]
     g = leading(problem, lambda combo: next(full_fits), lead, EFFECTS["com_offset"])
     assert g.chi2 == 20.0 and len(asked) == 1 and len(seen) == 2  # fitted once; it does not lead
+
+
+@pytest.mark.heavy
+def test_the_provisional_answer_leaves_the_verdict_bitwise():
+    """Handing on the provisional answer (the first fit's coordinate pass made before its fit in full)
+    changes no value of the result: Discovery.to_json() equal with and without it, but the run time."""
+    import beamslider as bs
+    from beamslider import discover as dc
+
+    data = [bs.read_measurement(SAMPLE)]
+    seen = []
+    a = dc.discover(measured=data, effects=FOUR.split(","), progress=False, on_provisional=seen.append).to_json()
+    b = dc.discover(measured=data, effects=FOUR.split(","), progress=False).to_json()
+    assert seen and seen[0]["provisional"] is True
+    for d in (a, b):
+        d.pop("runtime_s", None)
+    assert json.dumps(a, sort_keys=True, default=str) == json.dumps(b, sort_keys=True, default=str)

@@ -103,7 +103,7 @@ def summarise(rows: Sequence[Dict[str, Any]]) -> Dict[str, Any]:
         a = r.get("advised", {}).get("answer", r["answer"])
         if s["right"] or not tf or not math.isfinite(tf.get("chi2", math.nan)):
             continue
-        chi2_answer = a["chi2_after"] if a["verdict"] == "named" else a["gap_before"] ** 2 * a["n"]
+        chi2_answer = answer_chi2(a)
         (missed if chi2_answer - tf["chi2"] > CLEARLY_BETTER else cannot_tell).append(int(r["index"]))
     cpu = [float(r["cpu_s"]) for r in rows]
     return dict(cases=len(rows), by_kind=by_kind,
@@ -117,6 +117,16 @@ def summarise(rows: Sequence[Dict[str, Any]]) -> Dict[str, Any]:
                 wrong_where_the_truth_fits_better=missed, wrong_where_the_data_cannot_tell=cannot_tell,
                 cpu_s=dict(median=float(np.median(cpu)) if cpu else math.nan, total=float(sum(cpu))),
                 confusion=confusion)
+
+
+def answer_chi2(a: Dict[str, Any]) -> float:
+    """The χ² of what an answer offers for the data: a named set's full simulation; for "confounded"
+    or "unexplained", the best fit the search made (the row's ``fits``: the data cannot tell the
+    truth from a model that fits as well, though the rule named none); else the baseline's."""
+    if a["verdict"] == "named":
+        return float(a["chi2_after"])
+    best = min((float(f["chi2"]) for f in a.get("fits", []) if math.isfinite(float(f["chi2"]))), default=math.inf)
+    return min(best, float(a["gap_before"]) ** 2 * int(a["n"]))
 
 
 def not_visible(row: Dict[str, Any]) -> bool:
