@@ -197,6 +197,9 @@ def test_a_wrong_answer_is_discovers_miss_only_where_the_truth_fits_clearly_bett
         r["truth_fit"] = dict(chi2=3.8, gap=0.5, z_worst=1.3, n=17)
     s = bm.summarise(rows)
     assert s["wrong_where_the_data_cannot_tell"] == [2] and s["wrong_where_the_truth_fits_better"] == [3]
+    assert s["by_kind"]["single"]["right_or_cannot_tell"]["right"] == 1
+    assert s["by_kind"]["single"]["right_or_cannot_tell"]["of"] == 2
+    assert "right, or the data cannot tell" in bm.summary_markdown(s, rows)
 
 
 def test_rows_of_another_judge_are_judged_again_on_resume(tmp_path, monkeypatch):
