@@ -220,3 +220,43 @@ def test_rows_of_another_judge_are_judged_again_on_resume(tmp_path, monkeypatch)
     (tmp_path / "cases.jsonl").write_text(lines[0].replace(bm.judge_fingerprint(), "0" * 16) + "\n" + lines[1] + "\n")
     bm.run_benchmark(1, counts={"nothing": 2}, plan=plan, out_dir=tmp_path)
     assert calls == [0, 1, 0]
+
+
+def test_the_figure_over_cases_that_show_each_change_reads_the_left_out_fits():
+    """A change whose absence raises the truth's χ² by no more than CLEARLY_BETTER is not shown on top
+    of the others: the per-kind figure over the cases that show each change leaves such cases out."""
+    fit = dict(n=17, chi2_after=12.0, gap_before=3.0)
+    named = dict(_answer("named", {"tilt": _named(0.006, 0.005, 0.007), "restitution": _named(0.4, 0.38, 0.42)}), **fit)
+    tilt_alone = dict(_answer("named", {"tilt": _named(0.006, 0.005, 0.007)}), **fit)
+    rows = [_row(0, "pair", {"tilt": 0.006, "restitution": 0.4}, named, True, {"tilt": True, "restitution": True}),
+            _row(1, "pair", {"tilt": 0.006, "restitution": 0.39}, tilt_alone, False, {"tilt": True}),
+            _row(2, "pair", {"tilt": 0.006, "restitution": 0.39}, dict(_answer("none"), **fit), False, {})]
+    rows[0]["truth_fit"] = dict(chi2=10.0, without=dict(tilt=900.0, restitution=40.0))
+    rows[1]["truth_fit"] = dict(chi2=10.0, without=dict(tilt=900.0, restitution=10.0 + bm.CLEARLY_BETTER))
+    rows[2]["truth_fit"] = dict(chi2=10.0)  # judged before the record: not counted either way
+    assert [bm.each_change_shows(r) for r in rows] == [True, False, None]
+    s = bm.summarise(rows)["by_kind"]["pair"]
+    assert (s["after_advice"]["right"], s["after_advice"]["of"]) == (1, 3)
+    assert (s["each_change_shows"]["right"], s["each_change_shows"]["of"], s["each_change_shows"]["cases"]) == (1, 1, 2)
+    # After an advised run the final data decide.
+    rows[1]["advised"] = dict(answer=rows[1]["answer"], score=rows[1]["score"],
+                              truth_fit=dict(chi2=12.0, without=dict(tilt=950.0, restitution=30.0)))
+    assert bm.each_change_shows(rows[1]) is True
+    assert "right where each change shows" in bm.summary_markdown(bm.summarise(rows), rows)
+
+
+def test_the_truth_left_out_of_a_single_is_the_baseline_discover_tested(tmp_path):
+    """Independent reference: for one hidden effect, the truth with it left out is the baseline, so
+    its χ² equals the χ² of the baseline's test that discover made on the same data; and a row
+    completed later from runs synthesised again gives the same truth's χ², bitwise."""
+    plan = bm.Plan(operating_points=((124.0, 14.0, 0.3),), duration_s=3.0, candidates=("excitation_gain",))
+    case = bm.Case(0, "single", {"excitation_gain": 1.15}, noise_seed=5, s0_offset=0.001)
+    row = bm.run_case(case, plan, advice=False)
+    tf = row["truth_fit"]
+    assert set(tf["without"]) == {"excitation_gain"}
+    assert tf["without"]["excitation_gain"] == pytest.approx(row["answer"]["chi2_before"], rel=1e-9)
+    assert tf["without"]["excitation_gain"] - tf["chi2"] > bm.CLEARLY_BETTER
+    old = json.loads(json.dumps(row))
+    del old["truth_fit"]["without"]
+    again = bm._with_left_out(old, case, plan)
+    assert again["truth_fit"] == tf and again["answer"] == row["answer"]

@@ -23,7 +23,7 @@ import math
 import os
 import tempfile
 import time
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from typing import Any, Callable, Dict, List, Optional, Sequence, Union
 
@@ -33,12 +33,12 @@ from ..params import Parameters
 from .cases import (DEFAULT_COUNTS, PathLike, KINDS, OUTSIDE, PAPER_POINTS, S0_OFFSET_RANGE, SIZE_RANGE, SLIDER_CANDIDATES, Case,
                     Outside, Plan, draw_cases, draw_size, synthesize_case, threshold, truth_model)
 from .effects import EFFECTS
-from .scores import CLEARLY_BETTER, final_score, score_case, summarise, summary_markdown
+from .scores import CLEARLY_BETTER, each_change_shows, final_score, score_case, summarise, summary_markdown
 from .report import verdict_line
 
 __all__ = ["BenchmarkResult", "CASES_FILE", "CLEARLY_BETTER", "Case", "DEFAULT_COUNTS", "KINDS", "OUTSIDE", "Outside",
            "PAPER_POINTS", "Plan", "S0_OFFSET_RANGE", "SETTINGS_FILE", "SIZE_RANGE", "SLIDER_CANDIDATES", "case_task",
-           "detectability", "draw_cases", "draw_size", "final_score", "judge_fingerprint", "run_benchmark", "run_case",
+           "detectability", "draw_cases", "draw_size", "each_change_shows", "final_score", "judge_fingerprint", "run_benchmark", "run_case",
            "score_case", "summarise", "summary_markdown", "synthesize_case", "threshold", "truth_fit", "truth_model"]
 
 
@@ -57,10 +57,13 @@ def judge_fingerprint() -> str:
 
 
 def truth_fit(case: Case, runs: Sequence[Any], cache: Any = None, baseline: Optional[Parameters] = None,
-              threads: Optional[int] = None) -> Dict[str, float]:
+              threads: Optional[int] = None) -> Dict[str, Any]:
     """How well the truth itself fits the case's data: its ensemble's χ², gap and largest |z| by the
     baseline's test (docs/model.md §9) — the fit a right answer could reach, against which a wrong
-    answer is judged "the data prefer the truth" or "the data cannot tell"."""
+    answer is judged "the data prefer the truth" or "the data cannot tell". ``without``: per hidden
+    change (an effect's name; ``outside`` for the changes outside the library), the χ² of the truth
+    with that change left out — by how much the data show it on top of the others (docs/model.md
+    §9.2, "Visible"). One batch of runs for all."""
     from . import models
 
     try:
@@ -69,13 +72,28 @@ def truth_fit(case: Case, runs: Sequence[Any], cache: Any = None, baseline: Opti
         from .fitting import baseline_test  # type: ignore[no-redef]
     meas, _, ops = models.measured_slider_features(runs)
     modes = models.data_modes(meas)
-    ens = models.ensemble_slider_features([truth_model(case, baseline)], ops, modes=modes, cache=cache,
-                                          threads=threads)[0]
-    if ens is None:
-        return dict(chi2=math.nan, gap=math.nan, z_worst=math.nan, n=len(meas))
-    t = baseline_test(ens.mean, meas, {k: ens.spread.get(k, 0.0) for k in meas}, len(models.ENSEMBLE_S0_SHIFTS),
-                      modes, ens.mode_counts)
-    return dict(chi2=float(t.chi2), gap=float(t.gap), z_worst=float(t.z_worst), n=int(t.n))
+    left_out = _left_out(case)
+    ens = models.ensemble_slider_features([truth_model(case, baseline)] + [truth_model(c, baseline) for _, c in left_out],
+                                          ops, modes=modes, cache=cache, threads=threads)
+
+    def test(e: Any) -> Any:
+        return baseline_test(e.mean, meas, {k: e.spread.get(k, 0.0) for k in meas}, len(models.ENSEMBLE_S0_SHIFTS),
+                             modes, e.mode_counts)
+
+    without = {name: (float(test(e).chi2) if e is not None else math.nan) for (name, _), e in zip(left_out, ens[1:])}
+    if ens[0] is None:
+        return dict(chi2=math.nan, gap=math.nan, z_worst=math.nan, n=len(meas), without=without)
+    t = test(ens[0])
+    return dict(chi2=float(t.chi2), gap=float(t.gap), z_worst=float(t.z_worst), n=int(t.n), without=without)
+
+
+def _left_out(case: Case) -> List[Any]:
+    """The case with each of its hidden changes left out in turn: (name, case) pairs."""
+    out: List[Any] = [(e, replace(case, effects={k: v for k, v in case.effects.items() if k != e}))
+                      for e in case.effects]
+    if case.outside:
+        out.append(("outside", replace(case, outside={}, outside_kind="")))
+    return out
 
 
 def _answer(d: Any) -> Dict[str, Any]:
@@ -141,12 +159,7 @@ def run_case(case: Case, plan: Plan, *, runs_file: Any = None, advice: bool = Tr
                                    truth_fit=truth_fit(case, runs, runs_file, base, threads),
                                    judge=judge_fingerprint())
         if advice and first["advice"] and not row["score"]["right"] and first["verdict"] in ("confounded", "unexplained"):
-            rng = np.random.default_rng([case.noise_seed, 1])
-            extra_dir = Path(tmp) / "advised"
-            extra = synthesize_case(case, plan, extra_dir, points=[tuple(first["advice"])],
-                                    noise_seed=case.noise_seed + 1,
-                                    s0_offset=rng.uniform(*S0_OFFSET_RANGE) * (1.0 if rng.random() < 0.5 else -1.0),
-                                    baseline=base)
+            extra = _advised_run(case, plan, first["advice"], tmp, base)
             d2 = discover(measured=runs + [read_measurement(p) for p in extra], baseline=base,
                           effects=list(plan.candidates), progress=progress, runs_file=runs_file, threads=threads)
             second = _answer(d2)
@@ -155,6 +168,33 @@ def run_case(case: Case, plan: Plan, *, runs_file: Any = None, advice: bool = Tr
                                                       base, threads))
     row["cpu_s"] = time.process_time() - c0
     row["wall_s"] = time.perf_counter() - t0
+    return row
+
+
+def _advised_run(case: Case, plan: Plan, point: Sequence[float], tmp: Any, base: Parameters) -> List[Path]:
+    """The advised run of ``case`` at ``point``, as a lab's next run: the same truth, a noise seed and
+    a start offset of its own."""
+    rng = np.random.default_rng([case.noise_seed, 1])
+    return synthesize_case(case, plan, Path(tmp) / "advised", points=[tuple(point)], noise_seed=case.noise_seed + 1,
+                           s0_offset=rng.uniform(*S0_OFFSET_RANGE) * (1.0 if rng.random() < 0.5 else -1.0),
+                           baseline=base)
+
+
+def _with_left_out(row: Dict[str, Any], case: Case, plan: Plan, *, runs_file: Any = None,
+                   baseline: Optional[Parameters] = None, threads: Optional[int] = None) -> Dict[str, Any]:
+    """A row judged before the truth's fit recorded its changes left out (``truth_fit["without"]``),
+    completed from the case's runs synthesised again (deterministic: the same files); the answers are
+    not touched."""
+    from ..measurement import read_measurement
+
+    base = baseline or Parameters()
+    row = json.loads(json.dumps(row))
+    with tempfile.TemporaryDirectory(prefix="beamslider-bench-") as tmp:
+        runs = [read_measurement(p) for p in synthesize_case(case, plan, tmp, baseline=base)]
+        row["truth_fit"] = truth_fit(case, runs, runs_file, base, threads)
+        if "advised" in row:
+            extra = [read_measurement(p) for p in _advised_run(case, plan, row["advised"]["point"], tmp, base)]
+            row["advised"]["truth_fit"] = truth_fit(case, runs + extra, runs_file, base, threads)
     return row
 
 
@@ -242,6 +282,11 @@ def run_benchmark(seed: int, *, counts: Optional[Dict[str, int]] = None, plan: O
         if on_case is not None:
             on_case(row)
 
+    for c in case_list:  # rows judged before the truth's fit recorded its changes left out
+        if c.index in done and "without" not in done[c.index].get("truth_fit", {"without": None}):
+            done[c.index] = _with_left_out(done[c.index], c, plan, runs_file=store, threads=threads)
+            if out is not None:
+                _append_line(out / CASES_FILE, done[c.index])
     todo = [c for c in case_list if c.index not in done]
     if todo and (scheduler is not None or scheduler_file is not None):
         _run_on_cluster(todo, plan, scheduler, scheduler_file, seed=seed, advice=advice, threads=threads,

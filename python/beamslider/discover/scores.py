@@ -111,6 +111,15 @@ def summarise(rows: Sequence[Dict[str, Any]]) -> Dict[str, Any]:
         rs = [r for r in rows if r["kind"] == kind]
         d["right_or_cannot_tell"] = _rate(sum(final_score(r)["right"] or int(r["index"]) in cannot_tell for r in rs),
                                           len(rs))
+    # A change the data do not show on top of the others (leaving it out of the truth raises the
+    # truth's χ² by less than the selection's price) cannot be named by a rule that keeps nothing-
+    # hidden data free of false alarms: the figure over the cases where every change shows.
+    for kind, d in by_kind.items():
+        rs = [r for r in rows if r["kind"] == kind and each_change_shows(r) is not None]
+        if kind != "nothing" and rs:
+            shown = [r for r in rs if each_change_shows(r)]
+            d["each_change_shows"] = _rate(sum(final_score(r)["right"] for r in shown), len(shown))
+            d["each_change_shows"]["cases"] = len(rs)
     cpu = [float(r["cpu_s"]) for r in rows]
     return dict(cases=len(rows), by_kind=by_kind,
                 coverage=dict(inside=sum(cov), of=len(cov), rate=(sum(cov) / len(cov)) if cov else math.nan),
@@ -135,6 +144,17 @@ def answer_chi2(a: Dict[str, Any]) -> float:
     return min(best, float(a["gap_before"]) ** 2 * int(a["n"]))
 
 
+def each_change_shows(row: Dict[str, Any]) -> Optional[bool]:
+    """Whether the final data show each of a case's hidden changes on top of the others: leaving it
+    out of the truth raises the truth's χ² by more than :data:`CLEARLY_BETTER` (docs/model.md §9.2,
+    "Visible"); None where the row does not record it or the case hides nothing."""
+    tf = row.get("advised", {}).get("truth_fit", row.get("truth_fit")) or {}
+    without = tf.get("without")
+    if not without or not math.isfinite(tf.get("chi2", math.nan)):
+        return None
+    return all(math.isfinite(w) and w - tf["chi2"] > CLEARLY_BETTER for w in without.values())
+
+
 def not_visible(row: Dict[str, Any]) -> bool:
     """Whether a case's hidden change is not visible in its runs: the answer is "none" because the
     baseline passes its test on them (docs/model.md §9.2)."""
@@ -156,11 +176,13 @@ def summary_markdown(summary: Dict[str, Any], rows: Sequence[Dict[str, Any]], *,
         pts = "; ".join(f"{f:g} Hz, {a:g} m/s², s0 {s:g}" for f, a, s in plan.operating_points)
         lines += [f"Seed {seed}; plan: {pts}, {plan.duration_s:g} s each; {len(plan.candidates)} candidates. "
                   "Rules and scores: docs/model.md §9.2.", ""]
-    lines += ["| kind | right (first answer) | right (after at most one advised run) | right, or the data cannot tell |",
-              "|---|---|---|---|"]
+    lines += ["| kind | right (first answer) | right (after at most one advised run) | right, or the data cannot tell "
+              "| right where each change shows |", "|---|---|---|---|---|"]
     for kind, d in summary["by_kind"].items():
         ceiling = _pct(d["right_or_cannot_tell"]) if "right_or_cannot_tell" in d else "—"
-        lines.append(f"| {kind} | {_pct(d['first'])} | {_pct(d['after_advice'])} | {ceiling} |")
+        e = d.get("each_change_shows")
+        shows = f"{_pct(e)}; {e['of']} of {e['cases']} cases show each" if e else "—"
+        lines.append(f"| {kind} | {_pct(d['first'])} | {_pct(d['after_advice'])} | {ceiling} | {shows} |")
     c = summary["coverage"]
     fa = summary["false_alarms"]
     lines += ["",
