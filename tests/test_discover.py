@@ -522,9 +522,10 @@ def test_mode_penalty_and_run_mode():
     """The mode of a run at an operating point is (ends high, has a turning point), from the
     classifier's high level 0.3 h; its penalty is 2 log((R + 1/2)/(k + 1/2)): zero when all R
     runs share the data's mode, 2 log 11 for none of five."""
-    from beamslider.discover.models import HIGH_FINAL_H, data_modes, mode_penalty, run_mode
+    from beamslider.discover.models import data_modes, mode_penalty, run_mode
+    from beamslider.discover.options import DEFAULT
 
-    assert HIGH_FINAL_H == 0.3
+    assert DEFAULT.high_final_h == 0.3
     assert run_mode({"amplitude_final_h@x": 0.31, "s_turning@x": 0.25}, "x") == (True, True)
     assert run_mode({"amplitude_final_h@x": 0.29}, "x") == (False, False)
     assert run_mode({"s_final@x": 0.3}, "x") is None
@@ -532,12 +533,16 @@ def test_mode_penalty_and_run_mode():
     assert mode_penalty(0, 1) == pytest.approx(2 * math.log(3)) and mode_penalty(2, 5) < mode_penalty(1, 5)
     meas = {**_feats("a", amplitude_final_h=0.1, s_final=0.26), **_feats("b", amplitude_final_h=1.1, s_turning=0.26)}
     assert data_modes(meas) == {"a": (False, False), "b": (True, True)}
+    # The level is an option (DiscoverOptions.high_final_h); the modes carry it to the model's runs.
+    raised = data_modes(meas, high_h=1.2)
+    assert raised == {"a": (False, False), "b": (False, True)} and raised.high_h == 1.2
+    assert raised.mode_of({"amplitude_final_h@b": 1.1, "s_turning@b": 0.2}, "b") == (False, True)
 
 
 def test_ensemble_features_come_from_the_runs_in_the_data_mode():
     """A bimodal ensemble (three runs jumped up, two not): the end-state features' mean comes
     from the runs in the data's mode, with their count; their spread too when it has at least
-    MODE_MIN_DOF degrees of freedom, else the spread over all runs (an upper bound; two or three
+    DiscoverOptions.mode_min_dof degrees of freedom, else the spread over all runs (an upper bound; two or three
     runs can agree by chance); speed_early from all runs."""
     from beamslider.discover.models import combine_ensemble
 

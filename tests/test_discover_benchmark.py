@@ -260,3 +260,27 @@ def test_the_truth_left_out_of_a_single_is_the_baseline_discover_tested(tmp_path
     del old["truth_fit"]["without"]
     again = bm._with_left_out(old, case, plan)
     assert again["truth_fit"] == tf and again["answer"] == row["answer"]
+
+
+def test_rows_of_a_judge_entered_in_the_lineage_are_kept(tmp_path, monkeypatch):
+    """A row of an older judge that the lineage enters as judging the same (checked by judging rows
+    again) is kept on resume; an unlisted judge's row is judged again."""
+    from beamslider.discover import lineage
+
+    plan = bm.Plan(operating_points=((124.0, 14.0, 0.3),), duration_s=2.0, candidates=("excitation_gain",))
+    calls = []
+
+    def fake_run_case(case, plan, **kw):
+        calls.append(case.index)
+        return dict(index=case.index, kind=case.kind, truth={}, outside={}, outside_kind="", label="x",
+                    answer=_answer("none"), score=dict(right=True, outcome="right", covered={}), cpu_s=1.0,
+                    judge="0" * 16)
+
+    monkeypatch.setattr(bm, "run_case", fake_run_case)
+    bm.run_benchmark(1, counts={"nothing": 2}, plan=plan, out_dir=tmp_path)
+    assert calls == [0, 1]
+    bm.run_benchmark(1, counts={"nothing": 2}, plan=plan, out_dir=tmp_path)
+    assert calls == [0, 1, 0, 1]
+    monkeypatch.setattr(lineage, "JUDGES", {bm.judge_fingerprint(): ("0" * 16, "checked")})
+    bm.run_benchmark(1, counts={"nothing": 2}, plan=plan, out_dir=tmp_path)
+    assert calls == [0, 1, 0, 1]

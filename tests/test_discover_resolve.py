@@ -132,7 +132,7 @@ def test_advice_says_when_no_run_of_its_grid_separates_a_group(monkeypatch):
 
     dist = {(124.0, 6.0): 0.9, (110.0, 10.0): 1.5, (104.0, 10.0): 9.0}
 
-    def fake(values, base, ops, threads=None, clearance=None, cache=None):
+    def fake(values, base, ops, threads=None, clearance=None, cache=None, options=None):
         if clearance is not None and ops[0].f_ex == 104.0:
             return None  # a run ends at the clamping: the point is skipped
         d = dist.get((ops[0].f_ex, ops[0].a_ex), 0.5) if len(ops) == 1 else 3.0

@@ -234,3 +234,39 @@ def test_a_run_made_again_for_its_path_is_not_appended_twice(tmp_path):
     again = RunStore(f)
     slider_paths([bs.Parameters()], OPS, cache=again)  # remakes the path-less run
     assert again.added == 0 and f.read_text().count("\n") == lines
+
+
+def test_runs_of_a_code_entered_in_the_lineage_are_taken_over(tmp_path, monkeypatch):
+    """A run kept by an older code is reused only where the lineage enters this code as making the
+    same runs (docs/model.md §9.1, "Kept runs"): an unlisted digest stays refused, and the chain is
+    followed back."""
+    from beamslider.discover import lineage
+
+    f = tmp_path / "runs.jsonl"
+    batch_slider_features([bs.Parameters()], OPS, cache=RunStore(f))
+    line = json.loads(f.read_text())
+    line["code"] = "a" * 16
+    f.write_text(json.dumps(line) + "\n")
+    assert RunStore(f).loaded == 0
+    monkeypatch.setattr(lineage, "RUNS", {code_fingerprint(): ("b" * 16, "checked"), "b" * 16: ("a" * 16, "checked")})
+    assert RunStore(f).loaded == 1
+    assert lineage.accepted(code_fingerprint(), lineage.RUNS) == {code_fingerprint(), "a" * 16, "b" * 16}
+    assert lineage.accepted("c" * 16, lineage.RUNS) == {"c" * 16}
+
+
+def test_runs_read_with_other_options_are_kept_apart(tmp_path):
+    """The features' reading (smoothing, segments, floors) is an option; a run read otherwise has a
+    key of its own, so that neither reading is taken for the other; the defaults keep the keys the
+    runs were kept under before."""
+    from beamslider.discover.options import DiscoverOptions
+
+    store = RunStore(tmp_path / "runs.jsonl")
+    floors = tuple((n, k, v * 10) for n, k, v in DiscoverOptions().feature_floors)
+    wide = DiscoverOptions(feature_floors=floors)
+    (a,), (b,) = (batch_slider_features([bs.Parameters()], OPS, cache=store, options=o) for o in (DiscoverOptions(), wide))
+    assert store.added == 2 and sum(len(k) == 6 for k in store) == 1
+    name = next(k for k in a[0] if k.startswith("speed_late"))
+    assert b[0][name].value == a[0][name].value and b[0][name].stderr >= 10 * 2e-4  # the floor × 10
+    again = RunStore(tmp_path / "runs.jsonl")
+    (c,) = batch_slider_features([bs.Parameters()], OPS, cache=again, options=wide)
+    assert again.added == 0 and c[0][name].stderr == b[0][name].stderr

@@ -52,7 +52,7 @@ def test_named(tmp_path):
     assert "**Named effect(s): `friction_coefficient`**" in md
     j = json.loads((tmp_path / "report.json").read_text())
     assert j["judgment"]["kind"] == "named" and j["judgment"]["named"] == ["friction_coefficient"]
-    assert j["options"]["gap_ratio"] == 0.3 and j["options"]["fixed_by_the_runs"]["ensemble_s0_shifts"][0] == 0.0
+    assert j["options"]["gap_ratio"] == 0.3 and j["options"]["ensemble_s0_shifts"][0] == 0.0
 
 
 def test_confounded(tmp_path):
@@ -151,6 +151,14 @@ def test_options_refuse_unknown_keys_and_bad_values():
     assert (o.tier_keep, o.gap_ratio, o.significance) == (3, 0.4, 0.01)
     with pytest.raises(dataclasses.FrozenInstanceError):
         o.tier_keep = 5  # type: ignore[misc]
+    # how the runs are read: validated as the others
+    for bad in (dict(ensemble_s0_shifts=(0.001, 0.0)), dict(ensemble_s0_shifts=(0.0,)), dict(mode_min_dof=0),
+                dict(high_final_h=-1.0), dict(recorded_segments=1), dict(turning_smooth_s=float("nan")),
+                dict(feature_floors=(("f0_hz", "log", 1e-4),))):
+        with pytest.raises(ValueError, match=next(iter(bad))):
+            dc.DiscoverOptions(**bad)
+    o = dc.DiscoverOptions(ensemble_s0_shifts=[0, 0.001, -0.001])
+    assert o.ensemble_s0_shifts == (0.0, 0.001, -0.001) and o.to_json()["ensemble_s0_shifts"] == [0.0, 0.001, -0.001]
     # discover refuses them before any run
     with pytest.raises(ValueError, match="unknown option"):
         dc.discover(enma_data=dc.synthesize_enma(bs.Parameters(), seed=1), options={"nope": 1})
@@ -211,3 +219,37 @@ def test_every_figure_states_the_reports_verdict(tmp_path, monkeypatch):
     dc.write_report(d, tmp_path / "out")
     assert titles["gap.png"] == titles["slider.png"] == gap_title(d) == \
         "confounded: friction_coefficient, com_offset (nothing named)"
+
+
+# Module-level names of the discover package that are not tuning values, each with why: the
+# definitions of the data and the benchmark, registries, file names and formats, derived views.
+NOT_TUNING = {
+    "CASES_FILE", "SETTINGS_FILE", "FORMAT", "RUN_SOURCES",  # files, formats, what a digest covers
+    "PAPER_POINTS", "SLIDER_CANDIDATES", "KINDS", "DEFAULT_COUNTS", "SIZE_RANGE", "S0_OFFSET_RANGE", "OUTSIDE",
+    "CLEARLY_BETTER",  # the benchmark's definition and scoring (docs/model.md §9.2), not discover's
+    "EFFECTS", "CHAIN_EFFECTS", "STRATEGIES", "DESCRIPTIONS", "MODE_FEATURES",  # registries, definitions
+    "RUN_RECORD_EVERY", "RUN_KEEP_EVERY",  # a model run sampled as the measured format is (1e-4 s)
+    "PATH_POINTS", "PLOT_POINTS", "GAP_MEASURE", "GAP_EXCESS_MEASURE", "LOST_HINT",  # figures, texts
+    "CHUNKS_PER_THREAD", "TASK_THREADS",  # a cluster's task sizes (results do not depend on them)
+    "RUN_BATCH", "RUN_PROGRESS",  # context variables
+    "DEFAULT", "SIGNIFICANCE", "FLOORS",  # the options' defaults and views of them
+    "RUNS", "JUDGES", "_FINGERPRINT",  # the lineage of kept results, a digest computed once
+    "_SLIDER", "_X5",  # the slider-level feature names, the points along the beam of a mode's shape
+}
+
+
+def test_no_tuning_value_of_discover_lives_outside_its_options():
+    """Every module-level constant of the discover package is a definition, a registry, a file's
+    name or a view of the options (the list above, each with its reason); a tuning value is a field
+    of DiscoverOptions. A new constant fails here until it is one or is listed with its reason."""
+    import ast
+    from pathlib import Path
+
+    root = Path(dc.__file__).resolve().parent
+    found = set()
+    for f in root.rglob("*.py"):
+        for node in ast.parse(f.read_text(encoding="utf-8")).body:
+            targets = node.targets if isinstance(node, ast.Assign) else [node.target] if isinstance(node, ast.AnnAssign) else []
+            found |= {t.id for t in targets if isinstance(t, ast.Name) and t.id.lstrip("_").isupper()
+                      and t.id not in ("__all__",)}
+    assert found - NOT_TUNING == set(), sorted(found - NOT_TUNING)

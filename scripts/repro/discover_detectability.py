@@ -46,7 +46,7 @@ def baseline_test(runs) -> Dict[str, float]:
     ens = models.ensemble_slider_features([P], ops, modes=modes)[0]
     if ens is None:
         raise bs.SimulationError("the prototype's runs failed")
-    t = stats.baseline_test(ens.mean, meas, ens.spread, len(models.ENSEMBLE_S0_SHIFTS), modes, ens.mode_counts)
+    t = stats.baseline_test(ens.mean, meas, ens.spread, len(DEFAULT.ensemble_s0_shifts), modes, ens.mode_counts)
     return dict(chi2=t.chi2, n=t.n, z=t.z_worst, limit=stats.chi2_quantile(t.n), fits=t.fits,
                 excess=stats.excess(t.chi2, t.n, t.n))
 

@@ -26,6 +26,7 @@ import numpy as np
 import beamslider as bs
 from beamslider.discover import benchmark as bm
 from beamslider.discover import models
+from beamslider.discover.options import DEFAULT
 
 try:  # the statistics' module
     from beamslider.discover.stats import baseline_test
@@ -52,7 +53,7 @@ def main() -> int:
         modes = models.data_modes(meas)
         ens = models.ensemble_slider_features([base], ops, modes=modes, cache=cache)[0]
         spread = {k: ens.spread.get(k, 0.0) for k in meas}
-        t = baseline_test(ens.mean, meas, spread, len(models.ENSEMBLE_S0_SHIFTS), modes, ens.mode_counts)
+        t = baseline_test(ens.mean, meas, spread, len(DEFAULT.ensemble_s0_shifts), modes, ens.mode_counts)
         row = dict(index=c.index, noise_seed=c.noise_seed, s0_offset=c.s0_offset, chi2=t.chi2, n=t.n,
                    gap=t.gap, z_worst=t.z_worst, fits=bool(t.fits))
         rows.append(row)

@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """χ² of chosen models against a case of the discover table, as a fit scores them: the ensemble of
-runs from s0 + ENSEMBLE_S0_SHIFTS at each point, its mean against the case's synthesized runs, the
+runs from s0 + DiscoverOptions.ensemble_s0_shifts at each point, its mean against the case's synthesized runs, the
 uncertainties from the ensemble's spread, the mode terms (docs/model.md §9.1).
 
 Usage:  python3 scripts/repro/discover_pair_grid.py --case pair-mu-f0 \

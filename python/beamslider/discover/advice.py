@@ -42,9 +42,10 @@ def advise(names: Sequence[str], base: Parameters, ops: Sequence[OperatingPoint]
         return dict(names=list(names), recommended=None, note="every point of the grid is measured already")
     def score_at(where: Sequence[OperatingPoint], clearance: Optional[float] = None) -> Optional[float]:
         if fitted:
-            diffs = fitted_differences(fitted, base, where, threads=threads, clearance=clearance, cache=cache)
+            diffs = fitted_differences(fitted, base, where, threads=threads, clearance=clearance, cache=cache,
+                                       options=options)
             return None if diffs is None else _score_fitted(diffs)
-        return _score(names, slider_sensitivities(names, base, where, threads=threads, cache=cache))
+        return _score(names, slider_sensitivities(names, base, where, threads=threads, cache=cache, options=options))
 
     now = score_at(ops)
     if on_point is not None:
@@ -75,7 +76,8 @@ def advise(names: Sequence[str], base: Parameters, ops: Sequence[OperatingPoint]
 
 def fitted_differences(values: Union[Dict[str, float], Sequence[Dict[str, float]]], base: Parameters,
                        ops: Sequence[OperatingPoint], *, threads: Optional[int] = None,
-                       clearance: Optional[float] = None, cache=None) -> Optional[Dict[str, Dict[str, float]]]:
+                       clearance: Optional[float] = None, cache=None, options: DiscoverOptions = DEFAULT
+                       ) -> Optional[Dict[str, Dict[str, float]]]:
     """The features of each single candidate's fitted model (``values``: effect name -> fitted
     value; or a list of models, each its effects' values: the sets of a confounded group, keyed
     "a+b") at ``ops``, relative to the baseline, in units of the uncertainty: the resolution floor
@@ -83,7 +85,7 @@ def fitted_differences(values: Union[Dict[str, float], Sequence[Dict[str, float]
     models — where two explanations that fit the data alike predict differently beyond what their
     own sensitivity to unresolvable perturbations blurs. ``clearance``: None if a run ends with a
     contact point of the slider (s ± B/2L, B of the baseline) closer than this to a clamping.
-    ``cache``: a run cache (:func:`.models.batch_slider_features`)."""
+    ``cache``, ``options``: a run cache and how its runs are read (:func:`.models.batch_slider_features`)."""
     from .chain import realise_model
     from .models import batch_slider_features
     from .._core import SimulationError
@@ -93,7 +95,7 @@ def fitted_differences(values: Union[Dict[str, float], Sequence[Dict[str, float]
     shifts = (0.0, -0.002, 0.002)
     models = [base] + [realise_model(base, v) for v in sets]
     res = batch_slider_features([m for m in models for _ in shifts], ops, s0_shifts=list(shifts) * len(models),
-                                threads=threads, cache=cache)
+                                threads=threads, cache=cache, options=options)
     if any(r is None for r in res):
         raise SimulationError("a run of the fitted models at the advice's operating points failed")
     groups = [[r[0] for r in res[i * len(shifts):(i + 1) * len(shifts)] if r is not None] for i in range(len(models))]

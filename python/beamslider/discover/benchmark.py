@@ -32,7 +32,9 @@ import numpy as np
 from ..params import Parameters
 from .cases import (DEFAULT_COUNTS, PathLike, KINDS, OUTSIDE, PAPER_POINTS, S0_OFFSET_RANGE, SIZE_RANGE, SLIDER_CANDIDATES, Case,
                     Outside, Plan, draw_cases, draw_size, synthesize_case, threshold, truth_model)
+from . import lineage
 from .effects import EFFECTS
+from .options import DEFAULT
 from .scores import CLEARLY_BETTER, each_change_shows, final_score, score_case, summarise, summary_markdown
 from .report import verdict_line
 
@@ -43,14 +45,15 @@ __all__ = ["BenchmarkResult", "CASES_FILE", "CLEARLY_BETTER", "Case", "DEFAULT_C
 
 
 def judge_fingerprint() -> str:
-    """A digest of the code that judges a case: the discover package's sources but the benchmark's (a
-    row made by another judge is judged again when a benchmark resumes, from its kept runs)."""
+    """A digest of the code that judges a case: the discover package's sources but the benchmark's and
+    :mod:`.lineage` (a row made by another judge, not one this judge takes over in
+    :data:`.lineage.JUDGES`, is judged again when a benchmark resumes, from its kept runs)."""
     import hashlib
 
     root = Path(__file__).resolve().parent
     h = hashlib.sha1()
     for f in sorted(root.rglob("*.py")):
-        if f.name not in ("benchmark.py", "cases.py", "scores.py"):
+        if f.name not in ("benchmark.py", "cases.py", "scores.py", "lineage.py"):
             h.update(str(f.relative_to(root)).encode())
             h.update(f.read_bytes())
     return h.hexdigest()[:16]
@@ -77,7 +80,7 @@ def truth_fit(case: Case, runs: Sequence[Any], cache: Any = None, baseline: Opti
                                           ops, modes=modes, cache=cache, threads=threads)
 
     def test(e: Any) -> Any:
-        return baseline_test(e.mean, meas, {k: e.spread.get(k, 0.0) for k in meas}, len(models.ENSEMBLE_S0_SHIFTS),
+        return baseline_test(e.mean, meas, {k: e.spread.get(k, 0.0) for k in meas}, len(DEFAULT.ensemble_s0_shifts),
                              modes, e.mode_counts)
 
     without = {name: (float(test(e).chi2) if e is not None else math.nan) for (name, _), e in zip(left_out, ens[1:])}
@@ -270,8 +273,8 @@ def run_benchmark(seed: int, *, counts: Optional[Dict[str, int]] = None, plan: O
             from .._util import write_text_atomic
 
             write_text_atomic(sfile, json.dumps(settings, indent=1))
-        judge = judge_fingerprint()
-        done = {i: r for i, r in _read_rows(out / CASES_FILE).items() if r.get("judge") == judge}  # others re-judged
+        judges = lineage.accepted(judge_fingerprint(), lineage.JUDGES)
+        done = {i: r for i, r in _read_rows(out / CASES_FILE).items() if r.get("judge") in judges}  # others re-judged
         store = RunStore(out / "runs.jsonl")
     new: Dict[int, Dict[str, Any]] = {}
 

@@ -10,6 +10,7 @@ from typing import Dict, Tuple, Union
 from ..params import Parameters
 from .effects import EFFECTS, realise_effects
 from .features import Feature, make_feature
+from .options import DEFAULT, DiscoverOptions
 
 Chain = Tuple[Tuple[str, float], ...]
 """Measurement-chain values by effect name (sorted; empty: an ideal chain)."""
@@ -65,8 +66,8 @@ def chain_map(name: str, value: float, m: Model) -> float:
     return value
 
 
-def chain_features(feats: Dict[str, Feature], m: Model) -> Dict[str, Feature]:
-    """:func:`chain_map` applied to a run's features (their uncertainties re-floored)."""
+def chain_features(feats: Dict[str, Feature], m: Model, options: DiscoverOptions = DEFAULT) -> Dict[str, Feature]:
+    """:func:`chain_map` applied to a run's features (their uncertainties re-floored by ``options``)."""
     if not m.chain:
         return feats
-    return {k: make_feature(k, chain_map(k, f.value, m), f.stderr) for k, f in feats.items()}
+    return {k: make_feature(k, chain_map(k, f.value, m), f.stderr, options) for k, f in feats.items()}

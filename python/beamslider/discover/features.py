@@ -5,12 +5,14 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from types import MappingProxyType
 from typing import Dict, Tuple
 
 import numpy as np
 
 from .. import enma
 from ..enma import EnmaData
+from .options import DEFAULT, DiscoverOptions
 
 
 @dataclass
@@ -24,12 +26,9 @@ class Feature:
     description: str = ""
 
 
-#: Resolution floors of the feature uncertainties (relative for f0/b*/amplitudes, else absolute):
-#: what a noise-free data set can still resolve given the estimators and the time step.
-FLOORS = dict(f0_hz=("rel", 1e-4), b_star=("rel", 2e-3), damping_0=("abs", 1e-6), damping_2=("abs", 2e-6),
-              shape_L6=("abs", 2e-4), shape_L3=("abs", 2e-4),
-              speed_early=("abs", 2e-4), speed_late=("abs", 2e-4), s_turning=("abs", 2e-3),
-              s_final=("abs", 2e-3), amplitude_final_h=("rel", 0.02), f_recorded=("rel", 1e-4))
+FLOORS = MappingProxyType({n: (k, v) for n, k, v in DEFAULT.feature_floors})
+"""The default resolution floors of the features' uncertainties, by feature: (kind, floor), a view of
+:attr:`.options.DiscoverOptions.feature_floors`, where they are set."""
 
 DESCRIPTIONS = dict(
     f0_hz=("Hz", "linear natural frequency of mode 1 (backbone fit at a~ = 0)"),
@@ -48,20 +47,12 @@ DESCRIPTIONS = dict(
 )
 
 
-def _floor(name: str, value: float, stderr: float) -> float:
-    base = name.split("@")[0]
-    kind, v = FLOORS.get(base, ("abs", 0.0))
-    fl = v * abs(value) if kind == "rel" else v
-    return float(max(stderr if math.isfinite(stderr) else 0.0, fl))
-
-
-def make_feature(name: str, value: float, stderr: float) -> Feature:
+def make_feature(name: str, value: float, stderr: float, options: DiscoverOptions = DEFAULT) -> Feature:
+    """A feature with its uncertainty floored by :meth:`.options.DiscoverOptions.floor` (docs/model.md
+    §9, "Ensembles, modes and features")."""
     unit, desc = DESCRIPTIONS.get(name.split("@")[0], ("", ""))
-    return Feature(name, float(value), _floor(name, value, stderr), unit, desc)
-
-
-TURNING_SMOOTH_S = 0.1
-"""Window of the centred moving average of s before its turning point is taken [s]."""
+    floored = float(max(stderr if math.isfinite(stderr) else 0.0, options.floor(name, value)))
+    return Feature(name, float(value), floored, unit, desc)
 
 
 def _linear_fit(x: np.ndarray, y: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
@@ -74,14 +65,15 @@ def _linear_fit(x: np.ndarray, y: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
     return c, np.sqrt(np.maximum(np.diag(cov), 0.0))
 
 
-def enma_features(data: EnmaData, *, low_amplitude_h: float = 0.3) -> Dict[str, Feature]:
+def enma_features(data: EnmaData, *, low_amplitude_h: float = 0.3, options: DiscoverOptions = DEFAULT
+                  ) -> Dict[str, Feature]:
     """Beam-level features of ENMA data (measured or virtual), with standard errors from the
-    scatter of the points (noise and repeated runs), floored by :data:`FLOORS`."""
+    scatter of the points (noise and repeated runs), floored by ``options.feature_floors``."""
     fit = enma.fit_backbone(data)
     w0 = math.sqrt(fit.omega2)
     out = {
-        "f0_hz": make_feature("f0_hz", fit.linear_frequency_hz, fit.linear_frequency_stderr_hz),
-        "b_star": make_feature("b_star", fit.b_star, fit.b_star_stderr),
+        "f0_hz": make_feature("f0_hz", fit.linear_frequency_hz, fit.linear_frequency_stderr_hz, options),
+        "b_star": make_feature("b_star", fit.b_star, fit.b_star_stderr, options),
     }
     d = np.asarray(data.damping_ratio, dtype=float)
     ok = np.isfinite(d)
@@ -89,8 +81,8 @@ def enma_features(data: EnmaData, *, low_amplitude_h: float = 0.3) -> Dict[str, 
         # D~(a~) w~/w = D0 + D2 a~^2: the estimate refers to the phase-resonant frequency.
         y = d[ok] * (2 * math.pi * data.frequency_hz[ok]) / w0
         c, se = _linear_fit(data.amplitude_h[ok] ** 2, y)
-        out["damping_0"] = make_feature("damping_0", c[0], se[0])
-        out["damping_2"] = make_feature("damping_2", c[1], se[1])
+        out["damping_0"] = make_feature("damping_0", c[0], se[0], options)
+        out["damping_2"] = make_feature("damping_2", c[1], se[1], options)
     sh = np.asarray(data.shape, dtype=float)
     good = np.all(np.isfinite(sh), axis=1)
     if good.any():
@@ -101,7 +93,7 @@ def enma_features(data: EnmaData, *, low_amplitude_h: float = 0.3) -> Dict[str, 
         for name, (i, j) in (("shape_L6", (0, 4)), ("shape_L3", (1, 3))):
             v = 0.5 * (sh[low, i] + sh[low, j])
             se = float(np.std(v, ddof=1) / math.sqrt(len(v))) if len(v) > 1 else 0.0
-            out[name] = make_feature(name, float(np.mean(v)), se)
+            out[name] = make_feature(name, float(np.mean(v)), se, options)
     return out
 
 
@@ -113,10 +105,11 @@ def _ls_slope(t: np.ndarray, s: np.ndarray) -> Tuple[float, float]:
 
 
 def slider_features(t: np.ndarray, s: np.ndarray, amplitude_h: np.ndarray, *, tag: str = "",
-                    noise_s: float = 0.0) -> Tuple[Dict[str, Feature], str]:
+                    noise_s: float = 0.0, options: DiscoverOptions = DEFAULT) -> Tuple[Dict[str, Feature], str]:
     """Slider-level features of one run (s(t) and the envelope of w(4L/7)/h), named
     ``<feature>@<tag>``, and the behaviour type (docs/model.md §8). ``noise_s`` is the standard
-    deviation of the measured s (enters the uncertainties)."""
+    deviation of the measured s (enters the uncertainties); ``options``: the turning point's
+    smoothing and the floors (docs/model.md §9, "Ensembles, modes and features")."""
     from ..maps import classify
 
     t = np.asarray(t, dtype=float)
@@ -127,7 +120,7 @@ def slider_features(t: np.ndarray, s: np.ndarray, amplitude_h: np.ndarray, *, ta
 
     def add(name: str, value: float, se: float) -> None:
         if math.isfinite(value):
-            out[f"{name}@{tag}"] = make_feature(f"{name}@{tag}", value, se)
+            out[f"{name}@{tag}"] = make_feature(f"{name}@{tag}", value, se, options)
 
     early = (t >= 0.5) & (t <= min(5.0, t_end))
     add("speed_early", *_ls_slope(t[early], s[early]))
@@ -138,12 +131,12 @@ def slider_features(t: np.ndarray, s: np.ndarray, amplitude_h: np.ndarray, *, ta
     add("s_final", float(np.mean(s[last])), noise_s / math.sqrt(n_last))
     add("amplitude_final_h", float(np.mean(a[last])), float(np.std(a[last])))
     # Turning point: the slider first moves away from the centre, then back by more than 0.01; the
-    # extreme of s smoothed over TURNING_SMOOTH_S (the extreme of noisy samples is biased outwards
+    # extreme of s smoothed over options.turning_smooth_s (the extreme of noisy samples is biased outwards
     # by a few noise standard deviations: +3.6e-3 with the synthesiser's 1e-3, measured).
     from .. import _core
 
     dt = float(np.median(np.diff(t))) if len(t) > 1 else 1.0
-    k = max(1, min(int(round(TURNING_SMOOTH_S / dt)), len(s)))
+    k = max(1, min(int(round(options.turning_smooth_s / dt)), len(s)))
     sm = np.asarray(_core.moving_average(np.ascontiguousarray(s), k)) if k > 1 else s
     s0 = sm[0]
     away = -1.0 if s0 < 0.5 else 1.0
@@ -152,10 +145,6 @@ def slider_features(t: np.ndarray, s: np.ndarray, amplitude_h: np.ndarray, *, ta
         add("s_turning", float(sm[ext]), noise_s / math.sqrt(k))
     behaviour = classify(t, s, a).behaviour
     return out, behaviour
-
-
-RECORDED_SEGMENTS = 4
-"""Segments of a run whose peak frequencies give the scatter of :func:`recorded_frequency`."""
 
 
 def _peak_hz(t: np.ndarray, v: np.ndarray, f_ex: float) -> float:
@@ -180,18 +169,19 @@ def _peak_hz(t: np.ndarray, v: np.ndarray, f_ex: float) -> float:
     return float((i + (0.5 * (a - c) / den if den < 0 else 0.0)) * df)
 
 
-def recorded_frequency(t: np.ndarray, velocity: np.ndarray, f_ex: float) -> Tuple[float, float]:
+def recorded_frequency(t: np.ndarray, velocity: np.ndarray, f_ex: float, segments: int = DEFAULT.recorded_segments
+                       ) -> Tuple[float, float]:
     """The excitation frequency as a run's time stamps record it [Hz], with its standard error: the
     median of the beam velocity's spectral peaks near ``f_ex`` (:func:`_peak_hz`) in
-    :data:`RECORDED_SEGMENTS` equal segments, the error from their median absolute deviation. A
+    ``segments`` equal segments (``DiscoverOptions.recorded_segments``), the error from their median absolute deviation. A
     whole run's peak is off by up to 6·10⁻⁴ f_ex in 15-s runs where the response's phase turns as the
     slider carries the beam through its resonance (a jump); the median keeps to 4·10⁻⁵ (synthetic
     runs, ``scripts/repro/discover_recorded_frequency.py``). The model runs at f_ex exactly; a time
     base τ (samples stamped τ t, docs/model.md §9.1) records f_ex/τ."""
     t = np.asarray(t, dtype=float)
     v = np.asarray(velocity, dtype=float)
-    m = len(t) // RECORDED_SEGMENTS
-    segs = np.array([_peak_hz(t[j * m:(j + 1) * m], v[j * m:(j + 1) * m], f_ex) for j in range(RECORDED_SEGMENTS)])
+    m = len(t) // segments
+    segs = np.array([_peak_hz(t[j * m:(j + 1) * m], v[j * m:(j + 1) * m], f_ex) for j in range(segments)])
     segs = segs[np.isfinite(segs)]
     if len(segs) == 0:
         return math.nan, math.nan

@@ -186,7 +186,7 @@ def profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str,
     cache: Dict[Tuple[float, ...], Optional[Dict[str, float]]] = {}
     fixed = dict(fixed or {})
     spread = dict(spread0 or {})
-    modes = data_modes(meas) if options.mode_conditioning else None
+    modes = data_modes(meas, options.high_final_h) if options.mode_conditioning else None
     joint_on = options.joint_refinement if joint is None else bool(joint)
     grid_n = options.grid_points if grid_n is None else grid_n
     refine = options.refine_levels if refine is None else refine
@@ -309,7 +309,8 @@ def profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str,
     n, k = len(names), len(effects) + len(fixed)
     predicted: Dict[str, float] = {}
     if ens is not None:
-        spread.update(pooled_spread(ens, [[cache[key_of(p)] for p in pts] for pts in last], names, modes))
+        spread.update(pooled_spread(ens, [[cache[key_of(p)] for p in pts] for pts in last], names, modes,
+                                    options.mode_min_dof))
         predicted = dict(ens.mean)
         best_chi2 = ensemble_chi2(ens, spread)
         if first is not None and refined is None and len(effects) == 1 and key_of(first[0]) != key_of(u):
@@ -317,7 +318,7 @@ def profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str,
             # ensemble fits better by more than the intervals' z² (a rough, mode-switching
             # objective), that point is the fit; within z² the two are alike and the refined one stands.
             sp_first = dict(spread0 or {})
-            sp_first.update(pooled_spread(first[1], [], names, modes))
+            sp_first.update(pooled_spread(first[1], [], names, modes, options.mode_min_dof))
             c_first = ensemble_chi2(first[1], sp_first)
             if c_first < best_chi2 - interval_z(options.interval_level) ** 2:
                 u, ens, best_chi2 = first[0], first[1], c_first
@@ -336,7 +337,7 @@ def profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str,
         from .refine import refine_jointly
 
         sp_obj = dict(spread0 or {})
-        sp_obj.update(pooled_spread(ens, [], names, modes))
+        sp_obj.update(pooled_spread(ens, [], names, modes, options.mode_min_dof))
         obj = ensemble_objective(sp_obj, ens.runs)
         pts = [u] + [np.array([g]) for g in grids[0]]
         obj.evaluate(pts)
@@ -346,7 +347,7 @@ def profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str,
         for k_, e_ in obj.cache.items():
             if e_ is not None:
                 sp_k = dict(spread0 or {})
-                sp_k.update(pooled_spread(e_, [], names, modes))
+                sp_k.update(pooled_spread(e_, [], names, modes, options.mode_min_dof))
                 own[k_] = (ensemble_chi2(e_, sp_k), sp_k, e_)
         k_best = min(own, key=lambda k_: own[k_][0], default=None)
         if (k_best is not None and key_of(u) in own

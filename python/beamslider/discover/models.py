@@ -18,6 +18,7 @@ from ..measurement import DISPLACEMENT_DETREND_S, Measurement
 from ..params import Parameters, native
 from .chain import Model, as_model, chain_features, excitation_factor
 from .features import Feature, make_feature, recorded_frequency, slider_features
+from .options import DEFAULT, DiscoverOptions
 
 
 @dataclass
@@ -41,8 +42,10 @@ def _noise_of(s: np.ndarray) -> float:
     return float(np.std(np.diff(s, 2)) / math.sqrt(6))
 
 
-def measured_slider_features(runs: Sequence[Measurement]) -> Tuple[Dict[str, Feature], Dict[str, str], List[OperatingPoint]]:
-    """Features of measured runs (several runs at one operating point: mean and scatter)."""
+def measured_slider_features(runs: Sequence[Measurement], options: DiscoverOptions = DEFAULT
+                             ) -> Tuple[Dict[str, Feature], Dict[str, str], List[OperatingPoint]]:
+    """Features of measured runs (several runs at one operating point: mean and scatter), read as
+    ``options`` says (docs/model.md §9, "Ensembles, modes and features")."""
     groups: Dict[Tuple[float, float, float], List[Measurement]] = {}
     for m in runs:
         if m.f_ex is None or m.a_ex is None or m.s0 is None:
@@ -59,17 +62,18 @@ def measured_slider_features(runs: Sequence[Measurement]) -> Tuple[Dict[str, Fea
             h = 1e-3
             amp = m.envelope(1.0) / h
             keep = m.t <= op.duration_s + 1e-9
-            fe, beh = slider_features(m.t[keep], m.s[keep], amp[keep], tag=op.tag, noise_s=_noise_of(m.s))
-            f_rec, se_rec = recorded_frequency(m.t[keep], m.velocity[keep], f)
+            fe, beh = slider_features(m.t[keep], m.s[keep], amp[keep], tag=op.tag, noise_s=_noise_of(m.s),
+                                      options=options)
+            f_rec, se_rec = recorded_frequency(m.t[keep], m.velocity[keep], f, options.recorded_segments)
             if math.isfinite(f_rec):
-                fe[f"f_recorded@{op.tag}"] = make_feature(f"f_recorded@{op.tag}", f_rec, se_rec)
+                fe[f"f_recorded@{op.tag}"] = make_feature(f"f_recorded@{op.tag}", f_rec, se_rec, options)
             per.append(fe)
             behaviours[op.tag] = beh
         for name in per[0]:
             vals = np.array([p[name].value for p in per if name in p])
             ses = np.array([p[name].stderr for p in per if name in p])
             scatter = float(np.std(vals, ddof=1) / math.sqrt(len(vals))) if len(vals) > 1 else 0.0
-            feats[name] = make_feature(name, float(np.mean(vals)), math.hypot(float(np.mean(ses)), scatter))
+            feats[name] = make_feature(name, float(np.mean(vals)), math.hypot(float(np.mean(ses)), scatter), options)
     return feats, behaviours, ops
 
 
@@ -106,9 +110,11 @@ def _params_key(p: Parameters) -> Tuple[Any, ...]:
     return tuple(sorted(p.to_dict().items()))
 
 
-def _run_key(m: Model, op: OperatingPoint, shift: float) -> Tuple[Any, ...]:
-    """The cache key of model ``m``'s run at ``op`` with s0 shifted by ``shift``."""
-    return (_params_key(m.params), op.tag, op.f_ex, op.a_ex * excitation_factor(m), op.s0 + shift, op.duration_s)
+def _run_key(m: Model, op: OperatingPoint, shift: float, options: DiscoverOptions = DEFAULT) -> Tuple[Any, ...]:
+    """The cache key of model ``m``'s run at ``op`` with s0 shifted by ``shift``, its features read as
+    ``options`` says (:meth:`.options.DiscoverOptions.reading_key`: nothing more by default)."""
+    return (_params_key(m.params), op.tag, op.f_ex, op.a_ex * excitation_factor(m), op.s0 + shift,
+            op.duration_s) + options.reading_key()
 
 
 RUN_BATCH: ContextVar[Optional[Callable[..., List[Dict[str, Any]]]]] = ContextVar("RUN_BATCH", default=None)
@@ -124,15 +130,16 @@ RUN_PROGRESS: ContextVar[Optional[Callable[[int], None]]] = ContextVar("RUN_PROG
 
 def batch_slider_features(params_list: Sequence[Union[Parameters, Model]], ops: Sequence[OperatingPoint], *,
                           s0_shifts: Optional[Sequence[float]] = None, threads: Optional[int] = None,
-                          on_run: Optional[Callable[[int], None]] = None, cache: Optional[RunCache] = None
-                          ) -> List[Optional[Tuple[Dict[str, Feature], Dict[str, str]]]]:
+                          on_run: Optional[Callable[[int], None]] = None, cache: Optional[RunCache] = None,
+                          options: DiscoverOptions = DEFAULT) -> List[Optional[Tuple[Dict[str, Feature], Dict[str, str]]]]:
     """Features of free-slider runs of every model of ``params_list`` at the operating points
     (same code as measured), all runs as one batch of the core's parallel runner
     (``_core.run_free_slider_batch``: interpreter released, Ctrl-C, deterministic). A model whose
     parameters are invalid or one of whose runs fails numerically gives None. ``s0_shifts``: per
     model, a shift of every run's s0 (repeated runs). A :class:`.chain.Model` is run at its
     excitation factor times a_ex and its features are those its measurement chain reports
-    (docs/model.md §9.1). Identical runs are made once; ``cache`` keeps them across calls."""
+    (docs/model.md §9.1). Identical runs are made once; ``cache`` keeps them across calls. ``options``:
+    how the runs' features are read (docs/model.md §9, "Ensembles, modes and features")."""
     shifts = list(s0_shifts) if s0_shifts is not None else [0.0] * len(params_list)
     models = [as_model(p) for p in params_list]
     known: RunCache = cache if cache is not None else {}
@@ -141,7 +148,7 @@ def batch_slider_features(params_list: Sequence[Union[Parameters, Model]], ops: 
     for m, d in zip(models, shifts):
         row = []
         for op in ops:
-            key = _run_key(m, op, d)
+            key = _run_key(m, op, d, options)
             if key not in known and key not in todo:
                 todo.append(key)
                 jobs.append((native(m.params), op.f_ex, key[3], key[4], op.duration_s))
@@ -152,7 +159,7 @@ def batch_slider_features(params_list: Sequence[Union[Parameters, Model]], ops: 
         res = runner(jobs, record_every=RUN_RECORD_EVERY, keep_every=RUN_KEEP_EVERY, window_s=1.0,
                      detrend_s=DISPLACEMENT_DETREND_S, threads=threads, on_done=on_run or RUN_PROGRESS.get())
         for key, r in zip(todo, res):
-            known[key] = None if "error" in r else _features_of_run(r, key[1])
+            known[key] = None if "error" in r else _features_of_run(r, key[1], options)
     out: List[Optional[Tuple[Dict[str, Feature], Dict[str, str]]]] = []
     for m, row in zip(models, keys):
         feats: Dict[str, Feature] = {}
@@ -163,15 +170,15 @@ def batch_slider_features(params_list: Sequence[Union[Parameters, Model]], ops: 
             if r is None:
                 ok = False
                 continue
-            feats.update(chain_features(with_recorded_frequency(r[0], op), m))
+            feats.update(chain_features(with_recorded_frequency(r[0], op, options), m, options))
             behaviours[op.tag] = r[1]
         out.append((feats, behaviours) if ok else None)
     return out
 
 
 def slider_paths(models: Sequence[Union[Parameters, Model]], ops: Sequence[OperatingPoint], *,
-                 threads: Optional[int] = None, cache: Optional[RunCache] = None
-                 ) -> List[List[Optional[SliderPath]]]:
+                 threads: Optional[int] = None, cache: Optional[RunCache] = None,
+                 options: DiscoverOptions = DEFAULT) -> List[List[Optional[SliderPath]]]:
     """Per model and operating point, the slider's path (t [s], s) of its run from s0 as the
     model's measurement chain would record it — stamps τ t, camera o + k s, the shaker at its
     excitation factor times a_ex (docs/model.md §9.1) — about :data:`PATH_POINTS` samples; None
@@ -180,46 +187,38 @@ def slider_paths(models: Sequence[Union[Parameters, Model]], ops: Sequence[Opera
     known: RunCache = cache if cache is not None else {}
     for m in ms:  # runs kept without their path (.runstore) are made again
         for op in ops:
-            r = known.get(_run_key(m, op, 0.0))
+            r = known.get(_run_key(m, op, 0.0, options))
             if r is not None and r[2] is None:
-                del known[_run_key(m, op, 0.0)]
-    batch_slider_features(ms, ops, threads=threads, cache=known)
+                del known[_run_key(m, op, 0.0, options)]
+    batch_slider_features(ms, ops, threads=threads, cache=known, options=options)
     out: List[List[Optional[SliderPath]]] = []
     for m in ms:
         k, o, tau = m.value("position_scale"), m.value("position_offset"), m.value("time_base")
-        runs = [known[_run_key(m, op, 0.0)] for op in ops]
+        runs = [known[_run_key(m, op, 0.0, options)] for op in ops]
         out.append([None if r is None else (tau * r[2][0], o + k * r[2][1]) for r in runs])
     return out
 
 
-def with_recorded_frequency(feats: Dict[str, Feature], op: OperatingPoint) -> Dict[str, Feature]:
+def with_recorded_frequency(feats: Dict[str, Feature], op: OperatingPoint, options: DiscoverOptions = DEFAULT
+                            ) -> Dict[str, Feature]:
     """A model run's features with the excitation frequency it records (``f_recorded``): f_ex
     itself, the run's time being exact (:func:`.features.recorded_frequency`)."""
     name = f"f_recorded@{op.tag}"
-    return {**feats, name: make_feature(name, op.f_ex, 0.0)}
+    return {**feats, name: make_feature(name, op.f_ex, 0.0, options)}
 
 
-def _features_of_run(r: Dict[str, Any], tag: str) -> Optional[Tuple[Dict[str, Feature], str, SliderPath]]:
+def _features_of_run(r: Dict[str, Any], tag: str, options: DiscoverOptions = DEFAULT
+                     ) -> Optional[Tuple[Dict[str, Feature], str, SliderPath]]:
     """Features, behaviour and slider path (:data:`PATH_POINTS`) of one run of the core's runner,
     None for a run too short to classify (the slider left the beam early: a failed model, as a run
     that fails numerically)."""
     try:
-        feats, behaviour = slider_features(r["t"], r["s"], r["amplitude_h"], tag=tag)
+        feats, behaviour = slider_features(r["t"], r["s"], r["amplitude_h"], tag=tag, options=options)
         k = max(1, len(r["t"]) // PATH_POINTS)
         return feats, behaviour, (r["t"][::k].astype(np.float32), r["s"][::k].astype(np.float32))
     except ValueError:
         return None
 
-
-ENSEMBLE_S0_SHIFTS = (0.0, -0.002, -0.001, 0.001, 0.002)
-"""Shifts of s0 of the runs of a model's ensemble (:func:`ensemble_slider_features`): perturbations
-the data cannot resolve. After 60 s the final state at (124 Hz, 14 m/s²) and (126, 10) depends on
-them as much as on a change of μ by 2e-4 (measured: docs/results/discover/sensitivity.md)."""
-
-
-HIGH_FINAL_H = 0.3
-"""Final amplitude [h] from which a run ends on the high branch: the classifier's ``high_h``
-(docs/model.md §8)."""
 
 MODE_FEATURES = ("speed_late", "s_final", "amplitude_final_h", "s_turning")
 """Features that depend on the state a run ends in (its mode, :func:`run_mode`): the jump-up time
@@ -230,8 +229,21 @@ ensemble. They are compared only with runs in the data's mode; ``speed_early`` i
 
 
 Mode = Tuple[bool, bool]
-Modes = Dict[str, Optional[Mode]]
-"""The data's mode per operating-point tag (:func:`data_modes`)."""
+"""A run's mode: (ends on the high branch, has a turning point) (:func:`run_mode`)."""
+
+
+class Modes(Dict[str, Optional[Mode]]):
+    """The data's mode per operating-point tag (:func:`data_modes`), with the final amplitude
+    ``high_h`` [h] from which a run ends high (``DiscoverOptions.high_final_h``): a model's run is
+    in the data's mode when :meth:`mode_of` gives the same (docs/model.md §9, "Ensembles, modes and features")."""
+
+    def __init__(self, modes: Any = (), high_h: float = DEFAULT.high_final_h) -> None:
+        super().__init__(modes)
+        self.high_h = float(high_h)
+
+    def mode_of(self, values: Dict[str, float], tag: str) -> Optional[Mode]:
+        """The mode of a run at ``tag`` (:func:`run_mode` at this ``high_h``)."""
+        return run_mode(values, tag, self.high_h)
 
 
 def tag_of(name: str) -> Optional[str]:
@@ -239,20 +251,25 @@ def tag_of(name: str) -> Optional[str]:
     return name.split("@", 1)[1] if "@" in name else None
 
 
-def run_mode(values: Dict[str, float], tag: str) -> Optional[Mode]:
+def as_modes(modes: Any) -> Optional[Modes]:
+    """``modes`` as :class:`Modes` (a plain mapping: at the default ``high_h``; None stays None)."""
+    return modes if modes is None or isinstance(modes, Modes) else Modes(modes)
+
+
+def run_mode(values: Dict[str, float], tag: str, high_h: float = DEFAULT.high_final_h) -> Optional[Mode]:
     """The mode of a run at operating point ``tag``: (ends on the high branch, has a turning
     point), from its features (``values``: name -> value); None without a final amplitude."""
     a = values.get(f"amplitude_final_h@{tag}")
     if a is None or not math.isfinite(a):
         return None
-    return (a >= HIGH_FINAL_H, f"s_turning@{tag}" in values)
+    return (a >= high_h, f"s_turning@{tag}" in values)
 
 
-def data_modes(meas: Dict[str, Feature]) -> Modes:
-    """The measured runs' modes, per operating-point tag."""
+def data_modes(meas: Dict[str, Feature], high_h: float = DEFAULT.high_final_h) -> Modes:
+    """The measured runs' modes, per operating-point tag (a run ends high from ``high_h``)."""
     vals = {k: f.value for k, f in meas.items()}
     tags = sorted({t for t in map(tag_of, meas) if t is not None})
-    return {t: run_mode(vals, t) for t in tags}
+    return Modes({t: run_mode(vals, t, high_h) for t in tags}, high_h)
 
 
 def is_mode_feature(name: str) -> bool:
@@ -278,7 +295,7 @@ def mode_penalty(k: int, runs: int) -> float:
 
 @dataclass
 class Ensemble:
-    """Features of one model over runs from s0 + :data:`ENSEMBLE_S0_SHIFTS`."""
+    """Features of one model over runs from s0 + ``DiscoverOptions.ensemble_s0_shifts``."""
 
     mean: Dict[str, float]
     """Mean of each feature over the runs that have it (at least half of them); for the features
@@ -294,23 +311,18 @@ class Ensemble:
     mode_spread: Dict[str, float] = field(default_factory=dict)
     """Mode features: the standard deviation over the runs in the data's mode (at least two),
     with ``mode_counts − 1`` degrees of freedom; :attr:`spread` uses it only from
-    :data:`MODE_MIN_DOF` on."""
-
-
-MODE_MIN_DOF = 4
-"""Least degrees of freedom of a mode feature's spread estimated from the runs in the data's mode;
-with fewer, the spread over all runs (an upper bound) is used. Measured: at restitution 0.425 the
-three of five runs that end low at (126 Hz, 10 m/s²) agree on speed_late within 4.6e-5 1/s, while
-seven scan runs nearby scatter by 6e-4; that spread made a χ² of 98 out of one of 24."""
+    ``DiscoverOptions.mode_min_dof`` on."""
 
 
 def combine_ensemble(members: Sequence[Optional[Tuple[Dict[str, Feature], Dict[str, str]]]],
-                     modes: Optional[Modes] = None) -> Optional[Ensemble]:
+                     modes: Optional[Modes] = None, mode_min_dof: int = DEFAULT.mode_min_dof) -> Optional[Ensemble]:
     """Mean and spread of the features of one model's runs (the first: unshifted; None: failed).
     ``modes``: the data's mode per tag (:func:`data_modes`); the features of
-    :data:`MODE_FEATURES` then come from the runs in that mode only."""
+    :data:`MODE_FEATURES` then come from the runs in that mode only, their spread from those runs
+    when they give at least ``mode_min_dof`` degrees of freedom, else from all (an upper bound)."""
     if not members or members[0] is None:
         return None
+    modes = as_modes(modes)
     ok = [m[0] for m in members if m is not None]
     vals = [{k: f.value for k, f in m.items()} for m in ok]
     counts: Dict[str, int] = {}
@@ -318,7 +330,7 @@ def combine_ensemble(members: Sequence[Optional[Tuple[Dict[str, Feature], Dict[s
     for tag, md in (modes or {}).items():
         if md is None:
             continue
-        idx = [i for i, v in enumerate(vals) if run_mode(v, tag) == md]
+        idx = [i for i, v in enumerate(vals) if modes.mode_of(v, tag) == md]
         in_mode[tag] = idx
         counts[tag] = len(idx)
     names = sorted({k for m in ok for k in m})
@@ -335,7 +347,7 @@ def combine_ensemble(members: Sequence[Optional[Tuple[Dict[str, Feature], Dict[s
             if len(v) > 1:
                 mode_spread[k] = float(np.std(v, ddof=1))
             # Few runs in the mode: their spread is unreliable; that over all runs is an upper bound.
-            spread[k] = mode_spread[k] if len(v) - 1 >= MODE_MIN_DOF else sd_all
+            spread[k] = mode_spread[k] if len(v) - 1 >= mode_min_dof else sd_all
         elif 2 * len(v_all) >= len(members):
             mean[k] = float(np.mean(v_all))
             spread[k] = sd_all
@@ -345,26 +357,27 @@ def combine_ensemble(members: Sequence[Optional[Tuple[Dict[str, Feature], Dict[s
 def ensemble_slider_features(params_list: Sequence[Union[Parameters, Model]], ops: Sequence[OperatingPoint], *,
                              threads: Optional[int] = None, on_run: Optional[Callable[[int], None]] = None,
                              central: Optional[Sequence[Optional[Tuple[Dict[str, Feature], Dict[str, str]]]]] = None,
-                             modes: Optional[Modes] = None, cache: Optional[RunCache] = None) -> List[Optional[Ensemble]]:
-    """Per model, the features of its runs from s0 + :data:`ENSEMBLE_S0_SHIFTS` (one batch of the
+                             modes: Optional[Modes] = None, cache: Optional[RunCache] = None,
+                             options: DiscoverOptions = DEFAULT) -> List[Optional[Ensemble]]:
+    """Per model, the features of its runs from s0 + ``options.ensemble_s0_shifts`` (one batch of the
     core's runner for all models): mean and spread. ``central``: the unshifted runs' features when
     already known (their runs are not repeated). ``modes``: the data's modes (:func:`combine_ensemble`).
-    None for a model whose unshifted runs fail. ``cache``: :func:`batch_slider_features`."""
-    shifts = list(ENSEMBLE_S0_SHIFTS) if central is None else [d for d in ENSEMBLE_S0_SHIFTS if d != 0.0]
+    None for a model whose unshifted runs fail. ``cache``, ``options``: :func:`batch_slider_features`."""
+    shifts = list(options.ensemble_s0_shifts) if central is None else [d for d in options.ensemble_s0_shifts if d != 0.0]
     res = batch_slider_features([p for p in params_list for _ in shifts], ops,
                                 s0_shifts=[d for _ in params_list for d in shifts], threads=threads, on_run=on_run,
-                                cache=cache)
+                                cache=cache, options=options)
     out: List[Optional[Ensemble]] = []
     for i in range(len(params_list)):
         members = list(res[i * len(shifts):(i + 1) * len(shifts)])
         if central is not None:
             members = [central[i]] + members
-        out.append(combine_ensemble(members, modes))
+        out.append(combine_ensemble(members, modes, options.mode_min_dof))
     return out
 
 
-def model_slider_features(params: Parameters, ops: Sequence[OperatingPoint], *, s0_shift: float = 0.0
-                          ) -> Tuple[Dict[str, Feature], Dict[str, str]]:
+def model_slider_features(params: Parameters, ops: Sequence[OperatingPoint], *, s0_shift: float = 0.0,
+                          options: DiscoverOptions = DEFAULT) -> Tuple[Dict[str, Feature], Dict[str, str]]:
     """Features of free-slider runs of the model at the operating points (same code as measured);
     the runs go through the core's parallel runner (:func:`batch_slider_features`). Raises
     ``ValueError`` for invalid parameters and ``SimulationError`` when a run fails."""
@@ -376,8 +389,8 @@ def model_slider_features(params: Parameters, ops: Sequence[OperatingPoint], *, 
     for op, r in zip(ops, res):
         if "error" in r:
             raise (ValueError if r["error_kind"] == "invalid" else _core.SimulationError)(f"{op.tag}: {r['error']}")
-        fe, beh = slider_features(r["t"], r["s"], r["amplitude_h"], tag=op.tag)
-        feats.update(with_recorded_frequency(fe, op))
+        fe, beh = slider_features(r["t"], r["s"], r["amplitude_h"], tag=op.tag, options=options)
+        feats.update(with_recorded_frequency(fe, op, options))
         behaviours[op.tag] = beh
     return feats, behaviours
 

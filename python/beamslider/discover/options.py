@@ -1,6 +1,7 @@
 """The tuning values of a discover in one frozen type, :class:`DiscoverOptions` (docs/model.md §9,
-§9.1): the naming rule's levels, the search's margins and counts, the fits' grids and the advice's
-grid. ``discover(options=...)`` takes one (or a mapping of some of its fields; an unknown key is
+§9.1): the naming rule's levels, the search's margins and counts, the fits' grids, the advice's
+grid, and how the runs are read (the ensemble's starts, the modes, the features' smoothing and
+floors). ``discover(options=...)`` takes one (or a mapping of some of its fields; an unknown key is
 refused), and ``report.json`` records the values that made it (``options``)."""
 
 from __future__ import annotations
@@ -9,8 +10,6 @@ import dataclasses
 import math
 from dataclasses import dataclass
 from typing import Any, Dict, Mapping, Tuple, Union
-
-from . import features, models
 
 @dataclass(frozen=True)
 class DiscoverOptions:
@@ -135,6 +134,39 @@ class DiscoverOptions:
     """The advice skips a point where a run ends with a contact point of the slider closer than this
     (fraction of L) to a clamping (§9, "unexplained")."""
 
+    # --- the runs and their features (docs/model.md §9, "Ensembles, modes and features") ----------
+    ensemble_s0_shifts: Tuple[float, ...] = (0.0, -0.002, -0.001, 0.001, 0.002)
+    """Shifts of s0 of the runs of a model's ensemble, the unshifted first: perturbations the data
+    cannot resolve. After 60 s the final state at (124 Hz, 14 m/s²) and (126, 10) depends on them as
+    much as on a change of μ by 2e-4 (measured: docs/results/discover/sensitivity.md) (§9,
+    "Ensembles, modes and features")."""
+    high_final_h: float = 0.3
+    """Final amplitude [h] from which a run ends on the high branch (its mode; the classifier's
+    ``high_h``, §8) (§9, "Ensembles, modes and features")."""
+    mode_min_dof: int = 4
+    """Least degrees of freedom of a mode feature's spread estimated from the runs in the data's mode;
+    with fewer, the spread over all runs (an upper bound). Measured: at restitution 0.425 the three
+    of five runs that end low at (126 Hz, 10 m/s²) agree on speed_late within 4.6e-5 1/s, while seven
+    scan runs nearby scatter by 6e-4; that spread made a χ² of 98 out of one of 24 (§9, "Ensembles,
+    modes and features")."""
+    turning_smooth_s: float = 0.1
+    """Window [s] of the centred moving average of s before a run's turning point is taken: the
+    extreme of noisy samples is biased outwards (+3.6e-3 with the synthesiser's noise 1e-3) (§9,
+    "Ensembles, modes and features"). Measured and model runs alike; a run read otherwise is kept
+    apart (§9.1, "Kept runs")."""
+    recorded_segments: int = 4
+    """Segments of a run whose spectral peaks give the recorded excitation frequency and its scatter
+    (§9, "Ensembles, modes and features"; :func:`.features.recorded_frequency`). A run read otherwise
+    is kept apart (§9.1, "Kept runs")."""
+    feature_floors: Tuple[Tuple[str, str, float], ...] = (
+        ("f0_hz", "rel", 1e-4), ("b_star", "rel", 2e-3), ("damping_0", "abs", 1e-6), ("damping_2", "abs", 2e-6),
+        ("shape_L6", "abs", 2e-4), ("shape_L3", "abs", 2e-4), ("speed_early", "abs", 2e-4),
+        ("speed_late", "abs", 2e-4), ("s_turning", "abs", 2e-3), ("s_final", "abs", 2e-3),
+        ("amplitude_final_h", "rel", 0.02), ("f_recorded", "rel", 1e-4))
+    """Resolution floors of the features' uncertainties, (feature, "rel" or "abs", floor): what a
+    noise-free data set can still resolve given the estimators and the time step (§9, "Ensembles,
+    modes and features"). A run read otherwise is kept apart (§9.1, "Kept runs")."""
+
     def __post_init__(self) -> None:
         def check(name: str, ok: bool, what: str) -> None:
             if not ok:
@@ -177,6 +209,49 @@ class DiscoverOptions:
         check("advice_grid", grid is not None and all(len(g) == 3 and all(math.isfinite(x) for x in g) for g in grid),
               "give (f_ex, a_ex, s0) triples of finite numbers")
         object.__setattr__(self, "advice_grid", grid)
+        try:
+            shifts = tuple(float(x) for x in self.ensemble_s0_shifts)
+        except (TypeError, ValueError):
+            shifts = ()
+        check("ensemble_s0_shifts", len(shifts) >= 2 and shifts[0] == 0.0 and len(set(shifts)) == len(shifts)
+              and all(math.isfinite(x) and abs(x) < 0.1 for x in shifts),
+              "give the unshifted run (0.0) first, then at least one other distinct shift of s0, each |shift| < 0.1")
+        object.__setattr__(self, "ensemble_s0_shifts", shifts)
+        for name in ("high_final_h", "turning_smooth_s"):
+            v = getattr(self, name)
+            check(name, isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) and v > 0,
+                  "must be a finite number > 0")
+        check("mode_min_dof", isinstance(self.mode_min_dof, int) and not isinstance(self.mode_min_dof, bool)
+              and self.mode_min_dof >= 1, "must be an integer >= 1")
+        check("recorded_segments", isinstance(self.recorded_segments, int)
+              and not isinstance(self.recorded_segments, bool) and self.recorded_segments >= 2,
+              "must be an integer >= 2")
+        try:
+            floors = tuple((str(n), str(k), float(v)) for n, k, v in self.feature_floors)
+        except (TypeError, ValueError):
+            floors = None
+        check("feature_floors", floors is not None and all(k in ("rel", "abs") and math.isfinite(v) and v >= 0
+                                                           for _, k, v in floors),
+              'give (feature, "rel" or "abs", floor >= 0) triples')
+        object.__setattr__(self, "feature_floors", floors)
+
+    def floor(self, name: str, value: float) -> float:
+        """The resolution floor of feature ``name`` (``<feature>@<tag>``) at ``value``
+        (:attr:`feature_floors`; 0 for a feature without one)."""
+        base = name.split("@")[0]
+        for n, kind, v in self.feature_floors:
+            if n == base:
+                return v * abs(value) if kind == "rel" else v
+        return 0.0
+
+    def reading_key(self) -> Tuple[Any, ...]:
+        """What a run's stored features depend on beyond its inputs, for the key of a kept run: empty
+        with the default reading (the keys of the runs kept before these were options), else the
+        smoothing, segments and floors (docs/model.md §9.1, "Kept runs")."""
+        fields = (self.turning_smooth_s, self.recorded_segments, self.feature_floors)
+        if fields == (DEFAULT.turning_smooth_s, DEFAULT.recorded_segments, DEFAULT.feature_floors):
+            return ()
+        return (("reading", self.turning_smooth_s, self.recorded_segments, self.feature_floors),)
 
     @classmethod
     def of(cls, given: Union[None, "DiscoverOptions", Mapping[str, Any]] = None, **changes: Any) -> "DiscoverOptions":
@@ -200,17 +275,11 @@ class DiscoverOptions:
         return dataclasses.replace(self, **values) if values else self
 
     def to_json(self) -> Dict[str, Any]:
-        """The values, and beside them those fixed by the code that makes a run's features
-        (``fixed_by_the_runs``: the ensemble's s0 shifts, the modes' levels, the features' smoothing
-        and floors; in :mod:`.models` and :mod:`.features`, whose bytes fingerprint every kept run,
-        docs/model.md §9.1 "Kept runs": not options, recorded)."""
+        """The values, as JSON (tuples as lists)."""
         out: Dict[str, Any] = {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
-        out["advice_grid"] = [list(g) for g in self.advice_grid]
-        out["fixed_by_the_runs"] = dict(ensemble_s0_shifts=list(models.ENSEMBLE_S0_SHIFTS),
-                                        high_final_h=models.HIGH_FINAL_H, mode_min_dof=models.MODE_MIN_DOF,
-                                        turning_smooth_s=features.TURNING_SMOOTH_S,
-                                        recorded_segments=features.RECORDED_SEGMENTS,
-                                        floors={k: list(v) for k, v in features.FLOORS.items()})
+        for name in ("advice_grid", "feature_floors"):
+            out[name] = [list(g) for g in getattr(self, name)]
+        out["ensemble_s0_shifts"] = list(self.ensemble_s0_shifts)
         return out
 
 

@@ -17,7 +17,7 @@ from .chain import Model
 from .effects import EFFECTS, Effect, realise_effects
 from .features import Feature, enma_features
 from .fitting import EnsembleMany, ModelMany, fit_candidate, profile_fit
-from .models import (ENSEMBLE_S0_SHIFTS, Ensemble, Modes, RunCache, batch_slider_features, data_modes,
+from .models import (Ensemble, Modes, RunCache, batch_slider_features, data_modes,
                      ensemble_slider_features, measured_slider_features, slider_paths, unreached_mode_features)
 from .options import DiscoverOptions
 from .refine import step_chi2
@@ -80,7 +80,7 @@ class Problem:
             self.run_cache = runs_file if isinstance(runs_file, RunStore) else RunStore(runs_file)
         self.meas, self.before, self.behaviours = {}, {}, {}
         self.spread_base: Dict[str, float] = {}
-        self.runs_base = len(ENSEMBLE_S0_SHIFTS) if measured is not None else 0
+        self.runs_base = len(options.ensemble_s0_shifts) if measured is not None else 0
         self.modes: Optional[Modes] = None
         self.counts_base: Dict[str, int] = {}
         self.bias: Dict[str, float] = {}
@@ -103,22 +103,22 @@ class Problem:
 
     def _read_enma(self, enma_data: EnmaData) -> None:
         # The beam-level surrogate, bias-corrected by a virtual ENMA of the baseline (docs/model.md §9).
-        self.meas_b = enma_features(enma_data)
+        self.meas_b = enma_features(enma_data, options=self.options)
         self.enma_levels = levels_for(enma_data, self.base)
-        sim_base, _ = simulated_enma_features(self.base, self.enma_levels)
+        sim_base, _ = simulated_enma_features(self.base, self.enma_levels, options=self.options)
         sur_base = beam_surrogate(self.base)
         self.bias.update({k: sim_base[k].value - sur_base[k] for k in sim_base if k in sur_base})
         self.meas.update(self.meas_b)
         self.before.update({k: f.value for k, f in sim_base.items()})
 
     def _read_runs(self, measured: Sequence[Measurement]) -> None:
-        self.meas_s, beh_meas, self.ops = measured_slider_features(measured)
-        self.modes = data_modes(self.meas_s) if self.options.mode_conditioning else None
-        # Baseline: an ensemble of runs from s0 + ENSEMBLE_S0_SHIFTS (one batch): the mean is the
+        self.meas_s, beh_meas, self.ops = measured_slider_features(measured, self.options)
+        self.modes = data_modes(self.meas_s, self.options.high_final_h) if self.options.mode_conditioning else None
+        # Baseline: an ensemble of runs from s0 + options.ensemble_s0_shifts (one batch): the mean is the
         # prediction, the spread the model's sensitivity to what the data cannot resolve; with
         # modes, the mode features' mean and spread over the runs in the data's mode.
         ens_base = ensemble_slider_features([self.base], self.ops, threads=self.threads, modes=self.modes,
-                                            cache=self.run_cache)[0]
+                                            cache=self.run_cache, options=self.options)[0]
         if ens_base is None:
             raise _core.SimulationError("the baseline model's runs at the measured operating points failed")
         self.spread_base = {k: ens_base.spread.get(k, 0.0) for k in self.meas_s}
@@ -141,12 +141,13 @@ class Problem:
 
     def _model_many(self, ps: List[Any]) -> List[Optional[Dict[str, float]]]:
         return [None if r is None else {k: f.value for k, f in r[0].items()}
-                for r in batch_slider_features(ps, self.ops, threads=self.threads, cache=self.run_cache)]
+                for r in batch_slider_features(ps, self.ops, threads=self.threads, cache=self.run_cache,
+                                               options=self.options)]
 
     def _ensemble_many(self, ps: List[Any], central: List[Optional[Dict[str, float]]]) -> List[Optional[Ensemble]]:
         cen = [None if c is None else ({k: Feature(k, v, 0.0) for k, v in c.items()}, {}) for c in central]
         return ensemble_slider_features(ps, self.ops, threads=self.threads, central=cen, modes=self.modes,
-                                        cache=self.run_cache)
+                                        cache=self.run_cache, options=self.options)
 
     def model_b(self, p: Parameters) -> Dict[str, float]:
         """Beam level: the surrogate's features of ``p``, bias-corrected."""
@@ -172,7 +173,7 @@ class Problem:
                            alpha=self.options.significance)
         if best_b is not None:
             chosen = realise_effects(self.base, {e: best_b.values[e] for e in best_b.effects})
-            sim_c, _ = simulated_enma_features(chosen, self.enma_levels)
+            sim_c, _ = simulated_enma_features(chosen, self.enma_levels, options=self.options)
             sur_c = beam_surrogate(chosen)
             self.bias.clear()
             self.bias.update({k: sim_c[k].value - sur_c[k] for k in sim_c if k in sur_c})
@@ -199,7 +200,7 @@ class Problem:
         """The raw feature changes of each effect moved by ``steps`` relevance thresholds (None:
         ``options.linear_steps``; :func:`.separability.slider_changes`, runs cached)."""
         return slider_changes(names, self.base, self.ops, steps=self.options.linear_steps if steps is None else steps,
-                              threads=self.threads, cache=self.run_cache)
+                              threads=self.threads, cache=self.run_cache, options=self.options)
 
     def predict(self, effects: Sequence[Effect], resid: Optional[Dict[str, float]] = None) -> Dict[str, Tuple[float, float]]:
         """Each effect's best χ² and value predicted by the linearised model (:func:`.separability.predict_singles`)."""
@@ -210,7 +211,7 @@ class Problem:
         """Every pair of candidates with the χ² the linearised model predicts (each may fit badly
         alone, :func:`.separability.rank_pairs`); the best recorded (``guided_pairs``)."""
         sens = slider_sensitivities([e.name for e in self.candidates], self.base, self.ops, threads=self.threads,
-                                    cache=self.run_cache, steps=self.options.linear_steps)
+                                    cache=self.run_cache, steps=self.options.linear_steps, options=self.options)
         ranked = rank_pairs(sens, self.resid(), unreached_mode_features(self.meas, self.counts_base))
         self.record.guided.extend(dict(pair=list(p), predicted_chi2=c) for p, c in ranked[:self.options.guided_pairs])
         return ranked
@@ -254,9 +255,10 @@ class Problem:
         sp: Dict[str, float] = {}
         counts: Dict[str, int] = {}
         if self.enma_data is not None:
-            out.update({k: f.value for k, f in simulated_enma_features(p.params, self.enma_levels)[0].items()})
+            out.update({k: f.value for k, f in simulated_enma_features(p.params, self.enma_levels, options=self.options)[0].items()})
         if self.measured is not None:
-            e = ensemble_slider_features([p], self.ops, threads=self.threads, modes=self.modes, cache=self.run_cache)[0]
+            e = ensemble_slider_features([p], self.ops, threads=self.threads, modes=self.modes, cache=self.run_cache,
+                                         options=self.options)[0]
             if e is not None:
                 out.update(e.mean)
                 beh, sp, counts = e.behaviours, e.spread, e.mode_counts
@@ -275,7 +277,8 @@ class Problem:
         made by the search and the full simulation: from the run cache)."""
         if self.measured is None:
             return {}
-        both = slider_paths([self.base, updated], self.ops, threads=self.threads, cache=self.run_cache)
+        both = slider_paths([self.base, updated], self.ops, threads=self.threads, cache=self.run_cache,
+                            options=self.options)
         return {name: {op.tag: x for op, x in zip(self.ops, row)} for name, row in zip(("baseline", "updated"), both)}
 
     @property

@@ -16,7 +16,7 @@ from typing import Callable, Dict, List, Optional, Sequence
 import numpy as np
 
 from .effects import EFFECTS
-from .models import is_mode_feature, run_mode, tag_of, unreached_mode_features
+from .models import as_modes, is_mode_feature, tag_of, unreached_mode_features
 from .options import DEFAULT, DiscoverOptions
 from .separability import bumped
 
@@ -236,11 +236,12 @@ def step_chi2(fit, changes: Dict[str, Dict[str, float]], meas: Dict, sig: Dict[s
     if not fit.predicted or any(not changes.get(e.name) for e in effects):
         return float(fit.chi2)
     unreached = unreached_mode_features(meas, counts)
+    known = as_modes(modes)
 
     def missed(k: str) -> bool:
         t = tag_of(k)
-        md = (modes or {}).get(t) if t is not None else None
-        return k in unreached or (is_mode_feature(k) and md is not None and run_mode(fit.predicted, t) != md)
+        md = (known or {}).get(t) if t is not None else None
+        return k in unreached or (is_mode_feature(k) and md is not None and known.mode_of(fit.predicted, t) != md)
 
     keys = [k for k in meas if k in sig and sig[k] > 0 and math.isfinite(fit.predicted.get(k, math.nan))
             and not missed(k) and all(math.isfinite(changes[e.name].get(k, math.nan)) for e in effects)]

@@ -26,7 +26,7 @@ class CandidateFit:
     predicted: Dict[str, float] = field(default_factory=dict)
     """Slider level: the features of the fitted model, mean of its ensemble of runs."""
     model_spread: Dict[str, float] = field(default_factory=dict)
-    """Slider level: their spread over the ensemble (:data:`.models.ENSEMBLE_S0_SHIFTS`)."""
+    """Slider level: their spread over the ensemble (``DiscoverOptions.ensemble_s0_shifts``)."""
     intervals: Dict[str, Tuple[float, float]] = field(default_factory=dict)
     """Slider level: the :data:`INTERVAL_LEVEL` interval of each parameter (one effect: its
     profile scan's Δχ² = z² interval; several: the joint fit's Wald interval)."""

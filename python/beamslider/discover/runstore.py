@@ -6,8 +6,9 @@ yet (docs/model.md §9.1, "Kept runs").
 The file is JSON lines, one run a line: its inputs (the key of :func:`.models.batch_slider_features`:
 physical parameters, operating point, excitation level, s0, duration), the features and behaviour the
 run gave (or that it failed), and a fingerprint of the code that made it. A run is reused only by
-the same code, so a reused run is bitwise the run that would be made (the simulations are
-deterministic): verdicts, values and intervals do not depend on what the file held. The slider
+the same code — or by code entered in :data:`.lineage.RUNS` as making the same runs, bitwise — so a
+reused run is bitwise the run that would be made (the simulations are deterministic): verdicts,
+values and intervals do not depend on what the file held. The slider
 paths of the report's figures are not kept (about 32 kB a run); the few runs drawn are made again.
 
 Lines are appended with one ``write`` each to a file opened for appending, so two discovers may
@@ -22,6 +23,7 @@ import os
 from pathlib import Path
 from typing import Any, Optional, Tuple, Union
 
+from . import lineage
 from .features import Feature
 
 FORMAT = 1
@@ -86,6 +88,7 @@ class RunStore(dict):
         self.loaded = 0
         self.added = 0
         fp = code_fingerprint()
+        taken = lineage.accepted(fp, lineage.RUNS)  # this code's runs and those it takes over
         if self.path.is_dir():
             raise ValueError(f"invalid runs file {self.path}: it is a folder")
         try:
@@ -102,7 +105,7 @@ class RunStore(dict):
         for line in raw.splitlines():
             try:
                 d = json.loads(line)
-                if not (isinstance(d, dict) and d.get("v") == FORMAT and d.get("code") == fp):
+                if not (isinstance(d, dict) and d.get("v") == FORMAT and d.get("code") in taken):
                     continue
                 key = _to_tuple(json.loads(d["key"]))
                 super().__setitem__(key, _decode(d["run"]))

@@ -15,6 +15,7 @@ from .chain import realise_model
 from .effects import EFFECTS, Effect
 from .._core import SimulationError
 from .models import OperatingPoint, batch_slider_features, unreached_mode_features
+from .options import DEFAULT, DiscoverOptions
 
 
 def bumped(e: Effect, p: Parameters, steps: float) -> float:
@@ -29,19 +30,19 @@ def bumped(e: Effect, p: Parameters, steps: float) -> float:
 
 
 def slider_sensitivities(effects: Sequence[str], baseline: Optional[Parameters], ops: Sequence[OperatingPoint], *,
-                         steps: float = 5.0, threads: Optional[int] = None, cache=None
-                         ) -> Dict[str, Dict[str, float]]:
+                         steps: float = 5.0, threads: Optional[int] = None, cache=None,
+                         options: DiscoverOptions = DEFAULT) -> Dict[str, Dict[str, float]]:
     """Change of each slider feature at ``ops``, in units of its uncertainty — the resolution floor
-    (:data:`FLOORS`) combined with the model's run-to-run spread (runs from s0 ± 0.002, as in
+    (``options.feature_floors``) combined with the model's run-to-run spread (runs from s0 ± 0.002, as in
     :func:`discover`) — when each effect moves by ``steps`` relevance thresholds from the
     baseline (one FS run per effect and point; the measurement chain's candidates other than the
-    excitation level re-read the baseline's run, docs/model.md §9.1). ``cache``: a run cache
-    (:func:`.models.batch_slider_features`)."""
+    excitation level re-read the baseline's run, docs/model.md §9.1). ``cache``, ``options``: a run
+    cache and how its runs are read (:func:`.models.batch_slider_features`)."""
     base = resolve(baseline)
     models = [base, base, base] + [realise_model(base, {n: bumped(EFFECTS[n], base, steps)}) for n in effects]
     # All runs as one batch of the core's parallel runner.
     res = batch_slider_features(models, ops, s0_shifts=[0.0, -0.002, 0.002] + [0.0] * len(effects),
-                                threads=threads, cache=cache)
+                                threads=threads, cache=cache, options=options)
     if res[0] is None:
         raise SimulationError("the baseline model's runs failed")
     f0 = res[0][0]
@@ -60,17 +61,18 @@ def slider_sensitivities(effects: Sequence[str], baseline: Optional[Parameters],
 
 
 def slider_changes(effects: Sequence[str], baseline: Optional[Parameters], ops: Sequence[OperatingPoint], *,
-                   steps: float = 5.0, threads: Optional[int] = None, cache=None) -> Dict[str, Dict[str, float]]:
+                   steps: float = 5.0, threads: Optional[int] = None, cache=None,
+                   options: DiscoverOptions = DEFAULT) -> Dict[str, Dict[str, float]]:
     """The raw change of each slider feature at ``ops`` when each effect moves by ``steps``
     relevance thresholds from the baseline (one run per effect and point against the baseline's
     unshifted run; an effect whose runs fail has no changes): the linearised model of
     :func:`.confounding.confounded_sets` and :mod:`.search.linearised`, whose callers divide by their own
     uncertainties. ``cache``: the discover's run cache (the runs :func:`slider_sensitivities` made
-    are not repeated)."""
+    are not repeated), its runs read as ``options`` says."""
     base = resolve(baseline)
     moved = {n: bumped(EFFECTS[n], base, steps) for n in effects}
     models = [base] + [realise_model(base, {n: moved[n]}) for n in effects]
-    res = batch_slider_features(models, ops, threads=threads, cache=cache)
+    res = batch_slider_features(models, ops, threads=threads, cache=cache, options=options)
     if res[0] is None:
         raise SimulationError("the baseline model's runs failed")
     f0 = res[0][0]

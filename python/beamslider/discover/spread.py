@@ -9,7 +9,8 @@ from typing import Dict, Optional, Sequence, Tuple
 
 import numpy as np
 
-from .models import MODE_MIN_DOF, Ensemble, Modes, is_mode_feature, run_mode, tag_of
+from .models import Ensemble, Modes, as_modes, is_mode_feature, tag_of
+from .options import DEFAULT
 
 
 def chi2_roughness(xs: np.ndarray, fs: np.ndarray) -> float:
@@ -35,7 +36,8 @@ def parabola_scatter(x: np.ndarray, v: np.ndarray) -> Tuple[float, int]:
 
 
 def pooled_spread(ens: Ensemble, levels: Sequence[Sequence[Optional[Dict[str, float]]]],
-                   names: Sequence[str], modes: Optional[Modes] = None) -> Dict[str, float]:
+                   names: Sequence[str], modes: Optional[Modes] = None,
+                   mode_min_dof: int = DEFAULT.mode_min_dof) -> Dict[str, float]:
     """The model's spread of each feature at the fitted point, pooled from two measurements of the
     same thing — its sensitivity to what the data cannot resolve: the variance over the ensemble
     of runs (R − 1 degrees of freedom) and the scatter about a quadratic trend of the single runs
@@ -43,9 +45,10 @@ def pooled_spread(ens: Ensemble, levels: Sequence[Sequence[Optional[Dict[str, fl
     what the data resolve, the scatter the roughness). Five runs alone give an unstable estimate
     (4 degrees of freedom: at μ = 0.26, 60 s, the final amplitude at 126 Hz spreads by 0.002 over
     the ensemble, by 0.007 over nine perturbations). ``modes``: the data's modes; a mode feature's
-    spread comes from the runs in the data's mode only, or, with fewer than
-    :data:`.models.MODE_MIN_DOF` degrees of freedom, is the ensemble's spread over all runs."""
+    spread comes from the runs in the data's mode only, or, with fewer than ``mode_min_dof``
+    degrees of freedom, is the ensemble's spread over all runs."""
     out: Dict[str, float] = {}
+    modes = as_modes(modes)
     for k in names:
         ss, dof = 0.0, 0
         tag = tag_of(k)
@@ -60,13 +63,13 @@ def pooled_spread(ens: Ensemble, levels: Sequence[Sequence[Optional[Dict[str, fl
             dof += ens.runs - 1
         for pts in levels:
             xs = np.array([j for j, m in enumerate(pts) if m is not None and k in m and math.isfinite(m[k])
-                           and (md is None or run_mode(m, tag) == md)], dtype=float)
+                           and (md is None or modes.mode_of(m, tag) == md)], dtype=float)
             if len(xs) >= 5:
                 v = np.array([pts[int(j)][k] for j in xs])  # type: ignore[index]
                 ss_k, dof_k = parabola_scatter(xs, v)
                 ss += ss_k
                 dof += dof_k
-        if md is not None and tag in ens.mode_counts and dof < MODE_MIN_DOF:
+        if md is not None and tag in ens.mode_counts and dof < mode_min_dof:
             out[k] = ens.spread.get(k, 0.0)  # too few runs in the data's mode: the spread over all runs
         else:
             out[k] = math.sqrt(ss / dof) if dof > 0 else 0.0

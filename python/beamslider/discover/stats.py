@@ -11,7 +11,7 @@ from typing import Dict, Optional, Sequence, Tuple
 import numpy as np
 
 from .features import Feature
-from .models import Modes, is_mode_feature, mode_penalty, run_mode, tag_of
+from .models import Modes, as_modes, is_mode_feature, mode_penalty, tag_of
 from .options import DEFAULT, DiscoverOptions
 from .result import CandidateFit
 
@@ -50,17 +50,18 @@ def sigma(f: Feature, spread: float, runs: int) -> float:
 def mode_terms(model: Dict[str, float], modes: Optional[Modes], counts: Optional[Dict[str, int]],
                runs: int) -> Tuple[set, float]:
     """The operating points (tags) whose mode features the model cannot predict (none of its runs
-    ends in the data's mode, :func:`.models.run_mode`), and the sum of the mode penalties
+    ends in the data's mode, :meth:`.models.Modes.mode_of`), and the sum of the mode penalties
     (:func:`.models.mode_penalty`). ``counts``: per tag, how many of the model's ``runs`` runs are
     in the data's mode (an ensemble); None: ``model`` is one run, whose own mode decides."""
     unpredicted, pen = set(), 0.0
+    modes = as_modes(modes)
     for tag, md in (modes or {}).items():
         if md is None:
             continue
         if counts is not None and tag in counts:
             k, r = counts[tag], max(runs, 1)
         else:
-            k, r = (1 if run_mode(model, tag) == md else 0), 1
+            k, r = (1 if modes.mode_of(model, tag) == md else 0), 1
         if k == 0:
             unpredicted.add(tag)
         pen += mode_penalty(k, r)

@@ -12,6 +12,7 @@ from .. import _core, enma
 from ..enma import EnmaData
 from ..params import Parameters, native
 from .features import Feature, enma_features
+from .options import DEFAULT, DiscoverOptions
 
 
 _X5 = [1 / 6, 1 / 3, 1 / 2, 2 / 3, 5 / 6]
@@ -40,10 +41,11 @@ def levels_for(data: EnmaData, params: Parameters) -> List[float]:
     return sorted(set(round(float(a / abs(gain)), 6) for a in amps if a > 0))
 
 
-def simulated_enma_features(params: Parameters, levels_m_s2: Sequence[float]) -> Tuple[Dict[str, Feature], EnmaData]:
-    """Features of a virtual ENMA (up run) of the model at the given levels."""
+def simulated_enma_features(params: Parameters, levels_m_s2: Sequence[float], *, options: DiscoverOptions = DEFAULT
+                            ) -> Tuple[Dict[str, Feature], EnmaData]:
+    """Features of a virtual ENMA (up run) of the model at the given levels (floored by ``options``)."""
     data = enma.virtual(params, levels_m_s2=list(levels_m_s2), up_and_down=False)
-    return enma_features(data), data
+    return enma_features(data, options=options), data
 
 
 # --- slider level ---------------------------------------------------------------------------------

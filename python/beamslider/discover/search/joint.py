@@ -35,7 +35,7 @@ def fit_sets_joint(cand_effects: Sequence[Effect], max_effects: int, base: Param
     only costs one evaluation of the runs. Returns one fit per set, as a strategy does."""
 
     names_s = list(meas_s)
-    modes = data_modes(meas_s) if options.mode_conditioning else None
+    modes = data_modes(meas_s, options.high_final_h) if options.mode_conditioning else None
 
     def chi2_s_of(ps: List[Parameters]) -> List[Tuple[float, Dict[str, float], Dict[str, float]]]:
         """χ² of the runs of each model (with its ensemble's mean and spread when given)."""
