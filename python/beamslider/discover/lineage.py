@@ -11,10 +11,18 @@ from __future__ import annotations
 
 from typing import Dict, FrozenSet, Tuple
 
-RUNS: Dict[str, Tuple[str, str]] = {}
+RUNS: Dict[str, Tuple[str, str]] = {
+    "d5ab6f2c52f505de": ("fdbb207e40a04d47", "the ensemble's shifts, the modes' levels and the features' reading made "
+                         "options (DiscoverOptions): 60 runs of a benchmark of seed 1 and 30 of seed 2 made again, "
+                         "bitwise (scripts/repro/discover_lineage.py runs --sample 60 --seed 1; --sample 30 --seed 2)"),
+}
 """Run-making code: new digest -> (the digest it takes over, how the runs were checked equal)."""
 
-JUDGES: Dict[str, Tuple[str, str]] = {}
+JUDGES: Dict[str, Tuple[str, str]] = {
+    "0d5ae9acb6841a68": ("6f5a7318c22c5c58", "the same change: 11 rows of the benchmark of seed 1 (cases 3, 5, 6, 8, 9, 15, "
+                         "18, 22, 23, 26, 28: every kind, every verdict, an advised run) judged again, bitwise, no run "
+                         "made anew (scripts/repro/discover_lineage.py judge)"),
+}
 """Judging code: new digest -> (the digest it takes over, how the rows were checked equal)."""
 
 
