@@ -136,8 +136,8 @@ class DiscoverOptions:
 
     # --- the runs and their features (docs/model.md §9, "Ensembles, modes and features") ----------
     ensemble_s0_shifts: Tuple[float, ...] = (0.0, -0.002, -0.001, 0.001, 0.002)
-    """Shifts of s0 of the runs of a model's ensemble, the unshifted first: perturbations the data
-    cannot resolve. After 60 s the final state at (124 Hz, 14 m/s²) and (126, 10) depends on them as
+    """Shifts of s0 of the runs of a model's ensemble, the unshifted first (perturbations the data
+    cannot resolve). After 60 s the final state at (124 Hz, 14 m/s²) and (126, 10) depends on them as
     much as on a change of μ by 2e-4 (measured: docs/results/discover/sensitivity.md) (§9,
     "Ensembles, modes and features")."""
     high_final_h: float = 0.3
@@ -150,8 +150,8 @@ class DiscoverOptions:
     scan runs nearby scatter by 6e-4; that spread made a χ² of 98 out of one of 24 (§9, "Ensembles,
     modes and features")."""
     turning_smooth_s: float = 0.1
-    """Window [s] of the centred moving average of s before a run's turning point is taken: the
-    extreme of noisy samples is biased outwards (+3.6e-3 with the synthesiser's noise 1e-3) (§9,
+    """Window [s] of the centred moving average of s before a run's turning point is taken (the
+    extreme of noisy samples is biased outwards (+3.6e-3 with the synthesiser's noise 1e-3)) (§9,
     "Ensembles, modes and features"). Measured and model runs alike; a run read otherwise is kept
     apart (§9.1, "Kept runs")."""
     recorded_segments: int = 4
