@@ -202,17 +202,21 @@ def test_a_wrong_answer_is_discovers_miss_only_where_the_truth_fits_clearly_bett
     assert "right, or the data cannot tell" in bm.summary_markdown(s, rows)
 
 
-def test_rows_of_another_judge_are_judged_again_on_resume(tmp_path, monkeypatch):
-    plan = bm.Plan(operating_points=((124.0, 14.0, 0.3),), duration_s=2.0, candidates=("excitation_gain",))
-    calls = []
-
+def _counting_run_case(calls, judge):
+    """A stand-in of ``run_case`` that records the cases it is asked for and answers "none" as ``judge``."""
     def fake_run_case(case, plan, **kw):
         calls.append(case.index)
         return dict(index=case.index, kind=case.kind, truth={}, outside={}, outside_kind="", label="x",
                     answer=_answer("none"), score=dict(right=True, outcome="right", covered={}), cpu_s=1.0,
-                    judge=bm.judge_fingerprint())
+                    judge=judge)
 
-    monkeypatch.setattr(bm, "run_case", fake_run_case)
+    return fake_run_case
+
+
+def test_rows_of_another_judge_are_judged_again_on_resume(tmp_path, monkeypatch):
+    plan = bm.Plan(operating_points=((124.0, 14.0, 0.3),), duration_s=2.0, candidates=("excitation_gain",))
+    calls = []
+    monkeypatch.setattr(bm, "run_case", _counting_run_case(calls, bm.judge_fingerprint()))
     bm.run_benchmark(1, counts={"nothing": 2}, plan=plan, out_dir=tmp_path)
     bm.run_benchmark(1, counts={"nothing": 2}, plan=plan, out_dir=tmp_path)
     assert calls == [0, 1]
@@ -269,14 +273,7 @@ def test_rows_of_a_judge_entered_in_the_lineage_are_kept(tmp_path, monkeypatch):
 
     plan = bm.Plan(operating_points=((124.0, 14.0, 0.3),), duration_s=2.0, candidates=("excitation_gain",))
     calls = []
-
-    def fake_run_case(case, plan, **kw):
-        calls.append(case.index)
-        return dict(index=case.index, kind=case.kind, truth={}, outside={}, outside_kind="", label="x",
-                    answer=_answer("none"), score=dict(right=True, outcome="right", covered={}), cpu_s=1.0,
-                    judge="0" * 16)
-
-    monkeypatch.setattr(bm, "run_case", fake_run_case)
+    monkeypatch.setattr(bm, "run_case", _counting_run_case(calls, "0" * 16))
     bm.run_benchmark(1, counts={"nothing": 2}, plan=plan, out_dir=tmp_path)
     assert calls == [0, 1]
     bm.run_benchmark(1, counts={"nothing": 2}, plan=plan, out_dir=tmp_path)
