@@ -22,6 +22,9 @@ JUDGES: Dict[str, Tuple[str, str]] = {
     "0d5ae9acb6841a68": ("6f5a7318c22c5c58", "the same change: 11 rows of the benchmark of seed 1 (cases 3, 5, 6, 8, 9, 15, "
                          "18, 22, 23, 26, 28: every kind, every verdict, an advised run) judged again, bitwise, no run "
                          "made anew (scripts/repro/discover_lineage.py judge)"),
+    "a8b7c93db4a2c2bd": ("0d5ae9acb6841a68", "four docstrings of options.py reworded, no code: 4 rows of the benchmark of "
+                         "seed 1 (cases 3, 5, 6, 26) judged again, bitwise, no run made anew "
+                         "(scripts/repro/discover_lineage.py judge)"),
 }
 """Judging code: new digest -> (the digest it takes over, how the rows were checked equal)."""
 
