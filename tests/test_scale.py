@@ -347,15 +347,22 @@ def test_cli_summary_and_figure_use_the_streamed_overview(tmp_path, monkeypatch)
 # --- 3. one writer per results file -----------------------------------------------------------
 
 
-def _map_cmd(out: Path, resume: bool = True):
-    return CLI + ["map", "--f-ex", "118:124:2", "--a-ex", "6,10", "--t-end", "6", "--threads", "1", "--out", str(out)] \
+def _map_cmd(out: Path, resume: bool = True, t_end: str = "6"):
+    return CLI + ["map", "--f-ex", "118:124:2", "--a-ex", "6,10", "--t-end", t_end, "--threads", "1", "--out", str(out)] \
         + (["--resume"] if resume else [])
 
 
 def test_two_map_resume_processes_one_refuses_and_the_file_stays_whole(tmp_path):
     out = tmp_path / "m"
-    procs = [subprocess.Popen(_map_cmd(out), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=ENV)
-             for _ in range(2)]
+    # The second starts once the first holds the results file, and the map is long enough (20-s runs)
+    # that the first still holds it then, however loaded the machine: the two always overlap.
+    first = subprocess.Popen(_map_cmd(out, t_end="20"), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                             env=ENV)
+    deadline = time.monotonic() + 120
+    while not (out / (RESULTS_FILE + ".lock")).exists() and first.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.01)
+    procs = [first, subprocess.Popen(_map_cmd(out, t_end="20"), stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                                     text=True, env=ENV)]
     res = [(p.wait(timeout=600), p.stdout.read(), p.stderr.read()) for p in procs]
     codes = sorted(r[0] for r in res)
     assert codes == [0, 1], res
@@ -367,9 +374,9 @@ def test_two_map_resume_processes_one_refuses_and_the_file_stays_whole(tmp_path)
     for ln in lines:
         json.loads(ln)
     # a final resume computes nothing and equals an uninterrupted map (but the wall time)
-    r = subprocess.run(_map_cmd(out), capture_output=True, text=True, env=ENV)
+    r = subprocess.run(_map_cmd(out, t_end="20"), capture_output=True, text=True, env=ENV)
     assert r.returncode == 0, r.stderr
-    r = subprocess.run(_map_cmd(tmp_path / "ref", resume=False), capture_output=True, text=True, env=ENV)
+    r = subprocess.run(_map_cmd(tmp_path / "ref", resume=False, t_end="20"), capture_output=True, text=True, env=ENV)
     assert r.returncode == 0, r.stderr
     a, b = read_map(out), read_map(tmp_path / "ref")
     for k in a:
