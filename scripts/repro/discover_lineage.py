@@ -74,11 +74,6 @@ def check_runs(path: Path, digest: str, sample: int, seed: int) -> int:
     return 1
 
 
-def _plan_of(d) -> Plan:
-    return Plan(operating_points=tuple(tuple(x) for x in d["operating_points"]), duration_s=d["duration_s"],
-                candidates=tuple(d["candidates"]), noise_s=d["noise_s"], noise_velocity_m_s=d["noise_velocity_m_s"])
-
-
 def _comparable(row, old_keys=None):
     out = {k: v for k, v in row.items() if k not in ("cpu_s", "wall_s", "judge")}
     for part in (out, out.get("advised") or {}):
@@ -90,7 +85,7 @@ def _comparable(row, old_keys=None):
 
 def check_judge(folder: Path, cases) -> int:
     settings = json.loads((folder / bm.SETTINGS_FILE).read_text(encoding="utf-8"))
-    plan = _plan_of(settings["plan"])
+    plan = Plan.from_dict(settings["plan"])
     by_index = {c["index"]: Case(**c) for c in settings["cases"]}
     rows = bm._read_rows(folder / bm.CASES_FILE)
     store = runstore.RunStore(folder / "runs.jsonl")

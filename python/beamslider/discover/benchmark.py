@@ -317,11 +317,8 @@ def case_task(case: Dict[str, Any], plan: Dict[str, Any], runs_path: Optional[st
     scored (:func:`run_case`), its row as JSON text."""
     from .runstore import RunStore
 
-    p = Plan(operating_points=tuple(tuple(x) for x in plan["operating_points"]), duration_s=plan["duration_s"],
-             candidates=tuple(plan["candidates"]), noise_s=plan["noise_s"],
-             noise_velocity_m_s=plan["noise_velocity_m_s"])
     store = RunStore(runs_path) if runs_path else None
-    row = run_case(Case(**case), p, runs_file=store, advice=advice, threads=threads)
+    row = run_case(Case(**case), Plan.from_dict(plan), runs_file=store, advice=advice, threads=threads)
     return [json.dumps(row, separators=(",", ":"), allow_nan=True)]
 
 

@@ -94,6 +94,12 @@ class Plan:
         return dict(operating_points=[list(p) for p in self.operating_points], duration_s=self.duration_s,
                     candidates=list(self.candidates), noise_s=self.noise_s, noise_velocity_m_s=self.noise_velocity_m_s)
 
+    @classmethod
+    def from_dict(cls, d: Dict[str, Any]) -> "Plan":
+        """The plan of :meth:`to_dict` (a benchmark's ``benchmark.json``, a cluster task)."""
+        return cls(operating_points=tuple(tuple(x) for x in d["operating_points"]), duration_s=d["duration_s"],
+                   candidates=tuple(d["candidates"]), noise_s=d["noise_s"], noise_velocity_m_s=d["noise_velocity_m_s"])
+
 
 @dataclass(frozen=True)
 class Case:
