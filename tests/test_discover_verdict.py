@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import math
 
 import pytest
 
@@ -253,3 +254,23 @@ def test_no_tuning_value_of_discover_lives_outside_its_options():
             found |= {t.id for t in targets if isinstance(t, ast.Name) and t.id.lstrip("_").isupper()
                       and t.id not in ("__all__",)}
     assert found - NOT_TUNING == set(), sorted(found - NOT_TUNING)
+
+
+def test_a_single_interval_stops_short_of_a_baseline_that_fits_clearly_worse():
+    """The baseline's ensemble is the profile at the baseline value: where it fits worse than the fit
+    by more than z², the interval's end on its side is the parabolic crossing (docs/model.md §9.1,
+    "One effect"); otherwise the interval stands."""
+    from beamslider.discover.stats import short_of_baseline
+
+    z = 1.96
+    lo, hi = short_of_baseline((0.99989, 1.15), 1.0375, 1.0, 3.8, 3.8 + 148.5, z)
+    assert hi == 1.15 and lo == pytest.approx(1.0375 - 0.0375 * z / math.sqrt(148.5)) and lo > 1.0
+    # a parabola through the fit and the baseline crosses Δχ² = z² there
+    a = 148.5 / 0.0375 ** 2
+    assert a * (lo - 1.0375) ** 2 == pytest.approx(z * z)
+    # the baseline above the fit: the upper end moves
+    assert short_of_baseline((0.9, 1.01), 0.96, 1.0, 2.0, 102.0, z) == (0.9, pytest.approx(0.96 + 0.04 * z / 10))
+    # within z², or an interval that excludes the baseline already, or the fit at the baseline: unchanged
+    assert short_of_baseline((0.99, 1.1), 1.03, 1.0, 3.0, 6.0, z) == (0.99, 1.1)
+    assert short_of_baseline((1.01, 1.1), 1.03, 1.0, 3.0, 100.0, z) == (1.01, 1.1)
+    assert short_of_baseline((0.95, 1.05), 1.0, 1.0, 3.0, 100.0, z) == (0.95, 1.05)

@@ -26,7 +26,8 @@ from .rule import best_single, judge, no_set_can_win, select
 from .runstore import RunStore
 from .separability import predict_singles, rank_pairs, slider_changes, slider_sensitivities
 from .surrogate import beam_surrogate, levels_for, simulated_enma_features
-from .stats import baseline_test, excess, gap_of, lrt_threshold, missing_z, right_fit_bound, sigma
+from .stats import (baseline_test, excess, gap_of, interval_z, lrt_threshold, missing_z, right_fit_bound,
+                    short_of_baseline, sigma)
 
 
 @dataclass
@@ -186,9 +187,15 @@ class Problem:
         o = self.options if options is None else options
         if self.level == "beam":
             return fit_candidate(combo, self.base, self.meas, self.model_fn, diff_step=None, max_nfev=200, options=o)
-        return profile_fit(combo, self.base, self.meas, self.model_fn, model_many=self.model_many,
-                           ensemble_many=self.ensemble_many, spread0=self.spread_base, refine=refine, joint=joint,
-                           options=o)
+        f = profile_fit(combo, self.base, self.meas, self.model_fn, model_many=self.model_many,
+                        ensemble_many=self.ensemble_many, spread0=self.spread_base, refine=refine, joint=joint,
+                        options=o)
+        if len(combo) == 1 and self.measured is not None and self.enma_data is None:
+            # One effect: the baseline's ensemble is its profile at the baseline value (§9.1, "One effect").
+            e = combo[0]
+            f.intervals[e.name] = short_of_baseline(f.intervals[e.name], f.values[e.name], e.baseline_value(self.base),
+                                                    f.chi2, self.chi2_0, interval_z(o.interval_level))
+        return f
 
     # --- the linearised model (docs/model.md §9.1, "Cost") ---------------------------------------------
 

@@ -28,6 +28,21 @@ def interval_z(level: float = DEFAULT.interval_level) -> float:
     return float(norm.ppf(0.5 + level / 2))
 
 
+def short_of_baseline(interval: Tuple[float, float], value: float, baseline: float, chi2_fit: float,
+                      chi2_baseline: float, z: float) -> Tuple[float, float]:
+    """A single effect's interval with its end on the baseline's side moved to the parabolic crossing
+    of Δχ² = z² between the fit (``value``, ``chi2_fit``) and the baseline (``chi2_baseline``, its
+    ensemble's χ²), where the baseline fits worse by more than z² and the interval reaches it: the
+    profile at the baseline value is known from its ensemble, which a scan of single runs can miss
+    (docs/model.md §9.1, "One effect")."""
+    lo, hi = interval
+    d = chi2_baseline - chi2_fit
+    if not (math.isfinite(d) and d > z * z and lo <= baseline <= hi and value != baseline):
+        return lo, hi
+    cross = value + (baseline - value) * z / math.sqrt(d)
+    return (max(lo, cross), hi) if baseline < value else (lo, min(hi, cross))
+
+
 def excess(chi2: float, dof: int, n: int) -> float:
     """Gap beyond the noise: sqrt(max(χ² − dof, 0)/n) (:data:`.result.GAP_EXCESS_MEASURE`)."""
     return math.sqrt(max(chi2 - dof, 0.0) / max(n, 1))
