@@ -886,3 +886,40 @@ def test_the_baseline_test_counts_each_feature_in_its_uncertainty_and_a_missing_
     assert not t.fits and t.chi2 > chi2_quantile(3)
     t = baseline_test({"a": 1.0 + s, "b": 2.0 - s, "c": 0.0}, meas, {"a": 0.4, "b": 0.4, "c": 0.4}, 4)
     assert t.chi2 == pytest.approx(2.0) and t.fits and t.z_worst < z_bound(3)
+
+
+def test_a_set_with_negligible_members_lends_the_single_its_valley():
+    """A pair whose second effect is negligible found the single's valley (the single's scan settled
+    beside it): the single at the pair's value, simulated, takes the single's place where it fits
+    better; the pair's interval goes with it (docs/model.md §9.1, "Sets of effects")."""
+    from types import SimpleNamespace
+
+    from beamslider.discover.features import Feature
+    from beamslider.discover.options import DiscoverOptions
+    from beamslider.discover.result import After, CandidateFit
+    from beamslider.discover.search.common import adopt_set_valleys
+
+    meas = {"a@x": Feature("a@x", 1.0, 0.1)}
+    asked = []
+
+    def simulate(model):
+        asked.append(model)
+        return After({"a@x": 1.0 + 0.1 * (model.params.slider_inertia_kg_m2 - 4.0e-6) / 1e-7}, {}, {}, {})
+
+    problem = SimpleNamespace(base=bs.Parameters(), options=DiscoverOptions(), simulate=simulate, meas=meas,
+                              runs_base=5, modes=None, n=1)
+    single = CandidateFit(("slider_inertia",), {"slider_inertia": 4.134e-6}, {"slider_inertia": 1e-7}, 21.6, 16, False,
+                          24.4, intervals={"slider_inertia": (4.0e-6, 4.3e-6)})
+    pair = CandidateFit(("slider_inertia", "com_offset"), {"slider_inertia": 4.002e-6, "com_offset": 0.0041},
+                        {"slider_inertia": 8e-8, "com_offset": 1e-4}, 4.3, 15, True, 9.9,
+                        intervals={"slider_inertia": (3.85e-6, 4.15e-6), "com_offset": (0.0039, 0.0043)})
+    out = adopt_set_valleys(problem, [single, pair])
+    assert len(asked) == 1 and out[1] is pair
+    s = out[0]
+    assert s.effects == ("slider_inertia",) and s.values == {"slider_inertia": 4.002e-6}
+    assert s.chi2 == pytest.approx(0.02 ** 2) and s.intervals == {"slider_inertia": (3.85e-6, 4.15e-6)}
+    # a single that fits as well as the set (within z²), or a set with two relevant members: untouched
+    close = CandidateFit(single.effects, single.values, single.stderrs, 6.0, 16, True, 8.8, intervals=single.intervals)
+    assert adopt_set_valleys(problem, [close, pair])[0] is close
+    both = CandidateFit(("slider_inertia", "tilt"), {"slider_inertia": 4.0e-6, "tilt": 0.01}, {}, 1.0, 15, True, 6.0)
+    assert adopt_set_valleys(problem, [single, both])[0] is single and len(asked) == 1

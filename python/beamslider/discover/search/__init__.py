@@ -14,6 +14,7 @@ from ..effects import Effect
 from ..options import DiscoverOptions
 from ..result import CandidateFit
 from . import beam, fast, full, joint, tiered
+from .common import adopt_set_valleys
 
 Strategy = Callable[[Any, Sequence[Effect], DiscoverOptions], List[CandidateFit]]
 """``search(problem, candidates, options)``: the fits of single candidates and sets."""
@@ -34,4 +35,5 @@ def run(problem: Any, strategy: str) -> List[CandidateFit]:
     own search."""
     by_level = {"beam": beam.search, "joint": joint.search}
     search = by_level.get(problem.level, STRATEGIES[strategy])
-    return search(problem, problem.candidates, problem.options)
+    fits = search(problem, problem.candidates, problem.options)
+    return adopt_set_valleys(problem, fits) if problem.level == "slider" else fits

@@ -179,3 +179,34 @@ def no_pair_gains(singles: List[CandidateFit], best: Optional[CandidateFit],
         if step(pair) < best.chi2 - thr or not (known(a) and known(x)):
             return False
     return True
+
+
+def adopt_set_valleys(problem: Any, fits: List[CandidateFit]) -> List[CandidateFit]:
+    """A set whose members but one moved by less than their relevance thresholds has found that one's
+    valley: where the single's own fit lies above the set's χ² by more than z² (its scan settled
+    beside the valley), the single at the set's value — its ensemble, one batch of runs — takes the
+    single's place when it fits better, with the set's interval for it, marginal over the others and
+    so no narrower (docs/model.md §9.1, "Sets of effects")."""
+    from dataclasses import replace
+
+    from ..chain import realise_model
+    from ..stats import gap_of, interval_z
+
+    base, o = problem.base, problem.options
+    z2 = interval_z(o.interval_level) ** 2
+    out = list(fits)
+    for f in sorted(fits, key=lambda f: f.chi2):
+        relevant = [e for e in f.effects if EFFECTS[e].relevant(f.values[e], base)[0]]
+        at = [i for i, s in enumerate(out) if len(f.effects) > 1 and len(relevant) == 1 and s.effects == (relevant[0],)
+              and not s.screened and s.chi2 > f.chi2 + z2]
+        if not at:
+            continue
+        e, s = relevant[0], out[at[0]]
+        after = problem.simulate(realise_model(base, {e: f.values[e]}))
+        chi2 = gap_of(after.features, problem.meas, after.spread, problem.runs_base, problem.modes, after.counts)[1]
+        if math.isfinite(chi2) and chi2 < s.chi2:
+            out[at[0]] = replace(s, values={e: f.values[e]}, stderrs={e: f.stderrs[e]}, chi2=chi2,
+                                 adequate=chi2 <= chi2_quantile(s.dof, o.significance),
+                                 bic=chi2 + math.log(max(problem.n, 2)), predicted=dict(after.features),
+                                 model_spread=dict(after.spread), intervals={e: f.intervals[e]}, roughness={})
+    return out
