@@ -206,16 +206,24 @@ def test_out_of_library_slider_effect_is_unexplained(tmp_path):
 
 
 @pytest.mark.slow
-def test_detuning_is_named_among_all_slider_candidates(tmp_path):
-    """The reference case: the natural frequency 2 % lower hidden; with every slider-level candidate
-    the detuning is named (scripts/repro/discover_table.py: c = 0.9787 ± 0.0012, gap 5.81 -> 0.71)."""
+def test_detuning_among_all_slider_candidates_is_confounded_with_the_mass_on_two_short_runs(tmp_path):
+    """The natural frequency 2 % lower hidden, two 15-s runs, every slider-level candidate, sets of
+    one. A heavier slider lowers the frequencies too: the mass's fit (49.2 g, χ² 5.6) lies within the
+    selection's threshold of the detuning's (0.978, χ² 1.6), both intervals exclude the baseline (its
+    χ² 383), so the two are confounded, with the combination the data resolve and the run that
+    separates them (docs/model.md §9.1); the detuning's interval holds the truth."""
     truth = dc.realise_effects(bs.Parameters(), {"natural_frequency_detuning": 0.98})
     paths = dc.synthesize_slider_runs(truth, operating_points=[(110, 10, 0.3), (124, 6, 0.3)], duration_s=15,
                                       out_dir=tmp_path / "data", seed=3, s0_offset=S0_OFFSET)
     d = dc.discover(measured=[bs.read_measurement(p) for p in paths], baseline=bs.Parameters(), max_effects=1)
-    assert d.named_effects == ["natural_frequency_detuning"], dc.verdict_line(d)
-    p = d.parameters["natural_frequency_detuning"]
-    assert abs(p["value"] - 0.98) <= 3 * p["stderr"] + 0.002
+    line = dc.verdict_line(d)
+    assert d.verdict == "confounded" and d.updated == d.baseline, line
+    c = d.confounded
+    assert "natural_frequency_detuning" in c["group"] and "slider_mass" in c["group"], c
+    assert c["advice"]["recommended"] is not None, c["advice"]
+    fit = [c for c in d.candidates if c.effects == ("natural_frequency_detuning",)][0]
+    lo, hi = fit.intervals["natural_frequency_detuning"]
+    assert lo <= 0.98 <= hi and hi < 1.0, (lo, hi)
 
 
 def test_separability_rows_and_recommendation():
