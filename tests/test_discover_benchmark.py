@@ -200,6 +200,12 @@ def test_a_wrong_answer_is_discovers_miss_only_where_the_truth_fits_clearly_bett
     assert s["by_kind"]["single"]["right_or_cannot_tell"]["right"] == 1
     assert s["by_kind"]["single"]["right_or_cannot_tell"]["of"] == 2
     assert "right, or the data cannot tell" in bm.summary_markdown(s, rows)
+    # Where the data can tell: the right ones and discover's misses, not the cases they cannot tell.
+    right = _row(4, "single", {"excitation_gain": 1.07}, _answer("unexplained"), True, {})
+    s = bm.summarise(rows + [right])
+    tell = s["by_kind"]["single"]["where_the_data_can_tell"]
+    assert (tell["right"], tell["of"], tell["cases"]) == (1, 2, 3), tell
+    assert "they tell in 2 of 3 cases" in bm.summary_markdown(s, rows + [right])
 
 
 def _counting_run_case(calls, judge):

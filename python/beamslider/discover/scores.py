@@ -105,12 +105,16 @@ def summarise(rows: Sequence[Dict[str, Any]]) -> Dict[str, Any]:
             continue
         chi2_answer = answer_chi2(a)
         (missed if chi2_answer - tf["chi2"] > CLEARLY_BETTER else cannot_tell).append(int(r["index"]))
-    # What the plan's data allow: right, or wrong where they cannot tell (the judged figure's ceiling
-    # for a rule that names only what the data prefer).
+    # Right, or wrong where the data cannot tell (docs/model.md §9.2).
     for kind, d in by_kind.items():
         rs = [r for r in rows if r["kind"] == kind]
         d["right_or_cannot_tell"] = _rate(sum(final_score(r)["right"] or int(r["index"]) in cannot_tell for r in rs),
                                           len(rs))
+        # Where they can tell (right, or discover's miss): the share right there; the number of cases
+        # where they can, over the kind's cases, bounds any rule that names only what the data prefer.
+        tell = [r for r in rs if final_score(r)["right"] or int(r["index"]) in missed]
+        d["where_the_data_can_tell"] = _rate(sum(final_score(r)["right"] for r in tell), len(tell))
+        d["where_the_data_can_tell"]["cases"] = len(rs)
     # A change the data do not show on top of the others (leaving it out of the truth raises the
     # truth's χ² by less than the selection's price) cannot be named by a rule that keeps nothing-
     # hidden data free of false alarms: the figure over the cases where every change shows.
@@ -177,12 +181,14 @@ def summary_markdown(summary: Dict[str, Any], rows: Sequence[Dict[str, Any]], *,
         lines += [f"Seed {seed}; plan: {pts}, {plan.duration_s:g} s each; {len(plan.candidates)} candidates. "
                   "Rules and scores: docs/model.md §9.2.", ""]
     lines += ["| kind | right (first answer) | right (after at most one advised run) | right, or the data cannot tell "
-              "| right where each change shows |", "|---|---|---|---|---|"]
+              "| right where the data can tell | right where each change shows |", "|---|---|---|---|---|---|"]
     for kind, d in summary["by_kind"].items():
         ceiling = _pct(d["right_or_cannot_tell"]) if "right_or_cannot_tell" in d else "—"
         e = d.get("each_change_shows")
         shows = f"{_pct(e)}; {e['of']} of {e['cases']} cases show each" if e else "—"
-        lines.append(f"| {kind} | {_pct(d['first'])} | {_pct(d['after_advice'])} | {ceiling} | {shows} |")
+        t = d.get("where_the_data_can_tell")
+        tell = f"{_pct(t)}; they tell in {t['of']} of {t['cases']} cases" if t else "—"
+        lines.append(f"| {kind} | {_pct(d['first'])} | {_pct(d['after_advice'])} | {ceiling} | {tell} | {shows} |")
     c = summary["coverage"]
     fa = summary["false_alarms"]
     lines += ["",
