@@ -909,3 +909,28 @@ def test_a_set_with_negligible_members_lends_the_single_its_valley():
     assert adopt_set_valleys(problem, [close, pair])[0] is close
     both = CandidateFit(("slider_inertia", "tilt"), {"slider_inertia": 4.0e-6, "tilt": 0.01}, {}, 1.0, 15, True, 6.0)
     assert adopt_set_valleys(problem, [single, both])[0] is single and len(asked) == 1
+
+
+def test_a_calibration_of_features_does_not_shrink_the_models_spread():
+    """A camera offset moves no run: the last refinement level of its scan is one run seen through
+    seven offsets, whose scatter about the trend is nil. The fit's spread is the ensemble's, not
+    pooled with that nil scatter (docs/model.md §9.1, "One effect"), so a right calibration fits
+    with the χ² its ensemble gives."""
+    from beamslider.discover.features import Feature
+    from beamslider.discover.fitting import profile_fit
+    from beamslider.discover.models import Ensemble
+
+    e, base = EFFECTS["position_offset"], bs.Parameters()
+    assert e.chain == "features"
+    names = ("s_final@t", "s_turning@t")
+
+    def seen(m):
+        o = m.value("position_offset")
+        return {"s_final@t": 0.30 + o, "s_turning@t": 0.20 + o}
+
+    meas = {"s_final@t": Feature("s_final@t", 0.304, 0.001), "s_turning@t": Feature("s_turning@t", 0.204, 0.001)}
+    many = lambda ps: [seen(m) for m in ps]  # noqa: E731
+    ens = lambda ps, central: [Ensemble(seen(m), {k: 0.01 for k in names}, 5, {}) for m in ps]  # noqa: E731
+    f = profile_fit([e], base, meas, model_many=many, ensemble_many=ens, spread0={k: 0.0 for k in names})
+    assert f.model_spread == pytest.approx({k: 0.01 for k in names})
+    assert f.values[e.name] == pytest.approx(0.004, abs=0.002)

@@ -309,8 +309,11 @@ def profile_fit(effects: Sequence[Effect], baseline: Parameters, meas: Dict[str,
     n, k = len(names), len(effects) + len(fixed)
     predicted: Dict[str, float] = {}
     if ens is not None:
-        spread.update(pooled_spread(ens, [[cache[key_of(p)] for p in pts] for pts in last], names, modes,
-                                    options.mode_min_dof))
+        # A calibration of the measurement chain's features moves no run: its last level is one run
+        # seen through seven calibrations, whose scatter about the trend is nil and says nothing of the
+        # model's spread (docs/model.md §9.1, "One effect").
+        levels = [[cache[key_of(p)] for p in pts] for e, pts in zip(effects, last) if e.chain != "features"]
+        spread.update(pooled_spread(ens, levels, names, modes, options.mode_min_dof))
         predicted = dict(ens.mean)
         best_chi2 = ensemble_chi2(ens, spread)
         if first is not None and refined is None and len(effects) == 1 and key_of(first[0]) != key_of(u):
